@@ -1,0 +1,28 @@
+"""jaxstiff: stiffness-ellipsoid shaping and Configuration-based Stiffness Control in JAX.
+
+The public names are re-exported here explicitly; see DESIGN.md for the contract.
+"""
+
+from .criteria import f1 as f1
+from .criteria import f2 as f2
+from .criteria import frobenius as frobenius
+from .criteria import get_criterion as get_criterion
+from .criteria import offdiag as offdiag
+from .criteria import register_criterion as register_criterion
+from .ellipsoid import Ellipsoid as Ellipsoid
+from .ellipsoid import ellipsoid as ellipsoid
+from .ellipsoid import orientation_error as orientation_error
+from .kinematics import fk as fk
+from .kinematics import fk_and_jacobian as fk_and_jacobian
+from .kinematics import jacobian as jacobian
+from .kinematics import position_and_jacobian as position_and_jacobian
+from .robot import Robot as Robot
+from .robot import robot_path as robot_path
+from .robot import shipped_robots as shipped_robots
+from .stiffness import cartesian_stiffness as cartesian_stiffness
+from .stiffness import cms_factor as cms_factor
+from .stiffness import compliance_condition as compliance_condition
+from .stiffness import joint_stiffness as joint_stiffness
+from .stiffness import translational_stiffness as translational_stiffness
+
+__version__ = "0.1.0"

@@ -1,0 +1,4 @@
+"""Imports the modules that register CLI subcommands (kept apart so cli.py stays import-light).
+
+Each module that adds a subcommand is imported here; the core library never imports the CLI.
+"""

@@ -1,0 +1,245 @@
+"""URDF -> Robot. Safe XML parsing (no entities, no network, no DTD), yourdfpy for the elements.
+
+A URDF is untrusted input: the XML is parsed with entity resolution, DTD loading and network
+access switched off, and any document that declares a DOCTYPE with entities is refused before
+anything expands (billion-laughs and external-entity files are rejected in microseconds).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from typing import Mapping
+
+import numpy as np
+
+from .robot import (
+    JOINT_PRISMATIC,
+    JOINT_REVOLUTE,
+    Robot,
+    _check_locked,
+    _mat_to_tuple,
+    _tcp_matrix,
+)
+
+_MOVABLE = {"revolute": JOINT_REVOLUTE, "continuous": JOINT_REVOLUTE, "prismatic": JOINT_PRISMATIC}
+_KNOWN = set(_MOVABLE) | {"fixed", "floating", "planar"}
+_DOCTYPE = re.compile(rb"<!DOCTYPE", re.IGNORECASE)
+_ENTITY = re.compile(rb"<!ENTITY", re.IGNORECASE)
+
+
+def _read_xml(path: str):
+    from lxml import etree
+
+    with open(path, "rb") as fh:
+        data = fh.read()
+    if _ENTITY.search(data) or _DOCTYPE.search(data):
+        raise ValueError(
+            f"{path}: the URDF declares a DOCTYPE/XML entities; refused (entities can expand "
+            f"without bound or read other files, and URDF never needs them)"
+        )
+    parser = etree.XMLParser(
+        resolve_entities=False, no_network=True, load_dtd=False, huge_tree=False, remove_blank_text=True
+    )
+    try:
+        root = etree.fromstring(data, parser=parser)
+    except etree.XMLSyntaxError as exc:
+        raise ValueError(f"{path}: malformed XML: {exc}") from None
+    if root is None or root.tag != "robot":
+        tag = None if root is None else root.tag
+        raise ValueError(f"{path}: the root element must be <robot>, got <{tag}>")
+    return root
+
+
+def _float_attr(path, where, text):
+    try:
+        return [float(v) for v in text.split()]
+    except ValueError:
+        raise ValueError(f"{path}: {where}: cannot read numbers from {text!r}") from None
+
+
+def _check_joint_xml(path: str, elem) -> None:
+    """Checks yourdfpy does not make (it would raise AttributeError or silently accept NaN)."""
+    name = elem.get("name")
+    if not name:
+        raise ValueError(f"{path}: a <joint> has no name attribute")
+    jtype = elem.get("type")
+    if jtype not in _KNOWN:
+        raise ValueError(f"{path}: joint {name!r} has unknown type {jtype!r}")
+    for tag in ("parent", "child"):
+        sub = elem.find(tag)
+        if sub is None or not sub.get("link"):
+            raise ValueError(f"{path}: joint {name!r} has no <{tag} link=...>")
+    origin = elem.find("origin")
+    if origin is not None:
+        for attr in ("xyz", "rpy"):
+            if origin.get(attr) is not None:
+                vals = _float_attr(path, f"joint {name!r} origin {attr}", origin.get(attr))
+                if len(vals) != 3:
+                    raise ValueError(f"{path}: joint {name!r} origin {attr} needs 3 numbers, got {vals}")
+                if not all(math.isfinite(v) for v in vals):
+                    raise ValueError(f"{path}: joint {name!r} origin {attr} has NaN or Inf: {vals}")
+    axis = elem.find("axis")
+    if axis is not None and axis.get("xyz") is not None:
+        vals = _float_attr(path, f"joint {name!r} axis", axis.get("xyz"))
+        if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
+            raise ValueError(f"{path}: joint {name!r} axis must be 3 finite numbers, got {vals}")
+    limit = elem.find("limit")
+    if limit is not None:
+        for attr in ("lower", "upper", "effort", "velocity"):
+            if limit.get(attr) is not None:
+                vals = _float_attr(path, f"joint {name!r} limit {attr}", limit.get(attr))
+                if len(vals) != 1 or math.isnan(vals[0]) or (attr in ("lower", "upper") and math.isinf(vals[0])):
+                    raise ValueError(f"{path}: joint {name!r} limit {attr} must be a finite number, got {limit.get(attr)!r}")
+
+
+def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, float] | None = None, tcp=None) -> Robot:
+    import yourdfpy
+
+    path = os.fspath(path)
+    if not os.path.exists(path) and os.sep not in path and not path.endswith(".urdf"):
+        from .robot import robot_path
+
+        path = robot_path(path)  # a shipped robot's name
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"URDF file not found: {path}")
+    if not os.path.isfile(path):
+        raise ValueError(f"{path} is not a file")
+
+    root = _read_xml(path)
+    for elem in root.findall("joint"):
+        _check_joint_xml(path, elem)
+    for elem in root.findall("link"):
+        if not elem.get("name"):
+            raise ValueError(f"{path}: a <link> has no name attribute")
+    try:
+        model = yourdfpy.URDF._parse_robot(root)
+    except Exception as exc:  # yourdfpy raises bare KeyError/AttributeError on odd files
+        raise ValueError(f"{path}: cannot read the URDF: {type(exc).__name__}: {exc}") from None
+
+    links = [l.name for l in model.links]
+    if len(set(links)) != len(links):
+        dup = sorted({l for l in links if links.count(l) > 1})
+        raise ValueError(f"{path}: duplicate link names: {', '.join(dup)}")
+    joints = {j.name: j for j in model.joints}
+    if len(joints) != len(model.joints):
+        raise ValueError(f"{path}: duplicate joint names")
+    link_set = set(links)
+    parent_joint: dict[str, object] = {}
+    children: dict[str, list] = {l: [] for l in links}
+    for j in model.joints:
+        for which, link in (("parent", j.parent), ("child", j.child)):
+            if link not in link_set:
+                raise ValueError(f"{path}: joint {j.name!r} names unknown {which} link {link!r}")
+        if j.child in parent_joint:
+            raise ValueError(f"{path}: link {j.child!r} is the child of two joints; a URDF must be a tree")
+        parent_joint[j.child] = j
+        children[j.parent].append(j)
+
+    roots = [l for l in links if l not in parent_joint]
+    if not roots:
+        raise ValueError(f"{path}: the joints form a loop; no root link")
+
+    if base_link is None:
+        if len(roots) != 1:
+            raise ValueError(f"{path}: several root links ({', '.join(roots)}); pass base_link")
+        base_link = roots[0]
+    elif base_link not in link_set:
+        raise ValueError(f"{path}: unknown base link {base_link!r}; links: {', '.join(links)}")
+
+    def chain_to(tip: str) -> list:
+        chain, link, seen = [], tip, set()
+        while link != base_link:
+            if link in seen or link not in parent_joint:
+                return []
+            seen.add(link)
+            j = parent_joint[link]
+            chain.append(j)
+            link = j.parent
+        return chain[::-1]
+
+    if tip_link is None:
+        # leaves below the base link, ranked by the number of actuated joints on their chain
+        below, stack = [], [base_link]
+        while stack:
+            link = stack.pop()
+            if not children[link]:
+                below.append(link)
+            stack.extend(j.child for j in children[link])
+        counts = {l: sum(j.type in _MOVABLE for j in chain_to(l)) for l in below}
+        best = max(counts.values()) if counts else 0
+        tips = sorted(l for l, c in counts.items() if c == best)
+        if len(tips) != 1 or best == 0:
+            raise ValueError(
+                f"{path}: the tip link is ambiguous below {base_link!r}: leaves {', '.join(tips) or '(none)'} "
+                f"each have {best} actuated joints; pass tip_link"
+            )
+        tip_link = tips[0]
+    elif tip_link not in link_set:
+        raise ValueError(f"{path}: unknown tip link {tip_link!r}; links: {', '.join(links)}")
+
+    chain = chain_to(tip_link) if tip_link != base_link else []
+    if not chain:
+        raise ValueError(f"{path}: no kinematic chain from base link {base_link!r} to tip link {tip_link!r}")
+
+    names, types, origins, axes, lower, upper = [], [], [], [], [], []
+    pending = np.eye(4)
+    for j in chain:
+        T = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+        if j.mimic is not None:
+            raise ValueError(
+                f"{path}: joint {j.name!r} mimics joint {j.mimic.joint!r}; mimic joints in the chain "
+                f"are not supported (lock it or choose another tip)"
+            )
+        if j.type in ("floating", "planar"):
+            raise ValueError(f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported")
+        if j.type == "fixed":
+            pending = pending @ T
+            continue
+        axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+        norm = float(np.linalg.norm(axis))
+        if not np.all(np.isfinite(axis)) or norm < 1e-12:
+            raise ValueError(f"{path}: joint {j.name!r} has a zero or non-finite axis {axis.tolist()}")
+        axis = axis / norm
+        if j.type == "continuous":
+            lo, hi = -math.inf, math.inf
+        else:
+            if j.limit is None or j.limit.lower is None or j.limit.upper is None:
+                if j.limit is None:
+                    raise ValueError(f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one")
+                lo = 0.0 if j.limit.lower is None else float(j.limit.lower)
+                hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
+            else:
+                lo, hi = float(j.limit.lower), float(j.limit.upper)
+            if lo > hi:
+                raise ValueError(f"{path}: joint {j.name!r} has lower limit {lo:g} > upper limit {hi:g}")
+        names.append(j.name)
+        types.append(_MOVABLE[j.type])
+        origins.append(_mat_to_tuple(pending @ T))
+        axes.append(tuple(float(a) for a in axis))
+        lower.append(lo)
+        upper.append(hi)
+        pending = np.eye(4)
+    if not names:
+        raise ValueError(f"{path}: the chain {base_link!r} -> {tip_link!r} has no actuated joint")
+
+    tip = pending @ _tcp_matrix(tcp)
+    from .robot import _snap
+
+    axes = [tuple(_snap(a) for a in ax) for ax in axes]
+    lock_values = _check_locked(tuple(names), lower, upper, locked)
+    return Robot(
+        name=model.name or os.path.basename(path),
+        joint_names=tuple(names),
+        joint_types=tuple(types),
+        origins=tuple(origins),
+        axes=tuple(axes),
+        tip=_mat_to_tuple(tip),
+        lower_limits=tuple(lower),
+        upper_limits=tuple(upper),
+        locked=lock_values,
+        base_link=base_link,
+        tip_link=tip_link,
+        source=os.path.abspath(path),
+    )

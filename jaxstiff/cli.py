@@ -1,0 +1,119 @@
+"""The ``jaxstiff`` command. A thin layer: parse flags, call the library, print or write results.
+
+Subcommands register themselves in :data:`COMMANDS` as ``name -> (add_arguments, run)``; each
+``run(args)`` returns an exit code. Errors a user can fix (bad files, bad values) are printed as
+one line ``jaxstiff: error: ...`` with exit code 2, never as a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Callable
+
+COMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int], str]] = {}
+
+
+def command(name: str, help: str):
+    """Decorator pair: ``@command(name, help)`` on a function ``add(parser)`` returning ``run``."""
+
+    def deco(add: Callable[[argparse.ArgumentParser], Callable[[argparse.Namespace], int]]):
+        COMMANDS[name] = (add, None, help)  # run is bound when the parser is built
+        return add
+
+    return deco
+
+
+def _floats(text: str, what: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip() != ""]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{what}: expected comma-separated numbers, got {text!r}") from None
+
+
+def parse_locks(items: list[str] | None) -> dict[str, float]:
+    """``["JOINT=RAD", ...]`` -> dict; raises ValueError naming a malformed item."""
+    out: dict[str, float] = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"--lock expects JOINT=RAD, got {item!r}")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise ValueError(f"--lock {item!r}: {value!r} is not a number (radians)") from None
+    return out
+
+
+# ----------------------------------------------------------------------------- robot
+@command("robot", "print a robot's chain, limits, and FK/Jacobian at a posture")
+def _add_robot(p: argparse.ArgumentParser):
+    p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name (default: kuka_lwr4)")
+    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
+    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
+    p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable)")
+    p.add_argument("--q", default=None, help="posture, comma-separated rad (default: 30 deg on every joint)")
+
+    def run(args) -> int:
+        import numpy as np
+
+        from .robot import Robot
+        from ._x64 import enable_x64
+
+        enable_x64()
+        robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
+        if args.q is None:
+            q = np.where(robot.free, np.deg2rad(30.0), np.nan_to_num(robot.locked_values))
+        else:
+            q = np.asarray(_floats(args.q, "--q"), dtype=float)
+            if q.shape != (robot.n,):
+                raise ValueError(f"--q needs {robot.n} values for {robot.name!r}, got {q.size}")
+        T, J = robot.fk_and_jacobian(q)
+        np.set_printoptions(precision=5, suppress=True, linewidth=120)
+        print(robot.describe())
+        print(f"\nposture q (deg): {np.round(np.rad2deg(q), 4).tolist()}")
+        print("\nT_base_tcp (m):")
+        print(np.asarray(T))
+        print("\nJ_base (rows vx vy vz [m/s per rad/s], wx wy wz [rad/s per rad/s]):")
+        print(np.asarray(J))
+        return 0
+
+    return run
+
+
+def build_parser() -> argparse.ArgumentParser:
+    # importing these modules registers their subcommands
+    from . import _cli_commands  # noqa: F401
+
+    parser = argparse.ArgumentParser(
+        prog="jaxstiff",
+        description="Stiffness-ellipsoid shaping and Configuration-based Stiffness Control for redundant arms.",
+    )
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"jaxstiff {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (add, _, help_) in COMMANDS.items():
+        sp = sub.add_parser(name, help=help_, description=help_, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        sp.set_defaults(_run=add(sp))
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "_run", None) is None:
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except (ValueError, FileNotFoundError, OSError) as exc:
+        print(f"jaxstiff: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("jaxstiff: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

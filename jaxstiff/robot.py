@@ -1,0 +1,320 @@
+"""Robot: a serial chain read once from a URDF into a static, hashable description.
+
+The chain between a base link and a tip link is extracted from any URDF tree. Fixed joints are
+folded into the origin of the next movable joint (or into the tool transform after the tip).
+Revolute, continuous and prismatic joints are supported; mimic joints inside the chain are refused
+by name. Every number of the chain is kept as a Python float inside tuples, so a :class:`Robot` is
+hashable and ``jax.jit`` compiles one kernel per robot: the geometry becomes compile-time
+constants, which lets the kinematics kernel skip every multiplication by a structural zero or one.
+
+Example:
+    >>> import jaxstiff
+    >>> robot = jaxstiff.Robot.from_urdf(jaxstiff.robot_path("kuka_lwr4"), locked={"lwr_a7": 0.0})
+    >>> robot.n, robot.joint_names[0]
+    (7, 'lwr_a1')
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.resources
+import math
+import os
+import pathlib
+from typing import Mapping, Sequence
+
+import numpy as np
+
+__all__ = ["Robot", "robot_path", "shipped_robots", "JOINT_REVOLUTE", "JOINT_PRISMATIC"]
+
+JOINT_REVOLUTE = 0  #: joint type code of revolute and continuous joints
+JOINT_PRISMATIC = 1  #: joint type code of prismatic joints
+
+_SNAP = 1e-14  # |x| below this in a constant rotation/axis entry is a structural zero
+
+
+def _snap(x: float) -> float:
+    """Snap round-off around 0 and +-1 (e.g. cos(pi/2) = 6e-17) to the exact value."""
+    for exact in (0.0, 1.0, -1.0):
+        if abs(x - exact) < _SNAP:
+            return exact
+    return float(x)
+
+
+def _mat_to_tuple(T: np.ndarray) -> tuple[tuple[float, ...], ...]:
+    """4x4 homogeneous transform -> (R rows..., p) tuple of 3 rows of 4 floats (last row implied)."""
+    return tuple(tuple(_snap(v) for v in T[i, :4]) for i in range(3))
+
+
+def _tuple_to_mat(t: tuple[tuple[float, ...], ...]) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :4] = np.asarray(t, dtype=float)
+    return T
+
+
+def robot_path(name: str) -> str:
+    """Path of a robot description shipped with jaxstiff (``"kuka_lwr4"``, ``"planar_3r"``, ...).
+
+    Args:
+        name: file stem (``"kuka_lwr4"``) or file name (``"kuka_lwr4.urdf"``).
+
+    Raises:
+        FileNotFoundError: no shipped robot of that name; the message lists the shipped ones.
+    """
+    stem = name[:-5] if name.endswith(".urdf") else name
+    candidate = _urdf_dir() / f"{stem}.urdf"
+    if not candidate.is_file():
+        raise FileNotFoundError(
+            f"no shipped robot named {name!r}; shipped robots: {', '.join(shipped_robots())}"
+        )
+    return str(candidate)
+
+
+def shipped_robots() -> list[str]:
+    """Names of the robot descriptions shipped in ``urdf/``."""
+    return sorted(p.name[:-5] for p in _urdf_dir().iterdir() if p.name.endswith(".urdf"))
+
+
+def _urdf_dir():
+    """The shipped ``urdf/`` folder: beside the package in a source checkout, else installed data."""
+    here = pathlib.Path(__file__).resolve().parent.parent / "urdf"
+    if (here / "kuka_lwr4.urdf").is_file():
+        return here
+    return importlib.resources.files("jaxstiff.urdf")
+
+
+@dataclasses.dataclass(frozen=True)
+class Robot:
+    """A serial chain with n actuated joints, static and hashable.
+
+    Attributes:
+        name: robot name from the URDF.
+        joint_names: the n actuated (revolute, continuous, prismatic) joints, base to tip.
+        joint_types: per joint, :data:`JOINT_REVOLUTE` or :data:`JOINT_PRISMATIC`.
+        origins: per joint, the constant transform from the previous joint's moving frame
+            (or the base link) to this joint's frame, fixed joints folded in; each as 3 rows
+            of 4 floats ``(R | p)``.
+        axes: per joint, the unit joint axis in the joint frame.
+        tip: constant transform from the last joint's moving frame to the TCP (fixed joints
+            after the last actuated joint, then the ``tcp`` offset).
+        lower, upper: joint limits (rad or m); ``-inf``/``inf`` for continuous joints.
+        locked: per joint, the locked value or ``None`` for a free joint.
+        base_link, tip_link: the links the chain runs between.
+        source: the file the robot was read from ("" if built in code).
+    """
+
+    name: str
+    joint_names: tuple[str, ...]
+    joint_types: tuple[int, ...]
+    origins: tuple[tuple[tuple[float, ...], ...], ...]
+    axes: tuple[tuple[float, float, float], ...]
+    tip: tuple[tuple[float, ...], ...]
+    lower_limits: tuple[float, ...]
+    upper_limits: tuple[float, ...]
+    locked: tuple[float | None, ...]
+    base_link: str = ""
+    tip_link: str = ""
+    source: str = ""
+
+    # ------------------------------------------------------------------ construction
+    @staticmethod
+    def from_urdf(
+        path: str | os.PathLike,
+        base_link: str | None = None,
+        tip_link: str | None = None,
+        locked: Mapping[str, float] | None = None,
+        tcp: Sequence[float] | np.ndarray | None = None,
+    ) -> "Robot":
+        """Read the serial chain between ``base_link`` and ``tip_link`` of a URDF.
+
+        Args:
+            path: URDF file, or the name of a shipped robot (``"kuka_lwr4"``, ``"planar_3r"``).
+            base_link: link the chain starts at; default: the tree's root link.
+            tip_link: link the chain ends at; default: the leaf link that is reached through
+                the most actuated joints, if that leaf is unique (else an error lists them).
+            locked: ``{joint_name: value}`` joints held at a value (rad or m). A locked joint
+                stays in ``q`` and in the joint list but is not free for the position task
+                (seed 000 locks the LWR's 7th joint at 0).
+            tcp: tool offset after the tip link: a 3-vector (m, in the tip frame) or a 4x4
+                homogeneous transform.
+
+        Returns:
+            The robot.
+
+        Raises:
+            FileNotFoundError: the file does not exist.
+            ValueError: malformed or unsafe XML, unknown links or joints, no chain between the
+                links, ambiguous tip, bad axis/origin/limits, mimic joints in the chain, a locked
+                value outside its limits, a bad ``tcp``.
+        """
+        from ._urdf import parse_urdf_chain
+
+        return parse_urdf_chain(path, base_link, tip_link, locked, tcp)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def n(self) -> int:
+        """Number of actuated joints (locked ones included)."""
+        return len(self.joint_names)
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower joint limits, shape (n,)."""
+        return np.asarray(self.lower_limits, dtype=float)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper joint limits, shape (n,)."""
+        return np.asarray(self.upper_limits, dtype=float)
+
+    @property
+    def free(self) -> np.ndarray:
+        """Boolean mask (n,): True where the joint is free (not locked)."""
+        return np.asarray([v is None for v in self.locked], dtype=bool)
+
+    @property
+    def n_free(self) -> int:
+        """Number of free joints."""
+        return int(self.free.sum())
+
+    @property
+    def locked_values(self) -> np.ndarray:
+        """Locked value per joint, NaN for free joints, shape (n,)."""
+        return np.asarray([np.nan if v is None else v for v in self.locked], dtype=float)
+
+    def origin_matrix(self, i: int) -> np.ndarray:
+        """Constant 4x4 transform into joint ``i``'s frame (fixed joints folded in)."""
+        return _tuple_to_mat(self.origins[i])
+
+    @property
+    def tip_matrix(self) -> np.ndarray:
+        """Constant 4x4 transform from the last joint frame to the TCP."""
+        return _tuple_to_mat(self.tip)
+
+    def with_locked(self, locked: Mapping[str, float] | None) -> "Robot":
+        """A copy with a new set of locked joints (``None`` or ``{}`` frees all)."""
+        values = _check_locked(self.joint_names, self.lower_limits, self.upper_limits, locked)
+        return dataclasses.replace(self, locked=values)
+
+    def with_tcp(self, tcp: Sequence[float] | np.ndarray | None) -> "Robot":
+        """A copy with an extra tool offset appended after the current TCP."""
+        T = self.tip_matrix @ _tcp_matrix(tcp)
+        return dataclasses.replace(self, tip=_mat_to_tuple(T))
+
+    def check_q(self, q, name: str = "q"):
+        """Validate a joint array at the Python boundary: floating dtype, last axis n, finite.
+
+        Returns the array as a JAX/numpy array unchanged in dtype. Raises ValueError naming the problem.
+        """
+        return _check_q(self, q, name)
+
+    # ------------------------------------------------------------------ kinematics
+    def fk(self, q):
+        """TCP pose ``T_base_tcp`` (..., 4, 4) for joint values ``q`` (..., n). See :func:`jaxstiff.fk`."""
+        from .kinematics import fk
+
+        return fk(self, _check_q(self, q))
+
+    def jacobian(self, q):
+        """Geometric Jacobian ``J_base`` (..., 6, n), rows [v; w]. See :func:`jaxstiff.jacobian`."""
+        from .kinematics import jacobian
+
+        return jacobian(self, _check_q(self, q))
+
+    def fk_and_jacobian(self, q):
+        """Both in one pass: ``(T (..., 4, 4), J (..., 6, n))``."""
+        from .kinematics import fk_and_jacobian
+
+        return fk_and_jacobian(self, _check_q(self, q))
+
+    def describe(self) -> str:
+        """A human-readable table of the chain: joints, types, axes, limits, locks."""
+        lines = [
+            f"robot {self.name!r}: {self.n} actuated joints ({self.n_free} free), "
+            f"chain {self.base_link!r} -> {self.tip_link!r}",
+            f"{'#':>2} {'joint':<20} {'type':<10} {'axis':<22} {'lower':>10} {'upper':>10}  lock",
+        ]
+        for i, name in enumerate(self.joint_names):
+            kind = "revolute" if self.joint_types[i] == JOINT_REVOLUTE else "prismatic"
+            unit = "deg" if kind == "revolute" else "m"
+            lo, hi = self.lower_limits[i], self.upper_limits[i]
+            if kind == "revolute":
+                lo, hi = math.degrees(lo), math.degrees(hi)
+            axis = "(" + ", ".join(f"{a:+.3f}" for a in self.axes[i]) + ")"
+            lock = "" if self.locked[i] is None else f"locked at {self.locked[i]:g}"
+            lines.append(
+                f"{i:>2} {name:<20} {kind:<10} {axis:<22} {lo:>9.2f}{unit[0]} {hi:>9.2f}{unit[0]}  {lock}"
+            )
+        tip = self.tip_matrix[:3, 3]
+        lines.append(f"TCP offset after the last joint frame: ({tip[0]:.4f}, {tip[1]:.4f}, {tip[2]:.4f}) m")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------- helpers (shared)
+def _check_locked(joint_names, lower, upper, locked) -> tuple[float | None, ...]:
+    values: list[float | None] = [None] * len(joint_names)
+    if not locked:
+        return tuple(values)
+    if not isinstance(locked, Mapping):
+        raise ValueError(f"locked must be a mapping {{joint_name: value}}, got {type(locked).__name__}")
+    for name, value in locked.items():
+        if name not in joint_names:
+            raise ValueError(
+                f"cannot lock unknown joint {name!r}; actuated joints of the chain: {', '.join(joint_names)}"
+            )
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"locked value of joint {name!r} must be a number, got {value!r}") from None
+        i = joint_names.index(name)
+        if not math.isfinite(v):
+            raise ValueError(f"locked value of joint {name!r} must be finite, got {v}")
+        if v < lower[i] or v > upper[i]:
+            raise ValueError(
+                f"locked value {v:g} of joint {name!r} is outside its limits [{lower[i]:g}, {upper[i]:g}]"
+            )
+        values[i] = v
+    return tuple(values)
+
+
+def _tcp_matrix(tcp) -> np.ndarray:
+    if tcp is None:
+        return np.eye(4)
+    T = np.asarray(tcp, dtype=float) if not isinstance(tcp, str) else None
+    if T is None or T.shape not in ((3,), (4, 4)):
+        raise ValueError(f"tcp must be a 3-vector (m) or a 4x4 transform, got {tcp!r}")
+    if not np.all(np.isfinite(T)):
+        raise ValueError(f"tcp contains NaN or Inf: {tcp!r}")
+    if T.shape == (3,):
+        M = np.eye(4)
+        M[:3, 3] = T
+        return M
+    R = T[:3, :3]
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or not np.allclose(T[3], [0, 0, 0, 1]):
+        raise ValueError("tcp 4x4 transform must have an orthonormal rotation block and last row (0, 0, 0, 1)")
+    return T
+
+
+def _check_q(robot: Robot, q, name: str = "q"):
+    import jax
+    import jax.numpy as jnp
+
+    if isinstance(q, (list, tuple)):
+        q = np.asarray(q, dtype=float)
+    if not hasattr(q, "dtype") or not hasattr(q, "shape"):
+        raise ValueError(f"{name} must be an array of shape (..., {robot.n}), got {type(q).__name__}")
+    if not jnp.issubdtype(q.dtype, jnp.floating):
+        raise ValueError(
+            f"{name} must have a floating dtype (float32 or float64), got {q.dtype}; "
+            f"convert with q.astype(float)"
+        )
+    if q.ndim == 0 or q.shape[-1] != robot.n:
+        raise ValueError(
+            f"{name} must have shape (..., {robot.n}) for robot {robot.name!r} "
+            f"({robot.n} actuated joints), got shape {tuple(q.shape)}"
+        )
+    if not isinstance(q, jax.core.Tracer):
+        finite = np.all(np.isfinite(np.asarray(q)))
+        if not finite:
+            raise ValueError(f"{name} contains NaN or Inf")
+    return q

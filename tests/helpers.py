@@ -1,0 +1,46 @@
+"""Shared test helpers: one comparison with explicit tolerances and a NaN check, one finite difference,
+and an independent numpy forward kinematics (homogeneous 4x4 products, nothing shared with the kernel)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def assert_close(actual, expected, rtol=1e-10, atol=1e-12, what=""):
+    a = np.asarray(actual, dtype=float)
+    e = np.asarray(expected, dtype=float)
+    assert a.shape == e.shape, f"{what}: shape {a.shape} != {e.shape}"
+    assert np.all(np.isfinite(a)), f"{what}: non-finite values in actual"
+    np.testing.assert_allclose(a, e, rtol=rtol, atol=atol, err_msg=what)
+
+
+def central_diff(f, x, h=1e-6):
+    """Central finite differences of f: R^n -> R^k (numpy), returns (k, n)."""
+    x = np.asarray(x, dtype=float)
+    f0 = np.atleast_1d(np.asarray(f(x), dtype=float))
+    out = np.zeros((f0.size, x.size))
+    for i in range(x.size):
+        e = np.zeros_like(x)
+        e[i] = h
+        out[:, i] = (np.atleast_1d(np.asarray(f(x + e), dtype=float)).ravel() - np.atleast_1d(np.asarray(f(x - e), dtype=float)).ravel()) / (2 * h)
+    return out
+
+
+def _rot(axis, angle):
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def numpy_fk(robot, q):
+    """Independent FK from the Robot's constant transforms: plain 4x4 products in numpy."""
+    T = np.eye(4)
+    for i in range(robot.n):
+        T = T @ robot.origin_matrix(i)
+        M = np.eye(4)
+        if robot.joint_types[i] == 1:
+            M[:3, 3] = np.asarray(robot.axes[i]) * q[i]
+        else:
+            M[:3, :3] = _rot(robot.axes[i], q[i])
+        T = T @ M
+    return T @ robot.tip_matrix
