@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import warnings
 from typing import Mapping
 
 import numpy as np
@@ -99,9 +100,15 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
 
     path = os.fspath(path)
     if not os.path.exists(path) and os.sep not in path and not path.endswith(".urdf"):
-        from .robot import robot_path
+        from .robot import robot_path, shipped_robots
 
-        path = robot_path(path)  # a shipped robot's name
+        try:
+            path = robot_path(path)  # a shipped robot's name
+        except FileNotFoundError:
+            raise FileNotFoundError(
+                f"URDF file not found: {path} (nor a shipped robot of that name; shipped robots: "
+                f"{', '.join(shipped_robots())})"
+            ) from None
     if not os.path.exists(path):
         raise FileNotFoundError(f"URDF file not found: {path}")
     if not os.path.isfile(path):
@@ -170,7 +177,9 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
         counts = {l: sum(j.type in _MOVABLE for j in chain_to(l)) for l in below}
         best = max(counts.values()) if counts else 0
         tips = sorted(l for l, c in counts.items() if c == best)
-        if len(tips) != 1 or best == 0:
+        if best == 0:
+            raise ValueError(f"{path}: no actuated joint below base link {base_link!r}; nothing to move")
+        if len(tips) != 1:
             raise ValueError(
                 f"{path}: the tip link is ambiguous below {base_link!r}: leaves {', '.join(tips) or '(none)'} "
                 f"each have {best} actuated joints; pass tip_link"
@@ -181,7 +190,10 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
 
     chain = chain_to(tip_link) if tip_link != base_link else []
     if not chain:
-        raise ValueError(f"{path}: no kinematic chain from base link {base_link!r} to tip link {tip_link!r}")
+        raise ValueError(
+            f"{path}: no kinematic chain from base link {base_link!r} to tip link {tip_link!r} "
+            f"(the tip must lie below the base in the URDF tree)"
+        )
 
     names, types, origins, axes, lower, upper = [], [], [], [], [], []
     pending = np.eye(4)
@@ -205,15 +217,26 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
         if j.type == "continuous":
             lo, hi = -math.inf, math.inf
         else:
-            if j.limit is None or j.limit.lower is None or j.limit.upper is None:
-                if j.limit is None:
-                    raise ValueError(f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one")
-                lo = 0.0 if j.limit.lower is None else float(j.limit.lower)
-                hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
-            else:
-                lo, hi = float(j.limit.lower), float(j.limit.upper)
+            if j.limit is None:
+                raise ValueError(
+                    f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one "
+                    f"(use type=\"continuous\" for an unlimited revolute joint)"
+                )
+            # URDF spec (and urdfdom): a missing lower/upper attribute defaults to 0.
+            lo = 0.0 if j.limit.lower is None else float(j.limit.lower)
+            hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
             if lo > hi:
                 raise ValueError(f"{path}: joint {j.name!r} has lower limit {lo:g} > upper limit {hi:g}")
+            if lo == hi:
+                missing = [a for a in ("lower", "upper") if getattr(j.limit, a) is None]
+                why = f" (<limit> omits {' and '.join(missing)}, which URDF defaults to 0)" if missing else ""
+                warnings.warn(
+                    f"{path}: {j.type} joint {j.name!r} has an empty range [{lo:g}, {hi:g}]{why}; "
+                    f"it cannot move within its limits (lock it, or give it real limits or type "
+                    f"\"continuous\")",
+                    UserWarning,
+                    stacklevel=3,
+                )
         names.append(j.name)
         types.append(_MOVABLE[j.type])
         origins.append(_mat_to_tuple(pending @ T))

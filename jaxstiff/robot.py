@@ -138,6 +138,11 @@ class Robot:
             tcp: tool offset after the tip link: a 3-vector (m, in the tip frame) or a 4x4
                 homogeneous transform.
 
+        Fixed joints fold into the next joint's origin (or the tool transform after the tip);
+        continuous joints get limits ``(-inf, inf)``. A ``<limit>`` without ``lower``/``upper``
+        gets 0 for the missing one, as the URDF specification and urdfdom say; a movable joint
+        whose range is then empty (lower == upper) draws a ``UserWarning`` naming it.
+
         Returns:
             The robot.
 

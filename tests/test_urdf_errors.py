@@ -1,0 +1,316 @@
+"""Bad input gets a clear ValueError/FileNotFoundError naming the problem (issue 2, Build item 5).
+
+Every case checks the message: it must name the file, joint, link or value at fault, and come
+from jaxstiff, not from lxml, yourdfpy or inside JAX.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxstiff
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+BRANCHED = os.path.join(HERE, "data", "branched_tree.urdf")
+
+LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+
+
+def two_joint_urdf(j1: str = "", j2: str = "", extra: str = "") -> str:
+    """base -> (j1, revolute) -> l1 -> (j2, revolute) -> l2; ``j1``/``j2`` replace the joint bodies."""
+    j1 = j1 or f'<origin xyz="0 0 0.1" rpy="0 0 0"/><axis xyz="0 0 1"/>{LIMIT}'
+    j2 = j2 or f'<origin xyz="1 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/>{LIMIT}'
+    return f"""<?xml version="1.0"?>
+<robot name="two">
+  <link name="base"/><link name="l1"/><link name="l2"/>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>{j1}</joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>{j2}</joint>
+  {extra}
+</robot>"""
+
+
+@pytest.fixture
+def write(tmp_path):
+    def _write(text: str, name: str = "robot.urdf") -> str:
+        path = tmp_path / name
+        path.write_text(text)
+        return str(path)
+
+    return _write
+
+
+def raises(exc, *patterns):
+    """pytest.raises whose message must contain every pattern (literal text)."""
+    return pytest.raises(exc, match=".*".join(re.escape(p) for p in patterns))
+
+
+# ------------------------------------------------------------------ files and XML
+def test_missing_file(tmp_path):
+    path = str(tmp_path / "nowhere.urdf")
+    with raises(FileNotFoundError, "URDF file not found", path):
+        jaxstiff.Robot.from_urdf(path)
+
+
+def test_unknown_bare_name_lists_the_shipped_robots():
+    with raises(FileNotFoundError, "URDF file not found: kuka_lwr5", "kuka_lwr4", "planar_3r"):
+        jaxstiff.Robot.from_urdf("kuka_lwr5")
+    with raises(FileNotFoundError, "no shipped robot named 'kuka_lwr5'", "kuka_lwr4"):
+        jaxstiff.robot_path("kuka_lwr5")
+
+
+def test_directory_is_not_a_file(tmp_path):
+    with raises(ValueError, str(tmp_path), "is not a file"):
+        jaxstiff.Robot.from_urdf(tmp_path)
+
+
+@pytest.mark.parametrize("text", ["<robot name='x'><link name='a'></robot>", "", "not xml at all"])
+def test_malformed_xml(write, text):
+    path = write(text)
+    with raises(ValueError, path, "malformed XML"):
+        jaxstiff.Robot.from_urdf(path)
+
+
+def test_root_must_be_robot(write):
+    path = write("<sdf><model name='x'/></sdf>")
+    with raises(ValueError, path, "root element must be <robot>", "<sdf>"):
+        jaxstiff.Robot.from_urdf(path)
+
+
+BILLION_LAUGHS = """<?xml version="1.0"?>
+<!DOCTYPE robot [
+  <!ENTITY lol "lol">
+  <!ENTITY lol1 "&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;&lol;">
+  <!ENTITY lol2 "&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;&lol1;">
+  <!ENTITY lol3 "&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;&lol2;">
+  <!ENTITY lol4 "&lol3;&lol3;&lol3;&lol3;&lol3;&lol3;&lol3;&lol3;&lol3;&lol3;">
+  <!ENTITY lol5 "&lol4;&lol4;&lol4;&lol4;&lol4;&lol4;&lol4;&lol4;&lol4;&lol4;">
+  <!ENTITY lol6 "&lol5;&lol5;&lol5;&lol5;&lol5;&lol5;&lol5;&lol5;&lol5;&lol5;">
+  <!ENTITY lol7 "&lol6;&lol6;&lol6;&lol6;&lol6;&lol6;&lol6;&lol6;&lol6;&lol6;">
+  <!ENTITY lol8 "&lol7;&lol7;&lol7;&lol7;&lol7;&lol7;&lol7;&lol7;&lol7;&lol7;">
+  <!ENTITY lol9 "&lol8;&lol8;&lol8;&lol8;&lol8;&lol8;&lol8;&lol8;&lol8;&lol8;">
+]>
+<robot name="&lol9;"><link name="a"/><link name="b"/>
+  <joint name="j" type="continuous"><parent link="a"/><child link="b"/></joint></robot>
+"""
+
+
+def test_billion_laughs_is_refused_without_expanding(write):
+    """10^9 'lol's would need gigabytes; the guard refuses the DOCTYPE before any expansion."""
+    path = write(BILLION_LAUGHS)
+    with raises(ValueError, path, "DOCTYPE/XML entities; refused"):
+        jaxstiff.Robot.from_urdf(path)
+
+
+@pytest.mark.parametrize(
+    "doctype",
+    [
+        '<!DOCTYPE robot [<!ENTITY xxe SYSTEM "file://{secret}">]>',
+        '<!DOCTYPE robot SYSTEM "file://{secret}">',
+        '<!DOCTYPE robot [<!ENTITY % p SYSTEM "file://{secret}"> %p;]>',
+    ],
+    ids=["external-entity", "external-dtd", "parameter-entity"],
+)
+def test_external_entities_are_refused_and_never_read(write, tmp_path, doctype):
+    secret = tmp_path / "secret.txt"
+    secret.write_text("TOP-SECRET-CONTENT")
+    text = (
+        '<?xml version="1.0"?>' + doctype.format(secret=secret) + '<robot name="&xxe;"><link name="a"/>'
+        '<link name="b"/><joint name="j" type="continuous"><parent link="a"/><child link="b"/></joint></robot>'
+    )
+    path = write(text)
+    with raises(ValueError, path, "refused") as info:
+        jaxstiff.Robot.from_urdf(path)
+    assert "TOP-SECRET" not in str(info.value)
+
+
+def test_undeclared_entity_is_malformed_not_resolved(write):
+    path = write(two_joint_urdf().replace('name="two"', 'name="&xxe;"'))
+    with raises(ValueError, path, "malformed XML"):
+        jaxstiff.Robot.from_urdf(path)
+
+
+# ------------------------------------------------------------------ tree structure, links
+def test_unknown_base_link():
+    with raises(ValueError, "unknown base link 'shoulder'", "links: world"):
+        jaxstiff.Robot.from_urdf(BRANCHED, base_link="shoulder", tip_link="tool")
+
+
+def test_unknown_tip_link():
+    with raises(ValueError, "unknown tip link 'gripper'", "tool"):
+        jaxstiff.Robot.from_urdf(BRANCHED, tip_link="gripper")
+
+
+def test_no_path_between_base_and_tip():
+    with raises(ValueError, "no kinematic chain from base link 'side_link' to tip link 'tool'"):
+        jaxstiff.Robot.from_urdf(BRANCHED, base_link="side_link", tip_link="tool")
+    with raises(ValueError, "no kinematic chain from base link 'link_4' to tip link 'link_1'", "below the base"):
+        jaxstiff.Robot.from_urdf(BRANCHED, base_link="link_4", tip_link="link_1")
+
+
+def test_ambiguous_tip():
+    with raises(ValueError, "tip link is ambiguous below 'world'", "camera, tool", "pass tip_link"):
+        jaxstiff.Robot.from_urdf(BRANCHED)
+
+
+def test_chain_without_actuated_joints():
+    with raises(ValueError, "chain 'link_3' -> 'link_3b' has no actuated joint"):
+        jaxstiff.Robot.from_urdf(BRANCHED, base_link="link_3", tip_link="link_3b")
+    with raises(ValueError, "no actuated joint below base link 'link_4'"):
+        jaxstiff.Robot.from_urdf(BRANCHED, base_link="link_4")
+
+
+@pytest.mark.parametrize(
+    "extra,message",
+    [
+        ('<link name="l1"/>', "duplicate link names: l1"),
+        ('<link name="l3"/><joint name="j3" type="fixed"><parent link="base"/><child link="l2"/></joint>',
+         "link 'l2' is the child of two joints"),
+        ('<joint name="j3" type="fixed"><parent link="l2"/><child link="ghost"/></joint>',
+         "joint 'j3' names unknown child link 'ghost'"),
+        ('<joint name="j3" type="fixed"><parent link="l2"/></joint>', "joint 'j3' has no <child link=...>"),
+        ('<joint name="j3" type="ball"><parent link="l2"/><child link="l2"/></joint>',
+         "joint 'j3' has unknown type 'ball'"),
+    ],
+    ids=["duplicate-link", "two-parents", "unknown-link", "no-child", "unknown-type"],
+)
+def test_broken_trees(write, extra, message):
+    path = write(two_joint_urdf(extra=extra))
+    with raises(ValueError, path, message):
+        jaxstiff.Robot.from_urdf(path)
+
+
+def test_several_roots_need_a_base_link(write):
+    path = write(two_joint_urdf(extra='<link name="floating_box"/>'))
+    with raises(ValueError, "several root links", "floating_box", "pass base_link"):
+        jaxstiff.Robot.from_urdf(path)
+    assert jaxstiff.Robot.from_urdf(path, base_link="base").n == 2
+
+
+# ------------------------------------------------------------------ joint contents
+@pytest.mark.parametrize(
+    "j2,message",
+    [
+        (f'<axis xyz="0 0 0"/>{LIMIT}', "joint 'j2' has a zero or non-finite axis [0.0, 0.0, 0.0]"),
+        (f'<axis xyz="0 nan 1"/>{LIMIT}', "joint 'j2' axis must be 3 finite numbers"),
+        (f'<axis xyz="0 1"/>{LIMIT}', "joint 'j2' axis must be 3 finite numbers, got [0.0, 1.0]"),
+        (f'<axis xyz="0 one 0"/>{LIMIT}', "joint 'j2' axis: cannot read numbers from '0 one 0'"),
+        (f'<origin xyz="1 NaN 0"/><axis xyz="0 0 1"/>{LIMIT}', "joint 'j2' origin xyz has NaN or Inf"),
+        (f'<origin xyz="1 0 0" rpy="0 inf 0"/><axis xyz="0 0 1"/>{LIMIT}', "joint 'j2' origin rpy has NaN or Inf"),
+        (f'<origin xyz="1 0 1e999"/><axis xyz="0 0 1"/>{LIMIT}', "joint 'j2' origin xyz has NaN or Inf"),
+        (f'<origin xyz="1 0"/><axis xyz="0 0 1"/>{LIMIT}', "joint 'j2' origin xyz needs 3 numbers"),
+        ('<axis xyz="0 0 1"/><limit lower="nan" upper="1" effort="1" velocity="1"/>',
+         "joint 'j2' limit lower must be a finite number, got 'nan'"),
+        ('<axis xyz="0 0 1"/><limit lower="-1" upper="inf" effort="1" velocity="1"/>',
+         "joint 'j2' limit upper must be a finite number, got 'inf'"),
+        ('<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="NaN" velocity="1"/>',
+         "joint 'j2' limit effort must be a finite number"),
+        ('<axis xyz="0 0 1"/><limit lower="1" upper="-1" effort="1" velocity="1"/>',
+         "joint 'j2' has lower limit 1 > upper limit -1"),
+        ('<axis xyz="0 0 1"/>', "revolute joint 'j2' has no <limit>; URDF requires one"),
+    ],
+    ids=["zero-axis", "nan-axis", "short-axis", "text-axis", "nan-xyz", "inf-rpy", "overflow-xyz",
+         "short-xyz", "nan-lower", "inf-upper", "nan-effort", "lower>upper", "no-limit"],
+)
+def test_bad_joint_numbers(write, j2, message):
+    path = write(two_joint_urdf(j2=j2))
+    with raises(ValueError, path, message):
+        jaxstiff.Robot.from_urdf(path)
+
+
+def test_bad_numbers_in_a_fixed_joint_outside_the_chain(write):
+    """NaN anywhere in the file is refused, even on a joint the chain does not use."""
+    path = write(two_joint_urdf(extra='<link name="s"/><joint name="cam" type="fixed"><parent link="l1"/>'
+                                      '<child link="s"/><origin xyz="0 0 nan"/></joint>'))
+    with raises(ValueError, "joint 'cam' origin xyz has NaN or Inf"):
+        jaxstiff.Robot.from_urdf(path, tip_link="l2")
+
+
+def test_mimic_joint_in_the_chain_is_refused_by_name(write):
+    path = write(two_joint_urdf(j2=f'<origin xyz="1 0 0"/><axis xyz="0 0 1"/>{LIMIT}<mimic joint="j1" multiplier="2"/>'))
+    with raises(ValueError, path, "joint 'j2' mimics joint 'j1'", "not supported"):
+        jaxstiff.Robot.from_urdf(path)
+    # a chain that stops before the mimic joint is fine
+    assert jaxstiff.Robot.from_urdf(path, tip_link="l1").joint_names == ("j1",)
+
+
+@pytest.mark.parametrize("kind", ["floating", "planar"])
+def test_floating_and_planar_joints_are_refused_by_name(write, kind):
+    path = write(two_joint_urdf().replace('name="j2" type="revolute"', f'name="j2" type="{kind}"'))
+    with raises(ValueError, path, f"joint 'j2' is {kind}", "only revolute, continuous, prismatic and fixed"):
+        jaxstiff.Robot.from_urdf(path)
+
+
+# ------------------------------------------------------------------ locks, TCP
+def test_locked_value_outside_limits():
+    with raises(ValueError, "locked value 3 of joint 'lwr_a2' is outside its limits [-2.0944, 2.0944]"):
+        jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a2": 3.0})
+
+
+@pytest.mark.parametrize(
+    "locked,message",
+    [
+        ({"lwr_a8": 0.0}, "cannot lock unknown joint 'lwr_a8'; actuated joints of the chain: lwr_a1"),
+        ({"lwr_a7": float("nan")}, "locked value of joint 'lwr_a7' must be finite, got nan"),
+        ({"lwr_a7": "zero"}, "locked value of joint 'lwr_a7' must be a number, got 'zero'"),
+        ([("lwr_a7", 0.0)], "locked must be a mapping"),
+        ({"lwr_flange_joint": 0.0}, "cannot lock unknown joint 'lwr_flange_joint'"),
+    ],
+)
+def test_bad_locks(locked, message):
+    with raises(ValueError, message):
+        jaxstiff.Robot.from_urdf("kuka_lwr4", locked=locked)
+
+
+@pytest.mark.parametrize(
+    "tcp,message",
+    [
+        ([0.0, 0.1], "tcp must be a 3-vector (m) or a 4x4 transform"),
+        ("0 0 0.1", "tcp must be a 3-vector (m) or a 4x4 transform"),
+        ([0.0, np.nan, 0.1], "tcp contains NaN or Inf"),
+        (np.diag([2.0, 1.0, 1.0, 1.0]), "orthonormal rotation block"),
+    ],
+)
+def test_bad_tcp(tcp, message):
+    with raises(ValueError, message):
+        jaxstiff.Robot.from_urdf("kuka_lwr4", tcp=tcp)
+
+
+# ------------------------------------------------------------------ q at the call
+@pytest.fixture(scope="module")
+def lwr():
+    return jaxstiff.Robot.from_urdf("kuka_lwr4")
+
+
+@pytest.mark.parametrize("call", ["method", "function"])
+@pytest.mark.parametrize("shape", [(6,), (2, 8), ()])
+def test_q_of_wrong_shape(lwr, call, shape):
+    q = jnp.zeros(shape)
+    f = lwr.fk_and_jacobian if call == "method" else (lambda x: jaxstiff.fk_and_jacobian(lwr, x))
+    with raises(ValueError, "q must have shape (..., 7)", f"got {tuple(shape)}" if call == "function" else "got shape"):
+        f(q)
+
+
+@pytest.mark.parametrize("call", ["method", "function"])
+@pytest.mark.parametrize("dtype", [jnp.int32, jnp.bool_, jnp.complex64])
+def test_q_of_wrong_dtype(lwr, call, dtype):
+    q = jnp.zeros(7, dtype=dtype)
+    f = lwr.fk if call == "method" else (lambda x: jaxstiff.jacobian(lwr, x))
+    with raises(ValueError, "q must have a floating dtype"):
+        f(q)
+
+
+def test_q_with_nan_or_inf_at_the_boundary(lwr):
+    with raises(ValueError, "q contains NaN or Inf"):
+        lwr.fk(np.array([0, 0, np.nan, 0, 0, 0, 0.0]))
+    with raises(ValueError, "q must be an array of shape (..., 7)"):
+        lwr.jacobian("0 0 0 0 0 0 0")
+
+
+def test_robot_argument_must_be_a_robot():
+    with raises(TypeError, "expected a jaxstiff.Robot, got str"):
+        jaxstiff.fk("kuka_lwr4", jnp.zeros(7))
