@@ -237,18 +237,19 @@ class Robot:
         lines = [
             f"robot {self.name!r}: {self.n} actuated joints ({self.n_free} free), "
             f"chain {self.base_link!r} -> {self.tip_link!r}",
-            f"{'#':>2} {'joint':<20} {'type':<10} {'axis':<22} {'lower':>10} {'upper':>10}  lock",
+            f"{'#':>2} {'joint':<20} {'type':<10} {'axis':<22} {'lower':>12} {'upper':>12}  lock",
         ]
         for i, name in enumerate(self.joint_names):
-            kind = "revolute" if self.joint_types[i] == JOINT_REVOLUTE else "prismatic"
-            unit = "deg" if kind == "revolute" else "m"
+            revolute = self.joint_types[i] == JOINT_REVOLUTE
             lo, hi = self.lower_limits[i], self.upper_limits[i]
-            if kind == "revolute":
+            kind = "prismatic" if not revolute else "continuous" if math.isinf(lo) and math.isinf(hi) else "revolute"
+            unit = "deg" if revolute else "m"
+            if revolute:
                 lo, hi = math.degrees(lo), math.degrees(hi)
             axis = "(" + ", ".join(f"{a:+.3f}" for a in self.axes[i]) + ")"
-            lock = "" if self.locked[i] is None else f"locked at {self.locked[i]:g}"
+            lock = "" if self.locked[i] is None else f"locked at {self.locked[i]:g} {'rad' if revolute else 'm'}"
             lines.append(
-                f"{i:>2} {name:<20} {kind:<10} {axis:<22} {lo:>9.2f}{unit[0]} {hi:>9.2f}{unit[0]}  {lock}"
+                f"{i:>2} {name:<20} {kind:<10} {axis:<22} {lo:>8.2f} {unit:<3} {hi:>8.2f} {unit:<3}  {lock}".rstrip()
             )
         tip = self.tip_matrix[:3, 3]
         lines.append(f"TCP offset after the last joint frame: ({tip[0]:.4f}, {tip[1]:.4f}, {tip[2]:.4f}) m")

@@ -119,7 +119,7 @@ def test_robot_is_static_hashable_and_equal_across_reads():
 
 def test_describe_lists_the_chain():
     text = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool", locked={"j4": 0.5}).describe()
-    for word in ("j1", "j2", "j3", "j4", "prismatic", "revolute", "locked at 0.5", "'world' -> 'tool'"):
+    for word in ("j1", "j2", "j3", "j4", "prismatic", "revolute", "continuous", "locked at 0.5 rad", "'world' -> 'tool'"):
         assert word in text, word
 
 
