@@ -4,6 +4,8 @@ The public names are re-exported here explicitly; see DESIGN.md for the contract
 """
 
 from .criteria import f1 as f1
+from .csc import CSCResult as CSCResult
+from .csc import csc_rollout as csc_rollout
 from .criteria import f2 as f2
 from .criteria import frobenius as frobenius
 from .criteria import get_criterion as get_criterion
@@ -16,6 +18,9 @@ from .kinematics import fk as fk
 from .kinematics import fk_and_jacobian as fk_and_jacobian
 from .kinematics import jacobian as jacobian
 from .kinematics import position_and_jacobian as position_and_jacobian
+from .paths import Path as Path
+from .paths import default_path as default_path
+from .results import ShapeResult as ShapeResult
 from .robot import Robot as Robot
 from .robot import robot_path as robot_path
 from .robot import shipped_robots as shipped_robots
@@ -24,5 +29,6 @@ from .stiffness import cms_factor as cms_factor
 from .stiffness import compliance_condition as compliance_condition
 from .stiffness import joint_stiffness as joint_stiffness
 from .stiffness import translational_stiffness as translational_stiffness
+from .shaping import shape as shape
 
 __version__ = "0.1.0"

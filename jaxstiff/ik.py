@@ -1,0 +1,99 @@
+"""Position inverse kinematics by damped least squares (start posture of a shaping run, SPEC section 5).
+
+From a nominal posture, the free joints move by the damped least-squares step
+``dq = J^T (J J^T + lambda^2 I)^-1 e`` (e = target - position, J the position rows of the
+geometric Jacobian restricted to the free joints), clipped to the joint limits, with a step
+length cap; locked joints stay at their values. Fixed iteration count (``lax.fori_loop``), so it
+jit-compiles once per robot and never hangs. A final undamped Gauss-Newton phase makes the
+position exact to round-off when the target is reachable.
+
+Example:
+    >>> import numpy as np, jaxstiff
+    >>> from jaxstiff.ik import ik_position, nominal_posture
+    >>> robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    >>> q, err = ik_position(robot, np.array([0.45, -0.25, 0.35]))
+    >>> bool(err < 1e-9)
+    True
+"""
+
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .kinematics import position_and_jacobian
+from .robot import Robot
+
+__all__ = ["ik_position", "nominal_posture", "NOMINAL_OFFSET_DEG"]
+
+#: Nominal posture: every free joint at the middle of its range plus this offset (degrees),
+#: clipped to the range. For the LWR (ranges symmetric about 0) that is 30 degrees on every
+#: joint: elbow and wrist bent, away from the straight-up singular posture q = 0.
+NOMINAL_OFFSET_DEG = 30.0
+
+
+def nominal_posture(robot: Robot) -> np.ndarray:
+    """A generic non-singular start posture (n,): mid-range + 30 deg per free joint; locked at their values."""
+    lo, hi = robot.lower, robot.upper
+    mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+    q = np.clip(mid + np.deg2rad(NOMINAL_OFFSET_DEG), lo, hi)
+    return np.where(robot.free, q, np.nan_to_num(robot.locked_values))
+
+
+@functools.partial(jax.jit, static_argnums=(0, 3, 4))
+def _ik(robot: Robot, target: jax.Array, q_start: jax.Array, iters: int, rows: tuple[int, ...]):
+    free = np.asarray(robot.free)
+    lo = jnp.asarray(np.where(free, robot.lower, -np.inf), dtype=q_start.dtype)
+    hi = jnp.asarray(np.where(free, robot.upper, np.inf), dtype=q_start.dtype)
+    mask = jnp.asarray(free, dtype=q_start.dtype)
+    rows_a = jnp.asarray(rows)
+    k = len(rows)
+
+    def step(i, q):
+        p, J = position_and_jacobian(robot, q, rows)
+        e = target[rows_a] - p[rows_a]
+        J = J * mask[None, :]
+        # damping: strong while far (DLS), vanishing in the last third (Gauss-Newton polish)
+        lam2 = jnp.where(i < (2 * iters) // 3, 1e-4, 1e-14 * jnp.trace(J @ J.T))
+        dq = J.T @ jnp.linalg.solve(J @ J.T + lam2 * jnp.eye(k, dtype=q.dtype), e)
+        nrm = jnp.linalg.norm(dq)
+        dq = dq * jnp.minimum(1.0, 0.2 / jnp.maximum(nrm, 1e-300))  # at most 0.2 rad per step
+        return jnp.clip(q + dq, lo, hi)
+
+    q = jax.lax.fori_loop(0, iters, step, q_start)
+    p, _ = position_and_jacobian(robot, q, rows)
+    err = jnp.linalg.norm(target[rows_a] - p[rows_a])
+    return q, err
+
+
+def ik_position(
+    robot: Robot,
+    target,
+    q_start=None,
+    iters: int = 150,
+    planar: bool = False,
+) -> tuple[np.ndarray, float]:
+    """Joint values that put the TCP at ``target``, starting from ``q_start`` (default: nominal).
+
+    Args:
+        robot: the chain; locked joints stay at their locked values.
+        target: (3,) m, base frame.
+        q_start: (n,) start posture; default :func:`nominal_posture`.
+        iters: iterations (fixed; the first two thirds damped, the rest Gauss-Newton).
+        planar: match only x and y (task "xy": a planar chain cannot move along z).
+
+    Returns:
+        ``(q (n,), error)``: q within the joint limits; error = remaining position distance (m)
+        over the matched rows. The caller decides what error is acceptable (unreachable targets
+        return the closest posture found, not an exception).
+    """
+    target = np.asarray(target, dtype=float)
+    if target.shape != (3,) or not np.all(np.isfinite(target)):
+        raise ValueError(f"IK target must be 3 finite numbers (m), got {target!r}")
+    q0 = nominal_posture(robot) if q_start is None else np.asarray(q_start, dtype=float)
+    dtype = jnp.float64 if jax.config.jax_enable_x64 else jnp.float32
+    q, err = _ik(robot, jnp.asarray(target, dtype), jnp.asarray(q0, dtype), int(iters), (0, 1) if planar else (0, 1, 2))
+    return np.asarray(q, dtype=float), float(err)

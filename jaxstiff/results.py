@@ -1,0 +1,484 @@
+"""Shaping results: the :class:`ShapeResult` container, its ``.npz`` file, status codes, verification.
+
+Result file (DESIGN.md contract), loadable with ``numpy.load(file, allow_pickle=False)``; leading
+axis B over trajectories (B = 1 for one path), P waypoints, n actuated joints in chain order:
+
+==============  ==========  ======================================================================
+key             shape       meaning
+==============  ==========  ======================================================================
+joint_names     (n,)        actuated joints, chain order (unicode strings)
+q               (B,P,n)     joint positions, rad (m for prismatic), locked joints included
+kj              (B,P,n)     joint stiffnesses before CMS, Nm/rad
+cms             (B,P)       common-mode factor k (S0 section III): ``kj_scaled = k * kj``
+kj_scaled       (B,P,n)     ``cms[..., None] * kj``, Nm/rad (may exceed kmax: CMS is a scaling)
+target          (B,P,3)     waypoints, m, base frame
+direction       (B,P,3)     desired directions (unit)
+position        (B,P,3)     achieved TCP position (FK of q), m
+pos_error       (B,P)       ``|position - target|``, m
+alpha_deg       (B,P)       orientation error of the ellipsoid, degrees
+ratio           (B,P)       axis ratio lambda1 / lambda2
+criterion       (B,P)       criterion value at (q, kj)
+status          (B,P)       per-waypoint status, codes below
+q0, kj0         (B,n)       start state (rad; Nm/rad) the rate limits of waypoint 0 refer to
+solver_code     (B,P)       the solver's own exit code (SLSQP exit mode; -1 = exception/none)
+nit, nfev       (B,P)       solver iterations and objective evaluations
+time_s          (B,P)       wall time per waypoint, s
+meta            ()          JSON string: every input, default, solver setting, versions, robot
+                            URDF path + sha256, base/tip link, locked joints, tcp
+==============  ==========  ======================================================================
+
+Status codes (per waypoint; the verdict comes from checking the final point, never from the
+solver's own "success" flag):
+
+* ``0`` SOLVED: TCP within ``pos_tol`` (1e-9 m) of the waypoint, q and kj inside the rate-limited
+  box (exactly), criterion finite, and the solver reported convergence.
+* ``1`` NOT_CONVERGED: the point passes every check above, but SLSQP stopped without reporting
+  convergence (iteration limit, line-search stall, failed QP subproblem) or raised; the returned
+  point is feasible and used as the next waypoint's start, but may be sub-optimal.
+* ``2`` CLIPPED: the solver's answer was outside the box by more than 1e-9 or off the path by more
+  than 1e-6 m; it was clipped into the box and projected back onto the path (Newton steps inside
+  the box) and now passes every check.
+* ``3`` UNREACHABLE: no point inside the box puts the TCP within ``pos_tol`` of the waypoint (it is
+  outside the workspace, or too far for the rate limits). q/kj hold the closest point found
+  (inside the box); the next waypoint starts again from the last usable state.
+* ``4`` NONFINITE: NaN/Inf in the solver's answer or the criterion; q/kj hold the last usable
+  state (clipped into the box); the next waypoint starts from the last usable state.
+
+Codes 0-2 are *usable*: the point is feasible and becomes the reference state of the next
+waypoint's rate limits. Codes 3-4 are not: the next waypoint's rate limits refer to the last usable
+waypoint before it (or to the start state). :func:`verify` checks exactly that.
+
+Example:
+    >>> import jaxstiff
+    >>> res = jaxstiff.ShapeResult.load("shape.npz")          # doctest: +SKIP
+    >>> jaxstiff.results.verify(res)["max_pos_error"] < 1e-6  # doctest: +SKIP
+    True
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import tempfile
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "ShapeResult",
+    "SOLVED",
+    "NOT_CONVERGED",
+    "CLIPPED",
+    "UNREACHABLE",
+    "NONFINITE",
+    "STATUS_NAMES",
+    "USABLE",
+    "is_usable",
+    "verify",
+    "summary",
+    "file_sha256",
+    "atomic_save_npz",
+]
+
+SOLVED = 0
+NOT_CONVERGED = 1
+CLIPPED = 2
+UNREACHABLE = 3
+NONFINITE = 4
+STATUS_NAMES = {
+    SOLVED: "solved",
+    NOT_CONVERGED: "not converged (feasible)",
+    CLIPPED: "clipped and re-projected (feasible)",
+    UNREACHABLE: "unreachable",
+    NONFINITE: "non-finite",
+}
+USABLE = (SOLVED, NOT_CONVERGED, CLIPPED)  #: codes whose point is feasible and used as the next reference
+
+_ARRAYS_BPN = ("q", "kj", "kj_scaled")
+_ARRAYS_BP3 = ("target", "direction", "position")
+_ARRAYS_BP = ("cms", "pos_error", "alpha_deg", "ratio", "criterion", "status", "solver_code", "nit", "nfev", "time_s")
+_ARRAYS_BN = ("q0", "kj0")
+_INT_KEYS = ("status", "solver_code", "nit", "nfev")
+
+
+def is_usable(status) -> np.ndarray:
+    """Boolean array: True where the status code marks a feasible, usable point (0, 1, 2)."""
+    return np.isin(np.asarray(status), USABLE)
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """Hex sha256 of a file (the robot URDF recorded in ``meta``)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 16), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ShapeResult:
+    """Per-waypoint solution of a shaping run; arrays as in the result file (module docstring).
+
+    Use :meth:`save` / :meth:`load` for files, :func:`summary` for the headline numbers and
+    :func:`verify` to re-check a result from the file and the URDF alone.
+    """
+
+    joint_names: np.ndarray
+    q: np.ndarray
+    kj: np.ndarray
+    cms: np.ndarray
+    kj_scaled: np.ndarray
+    target: np.ndarray
+    direction: np.ndarray
+    position: np.ndarray
+    pos_error: np.ndarray
+    alpha_deg: np.ndarray
+    ratio: np.ndarray
+    criterion: np.ndarray
+    status: np.ndarray
+    q0: np.ndarray
+    kj0: np.ndarray
+    solver_code: np.ndarray
+    nit: np.ndarray
+    nfev: np.ndarray
+    time_s: np.ndarray
+    meta: dict[str, Any]
+
+    @property
+    def B(self) -> int:
+        return int(self.q.shape[0])
+
+    @property
+    def P(self) -> int:
+        return int(self.q.shape[1])
+
+    @property
+    def n(self) -> int:
+        return int(self.q.shape[2])
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """All arrays by file key (``meta`` excluded)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "meta"}
+
+    def __post_init__(self):
+        B, P, n = np.shape(self.q)
+        want = {k: (B, P, n) for k in _ARRAYS_BPN}
+        want.update({k: (B, P, 3) for k in _ARRAYS_BP3})
+        want.update({k: (B, P) for k in _ARRAYS_BP})
+        want.update({k: (B, n) for k in _ARRAYS_BN})
+        want["joint_names"] = (n,)
+        for key, shape in want.items():
+            if np.shape(getattr(self, key)) != shape:
+                raise ValueError(f"ShapeResult.{key} must have shape {shape}, got {np.shape(getattr(self, key))}")
+
+    # ------------------------------------------------------------------ files
+    def save(self, file: str | os.PathLike) -> str:
+        """Write the ``.npz`` result file atomically (temp file in the same folder, then rename).
+
+        Returns the path written. An interrupted save leaves no partial file.
+        """
+        arrays = {}
+        for k, v in self.arrays().items():
+            a = np.asarray(v)
+            if k == "joint_names":
+                a = a.astype(str)
+            elif k in _INT_KEYS:
+                a = a.astype(np.int64)
+            else:
+                a = a.astype(np.float64)
+            arrays[k] = a
+        arrays["meta"] = np.asarray(json.dumps(self.meta, sort_keys=True, default=_json_default))
+        return atomic_save_npz(file, arrays)
+
+    @staticmethod
+    def load(file: str | os.PathLike) -> "ShapeResult":
+        """Read a result file written by :meth:`save` (no pickles).
+
+        Raises:
+            FileNotFoundError: no such file.
+            ValueError: not a jaxstiff result file (missing keys, wrong shapes, bad meta).
+        """
+        file = os.fspath(file)
+        if not os.path.isfile(file):
+            raise FileNotFoundError(f"result file not found: {file}")
+        try:
+            with np.load(file, allow_pickle=False) as z:
+                data = {k: z[k] for k in z.files}
+        except Exception as exc:  # zipfile/format errors
+            raise ValueError(f"{file}: not a readable .npz result file ({exc})") from None
+        names = [f.name for f in dataclasses.fields(ShapeResult)]
+        missing = [k for k in names if k not in data]
+        if missing:
+            raise ValueError(f"{file}: not a jaxstiff result file, missing keys: {', '.join(missing)}")
+        try:
+            meta = json.loads(str(data["meta"]))
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{file}: meta is not valid JSON ({exc})") from None
+        kwargs = {k: data[k] for k in names if k != "meta"}
+        return ShapeResult(meta=meta, **kwargs)
+
+    def summary(self) -> dict[str, Any]:
+        """Headline numbers: see :func:`summary`."""
+        return summary(self)
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer, np.bool_)):
+        return o.item()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> str:
+    """``np.savez`` to a temporary file in the target folder, then ``os.replace`` onto ``file``.
+
+    Raises:
+        FileNotFoundError: the target folder does not exist.
+    """
+    file = os.fspath(file)
+    if not file.endswith(".npz"):
+        file = file + ".npz"
+    folder = os.path.dirname(os.path.abspath(file))
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"output folder does not exist: {folder}")
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, file)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return file
+
+
+# ---------------------------------------------------------------------- summaries
+def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float = 0.02) -> dict[str, Any]:
+    """Headline numbers of a result (over all B x P waypoints).
+
+    * ``share_alpha`` : share of waypoints with alpha < ``alpha_tol_deg``;
+    * ``share_ratio`` : f2 and others: share with ``|rho - r| / r < ratio_rel_tol``; f1: share with
+      ``rho >= (1 - ratio_rel_tol) r`` (f1 asks for *at least* r);
+    * ``share_both``  : both at once; ``share_usable``, ``share_solved``: status 0-2, status 0;
+    * ``max_pos_error`` (m), ``median_time_s`` and ``mean_time_s`` per waypoint, ``total_time_s``.
+    """
+    r = float(res.meta.get("ratio", np.nan))
+    crit = str(res.meta.get("criterion", ""))
+    a_ok = res.alpha_deg < alpha_tol_deg
+    if crit == "f1":
+        r_ok = res.ratio >= (1.0 - ratio_rel_tol) * r
+    else:
+        r_ok = np.abs(res.ratio - r) / r < ratio_rel_tol
+    usable = is_usable(res.status)
+    return {
+        "B": res.B,
+        "P": res.P,
+        "criterion": crit,
+        "ratio_target": r,
+        "share_alpha": float(np.mean(a_ok)),
+        "share_ratio": float(np.mean(r_ok)),
+        "share_both": float(np.mean(a_ok & r_ok)),
+        "share_usable": float(np.mean(usable)),
+        "share_solved": float(np.mean(res.status == SOLVED)),
+        "max_pos_error": float(np.max(res.pos_error)) if usable.any() else float("nan"),
+        "max_pos_error_usable": float(np.max(res.pos_error[usable])) if usable.any() else float("nan"),
+        "median_alpha_deg": float(np.median(res.alpha_deg)),
+        "median_time_s": float(np.median(res.time_s)),
+        "mean_time_s": float(np.mean(res.time_s)),
+        "total_time_s": float(np.sum(res.time_s)),
+        "median_nfev": float(np.median(res.nfev)),
+        "median_nit": float(np.median(res.nit)),
+    }
+
+
+# ---------------------------------------------------------------------- verification
+def _np_fk_position(robot, q: np.ndarray) -> np.ndarray:
+    """TCP positions (N, 3) by plain 4x4 products in numpy (independent of the JAX kernel)."""
+    out = np.empty((q.shape[0], 3))
+    for idx, qq in enumerate(q):
+        T = np.eye(4)
+        for i in range(robot.n):
+            T = T @ robot.origin_matrix(i)
+            M = np.eye(4)
+            a = np.asarray(robot.axes[i], float)
+            if robot.joint_types[i] == 1:
+                M[:3, 3] = a * qq[i]
+            else:
+                K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+                M[:3, :3] = np.eye(3) + np.sin(qq[i]) * K + (1 - np.cos(qq[i])) * (K @ K)
+            T = T @ M
+        out[idx] = (T @ robot.tip_matrix)[:3, 3]
+    return out
+
+
+def robot_from_meta(meta: dict[str, Any], urdf: str | os.PathLike | None = None, check_sha: bool = True):
+    """Rebuild the robot of a result from its ``meta`` (URDF path, links, locked joints, tcp).
+
+    Args:
+        urdf: use this URDF file instead of the recorded path (e.g. on another machine).
+        check_sha: refuse a URDF whose sha256 differs from the recorded one.
+    """
+    from .robot import Robot
+
+    rmeta = meta["robot"]
+    path = os.fspath(urdf) if urdf is not None else rmeta["urdf"]
+    if check_sha and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
+        raise ValueError(f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...)")
+    return Robot.from_urdf(
+        path,
+        base_link=rmeta.get("base_link") or None,
+        tip_link=rmeta.get("tip_link") or None,
+        locked=rmeta.get("locked") or None,
+        tcp=np.asarray(rmeta["tcp"]) if rmeta.get("tcp") is not None else None,
+    )
+
+
+def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per waypoint of path b: the reference state (q_ref (P,n), kj_ref (P,n)) its box refers to,
+    and whether rate limits apply (P,) bool (False only before the first usable waypoint when the
+    run had ``first_rate_limit = False``)."""
+    first_rate = bool(res.meta["limits"]["first_rate_limit"])
+    q_ref, kj_ref = res.q0[b].copy(), res.kj0[b].copy()
+    at_start = True
+    Q, KJ, RATE = [], [], []
+    for p in range(res.P):
+        Q.append(q_ref.copy())
+        KJ.append(kj_ref.copy())
+        RATE.append(not (at_start and not first_rate))
+        if res.status[b, p] in USABLE:
+            q_ref, kj_ref, at_start = res.q[b, p], res.kj[b, p], False
+    return np.asarray(Q), np.asarray(KJ), np.asarray(RATE)
+
+
+def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
+    """Re-check a result with numpy only (no JAX): FK, bounds, rate limits, reported values.
+
+    Uses the robot rebuilt from ``meta`` (or the one given), a plain numpy FK, and a numpy
+    recomputation of ``K_T``, alpha, rho and f1/f2 (other criteria: criterion not re-checked).
+
+    Returns:
+        ``max_pos_error`` (m, usable waypoints), ``max_bound_violation`` (joint and stiffness
+        limits, all waypoints), ``max_rate_violation`` (rad or Nm/rad, against each waypoint's
+        reference state), ``max_position_mismatch`` (reported vs recomputed position),
+        ``max_alpha_mismatch`` (deg), ``max_ratio_mismatch`` (relative), ``max_criterion_mismatch``
+        (relative), ``max_cms_mismatch`` (relative).
+    """
+    if robot is None:
+        robot = robot_from_meta(res.meta, urdf)
+    lim = res.meta["limits"]
+    dq, dk = np.asarray(lim["dq"], float), np.asarray(lim["dk"], float)
+    kmin, kmax = float(lim["kmin"]), float(lim["kmax"])
+    task = res.meta["task"]
+    r, c = float(res.meta["ratio"]), float(res.meta["c"])
+    out = dict(
+        max_pos_error=0.0,
+        max_bound_violation=0.0,
+        max_rate_violation=0.0,
+        max_locked_violation=0.0,
+        max_position_mismatch=0.0,
+        max_alpha_mismatch=0.0,
+        max_ratio_mismatch=0.0,
+        max_criterion_mismatch=0.0,
+        max_cms_mismatch=0.0,
+    )
+    locked = robot.locked_values
+    lmask = ~np.isnan(locked)
+    for b in range(res.B):
+        q, kj = res.q[b], res.kj[b]
+        pos = _np_fk_position(robot, q)
+        usable = is_usable(res.status[b])
+        err = np.linalg.norm(pos - res.target[b], axis=-1)
+        if usable.any():
+            out["max_pos_error"] = max(out["max_pos_error"], float(err[usable].max()))
+        out["max_position_mismatch"] = max(out["max_position_mismatch"], float(np.abs(pos - res.position[b]).max()))
+        bound = np.r_[(robot.lower - q).ravel(), (q - robot.upper).ravel(), (kmin - kj).ravel(), (kj - kmax).ravel(), 0.0]
+        out["max_bound_violation"] = max(out["max_bound_violation"], float(bound.max()))
+        if lmask.any():
+            out["max_locked_violation"] = max(out["max_locked_violation"], float(np.abs(q[:, lmask] - locked[lmask]).max()))
+        Qr, Kr, rate = reference_states(res, b)
+        if rate.any():
+            dqv = np.abs(q[rate] - Qr[rate]) - dq
+            dkv = np.abs(kj[rate] - Kr[rate]) - dk
+            out["max_rate_violation"] = max(out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0])))
+        # reported stiffness quantities, recomputed in numpy
+        K = np.stack([_np_translational_stiffness(robot, q[p], kj[p], task) for p in range(res.P)])
+        alpha, rho = _np_alpha_ratio(K, res.direction[b])
+        out["max_alpha_mismatch"] = max(out["max_alpha_mismatch"], float(np.abs(alpha - res.alpha_deg[b]).max()))
+        out["max_ratio_mismatch"] = max(out["max_ratio_mismatch"], float((np.abs(rho - res.ratio[b]) / rho).max()))
+        crit = res.meta["criterion"]
+        if crit in ("f1", "f2"):
+            f = _np_criterion(crit, alpha, rho, r, c)
+            out["max_criterion_mismatch"] = max(out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max()))
+        cms_ref = _np_cms(K, res.meta["cms"])
+        out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))
+    return out
+
+
+def _np_jacobian_rows(robot, q: np.ndarray) -> np.ndarray:
+    """Geometric Jacobian (6, n) in numpy from 4x4 products (independent of the kernel)."""
+    T = np.eye(4)
+    zs, ps, kinds = [], [], []
+    for i in range(robot.n):
+        T = T @ robot.origin_matrix(i)
+        a = np.asarray(robot.axes[i], float)
+        zs.append(T[:3, :3] @ a)
+        ps.append(T[:3, 3].copy())
+        kinds.append(robot.joint_types[i])
+        M = np.eye(4)
+        if robot.joint_types[i] == 1:
+            M[:3, 3] = a * q[i]
+        else:
+            K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+            M[:3, :3] = np.eye(3) + np.sin(q[i]) * K + (1 - np.cos(q[i])) * (K @ K)
+        T = T @ M
+    p_tcp = (T @ robot.tip_matrix)[:3, 3]
+    J = np.zeros((6, robot.n))
+    for i in range(robot.n):
+        if kinds[i] == 1:
+            J[:3, i] = zs[i]
+        else:
+            J[:3, i] = np.cross(zs[i], p_tcp - ps[i])
+            J[3:, i] = zs[i]
+    return J
+
+
+def _np_translational_stiffness(robot, q, kj, task) -> np.ndarray:
+    J = _np_jacobian_rows(robot, q)
+    rows = {"xy": [0, 1], "xyz": [0, 1, 2], "full": list(range(6))}[task]
+    Js = J[rows]
+    C = Js @ np.diag(1.0 / kj) @ Js.T
+    K = np.linalg.inv(C)
+    if task == "full":
+        K = K[:3, :3]
+    return 0.5 * (K + K.T)
+
+
+def _np_alpha_ratio(K: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    w, V = np.linalg.eigh(K)
+    m = K.shape[-1]
+    v1 = V[..., :, -1]
+    dd = d[..., :m] / np.linalg.norm(d[..., :m], axis=-1, keepdims=True)
+    cosang = np.abs(np.sum(v1 * dd, axis=-1))
+    if m == 2:
+        sinang = np.abs(v1[..., 0] * dd[..., 1] - v1[..., 1] * dd[..., 0])
+    else:
+        sinang = np.linalg.norm(np.cross(v1, dd), axis=-1)
+    return np.degrees(np.arctan2(sinang, cosang)), w[..., -1] / w[..., -2]
+
+
+def _np_criterion(name: str, alpha, rho, r, c):
+    if name == "f1":
+        return (np.abs(alpha) + c) / (np.minimum(rho, r) / r)
+    return (1.0 + np.abs(alpha)) * (1.0 + np.abs(r - rho))
+
+
+def _np_cms(K: np.ndarray, cms_meta: dict[str, Any]) -> np.ndarray:
+    w = np.linalg.eigvalsh(K)
+    if cms_meta.get("target_major") is not None:
+        return float(cms_meta["target_major"]) / w[..., -1]
+    m = K.shape[-1]
+    return (float(cms_meta["target_volume"]) / np.prod(w, axis=-1)) ** (1.0 / m)

@@ -1,0 +1,475 @@
+"""``shape()``: stiffness-ellipsoid shaping along TCP paths (seed 000, SPEC section 5).
+
+For every waypoint of every path, joint positions q and joint stiffnesses kj are chosen so that the
+stiffness ellipsoid's major axis follows the desired direction with the wanted axis ratio
+(criterion f1 or f2), the TCP stays exactly on the path, and q and kj change no faster than the
+rate limits allow (S0-10 ... S0-14). Afterwards the common-mode stiffness factor (CMS, S0 section
+III) scales each waypoint's kj so that its ellipsoid reaches a target size.
+
+Defaults the seed does not give (each one is also written into ``result.meta``):
+
+* ``dq`` = 2 deg (0.0349 rad) per waypoint on every joint, ``dk`` = 5 Nm/rad per waypoint (5% of
+  the seed's 1-100 Nm/rad range): on the 60-waypoint default path (about 1 cm between waypoints)
+  that lets the ellipsoid turn with the tangent while keeping joint motion smooth.
+* ``kmin`` = 1, ``kmax`` = 100 Nm/rad (seed); ``kj0`` = mid-range ``(kmin + kmax) / 2`` on every
+  joint; ``c`` = 0.01 (seed, f1).
+* ``q0``: damped-least-squares IK (:mod:`jaxstiff.ik`) from the nominal posture (every free joint
+  30 deg past the middle of its range) to the first waypoint.
+* ``first_rate_limit = False``: the rate limits do not apply between ``(q0, kj0)`` and the first
+  waypoint, which is shaped within the full joint and stiffness ranges (the start state is only an
+  initial guess: offline planning may move the arm into the shaped posture before the motion
+  starts). Pass ``True`` when ``(q0, kj0)`` is the arm's actual state.
+* CMS target: a geometric-mean axis of 1000 N/m, i.e. ``target_volume = 1000**m`` (N/m)^m (m = 3,
+  or 2 for task "xy"), so the scaled ellipsoids are comparable along the path (seed Fig. 4e, 5e).
+* task ``"full"``: K_T is the top-left 3x3 block of the 6x6 Cartesian stiffness (S0-6, S0-7).
+* solver ``"slsqp"``: SLSQP per waypoint with JAX derivatives, ``maxiter`` 200, ``ftol`` 1e-10.
+
+Solvers are registered in :data:`SOLVERS` (name -> function); add one with :func:`register_solver`.
+
+Example:
+    >>> import jaxstiff
+    >>> robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    >>> res = jaxstiff.shape(robot, jaxstiff.default_path(n=10), "f2", 5.0)   # doctest: +SKIP
+    >>> res.status.shape                                                       # doctest: +SKIP
+    (1, 10)
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+import os
+import platform
+import sys
+import time
+from typing import Any, Callable, Mapping
+
+import jax
+import numpy as np
+
+from . import results as R
+from .criteria import CRITERIA, get_criterion
+from .ik import ik_position, nominal_posture, NOMINAL_OFFSET_DEG
+from .paths import DEFAULT_PATH_SPEC, Path
+from .robot import Robot
+from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_evaluate
+from .stiffness import task_rows
+
+__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest"]
+
+#: Defaults of the parameters the seed does not fix (see the module docstring).
+DEFAULTS: dict[str, Any] = {
+    "dq_deg": 2.0,
+    "dk": 5.0,
+    "kmin": 1.0,
+    "kmax": 100.0,
+    "c": 0.01,
+    "first_rate_limit": False,
+    "cms_mean_axis": 1000.0,
+    "q0": "ik_from_nominal",
+    "kj0": "mid_range",
+}
+
+
+# ---------------------------------------------------------------------- solver registry
+class SolveRequest:
+    """Everything a registered solver gets: the problem, the paths, the start states, the limits.
+
+    Attributes:
+        problem: :class:`~jaxstiff.solvers.problem.WaypointProblem`.
+        targets, directions: (B, P, 3).
+        q0, kj0: (B, n) start states.
+        limits: :class:`~jaxstiff.solvers.problem.Limits`.
+        ratio, c: criterion parameters.
+        starts: number of starts (multi-start solvers).
+        options: solver options (dict).
+        pos_tol: m, position tolerance of a usable waypoint.
+        progress: ``progress(b, p)`` after each waypoint, or None.
+    """
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+
+#: A solver maps a :class:`SolveRequest` to a dict of arrays: ``q``, ``kj`` (B,P,n), ``status``,
+#: ``pos_error``, ``solver_code``, ``nit``, ``nfev``, ``time_s`` (B,P). Every point with a usable
+#: status (0-2) must satisfy the box of its reference state exactly and the position within
+#: ``pos_tol``; the reported quantities are recomputed by :func:`shape`.
+SOLVERS: dict[str, Callable[[SolveRequest], dict[str, np.ndarray]]] = {}
+
+
+def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, np.ndarray]]) -> None:
+    """Make a solver available as ``shape(..., solver=name)`` and ``jaxstiff shape --solver name``."""
+    if not callable(fn):
+        raise ValueError(f"solver {name!r} must be callable")
+    SOLVERS[name] = fn
+
+
+def _outcomes_to_arrays(per_path, n_free: int, q0: np.ndarray, free_idx) -> dict[str, np.ndarray]:
+    B, P = len(per_path), len(per_path[0])
+    n = q0.shape[-1]
+    q = np.repeat(q0[:, None, :], P, axis=1).astype(float)
+    kj = np.zeros((B, P, n))
+    out = {k: np.zeros((B, P), dtype=dt) for k, dt in
+           (("status", np.int64), ("solver_code", np.int64), ("nit", np.int64), ("nfev", np.int64),
+            ("pos_error", float), ("time_s", float))}
+    fi = list(free_idx)
+    for b, outs in enumerate(per_path):
+        for p, o in enumerate(outs):
+            q[b, p, fi] = o.x[:n_free]
+            kj[b, p] = o.x[n_free:]
+            out["status"][b, p] = o.status
+            out["solver_code"][b, p] = o.code
+            out["nit"][b, p] = o.nit
+            out["nfev"][b, p] = o.nfev
+            out["pos_error"][b, p] = o.pos_error
+            out["time_s"][b, p] = o.time_s
+    out["q"], out["kj"] = q, kj
+    return out
+
+
+def _greedy_solver(kind: str):
+    def run(req: SolveRequest) -> dict[str, np.ndarray]:
+        if req.starts not in (None, 1):
+            raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={req.starts}")
+        prob = req.problem
+        if kind == "slsqp":
+            from .solvers.slsqp import greedy_path, make_slsqp_solver
+
+            solver = make_slsqp_solver(prob, req.options)
+            extra = {}
+        else:
+            from .solvers.slsqp_fd import make_fd_solver, numpy_objective, numpy_pos_and_jac
+            from .solvers.slsqp import greedy_path
+
+            solver = make_fd_solver(prob, req.options)
+            extra = {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)}
+        per_path = []
+        for b in range(req.targets.shape[0]):
+            prog = None if req.progress is None else (lambda p, b=b: req.progress(b, p))
+            per_path.append(
+                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits,
+                            req.ratio, req.c, solver, pos_tol=req.pos_tol, progress=prog, **extra)
+            )
+        return _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
+
+    return run
+
+
+register_solver("slsqp", _greedy_solver("slsqp"))
+register_solver("slsqp-fd", _greedy_solver("slsqp-fd"))
+
+
+# ---------------------------------------------------------------------- input checks
+def _per_joint(value, n: int, what: str, unit: str) -> np.ndarray:
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    if a.shape != (n,):
+        raise ValueError(f"{what} must be a number or {n} numbers ({unit}), got shape {a.shape}")
+    if np.any(np.isnan(a)):
+        raise ValueError(f"{what} contains NaN")
+    if np.any(a < 0):
+        raise ValueError(f"{what} must be >= 0 ({unit}; inf = no limit), got {a.tolist()}")
+    return a
+
+
+def _start_states(robot: Robot, value, B: int, what: str) -> np.ndarray | None:
+    if value is None:
+        return None
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 1:
+        a = np.broadcast_to(a, (B, a.shape[0]))
+    if a.ndim != 2 or a.shape != (B, robot.n):
+        raise ValueError(f"{what} must have {robot.n} values (one per joint of {robot.name!r}) or shape ({B}, {robot.n}), got shape {np.shape(value)}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{what} contains NaN or Inf")
+    return np.array(a, dtype=float)
+
+
+def _check_q0(robot: Robot, q0: np.ndarray) -> None:
+    lo, hi = robot.lower, robot.upper
+    for b, q in enumerate(q0):
+        bad = np.flatnonzero((q < lo) | (q > hi))
+        if bad.size:
+            i = int(bad[0])
+            raise ValueError(
+                f"q0[{i}] = {q[i]:.6g} rad for joint {robot.joint_names[i]!r} is outside its limits "
+                f"[{lo[i]:.6g}, {hi[i]:.6g}]" + (f" (path {b})" if q0.shape[0] > 1 else "")
+            )
+        lv = robot.locked_values
+        for i in np.flatnonzero(~np.isnan(lv)):
+            if abs(q[i] - lv[i]) > 1e-12:
+                raise ValueError(f"q0[{i}] = {q[i]:.6g} but joint {robot.joint_names[i]!r} is locked at {lv[i]:.6g}")
+
+
+def _robot_meta(robot: Robot) -> dict[str, Any]:
+    src = robot.source
+    meta: dict[str, Any] = {
+        "name": robot.name,
+        "urdf": os.path.abspath(src) if src else "",
+        "sha256": R.file_sha256(src) if src and os.path.isfile(src) else "",
+        "base_link": robot.base_link,
+        "tip_link": robot.tip_link,
+        "locked": {nm: v for nm, v in zip(robot.joint_names, robot.locked) if v is not None},
+        "joint_names": list(robot.joint_names),
+        "lower": robot.lower.tolist(),
+        "upper": robot.upper.tolist(),
+        "tip_transform": robot.tip_matrix.tolist(),
+    }
+    tcp = None
+    if src and os.path.isfile(src):
+        try:
+            bare = Robot.from_urdf(src, base_link=robot.base_link or None, tip_link=robot.tip_link or None)
+            tcp = np.linalg.solve(bare.tip_matrix, robot.tip_matrix)
+            tcp[np.abs(tcp) < 1e-15] = 0.0
+            tcp[3] = [0.0, 0.0, 0.0, 1.0]
+        except (ValueError, FileNotFoundError):
+            tcp = None
+    meta["tcp"] = None if tcp is None else tcp.tolist()
+    return meta
+
+
+def _versions() -> dict[str, str]:
+    import scipy
+
+    from . import __version__
+
+    return {
+        "jaxstiff": __version__,
+        "jax": jax.__version__,
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+    }
+
+
+# ---------------------------------------------------------------------- shape
+def shape(
+    robot: Robot | str,
+    path: Path | np.ndarray | None = None,
+    criterion: str | Callable = "f2",
+    ratio: float = 5.0,
+    *,
+    task: str = "full",
+    solver: str = "slsqp",
+    starts: int | None = None,
+    q0=None,
+    kj0=None,
+    dq=math.radians(DEFAULTS["dq_deg"]),
+    dk=DEFAULTS["dk"],
+    kmin: float = DEFAULTS["kmin"],
+    kmax: float = DEFAULTS["kmax"],
+    c: float = DEFAULTS["c"],
+    first_rate_limit: bool = DEFAULTS["first_rate_limit"],
+    cms_volume: float | None = None,
+    cms_major: float | None = None,
+    options: Mapping[str, Any] | None = None,
+    pos_tol: float = POS_TOL,
+    progress: Callable[[int, int], None] | None = None,
+    meta_extra: Mapping[str, Any] | None = None,
+) -> R.ShapeResult:
+    """Shape the stiffness ellipsoid along one or more TCP paths (seed 000, S0-9 ... S0-15).
+
+    Args:
+        robot: the chain (its locked joints stay fixed), or a URDF path / shipped robot name.
+        path: a :class:`~jaxstiff.paths.Path` (P waypoints, or a batch of B paths), or points
+            (P, 3) / (B, P, 3) in metres (directions: the tangent); default: the shipped
+            :func:`~jaxstiff.paths.default_path`.
+        criterion: ``"f1"`` (S0-9, ratio >= r), ``"f2"`` (S0-15, ratio = r), a registered name, or a
+            JAX-traceable ``crit(K, d, r[, c])``.
+        ratio: wanted axis ratio r = lambda1 / lambda2, > 1.
+        task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, seed), ``"xyz"`` or ``"xy"``.
+        solver: a name in :data:`SOLVERS`: ``"slsqp"`` (JAX derivatives) or ``"slsqp-fd"``
+            (the seed's own way: numpy + finite differences; the speed baseline).
+        starts: starts per waypoint for multi-start solvers (SLSQP: 1).
+        q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values;
+            default: IK from the nominal posture to each path's first waypoint.
+        kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
+        dq: joint rate limit per waypoint, rad (a number or (n,)); ``inf`` = none. Default 2 deg.
+        dk: stiffness rate limit per waypoint, Nm/rad (a number or (n,)). Default 5.
+        kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax. Default 1, 100 (seed).
+        c: f1's offset (seed: 0.01).
+        first_rate_limit: apply dq/dk between (q0, kj0) and the first waypoint (default False).
+        cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m. Default ``1000**m``.
+        cms_major: CMS target: the major axis lambda1, N/m (instead of the volume).
+        options: solver options (SLSQP: ``maxiter``, ``ftol``).
+        pos_tol: m, largest position error of a usable waypoint (default 1e-9).
+        progress: ``progress(b, p)`` called after each waypoint (for progress bars).
+        meta_extra: more entries for ``meta`` (e.g. the CLI's path file names).
+
+    Returns:
+        :class:`~jaxstiff.results.ShapeResult` with leading axis B (B = 1 for one path).
+
+    Raises:
+        ValueError: bad input (ratio <= 1, kmin <= 0 or kmin >= kmax, negative rate limits,
+            q0/kj0 of the wrong length or outside the limits, unknown solver/criterion/task).
+    """
+    t_start = time.perf_counter()
+    if isinstance(robot, (str, os.PathLike)):
+        robot = Robot.from_urdf(robot)
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a jaxstiff.Robot or a URDF path, got {type(robot).__name__}")
+    if path is None:
+        from .paths import default_path
+
+        path = default_path()
+    if not isinstance(path, Path):
+        path = Path(path)
+    bpath = path.as_batch()
+    B, P = bpath.B, bpath.P
+    n = robot.n
+
+    # ---- parameters
+    if solver not in SOLVERS:
+        raise ValueError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
+    crit_fn = get_criterion(criterion)
+    crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
+    task_rows(task)
+    try:
+        ratio = float(ratio)
+        kmin, kmax, c = float(kmin), float(kmax), float(c)
+    except (TypeError, ValueError):
+        raise ValueError("ratio, kmin, kmax and c must be numbers") from None
+    if not (math.isfinite(ratio) and ratio > 1.0):
+        raise ValueError(f"ratio must be > 1 (lambda1 / lambda2), got {ratio}")
+    if not (math.isfinite(kmin) and math.isfinite(kmax)) or kmin <= 0 or kmin >= kmax:
+        raise ValueError(f"need 0 < kmin < kmax (Nm/rad), got kmin={kmin}, kmax={kmax}")
+    if not math.isfinite(c) or c < 0:
+        raise ValueError(f"c must be a finite number >= 0, got {c}")
+    if not (pos_tol > 0):
+        raise ValueError(f"pos_tol must be > 0 (m), got {pos_tol}")
+    dq_a = _per_joint(dq, n, "dq (joint rate limit per waypoint)", "rad")
+    dk_a = _per_joint(dk, n, "dk (stiffness rate limit per waypoint)", "Nm/rad")
+    if task == "xy" and np.any(np.abs(bpath.directions[..., 2]) > 1e-9):
+        raise ValueError("task 'xy' needs directions in the xy plane (dz = 0)")
+    m = 2 if task == "xy" else 3
+    if cms_volume is not None and cms_major is not None:
+        raise ValueError("give at most one of cms_volume and cms_major")
+    if cms_major is not None and not (cms_major > 0):
+        raise ValueError(f"cms_major must be > 0 (N/m), got {cms_major}")
+    if cms_volume is not None and not (cms_volume > 0):
+        raise ValueError(f"cms_volume must be > 0 ((N/m)^{m}), got {cms_volume}")
+    if cms_volume is None and cms_major is None:
+        cms_volume = DEFAULTS["cms_mean_axis"] ** m
+    cms_meta = {"target_volume": cms_volume, "target_major": cms_major}
+
+    kj0_given = kj0 is not None
+    if kj0 is None:
+        kj0 = np.full((B, n), 0.5 * (kmin + kmax))
+    else:
+        a = np.asarray(kj0, dtype=float)
+        if a.ndim == 0:
+            a = np.full(n, float(a))
+        kj0 = _start_states(robot, a, B, "kj0")
+        bad = np.argwhere((kj0 < kmin) | (kj0 > kmax))
+        if bad.size:
+            bb, i = bad[0]
+            raise ValueError(f"kj0[{i}] = {kj0[bb, i]:.6g} Nm/rad for joint {robot.joint_names[i]!r} is outside [kmin, kmax] = [{kmin:g}, {kmax:g}]")
+
+    with jax.enable_x64(True):
+        q0_given = q0 is not None
+        ik_err = None
+        if q0 is not None:
+            q0 = _start_states(robot, q0, B, "q0")
+            _check_q0(robot, q0)
+        else:
+            q0 = np.zeros((B, n))
+            ik_err = []
+            for b in range(B):
+                q0[b], e = ik_position(robot, bpath.points[b, 0], planar=(task == "xy"))
+                ik_err.append(e)
+
+        problem = WaypointProblem(robot, task, crit_fn)
+        limits = Limits(dq=dq_a, dk=dk_a, kmin=kmin, kmax=kmax, first_rate_limit=bool(first_rate_limit))
+        req = SolveRequest(
+            problem=problem, targets=bpath.points, directions=bpath.directions, q0=q0, kj0=kj0,
+            limits=limits, ratio=ratio, c=c, starts=starts, options=dict(options or {}), pos_tol=float(pos_tol),
+            progress=progress,
+        )
+        t_solve = time.perf_counter()
+        arrays = SOLVERS[solver](req)
+        t_solved = time.perf_counter()
+
+        # reported quantities, recomputed at the final points for every solver
+        ev = compiled_evaluate(problem)
+        qf = arrays["q"].reshape(B * P, n)
+        kf = arrays["kj"].reshape(B * P, n)
+        df = bpath.directions.reshape(B * P, 3)
+        pos, K, alpha, rho, f = (np.asarray(v) for v in ev(qf, kf, df, ratio, c))
+    w = np.linalg.eigvalsh(K)
+    if cms_major is not None:
+        cms = cms_major / w[:, -1]
+    else:
+        cms = (cms_volume / np.prod(w, axis=-1)) ** (1.0 / m)
+    position = pos.reshape(B, P, 3)
+    pos_error = np.linalg.norm(position - bpath.points, axis=-1)
+
+    meta: dict[str, Any] = {
+        "format": "jaxstiff.shape/1",
+        "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "robot": _robot_meta(robot),
+        "criterion": crit_name,
+        "criterion_custom": not (isinstance(criterion, str) and criterion in CRITERIA),
+        "ratio": ratio,
+        "c": c,
+        "task": task,
+        "solver": solver,
+        "starts": 1 if starts is None else int(starts),
+        "options": {**_solver_defaults(solver), **dict(options or {})},
+        "pos_tol": float(pos_tol),
+        "limits": {
+            "dq": dq_a.tolist(),
+            "dk": dk_a.tolist(),
+            "kmin": kmin,
+            "kmax": kmax,
+            "first_rate_limit": bool(first_rate_limit),
+            "dq_unit": "rad per waypoint",
+            "dk_unit": "Nm/rad per waypoint",
+        },
+        "q0_source": "given" if q0_given else f"ik_dls from nominal posture (mid-range + {NOMINAL_OFFSET_DEG:g} deg)",
+        "q_nominal": nominal_posture(robot).tolist(),
+        "ik_error_m": ik_err,
+        "kj0_source": "given" if kj0_given else "mid-range (kmin + kmax) / 2",
+        "cms": cms_meta,
+        "path": {"name": bpath.name, "B": B, "P": P,
+                 "default_spec": DEFAULT_PATH_SPEC if bpath.name == "default" else None},
+        "defaults": DEFAULTS,
+        "status_codes": R.STATUS_NAMES,
+        "timing_s": {"setup": t_solve - t_start, "solve": t_solved - t_solve, "total": time.perf_counter() - t_start},
+        "versions": _versions(),
+        "units": {"q": "rad", "kj": "Nm/rad", "position": "m", "alpha_deg": "deg", "stiffness": "N/m"},
+    }
+    if meta_extra:
+        meta.update(dict(meta_extra))
+    return R.ShapeResult(
+        joint_names=np.asarray(robot.joint_names, dtype=str),
+        q=arrays["q"],
+        kj=arrays["kj"],
+        cms=cms.reshape(B, P),
+        kj_scaled=arrays["kj"] * cms.reshape(B, P, 1),
+        target=np.array(bpath.points),
+        direction=np.array(bpath.directions),
+        position=position,
+        pos_error=pos_error,
+        alpha_deg=alpha.reshape(B, P),
+        ratio=rho.reshape(B, P),
+        criterion=f.reshape(B, P),
+        status=arrays["status"],
+        q0=q0,
+        kj0=kj0,
+        solver_code=arrays["solver_code"],
+        nit=arrays["nit"],
+        nfev=arrays["nfev"],
+        time_s=arrays["time_s"],
+        meta=meta,
+    )
+
+
+def _solver_defaults(solver: str) -> dict[str, Any]:
+    if solver in ("slsqp", "slsqp-fd"):
+        from .solvers.slsqp import DEFAULT_OPTIONS
+
+        return dict(DEFAULT_OPTIONS)
+    return {}
