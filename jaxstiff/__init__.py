@@ -4,8 +4,6 @@ The public names are re-exported here explicitly; see DESIGN.md for the contract
 """
 
 from .criteria import f1 as f1
-from .csc import CSCResult as CSCResult
-from .csc import csc_rollout as csc_rollout
 from .criteria import f2 as f2
 from .criteria import frobenius as frobenius
 from .criteria import get_criterion as get_criterion
