@@ -9,6 +9,8 @@ from .criteria import frobenius as frobenius
 from .criteria import get_criterion as get_criterion
 from .criteria import offdiag as offdiag
 from .criteria import register_criterion as register_criterion
+from .csc import CSCResult as CSCResult
+from .csc import csc_rollout as csc_rollout
 from .ellipsoid import Ellipsoid as Ellipsoid
 from .ellipsoid import ellipsoid as ellipsoid
 from .ellipsoid import orientation_error as orientation_error

@@ -1,0 +1,721 @@
+"""Configuration-based Stiffness Control (CSC, seed 001, SPEC section 6) as one ``lax.scan``.
+
+A kinematically redundant arm follows a TCP path (the primary task) while its self-motion lowers
+the off-diagonal norm ``u(q)`` of the joint-space stiffness ``K_q = J^T K_xd J`` (S1-19) that a
+desired Cartesian stiffness ``K_xd`` would need. Uni-articular (one joint, one spring) actuators can
+realise only the diagonal of ``K_q``; the smaller ``u``, the closer the realised Cartesian stiffness
+comes to ``K_xd``.
+
+One step ``k`` (one per path waypoint), with ``J`` the task rows of the geometric Jacobian at ``q_k``
+(locked joints' columns zeroed for motion):
+
+.. code-block:: text
+
+    dx    = x_d[k] - x(q_k)                            closed loop: the TCP does not drift
+    J+    = J^T (J J^T + lam^2 I)^-1                   (S1-16, damped near singularities, below)
+    dq_P  = J+ dx                                      (S1-13, particular solution)
+    dq_N  = (I - J+ J) grad u(q_k)                     (S1-14, S1-15, S1-20)
+    alpha = beta |dq_P| / |dq_N|   ("adaptive", S1-22)  or  beta / |dq_N|   ("constant")
+    q_k+1 = q_k + dq_P - alpha dq_N [+ dq_L]           (S1-13, S1-21)
+    then ``newton`` optional corrections q <- q + J+(q) (x_d[k] - x(q)), then the joint limits.
+
+Choices this module makes where the seed is silent (SPEC section 6 lets us choose):
+
+* **Damping rule.** With ``A = J J^T`` (m x m), the isotropy ``nu = det A / (tr A / m)^m`` is in
+  [0, 1]: 1 for an isotropic Jacobian, 0 at a singularity, scale- and unit-free (for m = 2 it is
+  about ``4 sigma_min^2 / sigma_max^2`` near a singularity). Below ``nu0`` the damping
+  ``lam^2 = damping^2 * (tr A / m) * (1 - nu / nu0)^2`` switches on (a Nakamura-Hanafusa style
+  rule, made scale-free by ``tr A / m``); above it ``lam = 0`` and ``J+`` is the exact
+  Moore-Penrose inverse (S1-16). ``lam^2`` and its first derivative are continuous at ``nu0``.
+  Status bit :data:`STATUS_DAMPED` marks the steps where it is active. While damped, ``I - J+ J``
+  is no longer an exact projector; the closed loop pulls the TCP back.
+* **Guard of |dq_N| -> 0.** ``|dq_N|`` is replaced by ``max(|dq_N|, null_eps)``: the null step
+  has length beta (constant) or ``beta |dq_P|`` (adaptive) while the projected gradient is larger
+  than ``null_eps``, and shrinks to plain projected gradient descent below it; at ``dq_N = 0``
+  exactly it is zero. Norms use the double-``where`` trick, so values and gradients stay finite.
+  Default ``null_eps = 1e-9 * |K_xd|_F * 1 m^2`` (1e-5 in float32). Status :data:`STATUS_NULL_SMALL`.
+* **Joint limits.** Optional lower-priority secondary task (``joint_limits="priority"``): the
+  Liegeois cost ``h = 1/2 sum_i (q_i - c_i)^2 / h_i`` (c_i the middle, h_i the half range of
+  joint i, joints with finite limits only) gives ``dq_L = -jl_gain * grad h``; it is projected into
+  the null space of the path task and then made orthogonal to ``dq_N`` (the null space of the
+  path + CSC tasks), so it never disturbs them, and it does nothing when the arm has only one
+  redundant degree of freedom. ``joint_limits="sum"`` instead adds it to the CSC gradient (a
+  weighted sum, projected into the path task's null space only), which trades some ``u`` for
+  distance from the limits. Independently of both, every free joint is clamped to its limits
+  after each step (status :data:`STATUS_JOINT_LIMIT`).
+* **Locked joints** never move: their Jacobian columns are zeroed for motion and their entries of
+  ``q0`` are replaced by the locked values. They keep their springs: ``u``, the realised joint
+  stiffness and ``K_C`` use the full Jacobian.
+* **Realised stiffness.** ``kj = clip(diag(J^T K_xd J), kmin, kmax)`` (the uni-articular part of
+  S1-8), ``K_C = (J diag(1/kj) J^T)^-1`` (S0-4, :func:`jaxstiff.cartesian_stiffness`), and
+  ``|K_xd - K_C|_F`` (S1-10). Default actuator range ``[1, inf)`` Nm/rad.
+* **Task rows.** ``"xy"`` (planar arms, 2-D targets), ``"xyz"`` (position, 3-D targets), ``"full"``
+  (position follows the path, the tool orientation is held at its orientation in ``q0``; the
+  orientation error is ``1/2 sum_i r_i x r_d,i``, the columns of the current and held rotation).
+  By default the task follows from ``K_xd``'s size (2 -> xy, 3 -> xyz, 6 -> full).
+
+The rollout is differentiable end to end (``jax.grad`` w.r.t. ``beta``, ``q0``, ``K_xd`` and the
+numeric settings), batched over leading axes of every input (``vmap``), and jitted once per robot,
+task and static setting. With ``remat=True`` (default) the scan body is rematerialised in the
+backward pass, so the memory of a gradient grows with ``T * n`` per rollout only.
+
+Example:
+    >>> import jax.numpy as jnp, numpy as np, jaxstiff
+    >>> robot = jaxstiff.Robot.from_urdf("planar_3r")
+    >>> q0 = jnp.deg2rad(jnp.array([75.0, -74.74, -76.30]))
+    >>> x0 = robot.fk(q0)[:2, 3]
+    >>> c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    >>> R = jnp.array([[c, -s], [s, c]])
+    >>> K_xd = R @ jnp.diag(jnp.array([3000.0, 1000.0])) @ R.T
+    >>> res = jaxstiff.csc_rollout(robot, jnp.tile(x0, (500, 1)), K_xd, q0, 2e-3, step="constant")
+    >>> res.q.shape, bool(res.u[-1] < res.u_start)
+    ((500, 3), True)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .criteria import frobenius, offdiag
+from .kinematics import fk_and_jacobian, position_and_jacobian
+from .robot import Robot
+from .stiffness import TASK_ROWS, cartesian_stiffness
+
+__all__ = [
+    "CSCResult",
+    "csc_rollout",
+    "null_space_direction",
+    "offdiag_gradient",
+    "STATUS_OK",
+    "STATUS_DAMPED",
+    "STATUS_JOINT_LIMIT",
+    "STATUS_NAN",
+    "STATUS_NULL_SMALL",
+    "describe_status",
+]
+
+STATUS_OK = 0  #: a plain step
+STATUS_DAMPED = 1  #: isotropy below ``nu0``: the damped pseudo-inverse was active (near singular)
+STATUS_JOINT_LIMIT = 2  #: a free joint was clamped at its limit after the step
+STATUS_NAN = 4  #: the step came out non-finite and was replaced by no motion
+STATUS_NULL_SMALL = 8  #: ``|dq_N| < null_eps``: at a stationary point of u on the self-motion manifold
+
+_STATUS_NAMES = {
+    STATUS_DAMPED: "damped (near singular)",
+    STATUS_JOINT_LIMIT: "joint limit reached",
+    STATUS_NAN: "NaN guard (step dropped)",
+    STATUS_NULL_SMALL: "null-space gradient below null_eps",
+}
+
+_M_TO_TASK = {2: "xy", 3: "xyz", 6: "full"}
+
+
+def describe_status(code: int) -> str:
+    """Human-readable text of a status bit mask (``0`` -> ``"ok"``)."""
+    code = int(code)
+    if code == 0:
+        return "ok"
+    return ", ".join(name for bit, name in _STATUS_NAMES.items() if code & bit)
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class CSCResult:
+    """One or a batch of CSC rollouts. Leading axes ``*B`` are the broadcast batch of the inputs.
+
+    Row ``k`` of every per-step array describes the posture reached by step ``k``, i.e. after the
+    arm was sent towards waypoint ``k``, measured against waypoint ``k``'s target and ``K_xd``.
+
+    Attributes:
+        q: (*B, T, n) joint values (rad; m for prismatic), locked joints included.
+        u: (*B, T) off-diagonal norm ``u(q)`` of ``J^T K_xd J`` (S1-19), Nm/rad.
+        frobenius: (*B, T) ``|K_xd - K_C|_F`` (S1-10) with the realised ``K_C``.
+        tracking_error: (*B, T) ``|x_d - x(q)|`` over the task's position rows, m.
+        orientation_error: (*B, T) angle of the held-orientation error (task ``"full"``), rad; 0 otherwise.
+        kj: (*B, T, n) realised joint stiffness ``clip(diag(J^T K_xd J), kmin, kmax)``, Nm/rad.
+        K_C: (*B, T, m, m) realised Cartesian stiffness (S0-4) from ``kj``.
+        position: (*B, T, 3) TCP position, m, base frame.
+        target: (*B, T, d) the path targets used (d = 2 for ``"xy"``, else 3), m.
+        isotropy: (*B, T) ``nu = det(J J^T) / (tr(J J^T)/m)^m`` of the free joints, in [0, 1].
+        null_step: (*B, T) length of the null-space step ``|alpha dq_N|`` taken in step k, rad.
+        status: (*B, T) int32 bit mask of :data:`STATUS_DAMPED`, :data:`STATUS_JOINT_LIMIT`,
+            :data:`STATUS_NAN`, :data:`STATUS_NULL_SMALL` (0 = plain step).
+        u_start: (*B,) ``u`` at the start posture (with the first waypoint's ``K_xd``).
+        frobenius_start: (*B,) ``|K_xd - K_C|_F`` at the start posture.
+    """
+
+    q: jax.Array
+    u: jax.Array
+    frobenius: jax.Array
+    tracking_error: jax.Array
+    orientation_error: jax.Array
+    kj: jax.Array
+    K_C: jax.Array
+    position: jax.Array
+    target: jax.Array
+    isotropy: jax.Array
+    null_step: jax.Array
+    status: jax.Array
+    u_start: jax.Array
+    frobenius_start: jax.Array
+
+    def as_dict(self) -> dict[str, Any]:
+        """The fields as a ``{name: array}`` dict (numpy-convertible)."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+# ------------------------------------------------------------------------ small dense algebra
+# Written as broadcast-multiply-and-sum so that XLA fuses them over the batch (a batch of tiny
+# dot products is slow on a CPU); m, n <= 7.
+def _mv(A: jax.Array, x: jax.Array) -> jax.Array:
+    """(..., a, b) @ (..., b) -> (..., a)."""
+    return jnp.sum(A * x[..., None, :], axis=-1)
+
+
+def _mtv(A: jax.Array, x: jax.Array) -> jax.Array:
+    """(..., a, b)^T @ (..., a) -> (..., b)."""
+    return jnp.sum(A * x[..., :, None], axis=-2)
+
+
+def _safe_norm(x: jax.Array) -> jax.Array:
+    """Euclidean norm over the last axis with a finite gradient at 0 (double ``where``)."""
+    s = jnp.sum(x * x, axis=-1)
+    pos = s > 0
+    return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
+
+
+def _det_small(A: jax.Array) -> jax.Array:
+    m = A.shape[-1]
+    if m == 2:
+        return A[..., 0, 0] * A[..., 1, 1] - A[..., 0, 1] * A[..., 1, 0]
+    if m == 3:
+        return (
+            A[..., 0, 0] * (A[..., 1, 1] * A[..., 2, 2] - A[..., 1, 2] * A[..., 2, 1])
+            - A[..., 0, 1] * (A[..., 1, 0] * A[..., 2, 2] - A[..., 1, 2] * A[..., 2, 0])
+            + A[..., 0, 2] * (A[..., 1, 0] * A[..., 2, 1] - A[..., 1, 1] * A[..., 2, 0])
+        )
+    return jnp.linalg.det(A)
+
+
+def _spd_inverse(A: jax.Array) -> jax.Array:
+    """Inverse of a symmetric positive-definite (..., m, m): adjugate for m = 2, 3, Cholesky else."""
+    m = A.shape[-1]
+    if m == 2:
+        a, b, d = A[..., 0, 0], A[..., 0, 1], A[..., 1, 1]
+        inv = jnp.stack([jnp.stack([d, -b], -1), jnp.stack([-b, a], -1)], -2)
+        return inv / _det_small(A)[..., None, None]
+    if m == 3:
+        c = [[A[..., i, j] for j in range(3)] for i in range(3)]
+        adj = [[c[(j + 1) % 3][(i + 1) % 3] * c[(j + 2) % 3][(i + 2) % 3]
+                - c[(j + 1) % 3][(i + 2) % 3] * c[(j + 2) % 3][(i + 1) % 3] for j in range(3)] for i in range(3)]
+        inv = jnp.stack([jnp.stack(r, -1) for r in adj], -2)
+        return inv / _det_small(A)[..., None, None]
+    L = jnp.linalg.cholesky(A)
+    eye = jnp.broadcast_to(jnp.eye(m, dtype=A.dtype), A.shape)
+    return jax.scipy.linalg.cho_solve((L, True), eye)
+
+
+def _cross(a: jax.Array, b: jax.Array) -> jax.Array:
+    """Cross product over axis -2 of (..., 3, k) arrays."""
+    a0, a1, a2 = a[..., 0, :], a[..., 1, :], a[..., 2, :]
+    b0, b1, b2 = b[..., 0, :], b[..., 1, :], b[..., 2, :]
+    return jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-2)
+
+
+def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]):
+    """``u(q)`` (S1-19) and ``grad u(q)`` (n,) from the full geometric Jacobian J6 (6, n) at q.
+
+    ``G = du/dJ_s`` comes from ``jax.grad`` of :func:`jaxstiff.offdiag` with respect to the task
+    rows; the chain rule through ``J(q)`` uses the closed-form derivative of the geometric
+    Jacobian (columns ``[v_i; w_i]``, ``w_i`` = the unit axis of a revolute joint, 0 for a
+    prismatic one):
+
+    .. code-block:: text
+
+        d v_i / d q_k = w_k x v_i  (k < i),   w_i x v_k  (k >= i)
+        d w_i / d q_k = w_k x w_i  (k < i),   0          (k >= i)
+
+    which, contracted with G, gives in O(n) cross products
+
+    .. code-block:: text
+
+        du/dq_k = w_k . sum_{i>k} (v_i x Gv_i + w_i x Gw_i)  +  v_k . sum_{i<=k} (Gv_i x w_i).
+
+    It equals ``jax.grad`` of ``u(q)`` through the kinematics (tested) but costs about a fifth of
+    it, and its own derivative (needed by the gradient of a rollout) about a tenth.
+    """
+    J = J6[..., : len(rows), :]
+    u, G = jax.value_and_grad(offdiag)(J, K_xd)
+    G6 = jnp.concatenate([G, jnp.zeros_like(J6[..., len(rows) :, :])], axis=-2)
+    Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
+    a = _cross(Jv, Gv) + _cross(Jw, Gw)  # (3, n): term of joint i
+    suffix = jnp.cumsum(a[..., ::-1], axis=-1)[..., ::-1] - a  # sum over i > k
+    prefix = jnp.cumsum(_cross(Gv, Jw), axis=-1)  # sum over i <= k
+    g = jnp.sum(Jw * suffix, axis=-2) + jnp.sum(Jv * prefix, axis=-2)
+    return u, g
+
+
+def offdiag_gradient(robot: Robot, q, K_xd, task: str | None = None):
+    """``(u(q), grad u(q))`` of the off-diagonal norm (S1-19) at postures q (..., n), K_xd (..., m, m).
+
+    Uses the closed-form Jacobian derivative of :func:`_offdiag_value_and_grad` (the rollout's own
+    routine); ``jax.grad`` of ``offdiag(J_s(q), K_xd)`` gives the same numbers, slower.
+    """
+    q = jnp.asarray(q)
+    K_xd = jnp.asarray(K_xd, dtype=q.dtype)
+    rows = TASK_ROWS[task or _M_TO_TASK[K_xd.shape[-1]]]
+    _, J6 = position_and_jacobian(robot, q)
+    batch = jnp.broadcast_shapes(q.shape[:-1], K_xd.shape[:-2])
+    J6 = jnp.broadcast_to(J6, batch + J6.shape[-2:])
+    K_xd = jnp.broadcast_to(K_xd, batch + K_xd.shape[-2:])
+    f = functools.partial(_offdiag_value_and_grad, rows=rows)
+    for _ in batch:
+        f = jax.vmap(f)
+    return f(J6, K_xd)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Static:
+    """Settings that shape the compiled program (hashable, a static jit argument)."""
+
+    task: str
+    step: str
+    newton: int
+    joint_limits: str
+    remat: bool
+    varying: bool
+
+
+def _damped_pinv(Jf: jax.Array, nu0, damping):
+    """Damped pseudo-inverse of the free-joint task Jacobian (m, n) -> (J+ (n, m), nu, damped)."""
+    m = Jf.shape[-2]
+    A0 = jnp.sum(Jf[..., :, None, :] * Jf[..., None, :, :], axis=-1)  # J J^T
+    tr = jnp.trace(A0, axis1=-2, axis2=-1)
+    scale = tr / m
+    pos = scale > 0
+    safe_scale = jnp.where(pos, scale, 1.0)
+    nu = jnp.where(pos, _det_small(A0) / safe_scale**m, 0.0)
+    nu = jnp.clip(nu, 0.0, 1.0)
+    damped = nu < nu0
+    w = jnp.where(damped, (1.0 - nu / nu0) ** 2, 0.0)
+    tiny = jnp.finfo(Jf.dtype).tiny * 1e3
+    lam2 = damping**2 * scale * w + tiny
+    A = A0 + lam2[..., None, None] * jnp.eye(m, dtype=Jf.dtype)
+    Ainv = _spd_inverse(A)
+    Jp = jnp.sum(Jf[..., :, :, None] * Ainv[..., :, None, :], axis=-3)  # J^T A^-1, (n, m)
+    return Jp, nu, damped
+
+
+def _orientation_error(R: jax.Array, Rd: jax.Array) -> jax.Array:
+    """``1/2 sum_i r_i x r_d,i`` (base frame, rad for small errors): rotates R towards Rd."""
+    return 0.5 * jnp.sum(jnp.cross(R, Rd, axisa=-2, axisb=-2, axisc=-1), axis=-2)
+
+
+def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
+    """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (). See csc_rollout."""
+    dtype = q0.dtype
+    rows = TASK_ROWS[st.task]
+    full = st.task == "full"
+    d = targets.shape[-1]
+    free = jnp.asarray(robot.free, dtype=dtype)
+    free_b = np.asarray(robot.free)
+    lock_vals = jnp.asarray(np.nan_to_num(robot.locked_values), dtype=dtype)
+    q0 = jnp.where(free_b, q0, lock_vals)
+    lower = jnp.asarray(np.where(free_b, robot.lower, -np.inf), dtype=dtype)
+    upper = jnp.asarray(np.where(free_b, robot.upper, np.inf), dtype=dtype)
+    lo_f, hi_f = robot.lower, robot.upper
+    finite = np.isfinite(lo_f) & np.isfinite(hi_f) & free_b
+    mid = jnp.asarray(np.where(finite, 0.5 * (lo_f + hi_f), 0.0), dtype=dtype)
+    half = jnp.asarray(np.where(finite, 0.5 * (hi_f - lo_f), 1.0), dtype=dtype)
+    finite_j = jnp.asarray(finite, dtype=dtype)
+
+    def kin(q):
+        """Task position (d,), full Jacobian (6, n), full position (3,), rotation (3, 3) or None."""
+        if full:
+            T, J6 = fk_and_jacobian(robot, q)
+            return T[:3, 3], J6, T[:3, 3], T[:3, :3]
+        p, J6 = position_and_jacobian(robot, q)
+        return p[:d], J6, p, None
+
+    if full:
+        Rd = fk_and_jacobian(robot, q0)[0][:3, :3]
+
+    def task_error(p, R, target):
+        e = target - p
+        if full:
+            e = jnp.concatenate([e, _orientation_error(R, Rd)])
+        return e
+
+    def evaluate(q, K):
+        p, J6, p3, R = kin(q)
+        J = J6[..., : len(rows), :]
+        u, g = _offdiag_value_and_grad(J6, K, rows)
+        return u, g, (p, J, p3, R)
+
+    def measures(J, K, p, p3, R, target):
+        kj = jnp.sum(J * _mtv_cols(K, J), axis=-2)  # diag(J^T K J)
+        kj = jnp.clip(kj, kmin, kmax)
+        K_C = cartesian_stiffness(J, kj, st.task)
+        err = _safe_norm(target - p)
+        oerr = _safe_norm(_orientation_error(R, Rd)) if full else jnp.zeros((), dtype)
+        return kj, K_C, frobenius(K_C, K), err, oerr
+
+    def solve(q, J, g, dx, mask):
+        """The CSC update (S1-13 ... S1-22) with the joints of ``mask`` (float 0/1, (n,)) movable."""
+        Jm = J * mask
+        Jp, nu, damped = _damped_pinv(Jm, nu0, damping)
+        dqP = _mv(Jp, dx)
+        gm = g * mask
+        if st.joint_limits == "sum":
+            gm = gm + jl_gain * finite_j * mask * (q - mid) / half * _safe_norm(gm)
+        dqN = gm - _mv(Jp, _mv(Jm, gm))
+        nN = _safe_norm(dqN)
+        length = beta * _safe_norm(dqP) if st.step == "adaptive" else beta
+        null = -(length / jnp.maximum(nN, null_eps)) * dqN
+        dq = dqP + null
+        if st.joint_limits == "priority":
+            c = -jl_gain * finite_j * mask * (q - mid) / half
+            cN = c - _mv(Jp, _mv(Jm, c))
+            nn2 = jnp.sum(dqN * dqN)
+            pos = nn2 > null_eps**2
+            coef = jnp.where(pos, jnp.sum(cN * dqN) / jnp.where(pos, nn2, 1.0), 0.0)
+            dq = dq + cN - coef * dqN
+        return dq, null, nu, damped, nN < null_eps
+
+    def step_fn(q, xs):
+        target, K, K_prev, target_prev = xs
+        u, g, (p, J, p3, R) = evaluate(q, K)
+        # measures of the posture q (reached by the previous step) against the previous waypoint
+        u_rep = u if not st.varying else offdiag(J, K_prev)
+        kj, K_C, frob, err, oerr = measures(J, K_prev, p, p3, R, target_prev)
+        dx = task_error(p, R, target)
+        dq1, null1, nu, damped, small1 = solve(q, J, g, dx, free)
+        # Saturation: joints that the step would push past a limit go exactly to the limit and
+        # are frozen; the remaining free joints re-solve the same linearised step for the rest.
+        q1 = q + dq1
+        over = free_b & ((q1 < lower) | (q1 > upper))
+        any_over = jnp.any(over)
+        dq_sat = jnp.where(over, jnp.clip(q1, lower, upper) - q, 0.0)
+        mask2 = free * (1.0 - over.astype(dtype))
+        dq2, null2, _, _, small2 = solve(q, J, g, dx - _mv(J, dq_sat), mask2)
+        dq = jnp.where(any_over, dq2 + dq_sat, dq1)
+        null = jnp.where(any_over, null2, null1)
+        small = jnp.where(any_over, small2, small1)
+        q_new = q + dq
+        for _ in range(st.newton):
+            pn, Jn, _, Rn = kin(q_new)
+            Jpn, _, _ = _damped_pinv(Jn[..., : len(rows), :] * mask2, nu0, damping)
+            q_new = q_new + _mv(Jpn, task_error(pn, Rn, target))
+        q_clamped = jnp.clip(q_new, lower, upper)
+        hit = any_over | jnp.any(q_clamped != q_new)
+        q_clamped = jnp.where(free_b, q_clamped, lock_vals)
+        ok = jnp.all(jnp.isfinite(q_clamped))
+        q_next = jnp.where(ok, q_clamped, q)
+        status = (
+            jnp.where(damped, STATUS_DAMPED, 0)
+            + jnp.where(hit & ok, STATUS_JOINT_LIMIT, 0)
+            + jnp.where(ok, 0, STATUS_NAN)
+            + jnp.where(small, STATUS_NULL_SMALL, 0)
+        ).astype(jnp.int32)
+        step_len = jnp.where(ok, _safe_norm(null), 0.0)
+        out = dict(q=q, u=u_rep, frobenius=frob, tracking_error=err, orientation_error=oerr, kj=kj, K_C=K_C,
+                   position=p3, isotropy=nu, null_step=step_len, status=status)
+        return q_next, out
+
+    if st.varying:
+        K_seq = K_xd
+    else:
+        K_seq = jnp.broadcast_to(K_xd, (targets.shape[0],) + K_xd.shape)
+    K_prev = jnp.concatenate([K_seq[:1], K_seq[:-1]], axis=0)
+    t_prev = jnp.concatenate([targets[:1], targets[:-1]], axis=0)
+    body = jax.checkpoint(step_fn) if st.remat else step_fn
+    q_last, outs = jax.lax.scan(body, q0, (targets, K_seq, K_prev, t_prev))
+
+    # the posture after the last step, measured against the last waypoint
+    K_last = K_seq[-1]
+    p, J6, p3, R = kin(q_last)
+    J = J6[..., : len(rows), :]
+    kj, K_C, frob, err, oerr = measures(J, K_last, p, p3, R, targets[-1])
+    _, nu_last, _ = _damped_pinv(J * free, nu0, damping)
+    last = dict(q=q_last, u=offdiag(J, K_last), frobenius=frob, tracking_error=err, orientation_error=oerr,
+                kj=kj, K_C=K_C, position=p3, isotropy=nu_last)
+
+    def shift(name):
+        return jnp.concatenate([outs[name][1:], last[name][None]], axis=0)
+
+    fields = {name: shift(name) for name in last}
+    fields["null_step"] = outs["null_step"]
+    fields["status"] = outs["status"]
+    fields["target"] = targets
+    fields["u_start"] = outs["u"][0]
+    fields["frobenius_start"] = outs["frobenius"][0]
+    return CSCResult(**fields)
+
+
+def _mtv_cols(K: jax.Array, J: jax.Array) -> jax.Array:
+    """K @ J for K (m, m), J (m, n) -> (m, n), as a fused broadcast sum."""
+    return jnp.sum(K[..., :, :, None] * J[..., None, :, :], axis=-2)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 2))
+def _rollout_batch(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
+    def one(xs):
+        t, K, q, b, e = xs
+        return _rollout_one(robot, st, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain)
+
+    xs = (targets, K_xd, q0, beta, null_eps)
+    if chunk is None or q0.shape[0] <= chunk:
+        return jax.vmap(one)(xs)
+    # rollouts in chunks of `chunk` (vmap inside a sequential map): the working set of one
+    # chunk stays in the CPU caches, which is faster than one vmap over a large batch
+    return jax.lax.map(one, xs, batch_size=chunk)
+
+
+# ------------------------------------------------------------------------ public entry point
+def _is_concrete(x) -> bool:
+    return not isinstance(x, jax.core.Tracer)
+
+
+def _path_points(path):
+    pts = getattr(path, "points", path)
+    if isinstance(pts, (list, tuple)):
+        pts = np.asarray(pts, dtype=float)
+    if not hasattr(pts, "shape"):
+        raise ValueError(f"path must be a jaxstiff Path or an array (..., T, 2 or 3) of TCP targets, got {type(path).__name__}")
+    return pts
+
+
+def csc_rollout(
+    robot: Robot,
+    path,
+    K_xd,
+    q0,
+    beta,
+    *,
+    task: str | None = None,
+    step: str = "adaptive",
+    kmin=1.0,
+    kmax=jnp.inf,
+    nu0=1e-2,
+    damping=0.1,
+    null_eps=None,
+    newton: int = 0,
+    joint_limits: str = "off",
+    jl_gain=0.0,
+    kxd_varying: bool | None = None,
+    remat: bool = True,
+    chunk: int | None = 128,
+) -> CSCResult:
+    """Configuration-based Stiffness Control rollout along a path (seed 001, SPEC section 6).
+
+    One step per waypoint; see the module docstring for the update and its documented choices.
+    Every array input may carry leading batch axes; they broadcast against each other and the
+    result carries the broadcast batch shape ``*B`` (computed with one ``vmap``).
+
+    Args:
+        robot: the chain (static: one compilation per robot and setting).
+        path: a :class:`jaxstiff.Path` (its ``.points``) or an array (*B, T, 3) / (*B, T, 2) of
+            TCP targets, m, base frame, one step per waypoint. Task ``"xy"`` uses the first two
+            columns. To hold a point, repeat it T times.
+        K_xd: desired Cartesian stiffness, (*B, m, m) constant or (*B, T, m, m) along the path;
+            N/m (translational rows), m = 2 (``"xy"``), 3 (``"xyz"``) or 6 (``"full"``). Symmetric.
+        q0: start posture (*B, n), rad; locked joints are set to their locked values. It need not
+            be on the path: the first steps pull the TCP onto it.
+        beta: (*B,) step multiplier >= 0. ``"adaptive"``: the null step is ``beta`` times as long as
+            the primary step (S1-22; zero when the path stands still). ``"constant"``: the null
+            step is ``beta`` rad long (for holding a point).
+        task: ``"xy"``, ``"xyz"`` or ``"full"``; default from K_xd's size.
+        step: ``"adaptive"`` or ``"constant"``.
+        kmin, kmax: actuator range of the realised joint stiffness, Nm/rad (default [1, inf)).
+        nu0: isotropy threshold below which damping switches on (default 1e-2).
+        damping: relative damping ``lam / sqrt(tr(J J^T)/m)`` at a singularity (default 0.1).
+        null_eps: floor of ``|dq_N|`` (Nm/rad^2); default ``1e-9 |K_xd|_F`` (1e-5 in float32).
+        newton: number of Newton corrections ``q += J+ (x_d - x(q))`` inside each step (static).
+        joint_limits: ``"off"``, ``"priority"`` (lowest-priority secondary task) or ``"sum"``
+            (added to the CSC gradient); see the module docstring.
+        jl_gain: joint-limit gain (rad per step for a joint at its limit, before projection; for
+            ``"sum"``: relative weight against the CSC gradient).
+        kxd_varying: whether K_xd's axis -3 runs along the path. Default: True when
+            ``K_xd.ndim >= 3`` and ``K_xd.shape[-3] == T``; pass False for a batch of constant
+            K_xd whose batch size happens to equal T.
+        remat: rematerialise the scan body in the backward pass (memory ~ T n per rollout).
+
+    Returns:
+        :class:`CSCResult` with leading batch axes ``*B``.
+
+    Raises:
+        ValueError: bad shapes, task, step, non-finite or out-of-limit inputs, negative beta,
+            a non-symmetric K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs).
+    """
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a jaxstiff.Robot, got {type(robot).__name__}")
+    if step not in ("adaptive", "constant"):
+        raise ValueError(f"step must be 'adaptive' or 'constant', got {step!r}")
+    if joint_limits not in ("off", "priority", "sum"):
+        raise ValueError(f"joint_limits must be 'off', 'priority' or 'sum', got {joint_limits!r}")
+    if not isinstance(newton, (int, np.integer)) or isinstance(newton, bool) or newton < 0:
+        raise ValueError(f"newton must be an integer >= 0, got {newton!r}")
+
+    # dtype: the caller's floating dtype of q0 (or JAX's default float)
+    q0 = jnp.asarray(q0) if not isinstance(q0, (list, tuple)) else jnp.asarray(np.asarray(q0, dtype=float))
+    dtype = q0.dtype if jnp.issubdtype(q0.dtype, jnp.floating) else jnp.asarray(1.0).dtype
+    q0 = q0.astype(dtype)
+    if q0.ndim == 0 or q0.shape[-1] != robot.n:
+        raise ValueError(f"q0 must have shape (..., {robot.n}) for robot {robot.name!r}, got {tuple(q0.shape)}")
+
+    K_xd = jnp.asarray(K_xd, dtype=dtype)
+    if K_xd.ndim < 2 or K_xd.shape[-1] != K_xd.shape[-2] or K_xd.shape[-1] not in _M_TO_TASK:
+        raise ValueError(f"K_xd must have shape (..., m, m) with m = 2, 3 or 6, got {tuple(K_xd.shape)}")
+    m = K_xd.shape[-1]
+    if task is None:
+        task = _M_TO_TASK[m]
+    if task not in TASK_ROWS:
+        raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASK_ROWS)}")
+    if len(TASK_ROWS[task]) != m:
+        raise ValueError(f"task {task!r} needs K_xd of shape (..., {len(TASK_ROWS[task])}, {len(TASK_ROWS[task])}), got {tuple(K_xd.shape)}")
+    if robot.n_free <= (2 if task == "xy" else 3 if task == "xyz" else 6):
+        # not an error: no redundancy, the CSC step is then zero. Kept permissive on purpose.
+        pass
+
+    pts = _path_points(path)
+    targets = jnp.asarray(pts, dtype=dtype)
+    if targets.ndim < 2 or targets.shape[-1] not in (2, 3) or targets.shape[-2] < 1:
+        raise ValueError(f"path points must have shape (..., T, 2 or 3) with T >= 1, got {tuple(targets.shape)}")
+    d = 2 if task == "xy" else 3
+    if targets.shape[-1] < d:
+        raise ValueError(f"task {task!r} needs 3-D path points (x, y, z), got shape {tuple(targets.shape)}")
+    targets = targets[..., :d]
+    T = targets.shape[-2]
+
+    if kxd_varying is None:
+        kxd_varying = K_xd.ndim >= 3 and K_xd.shape[-3] == T
+    if kxd_varying and (K_xd.ndim < 3 or K_xd.shape[-3] != T):
+        raise ValueError(f"K_xd varying along the path must have shape (..., T={T}, {m}, {m}), got {tuple(K_xd.shape)}")
+    k_batch = K_xd.shape[:-3] if kxd_varying else K_xd.shape[:-2]
+
+    beta = jnp.asarray(beta, dtype=dtype)
+    scalars = {}
+    for name, v in (("kmin", kmin), ("kmax", kmax), ("nu0", nu0), ("damping", damping), ("jl_gain", jl_gain)):
+        a = jnp.asarray(v, dtype=dtype)
+        if a.ndim != 0:
+            raise ValueError(f"{name} must be a scalar, got shape {tuple(a.shape)}")
+        scalars[name] = a
+    if null_eps is None:
+        rel = 1e-9 if jnp.finfo(dtype).bits >= 64 else 1e-5
+        knorm = jnp.sqrt(jnp.sum(K_xd * K_xd, axis=(-2, -1)))
+        null_eps_a = rel * (knorm if not kxd_varying else jnp.max(knorm, axis=-1)) + jnp.finfo(dtype).tiny
+    else:
+        null_eps_a = jnp.asarray(null_eps, dtype=dtype)
+        if null_eps_a.ndim != 0:
+            raise ValueError(f"null_eps must be a scalar, got shape {tuple(null_eps_a.shape)}")
+
+    _validate(robot, targets, K_xd, q0, beta, scalars, null_eps_a)
+
+    try:
+        batch = jnp.broadcast_shapes(q0.shape[:-1], beta.shape, targets.shape[:-2], k_batch)
+    except ValueError:
+        raise ValueError(
+            f"batch axes do not broadcast: q0 {tuple(q0.shape[:-1])}, beta {tuple(beta.shape)}, "
+            f"path {tuple(targets.shape[:-2])}, K_xd {tuple(k_batch)}"
+        ) from None
+    B = math.prod(batch)
+    k_tail = K_xd.shape[-3:] if kxd_varying else K_xd.shape[-2:]
+    tb = jnp.broadcast_to(targets, batch + targets.shape[-2:]).reshape((B,) + targets.shape[-2:])
+    kb = jnp.broadcast_to(K_xd, batch + k_tail).reshape((B,) + k_tail)
+    qb = jnp.broadcast_to(q0, batch + (robot.n,)).reshape((B, robot.n))
+    bb = jnp.broadcast_to(beta, batch).reshape((B,))
+    eb = jnp.broadcast_to(null_eps_a, batch).reshape((B,)) if null_eps_a.ndim else jnp.broadcast_to(null_eps_a, (B,))
+
+    st = _Static(task=task, step=step, newton=int(newton), joint_limits=joint_limits, remat=bool(remat), varying=bool(kxd_varying))
+    res = _rollout_batch(robot, st, chunk, tb, kb, qb, bb, scalars["kmin"], scalars["kmax"], scalars["nu0"],
+                         scalars["damping"], eb, scalars["jl_gain"])
+    return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), res)
+
+
+def _validate(robot, targets, K_xd, q0, beta, scalars, null_eps) -> None:
+    """Value checks at the Python boundary, in numpy (skipped for traced inputs)."""
+
+    def val(x):
+        return None if not _is_concrete(x) else np.asarray(x, dtype=float)
+
+    for name, a in (("path", targets), ("K_xd", K_xd), ("q0", q0), ("beta", beta)):
+        v = val(a)
+        if v is not None and not np.all(np.isfinite(v)):
+            raise ValueError(f"{name} contains NaN or Inf")
+    b = val(beta)
+    if b is not None and np.any(b < 0):
+        raise ValueError(f"beta must be >= 0, got min {b.min():g}")
+    K = val(K_xd)
+    if K is not None:
+        asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)))
+        if asym > 1e-6 * np.max(np.abs(K)) + 1e-12:
+            raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {asym:g})")
+    kmin, kmax = val(scalars["kmin"]), val(scalars["kmax"])
+    if kmin is not None and not kmin > 0:
+        raise ValueError(f"kmin must be > 0 Nm/rad, got {float(kmin):g}")
+    if kmin is not None and kmax is not None and not kmax >= kmin:
+        raise ValueError(f"kmax ({float(kmax):g}) must be >= kmin ({float(kmin):g})")
+    for name in ("nu0", "damping", "jl_gain"):
+        v = val(scalars[name])
+        if v is not None and not (np.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be finite and >= 0, got {float(v):g}")
+    v = val(scalars["nu0"])
+    if v is not None and not v < 1:
+        raise ValueError(f"nu0 must be < 1 (the isotropy is in [0, 1]), got {float(v):g}")
+    e = val(null_eps)
+    if e is not None and not np.all(e > 0):
+        raise ValueError("null_eps must be > 0")
+    qn = val(q0)
+    if qn is not None and qn.size:
+        qn = qn.reshape(-1, robot.n)
+        lo, hi = robot.lower, robot.upper
+        bad = robot.free & (np.any(qn < lo - 1e-9, axis=0) | np.any(qn > hi + 1e-9, axis=0))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(
+                f"q0 of joint {robot.joint_names[i]!r} is outside its limits [{lo[i]:g}, {hi[i]:g}] "
+                f"(got values in [{qn[:, i].min():g}, {qn[:, i].max():g}])"
+            )
+
+
+def null_space_direction(robot: Robot, q, K_xd, *, task: str | None = None, nu0=1e-2, damping=0.1):
+    """The projected CSC gradient ``dq_N = (I - J+ J) grad u(q)`` (S1-14, S1-15, S1-20) at q.
+
+    Args:
+        robot: the chain.
+        q: (..., n) posture, rad.
+        K_xd: (..., m, m) desired Cartesian stiffness.
+        task: task rows; default from K_xd's size.
+        nu0, damping: the damping rule of :func:`csc_rollout`.
+
+    Returns:
+        ``(dq_N (..., n), u (...,), J (..., m, n))``; ``-dq_N`` lowers u to first order and moves the
+        TCP only at second order (exactly so where the damping is off). Locked joints' entries are 0.
+    """
+    q = jnp.asarray(q)
+    K_xd = jnp.asarray(K_xd, dtype=q.dtype)
+    task = task or _M_TO_TASK[K_xd.shape[-1]]
+    rows = TASK_ROWS[task]
+    free = jnp.asarray(robot.free, dtype=q.dtype)
+
+    def one(qq, K):
+        _, J6 = position_and_jacobian(robot, qq)
+        u, g = _offdiag_value_and_grad(J6, K, rows)
+        J = J6[..., : len(rows), :]
+        Jf = J * free
+        Jp, _, _ = _damped_pinv(Jf, nu0, damping)
+        gf = g * free
+        return gf - _mv(Jp, _mv(Jf, gf)), u, J
+
+    batch = jnp.broadcast_shapes(q.shape[:-1], K_xd.shape[:-2])
+    qb = jnp.broadcast_to(q, batch + q.shape[-1:]).reshape((-1, q.shape[-1]))
+    Kb = jnp.broadcast_to(K_xd, batch + K_xd.shape[-2:]).reshape((-1,) + K_xd.shape[-2:])
+    out = jax.vmap(one)(qb, Kb)
+    return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), out)

@@ -1,0 +1,120 @@
+"""Benchmark of the CSC rollout (jaxstiff.csc_rollout): B rollouts x T steps of the KUKA LWR 4.
+
+Task ``"xyz"`` (3 position rows), 7th joint locked at 0 (6 free joints, 3 redundant), constant
+K_xd = R_z(30 deg) diag(3000, 1000, 2000) R_z^T N/m, adaptive step, along the shipped default path
+(jaxstiff.paths.default_path, resampled to T waypoints). The B rollouts differ in start posture
+(the IK solution at the first waypoint plus uniform noise of +-0.1 rad on the free joints) and in
+beta (uniform 0.5 ... 2).
+
+Timed apart: compilation (first call), the forward rollout, and forward + gradient of a scalar loss
+(mean of u and of the Frobenius error over all rollouts and steps) w.r.t. beta, q0 and K_xd.
+Each timed run is repeated and the best is reported; every call ends with ``block_until_ready``.
+
+Usage:
+    python scripts/bench_csc.py                      # 1024 x 1000, float64
+    python scripts/bench_csc.py --batch 64 --steps 100 --dtype float32 --repeat 1
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--batch", type=int, default=1024, help="number of rollouts B")
+    ap.add_argument("--steps", type=int, default=1000, help="time steps T (path waypoints)")
+    ap.add_argument("--dtype", choices=["float64", "float32"], default="float64")
+    ap.add_argument("--repeat", type=int, default=3, help="timed repetitions (best is reported)")
+    ap.add_argument("--no-remat", action="store_true", help="store the scan residuals instead of recomputing them")
+    ap.add_argument("--chunk", type=int, default=128, help="rollouts per vmap chunk (csc_rollout chunk=)")
+    ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
+    args = ap.parse_args(argv)
+
+    import jax
+
+    if args.dtype == "float64":
+        jax.config.update("jax_enable_x64", True)
+    import jax.numpy as jnp
+    import numpy as np
+
+    import jaxstiff
+    from jaxstiff.ik import ik_position
+    from jaxstiff.paths import default_path
+
+    dt = jnp.float64 if args.dtype == "float64" else jnp.float32
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    path = jnp.asarray(default_path(n=args.steps).points, dtype=dt)
+    q_ik, err = ik_position(robot, np.asarray(path[0], dtype=float))
+    assert float(err) < 1e-6, f"IK of the first waypoint failed: {float(err)}"
+    rng = np.random.default_rng(0)
+    B = args.batch
+    noise = rng.uniform(-0.1, 0.1, size=(B, robot.n)) * robot.free
+    q0 = jnp.asarray(np.clip(np.asarray(q_ik) + noise, robot.lower, robot.upper), dtype=dt)
+    beta = jnp.asarray(rng.uniform(0.5, 2.0, size=B), dtype=dt)
+    c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    K = jnp.asarray(R @ np.diag([3000.0, 1000.0, 2000.0]) @ R.T, dtype=dt)
+    remat = not args.no_remat
+
+    def forward(q0, beta, K):
+        r = jaxstiff.csc_rollout(robot, path, K, q0, beta, step="adaptive", remat=remat, chunk=args.chunk)
+        return r.u, r.frobenius, r.tracking_error
+
+    def loss(q0, beta, K):
+        r = jaxstiff.csc_rollout(robot, path, K, q0, beta, step="adaptive", remat=remat, chunk=args.chunk)
+        return jnp.mean(r.u) + jnp.mean(r.frobenius)
+
+    fwd = jax.jit(forward)
+    grad = jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))
+
+    def timed(fn):
+        t = time.perf_counter()
+        out = jax.block_until_ready(fn(q0, beta, K))
+        return time.perf_counter() - t, out
+
+    t_c_fwd, out = timed(fwd)
+    best_fwd = min(timed(fwd)[0] for _ in range(args.repeat))
+    t_c_grad, (val, g) = timed(grad)
+    best_grad = min(timed(grad)[0] for _ in range(args.repeat))
+    u, frob, terr = (np.asarray(a) for a in out)
+    finite = all(np.all(np.isfinite(np.asarray(a))) for a in (val, *g))
+    res = {
+        "batch": B,
+        "steps": args.steps,
+        "dtype": args.dtype,
+        "remat": remat,
+        "compile_forward_s": round(t_c_fwd - best_fwd, 3),
+        "forward_s": round(best_fwd, 3),
+        "compile_grad_s": round(t_c_grad - best_grad, 3),
+        "forward_plus_grad_s": round(best_grad, 3),
+        "grad_over_forward": round(best_grad / best_fwd, 2),
+        "us_per_rollout_step_forward": round(1e6 * best_fwd / (B * args.steps), 3),
+        "u_start_mean": float(u[:, 0].mean()),
+        "u_end_mean": float(u[:, -1].mean()),
+        "max_tracking_error_after_10_steps_m": float(terr[:, 10:].max()) if args.steps > 10 else None,
+        "grad_finite": bool(finite),
+        "device": str(jax.devices()[0]),
+        "cpu_count": os.cpu_count(),
+        "jax": jax.__version__,
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+    }
+    print(json.dumps(res, indent=2))
+    goal_fwd = res["forward_s"] < 10.0
+    goal_grad = res["grad_over_forward"] < 3.0
+    print(f"goal forward < 10 s: {'met' if goal_fwd else 'NOT met'}; gradient < 3x forward: {'met' if goal_grad else 'NOT met'}")
+    if args.json:
+        with open(args.json + ".tmp", "w") as f:
+            json.dump(res, f, indent=2)
+        os.replace(args.json + ".tmp", args.json)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
