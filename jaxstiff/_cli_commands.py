@@ -2,3 +2,4 @@
 
 Each module that adds a subcommand is imported here; the core library never imports the CLI.
 """
+from . import _cli_csc  # noqa: F401  (jaxstiff csc)

@@ -232,10 +232,11 @@ def _cross(a: jax.Array, b: jax.Array) -> jax.Array:
 def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]):
     """``u(q)`` (S1-19) and ``grad u(q)`` (n,) from the full geometric Jacobian J6 (6, n) at q.
 
-    ``G = du/dJ_s`` comes from ``jax.grad`` of :func:`jaxstiff.offdiag` with respect to the task
-    rows; the chain rule through ``J(q)`` uses the closed-form derivative of the geometric
-    Jacobian (columns ``[v_i; w_i]``, ``w_i`` = the unit axis of a revolute joint, 0 for a
-    prismatic one):
+    ``u`` is :func:`jaxstiff.offdiag`. Its derivative with respect to the task rows ``J_s``, for a
+    symmetric ``K_xd``: with ``M`` = ``J_s^T K_xd J_s`` with its diagonal zeroed,
+    ``u^2 = 1/2 |M|_F^2`` and ``G = du/dJ_s = K_xd J_s M / u`` (0 where u = 0). The chain rule
+    through ``J(q)`` uses the closed-form derivative of the geometric Jacobian (columns
+    ``[v_i; w_i]``, ``w_i`` the unit axis of a revolute joint, 0 for a prismatic one):
 
     .. code-block:: text
 
@@ -248,12 +249,21 @@ def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...
 
         du/dq_k = w_k . sum_{i>k} (v_i x Gv_i + w_i x Gw_i)  +  v_k . sum_{i<=k} (Gv_i x w_i).
 
-    It equals ``jax.grad`` of ``u(q)`` through the kinematics (tested) but costs about a fifth of
-    it, and its own derivative (needed by the gradient of a rollout) about a tenth.
+    It equals ``jax.grad`` of ``offdiag(J_s(q), K_xd)`` through the kinematics (tested to 1e-15)
+    but costs about a fifth of it, and its own derivative (needed by the gradient of a rollout)
+    about a tenth, and it compiles to a much smaller program.
     """
-    J = J6[..., : len(rows), :]
-    u, G = jax.value_and_grad(offdiag)(J, K_xd)
-    G6 = jnp.concatenate([G, jnp.zeros_like(J6[..., len(rows) :, :])], axis=-2)
+    m = len(rows)
+    J = J6[..., :m, :]
+    u = offdiag(J, K_xd)
+    KJ = _mtv_cols(K_xd, J)  # (m, n)
+    Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K J (n, n)
+    n = Kq.shape[-1]
+    M = Kq * (1.0 - jnp.eye(n, dtype=Kq.dtype))
+    pos = u > 0
+    inv_u = jnp.where(pos, 1.0 / jnp.where(pos, u, 1.0), 0.0)
+    G = jnp.sum(KJ[..., :, :, None] * M[..., None, :, :], axis=-2) * inv_u[..., None, None]  # (m, n)
+    G6 = jnp.concatenate([G, jnp.zeros_like(J6[..., m:, :])], axis=-2)
     Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
     a = _cross(Jv, Gv) + _cross(Jw, Gw)  # (3, n): term of joint i
     suffix = jnp.cumsum(a[..., ::-1], axis=-1)[..., ::-1] - a  # sum over i > k
@@ -265,12 +275,21 @@ def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...
 def offdiag_gradient(robot: Robot, q, K_xd, task: str | None = None):
     """``(u(q), grad u(q))`` of the off-diagonal norm (S1-19) at postures q (..., n), K_xd (..., m, m).
 
-    Uses the closed-form Jacobian derivative of :func:`_offdiag_value_and_grad` (the rollout's own
-    routine); ``jax.grad`` of ``offdiag(J_s(q), K_xd)`` gives the same numbers, slower.
+    Uses the rollout's own closed-form routine (:func:`_offdiag_value_and_grad`); ``jax.grad`` of
+    ``offdiag(J_s(q), K_xd)`` through the kinematics gives the same numbers, slower. Jitted per
+    robot and task.
+
+    Returns:
+        ``u (...,)`` in Nm/rad and ``grad u (..., n)`` in Nm/rad^2 (locked joints included).
     """
     q = jnp.asarray(q)
     K_xd = jnp.asarray(K_xd, dtype=q.dtype)
-    rows = TASK_ROWS[task or _M_TO_TASK[K_xd.shape[-1]]]
+    return _offdiag_gradient(robot, task or _M_TO_TASK[K_xd.shape[-1]], q, K_xd)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1))
+def _offdiag_gradient(robot: Robot, task: str, q, K_xd):
+    rows = TASK_ROWS[task]
     _, J6 = position_and_jacobian(robot, q)
     batch = jnp.broadcast_shapes(q.shape[:-1], K_xd.shape[:-2])
     J6 = jnp.broadcast_to(J6, batch + J6.shape[-2:])
@@ -433,26 +452,18 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
         K_seq = K_xd
     else:
         K_seq = jnp.broadcast_to(K_xd, (targets.shape[0],) + K_xd.shape)
-    K_prev = jnp.concatenate([K_seq[:1], K_seq[:-1]], axis=0)
-    t_prev = jnp.concatenate([targets[:1], targets[:-1]], axis=0)
+    # T + 1 iterations: iteration k reports the posture q_k (reached by step k - 1) against
+    # waypoint k - 1, then steps towards waypoint k. The last iteration only reports q_T (its
+    # step is discarded); row 0 reports the start posture. One loop body, no duplicate code.
+    K_ext = jnp.concatenate([K_seq, K_seq[-1:]], axis=0)
+    K_prev = jnp.concatenate([K_seq[:1], K_seq], axis=0)
+    t_ext = jnp.concatenate([targets, targets[-1:]], axis=0)
+    t_prev = jnp.concatenate([targets[:1], targets], axis=0)
     body = jax.checkpoint(step_fn) if st.remat else step_fn
-    q_last, outs = jax.lax.scan(body, q0, (targets, K_seq, K_prev, t_prev))
-
-    # the posture after the last step, measured against the last waypoint
-    K_last = K_seq[-1]
-    p, J6, p3, R = kin(q_last)
-    J = J6[..., : len(rows), :]
-    kj, K_C, frob, err, oerr = measures(J, K_last, p, p3, R, targets[-1])
-    _, nu_last, _ = _damped_pinv(J * free, nu0, damping)
-    last = dict(q=q_last, u=offdiag(J, K_last), frobenius=frob, tracking_error=err, orientation_error=oerr,
-                kj=kj, K_C=K_C, position=p3, isotropy=nu_last)
-
-    def shift(name):
-        return jnp.concatenate([outs[name][1:], last[name][None]], axis=0)
-
-    fields = {name: shift(name) for name in last}
-    fields["null_step"] = outs["null_step"]
-    fields["status"] = outs["status"]
+    _, outs = jax.lax.scan(body, q0, (t_ext, K_ext, K_prev, t_prev))
+    fields = {name: a[1:] for name, a in outs.items() if name not in ("null_step", "status")}
+    fields["null_step"] = outs["null_step"][:-1]
+    fields["status"] = outs["status"][:-1]
     fields["target"] = targets
     fields["u_start"] = outs["u"][0]
     fields["frobenius_start"] = outs["frobenius"][0]
@@ -617,6 +628,7 @@ def csc_rollout(
             raise ValueError(f"null_eps must be a scalar, got shape {tuple(null_eps_a.shape)}")
 
     _validate(robot, targets, K_xd, q0, beta, scalars, null_eps_a)
+    K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
 
     try:
         batch = jnp.broadcast_shapes(q0.shape[:-1], beta.shape, targets.shape[:-2], k_batch)
@@ -701,7 +713,11 @@ def null_space_direction(robot: Robot, q, K_xd, *, task: str | None = None, nu0=
     """
     q = jnp.asarray(q)
     K_xd = jnp.asarray(K_xd, dtype=q.dtype)
-    task = task or _M_TO_TASK[K_xd.shape[-1]]
+    return _null_space_direction(robot, task or _M_TO_TASK[K_xd.shape[-1]], q, K_xd, nu0, damping)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1))
+def _null_space_direction(robot: Robot, task: str, q, K_xd, nu0, damping):
     rows = TASK_ROWS[task]
     free = jnp.asarray(robot.free, dtype=q.dtype)
 

@@ -1,0 +1,214 @@
+"""``jaxstiff csc``: a Configuration-based Stiffness Control rollout (seed 001) from the command line.
+
+Examples::
+
+    # seed 001's planar case: hold a point, K_xd = R(30 deg) diag(3000, 1000) R^T N/m
+    jaxstiff csc --robot planar_3r --hold 1.5,0.6 --kxd 3000,1000@30 --q0-deg 75,-74.74,-76.30 \\
+                 --step constant --beta 2e-3 --steps 1000 --out hold.npz
+
+    # the LWR (7th joint locked) along a CSV path, task xyz, adaptive step
+    jaxstiff csc --robot kuka_lwr4 --lock lwr_a7=0 --path path.csv --kxd 3000,1000,2000@30 \\
+                 --q0 0.3,0.5,0,-1.2,0,0.6,0 --beta 1 --out lwr.npz
+
+``--kxd`` (N/m): either the diagonal ``K1,...,Km`` optionally followed by ``@DEG``, meaning
+``R_z(DEG) diag(K1..Km) R_z(DEG)^T`` (a rotation about the base z axis; m = 2 or 3), or the full
+symmetric matrix as m*m comma-separated numbers, row by row (m = 2, 3 or 6). The task follows from
+m (2 -> xy, 3 -> xyz, 6 -> full) unless ``--task`` is given.
+
+The result file (``.npz``, ``numpy.load(..., allow_pickle=False)``) has a leading axis B over the
+paths (B = 1 for ``--hold`` or one ``--path``), T steps, n joints: the arrays of
+:class:`jaxstiff.CSCResult` (``q (B,T,n)``, ``u (B,T)``, ``frobenius``, ``tracking_error``,
+``orientation_error``, ``kj (B,T,n)``, ``K_C (B,T,m,m)``, ``position (B,T,3)``, ``target (B,T,d)``,
+``isotropy``, ``null_step``, ``status`` (bit mask, documented in meta), ``u_start (B,)``,
+``frobenius_start (B,)``), plus ``joint_names (n,)``, ``q0 (n,)``, ``K_xd (m,m)`` and ``meta`` (JSON:
+every input and default, the robot's URDF path and sha256, versions). Written atomically.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+
+import numpy as np
+
+from .cli import command, parse_locks
+
+_M_TASK = {2: "xy", 3: "xyz", 6: "full"}
+
+
+def _numbers(text: str, flag: str) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",") if v.strip() != ""]
+    except ValueError:
+        raise ValueError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
+    if not vals or not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"{flag}: expected finite comma-separated numbers, got {text!r}")
+    return vals
+
+
+def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
+    """``"K1,..,Km[@DEG]"`` or ``m*m`` numbers -> symmetric (m, m) matrix (N/m). See module docstring."""
+    body, sep, deg = text.partition("@")
+    vals = _numbers(body, "--kxd")
+    want = None if task is None else {"xy": 2, "xyz": 3, "full": 6}[task]
+    if sep:
+        angle = _numbers(deg, "--kxd angle")
+        if len(angle) != 1 or len(vals) not in (2, 3) or (want is not None and len(vals) != want):
+            raise ValueError(
+                f"--kxd {text!r}: the K1,...,Km@DEG form needs m = 2 or 3 diagonal values"
+                + (f" (m = {want} for task {task!r})" if want else "") + " and one angle in degrees"
+            )
+        c, s = math.cos(math.radians(angle[0])), math.sin(math.radians(angle[0]))
+        R = np.array([[c, -s], [s, c]]) if len(vals) == 2 else np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        K = R @ np.diag(vals) @ R.T
+    elif len(vals) in (2, 3, 6) and (want is None or len(vals) == want):
+        K = np.diag(vals)
+    elif len(vals) in (4, 9, 36) and (want is None or len(vals) == want * want):
+        m = int(round(math.sqrt(len(vals))))
+        K = np.asarray(vals).reshape(m, m)
+        if not np.allclose(K, K.T, rtol=1e-9, atol=1e-9):
+            raise ValueError(f"--kxd {text!r}: the matrix (row by row) is not symmetric")
+    else:
+        raise ValueError(
+            f"--kxd {text!r}: give m diagonal values K1,...,Km[@DEG] or m*m matrix entries, m = 2, 3 or 6"
+            + (f" (m = {want} for task {task!r})" if want else "") + f"; got {len(vals)} numbers"
+        )
+    if np.any(np.linalg.eigvalsh(0.5 * (K + K.T)) <= 0):
+        raise ValueError(f"--kxd {text!r}: K_xd must be positive definite (stiffness in N/m)")
+    return K
+
+
+@command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
+def _add_csc(p: argparse.ArgumentParser):
+    p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
+    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
+    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
+    p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable)")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--path", action="append", metavar="CSV",
+                     help="path CSV (header x,y,z; m, base frame), one step per waypoint; repeat for a batch")
+    src.add_argument("--hold", metavar="X,Y[,Z]", help="hold the TCP at this point (m) for --steps steps")
+    p.add_argument("--steps", type=int, default=1000, help="steps with --hold")
+    p.add_argument("--kxd", required=True,
+                   help="desired Cartesian stiffness, N/m: 'K1,...,Km[@DEG]' (R_z(DEG) diag(K) R_z^T) or m*m entries")
+    q0 = p.add_mutually_exclusive_group(required=True)
+    q0.add_argument("--q0", metavar="RAD,...", help="start posture, rad (locked joints: their locked values)")
+    q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees")
+    p.add_argument("--beta", type=float, default=1.0,
+                   help="null-step multiplier: adaptive = beta x |dq_P| (S1-22); constant = beta rad per step")
+    p.add_argument("--step", choices=["adaptive", "constant"], default="adaptive", help="null-space step rule")
+    p.add_argument("--task", choices=["xy", "xyz", "full"], default=None, help="task rows (default: from the size of --kxd)")
+    p.add_argument("--kmin", type=float, default=1.0, help="actuator range: lowest joint stiffness, Nm/rad")
+    p.add_argument("--kmax", type=float, default=math.inf, help="actuator range: highest joint stiffness, Nm/rad")
+    p.add_argument("--newton", type=int, default=0, help="Newton corrections of the TCP inside each step")
+    p.add_argument("--joint-limits", choices=["off", "priority", "sum"], default="off",
+                   help="joint-limit avoidance as a secondary task (joints are always clamped to their limits)")
+    p.add_argument("--jl-gain", type=float, default=0.0, help="joint-limit avoidance gain")
+    p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)")
+
+    def run(args) -> int:
+        from ._x64 import enable_x64
+
+        enable_x64()
+        import jax
+
+        from . import csc
+        from .results import atomic_save_npz
+        from .robot import Robot
+        from .shaping import _robot_meta, _versions
+
+        if args.steps < 1:
+            raise ValueError(f"--steps must be >= 1, got {args.steps}")
+        out_dir = os.path.dirname(os.path.abspath(args.out))
+        if not os.path.isdir(out_dir):
+            raise FileNotFoundError(f"--out: folder does not exist: {out_dir}")
+        robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
+        K = parse_kxd(args.kxd, args.task)
+        task = args.task or _M_TASK[K.shape[0]]
+        if args.q0 is not None:
+            q0 = np.asarray(_numbers(args.q0, "--q0"))
+        else:
+            q0 = np.deg2rad(_numbers(args.q0_deg, "--q0-deg"))
+        flag = "--q0" if args.q0 is not None else "--q0-deg"
+        if q0.shape != (robot.n,):
+            raise ValueError(f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}")
+        q0 = np.where(robot.free, q0, np.nan_to_num(robot.locked_values))
+        d = 2 if task == "xy" else 3
+        if args.hold is not None:
+            x = _numbers(args.hold, "--hold")
+            if len(x) not in (d, 3):
+                raise ValueError(f"--hold needs {d} coordinates (m) for task {task!r}, got {len(x)}")
+            points = np.tile(np.asarray(x[:d]), (1, args.steps, 1))
+            sources = [f"hold {x}"]
+        else:
+            from .paths import Path
+
+            pts = []
+            for f in args.path:
+                if not os.path.isfile(f):
+                    raise FileNotFoundError(f"--path: no such file: {f}")
+                pts.append(np.asarray(Path.from_csv(f).points, dtype=float))
+            lengths = {len(a) for a in pts}
+            if len(lengths) != 1:
+                raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {sorted(lengths)}")
+            points = np.stack(pts)
+            sources = [os.path.abspath(f) for f in args.path]
+        settings = dict(task=task, step=args.step, kmin=args.kmin, kmax=args.kmax, newton=args.newton,
+                        joint_limits=args.joint_limits, jl_gain=args.jl_gain)
+        res = csc.csc_rollout(robot, points, K, q0, args.beta, **settings)
+        res = jax.tree_util.tree_map(np.asarray, res)
+
+        meta = {
+            "kind": "csc",
+            "robot": _robot_meta(robot),
+            "paths": sources,
+            "hold": args.hold,
+            "steps": int(points.shape[1]),
+            "kxd": args.kxd,
+            "K_xd": K.tolist(),
+            "q0": q0.tolist(),
+            "beta": args.beta,
+            "nu0": 1e-2,
+            "damping": 0.1,
+            "null_eps": "1e-9 * |K_xd|_F",
+            **{k: (v if not (isinstance(v, float) and math.isinf(v)) else str(v)) for k, v in settings.items()},
+            "status_bits": {str(k): v for k, v in csc._STATUS_NAMES.items()},
+            "units": {"q": "rad", "u": "Nm/rad", "kj": "Nm/rad", "K_C": "N/m (translational)", "position": "m",
+                      "tracking_error": "m", "orientation_error": "rad", "null_step": "rad"},
+            "row_k": "posture after step k, measured against waypoint k",
+            "versions": _versions(),
+        }
+        arrays = {name: np.asarray(a) for name, a in res.as_dict().items()}
+        arrays["status"] = arrays["status"].astype(np.int64)
+        arrays["joint_names"] = np.asarray(robot.joint_names, dtype=str)
+        arrays["q0"] = q0
+        arrays["K_xd"] = K
+        arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
+        written = atomic_save_npz(args.out, arrays)
+
+        np.set_printoptions(precision=4, suppress=True, linewidth=120)
+        B = points.shape[0]
+        print(f"CSC {robot.name!r}, task {task}, {args.step} step, beta {args.beta:g}, {points.shape[1]} steps x {B} path(s)")
+        print(f"K_xd (N/m):\n{K}")
+        for b in range(B):
+            u, fr, st = res.u[b], res.frobenius[b], res.status[b]
+            print(f"[{b}] u: {res.u_start[b]:.6g} -> {u[-1]:.6g} Nm/rad (min {u.min():.6g}, {100 * (1 - u[-1] / res.u_start[b]):.1f}% lower)")
+            print(f"[{b}] |K_xd - K_C|_F: {res.frobenius_start[b]:.6g} -> {fr[-1]:.6g} N/m")
+            print(f"[{b}] tracking error: max {res.tracking_error[b].max():.3g} m, last {res.tracking_error[b, -1]:.3g} m")
+            counts = {csc.describe_status(c): int(n) for c, n in zip(*np.unique(st, return_counts=True))}
+            print(f"[{b}] status: {counts}")
+            print(f"[{b}] final q (deg): {np.round(np.rad2deg(res.q[b, -1]), 3).tolist()}")
+        print(f"wrote {written}")
+        return 0
+
+    return run
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer, np.bool_)):
+        return o.item()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

@@ -1,0 +1,335 @@
+"""Configuration-based Stiffness Control rollout (jaxstiff.csc, seed 001, SPEC section 6).
+
+References outside the code under test: the planar 3R arm in closed form (numpy FK, Jacobian and
+u(q)), the numpy chain of tests/helpers.py for the LWR, the seed's start value u = 5995, central
+finite differences, and separate (unbatched) rollouts. The tests share compiled programs (same
+robot, settings and shapes) to keep the file fast: XLA compiles each distinct rollout once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff import csc
+from jaxstiff.cli import main as cli_main
+from helpers import assert_close, central_diff, numpy_fk
+
+PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
+Q_SEED = np.deg2rad([75.0, -74.74, -76.30])  # seed 000 Fig. 2, seed 001's start posture
+
+
+def rot2(deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[c, -s], [s, c]])
+
+
+K_SEED = rot2(30.0) @ np.diag([3000.0, 1000.0]) @ rot2(30.0).T  # N/m
+
+
+# ---------------------------------------------------------------- planar 3R in closed form (numpy)
+def planar_fk(q) -> np.ndarray:
+    c = np.cumsum(np.asarray(q, float), axis=-1)
+    return np.stack([np.cos(c).sum(-1), np.sin(c).sum(-1)], axis=-1)
+
+
+def planar_J(q) -> np.ndarray:
+    c = np.cumsum(np.asarray(q, float))
+    J = np.zeros((2, 3))
+    for i in range(3):
+        J[0, i] = -np.sin(c[i:]).sum()
+        J[1, i] = np.cos(c[i:]).sum()
+    return J
+
+
+def u_numpy(J, K) -> float:
+    Kq = J.T @ K @ J
+    iu = np.triu_indices(Kq.shape[0], 1)
+    return float(np.sqrt(np.sum(Kq[iu] ** 2)))
+
+
+X_SEED = planar_fk(Q_SEED)
+
+
+@pytest.fixture(scope="module")
+def hold():
+    """Seed 001's planar hold case: 1000 constant steps of 2e-3 rad from the seed posture."""
+    return jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (1000, 1)), K_SEED, Q_SEED, 2e-3, step="constant")
+
+
+# ---------------------------------------------------------------- the seed's hold case
+def test_seed_start_value_is_5995(hold):
+    u0 = u_numpy(planar_J(Q_SEED), K_SEED)
+    assert abs(u0 - 5995.0) < 1.0  # independent reproduction of the seed's setup: 5995
+    assert_close(hold.u_start, u0, rtol=1e-12, what="u_start vs closed form")
+
+
+def test_hold_u_falls_by_half_and_matches_closed_form(hold):
+    q = np.asarray(hold.q)
+    assert q.shape == (1000, 3)
+    u_cf = np.array([u_numpy(planar_J(qk), K_SEED) for qk in q])
+    assert_close(hold.u, u_cf, rtol=1e-11, what="u along the rollout vs closed form")
+    assert u_cf[-1] <= 0.5 * 5995.0, u_cf[-1]
+
+
+def test_hold_drift_below_1e6_m_over_1000_steps(hold):
+    drift = np.linalg.norm(planar_fk(np.asarray(hold.q)) - X_SEED, axis=-1)
+    assert drift.max() <= 1e-6, drift.max()
+    assert_close(hold.tracking_error, drift, rtol=1e-6, atol=1e-12, what="reported tracking error")
+    assert np.all(np.asarray(hold.status) == csc.STATUS_OK)
+
+
+def test_small_constant_step_never_increases_u(hold):
+    q = np.vstack([Q_SEED, np.asarray(hold.q)])
+    u = np.array([u_numpy(planar_J(qk), K_SEED) for qk in q])
+    assert np.max(np.diff(u)) <= 1e-6 * u[0], np.max(np.diff(u))
+    # each null step is beta = 2e-3 rad long (constant step), up to the closed-loop correction
+    assert_close(hold.null_step, np.full(1000, 2e-3), rtol=1e-9, what="null step length")
+
+
+def test_realised_stiffness_matches_numpy(hold):
+    k = 500
+    J = planar_J(np.asarray(hold.q[k]))
+    kj = np.clip(np.diag(J.T @ K_SEED @ J), 1.0, np.inf)
+    K_C = np.linalg.inv(J @ np.diag(1.0 / kj) @ J.T)
+    assert_close(hold.kj[k], kj, rtol=1e-12, what="kj")
+    assert_close(hold.K_C[k], K_C, rtol=1e-9, what="K_C")
+    assert_close(hold.frobenius[k], np.linalg.norm(K_SEED - K_C), rtol=1e-9, what="Frobenius")
+
+
+# ---------------------------------------------------------------- null-space step, first order
+def test_null_direction_does_not_move_tcp_to_first_order():
+    dqN, u, _ = csc.null_space_direction(PLANAR, jnp.asarray(Q_SEED), jnp.asarray(K_SEED))
+    dqN = np.asarray(dqN)
+    d = dqN / np.linalg.norm(dqN)
+    assert np.linalg.norm(planar_J(Q_SEED) @ d) < 1e-12
+    disp = [np.linalg.norm(planar_fk(Q_SEED - h * d) - X_SEED) for h in (1e-2, 1e-3)]
+    assert 70.0 < disp[0] / disp[1] < 130.0, disp  # second order: 10x smaller step, 100x less motion
+    # and -dq_N lowers u (to first order at the rate |dq_N| . d)
+    h = 1e-4
+    du = u_numpy(planar_J(Q_SEED - h * d), K_SEED) - float(u)
+    assert du < 0 and abs(du / h + np.linalg.norm(dqN)) < 1e-3 * np.linalg.norm(dqN)
+
+
+def test_null_direction_lwr_locked_joint():
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    q = np.deg2rad([20.0, 40.0, -30.0, -70.0, 25.0, 50.0, 0.0])
+    K = np.diag([3000.0, 1000.0, 2000.0])
+    dqN, _, _ = csc.null_space_direction(robot, jnp.asarray(q), jnp.asarray(K))
+    d = np.asarray(dqN) / np.linalg.norm(dqN)
+    assert d[6] == 0.0  # the locked joint does not take part
+    x0 = numpy_fk(robot, q)[:3, 3]
+    disp = [np.linalg.norm(numpy_fk(robot, q - h * d)[:3, 3] - x0) for h in (1e-2, 1e-3)]
+    assert 70.0 < disp[0] / disp[1] < 130.0, disp
+
+
+@pytest.mark.parametrize("name,task,m", [("planar_3r", "xy", 2), ("kuka_lwr4", "xyz", 3), ("kuka_lwr4", "full", 6)])
+def test_closed_form_gradient_of_u_equals_autodiff(name, task, m):
+    robot = jaxstiff.Robot.from_urdf(name)
+    rng = np.random.default_rng(3)
+    q = jnp.asarray(rng.uniform(-2, 2, size=(5, robot.n)))
+    X = rng.normal(size=(m, m))
+    K = jnp.asarray(X @ X.T * 1000.0)
+    rows = jaxstiff.stiffness.TASK_ROWS[task]
+    u, g = csc.offdiag_gradient(robot, q, K, task)
+    ref = jax.jit(jax.vmap(jax.grad(lambda x: jaxstiff.offdiag(jaxstiff.position_and_jacobian(robot, x, rows)[1], K))))(q)
+    assert_close(g, ref, rtol=1e-10, atol=1e-9 * float(jnp.max(jnp.abs(ref))), what="grad u")
+
+
+# ---------------------------------------------------------------- gradients through a rollout
+T_GRAD = 200
+
+
+def _loss(x, path):
+    """A smooth scalar of a 200-step adaptive rollout; x = (beta, theta, k1/3000, k2/1000, q0 (3))."""
+    th = x[1]
+    c, s = jnp.cos(th), jnp.sin(th)
+    R = jnp.stack([jnp.stack([c, -s]), jnp.stack([s, c])])
+    K = R @ jnp.diag(jnp.stack([3000.0 * x[2], 1000.0 * x[3]])) @ R.T
+    r = jaxstiff.csc_rollout(PLANAR, path, K, x[4:], x[0], step="adaptive")
+    return jnp.mean(r.u) / 1000.0 + jnp.mean(r.frobenius) / 1000.0 + 100.0 * jnp.mean(r.tracking_error)
+
+
+X_GRAD = np.concatenate([[1.0, math.pi / 6, 1.0, 1.0], Q_SEED])
+LINE = X_SEED + np.linspace(0.0, 1.0, T_GRAD)[:, None] * np.array([-0.4, 0.3])
+
+
+def test_gradient_through_200_steps_matches_central_differences():
+    g = np.asarray(jax.grad(_loss)(jnp.asarray(X_GRAD), LINE))
+    fd = central_diff(lambda x: float(_loss(jnp.asarray(x), LINE)), X_GRAD, h=1e-5)[0]
+    assert np.all(np.isfinite(g))
+    assert_close(g, fd, rtol=1e-5, atol=1e-5 * np.max(np.abs(fd)), what="d loss / (beta, K params, q0)")
+
+
+def test_no_nan_through_a_singular_posture():
+    """A path from the stretched (singular) posture outwards beyond reach: damping keeps it finite."""
+    x = X_GRAD.copy()
+    x[4:] = 0.0  # fully stretched along x: J loses rank for the xy task
+    path = np.stack([np.linspace(3.0, 3.1, T_GRAD), np.zeros(T_GRAD)], axis=-1)  # beyond reach at the end
+    r = jaxstiff.csc_rollout(PLANAR, path, K_SEED, x[4:], 1.0)
+    for name, a in r.as_dict().items():
+        assert np.all(np.isfinite(np.asarray(a))), name
+    assert np.all(np.asarray(r.status) & csc.STATUS_DAMPED)
+    assert float(r.tracking_error[-1]) < 0.11  # the closest it can get: 0.1 m short of the target
+    g = jax.grad(_loss)(jnp.asarray(x), path)
+    assert np.all(np.isfinite(np.asarray(g)))
+    x[4:] = [1e-7, -1e-7, 1e-7]  # near singular
+    g = jax.grad(_loss)(jnp.asarray(x), path)
+    assert np.all(np.isfinite(np.asarray(g)))
+
+
+# ---------------------------------------------------------------- batching
+def test_batch_equals_separate_rollouts():
+    T = T_GRAD  # singles reuse the forward program of the finite-difference test
+    rng = np.random.default_rng(5)
+    q0 = Q_SEED + rng.uniform(-0.05, 0.05, size=(3, 3))
+    beta = np.array([0.5, 1.0, 2.0])
+    K = np.stack([rot2(a) @ np.diag([3000.0, 1000.0]) @ rot2(a).T for a in (0.0, 30.0, 60.0)])
+    paths = np.stack([X_SEED + np.linspace(0, 1, T)[:, None] * np.array(v) for v in ([-0.3, 0.2], [0.2, 0.2], [0.0, -0.4])])
+    batched = jaxstiff.csc_rollout(PLANAR, paths, K, q0, beta)
+    chunked = jaxstiff.csc_rollout(PLANAR, paths, K, q0, beta, chunk=2)  # lax.map over chunks, with a remainder
+    assert batched.q.shape == (3, T, 3) and batched.K_C.shape == (3, T, 2, 2) and batched.u_start.shape == (3,)
+    for b in range(3):
+        single = jaxstiff.csc_rollout(PLANAR, paths[b], K[b], q0[b], beta[b])
+        for name, a in single.as_dict().items():
+            assert_close(getattr(batched, name)[b], a, rtol=1e-12, atol=1e-9, what=f"vmap {name}[{b}]")
+            assert_close(getattr(chunked, name)[b], a, rtol=1e-12, atol=1e-9, what=f"chunked {name}[{b}]")
+    # broadcasting: one path and K_xd for a batch of 3 starts
+    bc = jaxstiff.csc_rollout(PLANAR, paths[1], K[1], q0, beta)
+    assert bc.q.shape == (3, T, 3)
+
+
+def test_varying_kxd(hold):
+    T = 1000
+    # K_xd varying along the path (T, m, m), here all equal, gives the constant-K_xd rollout
+    same = jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (T, 1)), np.broadcast_to(K_SEED, (T, 2, 2)), Q_SEED, 2e-3, step="constant")
+    assert_close(same.q, hold.q, rtol=1e-13, atol=1e-14, what="varying (all equal) vs constant K_xd")
+    # K_xd turning by 90 degrees while the TCP holds still: u is reported against each waypoint's K_xd
+    Ks = np.stack([rot2(a) @ np.diag([3000.0, 1000.0]) @ rot2(a).T for a in np.linspace(0, 90, T)])
+    r = jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (T, 1)), Ks, Q_SEED, 2e-3, step="constant")
+    u_cf = np.array([u_numpy(planar_J(np.asarray(r.q[k])), Ks[k]) for k in range(T)])
+    assert_close(r.u, u_cf, rtol=1e-11, what="u against the waypoint's own K_xd")
+    assert abs(float(r.u_start) - u_numpy(planar_J(Q_SEED), Ks[0])) < 1e-9 * float(r.u_start)
+
+
+# ---------------------------------------------------------------- limits, locks, dtype
+def test_joint_limit_saturation_keeps_tcp_and_limit():
+    lower = list(PLANAR.lower_limits)
+    lower[2] = math.radians(-80.0)  # the seed's hold drives joint 3 past -110 deg without this limit
+    robot = dataclasses.replace(PLANAR, lower_limits=tuple(lower))
+    r = jaxstiff.csc_rollout(robot, np.tile(X_SEED, (300, 1)), K_SEED, Q_SEED, 2e-3, step="constant")
+    q = np.asarray(r.q)
+    assert q[:, 2].min() >= math.radians(-80.0) - 1e-12
+    assert np.any(np.asarray(r.status) & csc.STATUS_JOINT_LIMIT)
+    drift = np.linalg.norm(planar_fk(q) - X_SEED, axis=-1)
+    assert drift.max() < 1e-6, drift.max()
+
+
+def test_locked_joint_never_moves_lwr():
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.3, "lwr_a3": -0.2})
+    q0 = np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0])  # a3, a7 replaced by their locked values
+    x0 = numpy_fk(robot, np.where(robot.free, q0, robot.locked_values))[:3, 3]
+    t = np.linspace(0.0, 1.0, 60)[:, None]
+    path = x0 + 0.1 * np.hstack([np.sin(np.pi * t), t - t**2, 0.0 * t])
+    K = np.diag([3000.0, 1000.0, 2000.0])
+    r = jaxstiff.csc_rollout(robot, path, K, q0, 1.0, newton=1, joint_limits="priority", jl_gain=0.01)
+    q = np.asarray(r.q)
+    assert np.all(q[:, 6] == 0.3) and np.all(q[:, 2] == -0.2)
+    assert np.all(q >= robot.lower - 1e-12) and np.all(q <= robot.upper + 1e-12)
+    pos = np.array([numpy_fk(robot, qk)[:3, 3] for qk in q])
+    assert np.linalg.norm(pos - path, axis=-1).max() < 1e-6  # one Newton correction per step
+    assert float(r.u[-1]) < float(r.u_start)
+
+
+def test_float32_stays_float32():
+    r = jaxstiff.csc_rollout(
+        PLANAR, np.tile(X_SEED, (20, 1)).astype(np.float32), K_SEED.astype(np.float32), Q_SEED.astype(np.float32),
+        np.float32(2e-3), step="constant",
+    )
+    assert r.q.dtype == jnp.float32 and r.u.dtype == jnp.float32 and r.K_C.dtype == jnp.float32
+    assert np.all(np.isfinite(np.asarray(r.u))) and float(r.u[-1]) < float(r.u_start)
+
+
+def test_second_call_does_not_recompile(hold):
+    before = csc._rollout_batch._cache_size()
+    jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (1000, 1)), K_SEED, Q_SEED + 0.01, 1e-3, step="constant")
+    assert csc._rollout_batch._cache_size() == before
+
+
+def test_path_object_is_accepted(hold):
+    from jaxstiff.paths import Path
+
+    path = Path(np.hstack([np.tile(X_SEED, (1000, 1)), np.zeros((1000, 1))]), directions=np.tile([1.0, 0.0, 0.0], (1000, 1)))
+    r = jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant")
+    assert_close(r.q, hold.q, rtol=0, atol=0)
+
+
+# ---------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        (dict(K_xd=np.eye(3)), "task 'xy' needs K_xd"),
+        (dict(K_xd=np.array([[1.0, 2.0], [0.0, 1.0]])), "symmetric"),
+        (dict(q0=np.zeros(4)), "q0 must have shape"),
+        (dict(q0=np.array([0.0, 0.0, 4.0])), "joint_3.*outside its limits"),
+        (dict(beta=-1.0), "beta must be >= 0"),
+        (dict(path=np.zeros((5, 4))), "path points"),
+        (dict(path=np.array([[np.nan, 0.0]])), "path contains NaN"),
+        (dict(step="fast"), "step must be"),
+        (dict(kmin=0.0), "kmin must be > 0"),
+        (dict(newton=-1), "newton"),
+        (dict(joint_limits="hard"), "joint_limits"),
+    ],
+)
+def test_bad_input_raises_clear_value_error(kwargs, match):
+    args = dict(path=np.tile(X_SEED, (3, 1)), K_xd=K_SEED, q0=Q_SEED, beta=1.0)
+    args.update(kwargs)
+    call = {k: args.pop(k) for k in ("path", "K_xd", "q0", "beta")}
+    task = "xy" if "K_xd" in kwargs else None
+    with pytest.raises(ValueError, match=match):
+        jaxstiff.csc_rollout(PLANAR, call["path"], call["K_xd"], call["q0"], call["beta"], task=task, **args)
+
+
+# ---------------------------------------------------------------- command line
+def test_cli_hold_writes_result_file(tmp_path, capsys, hold):
+    out = tmp_path / "hold.npz"
+    rc = cli_main([
+        "csc", "--robot", "planar_3r", "--hold", f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}", "--kxd", "3000,1000@30",
+        "--q0-deg", "75,-74.74,-76.30", "--beta", "2e-3", "--step", "constant", "--steps", "1000", "--out", str(out),
+    ])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "u:" in text and "5994.9" in text
+    with np.load(out, allow_pickle=False) as f:
+        assert f["q"].shape == (1, 1000, 3)
+        assert_close(f["u"][0], hold.u, rtol=1e-12, what="CLI u vs library")
+        assert list(f["joint_names"]) == list(PLANAR.joint_names)
+        meta = json.loads(str(f["meta"]))
+    assert meta["step"] == "constant" and meta["task"] == "xy" and meta["beta"] == 2e-3
+    assert [p.name for p in tmp_path.iterdir()] == ["hold.npz"]  # no temporary file left behind
+
+
+@pytest.mark.parametrize(
+    "argv,match",
+    [
+        (["--hold", "1,1", "--kxd", "1,2,3,4,5@30", "--q0", "0,0,0"], "--kxd"),
+        (["--hold", "1,1", "--kxd", "1,2,2,-5", "--q0", "0,0,0"], "positive definite"),
+        (["--hold", "1,1", "--kxd", "3000,1000", "--q0", "0,0"], "--q0"),
+        (["--path", "/nonexistent/p.csv", "--kxd", "3000,1000", "--q0", "0,0,0"], "p.csv"),
+        (["--hold", "1,x", "--kxd", "3000,1000", "--q0", "0,0,0"], "--hold"),
+    ],
+)
+def test_cli_errors_are_one_line(tmp_path, capsys, argv, match):
+    out = tmp_path / "r.npz"
+    rc = cli_main(["csc", "--robot", "planar_3r", *argv, "--out", str(out)])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert err.startswith("jaxstiff: error:") and match in err and "Traceback" not in err
+    assert not out.exists()
