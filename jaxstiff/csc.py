@@ -93,6 +93,7 @@ __all__ = [
     "csc_rollout",
     "null_space_direction",
     "offdiag_gradient",
+    "project_to_target",
     "STATUS_OK",
     "STATUS_DAMPED",
     "STATUS_JOINT_LIMIT",
@@ -735,3 +736,48 @@ def _null_space_direction(robot: Robot, task: str, q, K_xd, nu0, damping):
     Kb = jnp.broadcast_to(K_xd, batch + K_xd.shape[-2:]).reshape((-1,) + K_xd.shape[-2:])
     out = jax.vmap(one)(qb, Kb)
     return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), out)
+
+
+def project_to_target(robot: Robot, q, target, *, task: str = "xy", iters: int = 6, nu0=1e-2, damping=0.1):
+    """Newton projection of postures onto ``x(q) = target``: ``q <- q + J+ (target - x(q))``, ``iters`` times.
+
+    Differentiable (a fixed number of steps), so a start posture can be parametrised on its
+    self-motion manifold, ``q0(theta) = project_to_target(robot, q_ref + N theta, x_0)``, and tuned
+    by gradient descent (``experiments/csc_tune.py``). Locked joints stay put; the damped
+    pseudo-inverse of :func:`csc_rollout` is used, so singular postures stay finite.
+
+    Args:
+        robot: the chain.
+        q: (..., n) postures, rad.
+        target: (..., d) TCP targets, m (d = 2 for ``"xy"``, else 3; task ``"full"`` matches the
+            position only).
+        task: ``"xy"`` or ``"xyz"`` (``"full"`` is treated as ``"xyz"``).
+        iters: Newton steps (static).
+
+    Returns:
+        (..., n) postures; quadratic convergence from a nearby posture.
+    """
+    q = jnp.asarray(q)
+    target = jnp.asarray(target, dtype=q.dtype)
+    task = "xyz" if task == "full" else task
+    if task not in ("xy", "xyz"):
+        raise ValueError(f"task must be 'xy' or 'xyz', got {task!r}")
+    return _project(robot, task, int(iters), q, target, nu0, damping)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 2))
+def _project(robot: Robot, task: str, iters: int, q, target, nu0, damping):
+    d = len(TASK_ROWS[task])
+    free = jnp.asarray(robot.free, dtype=q.dtype)
+
+    def one(qq, x):
+        for _ in range(iters):
+            p, J = position_and_jacobian(robot, qq, TASK_ROWS[task])
+            Jp, _, _ = _damped_pinv(J * free, nu0, damping)
+            qq = qq + _mv(Jp, x - p[:d])
+        return qq
+
+    batch = jnp.broadcast_shapes(q.shape[:-1], target.shape[:-1])
+    qb = jnp.broadcast_to(q, batch + q.shape[-1:]).reshape((-1, q.shape[-1]))
+    xb = jnp.broadcast_to(target, batch + target.shape[-1:]).reshape((-1, target.shape[-1]))
+    return jax.vmap(one)(qb, xb).reshape(batch + q.shape[-1:])

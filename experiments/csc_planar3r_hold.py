@@ -1,0 +1,200 @@
+"""CSC on the planar 3R arm holding a point (seed 001's planar case), with figures and a summary.
+
+Setup (seed 001 / SPEC section 6): links 1 m, start posture q = (75, -74.74, -76.30) deg (seed 000,
+Fig. 2), the TCP held at x(q0), desired stiffness K_xd = R(30 deg) diag(3000, 1000) R(30 deg)^T N/m,
+task "xy". Holding still, the seed's adaptive step is zero (|dq_P| = 0), so the constant step is
+used: a null-space step of beta = 2e-3 rad per time step, 2000 steps. The closed loop keeps the TCP
+on the point. A second, batched run compares beta = 0.5e-3 ... 8e-3 (one vmap).
+
+Outputs (``--out``, default ``out/csc_planar3r_hold``): ``u_frobenius.png`` (u(t) and
+``|K_xd - K_C|_F`` over the steps), ``ellipses.png`` (desired vs realised stiffness ellipses at
+the start and at the end), ``self_motion.png`` (the arm's postures along the self-motion, joint
+angles over time), ``beta_sweep.png``, and ``summary.json``.
+
+Usage:
+    python experiments/csc_planar3r_hold.py [--out DIR] [--steps 2000] [--beta 2e-3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+
+def ellipse_points(K, n=200):
+    """Stiffness ellipse {K u : |u| = 1} of a 2x2 SPD K (N/m): semi-axes lambda_i along v_i."""
+    import numpy as np
+
+    t = np.linspace(0, 2 * np.pi, n)
+    return (np.asarray(K) @ np.stack([np.cos(t), np.sin(t)])).T
+
+
+def arm_points(q):
+    """Joint and TCP positions (n + 1, 2) of a planar nR arm with 1 m links."""
+    import numpy as np
+
+    c = np.cumsum(q)
+    return np.vstack([[0.0, 0.0], np.cumsum(np.stack([np.cos(c), np.sin(c)], -1), axis=0)])
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default="out/csc_planar3r_hold", help="output folder")
+    ap.add_argument("--steps", type=int, default=2000, help="time steps")
+    ap.add_argument("--beta", type=float, default=2e-3, help="constant null step, rad")
+    args = ap.parse_args(argv)
+
+    from jaxstiff._x64 import enable_x64
+
+    enable_x64()
+    import jax
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import jaxstiff
+
+    os.makedirs(args.out, exist_ok=True)
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    q0 = np.deg2rad([75.0, -74.74, -76.30])
+    x0 = np.asarray(robot.fk(q0))[:2, 3]
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    R = np.array([[c, -s], [s, c]])
+    K = R @ np.diag([3000.0, 1000.0]) @ R.T
+    path = np.tile(x0, (args.steps, 1))
+
+    t0 = time.perf_counter()
+    res = jax.tree_util.tree_map(np.asarray, jaxstiff.csc_rollout(robot, path, K, q0, args.beta, step="constant"))
+    t_run = time.perf_counter() - t0
+    adaptive = jaxstiff.csc_rollout(robot, path[:50], K, q0, 1.0, step="adaptive")  # holding: no null motion
+
+    u = np.concatenate([[res.u_start], res.u])
+    fr = np.concatenate([[res.frobenius_start], res.frobenius])
+    steps = np.arange(len(u))
+    k_half = int(np.argmax(u <= 0.5 * u[0])) if np.any(u <= 0.5 * u[0]) else None
+    k_min = int(np.argmin(u))
+
+    # ---------------------------------------------------------------- figure 1: u(t), Frobenius(t)
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    ax[0].plot(steps, u, color="C0")
+    ax[0].axhline(0.5 * u[0], color="grey", ls="--", lw=1, label="50 % of the start value")
+    ax[0].annotate(f"start {u[0]:.0f}", (0, u[0]), textcoords="offset points", xytext=(10, -12))
+    ax[0].annotate(f"min {u[k_min]:.0f} (step {k_min})", (k_min, u[k_min]), textcoords="offset points", xytext=(-60, 12))
+    ax[0].set(xlabel="time step k", ylabel="u(q)  [Nm/rad]", title="off-diagonal joint stiffness u (S1-19)")
+    ax[0].legend()
+    ax[1].plot(steps, fr, color="C1")
+    ax[1].set(xlabel="time step k", ylabel=r"$\|K_{xd} - K_C\|_F$  [N/m]", title="Frobenius error of the realised stiffness (S1-10)")
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.suptitle(f"Planar 3R holding ({x0[0]:.3f}, {x0[1]:.3f}) m, constant null step beta = {args.beta:g} rad")
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "u_frobenius.png"), dpi=120)
+    plt.close(fig)
+
+    # ---------------------------------------------------------------- figure 2: ellipses
+    fig, ax = plt.subplots(1, 2, figsize=(12, 5.5))
+    for a, (k, label) in zip(ax, [(None, "start"), (len(res.u) - 1, f"end (step {len(res.u)})")]):
+        if k is None:
+            J = np.asarray(robot.jacobian(q0))[:2]
+            kj = np.clip(np.diag(J.T @ K @ J), 1.0, None)
+            KC = np.linalg.inv(J @ np.diag(1 / kj) @ J.T)
+            uu, ff = u[0], fr[0]
+        else:
+            KC, uu, ff = res.K_C[k], res.u[k], res.frobenius[k]
+        e_d, e_c = ellipse_points(K), ellipse_points(KC)
+        a.plot(e_d[:, 0], e_d[:, 1], "k--", label=r"desired $K_{xd}$")
+        a.plot(e_c[:, 0], e_c[:, 1], "C3", label=r"realised $K_C$ (diag of $J^T K_{xd} J$)")
+        a.set_aspect("equal")
+        a.set(xlabel="x stiffness [N/m]", ylabel="y stiffness [N/m]",
+              title=f"{label}\nu = {uu:.0f} Nm/rad, " + r"$\|K_{xd} - K_C\|_F$" + f" = {ff:.0f} N/m")
+        a.grid(alpha=0.3)
+        a.legend(loc="lower right", fontsize=8)
+    fig.suptitle("Stiffness ellipses {K u : |u| = 1}: desired vs realised by uni-articular joint springs")
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "ellipses.png"), dpi=120)
+    plt.close(fig)
+
+    # ---------------------------------------------------------------- figure 3: self-motion
+    fig, ax = plt.subplots(1, 2, figsize=(12, 5))
+    qs = np.vstack([q0, res.q])
+    idx = np.linspace(0, len(qs) - 1, 11).astype(int)
+    cmap = plt.get_cmap("viridis")
+    for j, k in enumerate(idx):
+        P = arm_points(qs[k])
+        ax[0].plot(P[:, 0], P[:, 1], "-o", color=cmap(j / (len(idx) - 1)), ms=3, lw=1.5)
+    ax[0].plot(*x0, "r*", ms=14, label="held TCP point", zorder=5)
+    ax[0].set_aspect("equal")
+    ax[0].set(xlabel="x [m]", ylabel="y [m]", title="self-motion: postures every %d steps" % (idx[1] - idx[0]))
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0, len(qs) - 1))
+    fig.colorbar(sm, ax=ax[0], label="time step k")
+    ax[0].legend(loc="lower right")
+    ax[0].grid(alpha=0.3)
+    for i in range(3):
+        ax[1].plot(np.arange(len(qs)), np.rad2deg(qs[:, i]), label=f"q{i + 1}")
+    ax2 = ax[1].twinx()
+    ax2.semilogy(np.arange(1, len(qs)), np.maximum(res.tracking_error, 1e-16), color="grey", lw=0.8, label="TCP drift")
+    ax2.set_ylabel("TCP drift |x - x_d| [m] (grey)")
+    ax[1].set(xlabel="time step k", ylabel="joint angle [deg]", title="joint angles and TCP drift (closed loop)")
+    ax[1].legend(loc="center right")
+    ax[1].grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "self_motion.png"), dpi=120)
+    plt.close(fig)
+
+    # ---------------------------------------------------------------- figure 4: batched beta sweep
+    betas = np.array([0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3])
+    sweep = jax.tree_util.tree_map(np.asarray, jaxstiff.csc_rollout(robot, path, K, q0, betas, step="constant"))
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for b, beta in enumerate(betas):
+        ax.plot(np.arange(1, args.steps + 1), sweep.u[b], label=f"beta = {beta:g} rad")
+    ax.set(xlabel="time step k", ylabel="u(q) [Nm/rad]", title="constant null step: the step length sets the speed (one vmap)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "beta_sweep.png"), dpi=120)
+    plt.close(fig)
+
+    summary = {
+        "setup": {"robot": "planar_3r", "q0_deg": [75.0, -74.74, -76.30], "x_hold_m": x0.tolist(),
+                  "K_xd": K.tolist(), "task": "xy", "step": "constant", "beta_rad": args.beta, "steps": args.steps},
+        "u_start": float(u[0]),
+        "u_end": float(u[-1]),
+        "u_min": float(u[k_min]),
+        "u_min_step": k_min,
+        "u_drop_percent": float(100 * (1 - u[-1] / u[0])),
+        "step_u_halved": k_half,
+        "max_u_increase_per_step": float(np.max(np.diff(u))),
+        "frobenius_start": float(fr[0]),
+        "frobenius_end": float(fr[-1]),
+        "frobenius_min": float(fr.min()),
+        "max_tcp_drift_m": float(res.tracking_error.max()),
+        "q_end_deg": np.rad2deg(res.q[-1]).tolist(),
+        "status_counts": {jaxstiff.csc.describe_status(c): int(n) for c, n in zip(*np.unique(res.status, return_counts=True))},
+        "adaptive_step_null_motion_rad": float(np.abs(np.asarray(adaptive.q) - q0).max()),
+        "beta_sweep": {f"{b:g}": {"u_end": float(sweep.u[i, -1]), "max_drift_m": float(sweep.tracking_error[i].max())}
+                       for i, b in enumerate(betas)},
+        "run_time_s_incl_compile": round(t_run, 3),
+    }
+    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
+        json.dump(summary, f, indent=2)
+    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    print(f"u: {u[0]:.1f} -> {u[-1]:.1f} Nm/rad ({summary['u_drop_percent']:.1f} % lower; min {u[k_min]:.1f} at step {k_min}; "
+          f"halved at step {k_half})")
+    print(f"Frobenius |K_xd - K_C|: {fr[0]:.1f} -> {fr[-1]:.1f} N/m (min {fr.min():.1f})")
+    print(f"max TCP drift over {args.steps} steps: {res.tracking_error.max():.2e} m; largest u increase per step: "
+          f"{summary['max_u_increase_per_step']:.3g} Nm/rad")
+    print(f"adaptive step while holding: null motion {summary['adaptive_step_null_motion_rad']:.1e} rad (zero, as the seed's rule gives)")
+    for b, v in summary["beta_sweep"].items():
+        print(f"  beta {b:>7} rad: u_end {v['u_end']:8.1f}, max drift {v['max_drift_m']:.1e} m")
+    print(f"figures and summary.json in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

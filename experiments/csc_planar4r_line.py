@@ -1,0 +1,141 @@
+"""CSC on a planar 4R arm (two redundant degrees of freedom) following a straight line.
+
+Setup: ``urdf/planar_4r.urdf`` (four 1 m links), task "xy", start posture
+q0 = (90, -60, -60, -50) deg, the TCP moves on a straight line from x(q0) by (-0.6, +0.8) m
+(1 m) in T = 500 steps (2 mm per step), desired stiffness K_xd = R(30 deg) diag(3000, 1000)
+R(30 deg)^T N/m. The seed's adaptive step (S1-22): the null-space step is beta times as long as the
+primary step. One batched call (vmap) runs beta = 0 (pure tracking, no CSC), 1, 2, 4, 8.
+
+Outputs (``--out``, default ``out/csc_planar4r_line``): ``u_frobenius.png`` (u(t) and the Frobenius
+error for every beta), ``self_motion.png`` (postures along the line and stiffness ellipses desired
+vs realised, without and with CSC), ``summary.json``.
+
+Usage:
+    python experiments/csc_planar4r_line.py [--out DIR] [--steps 500]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default="out/csc_planar4r_line", help="output folder")
+    ap.add_argument("--steps", type=int, default=500, help="time steps (waypoints on the line)")
+    args = ap.parse_args(argv)
+
+    from jaxstiff._x64 import enable_x64
+
+    enable_x64()
+    import jax
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import jaxstiff
+    from csc_planar3r_hold import arm_points, ellipse_points
+
+    os.makedirs(args.out, exist_ok=True)
+    robot = jaxstiff.Robot.from_urdf("planar_4r")
+    q0 = np.deg2rad([90.0, -60.0, -60.0, -50.0])
+    x0 = np.asarray(robot.fk(q0))[:2, 3]
+    T = args.steps
+    path = x0 + np.linspace(0.0, 1.0, T + 1)[1:, None] * np.array([-0.6, 0.8])
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    R = np.array([[c, -s], [s, c]])
+    K = R @ np.diag([3000.0, 1000.0]) @ R.T
+    betas = np.array([0.0, 1.0, 2.0, 4.0, 8.0])
+
+    t0 = time.perf_counter()
+    res = jax.tree_util.tree_map(np.asarray, jaxstiff.csc_rollout(robot, path, K, q0, betas, step="adaptive"))
+    t_first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    jax.block_until_ready(jaxstiff.csc_rollout(robot, path, K, q0, betas, step="adaptive").q)
+    t_run = time.perf_counter() - t0
+
+    k_axis = np.arange(T + 1)
+    u = np.hstack([res.u_start[:, None], res.u])
+    fr = np.hstack([res.frobenius_start[:, None], res.frobenius])
+
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
+    for b, beta in enumerate(betas):
+        lab = "beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}"
+        ax[0].plot(k_axis, u[b], label=lab)
+        ax[1].plot(k_axis, fr[b], label=lab)
+    ax[0].set(xlabel="time step k (2 mm of path per step)", ylabel="u(q) [Nm/rad]", title="off-diagonal joint stiffness u (S1-19)")
+    ax[1].set(xlabel="time step k (2 mm of path per step)", ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title="Frobenius error of the realised stiffness")
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    fig.suptitle("Planar 4R following a 1 m line, adaptive null step (S1-22), 5 rollouts in one vmap")
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "u_frobenius.png"), dpi=120)
+    plt.close(fig)
+
+    best = int(np.argmin(u[:, -1]))
+    fig, ax = plt.subplots(1, 2, figsize=(14, 7), constrained_layout=True)
+    scale = 1.5e-4  # m per N/m for drawing the ellipses at the TCP
+    for a, b in zip(ax, (0, best)):
+        qs = np.vstack([q0, res.q[b]])
+        idx = np.linspace(0, T, 6).astype(int)
+        cmap = plt.get_cmap("viridis")
+        for j, k in enumerate(idx):
+            P = arm_points(qs[k])
+            col = cmap(j / (len(idx) - 1))
+            a.plot(P[:, 0], P[:, 1], "-o", color=col, ms=3, lw=1.2, alpha=0.8)
+            if k > 0:
+                e_d = P[-1] + scale * ellipse_points(K)
+                e_c = P[-1] + scale * ellipse_points(res.K_C[b, k - 1])
+                a.plot(e_d[:, 0], e_d[:, 1], "k--", lw=1)
+                a.plot(e_c[:, 0], e_c[:, 1], color="C3", lw=1.2)
+        a.plot(path[:, 0], path[:, 1], "r-", lw=2)
+        title = "beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC"
+        a.set_title(f"{title}\nu: {u[b, 0]:.0f} -> {u[b, -1]:.0f} Nm/rad, " + r"$\|K_{xd}-K_C\|_F$"
+                    + f": {fr[b, 0]:.0f} -> {fr[b, -1]:.0f} N/m", fontsize=10)
+        a.set(xlabel="x [m]", ylabel="y [m]")
+        a.set_aspect("equal")
+        a.grid(alpha=0.3)
+    handles = [plt.Line2D([], [], color="r", lw=2), plt.Line2D([], [], color="k", ls="--"), plt.Line2D([], [], color="C3")]
+    fig.legend(handles, ["TCP line", r"desired $K_{xd}$ at the TCP (1 mm of drawing = %.1f N/m)" % (1e-3 / scale),
+                         r"realised $K_C$ (uni-articular springs, diag of $J^T K_{xd} J$)"], loc="lower center", ncol=3)
+    sm = plt.cm.ScalarMappable(cmap=plt.get_cmap("viridis"), norm=plt.Normalize(0, T))
+    fig.colorbar(sm, ax=ax, label="time step k (arm drawn every %d steps)" % (T // 5), shrink=0.7)
+    fig.suptitle("Planar 4R: self-motion along the line and the stiffness ellipses at the TCP")
+    fig.get_layout_engine().set(rect=(0, 0.06, 1, 0.94))
+    fig.savefig(os.path.join(args.out, "self_motion.png"), dpi=120)
+    plt.close(fig)
+
+    summary = {
+        "setup": {"robot": "planar_4r", "q0_deg": np.rad2deg(q0).tolist(), "line_start_m": x0.tolist(),
+                  "line_end_m": path[-1].tolist(), "steps": T, "K_xd": K.tolist(), "task": "xy", "step": "adaptive"},
+        "per_beta": {f"{beta:g}": {
+            "u_start": float(u[b, 0]), "u_end": float(u[b, -1]), "u_mean": float(u[b].mean()),
+            "frobenius_end": float(fr[b, -1]), "frobenius_mean": float(fr[b].mean()),
+            "max_tracking_error_m": float(res.tracking_error[b].max()),
+            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True))},
+        } for b, beta in enumerate(betas)},
+        "time_first_call_s_incl_compile": round(t_first, 3),
+        "time_5_rollouts_s": round(t_run, 4),
+    }
+    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
+        json.dump(summary, f, indent=2)
+    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    print(f"{'beta':>5} {'u start':>9} {'u end':>9} {'u mean':>9} {'|dK|_F end':>11} {'|dK|_F mean':>12} {'max track err [m]':>18}")
+    for b, beta in enumerate(betas):
+        v = summary["per_beta"][f"{beta:g}"]
+        print(f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['u_mean']:9.1f} {v['frobenius_end']:11.1f} "
+              f"{v['frobenius_mean']:12.1f} {v['max_tracking_error_m']:18.2e}")
+    print(f"5 rollouts x {T} steps: {t_run * 1e3:.1f} ms after compilation; figures and summary.json in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
