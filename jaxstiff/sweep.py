@@ -109,37 +109,10 @@ def start_posture(plan: SweepPlan, row_id: int) -> np.ndarray:
 
 # ---------------------------------------------------------------------------- device sharding
 def shard_batch(arrays: Mapping[str, np.ndarray], size: int | None = None) -> tuple[dict[str, Any], int]:
-    """Pad arrays along axis 0 and shard them across all local JAX devices.
+    """Pad arrays along axis 0 and shard them across all local JAX devices (see :mod:`jaxstiff._sharding`)."""
+    from ._sharding import shard_rows
 
-    Args:
-        arrays: name -> array with the batch on axis 0 (all the same length B >= 1).
-        size: pad to at least this many rows (e.g. the chunk size, so that every chunk of a
-            group has the same shape and compiles once). Rounded up to a multiple of the device
-            count. Padding repeats the last row (valid inputs, dropped afterwards).
-
-    Returns:
-        ``(sharded, devices)``: jax arrays placed with ``NamedSharding(Mesh(devices, ("batch",)),
-        PartitionSpec("batch"))`` (plain device arrays on one device), and the device count.
-    """
-    import jax
-    import jax.numpy as jnp
-    from jax.sharding import Mesh, NamedSharding, PartitionSpec
-
-    devices = jax.local_devices()
-    nd = len(devices)
-    B = len(next(iter(arrays.values())))
-    target = max(B, size or B)
-    target = -(-target // nd) * nd
-    out = {}
-    sharding = NamedSharding(Mesh(np.array(devices), ("batch",)), PartitionSpec("batch")) if nd > 1 else None
-    for k, a in arrays.items():
-        a = np.asarray(a)
-        if a.shape[0] != B:
-            raise ValueError(f"shard_batch: {k} has {a.shape[0]} rows, expected {B}")
-        if target > B:
-            a = np.concatenate([a, np.repeat(a[-1:], target - B, axis=0)], axis=0)
-        out[k] = jax.device_put(a, sharding) if sharding is not None else jnp.asarray(a)
-    return out, nd
+    return shard_rows(arrays, size)
 
 
 # ---------------------------------------------------------------------------- chunks

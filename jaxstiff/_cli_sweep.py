@@ -1,0 +1,55 @@
+"""``jaxstiff sweep CONFIG.toml --out DIR [--resume] [--backend local|ray]``: parameter sweeps."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .cli import command
+
+_EPILOG = """\
+The config names the robot, the paths and the parameter axes (see jaxstiff/sweep_config.py or
+experiments/sweeps/quick.toml). Every finished chunk is written atomically into DIR; after Ctrl-C
+or a kill, run the same command with --resume to compute only what is missing. The results table
+is DIR/results.parquet (one row per path x setting), with DIR/summary.md and DIR/plots/.
+"""
+
+
+@command("sweep", "run a parameter sweep from a TOML config (resumable; local or Ray)")
+def _add_sweep(p: argparse.ArgumentParser):
+    p.epilog = _EPILOG
+    p.add_argument("config", metavar="CONFIG.toml", help="sweep config (TOML)")
+    p.add_argument("--out", required=True, metavar="DIR", help="result folder (new/empty, or this sweep's with --resume)")
+    p.add_argument("--resume", action="store_true", help="continue the sweep in DIR, skipping its finished chunks")
+    p.add_argument("--backend", choices=("local", "ray"), default="local",
+                   help="local: this process (batches sharded over its JAX devices); ray: one Ray task per chunk")
+    p.add_argument("--address", default=None, help="Ray cluster address ('auto', 'ray://HOST:10001'); none: start a local Ray instance")
+    p.add_argument("--ray-num-cpus", type=int, default=None, metavar="N", help="CPUs of a local Ray instance (none: all)")
+    p.add_argument("--dry-run", action="store_true", help="validate the config, print the plan, run nothing")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-report", action="store_true", help="skip summary.md and the heat maps")
+
+    def run(args) -> int:
+        from .sweep import run_sweep
+        from .sweep_config import load_config
+
+        plan = load_config(args.config)
+        if args.dry_run:
+            print(plan.describe())
+            print(f"plan hash {plan.plan_hash}")
+            return 0
+        if args.ray_num_cpus is not None and args.ray_num_cpus < 1:
+            raise ValueError(f"--ray-num-cpus must be >= 1, got {args.ray_num_cpus}")
+        ray_init = {"num_cpus": args.ray_num_cpus} if args.ray_num_cpus else None
+        try:
+            outcome = run_sweep(plan, args.out, resume=args.resume, backend=args.backend, address=args.address,
+                                ray_init=ray_init, progress=not args.no_progress, report=not args.no_report)
+        except KeyboardInterrupt:
+            print(f"jaxstiff: interrupted; finished chunks are saved in {args.out}; "
+                  f"continue with: jaxstiff sweep {args.config} --out {args.out} --resume", file=sys.stderr)
+            return 130
+        print(f"{outcome.n_rows} rows ({len(outcome.computed)} chunks computed, {len(outcome.skipped)} resumed) "
+              f"in {outcome.wall_s:.1f} s -> {outcome.table_file}")
+        return 0
+
+    return run

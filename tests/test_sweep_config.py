@@ -1,0 +1,228 @@
+"""Sweep config: a catalogue of bad configs (each message names the key and the problem), and the
+expansion of good ones into rows, groups and chunks, checked against independent re-computations
+(itertools.product, numpy.linspace, the path generators called directly, numpy eigh)."""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from jaxstiff import paths as P
+from jaxstiff.sweep_config import AXES, SweepConfigError, kxd_matrix, load_config, parse_config
+
+
+def base() -> dict:
+    """A small valid shape sweep: planar 3R, two arcs, 2 x 2 settings."""
+    return {
+        "sweep": {"kind": "shape", "name": "t", "chunk_size": 3},
+        "robot": {"name": "planar_3r"},
+        "paths": [{"generator": "arc", "center": [0.0, 0.0, 0.0], "radius": [1.5, 2.0], "start_deg": 10.0,
+                   "end_deg": 14.0, "n": 3}],
+        "axes": {"task": "xy", "ratio": [2.0, 3.0], "criterion": ["f1", "f2"]},
+    }
+
+
+def csc_base() -> dict:
+    return {
+        "sweep": {"kind": "csc"},
+        "robot": {"name": "planar_3r"},
+        "paths": [{"generator": "point", "point": [1.2, 1.0, 0.0], "n": 5}],
+        "axes": {"task": "xy", "beta": [0.001, 0.002]},
+    }
+
+
+def _set(cfg: dict, dotted: str, value) -> dict:
+    cfg = copy.deepcopy(cfg)
+    node = cfg
+    parts = dotted.split(".")
+    for p in parts[:-1]:
+        node = node[int(p)] if isinstance(node, list) else node.setdefault(p, {})
+    if value is _DELETE:
+        del node[parts[-1]]
+    else:
+        node[parts[-1]] = value
+    return cfg
+
+
+_DELETE = object()
+
+
+def _bad_csv(tmp_path):
+    f = tmp_path / "bad.csv"
+    f.write_text("x,y,z\n1.0,0.0,0.0\n1.0,abc,0.0\n")
+    return str(f)
+
+
+# (id, make config, expected key, fragments the message must contain)
+CATALOGUE = [
+    ("unknown top-level key", lambda t: {**base(), "axis": {}}, "axis", ["unknown key", "did you mean 'axes'"]),
+    ("unknown axis", lambda t: _set(base(), "axes.ratoi", 3.0), "axes.ratoi", ["unknown axis", "did you mean 'ratio'"]),
+    ("wrong type", lambda t: _set(base(), "axes.ratio", "five"), "axes.ratio", ["expected a number", "'five'"]),
+    ("bool is not a number", lambda t: _set(base(), "axes.ratio", True), "axes.ratio", ["expected a number", "bool"]),
+    ("empty axis list", lambda t: _set(base(), "axes.ratio", []), "axes.ratio", ["empty axis"]),
+    ("empty range", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "num": 0}), "axes.ratio", ["empty axis", "num"]),
+    ("range without stop", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "num": 3}), "axes.ratio", ["needs 'stop'"]),
+    ("range step going nowhere", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "step": -1.0}), "axes.ratio", ["step"]),
+    ("unknown robot", lambda t: _set(base(), "robot.name", "kuka_lwr5"), "robot.name", ["unknown robot", "kuka_lwr4", "planar_3r"]),
+    ("missing urdf file", lambda t: {**_set(base(), "robot", {"urdf": "nope.urdf"})}, "robot.urdf", ["file not found", "nope.urdf"]),
+    ("name and urdf", lambda t: _set(base(), "robot.urdf", "x.urdf"), "robot", ["exactly one of 'name'"]),
+    ("unknown locked joint", lambda t: _set(base(), "robot.locked", {"no_such_joint": 0.0}), "robot.locked", ["no_such_joint"]),
+    ("missing path file", lambda t: _set(base(), "paths", [{"file": "missing.csv"}]), "paths[0].file", ["not found", "missing.csv"]),
+    ("malformed path file", lambda t: _set(base(), "paths", [{"file": _bad_csv(t)}]), "paths[0].file", ["bad.csv", "abc", "not a number"]),
+    ("unknown generator", lambda t: _set(base(), "paths.0.generator", "spiral"), "paths[0].generator", ["unknown generator 'spiral'", "arc"]),
+    ("unknown generator parameter", lambda t: _set(base(), "paths.0.radios", 1.0), "paths[0].radios", ["unknown key", "did you mean 'radius'"]),
+    ("missing generator parameter", lambda t: _set(base(), "paths.0.radius", _DELETE), "paths[0].radius", ["missing", "radius"]),
+    ("bad generator value", lambda t: _set(base(), "paths.0.radius", -1.0), "paths[0]", ["radius must be > 0"]),
+    ("no paths", lambda t: {k: v for k, v in base().items() if k != "paths"}, "paths", ["missing", "[[paths]]"]),
+    ("ratio not above 1", lambda t: _set(base(), "axes.ratio", [0.5, 2.0]), "axes.ratio", ["must be > 1", "0.5"]),
+    ("kmin not below kmax", lambda t: _set(_set(base(), "axes.kmin", [1.0, 50.0]), "axes.kmax", 20.0), "axes.kmin", ["kmin = 50", "kmax = 20"]),
+    ("negative rate limit", lambda t: _set(base(), "axes.dq_deg", -1.0), "axes.dq_deg", ["must be >= 0", "-1"]),
+    ("unknown criterion", lambda t: _set(base(), "axes.criterion", ["f1", "f3"]), "axes.criterion", ["unknown value 'f3'", "f1, f2"]),
+    ("unknown solver", lambda t: _set(base(), "axes.solver", "ipopt"), "axes.solver", ["unknown value 'ipopt'", "slsqp"]),
+    ("multi-start with slsqp", lambda t: _set(base(), "axes.starts", [1, 4]), "axes.starts", ["single-start"]),
+    ("duplicate axis value", lambda t: _set(base(), "axes.ratio", [2.0, 2.0]), "axes.ratio", ["duplicate value 2.0"]),
+    ("csc axis in a shape sweep", lambda t: _set(base(), "axes.beta", 0.1), "axes.beta", ["unknown axis", "kind 'csc'"]),
+    ("shape axis in a csc sweep", lambda t: _set(csc_base(), "axes.criterion", "f2"), "axes.criterion", ["unknown axis", "kind 'shape'"]),
+    ("unknown kind", lambda t: _set(base(), "sweep.kind", "shaping"), "sweep.kind", ["unknown kind 'shaping'", "did you mean 'shape'"]),
+    ("chunk size zero", lambda t: _set(base(), "sweep.chunk_size", 0), "sweep.chunk_size", ["must be >= 1"]),
+    ("chunk size not an integer", lambda t: _set(base(), "sweep.chunk_size", 2.5), "sweep.chunk_size", ["expected an integer"]),
+    ("q0 of the wrong length", lambda t: _set(base(), "axes.q0", [[0.1, 0.2]]), "axes.q0", ["2 values", "3 joints"]),
+    ("q0 posture outside its list", lambda t: _set(base(), "axes.q0", [0.1, 0.2, 0.3]), "axes.q0", ["inside a list"]),
+    ("unknown q0 family", lambda t: _set(base(), "axes.q0", "rand"), "axes.q0", ["unknown q0 family 'rand'", "did you mean 'random'"]),
+    ("task xy with 3-D directions", lambda t: _set(_set(base(), "paths.0.normal", [1.0, 0.0, 0.0]), "axes.task", "xy"), "axes.task", ["xy plane"]),
+    ("unknown solver option", lambda t: {**base(), "solver_options": {"maxiters": 10}}, "solver_options.maxiters", ["did you mean 'maxiter'"]),
+    ("heat map of a fixed axis", lambda t: {**base(), "report": {"heatmaps": [["ratio", "dk"]]}}, "report.heatmaps[0]", ["'dk' has one value"]),
+    ("csc kxd ratio below 1", lambda t: _set(csc_base(), "axes.kxd_ratio", 0.5), "axes.kxd_ratio", ["must be >= 1"]),
+    ("csc task full", lambda t: _set(csc_base(), "axes.task", "full"), "axes.task", ["unknown value 'full'", "xy, xyz"]),
+]
+
+
+@pytest.mark.parametrize("case", CATALOGUE, ids=[c[0] for c in CATALOGUE])
+def test_bad_config_names_key_and_problem(case, tmp_path):
+    _, make, key, fragments = case
+    cfg = make(tmp_path)
+    with pytest.raises(SweepConfigError) as info:
+        parse_config(cfg, base_dir=tmp_path, source="cfg.toml")
+    err = info.value
+    msg = str(err)
+    assert err.key == key, msg
+    assert msg.startswith(f"cfg.toml: {key}: "), msg
+    for frag in fragments:
+        assert frag in msg, f"{frag!r} not in {msg!r}"
+    assert isinstance(err, ValueError)
+
+
+def test_catalogue_is_large_enough():
+    assert len(CATALOGUE) >= 10
+
+
+def test_toml_syntax_error_and_missing_file(tmp_path):
+    f = tmp_path / "broken.toml"
+    f.write_text('[sweep]\nkind = "shape"\nname = \n[robot]\n')
+    with pytest.raises(SweepConfigError, match=r"broken.toml: not valid TOML.*line 3"):
+        load_config(f)
+    with pytest.raises(FileNotFoundError, match="sweep config not found"):
+        load_config(tmp_path / "absent.toml")
+
+
+def test_relative_files_resolve_against_the_toml_folder(tmp_path):
+    sub = tmp_path / "cfg"
+    sub.mkdir()
+    P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 14.0, n=3).to_csv(sub / "p.csv")
+    (sub / "s.toml").write_text(
+        '[robot]\nname = "planar_3r"\n[[paths]]\nfile = "p.csv"\n[axes]\ntask = "xy"\n', encoding="utf-8")
+    plan = load_config(sub / "s.toml")
+    assert plan.trajectories[0].name == "p"
+    np.testing.assert_allclose(plan.trajectories[0].points, P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 14.0, n=3).points, atol=1e-15)
+    assert plan.name == "s"
+
+
+# ---------------------------------------------------------------------------- expansion
+def test_rows_are_the_product_of_axes_times_paths():
+    cfg = _set(base(), "axes.dq_deg", {"start": 1.0, "stop": 3.0, "num": 3})
+    plan = parse_config(cfg)
+    names = list(AXES["shape"])
+    want_axes = {k: [s.default] for k, s in AXES["shape"].items()}
+    want_axes.update(task=["xy"], ratio=[2.0, 3.0], criterion=["f1", "f2"], dq_deg=list(np.linspace(1.0, 3.0, 3)))
+    combos = list(itertools.product(*(want_axes[k] for k in names)))
+    assert len(plan.trajectories) == 2
+    assert plan.n_rows == len(combos) * 2 == 24
+    for r, (s_idx, p_idx) in enumerate(plan.rows):
+        assert r == s_idx * 2 + p_idx
+        assert plan.settings[s_idx] == dict(zip(names, combos[s_idx]))
+
+
+def test_generator_lists_make_one_path_per_value():
+    plan = parse_config(base())
+    for t, radius in zip(plan.trajectories, (1.5, 2.0)):
+        ref = P.arc([0.0, 0.0, 0.0], radius, 10.0, 14.0, n=3)
+        np.testing.assert_allclose(t.points, ref.points, atol=1e-15)
+        np.testing.assert_allclose(t.directions, ref.directions, atol=1e-15)
+    assert [t.name for t in plan.trajectories] == ["arc(radius=1.5)", "arc(radius=2)"]
+
+
+def test_step_range_is_inclusive():
+    plan = parse_config(_set(base(), "axes.ratio", {"start": 2.0, "stop": 3.0, "step": 0.25}))
+    assert plan.axes["ratio"] == [2.0, 2.25, 2.5, 2.75, 3.0]
+
+
+def test_groups_share_static_settings_and_chunks_stay_inside_groups():
+    cfg = base()
+    cfg["paths"].append({"generator": "line", "start": [1.5, 0.0, 0.0], "end": [1.5, 0.1, 0.0], "n": 4})
+    plan = parse_config(cfg)
+    static = [k for k, s in AXES["shape"].items() if s.static]
+    for r in range(plan.n_rows):
+        g = plan.groups[plan.row_group[r]]
+        st = plan.row_settings(r)
+        assert all(g[k] == st[k] for k in static) and g["P"] == plan.row_trajectory(r).P
+    keys = {json_key(plan, r) for r in range(plan.n_rows)}
+    assert len(plan.groups) == len(keys) == 4  # 2 criteria x 2 waypoint counts
+    seen = []
+    for c in plan.chunks:
+        assert 1 <= len(c.rows) <= 3
+        assert {plan.row_group[r] for r in c.rows} == {c.group}
+        seen += c.rows
+    assert sorted(seen) == list(range(plan.n_rows))
+
+
+def json_key(plan, r):
+    st = plan.row_settings(r)
+    return (st["criterion"], st["task"], st["solver"], st["starts"], plan.row_trajectory(r).P)
+
+
+def test_plan_hash_tracks_what_changes_results():
+    h0 = parse_config(base()).plan_hash
+    assert parse_config(base()).plan_hash == h0
+    assert parse_config(_set(base(), "axes.ratio", [2.0, 3.5])).plan_hash != h0
+    assert parse_config(_set(base(), "paths.0.n", 4)).plan_hash != h0
+    assert parse_config(_set(base(), "sweep.chunk_size", 2)).plan_hash != h0
+    assert parse_config({**base(), "report": {"metrics": ["share_ratio"]}}).plan_hash == h0
+
+
+def test_defaults_match_shape_defaults():
+    """A sweep row with every axis at its default is the same problem as a bare shape() call."""
+    from jaxstiff.shaping import DEFAULTS
+
+    ax = AXES["shape"]
+    assert ax["dq_deg"].default == DEFAULTS["dq_deg"]
+    assert ax["dk"].default == DEFAULTS["dk"]
+    assert ax["kmin"].default == DEFAULTS["kmin"] and ax["kmax"].default == DEFAULTS["kmax"]
+    assert ax["c"].default == DEFAULTS["c"]
+    assert ax["first_rate_limit"].default == DEFAULTS["first_rate_limit"]
+
+
+@pytest.mark.parametrize("task,angle", [("xy", 30.0), ("xy", -75.0), ("xyz", 30.0), ("xyz", 120.0)])
+def test_kxd_matrix_axes_and_direction(task, angle):
+    K = kxd_matrix(task, 3000.0, 3.0, angle)
+    w, V = np.linalg.eigh(K)
+    assert np.allclose(K, K.T, atol=0)
+    np.testing.assert_allclose(w[-1], 3000.0, rtol=1e-13)
+    np.testing.assert_allclose(w[:-1], 1000.0, rtol=1e-13)
+    v = V[:, -1]
+    t = math.radians(angle)
+    d = np.array([math.cos(t), math.sin(t), 0.0])[: K.shape[0]]
+    assert abs(abs(v @ d) - 1.0) < 1e-12
