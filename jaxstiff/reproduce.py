@@ -114,6 +114,7 @@ class ExperimentRun:
     code: int | None
     wall_s: float
     log: str
+    cmd: str = ""
 
     @property
     def ok(self) -> bool:
@@ -155,7 +156,8 @@ def _run_one(script: str, out: str, quick: bool, timeout: float | None, repo: st
         except subprocess.TimeoutExpired:
             code = None
             log.write(f"\n[reproduce] timed out after {timeout} s\n")
-    return ExperimentRun(name, script, out, code, time.perf_counter() - t0, log_file)
+    shown = ["python", os.path.relpath(script, repo), "--out", "DIR"] + cmd[4:]
+    return ExperimentRun(name, script, out, code, time.perf_counter() - t0, log_file, " ".join(shown))
 
 
 def _tail(file: str, n: int = 30) -> str:
@@ -341,10 +343,7 @@ def run_reproduce(
     md.append("")
     for r in runs:
         md += [f"## {r.name}", ""]
-        if r.name == "sweep_quick":
-            what = "jaxstiff sweep experiments/sweeps/quick.toml"
-        else:
-            what = "python " + os.path.relpath(r.script, repo) + " --out DIR" + (" --quick" if quick else "")
+        what = r.cmd
         if not r.ok:
             md += [f"**{'timed out' if r.code is None else f'failed with exit code {r.code}'}**; end of its log:", "",
                    "```", _tail(r.log).rstrip(), "```", ""]
@@ -374,4 +373,5 @@ def _run_sweep(config: str, out: str, timeout: float | None, repo: str) -> Exper
     os.makedirs(out, exist_ok=True)
     shutil.move(log_file, os.path.join(out, "log.txt"))
     log_file = os.path.join(out, "log.txt")
-    return ExperimentRun("sweep_quick", config, out, code, time.perf_counter() - t0, log_file)
+    return ExperimentRun("sweep_quick", config, out, code, time.perf_counter() - t0, log_file,
+                         f"jaxstiff sweep {os.path.relpath(config, repo)} --out DIR")
