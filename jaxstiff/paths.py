@@ -255,6 +255,9 @@ def _atomic_write_text(file: str, text: str) -> None:
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes 0600; give the file the usual permissions
         os.replace(tmp, file)
     except BaseException:
         if os.path.exists(tmp):
@@ -396,17 +399,19 @@ DEFAULT_PATH_SPEC = {
 def default_path(n: int | None = None) -> Path:
     """The shipped default path for the KUKA LWR 4 (base frame, metres): a curved path in an xy plane.
 
-    A half-sine bump in the horizontal plane z = 0.35 m (3.95 cm above the shoulder axis):
-    from (0.45, -0.25) to (0.45, 0.25) m along y, bulging 0.10 m towards +x at the middle;
-    60 waypoints, about 0.58 m long (about 1 cm between waypoints), the tangent turning by
-    about 103 degrees in total, fastest at both ends.
+    A half-sine bump in the horizontal plane z = 0.30 m (1 cm below the shoulder axis A2 at
+    0.3105 m): from (0.60, 0.25) to (0.60, -0.25) m, bulging 0.10 m towards +x at the middle
+    (x = 0.70 m); 60 waypoints, 0.546 m long (9.3 mm between waypoints); the tangent turns by
+    64 degrees in all, at most 1.9 degrees between waypoints (fastest at the apex).
 
     How it was chosen: seed 000 moves the LWR's TCP along a curved path in the xy plane (Fig. 4/5)
-    without giving it. This one keeps the TCP 0.45-0.55 m from the base axis, close to the
-    shoulder height: the arm is far from full stretch (0.87 m) and from the base axis, every
-    waypoint is reachable with the elbow bent either way, and the 3-dimensional null space of
-    the 6 free joints (7th locked) has room for the ellipsoid to turn with the tangent. It is
-    checked by the tests: damped-least-squares IK reaches every waypoint from the nominal posture.
+    without giving it. This one keeps the TCP 0.65-0.70 m from the shoulder, so the elbow is
+    bent by about 70-85 degrees: far from full stretch (0.87 m, singular) and from the A4 limit
+    (120 degrees, reached when the TCP comes closer than about 0.45 m). Every waypoint is then
+    reachable with room left in the 3-dimensional null space of the 6 free joints (7th locked) to
+    turn the ellipsoid with the tangent; a first choice at 0.45-0.55 m from the base axis needed
+    the elbow at 107-111 degrees and left SLSQP no room. Checked by the tests (IK reaches the
+    waypoints; elbow bend in 40-100 degrees).
 
     Args:
         n: number of waypoints (default 60).

@@ -232,6 +232,12 @@ def _json_default(o):
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> str:
     """``np.savez`` to a temporary file in the target folder, then ``os.replace`` onto ``file``.
 
@@ -248,6 +254,7 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
     try:
         with os.fdopen(fd, "wb") as fh:
             np.savez(fh, **arrays)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
         os.replace(tmp, file)
     except BaseException:
         if os.path.exists(tmp):

@@ -19,6 +19,10 @@ Defaults the seed does not give (each one is also written into ``result.meta``):
   waypoint, which is shaped within the full joint and stiffness ranges (the start state is only an
   initial guess: offline planning may move the arm into the shaped posture before the motion
   starts). Pass ``True`` when ``(q0, kj0)`` is the arm's actual state.
+* ``first_starts = 8``: that first, unconstrained waypoint is non-convex (from a single start SLSQP
+  finds an aligned ellipsoid about half the time on the default path), so it is solved from q0
+  and 7 more IK postures (nominal posture perturbed by up to +-60 deg, fixed seed) and the best
+  usable answer is kept. Later waypoints are single-start from the previous one, as in the seed.
 * CMS target: a geometric-mean axis of 1000 N/m, i.e. ``target_volume = 1000**m`` (N/m)^m (m = 3,
   or 2 for task "xy"), so the scaled ellipsoids are comparable along the path (seed Fig. 4e, 5e).
 * task ``"full"``: K_T is the top-left 3x3 block of the 6x6 Cartesian stiffness (S0-6, S0-7).
@@ -52,7 +56,7 @@ from .criteria import CRITERIA, get_criterion
 from .ik import ik_position, nominal_posture, NOMINAL_OFFSET_DEG
 from .paths import DEFAULT_PATH_SPEC, Path
 from .robot import Robot
-from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_evaluate
+from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report
 from .stiffness import task_rows
 
 __all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest"]
@@ -65,11 +69,15 @@ DEFAULTS: dict[str, Any] = {
     "kmax": 100.0,
     "c": 0.01,
     "first_rate_limit": False,
+    "first_starts": 8,
     "cms_mean_axis": 1000.0,
     "q0": "ik_from_nominal",
     "kj0": "mid_range",
 }
 
+
+FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures (results are reproducible)
+FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg
 
 # ---------------------------------------------------------------------- solver registry
 class SolveRequest:
@@ -92,7 +100,8 @@ class SolveRequest:
 
 
 #: A solver maps a :class:`SolveRequest` to a dict of arrays: ``q``, ``kj`` (B,P,n), ``status``,
-#: ``pos_error``, ``solver_code``, ``nit``, ``nfev``, ``time_s`` (B,P). Every point with a usable
+#: ``pos_error``, ``solver_code``, ``nit``, ``nfev``, ``time_s`` (B,P), and optionally ``compile_s``
+#: (float, compilation time kept out of ``time_s``). Every point with a usable
 #: status (0-2) must satisfy the box of its reference state exactly and the position within
 #: ``pos_tol``; the reported quantities are recomputed by :func:`shape`.
 SOLVERS: dict[str, Callable[[SolveRequest], dict[str, np.ndarray]]] = {}
@@ -149,9 +158,12 @@ def _greedy_solver(kind: str):
             prog = None if req.progress is None else (lambda p, b=b: req.progress(b, p))
             per_path.append(
                 greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits,
-                            req.ratio, req.c, solver, pos_tol=req.pos_tol, progress=prog, **extra)
+                            req.ratio, req.c, solver, pos_tol=req.pos_tol, progress=prog,
+                            first_starts=req.first_starts[b], **extra)
             )
-        return _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
+        out = _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
+        out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
+        return out
 
     return run
 
@@ -263,6 +275,7 @@ def shape(
     kmax: float = DEFAULTS["kmax"],
     c: float = DEFAULTS["c"],
     first_rate_limit: bool = DEFAULTS["first_rate_limit"],
+    first_starts: int = DEFAULTS["first_starts"],
     cms_volume: float | None = None,
     cms_major: float | None = None,
     options: Mapping[str, Any] | None = None,
@@ -292,6 +305,9 @@ def shape(
         kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax. Default 1, 100 (seed).
         c: f1's offset (seed: 0.01).
         first_rate_limit: apply dq/dk between (q0, kj0) and the first waypoint (default False).
+        first_starts: when the first waypoint is not rate-limited, solve it from this many start
+            postures (q0, then IK from the nominal posture perturbed by up to +-60 deg per free
+            joint, fixed seed; kj from kj0) and keep the best (default 8).
         cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m. Default ``1000**m``.
         cms_major: CMS target: the major axis lambda1, N/m (instead of the volume).
         options: solver options (SLSQP: ``maxiter``, ``ftol``).
@@ -381,23 +397,42 @@ def shape(
                 q0[b], e = ik_position(robot, bpath.points[b, 0], planar=(task == "xy"))
                 ik_err.append(e)
 
+        # extra starts for the first waypoint (used only when it is not rate-limited)
+        n_first = int(first_starts)
+        if n_first < 1:
+            raise ValueError(f"first_starts must be >= 1, got {first_starts}")
+        extra_starts: list[list[tuple[np.ndarray, np.ndarray]]] = []
+        rng = np.random.default_rng(FIRST_STARTS_SEED)
+        spread = np.deg2rad(FIRST_STARTS_SPREAD_DEG)
+        for b in range(B):
+            lst = []
+            if not first_rate_limit:
+                for _ in range(n_first - 1):
+                    qn = nominal_posture(robot) + np.where(robot.free, rng.uniform(-spread, spread, n), 0.0)
+                    qn = np.clip(qn, robot.lower, robot.upper)
+                    qs, _ = ik_position(robot, bpath.points[b, 0], qn, planar=(task == "xy"))
+                    lst.append((qs, kj0[b].copy()))
+            extra_starts.append(lst)
+
         problem = WaypointProblem(robot, task, crit_fn)
         limits = Limits(dq=dq_a, dk=dk_a, kmin=kmin, kmax=kmax, first_rate_limit=bool(first_rate_limit))
         req = SolveRequest(
             problem=problem, targets=bpath.points, directions=bpath.directions, q0=q0, kj0=kj0,
             limits=limits, ratio=ratio, c=c, starts=starts, options=dict(options or {}), pos_tol=float(pos_tol),
-            progress=progress,
+            progress=progress, first_starts=extra_starts,
         )
         t_solve = time.perf_counter()
         arrays = SOLVERS[solver](req)
         t_solved = time.perf_counter()
 
         # reported quantities, recomputed at the final points for every solver
-        ev = compiled_evaluate(problem)
-        qf = arrays["q"].reshape(B * P, n)
-        kf = arrays["kj"].reshape(B * P, n)
-        df = bpath.directions.reshape(B * P, 3)
-        pos, K, alpha, rho, f = (np.asarray(v) for v in ev(qf, kf, df, ratio, c))
+        report = compiled_report(problem)
+        pos, K, alpha, rho, f = (np.zeros((B * P, 3)), np.zeros((B * P, m, m)), np.zeros(B * P),
+                                 np.zeros(B * P), np.zeros(B * P))
+        for i, (b, p) in enumerate(np.ndindex(B, P)):
+            x = problem.x_of(arrays["q"][b, p], arrays["kj"][b, p])
+            prm = WaypointProblem.params(bpath.points[b, p], bpath.directions[b, p], ratio, c)
+            pos[i], K[i], alpha[i], rho[i], f[i] = problem.unpack_report(np.asarray(report(x, prm)))
     w = np.linalg.eigvalsh(K)
     if cms_major is not None:
         cms = cms_major / w[:, -1]
@@ -428,6 +463,8 @@ def shape(
             "dq_unit": "rad per waypoint",
             "dk_unit": "Nm/rad per waypoint",
         },
+        "first_starts": {"count": n_first if not first_rate_limit else 1, "seed": FIRST_STARTS_SEED,
+                         "spread_deg": FIRST_STARTS_SPREAD_DEG},
         "q0_source": "given" if q0_given else f"ik_dls from nominal posture (mid-range + {NOMINAL_OFFSET_DEG:g} deg)",
         "q_nominal": nominal_posture(robot).tolist(),
         "ik_error_m": ik_err,
@@ -437,7 +474,8 @@ def shape(
                  "default_spec": DEFAULT_PATH_SPEC if bpath.name == "default" else None},
         "defaults": DEFAULTS,
         "status_codes": R.STATUS_NAMES,
-        "timing_s": {"setup": t_solve - t_start, "solve": t_solved - t_solve, "total": time.perf_counter() - t_start},
+        "timing_s": {"setup": t_solve - t_start, "solve": t_solved - t_solve, "compile": arrays.get("compile_s"),
+                     "total": time.perf_counter() - t_start},
         "versions": _versions(),
         "units": {"q": "rad", "kj": "Nm/rad", "position": "m", "alpha_deg": "deg", "stiffness": "N/m"},
     }

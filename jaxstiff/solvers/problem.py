@@ -58,6 +58,7 @@ __all__ = [
     "WaypointProblem",
     "compiled",
     "compiled_evaluate",
+    "compiled_report",
     "compiled_position",
     "jax_pos_and_jac",
     "box",
@@ -206,8 +207,9 @@ class WaypointProblem:
     def fused(self, x: jax.Array, params: jax.Array) -> jax.Array:
         """``[f, df/dx (nx), c (k), dc/dx (k*nx, row-major)]`` in one flat array, k = len(pos_rows).
 
-        The constraint Jacobian is the analytic one: the free columns of the task rows of the
-        geometric Jacobian, zeros for the stiffness columns.
+        One kernel call per point SLSQP asks about. The constraint Jacobian is the analytic one:
+        the free columns of the task rows of the geometric Jacobian, zeros for the stiffness
+        columns. Split it with :meth:`unpack`.
         """
         f, g = jax.value_and_grad(self.objective_x)(x, params)
         q = self.q_of(x)
@@ -223,6 +225,16 @@ class WaypointProblem:
         nx, k = self.nx, len(self.pos_rows)
         return out[0], out[1 : 1 + nx], out[1 + nx : 1 + nx + k], out[1 + nx + k :].reshape(k, nx)
 
+    def report_x(self, x: jax.Array, params: jax.Array) -> jax.Array:
+        """``[position (3), K_T (m*m), alpha_deg, ratio, criterion]`` at one point, flat."""
+        p, K, alpha, rho, f = self.report(self.q_of(x), self.kj_of(x), params[3:6], params[6], params[7])
+        return jnp.concatenate([p, K.ravel(), alpha[None], rho[None], f[None]])
+
+    def unpack_report(self, out: np.ndarray):
+        """``(position (3,), K_T (m, m), alpha_deg, ratio, criterion)`` from :meth:`report_x`'s output."""
+        m = self.m
+        return out[:3], out[3 : 3 + m * m].reshape(m, m), out[3 + m * m], out[4 + m * m], out[5 + m * m]
+
     @staticmethod
     def params(target, direction, r: float, c: float) -> np.ndarray:
         """The flat float64 parameter vector ``[target (3), d (3), r, c]``."""
@@ -234,6 +246,12 @@ class WaypointProblem:
 def compiled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
     """The jitted ``fused(x, params)`` of a problem, compiled once per problem and input dtype."""
     return jax.jit(problem.fused)
+
+
+@functools.lru_cache(maxsize=64)
+def compiled_report(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
+    """Jitted single-point :meth:`WaypointProblem.report_x` ``(x, params)``: one compilation per problem."""
+    return jax.jit(problem.report_x)
 
 
 @functools.lru_cache(maxsize=64)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from .problem import (
     WaypointProblem,
     clip_to_box,
     compiled,
+    compiled_position,
     jax_pos_and_jac,
     newton_project,
 )
@@ -77,6 +78,12 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
 
     opts = {**DEFAULT_OPTIONS, **(options or {})}
     fused = compiled(problem)
+    # compile now (once per problem and dtype), so that waypoint timings exclude compilation
+    t0 = time.perf_counter()
+    x_dummy = problem.x_of(np.nan_to_num(problem.robot.locked_values) + 0.1, np.ones(problem.n))
+    np.asarray(fused(x_dummy, WaypointProblem.params(np.zeros(3), [1.0, 0.0, 0.0], 2.0, 0.0)))
+    np.asarray(compiled_position(problem)(np.nan_to_num(problem.robot.locked_values)))
+    compile_s = time.perf_counter() - t0
     nx, k = problem.nx, len(problem.pos_rows)
     sl_f, sl_g, sl_c = 0, slice(1, 1 + nx), slice(1 + nx, 1 + nx + k)
     sl_a = slice(1 + nx + k, None)
@@ -114,6 +121,7 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
         return SolverOutput(x, int(res.status), int(res.status) == 0, int(res.nit), count[0])
 
     solve.options = opts  # type: ignore[attr-defined]
+    solve.compile_s = compile_s  # type: ignore[attr-defined]
     return solve
 
 
@@ -180,6 +188,7 @@ def greedy_path(
     objective: Callable[[np.ndarray, np.ndarray], float] | None = None,
     pos_tol: float = POS_TOL,
     progress: Callable[[int], None] | None = None,
+    first_starts: Sequence[tuple[np.ndarray, np.ndarray]] = (),
 ) -> list[WaypointOutcome]:
     """Solve the waypoints of one path one after the other (seed 000's greedy scheme).
 
@@ -200,6 +209,10 @@ def greedy_path(
         objective: ``(x, params) -> f`` for the final check; default: the JAX kernel.
         pos_tol: position tolerance (m) of a usable waypoint.
         progress: called with the waypoint index after each waypoint.
+        first_starts: extra start states ``(q (n,), kj (n,))`` for the first waypoint when it is
+            not rate-limited: the solver runs from the reference state and from each of these,
+            and the usable answer with the lowest criterion is kept (a multi-start against the
+            non-convexity of the first, unconstrained waypoint).
 
     Returns:
         One :class:`WaypointOutcome` per waypoint.
@@ -221,14 +234,27 @@ def greedy_path(
         lb, ub = limits.box(problem, q_ref, kj_ref, rate)
         x_start = clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)
         params = WaypointProblem.params(targets[p], directions[p], ratio, c)
-        try:
-            sol = solver(x_start.copy(), lb, ub, params)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
-            sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
-        x, status, err = _judge(problem, sol, x_start, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
-        if status == R.NONFINITE:
-            x = x_start
-        out.append(WaypointOutcome(x, status, err, sol.code, sol.nit, sol.nfev, time.perf_counter() - t0))
+        starts = [x_start]
+        if not rate:
+            starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
+        best = None
+        nit = nfev = 0
+        for xs in starts:
+            try:
+                sol = solver(xs.copy(), lb, ub, params)
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+                sol = SolverOutput(xs.copy(), -1, False, 0, 0)
+            nit, nfev = nit + sol.nit, nfev + sol.nfev
+            x, status, err = _judge(problem, sol, xs, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
+            if status == R.NONFINITE:
+                x = x_start
+            usable = status in R.USABLE
+            f = objective(x, params) if usable else np.inf
+            key = (0 if usable else 1, f if usable else err)
+            if best is None or key < best[0]:
+                best = (key, x, status, err, sol.code)
+        _, x, status, err, code = best
+        out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
         if status in R.USABLE:
             q_ref = q_ref.copy()
             q_ref[list(problem.free_idx)] = x[: problem.n_free]

@@ -1,0 +1,238 @@
+"""``jaxstiff shape``: stiffness-ellipsoid shaping along TCP paths, result file ``.npz`` (seed 000).
+
+With no arguments it runs the shipped default: the KUKA LWR 4 with its 7th joint locked at 0 (as
+in seed 000), the shipped default path, criterion f2 with ratio 5, written to ``shape.npz``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+
+from .cli import command, parse_locks
+
+_DEFAULT_LOCK = {"kuka_lwr4": {"lwr_a7": 0.0}}
+
+
+def _num(text, flag: str, cast=float):
+    if text is None:
+        return None
+    try:
+        v = cast(text)
+    except (TypeError, ValueError):
+        raise ValueError(f"{flag}: expected a number, got {text!r}") from None
+    return v
+
+
+def _nums(text, flag: str) -> list[float] | None:
+    if text is None:
+        return None
+    out = []
+    for part in str(text).split(","):
+        part = part.strip()
+        if not part:
+            continue
+        try:
+            out.append(float(part))
+        except ValueError:
+            raise ValueError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
+    if not out:
+        raise ValueError(f"{flag}: no numbers given")
+    return out
+
+
+class _Progress:
+    """A progress bar with ETA on stderr (redrawn in place on a terminal, a line every 5 s otherwise)."""
+
+    def __init__(self, total: int, enabled: bool):
+        self.total, self.enabled = total, enabled
+        self.done = 0
+        self.t0 = time.perf_counter()
+        self.last = 0.0
+        self.tty = sys.stderr.isatty()
+
+    def __call__(self, b: int, p: int) -> None:
+        self.done += 1
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        if self.done < self.total and now - self.last < (0.2 if self.tty else 5.0):
+            return
+        self.last = now
+        el = now - self.t0
+        rate = self.done / el if el > 0 else 0.0
+        eta = (self.total - self.done) / rate if rate > 0 else float("nan")
+        width = 30
+        fill = int(width * self.done / max(self.total, 1))
+        msg = (f"shape [{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} waypoints "
+               f"(path {b + 1})  {el:6.1f} s  ETA {eta:6.1f} s")
+        if self.tty:
+            sys.stderr.write("\r" + msg + ("\n" if self.done >= self.total else ""))
+        else:
+            sys.stderr.write(msg + "\n")
+        sys.stderr.flush()
+
+
+def summary_table(res) -> str:
+    """Per path: waypoints, statuses, share with alpha < 1 deg, share with the ratio met, errors, time."""
+    import numpy as np
+
+    from .results import SOLVED, is_usable
+
+    r = float(res.meta["ratio"])
+    crit = res.meta["criterion"]
+    rlabel = f"rho>={0.98 * r:g}" if crit == "f1" else "|rho-r|<2%"
+    names = res.meta.get("path_files") or [res.meta.get("path", {}).get("name", "path")] * res.B
+    lines = [
+        f"{'path':<24} {'P':>4} {'solved':>7} {'usable':>7} {'a<1deg':>7} {rlabel:>11} {'both':>6} "
+        f"{'max pos err (m)':>16} {'ms/waypoint':>12}"
+    ]
+    for b in range(res.B):
+        a_ok = res.alpha_deg[b] < 1.0
+        r_ok = res.ratio[b] >= 0.98 * r if crit == "f1" else np.abs(res.ratio[b] - r) / r < 0.02
+        usable = is_usable(res.status[b])
+        perr = float(res.pos_error[b][usable].max()) if usable.any() else float("nan")
+        name = os.path.basename(str(names[b])) if b < len(names) else f"path {b}"
+        lines.append(
+            f"{name[:24]:<24} {res.P:>4} {np.mean(res.status[b] == SOLVED):>7.0%} {np.mean(usable):>7.0%} "
+            f"{np.mean(a_ok):>7.0%} {np.mean(r_ok):>11.0%} {np.mean(a_ok & r_ok):>6.0%} {perr:>16.2e} "
+            f"{1e3 * np.median(res.time_s[b]):>12.1f}"
+        )
+    return "\n".join(lines)
+
+
+@command("shape", "shape the stiffness ellipsoid along TCP paths (seed 000): per-waypoint SLSQP -> .npz")
+def _add_shape(p: argparse.ArgumentParser):
+    from .shaping import DEFAULTS
+
+    p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
+    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)%(default).0s")
+    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)%(default).0s")
+    p.add_argument("--lock", action="append", metavar="JOINT=RAD",
+                   help="lock a joint at a value, rad (repeatable). Default for the shipped kuka_lwr4: "
+                        "lwr_a7=0 (seed 000); '--lock none' frees every joint%(default).0s")
+    p.add_argument("--tcp", default=None, metavar="X,Y,Z", help="tool offset after the tip link, m, in the tip frame (default: none)%(default).0s")
+    p.add_argument("--path", action="append", metavar="CSV",
+                   help="path file with header x,y,z[,dx,dy,dz], metres in the base frame (repeatable: several "
+                        "paths with the same number of waypoints, one result file). Default: the shipped "
+                        "default path (jaxstiff.paths.default_path)%(default).0s")
+    p.add_argument("--criterion", default="f2", help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
+    p.add_argument("--ratio", default="5", metavar="R", help="wanted axis ratio lambda1/lambda2, > 1")
+    p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)")
+    p.add_argument("--task", default="full", choices=["full", "xyz", "xy"],
+                   help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2")
+    p.add_argument("--q0", default=None, metavar="RAD,...",
+                   help="start posture, one value per joint (rad, locked joints at their values); "
+                        "default: damped-least-squares IK from the nominal posture to the first waypoint%(default).0s")
+    p.add_argument("--kj0", default=None, metavar="V|V,...",
+                   help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
+                        "(default: mid-range (kmin+kmax)/2)%(default).0s")
+    p.add_argument("--dq-deg", default=str(DEFAULTS["dq_deg"]), metavar="D",
+                   help="joint rate limit, degrees per waypoint (inf = none)")
+    p.add_argument("--dk", default=str(DEFAULTS["dk"]), metavar="K",
+                   help="joint-stiffness rate limit, Nm/rad per waypoint (inf = none)")
+    p.add_argument("--kmin", default=str(DEFAULTS["kmin"]), metavar="A", help="lowest joint stiffness, Nm/rad, > 0")
+    p.add_argument("--kmax", default=str(DEFAULTS["kmax"]), metavar="B", help="highest joint stiffness, Nm/rad, > kmin")
+    p.add_argument("--c", default=str(DEFAULTS["c"]), metavar="C", help="f1's offset c (S0-9), deg")
+    p.add_argument("--solver", default="slsqp",
+                   help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
+                        "or another registered solver (pgd, hybrid)")
+    p.add_argument("--starts", default=None, metavar="S", help="starts per waypoint, multi-start solvers only (default: the solver's own)%(default).0s")
+    p.add_argument("--first-rate-limit", dest="first_rate_limit", action="store_true",
+                   help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
+                        "first waypoint may use the full joint and stiffness ranges)%(default).0s")
+    p.add_argument("--no-first-rate-limit", dest="first_rate_limit", action="store_false",
+                   help="the default: do not rate-limit the first waypoint%(default).0s")
+    p.set_defaults(first_rate_limit=DEFAULTS["first_rate_limit"])
+    p.add_argument("--first-starts", default=str(DEFAULTS["first_starts"]), metavar="N",
+                   help="start postures for the first (not rate-limited) waypoint")
+    p.add_argument("--cms-volume", default=None, metavar="V",
+                   help="CMS target: product of the ellipsoid axes, (N/m)^3 (default: 1000^3, "
+                        "i.e. a geometric-mean axis of 1000 N/m)%(default).0s")
+    p.add_argument("--cms-major", default=None, metavar="N_PER_M", help="CMS target: major axis lambda1, N/m, instead of the volume%(default).0s")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary table")
+
+    def run(args) -> int:
+        import numpy as np
+
+        from ._x64 import enable_x64
+        from .paths import Path, default_path
+        from .robot import Robot, robot_path
+        from .shaping import shape
+
+        # ---- validate everything before any work, so bad input never leaves a file
+        out = os.path.abspath(args.out if args.out.endswith(".npz") else args.out + ".npz")
+        folder = os.path.dirname(out)
+        if not os.path.isdir(folder):
+            raise FileNotFoundError(f"--out: folder does not exist: {folder}")
+        if not os.access(folder, os.W_OK):
+            raise ValueError(f"--out: folder is not writable: {folder}")
+        ratio = _num(args.ratio, "--ratio")
+        dq_deg = _num(args.dq_deg, "--dq-deg")
+        dk = _num(args.dk, "--dk")
+        kmin, kmax = _num(args.kmin, "--kmin"), _num(args.kmax, "--kmax")
+        c = _num(args.c, "--c")
+        starts = _num(args.starts, "--starts", int)
+        first_starts = _num(args.first_starts, "--first-starts", int)
+        cms_volume, cms_major = _num(args.cms_volume, "--cms-volume"), _num(args.cms_major, "--cms-major")
+        if dq_deg is not None and (math.isnan(dq_deg) or dq_deg < 0):
+            raise ValueError(f"--dq-deg must be >= 0 (degrees per waypoint), got {args.dq_deg}")
+        if dk is not None and (math.isnan(dk) or dk < 0):
+            raise ValueError(f"--dk must be >= 0 (Nm/rad per waypoint), got {args.dk}")
+
+        if args.lock and [x.strip().lower() for x in args.lock] == ["none"]:
+            locks: dict[str, float] = {}
+        elif args.lock:
+            locks = parse_locks(args.lock)
+        else:  # the seed's lock for the shipped LWR, nothing for other robots
+            locks = {}
+            src = args.robot if os.path.isfile(args.robot) else robot_path(args.robot)
+            for name, lock in _DEFAULT_LOCK.items():
+                if os.path.samefile(src, robot_path(name)):
+                    locks = dict(lock)
+        tcp = _nums(args.tcp, "--tcp")
+        robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=locks or None, tcp=tcp)
+
+        if args.path:
+            paths = [Path.from_csv(f) for f in args.path]
+            Ps = sorted({pp.P for pp in paths})
+            if len(Ps) > 1:
+                raise ValueError(
+                    f"--path: all paths of one run need the same number of waypoints, got {Ps}; run them separately"
+                )
+            path = paths[0] if len(paths) == 1 else Path.stack(paths)
+            path_files = [os.path.abspath(f) for f in args.path]
+        else:
+            path = default_path()
+            path_files = ["(shipped default path)"]
+
+        q0 = _nums(args.q0, "--q0")
+        if q0 is not None and len(q0) != robot.n:
+            raise ValueError(f"--q0 needs {robot.n} values (one per joint of {robot.name!r}: {', '.join(robot.joint_names)}), got {len(q0)}")
+        kj0 = _nums(args.kj0, "--kj0")
+        if kj0 is not None and len(kj0) not in (1, robot.n):
+            raise ValueError(f"--kj0 needs 1 or {robot.n} values, got {len(kj0)}")
+        if kj0 is not None and len(kj0) == 1:
+            kj0 = kj0[0]
+
+        enable_x64()
+        B = path.B
+        progress = _Progress(B * path.P, enabled=not args.quiet)
+        res = shape(
+            robot, path, args.criterion, ratio, task=args.task, solver=args.solver, starts=starts,
+            q0=None if q0 is None else np.asarray(q0), kj0=kj0,
+            dq=math.radians(dq_deg), dk=dk, kmin=kmin, kmax=kmax, c=c,
+            first_rate_limit=args.first_rate_limit, first_starts=first_starts,
+            cms_volume=cms_volume, cms_major=cms_major, progress=progress,
+            meta_extra={"path_files": path_files, "cli": {k: v for k, v in vars(args).items() if not k.startswith("_")}},
+        )
+        written = res.save(out)
+        if not args.quiet:
+            print(summary_table(res))
+            print(f"wrote {written}  ({B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")
+        return 0
+
+    return run

@@ -1,0 +1,308 @@
+"""shape(): results verified from the result file alone with an independent FK (tests/helpers.numpy_fk),
+a finite-difference Jacobian and a numpy recomputation of K_T, alpha, rho, f1/f2 and CMS; derivatives of
+the waypoint problem against finite differences and against the numpy baseline; bad input; status codes."""
+
+import hashlib
+import json
+import math
+
+import jax
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff import paths
+from jaxstiff import results as R
+from jaxstiff.solvers.problem import WaypointProblem, compiled
+from helpers import assert_close, numpy_fk
+
+LOCK = {"lwr_a7": 0.0}
+
+
+def short_default(k=6):
+    """The first k waypoints of the shipped default path (its analytic directions)."""
+    p = jaxstiff.default_path()
+    return jaxstiff.Path(p.points[:k], p.directions[:k], name="default-head")
+
+
+# ----------------------------------------------------------------------------- independent checks
+def _vee(W):
+    return np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]) / 2
+
+
+def fd_geometric_jacobian(robot, q, h=1e-6):
+    """6 x n Jacobian from central differences of the numpy FK: v = dp/dq, w = vee(dR R^T)."""
+    J = np.zeros((6, robot.n))
+    R0 = numpy_fk(robot, q)[:3, :3]
+    for i in range(robot.n):
+        e = np.zeros(robot.n)
+        e[i] = h
+        Tp, Tm = numpy_fk(robot, q + e), numpy_fk(robot, q - e)
+        J[:3, i] = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+        J[3:, i] = _vee((Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ R0.T)
+    return J
+
+
+def numpy_KT(robot, q, kj, task):
+    J = fd_geometric_jacobian(robot, q)
+    rows = {"full": slice(0, 6), "xyz": slice(0, 3), "xy": slice(0, 2)}[task]
+    Js = J[rows]
+    K = np.linalg.inv(Js @ np.diag(1.0 / kj) @ Js.T)
+    return K[:3, :3] if task == "full" else K
+
+
+def alpha_rho(K, d):
+    w, V = np.linalg.eigh(K)
+    v1 = V[:, -1]
+    d = d[: K.shape[0]] / np.linalg.norm(d[: K.shape[0]])
+    sin = np.linalg.norm(np.cross(v1, d)) if len(d) == 3 else abs(v1[0] * d[1] - v1[1] * d[0])
+    return math.degrees(math.atan2(sin, abs(float(v1 @ d)))), w[-1] / w[-2]
+
+
+def verify_file(file, alpha_tol=1e-5):
+    """Everything a result file claims, re-checked from the file and the URDF alone. Returns the data."""
+    with np.load(file, allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    meta = json.loads(str(data["meta"]))
+    B, P, n = data["q"].shape
+    # the contract's keys and shapes (DESIGN.md)
+    for k, shp in {"joint_names": (n,), "kj": (B, P, n), "cms": (B, P), "target": (B, P, 3), "direction": (B, P, 3),
+                   "position": (B, P, 3), "alpha_deg": (B, P), "ratio": (B, P), "criterion": (B, P),
+                   "status": (B, P), "kj_scaled": (B, P, n)}.items():
+        assert data[k].shape == shp, k
+    rm = meta["robot"]
+    assert hashlib.sha256(open(rm["urdf"], "rb").read()).hexdigest() == rm["sha256"]
+    robot = jaxstiff.Robot.from_urdf(rm["urdf"], base_link=rm["base_link"], tip_link=rm["tip_link"],
+                                     locked=rm["locked"], tcp=np.asarray(rm["tcp"]))
+    assert list(data["joint_names"]) == list(robot.joint_names)
+    lim = meta["limits"]
+    dq, dk = np.asarray(lim["dq"]), np.asarray(lim["dk"])
+    kmin, kmax = lim["kmin"], lim["kmax"]
+    r, c, task, crit = meta["ratio"], meta["c"], meta["task"], meta["criterion"]
+    usable_codes = (0, 1, 2)
+    for b in range(B):
+        q_ref, k_ref, at_start = data["q0"][b], data["kj0"][b], True
+        for p in range(P):
+            q, kj, st = data["q"][b, p], data["kj"][b, p], int(data["status"][b, p])
+            # bounds: joint limits, stiffness range, locked joints -- exact within 1e-9
+            assert np.all(q >= robot.lower - 1e-9) and np.all(q <= robot.upper + 1e-9)
+            assert np.all(kj >= kmin - 1e-9) and np.all(kj <= kmax + 1e-9)
+            for name, v in rm["locked"].items():
+                assert q[list(robot.joint_names).index(name)] == v
+            # rate limits against the reference state (last usable waypoint, or the start state)
+            if lim["first_rate_limit"] or not at_start:
+                assert np.all(np.abs(q - q_ref) <= dq + 1e-9), (b, p)
+                assert np.all(np.abs(kj - k_ref) <= dk + 1e-9), (b, p)
+            pos = numpy_fk(robot, q)[:3, 3]
+            assert_close(data["position"][b, p], pos, atol=1e-12, what="reported position")
+            if st in usable_codes:
+                assert np.linalg.norm(pos - data["target"][b, p]) <= 1e-6, (b, p)
+                q_ref, k_ref, at_start = q, kj, False
+            K = numpy_KT(robot, q, kj, task)
+            a, rho = alpha_rho(K, data["direction"][b, p])
+            assert abs(a - data["alpha_deg"][b, p]) < alpha_tol + 1e-6 * a, (b, p, a, data["alpha_deg"][b, p])
+            assert abs(rho - data["ratio"][b, p]) < 1e-6 * rho
+            f = (a + c) / (min(rho, r) / r) if crit == "f1" else (1 + a) * (1 + abs(r - rho))
+            assert abs(f - data["criterion"][b, p]) < 1e-5 * f
+            # CMS: k^m det(K) = target volume (or k lambda1 = target major), kj_scaled = k kj
+            cm = meta["cms"]
+            w = np.linalg.eigvalsh(K)
+            k_ref_cms = cm["target_major"] / w[-1] if cm["target_major"] else (cm["target_volume"] / np.prod(w)) ** (1 / len(w))
+            assert abs(data["cms"][b, p] - k_ref_cms) < 1e-6 * k_ref_cms
+            assert_close(data["kj_scaled"][b, p], data["cms"][b, p] * kj, rtol=1e-14)
+    return data, meta, robot
+
+
+# ----------------------------------------------------------------------------- fixtures
+@pytest.fixture(scope="module")
+def lwr():
+    return jaxstiff.Robot.from_urdf("kuka_lwr4", locked=LOCK)
+
+
+@pytest.fixture(scope="module")
+def f2_file(lwr, tmp_path_factory):
+    res = jaxstiff.shape(lwr, short_default(6), "f2", 5.0, first_starts=3)
+    f = tmp_path_factory.mktemp("shape") / "f2.npz"
+    res.save(f)
+    return f, res
+
+
+# ----------------------------------------------------------------------------- tests
+def test_f2_result_verified_from_the_file_alone(f2_file):
+    data, meta, _ = verify_file(f2_file[0])
+    assert np.all(data["status"] == R.SOLVED)
+    # seed quality (Fig. 5): aligned with the tangent, exactly 5:1
+    assert np.all(data["alpha_deg"] < 1.0)
+    assert np.all(np.abs(data["ratio"] - 5.0) / 5.0 < 0.02)
+    assert meta["solver"] == "slsqp" and meta["criterion"] == "f2" and meta["task"] == "full"
+    assert meta["robot"]["locked"] == LOCK and meta["limits"]["first_rate_limit"] is False
+
+
+def test_meta_records_every_input_and_default(f2_file):
+    meta = f2_file[1].meta
+    for key in ("robot", "criterion", "ratio", "c", "task", "solver", "options", "limits", "q0_source", "kj0_source",
+                "cms", "path", "defaults", "versions", "status_codes", "first_starts", "pos_tol"):
+        assert key in meta, key
+    assert math.isclose(meta["limits"]["dq"][0], math.radians(2.0))
+    assert meta["limits"]["dk"] == [5.0] * 7 and meta["limits"]["kmin"] == 1.0 and meta["limits"]["kmax"] == 100.0
+    assert meta["robot"]["tcp"] == np.eye(4).tolist()
+    assert {"jax", "numpy", "scipy", "jaxstiff"} <= set(meta["versions"])
+
+
+def test_load_round_trip(f2_file):
+    f, res = f2_file
+    back = jaxstiff.ShapeResult.load(f)
+    for k, v in res.arrays().items():
+        np.testing.assert_array_equal(np.asarray(getattr(back, k)), np.asarray(v), err_msg=k)
+    assert back.meta["ratio"] == 5.0
+
+
+def test_rate_limits_bind_when_asked(lwr):
+    """first_rate_limit=True with a given start: every joint within dq of q0 at the first waypoint."""
+    path = short_default(3)
+    from jaxstiff.ik import ik_position
+
+    with jax.enable_x64(True):
+        q0, _ = ik_position(lwr, path.points[0])
+    res = jaxstiff.shape(lwr, path, "f2", 5.0, q0=q0, kj0=30.0, first_rate_limit=True, dq=math.radians(1.0), dk=2.0)
+    assert np.all(np.abs(res.q[0, 0] - q0) <= math.radians(1.0) + 1e-12)
+    assert np.all(np.abs(res.kj[0, 0] - 30.0) <= 2.0 + 1e-12)
+    assert np.all(np.abs(np.diff(res.kj[0], axis=0)) <= 2.0 + 1e-12)
+    assert np.all(R.is_usable(res.status))
+
+
+def test_f1_short_run_and_verification(lwr, tmp_path):
+    res = jaxstiff.shape(lwr, short_default(3), "f1", 5.0, first_starts=3)
+    res.save(tmp_path / "f1.npz")
+    data, meta, _ = verify_file(tmp_path / "f1.npz")
+    assert meta["criterion"] == "f1"
+    assert np.all(data["alpha_deg"] < 1.0) and np.all(data["ratio"] >= 4.9)
+
+
+def test_unreachable_waypoint_gets_status_and_the_run_goes_on(lwr, tmp_path):
+    pts = short_default(4).points.copy()
+    pts[2] = [2.0, 0.0, 0.3]  # 2 m away: outside the workspace
+    path = jaxstiff.Path(pts, np.tile([0.0, -1.0, 0.0], (4, 1)))
+    res = jaxstiff.shape(lwr, path, "f2", 5.0, first_starts=2, dq=math.radians(20), dk=20.0)
+    assert res.status[0, 2] == R.UNREACHABLE
+    assert R.is_usable(res.status[0, [0, 1, 3]]).all()
+    res.save(tmp_path / "u.npz")
+    verify_file(tmp_path / "u.npz")  # rate limits of waypoint 3 refer to waypoint 1
+    assert R.verify(res)["max_rate_violation"] <= 1e-9
+
+
+def test_slsqp_fd_baseline_agrees(lwr, f2_file, tmp_path):
+    """The seed's own method (numpy + finite differences) solves the same problem to the same quality."""
+    res_jax = f2_file[1]
+    path = short_default(3)
+    res = jaxstiff.shape(lwr, path, "f2", 5.0, solver="slsqp-fd", q0=res_jax.q[0, 0], kj0=res_jax.kj[0, 0],
+                         first_rate_limit=True)
+    res.save(tmp_path / "fd.npz")
+    data, meta, _ = verify_file(tmp_path / "fd.npz")
+    assert meta["solver"] == "slsqp-fd"
+    assert np.all(R.is_usable(data["status"]))
+    assert np.all(data["alpha_deg"] < 1.0) and np.all(np.abs(data["ratio"] - 5) < 0.1)
+
+
+def test_problem_derivatives_match_finite_differences_and_numpy(lwr):
+    """fused(): gradient vs central differences of the numpy objective of the baseline (an independent
+    numpy implementation), constraint Jacobian vs differences of the independent FK."""
+    from jaxstiff.solvers.slsqp_fd import numpy_objective
+
+    rng = np.random.default_rng(3)
+    for crit in (jaxstiff.f1, jaxstiff.f2):
+        prob = WaypointProblem(lwr, "full", crit)
+        obj_np = numpy_objective(prob)
+        with jax.enable_x64(True):
+            fused = compiled(prob)
+            for _ in range(3):
+                x = np.r_[rng.uniform(-1.5, 1.5, 6), rng.uniform(5, 90, 7)]
+                params = prob.params([0.6, 0.1, 0.3], rng.normal(size=3), 5.0, 0.01)
+                f, g, cval, A = prob.unpack(np.asarray(fused(x, params)))
+                assert math.isclose(f, obj_np(x, params), rel_tol=1e-9)
+                h = np.r_[np.full(6, 1e-6), np.full(7, 1e-5)]
+                g_fd = np.array([(obj_np(x + h[i] * np.eye(13)[i], params) - obj_np(x - h[i] * np.eye(13)[i], params)) / (2 * h[i])
+                                 for i in range(13)])
+                assert_close(g, g_fd, rtol=1e-5, atol=1e-6, what=f"{crit.__name__} gradient")
+                q = np.r_[x[:6], 0.0]
+                assert_close(cval, numpy_fk(lwr, q)[:3, 3] - params[:3], atol=1e-14)
+                A_fd = np.zeros((3, 13))
+                for i in range(6):
+                    e = np.zeros(7)
+                    e[i] = 1e-6
+                    A_fd[:, i] = (numpy_fk(lwr, q + e)[:3, 3] - numpy_fk(lwr, q - e)[:3, 3]) / 2e-6
+                assert_close(A, A_fd, atol=1e-9, what="constraint Jacobian")
+
+
+def test_no_recompilation_across_waypoints_and_runs(lwr):
+    prob = WaypointProblem(lwr, "full", jaxstiff.f2)
+    with jax.enable_x64(True):
+        fn = compiled(prob)
+        jaxstiff.shape(lwr, short_default(3), "f2", 5.0, first_starts=1)
+        n1 = fn._cache_size()
+        jaxstiff.shape(lwr, short_default(4), "f2", 4.0, first_starts=1)
+        assert fn._cache_size() == n1 == 1
+    assert compiled(WaypointProblem(jaxstiff.Robot.from_urdf("kuka_lwr4", locked=LOCK), "full", jaxstiff.f2)) is fn
+
+
+def test_objective_finite_at_singular_posture(lwr):
+    """q = 0: the LWR stands straight up (singular). Values and gradients stay finite."""
+    prob = WaypointProblem(lwr, "full", jaxstiff.f2)
+    with jax.enable_x64(True):
+        out = np.asarray(compiled(prob)(np.r_[np.zeros(6), np.full(7, 50.0)], prob.params(np.zeros(3), [1, 0, 0], 5, 0.01)))
+    assert np.all(np.isfinite(out))
+
+
+def test_planar_task_xy(tmp_path):
+    """Planar 3R, task xy: the 2x2 ellipse, position matched in x and y."""
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    path = paths.arc([0.0, 0.0, 0.0], 1.5, 20.0, 40.0, n=4)  # at 2 m the limits allow 22 deg at best
+    res = jaxstiff.shape(robot, path, "f2", 3.0, task="xy", first_starts=4, dq=math.radians(10), dk=20.0)
+    res.save(tmp_path / "xy.npz")
+    data, meta, _ = verify_file(tmp_path / "xy.npz")
+    assert meta["task"] == "xy" and np.all(R.is_usable(data["status"]))
+    assert np.all(data["alpha_deg"] < 1.0) and np.all(np.abs(data["ratio"] - 3) < 0.06)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(ratio=1.0), "ratio must be > 1"),
+        (dict(ratio=float("nan")), "ratio must be > 1"),
+        (dict(kmin=0.0), "0 < kmin < kmax"),
+        (dict(kmin=50.0, kmax=50.0), "0 < kmin < kmax"),
+        (dict(dq=-0.1), r"dq .* must be >= 0"),
+        (dict(dk=-1.0), r"dk .* must be >= 0"),
+        (dict(q0=np.zeros(3)), "q0 must have 7 values"),
+        (dict(q0=np.r_[np.zeros(6), 0.0] + [3.5, 0, 0, 0, 0, 0, 0]), r"q0\[0\] = 3.5 .* 'lwr_a1' is outside"),
+        (dict(q0=np.r_[np.full(6, 0.3), 0.2]), "locked at 0"),
+        (dict(kj0=500.0), r"kj0\[0\] = 500 .* outside"),
+        (dict(solver="nope"), "unknown solver 'nope'"),
+        (dict(criterion="f9"), "unknown criterion"),
+        (dict(task="xz"), "unknown task"),
+        (dict(starts=4), "single-start"),
+        (dict(cms_volume=-1.0), "cms_volume must be > 0"),
+        (dict(first_starts=0), "first_starts must be >= 1"),
+    ],
+)
+def test_bad_input_is_a_clear_value_error(lwr, kwargs, match):
+    kw = dict(criterion="f2", ratio=5.0)
+    kw.update(kwargs)
+    crit, ratio = kw.pop("criterion"), kw.pop("ratio")
+    with pytest.raises(ValueError, match=match):
+        jaxstiff.shape(lwr, short_default(2), crit, ratio, **kw)
+
+
+def test_verify_can_fail(f2_file):
+    """The library's own verifier flags a tampered result (bounds, rates, reported values)."""
+    res = f2_file[1]
+    import dataclasses
+
+    q = res.q.copy()
+    q[0, 3, 1] += 0.2  # breaks the rate limit and the position
+    bad = dataclasses.replace(res, q=q)
+    v = R.verify(bad)
+    assert v["max_rate_violation"] > 0.1 and v["max_pos_error"] > 1e-3 and v["max_position_mismatch"] > 1e-3
+    good = R.verify(res)
+    assert good["max_rate_violation"] <= 1e-9 and good["max_pos_error"] <= 1e-9 and good["max_bound_violation"] <= 1e-9
+    assert good["max_alpha_mismatch"] < 1e-6 and good["max_criterion_mismatch"] < 1e-8
