@@ -5,3 +5,4 @@ Each module that adds a subcommand is imported here; the core library never impo
 from . import _cli_csc  # noqa: F401  (jaxstiff csc)
 from . import _cli_sweep  # noqa: F401
 from . import _cli_reproduce  # noqa: F401
+from . import _cli_shape  # noqa: F401  (jaxstiff shape)
