@@ -1,0 +1,253 @@
+"""CSC on the KUKA LWR 4 along the shipped default path, and CSC compared with the shaping solver.
+
+Setup: ``urdf/kuka_lwr4.urdf`` with the 7th joint (flange rotation) locked at 0, as seed 000 does:
+for a TCP on the A7 axis that joint does not move the TCP, so 6 free joints and task "xyz" (3
+position rows) leave 3 redundant degrees of freedom. Path: the shipped default path
+(:func:`jaxstiff.paths.default_path`, a half-sine S-curve in the plane z = 0.35 m, 60 waypoints about
+1 cm apart), refined to 10 CSC steps per segment (591 steps; the original waypoints are every 10th).
+Desired stiffness along the path (K_xd varying, (T, 3, 3)): 3000 N/m along the path tangent, 1000 N/m
+across it and vertically, ``K_xd = R_t diag(3000, 1000, 1000) R_t^T``. Start posture: damped
+least-squares IK (:func:`jaxstiff.ik.ik_position`) of the first waypoint from a bent-elbow guess
+(-30, 30, 0, 90, 0, -30, 0) deg. Adaptive step (S1-22), beta = 0 (tracking only), 2, 5, 10, 20 in one
+batched call, one Newton correction per step. The minimum of u lies beyond the LWR's joint limits
+(without avoidance, beta >= 5 spends most steps with a joint clamped at its limit and the TCP leaves
+the path by millimetres), so joint-limit avoidance is on by default: ``joint_limits="sum"``,
+``jl_gain=0.3`` (``--joint-limits off`` shows the other case).
+
+Comparison with the shaping solver (issue item 5): ``jaxstiff.shape`` (seed 000, SLSQP per waypoint)
+on the 60 original waypoints with criterion f2, ratio r = 3 (K_xd's ratio), task "xyz", the same
+start posture, its default rate limits (2 deg, 5 Nm/rad per waypoint) and stiffness range 1-100 Nm/rad.
+The two methods realise different sizes (CSC: kj = diag(J^T K_xd J), thousands of Nm/rad; shaping:
+1-100 Nm/rad, then CMS), so they are compared on shape and orientation: the angle alpha between the
+realised major axis and the tangent, the axis ratio rho, and the scale-free Frobenius error
+``min_k |K_xd - k K_C|_F / |K_xd|_F`` (k chosen optimally: the CMS factor that fits best).
+
+Outputs (``--out``, default ``out/csc_lwr_path``): ``u_frobenius.png``, ``ellipses_top.png`` (xy
+block of the stiffness, desired vs realised, along the path), ``joints.png`` (self-motion),
+``csc_vs_shape.png``, ``summary.json``.
+
+Usage:
+    python experiments/csc_lwr_path.py [--out DIR] [--substeps 10] [--no-shape]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default="out/csc_lwr_path", help="output folder")
+    ap.add_argument("--substeps", type=int, default=10, help="CSC steps per path segment")
+    ap.add_argument("--joint-limits", default="sum", choices=["off", "priority", "sum"], help="joint-limit avoidance")
+    ap.add_argument("--jl-gain", type=float, default=0.3, help="joint-limit avoidance gain")
+    ap.add_argument("--no-shape", action="store_true", help="skip the comparison with jaxstiff.shape")
+    args = ap.parse_args(argv)
+
+    from jaxstiff._x64 import enable_x64
+
+    enable_x64()
+    import jax
+    import jax.numpy as jnp
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import jaxstiff
+    from jaxstiff.ik import ik_position
+    from jaxstiff.paths import default_path
+    from csc_planar3r_hold import ellipse_points
+
+    os.makedirs(args.out, exist_ok=True)
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    base = default_path()
+    W = np.asarray(base.points, dtype=float)  # (60, 3)
+    tang_w = np.asarray(base.directions, dtype=float)
+    S = args.substeps
+    t = np.linspace(0.0, 1.0, S + 1)[1:]
+    pts = np.vstack([W[:1]] + [W[j] + t[:, None] * (W[j + 1] - W[j]) for j in range(len(W) - 1)])  # (1 + 59 S, 3)
+    T = len(pts)
+    wp_index = np.arange(0, T, S)  # rows of the original waypoints
+    # tangents of the refined path: the waypoint tangents, interpolated along each segment
+    tang = np.vstack([tang_w[:1]] + [tang_w[j] + t[:, None] * (tang_w[j + 1] - tang_w[j]) for j in range(len(W) - 1)])
+    tang /= np.linalg.norm(tang, axis=1, keepdims=True)
+
+    def kxd_along(tangents):
+        Ks = []
+        for d in tangents:
+            e1 = np.array([d[0], d[1], 0.0]) / np.linalg.norm(d[:2])
+            e2 = np.array([-e1[1], e1[0], 0.0])
+            Rt = np.stack([e1, e2, [0.0, 0.0, 1.0]], axis=1)
+            Ks.append(Rt @ np.diag([3000.0, 1000.0, 1000.0]) @ Rt.T)
+        return np.stack(Ks)
+
+    K = kxd_along(tang)  # (T, 3, 3)
+    # IK from a bent-elbow guess: the nominal start of jaxstiff.ik ends with A2 at its +120 deg limit here
+    q0, ik_err = ik_position(robot, W[0], q_start=np.deg2rad([-30.0, 30.0, 0.0, 90.0, 0.0, -30.0, 0.0]))
+    assert ik_err < 1e-9, ik_err
+    betas = np.array([0.0, 2.0, 5.0, 10.0, 20.0])
+
+    t0 = time.perf_counter()
+    res = jax.tree_util.tree_map(np.asarray, jaxstiff.csc_rollout(robot, pts, K, q0, betas, step="adaptive", newton=1,
+                                                                     joint_limits=args.joint_limits, jl_gain=args.jl_gain))
+    t_first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    jax.block_until_ready(jaxstiff.csc_rollout(robot, pts, K, q0, betas, step="adaptive", newton=1,
+                                               joint_limits=args.joint_limits, jl_gain=args.jl_gain).q)
+    t_csc = time.perf_counter() - t0
+
+    def shape_metrics(KC, Kd, d):
+        """alpha (deg, major axis vs d), rho = l1/l2, scale-free Frobenius min_k |Kd - k KC| / |Kd|."""
+        w, V = np.linalg.eigh(KC)
+        v1 = V[..., :, -1]
+        cosang = np.abs(np.sum(v1 * d, -1)) / np.linalg.norm(d, axis=-1)
+        alpha = np.degrees(np.arccos(np.clip(cosang, 0, 1)))
+        rho = w[..., -1] / w[..., -2]
+        k = np.sum(Kd * KC, axis=(-2, -1)) / np.sum(KC * KC, axis=(-2, -1))
+        rel = np.linalg.norm(Kd - k[..., None, None] * KC, axis=(-2, -1)) / np.linalg.norm(Kd, axis=(-2, -1))
+        return alpha, rho, rel
+
+    u = np.hstack([res.u_start[:, None], res.u])
+    fr = np.hstack([res.frobenius_start[:, None], res.frobenius])
+    csc_alpha, csc_rho, csc_rel = shape_metrics(res.K_C, K[None], tang[None])
+    best = int(np.argmin(csc_rel.mean(axis=1)))
+
+    # ---------------------------------------------------------------- figure: u and Frobenius
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
+    for b, beta in enumerate(betas):
+        lab = "beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}"
+        ax[0].plot(np.arange(T + 1), u[b], label=lab)
+        ax[1].plot(np.arange(T + 1), fr[b], label=lab)
+    ax[0].set(xlabel="time step k (about 1 mm of path per step)", ylabel="u(q) [Nm/rad]", title="off-diagonal joint stiffness u (S1-19)")
+    ax[1].set(xlabel="time step k (about 1 mm of path per step)", ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title="Frobenius error of the realised stiffness")
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    fig.suptitle("KUKA LWR 4 (A7 locked), default path, K_xd = 3000 N/m along the tangent, 1000 across; adaptive CSC")
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "u_frobenius.png"), dpi=120)
+    plt.close(fig)
+
+    # ---------------------------------------------------------------- figure: ellipses, top view
+    fig, ax = plt.subplots(1, 2, figsize=(9, 7.5), constrained_layout=True)
+    scale = 1.5e-5  # m of drawing per N/m
+    for a, b in zip(ax, (0, best)):
+        a.plot(pts[:, 0], pts[:, 1], "r-", lw=1.5)
+        for k in wp_index[::6]:
+            e_d = pts[k, :2] + scale * ellipse_points(K[k, :2, :2])
+            e_c = pts[k, :2] + scale * ellipse_points(res.K_C[b, k, :2, :2])
+            a.plot(e_d[:, 0], e_d[:, 1], "k--", lw=1)
+            a.plot(e_c[:, 0], e_c[:, 1], color="C3", lw=1.2)
+        a.set_aspect("equal")
+        a.grid(alpha=0.3)
+        a.set(xlabel="x [m]", ylabel="y [m]")
+        a.set_title(("beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC")
+                    + f"\nmean scale-free error {csc_rel[b].mean():.3f}, mean alpha {csc_alpha[b].mean():.1f} deg", fontsize=10)
+    handles = [plt.Line2D([], [], color="r"), plt.Line2D([], [], color="k", ls="--"), plt.Line2D([], [], color="C3")]
+    fig.legend(handles, ["TCP path (z = 0.35 m)", r"desired $K_{xd}$, xy block (1 cm of drawing = %.0f N/m)" % (0.01 / scale),
+                         r"realised $K_C$, xy block"], loc="lower center", ncol=3)
+    fig.get_layout_engine().set(rect=(0, 0.07, 1, 0.93))
+    fig.suptitle("LWR stiffness in the path plane: {K u : |u| = 1} of the 2x2 xy block, every 6th waypoint")
+    fig.savefig(os.path.join(args.out, "ellipses_top.png"), dpi=120)
+    plt.close(fig)
+
+    # ---------------------------------------------------------------- figure: joints (self-motion)
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
+    for a, b in zip(ax, (0, best)):
+        qs = np.vstack([q0, res.q[b]])
+        for i in range(6):
+            a.plot(np.arange(T + 1), np.rad2deg(qs[:, i]), label=robot.joint_names[i])
+        a.set(xlabel="time step k", title="beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC")
+        a.grid(alpha=0.3)
+    ax[0].set_ylabel("joint angle [deg] (A7 locked at 0)")
+    ax[1].legend(fontsize=8, ncol=2)
+    fig.suptitle(f"LWR joint angles along the path; max tracking error {res.tracking_error[best].max():.1e} m (one Newton correction per step)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "joints.png"), dpi=120)
+    plt.close(fig)
+
+    summary = {
+        "setup": {"robot": "kuka_lwr4, lwr_a7 locked at 0", "task": "xyz", "path": "default_path() refined x%d" % S,
+                  "steps": T, "K_xd": "R_t diag(3000, 1000, 1000) R_t^T along the tangent", "q0_deg": np.rad2deg(q0).tolist(),
+                  "step": "adaptive", "newton": 1, "joint_limits": args.joint_limits, "jl_gain": args.jl_gain},
+        "csc": {f"{beta:g}": {
+            "u_start": float(u[b, 0]), "u_end": float(u[b, -1]), "u_mean": float(u[b].mean()),
+            "frobenius_mean": float(fr[b, 1:].mean()), "scale_free_error_mean": float(csc_rel[b].mean()),
+            "alpha_mean_deg": float(csc_alpha[b].mean()), "rho_mean": float(csc_rho[b].mean()),
+            "max_tracking_error_m": float(res.tracking_error[b].max()),
+            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True))},
+        } for b, beta in enumerate(betas)},
+        "csc_time_5_rollouts_s": round(t_csc, 4),
+        "csc_time_first_call_incl_compile_s": round(t_first, 3),
+    }
+    print(f"{'beta':>5} {'u start':>9} {'u end':>9} {'|dK|_F mean':>12} {'scale-free err':>15} {'alpha [deg]':>12} {'rho':>6} {'track err [m]':>14}")
+    for b, beta in enumerate(betas):
+        v = summary["csc"][f"{beta:g}"]
+        print(f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['frobenius_mean']:12.1f} {v['scale_free_error_mean']:15.3f} "
+              f"{v['alpha_mean_deg']:12.2f} {v['rho_mean']:6.2f} {v['max_tracking_error_m']:14.2e}")
+    print(f"CSC: 5 rollouts x {T} steps in {t_csc:.3f} s after compilation")
+
+    # ---------------------------------------------------------------- CSC vs the shaping solver
+    if not args.no_shape and hasattr(jaxstiff, "shape"):
+        t0 = time.perf_counter()
+        sres = jaxstiff.shape(robot, base, criterion="f2", ratio=3.0, task="xyz", q0=q0)
+        t_shape = time.perf_counter() - t0
+        qs = jnp.asarray(sres.q[0])
+        J = jaxstiff.jacobian(robot, qs)
+        KT = np.asarray(jaxstiff.translational_stiffness(J, jnp.asarray(sres.kj[0]), task="xyz"))
+        s_alpha, s_rho, s_rel = shape_metrics(KT, K[wp_index], tang_w)
+        c_alpha, c_rho, c_rel = csc_alpha[best, wp_index], csc_rho[best, wp_index], csc_rel[best, wp_index]
+        z_alpha, z_rho, z_rel = csc_alpha[0, wp_index], csc_rho[0, wp_index], csc_rel[0, wp_index]
+        usable = np.isin(sres.status[0], (0, 1, 2))
+        summary["comparison_at_the_60_waypoints"] = {
+            "shape_f2_r3": {"alpha_mean_deg": float(s_alpha.mean()), "rho_mean": float(s_rho.mean()),
+                            "scale_free_error_mean": float(s_rel.mean()), "time_s": round(t_shape, 2),
+                            "usable_waypoints": int(usable.sum()), "max_position_error_m": float(np.max(sres.pos_error[0]))},
+            f"csc_beta_{betas[best]:g}": {"alpha_mean_deg": float(c_alpha.mean()), "rho_mean": float(c_rho.mean()),
+                                          "scale_free_error_mean": float(c_rel.mean()), "time_s_5_rollouts": round(t_csc, 4)},
+            "csc_beta_0": {"alpha_mean_deg": float(z_alpha.mean()), "rho_mean": float(z_rho.mean()),
+                           "scale_free_error_mean": float(z_rel.mean())},
+        }
+        fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
+        x = np.arange(len(wp_index))
+        for a, (vals, lab) in zip(ax, [((z_alpha, c_alpha, s_alpha), "alpha: major axis vs tangent [deg]"),
+                                       ((z_rho, c_rho, s_rho), r"axis ratio $\rho = \lambda_1/\lambda_2$ (wanted 3)"),
+                                       ((z_rel, c_rel, s_rel), r"scale-free error $\min_k \|K_{xd} - k K\|_F / \|K_{xd}\|_F$")]):
+            a.plot(x, vals[0], color="grey", label="CSC, beta = 0 (tracking only)")
+            a.plot(x, vals[1], color="C0", label=f"CSC, beta = {betas[best]:g}")
+            a.plot(x, vals[2], color="C2", label="shape: f2, r = 3 (SLSQP per waypoint)")
+            a.set(xlabel="waypoint p", title=lab)
+            a.grid(alpha=0.3)
+        ax[1].axhline(3.0, color="k", ls=":", lw=1)
+        ax[0].legend(fontsize=8)
+        fig.suptitle(f"Same path and K_xd: CSC ({t_csc:.2f} s for 5 rollouts) vs shaping solver ({t_shape:.1f} s)")
+        fig.tight_layout()
+        fig.savefig(os.path.join(args.out, "csc_vs_shape.png"), dpi=120)
+        plt.close(fig)
+        cmp = summary["comparison_at_the_60_waypoints"]
+        print("\nCSC vs the shaping solver at the 60 waypoints (scale-free: sizes differ by design)")
+        print(f"{'method':>28} {'alpha mean [deg]':>17} {'rho mean':>9} {'scale-free err':>15} {'time [s]':>9}")
+        for name, v in cmp.items():
+            tt = v.get("time_s", v.get("time_s_5_rollouts", float("nan")))
+            print(f"{name:>28} {v['alpha_mean_deg']:17.2f} {v['rho_mean']:9.2f} {v['scale_free_error_mean']:15.3f} {tt:9.3f}")
+        closer = "shape" if s_rel.mean() < c_rel.mean() else "CSC"
+        summary["closer_to_K_xd"] = closer
+        print(f"closer to K_xd (scale-free error): {closer}")
+    else:
+        summary["comparison_at_the_60_waypoints"] = "skipped"
+
+    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
+        json.dump(summary, f, indent=2)
+    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    print(f"figures and summary.json in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
