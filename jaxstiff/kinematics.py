@@ -5,7 +5,11 @@ its own array of the batch shape (structure of arrays), and the robot's constant
 as Python floats: multiplications by structural zeros and ones (axis-aligned joint axes, identity
 origin rotations) are dropped while tracing, so XLA receives only the arithmetic the chain needs
 and fuses it into a few elementwise loops over the batch. That is what makes the kernel fast on a
-CPU, and it keeps the caller's dtype (float32 stays float32, float64 stays float64).
+CPU, and it keeps the caller's dtype (float32 stays float32, float64 stays float64). For CPU
+batches the joint cosines and sines come from :func:`cos_sin`, one shared range reduction and two
+polynomials of plain multiply/add (within 2 ulp of libm): XLA vectorises and fuses them, where its
+own float64 sin/cos are scalar calls that loop fusion evaluates several times over; that halves
+the time of FK + Jacobian at batch 10^5.
 
 The Jacobian is the analytic geometric one, not autodiff of FK: for revolute joint i with world
 axis ``z_i`` through the point ``p_i``, column i is ``[z_i x (p_tcp - p_i); z_i]``; for a
@@ -109,15 +113,92 @@ def _axis_rotation(axis, c: jax.Array, s: jax.Array):
     return R
 
 
+# ---------------------------------------------------------------- sine and cosine
+# pi/2 = P1 + P2 + P3 (Cody and Waite's split). P1 and P2 keep only the leading 33 (float64) or
+# 12 (float32) bits of their part, so k * P1 and k * P2 are exact for |k| < 2^20 (float64) or
+# 2^12 (float32), i.e. |x| < 1.6e6 rad or 6.4e3 rad; beyond that the reduced argument loses
+# about ulp(x), the conditioning of sin itself there. Values derived with mpmath at 60 digits.
+_PI_HALF = {
+    8: (float.fromhex("0x1.921fb544p+0"), float.fromhex("0x1.0b4611a6p-34"), float.fromhex("0x1.3198a2e037073p-69")),
+    4: (float.fromhex("0x1.92p+0"), float.fromhex("0x1.fb4p-12"), float.fromhex("0x1.4442d2p-24")),
+}
+# Taylor coefficients (-1)^i / (2i+1)! and (-1)^i / (2i)!, enough terms that the first one left
+# out is below 1e-19 (float64) or 1e-9 (float32) on |r| <= pi/4.
+_SIN_TERMS = {8: 9, 4: 5}  # through r^17 / r^9
+_COS_TERMS = {8: 9, 4: 6}  # through r^16 / r^10
+
+
+def _sincos_poly(x: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """(cos x, sin x) from one shared range reduction and two polynomials of plain mul/add."""
+    if x.dtype.itemsize < 4:  # float16/bfloat16: compute in float32
+        c, s = _sincos_poly(x.astype(jnp.float32))
+        return c.astype(x.dtype), s.astype(x.dtype)
+    size = 8 if x.dtype.itemsize >= 8 else 4
+    p1, p2, p3 = _PI_HALF[size]
+    k = jnp.round(x * (2.0 / math.pi))  # nearest multiple of pi/2
+    r = ((x - k * p1) - k * p2) - k * p3  # |r| <= pi/4 (+ rounding)
+    r2 = r * r
+    ps = (-1.0) ** (_SIN_TERMS[size] - 1) / math.factorial(2 * _SIN_TERMS[size] - 1)
+    for i in reversed(range(_SIN_TERMS[size] - 1)):
+        ps = ps * r2 + (-1.0) ** i / math.factorial(2 * i + 1)
+    pc = (-1.0) ** (_COS_TERMS[size] - 1) / math.factorial(2 * _COS_TERMS[size] - 2)
+    for i in reversed(range(_COS_TERMS[size] - 1)):
+        pc = pc * r2 + (-1.0) ** i / math.factorial(2 * i)
+    sin_r, cos_r = r * ps, pc
+    quadrant = k - 4.0 * jnp.floor(k * 0.25)  # k mod 4 in {0, 1, 2, 3}, exact in floating point
+    odd = (quadrant == 1.0) | (quadrant == 3.0)
+    sin_x = jnp.where(odd, cos_r, sin_r)
+    cos_x = jnp.where(odd, sin_r, cos_r)
+    sin_x = jnp.where(quadrant >= 2.0, -sin_x, sin_x)
+    cos_x = jnp.where((quadrant == 1.0) | (quadrant == 2.0), -cos_x, cos_x)
+    return cos_x, sin_x
+
+
+@jax.custom_jvp
+def cos_sin(x: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """``(cos x, sin x)`` elementwise, to within 1-2 ulp of libm, in the dtype of ``x``.
+
+    XLA's CPU sine/cosine are scalar calls in float64 that its loop fusion recomputes in several
+    fusions of the kinematics kernel; this version shares one range reduction between both and
+    is plain multiply/add, which XLA vectorises and fuses (2x faster FK + Jacobian on the CPU).
+    Its derivative is the exact ``(-sin x, cos x)``.
+
+    Args:
+        x: angles (rad), any shape, floating dtype.
+
+    Returns:
+        ``(cos x, sin x)``, each of the shape and dtype of ``x``.
+    """
+    return _sincos_poly(x)
+
+
+@cos_sin.defjvp
+def _cos_sin_jvp(primals, tangents):
+    (x,), (dx,) = primals, tangents
+    c, s = cos_sin(x)
+    return (c, s), (-s * dx, c * dx)
+
+
+# Below this many configurations per call, XLA's own sin/cos is faster on the CPU: there the
+# polynomial, duplicated by loop fusion into every output entry, is not amortised over a batch.
+_POLY_MIN_BATCH = 64
+
+
+def _joint_cos_sin(q: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """cos/sin of all joint values: :func:`cos_sin` for CPU batches, else XLA's sin and cos."""
+    batch = q.size // max(q.shape[-1], 1)
+    if jax.default_backend() == "cpu" and batch >= _POLY_MIN_BATCH:
+        return cos_sin(q)
+    return jnp.cos(q), jnp.sin(q)
+
+
 # ---------------------------------------------------------------- the kernel
 def _chain(robot: Robot, q: jax.Array, want_jacobian: bool):
     """Walk the chain. Returns (R_tcp 3x3, p_tcp 3, [(kind, z_i, p_i)]) as scalar entries."""
     R = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     p = [0.0, 0.0, 0.0]
     frames = []
-    # sin/cos once for all joints, materialised: without the barrier XLA's loop fusion copies
-    # the (costly, in float64) transcendental into every output entry that depends on it.
-    cos_q, sin_q = jax.lax.optimization_barrier((jnp.cos(q), jnp.sin(q)))
+    cos_q, sin_q = _joint_cos_sin(q)
     for i in range(robot.n):
         org = robot.origins[i]
         R0 = [list(org[r][:3]) for r in range(3)]
