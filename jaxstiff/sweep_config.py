@@ -28,6 +28,7 @@ Layout of a config (every table but ``[robot]`` and ``[[paths]]`` is optional)::
     file = "my_path.csv"
 
     [[paths]]                 # a generator of jaxstiff.paths; a list or range = one path per value
+                              # (several lists: every combination, or pairwise with zip = true)
     generator = "arc"
     center = [0.5, 0.0, 0.35]
     radius = [0.08, 0.12]
@@ -43,14 +44,14 @@ Layout of a config (every table but ``[robot]`` and ``[[paths]]`` is optional)::
     [solver_options]          # passed to the solver (SLSQP: maxiter, ftol, kj_scale, f_scale)
 
     [report]
-    heatmaps = [["ratio", "dq_deg"]]   # axis pairs of the heat maps (default: every varying numeric pair)
+    heatmaps = [["ratio", "dq_deg"]]   # axis pairs of the heat maps (default: up to 6 pairs of varying axes)
 
 Ranges: ``{start, stop, num}`` is ``numpy.linspace(start, stop, num)``; ``{start, stop, step}``
 runs from start by step up to stop inclusive (within 1e-9 of a step).
 
-Axes of kind ``"shape"`` (see :data:`AXES`): criterion, ratio, c, dq_deg, dk, kmin, kmax, task,
-solver, starts, first_rate_limit, q0, q0_seed. Axes of kind ``"csc"``: beta, step, kxd_major,
-kxd_ratio, kxd_angle_deg, task, kmin, kmax, newton, joint_limits, jl_gain, q0, q0_seed.
+Axes of kind ``"shape"`` (see :data:`AXES`): criterion, task, solver, starts, ratio, c, dq_deg, dk,
+kmin, kmax, first_rate_limit, first_starts, q0, q0_seed. Axes of kind ``"csc"``: task, step, kmin, kmax,
+newton, joint_limits, jl_gain, beta, kxd_major, kxd_ratio, kxd_angle_deg, q0, q0_seed.
 
 q0 family (both kinds): ``"ik"`` (damped least-squares IK from the nominal posture to the path's
 first waypoint, shape's own default), ``"nominal"`` (the nominal posture itself), ``"random"``
@@ -198,6 +199,7 @@ AXES: dict[str, dict[str, AxisSpec]] = {
             AxisSpec("kmin", "float", 1.0, unit="Nm/rad", check=_gt(0.0), doc="lower stiffness bound"),
             AxisSpec("kmax", "float", 100.0, unit="Nm/rad", check=_gt(0.0), doc="upper stiffness bound"),
             AxisSpec("first_rate_limit", "bool", False, doc="apply the rate limits between (q0, kj0) and waypoint 0"),
+            AxisSpec("first_starts", "int", 8, check=_ge(1), doc="IK start postures tried at the first waypoint (no rate limit)"),
             _q0_spec(),
             _q0_seed_spec(),
         )
@@ -697,7 +699,10 @@ class _Parser:
                 raise self.err(f"{key}.generator", f"unknown generator {gen!r}{_suggest(str(gen), GENERATORS)}; choose one of {', '.join(GENERATORS)}")
             ptypes = GENERATORS[gen]
             fn = _generator_fns()[gen]
-            self.known_keys(tbl, ("generator", "name") + tuple(ptypes), key, f" for generator {gen!r}")
+            self.known_keys(tbl, ("generator", "name", "zip") + tuple(ptypes), key, f" for generator {gen!r}")
+            zipped = tbl.get("zip", False)
+            if not isinstance(zipped, bool):
+                raise self.err(f"{key}.zip", f"expected true or false, got {_typename(zipped)} {zipped!r}")
             sig = inspect.signature(fn)
             for pname, par in sig.parameters.items():
                 if par.default is inspect.Parameter.empty and pname not in tbl:
@@ -707,7 +712,15 @@ class _Parser:
                 if pname in tbl:
                     options[pname] = self.gen_values(tbl[pname], ptype, f"{key}.{pname}")
             varying = [k for k, v in options.items() if len(v) > 1]
-            for combo in itertools.product(*options.values()):
+            if zipped:
+                lengths = {k: len(options[k]) for k in varying}
+                if len(set(lengths.values())) > 1:
+                    raise self.err(f"{key}.zip", f"zip = true pairs the list-valued parameters, which need equal lengths; got {lengths}")
+                n_paths = max(lengths.values(), default=1)
+                combos = [tuple(v[i] if len(v) > 1 else v[0] for v in options.values()) for i in range(n_paths)]
+            else:
+                combos = list(itertools.product(*options.values()))
+            for combo in combos:
                 kw = dict(zip(options, combo))
                 try:
                     p = fn(**kw)
@@ -879,6 +892,7 @@ class _Parser:
         tbl = self.table(cfg.get("report", {}), "report")
         self.known_keys(tbl, _REPORT_KEYS, "report")
         numeric = [k for k, s in AXES[kind].items() if s.type in ("float", "int") and len(axes[k]) > 1]
+        others = [k for k, s in AXES[kind].items() if s.type not in ("float", "int") and len(axes[k]) > 1]
         if "heatmaps" in tbl:
             hm = tbl["heatmaps"]
             if not isinstance(hm, list) or not all(isinstance(p, list) and len(p) == 2 for p in hm):
@@ -894,7 +908,9 @@ class _Parser:
                     raise self.err(f"report.heatmaps[{i}]", f"the two axes must differ, got {a!r} twice")
                 pairs.append((a, b))
         else:
-            pairs = list(itertools.combinations(numeric, 2))[:6]
+            # numeric pairs first, then numeric x categorical, then categorical pairs; at most 6
+            pairs = (list(itertools.combinations(numeric, 2)) + [(a, b) for a in numeric for b in others]
+                     + list(itertools.combinations(others, 2)))[:6]
         allowed = list(METRICS[kind])
         metrics = tbl.get("metrics", list(METRICS[kind])[:2])
         if not isinstance(metrics, list) or not metrics:

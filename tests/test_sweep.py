@@ -278,14 +278,14 @@ def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
     chunks = out / "chunks"
     deadline = time.time() + 240
     while time.time() < deadline and proc.poll() is None:
-        if chunks.is_dir() and len([f for f in os.listdir(chunks) if f.endswith(".json")]) >= 2:
+        if chunks.is_dir() and len([f for f in os.listdir(chunks) if f.startswith("chunk-")]) >= 2:
             break
         time.sleep(0.05)
     assert proc.poll() is None, "the sweep ended before it could be killed: " + proc.stderr.read().decode()[-2000:]
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
     proc.stderr.close()
-    done_before = sorted(f for f in os.listdir(chunks) if f.endswith(".json"))
+    done_before = sorted(f for f in os.listdir(chunks) if f.startswith("chunk-"))
     assert 2 <= len(done_before) < 4
     before = _files_state(chunks)
     res = run_sweep(csc_cfg, out, resume=True, progress=False)
@@ -294,6 +294,7 @@ def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
     assert sorted(res.computed) == sorted(set(range(4)) - set(ids_before))  # no finished chunk recomputed
     after = _files_state(chunks)
     assert all(after[f] == before[f] for f in done_before)
+    assert not any(f.startswith(".tmp-") for f in after)
     _frame_equal(res.table(), csc_run.table())
 
 

@@ -165,6 +165,21 @@ def test_generator_lists_make_one_path_per_value():
     assert [t.name for t in plan.trajectories] == ["arc(radius=1.5)", "arc(radius=2)"]
 
 
+def test_zip_pairs_generator_lists():
+    cfg = base()
+    cfg["paths"] = [{"generator": "line", "start": [[1.5, 0.0, 0.0], [1.6, 0.0, 0.0]], "end": [[1.5, 0.1, 0.0], [1.6, 0.1, 0.0]],
+                     "n": 3, "zip": True}]
+    plan = parse_config(cfg)
+    assert len(plan.trajectories) == 2
+    for t, x in zip(plan.trajectories, (1.5, 1.6)):
+        np.testing.assert_allclose(t.points, P.line([x, 0.0, 0.0], [x, 0.1, 0.0], n=3).points, atol=1e-15)
+    cfg["paths"][0]["zip"] = False
+    assert len(parse_config(cfg).trajectories) == 4  # every combination
+    cfg["paths"][0].update(zip=True, end=[[1.5, 0.1, 0.0]] * 3)
+    with pytest.raises(SweepConfigError, match=r"paths\[0\].zip: .*equal lengths"):
+        parse_config(cfg)
+
+
 def test_step_range_is_inclusive():
     plan = parse_config(_set(base(), "axes.ratio", {"start": 2.0, "stop": 3.0, "step": 0.25}))
     assert plan.axes["ratio"] == [2.0, 2.25, 2.5, 2.75, 3.0]
@@ -213,6 +228,7 @@ def test_defaults_match_shape_defaults():
     assert ax["kmin"].default == DEFAULTS["kmin"] and ax["kmax"].default == DEFAULTS["kmax"]
     assert ax["c"].default == DEFAULTS["c"]
     assert ax["first_rate_limit"].default == DEFAULTS["first_rate_limit"]
+    assert ax["first_starts"].default == DEFAULTS["first_starts"]
 
 
 @pytest.mark.parametrize("task,angle", [("xy", 30.0), ("xy", -75.0), ("xyz", 30.0), ("xyz", 120.0)])
