@@ -1,0 +1,205 @@
+"""Tune CSC's beta and the start posture q0 (on its self-motion manifold) by gradient descent.
+
+The rollout is differentiable (``jax.grad`` through the whole ``lax.scan``), so the settings of CSC
+can be tuned for a task. Setup: the planar 4R arm and line of ``csc_planar4r_line.py`` (start posture
+q_ref = (90, -60, -60, -50) deg, a 1 m line in 500 steps, K_xd = R(30 deg) diag(3000, 1000) R^T N/m),
+adaptive step.
+
+Parameters: ``beta = exp(b)`` (kept positive) and ``theta`` (2,), the start posture on its
+self-motion manifold ``q0(theta) = project_to_target(q_ref + N theta, x_0)``: N an orthonormal basis
+of the null space of J(q_ref), followed by 6 Newton steps back onto the start point
+(:func:`jaxstiff.csc.project_to_target`, differentiable), so the TCP always starts on the line.
+
+Loss (dimensionless): the mean relative Frobenius error of the realised stiffness along the path,
+``mean_k |K_xd - K_C(q_k)|_F / |K_xd|_F``, plus ``mean_k |x_d - x(q_k)| / 1 mm`` (so a large beta that
+breaks the tracking does not pay off). Optimiser: Adam (written out here; step 0.05 with a cosine
+decay, 120 iterations; the best iterate is kept).
+
+Check of the optimum without gradients: batched rollouts (one vmap each) over a 21 x 21 grid of
+theta at the tuned beta, and over 48 values of beta at the tuned theta.
+
+Outputs (``--out``, default ``out/csc_tune``): ``tuning.png`` (loss and beta over the iterations,
+loss over beta), ``theta_landscape.png`` (loss over theta with the descent path), ``before_after.png``
+(u and the Frobenius error along the path before and after tuning), ``summary.json``.
+
+Usage:
+    python experiments/csc_tune.py [--out DIR] [--iters 120] [--steps 500]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default="out/csc_tune", help="output folder")
+    ap.add_argument("--iters", type=int, default=120, help="Adam iterations")
+    ap.add_argument("--steps", type=int, default=500, help="rollout steps")
+    ap.add_argument("--lr", type=float, default=0.05, help="Adam step size")
+    args = ap.parse_args(argv)
+
+    from jaxstiff._x64 import enable_x64
+
+    enable_x64()
+    import jax
+    import jax.numpy as jnp
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    import jaxstiff
+    from jaxstiff.csc import project_to_target
+
+    os.makedirs(args.out, exist_ok=True)
+    robot = jaxstiff.Robot.from_urdf("planar_4r")
+    q_ref = np.deg2rad([90.0, -60.0, -60.0, -50.0])
+    x0 = np.asarray(robot.fk(q_ref))[:2, 3]
+    T = args.steps
+    path = jnp.asarray(x0 + np.linspace(0.0, 1.0, T + 1)[1:, None] * np.array([-0.6, 0.8]))
+    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
+    R = np.array([[c, -s], [s, c]])
+    K = jnp.asarray(R @ np.diag([3000.0, 1000.0]) @ R.T)
+    Knorm = float(jnp.linalg.norm(K))
+    J_ref = np.asarray(robot.jacobian(q_ref))[:2]
+    N = np.linalg.svd(J_ref)[2][2:].T  # (4, 2) orthonormal null-space basis at q_ref
+    N = jnp.asarray(N)
+
+    def start(theta):
+        return project_to_target(robot, q_ref + theta @ N.T, x0, task="xy")
+
+    def rollout(params):
+        b, theta = params
+        return jaxstiff.csc_rollout(robot, path, K, start(theta), jnp.exp(b), step="adaptive")
+
+    def loss_of(r):
+        return jnp.mean(r.frobenius, axis=-1) / Knorm + jnp.mean(r.tracking_error, axis=-1) / 1e-3
+
+    def loss(params):
+        return loss_of(rollout(params))
+
+    value_and_grad = jax.jit(jax.value_and_grad(loss))
+    params = (jnp.asarray(math.log(1.0)), jnp.zeros(2))  # beta = 1, q0 = q_ref
+    m = jax.tree_util.tree_map(jnp.zeros_like, params)
+    v = jax.tree_util.tree_map(jnp.zeros_like, params)
+    hist = []
+    t0 = time.perf_counter()
+    best = (np.inf, params)
+    for it in range(1, args.iters + 1):
+        val, g = value_and_grad(params)
+        hist.append((float(val), float(jnp.exp(params[0])), np.asarray(params[1]).tolist()))
+        if float(val) < best[0]:
+            best = (float(val), params)
+        lr = args.lr * 0.5 * (1.0 + math.cos(math.pi * (it - 1) / args.iters))  # cosine decay
+        m = jax.tree_util.tree_map(lambda a, b: 0.9 * a + 0.1 * b, m, g)
+        v = jax.tree_util.tree_map(lambda a, b: 0.999 * a + 0.001 * b * b, v, g)
+        params = jax.tree_util.tree_map(
+            lambda p, a, b: p - lr * (a / (1 - 0.9**it)) / (jnp.sqrt(b / (1 - 0.999**it)) + 1e-8), params, m, v)
+    t_opt = time.perf_counter() - t0
+    final = float(loss(params))
+    hist.append((final, float(jnp.exp(params[0])), np.asarray(params[1]).tolist()))
+    if best[0] < final:  # keep the best iterate
+        final, params = best
+    beta_opt, theta_opt = float(jnp.exp(params[0])), np.asarray(params[1])
+
+    # ---------------------------------------------------------------- checks by batched grids
+    batched_loss = jax.jit(lambda bs, th: loss_of(jaxstiff.csc_rollout(robot, path, K, start(th), bs, step="adaptive")))
+    TT = np.array([h[2] for h in hist])
+    lo, hi = TT.min(axis=0) - 0.4, TT.max(axis=0) + 0.4  # a grid that covers the descent path
+    g1, g2 = np.linspace(lo[0], hi[0], 21), np.linspace(lo[1], hi[1], 21)
+    TH = np.stack(np.meshgrid(g1, g2, indexing="ij"), -1).reshape(-1, 2)
+    t0 = time.perf_counter()
+    grid_theta = np.asarray(batched_loss(jnp.full(len(TH), beta_opt), jnp.asarray(TH))).reshape(21, 21)
+    t_grid = time.perf_counter() - t0
+    betas = np.geomspace(0.1, 30.0, 48)
+    grid_beta = np.asarray(batched_loss(jnp.asarray(betas), jnp.broadcast_to(jnp.asarray(theta_opt), (48, 2))))
+    # the same rollout (batched) before and after
+    before = jax.tree_util.tree_map(np.asarray, rollout((jnp.asarray(0.0), jnp.zeros(2))))
+    after = jax.tree_util.tree_map(np.asarray, rollout(params))
+
+    L = np.array([h[0] for h in hist])
+    B = np.array([h[1] for h in hist])
+
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.3))
+    ax[0].plot(L)
+    ax[0].set(xlabel="Adam iteration", ylabel="loss (dimensionless)", title="loss over the iterations")
+    ax[1].semilogy(B)
+    ax[1].set(xlabel="Adam iteration", ylabel="beta", title="beta over the iterations")
+    ax[2].semilogx(betas, grid_beta, label="batched rollouts (48 betas, one vmap)")
+    ax[2].axvline(beta_opt, color="C3", ls="--", label=f"gradient descent: beta = {beta_opt:.2f}")
+    ax[2].set(xlabel="beta", ylabel="loss", title="loss over beta at the tuned start posture")
+    ax[2].legend(fontsize=8)
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.suptitle("Tuning CSC by gradient descent through a 500-step rollout (planar 4R, line)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "tuning.png"), dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(7, 6))
+    cs = ax.contourf(g1, g2, grid_theta.T, levels=30, cmap="viridis")
+    fig.colorbar(cs, ax=ax, label="loss at the tuned beta")
+    ax.plot(TT[:, 0], TT[:, 1], "w.-", ms=3, lw=1, label="Adam path (beta changing)")
+    ax.plot(TT[0, 0], TT[0, 1], "wo", ms=7, label="start: q0 = q_ref")
+    ax.plot(theta_opt[0], theta_opt[1], "r*", ms=14, label="tuned")
+    ax.set(xlabel=r"$\theta_1$ [rad] (null-space coordinate)", ylabel=r"$\theta_2$ [rad]",
+           title="loss over the start posture's self-motion manifold\n(21 x 21 batched rollouts)")
+    ax.legend(loc="lower left", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "theta_landscape.png"), dpi=120)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.3))
+    kk = np.arange(T + 1)
+    for r, lab in ((before, "before: beta = 1, q0 = q_ref"), (after, f"after: beta = {beta_opt:.2f}, tuned q0")):
+        ax[0].plot(kk, np.r_[r.u_start, r.u], label=lab)
+        ax[1].plot(kk, np.r_[r.frobenius_start, r.frobenius], label=lab)
+    ax[0].set(xlabel="time step k", ylabel="u(q) [Nm/rad]", title="off-diagonal joint stiffness u")
+    ax[1].set(xlabel="time step k", ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title="Frobenius error of the realised stiffness")
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "before_after.png"), dpi=120)
+    plt.close(fig)
+
+    i_best = int(np.argmin(grid_theta))
+    summary = {
+        "setup": {"robot": "planar_4r", "q_ref_deg": np.rad2deg(q_ref).tolist(), "steps": T, "K_xd": np.asarray(K).tolist(),
+                  "loss": "mean |K_xd - K_C|_F / |K_xd|_F + mean tracking error / 1 mm", "optimiser": f"Adam lr {args.lr}, {args.iters} iterations"},
+        "loss_start": float(L[0]),
+        "loss_tuned": final,
+        "beta_tuned": beta_opt,
+        "theta_tuned_rad": theta_opt.tolist(),
+        "q0_tuned_deg": np.rad2deg(np.asarray(start(jnp.asarray(theta_opt)))).tolist(),
+        "grid_theta_best_loss": float(grid_theta.ravel()[i_best]),
+        "grid_theta_best": TH[i_best].tolist(),
+        "grid_beta_best_loss": float(grid_beta.min()),
+        "grid_beta_best": float(betas[int(np.argmin(grid_beta))]),
+        "frobenius_mean_before": float(before.frobenius.mean()),
+        "frobenius_mean_after": float(after.frobenius.mean()),
+        "max_tracking_error_after_m": float(after.tracking_error.max()),
+        "time_optimisation_s_incl_compile": round(t_opt, 2),
+        "time_441_rollouts_s_incl_compile": round(t_grid, 2),
+    }
+    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
+        json.dump(summary, f, indent=2)
+    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    print(f"loss {L[0]:.4f} -> {final:.4f}; beta 1 -> {beta_opt:.3f}; theta (0, 0) -> ({theta_opt[0]:.3f}, {theta_opt[1]:.3f}) rad")
+    print(f"grid check: best over 21x21 theta at the tuned beta {summary['grid_theta_best_loss']:.4f} at {TH[i_best].round(3).tolist()}; "
+          f"best over 48 betas at the tuned theta {summary['grid_beta_best_loss']:.4f} at beta {summary['grid_beta_best']:.3f}")
+    print(f"mean |K_xd - K_C|_F: {summary['frobenius_mean_before']:.1f} -> {summary['frobenius_mean_after']:.1f} N/m; "
+          f"max tracking error after: {summary['max_tracking_error_after_m']:.1e} m")
+    print(f"{args.iters} Adam iterations in {t_opt:.1f} s (incl. compilation); figures and summary.json in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
