@@ -73,9 +73,9 @@ def _add_robot(p: argparse.ArgumentParser):
         print(robot.describe())
         print(f"\nposture q (deg): {np.round(np.rad2deg(q), 4).tolist()}")
         print("\nT_base_tcp (m):")
-        print(np.asarray(T))
+        print(np.asarray(T) + 0.0)  # + 0.0 turns -0.0 into 0.0
         print("\nJ_base (rows vx vy vz [m/s per rad/s], wx wy wz [rad/s per rad/s]):")
-        print(np.asarray(J))
+        print(np.asarray(J) + 0.0)
         return 0
 
     return run
