@@ -223,9 +223,9 @@ def test_large_batches_match_numpy_and_autodiff(dtype):
     q_used = np.asarray(q, dtype=float)
     assert_close(T, numpy_fk_batch(robot, q_used), rtol=0, atol=tol, what="FK vs numpy")
     if dtype == jnp.float64:  # d T / d q_i for the whole batch, by forward-mode autodiff of fk
+        tangent = jax.jit(lambda x, e: jax.jvp(lambda y: jaxstiff.fk(robot, y), (x,), (e,))[1])
         for i in range(robot.n):
-            e = jnp.zeros_like(q).at[..., i].set(1.0)
-            _, dT = jax.jvp(lambda x: jaxstiff.fk(robot, x), (q,), (e,))
+            dT = tangent(q, jnp.zeros_like(q).at[..., i].set(1.0))
             dT, Tn = np.asarray(dT), np.asarray(T)
             w = np.einsum("...ij,...kj->...ik", dT[..., :3, :3], Tn[..., :3, :3])
             J_ref = np.concatenate([dT[..., :3, 3], np.stack([w[..., 2, 1], w[..., 0, 2], w[..., 1, 0]], -1)], -1)
@@ -462,7 +462,7 @@ def _fk_from_parameters(joints, q):
     return T
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(joints=random_chains(), seed=st.integers(0, 2**31 - 1))
 def test_random_chains_match_numpy_fk_and_finite_differences(joints, seed):
     with tempfile.TemporaryDirectory() as tmp:
