@@ -26,7 +26,9 @@ Defaults the seed does not give (each one is also written into ``result.meta``):
 * CMS target: a geometric-mean axis of 1000 N/m, i.e. ``target_volume = 1000**m`` (N/m)^m (m = 3,
   or 2 for task "xy"), so the scaled ellipsoids are comparable along the path (seed Fig. 4e, 5e).
 * task ``"full"``: K_T is the top-left 3x3 block of the 6x6 Cartesian stiffness (S0-6, S0-7).
-* solver ``"slsqp"``: SLSQP per waypoint with JAX derivatives, ``maxiter`` 200, ``ftol`` 1e-10.
+* solver ``"slsqp"``: SLSQP per waypoint with JAX derivatives, ``maxiter`` 200 (1000 for the first,
+  not rate-limited waypoint), ``ftol`` 1e-8, stiffness scaled by 1/100 and the criterion by 0.1
+  inside SLSQP (:data:`jaxstiff.solvers.slsqp.DEFAULT_OPTIONS`).
 
 Solvers are registered in :data:`SOLVERS` (name -> function); add one with :func:`register_solver`.
 
@@ -159,7 +161,7 @@ def _greedy_solver(kind: str):
             per_path.append(
                 greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits,
                             req.ratio, req.c, solver, pos_tol=req.pos_tol, progress=prog,
-                            first_starts=req.first_starts[b], **extra)
+                            first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
             )
         out = _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
         out["compile_s"] = float(getattr(solver, "compile_s", 0.0))

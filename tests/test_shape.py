@@ -130,7 +130,7 @@ def f2_file(lwr, tmp_path_factory):
 # ----------------------------------------------------------------------------- tests
 def test_f2_result_verified_from_the_file_alone(f2_file):
     data, meta, _ = verify_file(f2_file[0])
-    assert np.all(data["status"] == R.SOLVED)
+    assert np.all(R.is_usable(data["status"])) and np.sum(data["status"] == R.SOLVED) >= 5
     # seed quality (Fig. 5): aligned with the tangent, exactly 5:1
     assert np.all(data["alpha_deg"] < 1.0)
     assert np.all(np.abs(data["ratio"] - 5.0) / 5.0 < 0.02)

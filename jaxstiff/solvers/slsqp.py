@@ -39,8 +39,12 @@ from .problem import (
 __all__ = ["WaypointOutcome", "SolverOutput", "greedy_path", "make_slsqp_solver", "solve_path", "DEFAULT_OPTIONS"]
 
 #: SLSQP settings used unless overridden (``shape(..., options=...)``): ``maxiter`` iterations per
-#: waypoint, ``ftol`` SLSQP's accuracy goal (objective change and constraint violation).
-DEFAULT_OPTIONS = {"maxiter": 200, "ftol": 1e-10, "kj_scale": 100.0, "f_scale": 1.0}
+#: waypoint (``first_maxiter`` for a first waypoint that is not rate-limited: a long way from the
+#: start posture), ``ftol`` SLSQP's accuracy goal (objective change and constraint violation;
+#: 1e-8 gives alpha to ~1e-6 deg on the default path), and the scaling SLSQP sees: stiffness in
+#: units of ``kj_scale`` Nm/rad (so q in rad and kj are both of order 1: 2.5x as many first
+#: waypoints aligned as unscaled), the criterion times ``f_scale`` (fewer line-search steps).
+DEFAULT_OPTIONS = {"maxiter": 200, "first_maxiter": 1000, "ftol": 1e-8, "kj_scale": 100.0, "f_scale": 0.1}
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
 
@@ -69,11 +73,12 @@ class WaypointOutcome:
     time_s: float
 
 
-WaypointSolver = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], SolverOutput]
+#: ``solver(x0, lb, ub, params, maxiter=None) -> SolverOutput``
+WaypointSolver = Callable[..., SolverOutput]
 
 
 def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> WaypointSolver:
-    """A per-waypoint SLSQP solver ``(x0, lb, ub, params) -> SolverOutput`` with JAX derivatives."""
+    """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX derivatives."""
     from scipy.optimize import Bounds, minimize
 
     opts = {**DEFAULT_OPTIONS, **(options or {})}
@@ -92,7 +97,7 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
     scale = np.r_[np.ones(problem.n_free), np.full(problem.n, float(opts["kj_scale"]))]
     fscale = float(opts["f_scale"])
 
-    def solve(x0, lb, ub, params) -> SolverOutput:
+    def solve(x0, lb, ub, params, maxiter=None) -> SolverOutput:
         cache_y = np.full(nx, np.nan)
         cache = [None]
         count = [0]
@@ -115,7 +120,7 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
         }
         res = minimize(
             fun, x0 / scale, jac=True, bounds=Bounds(lb / scale, ub / scale), constraints=[cons], method="SLSQP",
-            options={"maxiter": int(opts["maxiter"]), "ftol": float(opts["ftol"])},
+            options={"maxiter": int(maxiter or opts["maxiter"]), "ftol": float(opts["ftol"])},
         )
         x = np.asarray(res.x, float) * scale
         return SolverOutput(x, int(res.status), int(res.status) == 0, int(res.nit), count[0])
@@ -189,6 +194,7 @@ def greedy_path(
     pos_tol: float = POS_TOL,
     progress: Callable[[int], None] | None = None,
     first_starts: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    first_maxiter: int | None = None,
 ) -> list[WaypointOutcome]:
     """Solve the waypoints of one path one after the other (seed 000's greedy scheme).
 
@@ -213,6 +219,8 @@ def greedy_path(
             not rate-limited: the solver runs from the reference state and from each of these,
             and the usable answer with the lowest criterion is kept (a multi-start against the
             non-convexity of the first, unconstrained waypoint).
+        first_maxiter: iteration limit for that first, not rate-limited waypoint (None: the
+            solver's default).
 
     Returns:
         One :class:`WaypointOutcome` per waypoint.
@@ -241,7 +249,7 @@ def greedy_path(
         nit = nfev = 0
         for xs in starts:
             try:
-                sol = solver(xs.copy(), lb, ub, params)
+                sol = solver(xs.copy(), lb, ub, params, maxiter=None if rate else first_maxiter)
             except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
                 sol = SolverOutput(xs.copy(), -1, False, 0, 0)
             nit, nfev = nit + sol.nit, nfev + sol.nfev
@@ -267,6 +275,8 @@ def greedy_path(
 
 def solve_path(problem, targets, directions, q0, kj0, limits, ratio, c, options=None, progress=None):
     """Greedy SLSQP with JAX derivatives along one path; see :func:`greedy_path`."""
+    solver = make_slsqp_solver(problem, options)
     return greedy_path(
-        problem, targets, directions, q0, kj0, limits, ratio, c, make_slsqp_solver(problem, options), progress=progress
+        problem, targets, directions, q0, kj0, limits, ratio, c, solver, progress=progress,
+        first_maxiter=solver.options["first_maxiter"],
     )

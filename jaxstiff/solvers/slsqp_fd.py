@@ -129,7 +129,12 @@ def numpy_pos_and_jac(problem: WaypointProblem):
 
 
 def make_fd_solver(problem: WaypointProblem, options: dict | None = None):
-    """Per-waypoint SLSQP ``(x0, lb, ub, params) -> SolverOutput`` with finite-difference derivatives."""
+    """Per-waypoint SLSQP ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, finite differences.
+
+    Same options and the same variable/objective scaling as the JAX solver
+    (:data:`jaxstiff.solvers.slsqp.DEFAULT_OPTIONS`), so the two differ only in where the
+    derivatives come from.
+    """
     from scipy.optimize import Bounds, minimize
 
     opts = {**DEFAULT_OPTIONS, **(options or {})}
@@ -137,21 +142,24 @@ def make_fd_solver(problem: WaypointProblem, options: dict | None = None):
     chain = NumpyChain(problem.robot)
     q_of, _ = _split(problem)
     rows = list(problem.pos_rows)
+    scale = np.r_[np.ones(problem.n_free), np.full(problem.n, float(opts["kj_scale"]))]
+    fscale = float(opts["f_scale"])
 
-    def solve(x0, lb, ub, params) -> SolverOutput:
+    def solve(x0, lb, ub, params, maxiter=None) -> SolverOutput:
         count = [0]
 
-        def fun(x):
+        def fun(y):
             count[0] += 1
-            return objective(x, params)
+            return objective(y * scale, params) * fscale
 
-        def con(x):
-            return chain.position(q_of(x))[rows] - params[0:3][rows]
+        def con(y):
+            return chain.position(q_of(y * scale))[rows] - params[0:3][rows]
 
         res = minimize(
-            fun, x0, bounds=Bounds(lb, ub), constraints=[{"type": "eq", "fun": con}], method="SLSQP",
-            options={"maxiter": int(opts["maxiter"]), "ftol": float(opts["ftol"])},
+            fun, x0 / scale, bounds=Bounds(lb / scale, ub / scale), constraints=[{"type": "eq", "fun": con}],
+            method="SLSQP", options={"maxiter": int(maxiter or opts["maxiter"]), "ftol": float(opts["ftol"])},
         )
-        return SolverOutput(np.asarray(res.x, float), int(res.status), int(res.status) == 0, int(res.nit), count[0])
+        return SolverOutput(np.asarray(res.x, float) * scale, int(res.status), int(res.status) == 0, int(res.nit), count[0])
 
+    solve.options = opts  # type: ignore[attr-defined]
     return solve

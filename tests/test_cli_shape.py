@@ -1,0 +1,126 @@
+"""`jaxstiff shape`: a small run end to end (file verified with the independent numpy FK), --help with
+units, every bad input of the acceptance list -> one-line error, exit 2, no output file; Ctrl-C -> no file."""
+
+import os
+
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff import results as R
+from jaxstiff.cli import main
+from helpers import numpy_fk
+
+
+@pytest.fixture
+def small_csv(tmp_path):
+    p = jaxstiff.default_path()
+    path = jaxstiff.Path(p.points[:3], p.directions[:3])
+    f = tmp_path / "small.csv"
+    path.to_csv(f)
+    return f
+
+
+def test_small_run_end_to_end(tmp_path, small_csv, capsys):
+    out = tmp_path / "res.npz"
+    rc = main(["shape", "--path", str(small_csv), "--out", str(out), "--first-starts", "2"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    assert "a<1deg" in cap.out and "wrote" in cap.out  # the summary table
+    assert "3/3 waypoints" in cap.err  # the progress bar
+    res = jaxstiff.ShapeResult.load(out)
+    assert res.q.shape == (1, 3, 7) and res.meta["robot"]["locked"] == {"lwr_a7": 0.0}
+    assert res.meta["path_files"] == [str(small_csv)]
+    robot = jaxstiff.Robot.from_urdf(res.meta["robot"]["urdf"], locked=res.meta["robot"]["locked"])
+    for p in range(3):
+        assert np.linalg.norm(numpy_fk(robot, res.q[0, p])[:3, 3] - res.target[0, p]) < 1e-9
+    v = R.verify(res)
+    assert v["max_rate_violation"] <= 1e-9 and v["max_bound_violation"] <= 1e-9
+    assert [f for f in os.listdir(tmp_path) if f.startswith(".tmp")] == []
+
+
+def test_two_paths_one_file_and_options(tmp_path, small_csv, capsys):
+    p2 = tmp_path / "shifted.csv"
+    base = jaxstiff.Path.from_csv(small_csv)
+    jaxstiff.Path(base.points + [0.0, 0.0, 0.02], base.directions).to_csv(p2)
+    out = tmp_path / "two.npz"
+    rc = main(["shape", "--path", str(small_csv), "--path", str(p2), "--out", str(out), "--quiet",
+               "--criterion", "f2", "--ratio", "4", "--dq-deg", "3", "--dk", "8", "--kmin", "2", "--kmax", "90",
+               "--kj0", "40", "--first-starts", "1"])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    assert cap.out == "" and cap.err == ""  # --quiet
+    res = jaxstiff.ShapeResult.load(out)
+    assert res.B == 2 and res.meta["ratio"] == 4.0
+    assert np.allclose(res.meta["limits"]["dq"], np.radians(3.0)) and res.meta["limits"]["kmin"] == 2.0
+    assert np.all(res.kj0 == 40.0) and np.all(res.kj >= 2.0) and np.all(res.kj <= 90.0)
+
+
+def test_help_has_units(capsys):
+    with pytest.raises(SystemExit):
+        main(["shape", "--help"])
+    text = capsys.readouterr().out
+    for needle in ("degrees per waypoint", "Nm/rad per waypoint", "metres", "--lock", "--first-rate-limit", "rad"):
+        assert needle in text, needle
+
+
+def _bad(tmp_path, name, text):
+    f = tmp_path / name
+    f.write_text(text)
+    return str(f)
+
+
+@pytest.mark.parametrize(
+    "args, match",
+    [
+        (lambda t: ["--path", str(t / "missing.csv")], "not found"),
+        (lambda t: ["--path", _bad(t, "h.csv", "a,b\n1,2\n3,4\n")], "header must be"),
+        (lambda t: ["--path", _bad(t, "n.csv", "x,y,z\n0.6,0.2,0.3\n0.6,nan,0.3\n")], "not finite"),
+        (lambda t: ["--path", _bad(t, "one.csv", "x,y,z\n0.6,0.2,0.3\n")], "at least 2 waypoints"),
+        (lambda t: ["--path", _bad(t, "z.csv", "x,y,z\n0.6,0.2,0.3\n0.6,0.2,0.3\n0.6,0.1,0.3\n")], "zero-length segment"),
+        (lambda t: ["--ratio", "1"], "ratio must be > 1"),
+        (lambda t: ["--ratio", "abc"], "--ratio: expected a number"),
+        (lambda t: ["--kmin", "0"], "0 < kmin < kmax"),
+        (lambda t: ["--kmin", "60", "--kmax", "50"], "0 < kmin < kmax"),
+        (lambda t: ["--dq-deg", "-1"], "--dq-deg must be >= 0"),
+        (lambda t: ["--dk", "-2"], "--dk must be >= 0"),
+        (lambda t: ["--lock", "elbow=0"], "unknown joint 'elbow'"),
+        (lambda t: ["--lock", "lwr_a7"], "JOINT=RAD"),
+        (lambda t: ["--q0", "0.1,0.2,0.3"], "--q0 needs 7 values"),
+        (lambda t: ["--q0", "3.5,0,0,0,0,0,0"], "outside its limits"),
+        (lambda t: ["--kj0", "500"], "outside"),
+        (lambda t: ["--solver", "magic"], "unknown solver"),
+        (lambda t: ["--out", str(t / "no" / "dir" / "x.npz")], "folder does not exist"),
+    ],
+)
+def test_bad_input_one_line_exit_2_no_file(tmp_path, capsys, args, match):
+    out = tmp_path / "out.npz"
+    argv = ["shape", "--out", str(out), "--quiet"] + args(tmp_path)
+    if "--out" in argv[3:]:
+        argv = ["shape", "--quiet"] + args(tmp_path)
+    rc = main(argv)
+    err = capsys.readouterr().err
+    assert rc == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("jaxstiff: error:"), err
+    assert match in lines[0], lines[0]
+    assert not out.exists()
+    assert [f for f in os.listdir(tmp_path) if f.endswith(".npz") or f.startswith(".tmp")] == []
+
+
+def test_ctrl_c_leaves_no_file(tmp_path, small_csv, capsys, monkeypatch):
+    import jaxstiff.shaping as shaping
+
+    real = shaping.SOLVERS["slsqp"]
+
+    def interrupted(req):
+        req.progress(0, 0)
+        raise KeyboardInterrupt
+
+    monkeypatch.setitem(shaping.SOLVERS, "slsqp", interrupted)
+    out = tmp_path / "res.npz"
+    rc = main(["shape", "--path", str(small_csv), "--out", str(out), "--quiet"])
+    assert rc == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert sorted(os.listdir(tmp_path)) == ["small.csv"]
+    assert shaping.SOLVERS["slsqp"] is not real

@@ -1,0 +1,139 @@
+"""ShapeResult files: contract keys and shapes, no pickles, atomic writes, load errors, status helpers,
+summary numbers against hand counts, reference states of the rate limits."""
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff import results as R
+
+
+def make_result(B=2, P=4, n=3, status=None, first_rate_limit=False):
+    rng = np.random.default_rng(0)
+    st = np.zeros((B, P), dtype=np.int64) if status is None else np.asarray(status)
+    return R.ShapeResult(
+        joint_names=np.array([f"j{i}" for i in range(n)]),
+        q=rng.normal(size=(B, P, n)),
+        kj=rng.uniform(1, 100, (B, P, n)),
+        cms=np.ones((B, P)),
+        kj_scaled=rng.uniform(1, 100, (B, P, n)),
+        target=rng.normal(size=(B, P, 3)),
+        direction=np.tile([1.0, 0, 0], (B, P, 1)),
+        position=rng.normal(size=(B, P, 3)),
+        pos_error=np.full((B, P), 1e-12),
+        alpha_deg=np.array([[0.5, 2.0, 0.1, 0.9], [3.0, 0.2, 0.3, 0.4]])[:B, :P],
+        ratio=np.array([[5.0, 5.05, 4.8, 5.2], [5.0, 4.95, 5.11, 5.0]])[:B, :P],
+        criterion=np.ones((B, P)),
+        status=st,
+        q0=np.zeros((B, n)),
+        kj0=np.full((B, n), 50.0),
+        solver_code=np.zeros((B, P), dtype=np.int64),
+        nit=np.full((B, P), 10),
+        nfev=np.full((B, P), 20),
+        time_s=np.array([[0.01, 0.02, 0.03, 0.04], [0.05, 0.06, 0.07, 0.08]])[:B, :P],
+        meta={"ratio": 5.0, "criterion": "f2", "limits": {"first_rate_limit": first_rate_limit}, "note": "ü"},
+    )
+
+
+def test_save_load_round_trip_without_pickles(tmp_path):
+    res = make_result()
+    f = res.save(tmp_path / "r.npz")
+    with np.load(f, allow_pickle=False) as z:
+        keys = set(z.files)
+        assert z["joint_names"].dtype.kind == "U" and z["status"].dtype == np.int64
+        assert z["q"].shape == (2, 4, 3) and z["cms"].shape == (2, 4) and z["target"].shape == (2, 4, 3)
+        meta = json.loads(str(z["meta"]))
+    # the DESIGN.md contract
+    assert {"joint_names", "q", "kj", "cms", "target", "direction", "position", "alpha_deg", "ratio", "criterion",
+            "status", "meta"} <= keys
+    assert meta["note"] == "ü"
+    back = jaxstiff.ShapeResult.load(f)
+    for k, v in res.arrays().items():
+        np.testing.assert_array_equal(getattr(back, k), v, err_msg=k)
+    assert back.meta == res.meta
+
+
+def test_save_appends_npz_and_uses_normal_permissions(tmp_path):
+    f = make_result().save(tmp_path / "r")
+    assert f.endswith("r.npz") and os.path.isfile(f)
+    mask = os.umask(0)
+    os.umask(mask)
+    assert os.stat(f).st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_interrupted_save_leaves_no_file(tmp_path, monkeypatch):
+    def boom(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(np, "savez", boom)
+    with pytest.raises(KeyboardInterrupt):
+        make_result().save(tmp_path / "r.npz")
+    assert os.listdir(tmp_path) == []
+
+
+def test_existing_file_is_replaced_atomically(tmp_path):
+    f = tmp_path / "r.npz"
+    f.write_bytes(b"old")
+    make_result().save(f)
+    assert jaxstiff.ShapeResult.load(f).P == 4
+    assert sorted(os.listdir(tmp_path)) == ["r.npz"]
+
+
+def test_load_errors(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nope.npz"):
+        jaxstiff.ShapeResult.load(tmp_path / "nope.npz")
+    np.savez(tmp_path / "other.npz", a=np.zeros(3))
+    with pytest.raises(ValueError, match="missing keys: joint_names"):
+        jaxstiff.ShapeResult.load(tmp_path / "other.npz")
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    with pytest.raises(ValueError, match="not a readable"):
+        jaxstiff.ShapeResult.load(tmp_path / "junk.npz")
+    with pytest.raises(FileNotFoundError, match="folder does not exist"):
+        make_result().save(tmp_path / "no" / "such" / "dir.npz")
+
+
+def test_shapes_are_checked():
+    with pytest.raises(ValueError, match="cms must have shape"):
+        R.ShapeResult(**{**make_result().arrays(), "cms": np.ones(3), "meta": {}})
+
+
+def test_status_helpers():
+    st = np.array([0, 1, 2, 3, 4])
+    np.testing.assert_array_equal(R.is_usable(st), [True, True, True, False, False])
+    assert set(R.STATUS_NAMES) == {0, 1, 2, 3, 4}
+    assert R.USABLE == (R.SOLVED, R.NOT_CONVERGED, R.CLIPPED)
+
+
+def test_summary_counts_by_hand():
+    res = make_result(status=[[0, 0, 3, 1], [0, 2, 0, 4]])
+    s = R.summary(res)
+    alpha = res.alpha_deg.ravel()
+    ratio = res.ratio.ravel()
+    a_ok = alpha < 1.0  # 0.5, 0.1, 0.9 | 0.2, 0.3, 0.4 -> 6 of 8
+    r_ok = np.abs(ratio - 5) / 5 < 0.02  # 5, 5.05 | 5, 4.95, 5.0 -> 5 of 8 (4.8, 5.2, 5.11 fail)
+    assert s["share_alpha"] == 6 / 8 and a_ok.sum() == 6
+    assert s["share_ratio"] == 5 / 8 and r_ok.sum() == 5
+    assert s["share_both"] == np.mean(a_ok & r_ok)
+    assert s["share_usable"] == 6 / 8 and s["share_solved"] == 4 / 8
+    assert s["median_time_s"] == 0.045
+    # f1 counts "at least 0.98 r"
+    res.meta["criterion"] = "f1"
+    assert R.summary(res)["share_ratio"] == np.mean(ratio >= 4.9)
+
+
+@pytest.mark.parametrize("first_rate_limit", [False, True])
+def test_reference_states_skip_unusable_waypoints(first_rate_limit):
+    res = make_result(status=[[0, 3, 4, 0], [3, 0, 0, 1]], first_rate_limit=first_rate_limit)
+    Q, K, rate = R.reference_states(res, 0)
+    np.testing.assert_array_equal(Q[0], res.q0[0])
+    np.testing.assert_array_equal(Q[1], res.q[0, 0])
+    np.testing.assert_array_equal(Q[2], res.q[0, 0])  # waypoint 1 unreachable: still waypoint 0
+    np.testing.assert_array_equal(Q[3], res.q[0, 0])
+    np.testing.assert_array_equal(rate, [first_rate_limit, True, True, True])
+    Q, K, rate = R.reference_states(res, 1)
+    np.testing.assert_array_equal(Q[1], res.q0[1])  # waypoint 0 unusable: the start state
+    np.testing.assert_array_equal(K[1], res.kj0[1])
+    np.testing.assert_array_equal(rate, [first_rate_limit, first_rate_limit, True, True])
