@@ -48,6 +48,7 @@ __all__ = ["find_experiments_dir", "discover", "run_reproduce", "ReproduceOutcom
 #: Order of the report: seed 000 figures 2-6, then CSC, then the rest alphabetically.
 ORDER = ("fig2", "fig3", "fig4", "fig5", "fig6", "csc")
 _TABLE_MAX_ROWS = 40
+_JSON_MAX_ROWS = 60
 
 
 def find_experiments_dir(explicit: str | os.PathLike | None = None) -> str:
@@ -192,17 +193,70 @@ def _csv_table(file: str) -> str | None:
     return "\n".join(out)
 
 
+def _flatten(obj, prefix: str = "") -> list[tuple[str, object]]:
+    """Scalars (and short lists of numbers) of a JSON tree as ``(dotted.key, value)``."""
+    out: list[tuple[str, object]] = []
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            out += _flatten(v, f"{prefix}.{k}" if prefix else str(k))
+    elif isinstance(obj, list) and len(obj) <= 8 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in obj):
+        out.append((prefix, "[" + ", ".join(f"{x:.4g}" for x in obj) + "]"))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj[:8]):
+            out += _flatten(v, f"{prefix}[{i}]")
+    else:
+        out.append((prefix, obj))
+    return out
+
+
+def _json_table(file: str) -> str | None:
+    import json
+
+    try:
+        with open(file, encoding="utf-8") as fh:
+            data = json.load(fh)
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+    items = _flatten(data)
+    if not items:
+        return None
+    lines = ["| key | value |", "|---|---|"]
+    for k, v in items[:_JSON_MAX_ROWS]:
+        if isinstance(v, float):
+            v = f"{v:.6g}"
+        lines.append(f"| {k} | {str(v).replace('|', chr(92) + '|')} |")
+    if len(items) > _JSON_MAX_ROWS:
+        lines.append(f"| ... | ({len(items) - _JSON_MAX_ROWS} more in {os.path.basename(file)}) |")
+    return "\n".join(lines)
+
+
+def _printed(log_file: str, n: int = 40) -> str:
+    """What the run printed (its log without the command line), last ``n`` lines."""
+    try:
+        with open(log_file, encoding="utf-8", errors="replace") as fh:
+            lines = fh.read().splitlines()
+    except OSError:
+        return ""
+    lines = [ln for ln in lines[1:] if ln.strip()]
+    if len(lines) > n:
+        lines = [f"... ({len(lines) - n} lines above in log.txt)"] + lines[-n:]
+    return "\n".join(lines)
+
+
 _IMG = re.compile(r"!\[([^\]]*)\]\(([^)\s]+)\)")
 
 
 _SKIP_TABLES = ("timing.csv", "results.csv")
 
 
-def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: str = "") -> list[str]:
+def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: str = "", log: str = "") -> list[str]:
     """Markdown of one experiment's output folder; copies its PNGs to ``fig_dir``."""
     md: list[str] = []
     if note:
         md += [note, ""]
+    printed = _printed(log) if log else ""
+    if printed:
+        md += ["What it printed:", "", "```text", printed, "```", ""]
     os.makedirs(fig_dir, exist_ok=True)
     pngs = sorted(glob.glob(os.path.join(folder, "**", "*.png"), recursive=True))
     copied: dict[str, str] = {}
@@ -233,6 +287,12 @@ def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: st
         tbl = _csv_table(csvf)
         if tbl:
             md += [f"**{os.path.basename(csvf)}**", "", tbl, ""]
+    for jf in sorted(glob.glob(os.path.join(folder, "*.json"))):
+        if os.path.basename(jf) in ("manifest.json", "plan.json"):
+            continue
+        tbl = _json_table(jf)
+        if tbl:
+            md += [f"<details><summary>{os.path.basename(jf)}</summary>", "", tbl, "", "</details>", ""]
     for rel, link in copied.items():
         if rel not in shown:
             md += [f"![{run_name}: {rel}]({link})", ""]
@@ -347,7 +407,8 @@ def run_reproduce(
         if not r.ok:
             md += [f"**{'timed out' if r.code is None else f'failed with exit code {r.code}'}**; end of its log:", "",
                    "```", _tail(r.log).rstrip(), "```", ""]
-        md += _section(r.name, r.out, os.path.join(figs_dir, r.name), out, note=f"`{what}` ({r.wall_s:.1f} s)")
+        md += _section(r.name, r.out, os.path.join(figs_dir, r.name), out, note=f"`{what}` ({r.wall_s:.1f} s)",
+                       log=r.log if r.ok else "")
     report = os.path.join(out, "report.md")
     atomic_write_text(report, "\n".join(md) + "\n")
     log(f"wrote {report}")

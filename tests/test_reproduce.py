@@ -42,6 +42,8 @@ def fake_experiments(tmp_path):
         open(os.path.join(a.out, "quick.txt"), "w").write(str(a.quick))
         open(os.path.join(a.out, "table.csv"), "w").write("beta,u_end\\n0.001,2030.5\\n0.002,1500.25\\n")
         open(os.path.join(a.out, "u.png"), "wb").write(PNG)
+        open(os.path.join(a.out, "summary.json"), "w").write('{"u_start": 5994.9335, "setup": {"q0_deg": [75.0, -74.74, -76.3]}}')
+        print("u: 5994.9 -> 2003.1 Nm/rad")
         """))
     (d / "fig9_broken.py").write_text(_script("""
         print("computing ...")
@@ -79,6 +81,9 @@ def test_report_gathers_everything_and_survives_failures(fake_experiments, tmp_p
     assert "### Fig. 2" in md  # the experiment's heading demoted under its section
     # CSV as a Markdown table
     assert "| beta | u_end |" in md and "| 0.001 | 2030 |" in md.replace("2031", "2030")
+    # what it printed, and its JSON summary as a key/value table
+    assert "u: 5994.9 -> 2003.1 Nm/rad" in md
+    assert "| u_start | 5994.93 |" in md and "| setup.q0_deg | [75, -74.74, -76.3] |" in md
     # --quick only where the script has it
     assert (out / "runs" / "csc_hold" / "quick.txt").read_text() == "True"
     assert "--quick" not in (out / "runs" / "fig2_cms" / "log.txt").read_text().splitlines()[0]
