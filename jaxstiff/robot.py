@@ -83,7 +83,7 @@ def _urdf_dir():
     return importlib.resources.files("jaxstiff.urdf")
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class Robot:
     """A serial chain with n actuated joints, static and hashable.
 
@@ -115,6 +115,35 @@ class Robot:
     base_link: str = ""
     tip_link: str = ""
     source: str = ""
+
+    # ------------------------------------------------------------------ identity
+    # jit hashes its static arguments on every call; hashing ~100 nested floats costs ~4 us, as
+    # much as a whole single-configuration FK call, so the hash is computed once and cached. The
+    # cache is never pickled (string hashes differ between processes).
+    def _key(self) -> tuple:
+        return tuple(getattr(self, f.name) for f in dataclasses.fields(self))
+
+    def __eq__(self, other) -> bool:
+        if self is other:
+            return True
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = hash(self._key())
+            object.__setattr__(self, "_hash", h)
+        return h
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_hash", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
     # ------------------------------------------------------------------ construction
     @staticmethod

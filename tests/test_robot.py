@@ -182,3 +182,21 @@ def test_console_script_runs():
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     assert "lwr_a7" in res.stdout and "T_base_tcp" in res.stdout
+
+
+def test_pickled_robot_equals_and_hashes_like_a_fresh_read():
+    """The cached hash must not travel: string hashes differ between processes (ray, sweeps)."""
+    code = (
+        "import pickle, sys, jaxstiff; r = jaxstiff.Robot.from_urdf('kuka_lwr4', locked={'lwr_a7': 0.0}); "
+        "hash(r); sys.stdout.buffer.write(pickle.dumps(r))"
+    )
+    env = dict(os.environ, PYTHONHASHSEED="12345")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, timeout=120, env=env)
+    assert res.returncode == 0, res.stderr.decode()
+    import pickle
+
+    remote = pickle.loads(res.stdout)
+    local = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    assert remote == local and hash(remote) == hash(local)
+    assert {local: 1}[remote] == 1
+    assert "_hash" not in local.__getstate__()
