@@ -315,6 +315,8 @@ def position_and_jacobian(robot: Robot, q: jax.Array, rows: tuple[int, ...] = (0
     """
     q = jnp.asarray(q)
     _check(robot, q)
+    if not rows or any(not isinstance(r, int) or not 0 <= r < 6 for r in rows):
+        raise ValueError(f"rows must be a non-empty tuple of Jacobian row indices in 0..5, got {rows!r}")
     _, p, frames = _chain(robot, q, want_jacobian=True)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
     return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)

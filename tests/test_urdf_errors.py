@@ -314,3 +314,9 @@ def test_q_with_nan_or_inf_at_the_boundary(lwr):
 def test_robot_argument_must_be_a_robot():
     with raises(TypeError, "expected a jaxstiff.Robot, got str"):
         jaxstiff.fk("kuka_lwr4", jnp.zeros(7))
+
+
+@pytest.mark.parametrize("rows", [(6,), (), (0, -1), (0.0, 1)])
+def test_position_and_jacobian_rows_are_checked(lwr, rows):
+    with raises(ValueError, "rows must be a non-empty tuple of Jacobian row indices in 0..5"):
+        jaxstiff.position_and_jacobian(lwr, jnp.zeros(7), rows)
