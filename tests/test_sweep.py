@@ -32,7 +32,7 @@ SHAPE_CFG = {
     "robot": {"name": "planar_3r"},
     "paths": [{"generator": "arc", "center": [0.0, 0.0, 0.0], "radius": [1.5, 2.0], "start_deg": 10.0,
                "end_deg": 12.0, "n": 3}],
-    "axes": {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "dk": [5.0, 10.0]},
+    "axes": {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "dk": [5.0, 10.0], "first_starts": 2},
 }
 
 CSC_TOML = textwrap.dedent("""\
@@ -149,7 +149,7 @@ def test_shape_row_equals_bare_shape_call(shape_run):
     trajs = [shape_run.plan.trajectories[i] for i in
              (df[df["result_file"] == row["result_file"]].sort_values("result_index")["path_index"])]
     batch = jaxstiff.paths.Path(np.stack([t.points for t in trajs]), np.stack([t.directions for t in trajs]))
-    ref = jaxstiff.shape(shape_run.plan.robot, batch, "f2", 3.0, task="xy", dk=10.0)
+    ref = jaxstiff.shape(shape_run.plan.robot, batch, "f2", 3.0, task="xy", dk=10.0, first_starts=2)
     assert got.B == ref.B == len(trajs)
     np.testing.assert_array_equal(got.status, ref.status)
     np.testing.assert_allclose(got.q, ref.q, rtol=0, atol=1e-12)
@@ -245,6 +245,7 @@ def _subprocess_env(**extra) -> dict:
     return env
 
 
+@pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_two_devices_give_the_same_table(csc_cfg, csc_run, tmp_path):
     import jax
 
@@ -271,6 +272,7 @@ run_sweep(sys.argv[1], sys.argv[2], progress=False, report=False, on_commit=lamb
 """
 
 
+@pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
     out = tmp_path / "killed"
     proc = subprocess.Popen([sys.executable, "-c", _KILL_DRIVER, csc_cfg, str(out)], env=_subprocess_env(),
@@ -298,6 +300,7 @@ def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
     _frame_equal(res.table(), csc_run.table())
 
 
+@pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_ray_backend_gives_the_same_table(csc_cfg, csc_run, tmp_path):
     ray = pytest.importorskip("ray")
     os.environ.setdefault("RAY_AUTH_MODE", "disabled")
