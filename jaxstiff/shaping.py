@@ -174,6 +174,22 @@ register_solver("slsqp", _greedy_solver("slsqp"))
 register_solver("slsqp-fd", _greedy_solver("slsqp-fd"))
 
 
+def _lazy_solver(module: str):
+    """Batch-engine solvers (issue 5), imported on first use."""
+
+    def run(req: SolveRequest) -> dict[str, np.ndarray]:
+        import importlib
+
+        return importlib.import_module(f".solvers.{module}", __package__).run_request(req)
+
+    return run
+
+
+register_solver("pgd", _lazy_solver("pgd"))  # multi-start projected gradient, batched (solvers/pgd.py)
+register_solver("hybrid", _lazy_solver("hybrid"))  # pgd + SLSQP polish (solvers/hybrid.py)
+register_solver("trajectory", _lazy_solver("trajectory"))  # whole-trajectory optimisation (solvers/trajectory.py)
+
+
 # ---------------------------------------------------------------------- input checks
 def _per_joint(value, n: int, what: str, unit: str) -> np.ndarray:
     a = np.asarray(value, dtype=float)

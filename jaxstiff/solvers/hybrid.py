@@ -1,0 +1,142 @@
+"""``solver="hybrid"``: multi-start projected gradient (:mod:`.pgd`), then a per-waypoint SLSQP polish.
+
+pgd finds a good basin for every waypoint of every path at once; SLSQP (exact JAX derivatives,
+:mod:`.slsqp`) then converges each waypoint to high accuracy from pgd's point. The polish walks
+each path in order and must never undo pgd:
+
+* waypoint p's box is the rate box around the hybrid's own reference state (the last usable
+  waypoint before p, as :func:`jaxstiff.results.reference_states` rebuilds it) **intersected with
+  the rate box around pgd's next usable waypoint** p' > p. So pgd's waypoint p' stays feasible
+  with respect to the (possibly changed) waypoint p, and by induction pgd's own point x_p is
+  always inside waypoint p's box;
+* SLSQP starts from pgd's x_p; its answer (made exactly feasible and judged as in :mod:`.slsqp`)
+  replaces x_p only if it is usable and its criterion is lower. Hence, per waypoint, the hybrid's
+  criterion is never above pgd's, and every constraint holds exactly;
+* where pgd found no usable point, SLSQP starts from the reference state (clipped into the box);
+  if that succeeds the waypoint becomes usable (and the next waypoint's box refers to it, which
+  the backward intersection keeps consistent).
+
+Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``polish_slsqp`` = ``"all"`` (default)
+or ``"unusable"`` (only where pgd failed).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .. import results as R
+from .problem import Limits, WaypointProblem, clip_to_box, compiled, jax_pos_and_jac
+from . import pgd as _pgd
+
+__all__ = ["polish", "run_request"]
+
+
+def polish(
+    problem: WaypointProblem,
+    targets: np.ndarray,
+    directions: np.ndarray,
+    q0: np.ndarray,
+    kj0: np.ndarray,
+    limits: Limits,
+    ratio: float,
+    c: float,
+    base: dict[str, np.ndarray],
+    options: dict | None = None,
+    pos_tol: float = 1e-9,
+) -> dict[str, np.ndarray]:
+    """SLSQP polish of a feasible batch solution ``base`` (the SOLVERS dict format, e.g. pgd's).
+
+    Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
+    where ``base`` was usable.
+    """
+    from .slsqp import SolverOutput, _judge, make_slsqp_solver
+
+    opts = dict(options or {})
+    mode = opts.get("polish_slsqp", "all")
+    if mode not in ("all", "unusable"):
+        raise ValueError(f"option polish_slsqp must be 'all' or 'unusable', got {mode!r}")
+    sl_opts = {k: opts[k] for k in ("maxiter", "ftol", "kj_scale", "f_scale") if k in opts}
+    solver = make_slsqp_solver(problem, sl_opts)
+    fused = compiled(problem)
+    pj = jax_pos_and_jac(problem)
+
+    def objective(x, params):
+        return float(np.asarray(fused(x, params))[0])
+
+    free = list(problem.free_idx)
+    nf = problem.n_free
+    dx = np.r_[np.asarray(limits.dq, float)[free], np.asarray(limits.dk, float)]
+    B, P = targets.shape[:2]
+    out = {k: np.array(v, copy=True) for k, v in base.items() if isinstance(v, np.ndarray)}
+    r_arr = np.broadcast_to(np.asarray(ratio, float), (B,))
+    for b in range(B):
+        Xb = problem.x_of(base["q"][b], base["kj"][b])
+        usable_b = R.is_usable(base["status"][b])
+        nxt = np.full(P, -1)
+        last = -1
+        for p in range(P - 1, -1, -1):
+            nxt[p] = last
+            if usable_b[p]:
+                last = p
+        q_ref, kj_ref = np.asarray(q0[b], float).copy(), np.asarray(kj0[b], float).copy()
+        at_start = True
+        for p in range(P):
+            t0 = time.perf_counter()
+            rate = limits.first_rate_limit or not at_start
+            lb, ub = limits.box(problem, q_ref, kj_ref, rate)
+            if nxt[p] >= 0:
+                xn = Xb[nxt[p]]
+                lb, ub = np.maximum(lb, xn - dx), np.minimum(ub, xn + dx)
+            params = WaypointProblem.params(targets[b, p], directions[b, p], r_arr[b], c)
+            have = bool(usable_b[p])
+            if have and np.all(lb <= ub):
+                # pgd's point is inside this box up to rounding of the box arithmetic: clip exactly
+                Xb[p] = clip_to_box(Xb[p], lb, ub)
+                out["q"][b, p, free] = Xb[p][:nf]
+                out["kj"][b, p] = Xb[p][nf:]
+            take = None
+            if np.all(lb <= ub) and (mode == "all" or not have):
+                x_start = clip_to_box(Xb[p] if have else problem.x_of(q_ref, kj_ref), lb, ub)
+                try:
+                    sol = solver(x_start.copy(), lb, ub, params)
+                except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+                    sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
+                x, status, err = _judge(problem, sol, x_start, lb, ub, targets[b, p], params, pj, objective, pos_tol)
+                if status in R.USABLE:
+                    f_new = objective(x, params)
+                    f_old = objective(Xb[p], params) if have else np.inf
+                    if f_new < f_old:
+                        take = (x, status, err, sol)
+            if take is not None:
+                x, status, err, sol = take
+                out["q"][b, p, free] = x[:nf]
+                out["kj"][b, p] = x[nf:]
+                out["status"][b, p] = status
+                out["pos_error"][b, p] = err
+                out["solver_code"][b, p] = sol.code
+                out["nit"][b, p] += sol.nit
+                out["nfev"][b, p] += sol.nfev
+                usable_now = True
+            else:
+                usable_now = have
+            out["time_s"][b, p] += time.perf_counter() - t0
+            if usable_now:
+                q_ref = out["q"][b, p].copy()
+                kj_ref = out["kj"][b, p].copy()
+                at_start = False
+    return out
+
+
+def run_request(req) -> dict[str, np.ndarray]:
+    """Adapter for :data:`jaxstiff.shaping.SOLVERS` (``solver="hybrid"``)."""
+    opts = dict(req.options or {})
+    pg_opts = {k: v for k, v in opts.items() if k in _pgd.DEFAULT_OPTIONS}
+    base = _pgd.solve_batch(
+        req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
+        starts=req.starts, options=pg_opts, pos_tol=req.pos_tol,
+    )
+    base.pop("criterion", None)
+    return polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
+                  base, options=opts, pos_tol=req.pos_tol)

@@ -1,0 +1,493 @@
+"""Multi-start projected gradient for the waypoint problem, batched over many paths (``"pgd"``).
+
+The waypoint problem of :mod:`jaxstiff.solvers.problem` (SPEC section 5, S0-10 ... S0-14) solved
+for B trajectories x S starts at once in one jitted JAX function: ``vmap`` over trajectories,
+``vmap`` over starts, ``lax.scan`` over the P waypoints (the rate limits chain waypoint p to the
+last usable waypoint before it, exactly as :func:`jaxstiff.results.reference_states` rebuilds it),
+``lax.fori_loop`` over a fixed number of gradient iterations. No Python loop runs over problems;
+one compilation serves every chunk of the same shape (chunks are padded to the chunk size).
+
+One waypoint, one start (``x = [q_free, kj]``, box ``[lb, ub]`` = joint/stiffness limits
+intersected with the rate box around the reference state):
+
+1. start point: the reference state clipped into the box (start 0) or a uniform random point
+   of a sub-box around it (starts 1..S-1); at the first waypoint without rate limits the joint
+   perturbation is large (``posture_spread`` rad), so that after the Newton correction the starts
+   are distinct null-space postures of the arm on the same TCP point;
+2. Newton corrections onto the path (minimum-norm Gauss-Newton on the free joints, clipped to the
+   box; joints that hit a bound are frozen for the rest of the correction, so every Newton step
+   respects the box);
+3. ``iters`` projected gradient steps: the gradient of the criterion in box-scaled variables
+   (each coordinate divided by its box width), bound-active coordinates removed, the joint part
+   projected onto the null space of the position Jacobian (first-order motion along the path
+   constraint), normalised to unit length and scaled by a geometrically decaying step size
+   ``step0 -> step1`` (normalised steps with decay do not chatter at the kinks of f1/f2:
+   |alpha|, |r - rho|, min(rho, r)); after each step: clip into the box, ``newton`` corrections;
+4. the best iterate (lowest criterion among iterates whose position error is below
+   ``accept_tol``) gets a final ``polish`` Newton corrections; the final status is decided on
+   that point exactly as :mod:`jaxstiff.results` defines it: every coordinate inside the box
+   (by construction: clip), position error <= ``pos_tol``, criterion finite.
+
+Two ways to use the S starts (``options["mode"]``):
+
+* ``"best"`` (default): at every waypoint all S starts begin around the one carried state and
+  the best feasible point is kept and carried (greedy, like the seed but with S chances per
+  waypoint). Wins when local minima of single waypoints matter (f2 on smooth paths).
+* ``"rollout"``: S independent trajectories, each carrying its own state from its own first
+  posture; the trajectory with the fewest unusable waypoints, then the lowest total criterion, is
+  kept. Wins when the choice of the first posture decides whether a joint limit binds later
+  (f1 on the curved default path): a greedy choice cannot undo that posture later.
+
+Status codes: ``0`` SOLVED (feasible), ``3`` UNREACHABLE (no start reached the path within
+``pos_tol``), ``4`` NONFINITE. A fixed-iteration method has no convergence flag, so
+NOT_CONVERGED (1) and CLIPPED (2) are not produced; ``solver_code`` is the index of the start that
+won (``-1`` for none), ``nit`` the iterations per start, ``nfev`` the gradient evaluations over
+all starts of that waypoint.
+
+Runs unchanged on a GPU (pure ``jax.numpy``, no host callbacks); ``time_s`` is the chunk's wall
+time spread evenly over its waypoints.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import results as R
+from ..kinematics import position_and_jacobian
+from .problem import POS_TOL, Limits, WaypointProblem
+
+__all__ = ["DEFAULT_OPTIONS", "solve_batch", "make_kernel"]
+
+#: Settings (``shape(..., solver="pgd", starts=S, options=...)``).
+DEFAULT_OPTIONS: dict[str, Any] = {
+    "starts": 8,  # S starts per waypoint ("best") or independent rollouts ("rollout")
+    "mode": "best",  # "best" | "rollout"
+    "iters": 40,  # projected gradient iterations per start and waypoint
+    "iters_first": 150,  # iterations at the first waypoint (its box is the whole joint range)
+    "starts_first": 16,  # starts at the first waypoint ("best" mode; rollouts: S)
+    "newton": 2,  # Newton corrections after each step
+    "polish": 6,  # Newton corrections of the final point
+    "surrogate": 0.0,  # fraction of the iterations spent on the smooth surrogate first
+    "surrogate_first": 0.5,  # the same at the first waypoint (no warm start there)
+    "step0_first": 0.15,  # first step at the first waypoint, fraction of the box width
+    "step0": 0.05,  # first step, fraction of the box width
+    "step1": 1e-5,  # last step, fraction of the box width
+    "spread": 0.5,  # random starts: fraction of the box half-width around the reference
+    "posture_spread": 0.6,  # rad, joint perturbation of the first-waypoint postures (no rate limit)
+    "accept_tol": 1e-7,  # m, position error of an iterate that may be kept as the best
+    "chunk": 256,  # trajectories per compiled call (memory bound)
+    "seed": 0,
+}
+
+
+def _options(options: dict | None, starts: int | None) -> dict[str, Any]:
+    opts = {**DEFAULT_OPTIONS, **(options or {})}
+    if starts is not None:
+        opts["starts"] = int(starts)
+    unknown = set(opts) - set(DEFAULT_OPTIONS) - {"maxiter", "ftol", "kj_scale", "f_scale", "polish_slsqp", "traj_iters", "traj_step0", "traj_step1", "warm"}
+    if unknown:
+        raise ValueError(f"unknown pgd option(s) {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
+    for k in ("starts", "iters", "chunk"):
+        if int(opts[k]) < 1:
+            raise ValueError(f"pgd option {k!r} must be >= 1, got {opts[k]}")
+    for k in ("newton", "polish"):
+        if int(opts[k]) < 0:
+            raise ValueError(f"pgd option {k!r} must be >= 0, got {opts[k]}")
+    if opts["mode"] not in ("best", "rollout"):
+        raise ValueError(f"pgd option 'mode' must be 'best' or 'rollout', got {opts['mode']!r}")
+    return opts
+
+
+# ---------------------------------------------------------------------- JAX building blocks
+class _Ops:
+    """Traceable pieces of one waypoint problem on the decision vector x = [q_free, kj]."""
+
+    def __init__(self, problem: WaypointProblem):
+        self.pr = problem
+        robot = problem.robot
+        self.nf, self.n, self.nx = problem.n_free, problem.n, problem.nx
+        free = list(problem.free_idx)
+        self.free = np.asarray(free, dtype=int)
+        self.rows = problem.pos_rows
+        self.qlo = np.asarray(robot.lower, float)[free]
+        self.qhi = np.asarray(robot.upper, float)[free]
+
+    def box(self, xref, rate, dq_f, dk, kmin, kmax):
+        """Rate-limited box (lb, ub) (nx,) around xref; ``rate`` a traced bool."""
+        dt = xref.dtype
+        qlo, qhi = jnp.asarray(self.qlo, dt), jnp.asarray(self.qhi, dt)
+        klo = jnp.full((self.n,), kmin, dt)
+        khi = jnp.full((self.n,), kmax, dt)
+        lbq = jnp.where(rate, jnp.maximum(qlo, xref[: self.nf] - dq_f), qlo)
+        ubq = jnp.where(rate, jnp.minimum(qhi, xref[: self.nf] + dq_f), qhi)
+        lbk = jnp.where(rate, jnp.maximum(klo, xref[self.nf :] - dk), klo)
+        ubk = jnp.where(rate, jnp.minimum(khi, xref[self.nf :] + dk), khi)
+        return jnp.concatenate([lbq, lbk]), jnp.concatenate([ubq, ubk])
+
+    def pos_jac(self, x):
+        q = self.pr.q_of(x)
+        p, J = position_and_jacobian(self.pr.robot, q, self.rows)
+        return p, J[:, self.free]
+
+    def f(self, x, d, r, c):
+        return self.pr.objective(self.pr.q_of(x), self.pr.kj_of(x), d, r, c)
+
+    def newton(self, x, target, lb, ub, steps: int):
+        """``steps`` box-respecting minimum-norm Gauss-Newton corrections of the joint part."""
+        if steps == 0 or self.nf == 0:
+            return x
+        rows = jnp.asarray(self.rows)
+        k = len(self.rows)
+
+        def body(_, carry):
+            x, active = carry
+            p, J = self.pos_jac(x)
+            e = target[rows] - p[rows]
+            Ja = jnp.where(active[None, :], 0.0, J)
+            JJt = Ja @ Ja.T
+            mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
+            step = Ja.T @ jnp.linalg.solve(JJt + mu * jnp.eye(k, dtype=x.dtype), e)
+            step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
+            raw = x[: self.nf] + step
+            new = jnp.minimum(jnp.maximum(raw, lb[: self.nf]), ub[: self.nf])
+            active = active | (new != raw)
+            return x.at[: self.nf].set(new), active
+
+        x, _ = jax.lax.fori_loop(0, steps, body, (x, jnp.zeros(self.nf, bool)))
+        return x
+
+    def surrogate(self, x, d, r, c):
+        """Smooth shape surrogate: ``|K/|K| - D/|D||_F^2`` with ``D = r d d^T + (I - d d^T)``.
+
+        Zero iff K is a multiple of D (major axis along d, ratio r, minor axes equal); no
+        eigen-decomposition, so no kinks or eigenvalue-ordering jumps: it pulls a poor start
+        into the basin of the criterion's minimum before the criterion itself is optimised.
+        """
+        K = self.pr.stiffness(self.pr.q_of(x), self.pr.kj_of(x))
+        m = K.shape[-1]
+        dd = d[:m] / jnp.linalg.norm(d[:m])
+        D = (r - 1.0) * jnp.outer(dd, dd) + jnp.eye(m, dtype=K.dtype)
+        Kn = K / jnp.sqrt(jnp.sum(K * K))
+        Dn = D / jnp.sqrt(jnp.sum(D * D))
+        return jnp.sum((Kn - Dn) ** 2)
+
+    def pos_err(self, x, target):
+        p, _ = self.pos_jac(x)
+        return jnp.linalg.norm(p - target)
+
+
+def _clip(x, lb, ub):
+    return jnp.minimum(jnp.maximum(x, lb), ub)
+
+
+def _scales(lb, ub, nf, kspan):
+    """Per-coordinate step scale: the box width, capped (unbounded / continuous joints: pi rad)."""
+    w = ub - lb
+    cap = jnp.concatenate([jnp.full((nf,), jnp.pi, lb.dtype), jnp.full((lb.shape[0] - nf,), kspan, lb.dtype)])
+    w = jnp.where(jnp.isfinite(w), jnp.minimum(w, cap), cap)
+    return jnp.maximum(w, 0.0)
+
+
+def _optimise(ops: _Ops, x0, lb, ub, target, d, r, c, kspan, opts, first=False):
+    """Surrogate phase, then the criterion phase, from x0 (on the path). Returns the best iterate.
+
+    ``first``: the first waypoint's settings (``iters_first``, ``surrogate_first``, ``step0_first``).
+    """
+    if first:
+        opts = {**opts, "iters": opts["iters_first"], "surrogate": opts["surrogate_first"], "step0": opts["step0_first"]}
+    iters = int(opts["iters"])
+    ns = int(round(float(opts["surrogate"]) * iters))
+    if ns > 0:
+        x0 = _descend(ops, ops.surrogate, x0, lb, ub, target, d, r, c, kspan, opts, ns, track=False)
+    return _descend(ops, ops.f, x0, lb, ub, target, d, r, c, kspan, opts, max(iters - ns, 1), track=True)
+
+
+def _descend(ops: _Ops, obj, x0, lb, ub, target, d, r, c, kspan, opts, iters, track):
+    """``iters`` projected Adam steps on ``obj``; with ``track`` the best acceptable iterate of the
+    criterion is returned, else the last iterate."""
+    nn = int(opts["newton"])
+    s0, s1, acc = float(opts["step0"]), float(opts["step1"]), float(opts["accept_tol"])
+    nf = ops.nf
+    rows = jnp.asarray(ops.rows)
+    k = len(ops.rows)
+    s = _scales(lb, ub, nf, kspan)
+    vg = jax.value_and_grad(obj)
+    decay = (s1 / s0) ** (1.0 / max(iters - 1, 1))
+
+    def score(fv, err):
+        ok = (err <= acc) & jnp.isfinite(fv)
+        return jnp.where(ok, fv, jnp.inf)
+
+    b1, b2 = 0.9, 0.999
+
+    def body(t, carry):
+        x, bx, bf, m1, m2 = carry
+        fv, g = vg(x, d, r, c)
+        err = ops.pos_err(x, target)
+        sc = score(fv, err)
+        better = sc < bf
+        bx = jnp.where(better, x, bx)
+        bf = jnp.where(better, sc, bf)
+        # Adam moments of the box-scaled gradient (per-coordinate normalisation: the joint and
+        # stiffness coordinates differ by orders of magnitude in sensitivity)
+        gy = jnp.where(jnp.isfinite(g), g, 0.0) * s
+        m1 = b1 * m1 + (1 - b1) * gy
+        m2 = b2 * m2 + (1 - b2) * gy * gy
+        tt = (t + 1).astype(x.dtype)
+        u = (m1 / (1 - b1**tt)) / (jnp.sqrt(m2 / (1 - b2**tt)) + 1e-12)
+        # bound-active coordinates dropped, joint part projected onto the path's null space
+        free_c = ~(((x <= lb) & (u > 0)) | ((x >= ub) & (u < 0))) & (s > 0)
+        u = jnp.where(free_c, u, 0.0)
+        if nf:
+            _, J = ops.pos_jac(x)
+            Jy = J * s[None, :nf] * free_c[None, :nf]
+            JJt = Jy @ Jy.T
+            mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
+            lam = jnp.linalg.solve(JJt + mu * jnp.eye(k, dtype=x.dtype), Jy @ u[:nf])
+            uq = u[:nf] - Jy.T @ lam
+            u = u.at[:nf].set(jnp.where(free_c[:nf], uq, 0.0))
+        eta = s0 * decay**t
+        xn = _clip(x - eta * s * u, lb, ub)
+        xn = ops.newton(xn, target, lb, ub, nn)
+        xn = jnp.where(jnp.all(jnp.isfinite(xn)), xn, x)
+        return xn, bx, bf, m1, m2
+
+    z = jnp.zeros_like(x0)
+    x, bx, bf, _, _ = jax.lax.fori_loop(0, iters, body, (x0, x0, jnp.asarray(jnp.inf, x0.dtype), z, z))
+    if not track:
+        return x
+    # the last iterate has not been scored yet
+    fv = ops.f(x, d, r, c)
+    sc = score(fv, ops.pos_err(x, target))
+    better = sc < bf
+    bx = jnp.where(better, x, bx)
+    # nothing acceptable seen: keep the last iterate (the polish may still bring it onto the path)
+    bx = jnp.where(jnp.isinf(jnp.minimum(bf, sc)), x, bx)
+    return bx
+
+
+def _finish(ops: _Ops, x, lb, ub, target, d, r, c, pos_tol, polish):
+    """Final Newton polish and the verdict: (x, f, err, usable, finite)."""
+    x = ops.newton(_clip(x, lb, ub), target, lb, ub, polish)
+    x = _clip(x, lb, ub)
+    fv = ops.f(x, d, r, c)
+    err = ops.pos_err(x, target)
+    finite = jnp.all(jnp.isfinite(x)) & jnp.isfinite(fv) & jnp.isfinite(err)
+    usable = finite & (err <= pos_tol)
+    return x, fv, err, usable, finite
+
+
+def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
+    """The per-trajectory function ``(targets (P,3), dirs (P,3), x0 (nx,), key, dq_f, dk, kmin,
+    kmax, r, c, pos_tol) -> dict`` (traceable, vmappable over trajectories)."""
+    ops = _Ops(problem)
+    S = int(opts["starts"])
+    mode = opts["mode"]
+    spread, pspread = float(opts["spread"]), float(opts["posture_spread"])
+    polish = int(opts["polish"])
+    nf, nx = ops.nf, ops.nx
+
+    def starts_at(key, xref, lb, ub, rate, kmin, kmax, S=S):
+        """(S, nx) start points in the box: start 0 the reference, others random around it."""
+        u = jax.random.uniform(key, (S, nx), xref.dtype, -1.0, 1.0)
+        half = 0.5 * _scales(lb, ub, nf, kmax - kmin)
+        # first waypoint without rate limit: distinct postures (large joint moves), random stiffness
+        radius = jnp.where(
+            rate,
+            spread * half,
+            jnp.concatenate([jnp.full((nf,), pspread, xref.dtype), 2.0 * half[nf:]]),
+        )
+        xs = xref[None, :] + u * radius[None, :]
+        xs = xs.at[0].set(xref)
+        return _clip(xs, lb[None, :], ub[None, :])
+
+    def one_start(x0, lb, ub, tgt, d, r, c, kspan, pos_tol, rate, first=False):
+        x0 = ops.newton(x0, tgt, lb, ub, 8)
+        xb = _optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, opts, first)
+        return _finish(ops, xb, lb, ub, tgt, d, r, c, pos_tol, polish)
+
+    vstart = jax.vmap(one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0))
+    S1 = max(S, int(opts["starts_first"])) if mode == "best" else S
+    vfirst = jax.vmap(lambda *a: one_start(*a, first=True), in_axes=(0, None, None, None, None, None, None, None, None, None))
+
+    def traj(targets, dirs, x0, key, dq_f, dk, kmin, kmax, r, c, pos_tol):
+        kspan = kmax - kmin
+
+        def step(carry, inp):
+            xref, at_start = carry  # (S, nx), (S,)
+            tgt, d, kk = inp
+            rate = (~at_start) | first_rate
+            lb, ub = jax.vmap(lambda xr, rt: ops.box(xr, rt, dq_f, dk, kmin, kmax))(xref, rate)
+            if mode == "best":
+                xs = starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
+            else:
+                # rollouts: one start each, from its own state; before the first usable waypoint
+                # rollout s takes the s-th distinct posture (all refs still equal x0 there)
+                xs0 = starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
+                xs = jnp.where(at_start[:, None], xs0, jax.vmap(_clip)(xref, lb, ub))
+            x, fv, err, usable, finite = vstart(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate)
+            if mode == "best":
+                sc = jnp.where(usable, fv, jnp.inf)
+                i = jnp.where(jnp.any(usable), jnp.argmin(sc), jnp.argmin(jnp.where(finite, err, jnp.inf)))
+                xw, fw, ew, uw, finw = x[i], fv[i], err[i], usable[i], finite[i]
+                newref = jnp.where(uw, xw, xref[0])
+                carry = (jnp.broadcast_to(newref, xref.shape), jnp.broadcast_to(at_start[0] & ~uw, at_start.shape))
+                status = jnp.where(uw, R.SOLVED, jnp.where(finw, R.UNREACHABLE, R.NONFINITE))
+                xw = jnp.where(finw, xw, _clip(xref[0], lb[0], ub[0]))
+                out = (xw, fw, ew, status, jnp.where(jnp.any(usable), i, -1))
+            else:
+                newref = jnp.where(usable[:, None], x, xref)
+                carry = (newref, at_start & ~usable)
+                status = jnp.where(usable, R.SOLVED, jnp.where(finite, R.UNREACHABLE, R.NONFINITE))
+                xo = jnp.where(finite[:, None], x, jax.vmap(_clip)(xref, lb, ub))
+                out = (xo, fv, err, status, jnp.arange(S))
+            return carry, out
+
+        P = targets.shape[0]
+        keys = jax.random.split(key, P + 1)
+        # first waypoint apart: more starts and iterations (its box is usually the whole range)
+        rate0 = jnp.asarray(first_rate)
+        lb0, ub0 = ops.box(x0, rate0, dq_f, dk, kmin, kmax)
+        xs0 = starts_at(keys[P], x0, lb0, ub0, rate0, kmin, kmax, S=S1)
+        x1, f1, e1, u1, fin1 = vfirst(xs0, lb0, ub0, targets[0], dirs[0], r, c, kspan, pos_tol, rate0)
+        st1 = jnp.where(u1, R.SOLVED, jnp.where(fin1, R.UNREACHABLE, R.NONFINITE))
+        x1 = jnp.where(fin1[:, None], x1, _clip(x0, lb0, ub0)[None, :])
+        if mode == "best":
+            i1 = jnp.where(jnp.any(u1), jnp.argmin(jnp.where(u1, f1, jnp.inf)), jnp.argmin(jnp.where(fin1, e1, jnp.inf)))
+            first = (x1[i1], f1[i1], e1[i1], st1[i1], jnp.where(jnp.any(u1), i1, -1))
+            carry0 = (jnp.broadcast_to(jnp.where(u1[i1], x1[i1], x0), (S, nx)), jnp.broadcast_to(~u1[i1], (S,)))
+        else:
+            first = (x1, f1, e1, st1, jnp.arange(S))
+            carry0 = (jnp.where(u1[:, None], x1, x0[None, :]), ~u1)
+        _, rest = jax.lax.scan(step, carry0, (targets[1:], dirs[1:], keys[1:P]))
+        X, F, E, ST, WIN = (jnp.concatenate([a[None], b], axis=0) for a, b in zip(first, rest))
+        if mode == "rollout":
+            # X (P, S, nx): keep the trajectory with fewest unusable waypoints, then lowest sum f
+            bad = jnp.sum(ST != R.SOLVED, axis=0)
+            tot = jnp.sum(jnp.where(ST == R.SOLVED, F, 0.0), axis=0)
+            sc = bad * 1e12 + jnp.where(jnp.isfinite(tot), tot, 1e11)
+            i = jnp.argmin(sc)
+            X, F, E, ST = X[:, i], F[:, i], E[:, i], ST[:, i]
+            WIN = jnp.full((P,), i)
+        return {"x": X, "f": F, "err": E, "status": ST, "start": WIN}
+
+    return traj
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
+    opts = dict(opts_items)
+    traj = make_kernel(problem, opts, first_rate)
+    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, None, None, None, None, 0, None, None))
+    return jax.jit(batched)
+
+
+def _pad(a: np.ndarray, C: int) -> np.ndarray:
+    if a.shape[0] == C:
+        return a
+    reps = np.repeat(a[-1:], C - a.shape[0], axis=0)
+    return np.concatenate([a, reps], axis=0)
+
+
+def solve_batch(
+    problem: WaypointProblem,
+    targets: np.ndarray,
+    directions: np.ndarray,
+    q0: np.ndarray,
+    kj0: np.ndarray,
+    limits: Limits,
+    ratio,
+    c: float,
+    *,
+    starts: int | None = None,
+    options: dict | None = None,
+    pos_tol: float = POS_TOL,
+    return_timing: bool = False,
+) -> dict[str, np.ndarray]:
+    """Shape B paths with multi-start projected gradient (the solver behind ``solver="pgd"``).
+
+    Args:
+        problem: the waypoint problem (robot, task, criterion).
+        targets, directions: (B, P, 3), m and unit vectors, base frame.
+        q0, kj0: (B, n) start states (rad; Nm/rad).
+        limits: rate limits and stiffness range (S0-11 ... S0-14).
+        ratio: wanted axis ratio r, a number or (B,) (one per path: a parameter sweep in one call).
+        c: f1's offset.
+        starts: S (default ``options["starts"]``).
+        options: see :data:`DEFAULT_OPTIONS`.
+        pos_tol: m, position error of a usable waypoint.
+        return_timing: also return ``compile_s`` and ``run_s`` (first chunk's compile apart).
+
+    Returns:
+        dict with ``q``, ``kj`` (B,P,n), ``status``, ``pos_error``, ``solver_code``, ``nit``,
+        ``nfev``, ``time_s``, ``criterion`` (B,P) in the :data:`jaxstiff.shaping.SOLVERS` format.
+    """
+    opts = _options(options, starts)
+    targets = np.asarray(targets, float)
+    directions = np.asarray(directions, float)
+    B, P = targets.shape[:2]
+    n, nf = problem.n, problem.n_free
+    r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
+    x0 = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
+    C = min(int(opts["chunk"]), B)
+    key_items = tuple(sorted((k, v) for k, v in opts.items() if k in DEFAULT_OPTIONS and k not in ("chunk", "seed")))
+    fn = _compiled(problem, key_items, bool(limits.first_rate_limit))
+    dq_f = np.asarray(limits.dq, float)[list(problem.free_idx)]
+    dk = np.asarray(limits.dk, float)
+    base = jax.random.PRNGKey(int(opts["seed"]))
+    X = np.zeros((B, P, problem.nx))
+    out = {k: np.zeros((B, P), dt) for k, dt in (("status", np.int64), ("solver_code", np.int64), ("pos_error", float), ("criterion", float), ("time_s", float))}
+    compile_s, run_s = 0.0, 0.0
+    with jax.enable_x64(True):
+        for s in range(0, B, C):
+            e = min(s + C, B)
+            sl = slice(s, e)
+            keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(_pad(np.arange(s, e), C))
+            args = (
+                _pad(targets[sl], C), _pad(directions[sl], C), _pad(x0[sl], C), keys,
+                dq_f, dk, float(limits.kmin), float(limits.kmax), _pad(r_arr[sl], C), float(c), float(pos_tol),
+            )
+            t0 = time.perf_counter()
+            if s == 0:
+                lowered = fn.lower(*args)
+                comp = lowered.compile()
+                compile_s = time.perf_counter() - t0
+                t0 = time.perf_counter()
+                res = comp(*args)
+            else:
+                res = fn(*args)
+            res = jax.tree_util.tree_map(np.asarray, res)
+            dt = time.perf_counter() - t0
+            run_s += dt
+            m = e - s
+            X[sl] = res["x"][:m]
+            out["status"][sl] = res["status"][:m]
+            out["solver_code"][sl] = res["start"][:m]
+            out["pos_error"][sl] = res["err"][:m]
+            out["criterion"][sl] = res["f"][:m]
+            out["time_s"][sl] = dt / (C * P)
+    q = np.repeat(np.asarray(q0, float)[:, None, :], P, axis=1)
+    q[..., list(problem.free_idx)] = X[..., :nf]
+    out["q"], out["kj"] = q, X[..., nf:].copy()
+    S = int(opts["starts"])
+    out["nit"] = np.full((B, P), int(opts["iters"]), np.int64)
+    out["nfev"] = np.full((B, P), S * (int(opts["iters"]) + 1), np.int64)
+    if return_timing:
+        out["compile_s"], out["run_s"] = compile_s, run_s
+    return out
+
+
+def run_request(req) -> dict[str, np.ndarray]:
+    """Adapter for :data:`jaxstiff.shaping.SOLVERS` (``solver="pgd"``)."""
+    res = solve_batch(
+        req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
+        starts=req.starts, options=req.options, pos_tol=req.pos_tol,
+    )
+    res.pop("criterion", None)
+    return res
