@@ -1,0 +1,233 @@
+"""``solver="trajectory"``: all waypoints of a path optimised together (trajectory-level mode).
+
+The greedy scheme of seed 000 (and :mod:`.pgd`, :mod:`.hybrid`) fixes waypoint p before it looks at
+p + 1, so it only reacts once a joint limit or a rate limit binds. Here the whole trajectory
+``X`` (P, nx) (``x_p = [q_free, kj]``) minimises
+
+    sum_p f(K_T(x_p), d_p, r)                                         (sum of S0-9 / S0-15)
+    s.t. position(x_p) = target_p, joint/stiffness limits for every p,
+         |x_p - x_{p-1}| <= (dq, dk)   (S0-11 ... S0-14, the coupling between waypoints)
+
+by projected gradient over the whole (P, nx) array, batched over B paths with ``vmap``:
+
+1. warm start from a greedy solution (``options["warm"]``: ``"pgd"`` (default), ``"hybrid"`` or
+   ``"slsqp"``), which is feasible;
+2. ``traj_iters`` Adam steps on ``sum f + mu * sum_p |relu(|x_p - x_{p-1}| - d) / d|^2`` (the rate
+   limits as a quadratic penalty, so that a waypoint that needs to move pulls its neighbours along
+   ahead of time), each step projected per waypoint onto the null space of its position Jacobian,
+   clipped into the joint/stiffness limits and corrected back onto the path with Newton steps;
+   ``mu`` grows over ``blocks`` blocks, the step size decays;
+3. after each block a sequential feasibility pass (``lax.scan`` along the path: clip x_p into the
+   rate box around the previous usable waypoint, box-respecting Newton polish, status check as in
+   :mod:`jaxstiff.results`) makes the trajectory exactly feasible; the best feasible trajectory
+   (fewest unusable waypoints, then lowest total criterion), the warm start included, is returned.
+
+So the result satisfies every constraint exactly and its total criterion is never above the warm
+start's. Status: ``0`` SOLVED, ``3`` UNREACHABLE, ``4`` NONFINITE (as :mod:`.pgd`).
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import results as R
+from .problem import POS_TOL, Limits, WaypointProblem
+from . import pgd as _pgd
+
+__all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]
+
+DEFAULT_OPTIONS: dict[str, Any] = {
+    "warm": "pgd",  # greedy warm start: "pgd" | "hybrid" | "slsqp"
+    "traj_iters": 240,  # Adam steps over the whole trajectory (all blocks)
+    "blocks": 4,  # feasibility pass + best-so-far after each block; penalty weight grows per block
+    "traj_step0": 0.3,  # first step, fraction of the rate limit
+    "traj_step1": 0.003,  # last step, fraction of the rate limit
+    "mu0": 10.0,  # first penalty weight; x10 per block
+    "newton": 2,
+    "polish": 8,
+    "chunk": 64,
+}
+
+
+def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
+    ops = _pgd._Ops(problem)
+    nf, nx = ops.nf, ops.nx
+    T, nb = int(opts["traj_iters"]), int(opts["blocks"])
+    per = max(T // nb, 1)
+    s0, s1 = float(opts["traj_step0"]), float(opts["traj_step1"])
+    decay = (s1 / s0) ** (1.0 / max(per * nb - 1, 1))
+    nn, npol = int(opts["newton"]), int(opts["polish"])
+    mu0 = float(opts["mu0"])
+
+    def feasible_pass(X, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):
+        def step(carry, inp):
+            xref, at_start = carry
+            x, tgt, d = inp
+            rate = (~at_start) | first_rate
+            lb, ub = ops.box(xref, rate, dq_f, dk, kmin, kmax)
+            xo, fv, err, usable, finite = _pgd._finish(ops, x, lb, ub, tgt, d, r, c, pos_tol, npol)
+            xo = jnp.where(finite, xo, _pgd._clip(xref, lb, ub))
+            st = jnp.where(usable, R.SOLVED, jnp.where(finite, R.UNREACHABLE, R.NONFINITE))
+            return (jnp.where(usable, xo, xref), at_start & ~usable), (xo, fv, err, st)
+
+        _, (Xo, F, E, ST) = jax.lax.scan(step, (x0, jnp.asarray(True)), (X, targets, dirs))
+        bad = jnp.sum(ST != R.SOLVED)
+        tot = jnp.sum(jnp.where(ST == R.SOLVED, F, 0.0))
+        return Xo, F, E, ST, bad * 1e12 + jnp.where(jnp.isfinite(tot), tot, 1e11)
+
+    def traj(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):
+        P = targets.shape[0]
+        dx = jnp.concatenate([dq_f, dk])
+        scale = jnp.minimum(dx, jnp.concatenate([jnp.full((nf,), jnp.pi), jnp.full(dk.shape, kmax - kmin)]))
+        lb_all, ub_all = ops.box(x0, jnp.asarray(False), dq_f, dk, kmin, kmax)  # limits only
+        # coupling pairs (p-1, p); the first waypoint is coupled to x0 only with first_rate
+        w_pair = jnp.ones((P,)).at[0].set(1.0 if first_rate else 0.0)
+
+        def total(X, mu):
+            f = jax.vmap(ops.f, in_axes=(0, 0, None, None))(X, dirs, r, c)
+            prev = jnp.concatenate([x0[None], X[:-1]], axis=0)
+            v = jax.nn.relu(jnp.abs(X - prev) - dx) / dx
+            return jnp.sum(f) + mu * jnp.sum(w_pair[:, None] * v * v)
+
+        g_total = jax.grad(total)
+
+        def project(X, U):
+            def one(x, u):
+                _, J = ops.pos_jac(x)
+                Jy = J * scale[None, :nf]
+                k = Jy.shape[0]
+                JJt = Jy @ Jy.T
+                mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
+                lam = jnp.linalg.solve(JJt + mu * jnp.eye(k, dtype=x.dtype), Jy @ u[:nf])
+                return u.at[:nf].set(u[:nf] - Jy.T @ lam)
+
+            return jax.vmap(one)(X, U)
+
+        b1, b2 = 0.9, 0.999
+        Xb, Fb, Eb, STb, scb = feasible_pass(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol)
+
+        def block(i, carry):
+            X, m1, m2, t, Xb, Fb, Eb, STb, scb = carry
+            mu = mu0 * 10.0 ** i
+
+            def it(_, c2):
+                X, m1, m2, t = c2
+                g = g_total(X, mu)
+                gy = jnp.where(jnp.isfinite(g), g, 0.0) * scale
+                m1 = b1 * m1 + (1 - b1) * gy
+                m2 = b2 * m2 + (1 - b2) * gy * gy
+                tt = t + 1.0
+                u = (m1 / (1 - b1**tt)) / (jnp.sqrt(m2 / (1 - b2**tt)) + 1e-12)
+                u = project(X, u)
+                eta = s0 * decay**t
+                Xn = _pgd._clip(X - eta * scale * u, lb_all, ub_all)
+                Xn = jax.vmap(lambda x, tg: ops.newton(x, tg, lb_all, ub_all, nn))(Xn, targets)
+                Xn = jnp.where(jnp.all(jnp.isfinite(Xn)), Xn, X)
+                return Xn, m1, m2, tt
+
+            X, m1, m2, t = jax.lax.fori_loop(0, per, it, (X, m1, m2, t))
+            Xo, F, E, ST, sc = feasible_pass(X, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol)
+            better = sc < scb
+            sel = lambda a, b_: jnp.where(better, a, b_)  # noqa: E731
+            # continue from the feasible trajectory (the penalty alone leaves small rate excursions)
+            return Xo, m1, m2, t, sel(Xo, Xb), sel(F, Fb), sel(E, Eb), sel(ST, STb), jnp.minimum(sc, scb)
+
+        z = jnp.zeros_like(Xw)
+        out = jax.lax.fori_loop(0, nb, block, (Xb, z, z, jnp.asarray(0.0, Xw.dtype), Xb, Fb, Eb, STb, scb))
+        _, _, _, _, Xb, Fb, Eb, STb, _ = out
+        return {"x": Xb, "f": Fb, "err": Eb, "status": STb}
+
+    return traj
+
+
+@functools.lru_cache(maxsize=16)
+def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
+    traj = _kernel(problem, dict(opts_items), first_rate)
+    return jax.jit(jax.vmap(traj, in_axes=(0, 0, 0, 0, None, None, None, None, 0, None, None)))
+
+
+def refine_batch(
+    problem: WaypointProblem,
+    targets: np.ndarray,
+    directions: np.ndarray,
+    q0: np.ndarray,
+    kj0: np.ndarray,
+    limits: Limits,
+    ratio,
+    c: float,
+    warm: dict[str, np.ndarray],
+    options: dict | None = None,
+    pos_tol: float = POS_TOL,
+) -> dict[str, np.ndarray]:
+    """Trajectory-level refinement of a feasible batch solution ``warm`` (SOLVERS dict format).
+
+    Args:
+        targets, directions: (B, P, 3); q0, kj0: (B, n); ratio: a number or (B,).
+        warm: the greedy solution (``q``, ``kj`` (B,P,n), ``status``...).
+
+    Returns:
+        The SOLVERS dict; per path, fewer unusable waypoints or a total criterion <= the warm start's.
+    """
+    opts = {**DEFAULT_OPTIONS, **{k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}}
+    targets = np.asarray(targets, float)
+    directions = np.asarray(directions, float)
+    B, P = targets.shape[:2]
+    nf = problem.n_free
+    free = list(problem.free_idx)
+    Xw = problem.x_of(warm["q"], warm["kj"])
+    x0 = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
+    r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
+    C = min(int(opts["chunk"]), B)
+    items = tuple(sorted((k, v) for k, v in opts.items() if k not in ("chunk", "warm")))
+    fn = _compiled(problem, items, bool(limits.first_rate_limit))
+    dq_f = np.asarray(limits.dq, float)[free]
+    dk = np.asarray(limits.dk, float)
+    out = {k: np.array(v, copy=True) for k, v in warm.items() if isinstance(v, np.ndarray)}
+    pad = _pgd._pad
+    with jax.enable_x64(True):
+        for s in range(0, B, C):
+            e = min(s + C, B)
+            sl = slice(s, e)
+            t0 = time.perf_counter()
+            res = fn(pad(Xw[sl], C), pad(targets[sl], C), pad(directions[sl], C), pad(x0[sl], C), dq_f, dk,
+                     float(limits.kmin), float(limits.kmax), pad(r_arr[sl], C), float(c), float(pos_tol))
+            res = jax.tree_util.tree_map(np.asarray, res)
+            dt = time.perf_counter() - t0
+            m = e - s
+            q = out["q"][sl]
+            q[..., free] = res["x"][:m, :, :nf]
+            out["q"][sl] = q
+            out["kj"][sl] = res["x"][:m, :, nf:]
+            out["status"][sl] = res["status"][:m]
+            out["pos_error"][sl] = res["err"][:m]
+            out["time_s"][sl] += dt / (C * P)
+            out["nit"][sl] += int(opts["traj_iters"])
+    return out
+
+
+def run_request(req) -> dict[str, np.ndarray]:
+    """Adapter for :data:`jaxstiff.shaping.SOLVERS` (``solver="trajectory"``)."""
+    opts = dict(req.options or {})
+    warm_kind = opts.get("warm", DEFAULT_OPTIONS["warm"])
+    if warm_kind == "pgd":
+        from . import pgd
+
+        warm = pgd.run_request(req)
+    elif warm_kind == "hybrid":
+        from . import hybrid
+
+        warm = hybrid.run_request(req)
+    elif warm_kind == "slsqp":
+        from ..shaping import SOLVERS
+
+        warm = SOLVERS["slsqp"](req)
+    else:
+        raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm_kind!r}")
+    return refine_batch(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
+                        warm, options=opts, pos_tol=req.pos_tol)
