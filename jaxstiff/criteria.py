@@ -72,16 +72,38 @@ def alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
         ``(alpha, rho)``, each (...,), dtype of K.
     """
     K = _check_square(K)
-    d = _check_direction(K, d)
+    return _alpha_and_ratio(K, _check_direction(K, d))
+
+
+@jax.jit
+def _alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
     w, V = eigh_descending(K)
     alpha = _alpha_rad(V[..., :, 0], d) * (180.0 / math.pi)
     return alpha, _safe_ratio(w[..., 0], w[..., 1])
 
 
-def _check_ratio(r, dtype) -> jax.Array:
+def _check_ratio(r) -> None:
     if isinstance(r, (int, float)) and not r >= 1.0:
         raise ValueError(f"ratio r must be >= 1 (rho = lambda1 / lambda2 is >= 1), got {r}")
-    return jnp.asarray(r, dtype=dtype)
+
+
+def _inputs(K, d):
+    K = _check_square(K)
+    return K, _check_direction(K, d)
+
+
+@jax.jit
+def _f1(K, d, r, c):
+    alpha, rho = _alpha_and_ratio(K, d)
+    r = jnp.asarray(r, dtype=alpha.dtype)
+    return (alpha + c) * r / jnp.minimum(rho, r)
+
+
+@jax.jit
+def _f2(K, d, r):
+    alpha, rho = _alpha_and_ratio(K, d)
+    r = jnp.asarray(r, dtype=alpha.dtype)
+    return (1.0 + alpha) * (1.0 + jnp.abs(r - rho))
 
 
 def f1(K: jax.Array, d: jax.Array, r, c: float = 0.01) -> jax.Array:
@@ -98,9 +120,8 @@ def f1(K: jax.Array, d: jax.Array, r, c: float = 0.01) -> jax.Array:
     Returns:
         (...,) dimensionless (degrees).
     """
-    alpha, rho = alpha_and_ratio(K, d)
-    r = _check_ratio(r, alpha.dtype)
-    return (alpha + c) * r / jnp.minimum(rho, r)
+    _check_ratio(r)
+    return _f1(*_inputs(K, d), r, c)
 
 
 def f2(K: jax.Array, d: jax.Array, r, c: float = 0.0) -> jax.Array:
@@ -118,9 +139,8 @@ def f2(K: jax.Array, d: jax.Array, r, c: float = 0.0) -> jax.Array:
         (...,).
     """
     del c
-    alpha, rho = alpha_and_ratio(K, d)
-    r = _check_ratio(r, alpha.dtype)
-    return (1.0 + alpha) * (1.0 + jnp.abs(r - rho))
+    _check_ratio(r)
+    return _f2(*_inputs(K, d), r)
 
 
 def _safe_sqrt(s: jax.Array) -> jax.Array:

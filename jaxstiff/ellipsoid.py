@@ -101,32 +101,45 @@ def _eig2(K: jax.Array):
     return _assemble(w, cols)
 
 
+_KEYS3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+
+
+def _key(i: int, j: int) -> tuple[int, int]:
+    return (i, j) if i <= j else (j, i)
+
+
+def _jacobi_sweep3(_, carry):
+    """One cyclic sweep (rotations (0,1), (0,2), (1,2)) over the upper triangle ``a`` and ``V``."""
+    a, v = carry
+    A = dict(zip(_KEYS3, a))
+    V = [list(v[3 * k : 3 * k + 3]) for k in range(3)]  # V[k][i]: row k, column i
+    for p, q in ((0, 1), (0, 2), (1, 2)):
+        r = 3 - p - q
+        app, aqq, apq = A[p, p], A[q, q], A[p, q]
+        t, c, s = _jacobi_rotation(app, aqq, apq)
+        arp, arq = A[_key(r, p)], A[_key(r, q)]
+        A[p, p] = app - t * apq
+        A[q, q] = aqq + t * apq
+        A[p, q] = jnp.zeros_like(apq)
+        A[_key(r, p)] = c * arp - s * arq
+        A[_key(r, q)] = s * arp + c * arq
+        for k in range(3):
+            vp, vq = V[k][p], V[k][q]
+            V[k][p] = c * vp - s * vq
+            V[k][q] = s * vp + c * vq
+    return tuple(A[k] for k in _KEYS3), tuple(x for row in V for x in row)
+
+
 def _eig3(K: jax.Array, sweeps: int = JACOBI_SWEEPS):
-    A = {(i, j): (K[..., i, j] if i == j else 0.5 * (K[..., i, j] + K[..., j, i])) for i in range(3) for j in range(i, 3)}
-    one = jnp.ones_like(A[0, 0])
+    a = tuple(K[..., i, j] if i == j else 0.5 * (K[..., i, j] + K[..., j, i]) for i, j in _KEYS3)
+    one = jnp.ones_like(a[0])
     zero = jnp.zeros_like(one)
-    V = [[one if i == k else zero for i in range(3)] for k in range(3)]  # V[k][i]: row k, column i
-
-    def key(i, j):
-        return (i, j) if i <= j else (j, i)
-
-    for _ in range(sweeps):
-        for p, q in ((0, 1), (0, 2), (1, 2)):
-            r = 3 - p - q
-            app, aqq, apq = A[p, p], A[q, q], A[p, q]
-            t, c, s = _jacobi_rotation(app, aqq, apq)
-            arp, arq = A[key(r, p)], A[key(r, q)]
-            A[p, p] = app - t * apq
-            A[q, q] = aqq + t * apq
-            A[p, q] = zero
-            A[key(r, p)] = c * arp - s * arq
-            A[key(r, q)] = s * arp + c * arq
-            for k in range(3):
-                vp, vq = V[k][p], V[k][q]
-                V[k][p] = c * vp - s * vq
-                V[k][q] = s * vp + c * vq
+    v = tuple(one if i == k else zero for k in range(3) for i in range(3))
+    # a loop over sweeps (not unrolled): 4x faster to compile, and as fast or faster to run
+    a, v = jax.lax.fori_loop(0, sweeps, _jacobi_sweep3, (a, v))
+    A = dict(zip(_KEYS3, a))
     w = [A[0, 0], A[1, 1], A[2, 2]]
-    cols = [[V[k][i] for k in range(3)] for i in range(3)]
+    cols = [[v[3 * k + i] for k in range(3)] for i in range(3)]
     _compare_swap(w, cols, 0, 1)
     _compare_swap(w, cols, 1, 2)
     _compare_swap(w, cols, 0, 1)
@@ -149,7 +162,7 @@ def _mm(A: jax.Array, B: jax.Array) -> jax.Array:
 
 
 @jax.custom_jvp
-def eigh_descending(K: jax.Array) -> tuple[jax.Array, jax.Array]:
+def _eigh_descending(K: jax.Array) -> tuple[jax.Array, jax.Array]:
     """Eigen-decomposition of a symmetric matrix, eigenvalues descending, with a gradient-safe JVP.
 
     Args:
@@ -163,7 +176,7 @@ def eigh_descending(K: jax.Array) -> tuple[jax.Array, jax.Array]:
     return _eigh_desc_primal(K)
 
 
-@eigh_descending.defjvp
+@_eigh_descending.defjvp
 def _eigh_descending_jvp(primals, tangents):
     (K,), (dK,) = primals, tangents
     w, V = _eigh_desc_primal(K)
@@ -177,6 +190,11 @@ def _eigh_descending_jvp(primals, tangents):
     Finv = jnp.where(ok, 1.0 / jnp.where(ok, gap, 1.0), 0.0)
     dV = _mm(V, Finv * A)
     return (w, V), (dw, dV)
+
+
+# jit at the entry point: an eager call compiles once per shape and dtype (instead of dispatching
+# the unrolled rotations op by op); inside a caller's jit it is inlined.
+eigh_descending = jax.jit(_eigh_descending)
 
 
 @jax.tree_util.register_dataclass
@@ -238,8 +256,12 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
         >>> e.axes.tolist(), float(e.ratio)
         ([4.0, 2.0], 2.0)
     """
-    K = _check_square(K)
-    w, V = eigh_descending(K)
+    return _ellipsoid(_check_square(K))
+
+
+@jax.jit
+def _ellipsoid(K: jax.Array) -> Ellipsoid:
+    w, V = _eigh_descending(K)
     return Ellipsoid(axes=w, directions=V, ratio=_safe_ratio(w[..., 0], w[..., 1]), volume=jnp.prod(w, axis=-1))
 
 
@@ -303,6 +325,10 @@ def orientation_error(K: jax.Array, d: jax.Array) -> jax.Array:
         (...,) degrees, dtype of K.
     """
     K = _check_square(K)
-    d = _check_direction(K, d)
-    _, V = eigh_descending(K)
+    return _orientation_error(K, _check_direction(K, d))
+
+
+@jax.jit
+def _orientation_error(K: jax.Array, d: jax.Array) -> jax.Array:
+    _, V = _eigh_descending(K)
     return _alpha_rad(V[..., :, 0], d) * (180.0 / math.pi)

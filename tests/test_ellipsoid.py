@@ -1,0 +1,277 @@
+"""Ellipsoid decomposition and orientation error (SPEC section 3) against independent references.
+
+References: ``numpy.linalg.eigh`` (LAPACK) on random, graded and nearly degenerate SPD matrices;
+matrices built from chosen eigenvalues and rotations (closed forms for alpha, ratio, volume);
+central finite differences for the custom JVP; ``acos`` in numpy for alpha.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import jaxstiff
+from helpers import assert_close, central_diff
+from jaxstiff.ellipsoid import _alpha_rad, eigh_descending
+
+RNG = np.random.default_rng(1234)
+N = 64  # one batch size throughout: each new shape compiles anew
+
+
+def random_rotation(rng, m, batch=()):
+    Q, R = np.linalg.qr(rng.normal(size=batch + (m, m)))
+    return Q * np.sign(np.diagonal(R, axis1=-2, axis2=-1))[..., None, :]
+
+
+def spd_from(lams, Q):
+    return (Q * np.asarray(lams)[..., None, :]) @ np.swapaxes(Q, -1, -2)
+
+
+def random_spd(rng, m, batch=(), kind="rand"):
+    if kind == "rand":
+        A = rng.normal(size=batch + (m, m + 2))
+        return A @ np.swapaxes(A, -1, -2)
+    Q = random_rotation(rng, m, batch)
+    if kind == "graded":
+        lams = 10.0 ** rng.uniform(-10, 3, size=batch + (m,))
+    elif kind == "near":  # clusters: eigenvalues equal up to 1e-14 ... 1e-3 relative
+        base = rng.uniform(1, 10, size=batch + (1,))
+        lams = base * (1 + 10.0 ** rng.uniform(-14, -3, size=batch + (m,)) * rng.integers(0, 2, size=batch + (m,)))
+    else:
+        raise ValueError(kind)
+    return spd_from(lams, Q)
+
+
+def check_against_numpy(K, w, V, rtol=1e-13):
+    K, w, V = np.asarray(K), np.asarray(w), np.asarray(V)
+    wn = np.linalg.eigh(K)[0][..., ::-1]
+    scale = np.abs(wn).max(axis=-1, keepdims=True)
+    assert np.all(np.isfinite(w)) and np.all(np.isfinite(V))
+    assert np.all(np.abs(w - wn) <= rtol * scale), np.abs(w - wn).max()
+    assert np.all(np.diff(w, axis=-1) <= 0), "eigenvalues not descending"
+    m = K.shape[-1]
+    assert_close(np.swapaxes(V, -1, -2) @ V, np.broadcast_to(np.eye(m), V.shape), atol=1e-13, what="orthonormal")
+    resid = np.linalg.norm(K @ V - V * w[..., None, :], axis=-2) / scale
+    assert resid.max() < 10 * rtol, resid.max()
+
+
+@pytest.mark.parametrize("m", [2, 3])
+@pytest.mark.parametrize("kind", ["rand", "graded", "near"])
+def test_eigh_matches_numpy_batched(m, kind):
+    K = random_spd(RNG, m, (N,), kind)
+    w, V = jax.jit(eigh_descending)(jnp.asarray(K))
+    check_against_numpy(K, w, V)
+    # eigenvectors agree with LAPACK's up to sign where the eigenvalue is well separated
+    wn, Vn = np.linalg.eigh(K)
+    Vn = Vn[..., ::-1]
+    wn = wn[..., ::-1]
+    gaps = np.abs(np.diff(wn, axis=-1)) / np.abs(wn).max(-1, keepdims=True)
+    sep = np.ones(wn.shape, bool)
+    sep[..., :-1] &= gaps > 1e-3
+    sep[..., 1:] &= gaps > 1e-3
+    dots = np.abs(np.sum(np.asarray(V) * Vn, axis=-2))
+    assert np.all(np.abs(dots[sep] - 1) < 1e-9)
+
+
+@pytest.mark.parametrize("m", [2, 3])
+def test_eigh_exact_degeneracies(m):
+    for K in [np.eye(m) * 3.0, np.diag([2.0, 2.0, 1.0][:m]), np.diag([1.0, 2.0, 2.0][-m:]), np.zeros((m, m))]:
+        w, V = eigh_descending(jnp.asarray(K))
+        check_against_numpy(K, w, V) if K.any() else assert_close(w, np.zeros(m))
+
+
+@pytest.mark.parametrize("shape", [(), (1,), (3, 1, 2)])
+def test_ellipsoid_batch_shapes_and_closed_forms(shape):
+    m = 3
+    lams = np.sort(RNG.uniform(1, 100, size=shape + (m,)), axis=-1)[..., ::-1]
+    Q = random_rotation(RNG, m, shape)
+    e = jaxstiff.ellipsoid(jnp.asarray(spd_from(lams, Q)))
+    assert e.axes.shape == shape + (3,) and e.directions.shape == shape + (3, 3)
+    assert e.ratio.shape == shape and e.volume.shape == shape
+    assert_close(e.axes, lams, rtol=1e-12)
+    assert_close(e.ratio, lams[..., 0] / lams[..., 1], rtol=1e-12)
+    assert_close(e.volume, np.prod(lams, axis=-1), rtol=1e-12)
+    assert_close(np.abs(np.sum(np.asarray(e.major) * Q[..., :, 0], -1)), np.ones(shape), atol=1e-10)
+
+
+def test_ellipsoid_is_a_pytree():
+    K = jnp.asarray(random_spd(RNG, 2, (N,)))
+    e = jax.jit(jaxstiff.ellipsoid)(K)
+    e2 = jax.vmap(jaxstiff.ellipsoid)(K)
+    assert isinstance(e, jaxstiff.Ellipsoid)
+    for a, b in zip(jax.tree_util.tree_leaves(e), jax.tree_util.tree_leaves(e2)):
+        assert_close(a, b, rtol=1e-14)
+
+
+@pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
+def test_dtype_kept(dtype):
+    K = jnp.asarray(random_spd(RNG, 3, (N,)), dtype=dtype)
+    d = jnp.asarray(RNG.normal(size=(N, 3)), dtype=dtype)
+    e = jaxstiff.ellipsoid(K)
+    for leaf in jax.tree_util.tree_leaves(e):
+        assert leaf.dtype == dtype
+    a = jaxstiff.orientation_error(K, d)
+    assert a.dtype == dtype
+    g = jax.grad(lambda k: jnp.sum(jaxstiff.orientation_error(k, d)))(K)
+    assert g.dtype == dtype and bool(jnp.all(jnp.isfinite(g)))
+    if dtype == jnp.float32:  # float32 results agree with float64 ones to float32 precision
+        e64 = jaxstiff.ellipsoid(jnp.asarray(K, jnp.float64))
+        assert_close(e.axes, e64.axes, rtol=1e-5, atol=1e-5 * float(jnp.max(e64.axes)))
+
+
+def numpy_alpha_deg(K, d):
+    w, V = np.linalg.eigh(K)
+    v1 = V[..., :, -1]
+    dn = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return np.degrees(np.arccos(np.clip(np.abs(np.sum(v1 * dn, -1)), 0, 1)))
+
+
+@pytest.mark.parametrize("m", [2, 3])
+def test_orientation_error_vs_acos_and_sign_invariance(m):
+    K = random_spd(RNG, m, (N,))
+    d = RNG.normal(size=(N, m))
+    a = np.asarray(jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(d)))
+    ref = numpy_alpha_deg(K, d)
+    # acos loses accuracy near 0 deg; compare in sin/cos space there
+    assert np.all((a >= 0) & (a <= 90))
+    assert_close(np.sin(np.radians(a)), np.sin(np.radians(ref)), atol=1e-9)
+    # sign of d
+    assert_close(jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(-d)), a, atol=1e-12)
+    assert_close(jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(3.7 * d)), a, atol=1e-12)
+    # sign of the eigenvector
+    _, V = eigh_descending(jnp.asarray(K))
+    v1 = V[..., :, 0]
+    a1 = np.degrees(np.asarray(_alpha_rad(v1, jnp.asarray(d))))
+    a2 = np.degrees(np.asarray(_alpha_rad(-v1, jnp.asarray(d))))
+    assert_close(a1, a2, atol=1e-12)
+    assert_close(a1, a, atol=1e-12)
+
+
+def test_orientation_error_constructed_2d():
+    # K with major axis at angle theta, d at angle phi: alpha = distance of theta - phi to the nearest multiple of 180, in [0, 90]
+    for theta, phi in [(10.0, 10.0), (10.0, 40.0), (80.0, -80.0), (0.0, 90.0), (30.0, 210.0), (179.0, 1.0), (45.0, 135.0)]:
+        t = math.radians(theta)
+        R = np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
+        K = R @ np.diag([7.0, 2.0]) @ R.T
+        d = np.array([math.cos(math.radians(phi)), math.sin(math.radians(phi))])
+        diff = (theta - phi) % 180.0
+        expected = min(diff, 180.0 - diff)
+        assert_close(jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(d)), expected, atol=1e-10, what=f"{theta}, {phi}")
+
+
+def test_orientation_error_small_angles_are_accurate():
+    # acos(cos(1e-7 rad)) = 0 in float64; the atan2 form keeps small angles
+    for eps in [1e-3, 1e-6, 1e-9]:
+        K = np.diag([5.0, 1.0])
+        d = np.array([math.cos(eps), math.sin(eps)])
+        assert_close(jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(d)), math.degrees(eps), rtol=1e-9)
+
+
+def test_zero_direction_gives_zero_alpha_and_finite_gradient():
+    K = jnp.asarray(random_spd(RNG, 3))
+    d = jnp.zeros(3)
+    assert float(jaxstiff.orientation_error(K, d)) == 0.0
+    g = jax.grad(lambda k, dd: jaxstiff.orientation_error(k, dd), argnums=(0, 1))(K, d)
+    assert all(bool(jnp.all(jnp.isfinite(x))) for x in g)
+
+
+@pytest.mark.parametrize("m", [2, 3])
+def test_jvp_matches_finite_differences(m):
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        K = random_spd(rng, m)
+        dK = rng.normal(size=(m, m))
+        dK = dK + dK.T
+        (w, V), (dw, dV) = jax.jvp(eigh_descending, (jnp.asarray(K),), (jnp.asarray(dK),))
+        h = 1e-6
+        wp, Vp = eigh_descending(jnp.asarray(K + h * dK))
+        wm, Vm = eigh_descending(jnp.asarray(K - h * dK))
+        # fix eigenvector signs to the unperturbed ones
+        Vp = np.asarray(Vp) * np.sign(np.sum(np.asarray(Vp) * np.asarray(V), axis=-2))
+        Vm = np.asarray(Vm) * np.sign(np.sum(np.asarray(Vm) * np.asarray(V), axis=-2))
+        assert_close(dw, (np.asarray(wp) - np.asarray(wm)) / (2 * h), rtol=1e-6, atol=1e-7)
+        assert_close(dV, (Vp - Vm) / (2 * h), rtol=1e-5, atol=1e-6)
+
+
+def _grads(fn, K):
+    return jax.grad(fn)(jnp.asarray(K))
+
+
+@pytest.mark.parametrize("m", [2, 3])
+def test_gradients_finite_at_spheres(m):
+    d = jnp.asarray(np.ones(m))
+    for K in [np.eye(m) * 4.0, np.eye(m) * 4.0 + 1e-14 * np.diag(np.arange(m))]:
+        for fn in [
+            lambda k: jaxstiff.orientation_error(k, d),
+            lambda k: jaxstiff.ellipsoid(k).ratio,
+            lambda k: jaxstiff.ellipsoid(k).volume,
+            lambda k: jnp.sum(jaxstiff.ellipsoid(k).directions),
+        ]:
+            g = _grads(fn, K)
+            assert bool(jnp.all(jnp.isfinite(g)))
+    # ratio and volume are exact at the sphere: d rho = dlam1/lam2 - ..., d vol = cof(K)
+    g_vol = _grads(lambda k: jaxstiff.ellipsoid(k).volume, np.eye(m) * 4.0)
+    assert_close(g_vol, np.eye(m) * 4.0 ** (m - 1), rtol=1e-12)
+
+
+def test_alpha_gradient_exact_when_lambda2_equals_lambda3():
+    # v1 is well defined (lambda1 > lambda2 = lambda3): the gradient of alpha must be exact
+    Q = random_rotation(np.random.default_rng(3), 3)
+    K = spd_from([9.0, 2.0, 2.0], Q)
+    d = np.array([0.3, -0.5, 0.8])
+    fn = lambda k: jaxstiff.orientation_error(k, jnp.asarray(d))  # noqa: E731
+    g = np.asarray(_grads(fn, K))
+    fd = central_diff(lambda x: np.asarray(fn(jnp.asarray(x.reshape(3, 3)))), K.ravel(), h=1e-6).reshape(3, 3)
+    # the gradient w.r.t. a symmetric matrix is defined up to its antisymmetric part: compare symmetric parts
+    assert_close(0.5 * (g + g.T), 0.5 * (fd + fd.T), rtol=1e-6, atol=1e-8)
+
+
+def test_bad_inputs_raise_clear_errors():
+    with pytest.raises(ValueError, match=r"\(\.\.\., 2, 2\) or \(\.\.\., 3, 3\)"):
+        jaxstiff.ellipsoid(jnp.eye(4))
+    with pytest.raises(ValueError, match="floating"):
+        jaxstiff.ellipsoid(jnp.eye(3, dtype=jnp.int32))
+    with pytest.raises(ValueError, match="d must have shape"):
+        jaxstiff.orientation_error(jnp.eye(3), jnp.ones(2))
+
+
+@st.composite
+def spd_batches(draw):
+    m = draw(st.sampled_from([2, 3]))
+    shape = draw(st.sampled_from([(), (2, 3)]))  # few shapes: each one compiles once
+    seed = draw(st.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(seed)
+    log_scale = draw(st.floats(-3, 6))
+    cond = draw(st.floats(0, 8))
+    lams = 10.0 ** (log_scale + rng.uniform(0, cond, size=shape + (m,)))
+    if draw(st.booleans()):  # force a repeated eigenvalue
+        lams[..., 1] = lams[..., 0]
+    return spd_from(lams, random_rotation(rng, m, shape)), np.sort(lams, axis=-1)[..., ::-1], rng.normal(size=shape + (m,))
+
+
+@jax.jit
+def _ellipsoid_alpha_grad(K, d):
+    e = jaxstiff.ellipsoid(K)
+    a = jaxstiff.orientation_error(K, d)
+    g = jax.grad(lambda k: jnp.sum(jaxstiff.orientation_error(k, d) + jaxstiff.ellipsoid(k).ratio))(K)
+    return e, a, g
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(spd_batches())
+def test_property_axes_ratio_volume_alpha(data):
+    K, lams, d = data
+    e, a, g = _ellipsoid_alpha_grad(jnp.asarray(K), jnp.asarray(d))
+    assert_close(e.axes, lams, rtol=1e-11, atol=1e-12 * lams.max())
+    # lambda_i is known to ~eps * lambda1 (absolute): relative errors grow with the condition number
+    cond = lams.max() / lams.min()
+    assert_close(e.ratio, lams[..., 0] / lams[..., 1], rtol=1e-12 + 1e-14 * cond)
+    assert_close(e.volume, np.prod(lams, -1), rtol=1e-12 + 1e-14 * cond)
+    assert a.shape == K.shape[:-2] and bool(jnp.all((a >= 0) & (a <= 90)))
+    assert bool(jnp.all(jnp.isfinite(g)))

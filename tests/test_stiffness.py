@@ -1,0 +1,312 @@
+"""Stiffness mappings (SPEC section 2) against independent references.
+
+References: ``numpy.linalg.inv`` of ``J K_j^-1 J^T``; the minimum joint-spring energy of a TCP
+displacement (a KKT system solved by numpy), which defines what the translational stiffness of
+tasks ``xyz`` and ``full`` mean physically; a closed-form geometric (CCT) term for the planar 3R
+and central finite differences of ``J(q)^T F`` for the LWR; exact CMS scaling.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import jaxstiff
+from helpers import assert_close, central_diff
+from jaxstiff.stiffness import TASK_ROWS, compliance, compliance_condition, cms_scale
+
+RNG = np.random.default_rng(42)
+N = 64  # batch size used throughout (each new shape compiles anew)
+_ROBOTS: dict[str, jaxstiff.Robot] = {}
+
+
+def robot(name: str) -> jaxstiff.Robot:
+    if name not in _ROBOTS:
+        _ROBOTS[name] = jaxstiff.Robot.from_urdf(name)
+    return _ROBOTS[name]
+
+
+def random_postures(r, n=N, rng=RNG):
+    q = rng.uniform(np.asarray(r.lower), np.asarray(r.upper), size=(n, r.n))
+    kj = rng.uniform(1.0, 100.0, size=(n, r.n))
+    return q, kj
+
+
+def numpy_compliance(J, kj, task):
+    Js = np.asarray(J)[..., list(TASK_ROWS[task]), :]
+    return np.einsum("...in,...jn->...ij", Js / kj[..., None, :], Js)
+
+
+CASES = [("kuka_lwr4", "xyz"), ("kuka_lwr4", "full"), ("kuka_lwr4", "xy"), ("planar_3r", "xy")]
+
+
+@pytest.mark.parametrize("name,task", CASES)
+def test_cartesian_stiffness_matches_numpy_inverse(name, task):
+    r = robot(name)
+    q, kj = random_postures(r)
+    J = np.asarray(r.jacobian(jnp.asarray(q)))
+    K = np.asarray(jaxstiff.cartesian_stiffness(jnp.asarray(J), jnp.asarray(kj), task))
+    C = numpy_compliance(J, kj, task)
+    Kn = np.linalg.inv(C)
+    cond = np.linalg.cond(C)
+    rel = np.abs(K - Kn).max(axis=(-2, -1)) / np.abs(Kn).max(axis=(-2, -1))
+    # accurate to 1e-12 where the posture is well conditioned, and to ~eps * cond everywhere
+    assert np.all(rel[cond < 1e3] < 1e-12), rel[cond < 1e3].max()
+    assert np.all(rel < 1e-12 + 2e-15 * cond), (rel / cond).max()
+    assert_close(K, np.swapaxes(K, -1, -2), rtol=0, atol=0, what="exactly symmetric")
+    # the translational stiffness: K_C itself, or its top-left block for "full"
+    KT = np.asarray(jaxstiff.translational_stiffness(jnp.asarray(J), jnp.asarray(kj), task))
+    ref = K[..., :3, :3] if task == "full" else K
+    relT = np.abs(KT - ref).max(axis=(-2, -1)) / np.abs(ref).max(axis=(-2, -1))
+    assert np.all(relT < 1e-12 + 2e-15 * cond), (relT / cond).max()
+
+
+def min_spring_energy(J6, kj, dx, task):
+    """Least joint-spring energy 1/2 dq^T K_j dq of a TCP displacement (numpy KKT solve).
+
+    ``full``: the TCP translates by dx with its orientation held (J dq = [dx; 0]);
+    ``xyz``: the TCP translates by dx, orientation free (J_v dq = dx).
+    """
+    n = J6.shape[1]
+    A = J6 if task == "full" else J6[:3]
+    b = np.concatenate([dx, np.zeros(3)]) if task == "full" else dx
+    kkt = np.block([[np.diag(kj), A.T], [A, np.zeros((A.shape[0], A.shape[0]))]])
+    sol = np.linalg.solve(kkt, np.concatenate([np.zeros(n), b]))
+    dq = sol[:n]
+    return 0.5 * dq @ (kj * dq)
+
+
+def test_translational_stiffness_physical_meaning():
+    """1/2 dx^T K_T dx is the least spring energy of a TCP translation dx (orientation held for
+    "full", free for "xyz"); so K_T(full) >= K_T(xyz) in the Loewner order."""
+    r = robot("kuka_lwr4")
+    q, kj = random_postures(r, n=8)
+    J = np.asarray(r.jacobian(jnp.asarray(q)))
+    KT = {t: np.asarray(jaxstiff.translational_stiffness(jnp.asarray(J), jnp.asarray(kj), t)) for t in ("full", "xyz")}
+    for b in range(8):
+        for dx in RNG.normal(size=(4, 3)) * 1e-3:
+            for task in ("full", "xyz"):
+                E = min_spring_energy(J[b], kj[b], dx, task)
+                assert_close(0.5 * dx @ KT[task][b] @ dx, E, rtol=1e-9, what=task)
+        diff = np.linalg.eigvalsh(KT["full"][b] - KT["xyz"][b])
+        assert diff.min() > -1e-9 * np.abs(KT["full"][b]).max()
+
+
+def test_full_is_schur_complement():
+    r = robot("kuka_lwr4")
+    q, kj = random_postures(r, n=N)
+    J = np.asarray(r.jacobian(jnp.asarray(q)))
+    C = numpy_compliance(J, kj, "full")
+    S = C[:, :3, :3] - C[:, :3, 3:] @ np.linalg.solve(C[:, 3:, 3:], C[:, 3:, :3])
+    KT = np.asarray(jaxstiff.translational_stiffness(jnp.asarray(J), jnp.asarray(kj), "full"))
+    cond = np.linalg.cond(C)
+    rel = np.abs(KT - np.linalg.inv(S)).max((-2, -1)) / np.abs(KT).max((-2, -1))
+    assert np.all(rel < 1e-12 + 2e-15 * cond)
+
+
+@pytest.mark.parametrize("name,task", [("kuka_lwr4", "full"), ("kuka_lwr4", "xyz"), ("planar_3r", "xy")])
+def test_cms_scales_axes_only(name, task):
+    """Scaling every kj by k scales K_T by k: axes by k, same ratio and directions (S0 section III).
+
+    Exact to 1e-12 at well-conditioned postures; elsewhere rounding grows like eps * cond(C)."""
+    r = robot(name)
+    q, kj = random_postures(r, n=N)
+    J = r.jacobian(jnp.asarray(q))
+    cond = np.linalg.cond(numpy_compliance(np.asarray(J), kj, task))
+    tol = np.where(cond < 1e3, 1e-12, 1e-12 + 2e-15 * cond)
+    K = np.asarray(jaxstiff.translational_stiffness(J, jnp.asarray(kj), task))
+    e = jaxstiff.ellipsoid(jnp.asarray(K))
+    for k in [0.5, 1.7, 3.0]:
+        Kk = np.asarray(jaxstiff.translational_stiffness(J, jnp.asarray(k * kj), task))
+        rel = np.abs(Kk - k * K).max((-2, -1)) / np.abs(k * K).max((-2, -1))
+        assert np.all(rel < tol), (rel / tol).max()
+        ek = jaxstiff.ellipsoid(jnp.asarray(Kk))
+        assert np.all(np.abs(np.asarray(ek.axes) / (k * np.asarray(e.axes)) - 1).max(-1) < 10 * tol)
+        assert np.all(np.abs(np.asarray(ek.ratio) / np.asarray(e.ratio) - 1) < 10 * tol)
+        v, vk = np.asarray(e.major), np.asarray(ek.major)
+        vd = np.sum(v * vk, -1, keepdims=True)
+        angle = np.linalg.norm(vk - vd * v, axis=-1)  # sine of the angle between the major axes
+        ok = (cond < 1e3) & (np.asarray(e.ratio) > 1.1)
+        assert ok.sum() > N // 4
+        assert np.all(angle[ok] < 1e-10), "major axis unchanged"
+
+
+def test_cms_factor_reaches_targets():
+    r = robot("kuka_lwr4")
+    q, kj = random_postures(r, n=N)
+    J = r.jacobian(jnp.asarray(q))
+    K = jaxstiff.translational_stiffness(J, jnp.asarray(kj), "full")
+    k = jaxstiff.cms_factor(K, target_major=5000.0)
+    assert_close(np.linalg.eigvalsh(np.asarray(k)[:, None, None] * np.asarray(K))[:, -1], np.full(N, 5000.0), rtol=1e-12)
+    k, kj_scaled = cms_scale(K, jnp.asarray(kj), target_volume=1e9)
+    assert_close(kj_scaled, np.asarray(k)[:, None] * kj, rtol=1e-15)
+    K_scaled = jaxstiff.translational_stiffness(J, kj_scaled, "full")
+    assert_close(np.linalg.det(np.asarray(K_scaled)), np.full(N, 1e9), rtol=1e-10)
+    with pytest.raises(ValueError, match="exactly one"):
+        jaxstiff.cms_factor(K)
+    with pytest.raises(ValueError, match="target_major must be > 0"):
+        jaxstiff.cms_factor(K, target_major=-1.0)
+
+
+def planar_kg(q, F):
+    """Closed form d(J^T F)/dq of the planar 3R (unit links), F = (Fx, Fy)."""
+    c = np.cumsum(q)
+    KG = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            k0 = max(i, j)
+            KG[i, j] = np.sum(-F[0] * np.cos(c[k0:]) - F[1] * np.sin(c[k0:]))
+    return KG
+
+
+def test_joint_stiffness_congruence_and_cct_planar_closed_form():
+    r = robot("planar_3r")
+    q = np.radians([75.0, -74.74, -76.30])
+    J = np.asarray(r.jacobian(jnp.asarray(q)))
+    Kx = np.array([[900.0, 120.0], [120.0, 300.0]])
+    Kq = np.asarray(jaxstiff.joint_stiffness(jnp.asarray(J), jnp.asarray(Kx), task="xy"))
+    assert_close(Kq, J[:2].T @ Kx @ J[:2], rtol=1e-13)
+    F = np.array([12.0, -7.0])
+    Kq_F = np.asarray(jaxstiff.joint_stiffness(jnp.asarray(J), jnp.asarray(Kx), jnp.asarray(F), robot=r, q=jnp.asarray(q), task="xy"))
+    assert_close(Kq_F - Kq, planar_kg(q, F), rtol=1e-12, atol=1e-12)
+    # F = 0 reduces to the congruence
+    Kq_0 = jaxstiff.joint_stiffness(jnp.asarray(J), jnp.asarray(Kx), jnp.zeros(2), robot=r, q=jnp.asarray(q), task="xy")
+    assert_close(Kq_0, Kq, rtol=1e-14)
+
+
+@pytest.mark.parametrize("task", ["full", "xyz"])
+def test_cct_term_vs_finite_differences_lwr(task):
+    r = robot("kuka_lwr4")
+    rows = list(TASK_ROWS[task])
+    q = RNG.uniform(-1.5, 1.5, size=(2, r.n))
+    F = RNG.normal(size=(2, len(rows))) * 20.0
+    m = len(rows)
+    Kx = np.eye(m) * 1000.0
+    J = r.jacobian(jnp.asarray(q))
+    KG = np.asarray(jaxstiff.joint_stiffness(J, jnp.asarray(Kx), jnp.asarray(F), robot=r, q=jnp.asarray(q), task=task)) - np.asarray(
+        jaxstiff.joint_stiffness(J, jnp.asarray(Kx), task=task)
+    )
+    for b in range(2):
+        tau = lambda x: np.asarray(r.jacobian(jnp.asarray(x)))[rows].T @ F[b]  # noqa: E731
+        assert_close(KG[b], central_diff(tau, q[b], h=1e-6), rtol=1e-7, atol=1e-7)
+    # a single wrench broadcast over a batch of postures
+    KG1 = jaxstiff.joint_stiffness(J, jnp.asarray(Kx), jnp.asarray(F[0]), robot=r, q=jnp.asarray(q), task=task)
+    assert KG1.shape == (2, r.n, r.n)
+
+
+def test_joint_stiffness_errors():
+    r = robot("planar_3r")
+    J = r.jacobian(jnp.zeros(3))
+    with pytest.raises(ValueError, match="needs robot= and q="):
+        jaxstiff.joint_stiffness(J, jnp.eye(2), jnp.ones(2), task="xy")
+    with pytest.raises(ValueError, match="K_x must have shape"):
+        jaxstiff.joint_stiffness(J, jnp.eye(3), task="xy")
+
+
+SINGULAR = [
+    ("kuka_lwr4", np.zeros(7), "full"),  # stretched upright
+    ("kuka_lwr4", np.zeros(7), "xyz"),
+    ("kuka_lwr4", np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), "full"),
+    ("planar_3r", np.zeros(3), "xy"),  # stretched
+    ("planar_3r", np.array([0.4, 0.0, 0.0]), "xy"),
+]
+
+
+@pytest.mark.parametrize("name,q,task", SINGULAR)
+def test_singular_postures_are_flagged_and_finite(name, q, task):
+    r = robot(name)
+    J = r.jacobian(jnp.asarray(q))
+    for kj in [np.full(r.n, 1.0), np.full(r.n, 100.0), np.linspace(1.0, 100.0, r.n)]:
+        K = jaxstiff.cartesian_stiffness(J, jnp.asarray(kj), task)
+        KT = jaxstiff.translational_stiffness(J, jnp.asarray(kj), task)
+        assert bool(jnp.all(jnp.isfinite(K))) and bool(jnp.all(jnp.isfinite(KT)))
+        assert np.linalg.eigvalsh(np.asarray(KT)).min() > 0, "K_T stays positive definite"
+        assert float(compliance_condition(J, jnp.asarray(kj), task)) > 1e10
+        # the stiffness along the lost direction is large but the rest is the robot's own
+        g = jax.jacrev(lambda x: jaxstiff.translational_stiffness(J, x, task))(jnp.asarray(kj))
+        assert bool(jnp.all(jnp.isfinite(g)))
+
+
+def test_condition_of_regular_postures_is_modest():
+    r = robot("kuka_lwr4")
+    q = np.array([0.3, 0.8, -0.4, -1.3, 0.5, 0.9, 0.0])
+    kj = np.full(7, 50.0)
+    J = r.jacobian(jnp.asarray(q))
+    for task in ("full", "xyz"):
+        cond = float(compliance_condition(J, jnp.asarray(kj), task))
+        assert_close(cond, np.linalg.cond(numpy_compliance(np.asarray(J), kj, task)), rtol=1e-6)
+        assert cond < 1e4
+
+
+def test_zero_or_negative_kj_stays_finite():
+    r = robot("planar_3r")
+    J = r.jacobian(jnp.asarray([0.5, 0.5, 0.5]))
+    K = jaxstiff.translational_stiffness(J, jnp.asarray([0.0, -1.0, 10.0]), "xy")
+    assert bool(jnp.all(jnp.isfinite(K)))
+
+
+@pytest.mark.parametrize("task", ["xy", "xyz", "full"])
+def test_dtype_kept_float32(task):
+    r = robot("kuka_lwr4")
+    q = np.array([0.3, 0.8, -0.4, -1.3, 0.5, 0.9, 0.0])
+    kj = np.linspace(10.0, 90.0, 7)
+    J64 = r.jacobian(jnp.asarray(q))
+    J32 = jnp.asarray(J64, jnp.float32)
+    for fn in (jaxstiff.cartesian_stiffness, jaxstiff.translational_stiffness, compliance):
+        out32 = fn(J32, jnp.asarray(kj, jnp.float32), task)
+        out64 = fn(J64, jnp.asarray(kj), task)
+        assert out32.dtype == jnp.float32 and out64.dtype == jnp.float64
+        assert_close(out32, out64, rtol=2e-3, atol=2e-4 * float(jnp.max(jnp.abs(out64))))
+
+
+def test_batch_shapes_and_broadcasting():
+    r = robot("planar_3r")
+    q = RNG.uniform(-2, 2, size=(3, 1, 2, 3))
+    J = r.jacobian(jnp.asarray(q))
+    kj = jnp.asarray([500.0, 300.0, 100.0])  # one kj for the whole batch
+    K = jaxstiff.translational_stiffness(J, kj, "xy")
+    assert K.shape == (3, 1, 2, 2, 2)
+    ref = np.linalg.inv(numpy_compliance(np.asarray(J), np.asarray(kj), "xy"))
+    assert_close(K, ref, rtol=1e-9)
+    for shape in [(), (1,)]:
+        qq = jnp.asarray(RNG.uniform(-2, 2, size=shape + (3,)))
+        assert jaxstiff.translational_stiffness(r.jacobian(qq), kj, "xy").shape == shape + (2, 2)
+
+
+def test_no_recompilation_for_same_shapes():
+    r = robot("planar_3r")
+    J = r.jacobian(jnp.asarray(RNG.uniform(-2, 2, size=(N, 3))))
+    kj = jnp.asarray(RNG.uniform(1, 100, size=(N, 3)))
+    jaxstiff.translational_stiffness(J, kj, "xy")
+    before = jaxstiff.translational_stiffness._cache_size()
+    jaxstiff.translational_stiffness(J * 1.01, kj * 2.0, "xy")
+    assert jaxstiff.translational_stiffness._cache_size() == before
+
+
+def test_bad_inputs_raise_clear_errors():
+    J = jnp.ones((6, 3))
+    with pytest.raises(ValueError, match="unknown task 'xz'"):
+        jaxstiff.cartesian_stiffness(J, jnp.ones(3), "xz")
+    with pytest.raises(ValueError, match="J must have 6 rows"):
+        jaxstiff.cartesian_stiffness(jnp.ones((5, 3)), jnp.ones(3), "full")
+    with pytest.raises(ValueError, match=r"kj must have shape \(\.\.\., 3\)"):
+        jaxstiff.cartesian_stiffness(J, jnp.ones(4), "xyz")
+    with pytest.raises(ValueError, match="floating"):
+        jaxstiff.cartesian_stiffness(jnp.ones((6, 3), dtype=jnp.int32), jnp.ones(3), "xyz")
+
+
+def test_seed_fig2_posture_numbers():
+    """The seed's Fig. 2 posture: K_T from the closed-form planar Jacobian (numpy) matches."""
+    r = robot("planar_3r")
+    q = np.radians([75.0, -74.74, -76.30])
+    kj = np.array([500.0, 300.0, 100.0])
+    c = np.cumsum(q)
+    Jxy = np.array([[-np.sin(c[i:]).sum() for i in range(3)], [np.cos(c[i:]).sum() for i in range(3)]])
+    ref = np.linalg.inv(Jxy @ np.diag(1 / kj) @ Jxy.T)
+    K = jaxstiff.translational_stiffness(r.jacobian(jnp.asarray(q)), jnp.asarray(kj), "xy")
+    assert_close(K, ref, rtol=1e-12)
+    assert math.isfinite(float(jaxstiff.ellipsoid(K).ratio))
