@@ -161,7 +161,7 @@ def _add_shape(p: argparse.ArgumentParser):
         from ._x64 import enable_x64
         from .paths import Path, default_path
         from .robot import Robot, robot_path
-        from .shaping import shape
+        from .shaping import prefer_sync_cpu_dispatch, shape
 
         # ---- validate everything before any work, so bad input never leaves a file
         out = os.path.abspath(args.out if args.out.endswith(".npz") else args.out + ".npz")
@@ -219,6 +219,7 @@ def _add_shape(p: argparse.ArgumentParser):
             kj0 = kj0[0]
 
         enable_x64()
+        prefer_sync_cpu_dispatch()  # per-waypoint SLSQP is latency-bound: see its docstring
         B = path.B
         progress = _Progress(B * path.P, enabled=not args.quiet)
         res = shape(

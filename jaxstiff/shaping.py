@@ -61,7 +61,7 @@ from .robot import Robot
 from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report
 from .stiffness import task_rows
 
-__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest"]
+__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "prefer_sync_cpu_dispatch"]
 
 #: Defaults of the parameters the seed does not fix (see the module docstring).
 DEFAULTS: dict[str, Any] = {
@@ -80,6 +80,36 @@ DEFAULTS: dict[str, Any] = {
 
 FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures (results are reproducible)
 FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg
+
+def prefer_sync_cpu_dispatch() -> bool:
+    """Run JAX CPU computations inline (no async dispatch), if JAX has not started its backend yet.
+
+    SLSQP calls one tiny kernel per point it asks about (about 80 per waypoint); with JAX's default
+    asynchronous CPU dispatch each call pays a thread hand-off that costs more than the kernel
+    itself (measured: ~45 us inline vs ~150-600 us async per call on a busy 2-core machine). The
+    setting (``jax_cpu_enable_async_dispatch``) is process-wide and read once when the CPU backend
+    starts, so only entry points call this (the ``jaxstiff shape`` command, the shaping
+    benchmark and experiments); the library never changes it on its own. From your own script:
+    ``jax.config.update("jax_cpu_enable_async_dispatch", False)`` before the first computation.
+
+    Returns:
+        True if CPU dispatch is (now) synchronous.
+    """
+    try:
+        from jax._src import xla_bridge
+
+        started = xla_bridge.backends_are_initialized()
+    except (ImportError, AttributeError):  # pragma: no cover - private API moved
+        started = True
+    if not started:
+        jax.config.update("jax_cpu_enable_async_dispatch", False)
+    return not _cpu_async_dispatch()
+
+
+def _cpu_async_dispatch() -> bool:
+    """The value of ``jax_cpu_enable_async_dispatch`` (True if unknown)."""
+    return bool(jax.config.values.get("jax_cpu_enable_async_dispatch", True))
+
 
 # ---------------------------------------------------------------------- solver registry
 class SolveRequest:
@@ -495,6 +525,7 @@ def shape(
         "timing_s": {"setup": t_solve - t_start, "solve": t_solved - t_solve, "compile": arrays.get("compile_s"),
                      "total": time.perf_counter() - t_start},
         "versions": _versions(),
+        "jax_cpu_async_dispatch": _cpu_async_dispatch(),
         "units": {"q": "rad", "kj": "Nm/rad", "position": "m", "alpha_deg": "deg", "stiffness": "N/m"},
     }
     if meta_extra:

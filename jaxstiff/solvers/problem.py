@@ -59,6 +59,7 @@ __all__ = [
     "compiled",
     "compiled_evaluate",
     "compiled_report",
+    "compiled_scaled",
     "compiled_position",
     "jax_pos_and_jac",
     "box",
@@ -220,6 +221,19 @@ class WaypointProblem:
         A = jnp.concatenate([Jq, jnp.zeros((len(rows), self.n), dtype=x.dtype)], axis=1)
         return jnp.concatenate([f[None], g, c, A.ravel()])
 
+    def fused_scaled(self, y: jax.Array, params: jax.Array, scale: jax.Array) -> jax.Array:
+        """:meth:`fused` in scaled variables, as a solver sees them: ``x = y * scale[:nx]``, the
+        objective times ``scale[nx]``; returns ``[f s_f, df/dy (nx), c (k), dc/dy (k*nx)]``.
+
+        Scaling inside the kernel keeps the solver's Python side to array views (no numpy
+        arithmetic per evaluation).
+        """
+        sx, sf = scale[: self.nx], scale[self.nx]
+        out = self.fused(y * sx, params)
+        nx, k = self.nx, len(self.pos_rows)
+        f, g, c, A = out[0], out[1 : 1 + nx], out[1 + nx : 1 + nx + k], out[1 + nx + k :].reshape(k, nx)
+        return jnp.concatenate([(f * sf)[None], g * sx * sf, c, (A * sx[None, :]).ravel()])
+
     def unpack(self, out: np.ndarray):
         """Split :meth:`fused`'s output into ``(f, grad (nx,), c (k,), A (k, nx))``."""
         nx, k = self.nx, len(self.pos_rows)
@@ -243,9 +257,22 @@ class WaypointProblem:
 
 # ---------------------------------------------------------------------- compiled, cached
 @functools.lru_cache(maxsize=64)
+def compiled_scaled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray, np.ndarray], jax.Array]:
+    """The jitted ``fused_scaled(y, params, scale)`` of a problem, compiled once per problem and dtype."""
+    return jax.jit(problem.fused_scaled)
+
+
+@functools.lru_cache(maxsize=64)
 def compiled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
-    """The jitted ``fused(x, params)`` of a problem, compiled once per problem and input dtype."""
-    return jax.jit(problem.fused)
+    """``fused(x, params)`` of a problem, unscaled, on the one jitted kernel of :func:`compiled_scaled`."""
+    fs = compiled_scaled(problem)
+    ones = np.ones(problem.nx + 1)
+
+    def fused(x, params):
+        return fs(x, params, ones)
+
+    fused._cache_size = fs._cache_size  # type: ignore[attr-defined]
+    return fused
 
 
 @functools.lru_cache(maxsize=64)
