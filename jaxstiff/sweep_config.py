@@ -63,7 +63,9 @@ Rows are numbered setting-major: ``row_id = setting_index * n_paths + path_index
 settings in ``itertools.product`` order of the axes in the order of :data:`AXES`. Rows that share
 the *static* axes (those that change a compiled shape or a solver's structure: criterion, task,
 solver, starts for "shape"; task, step, kmin, kmax, newton, joint_limits, jl_gain for "csc") and the
-number of waypoints form a *group*; each group is cut into chunks of ``chunk_size`` consecutive rows.
+number of waypoints form a *group*; each group is cut into chunks of at most ``chunk_size``
+consecutive rows (kind "shape": whole settings, i.e. all paths of a setting, as long as they fit, so
+that every batched call of a group has the same batch size and compiles once).
 The plan, and so every row's result, depends only on the config, never on timing.
 
 Example:
@@ -577,8 +579,33 @@ class _Parser:
             members.setdefault(g, []).append(r)
         for g in range(len(groups)):
             ids = members[g]
-            for i in range(0, len(ids), chunk_size):
-                chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(ids[i : i + chunk_size])))
+            if kind == "shape":
+                # whole settings per chunk: every batched call then has the same number of paths
+                # (one compilation per group for batched solvers)
+                blocks: list[list[int]] = []
+                for r in ids:
+                    if blocks and rows[blocks[-1][0]][0] == rows[r][0]:
+                        blocks[-1].append(r)
+                    else:
+                        blocks.append([r])
+                cur: list[int] = []
+                for blk in blocks:
+                    if len(blk) > chunk_size:
+                        if cur:
+                            chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(cur)))
+                            cur = []
+                        for i in range(0, len(blk), chunk_size):
+                            chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(blk[i : i + chunk_size])))
+                        continue
+                    if cur and len(cur) + len(blk) > chunk_size:
+                        chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(cur)))
+                        cur = []
+                    cur += blk
+                if cur:
+                    chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(cur)))
+            else:
+                for i in range(0, len(ids), chunk_size):
+                    chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(ids[i : i + chunk_size])))
 
         normalised = {
             "sweep": {"kind": kind, "name": name, "chunk_size": chunk_size, "seed": seed,

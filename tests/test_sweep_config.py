@@ -200,8 +200,22 @@ def test_groups_share_static_settings_and_chunks_stay_inside_groups():
     for c in plan.chunks:
         assert 1 <= len(c.rows) <= 3
         assert {plan.row_group[r] for r in c.rows} == {c.group}
+        # whole settings: each group has one path per P, so a chunk never splits a setting
+        settings = [plan.rows[r][0] for r in c.rows]
+        assert all(sum(1 for r in range(plan.n_rows) if plan.rows[r][0] == s and plan.row_group[r] == c.group)
+                   == settings.count(s) for s in set(settings))
         seen += c.rows
     assert sorted(seen) == list(range(plan.n_rows))
+
+
+def test_shape_chunks_hold_whole_settings_or_split_large_ones():
+    cfg = base()
+    cfg["paths"][0]["radius"] = [1.5, 1.6, 1.7, 1.8, 1.9]  # 5 paths, chunk_size 3: settings are split 3 + 2
+    plan = parse_config(cfg)
+    assert [len(c.rows) for c in plan.chunks] == [3, 2] * 4
+    cfg["sweep"]["chunk_size"] = 11  # 2 whole settings (10 rows) per chunk
+    plan = parse_config(cfg)
+    assert [len(c.rows) for c in plan.chunks] == [10, 10]
 
 
 def json_key(plan, r):
