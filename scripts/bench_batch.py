@@ -96,6 +96,8 @@ def main(argv=None) -> int:
     usable = np.isin(res["status"], (0, 1, 2))
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
+    print(f"pgd: B={args.B} P={args.P} compile {res['compile_s']:.1f} s, run {res['run_s']:.1f} s, "
+          f"{nwp / res['run_s']:.0f} waypoints/s, peak RSS {peak_mib:.0f} MiB, usable {usable.mean():.4f}", flush=True)
     # seed method on the first few of the same trajectories
     k = min(args.seed_paths, args.B)
     t0 = time.perf_counter()

@@ -1,0 +1,22 @@
+"""solver="trajectory" (issue 5): never worse than its greedy warm start in total, exactly feasible."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from jaxstiff import results as R
+from test_pgd import OPTS, check_file, planar_paths, run
+
+TOPTS = {**OPTS, "traj_iters": 16, "blocks": 2, "chunk": 2}
+
+
+def test_trajectory_beats_or_keeps_warm_start(tmp_path):
+    path, q0 = planar_paths(2, 5, seed=5)
+    warm = run(path, q0, options=TOPTS)  # pgd with the same settings = the warm start
+    traj = run(path, q0, solver="trajectory", options=TOPTS)
+    for b in range(2):
+        nw, nt = (~R.is_usable(warm.status[b])).sum(), (~R.is_usable(traj.status[b])).sum()
+        assert nt <= nw
+        if nt == nw:
+            assert traj.criterion[b][R.is_usable(traj.status[b])].sum() <= warm.criterion[b][R.is_usable(warm.status[b])].sum() + 1e-9
+    check_file(traj, tmp_path)
