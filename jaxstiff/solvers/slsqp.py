@@ -181,6 +181,32 @@ def _judge(
     return x, (R.SOLVED if sol.converged else R.NOT_CONVERGED), err3
 
 
+TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count as equally good
+
+
+def _pick(problem: WaypointProblem, cands):
+    """The best of several answers for one waypoint: usable first, then the lowest criterion; among
+    usable answers whose criterion is within :data:`TIE_RTOL` of the best (f2 and f1 have whole
+    sets of optimal postures), the one farthest from the joint limits (smallest normalised margin
+    of the free joints), so the next waypoints have room before a limit binds."""
+    usable = [c for c in cands if c[1] in R.USABLE]
+    if not usable:
+        return min(cands, key=lambda c: c[2])
+    fbest = min(c[4] for c in usable)
+    ties = [c for c in usable if c[4] <= fbest + TIE_RTOL * max(abs(fbest), 1e-12)]
+    lo, hi = problem.robot.lower, problem.robot.upper
+    free = list(problem.free_idx)
+    nf = problem.n_free
+    span = np.where(np.isfinite(hi - lo), hi - lo, np.inf)[free]
+
+    def margin(c):
+        qf = c[0][:nf]
+        m = np.minimum(qf - lo[free], hi[free] - qf) / span
+        return float(np.min(np.where(np.isfinite(m), m, np.inf))) if nf else 0.0
+
+    return max(ties, key=margin)
+
+
 def greedy_path(
     problem: WaypointProblem,
     targets: np.ndarray,
@@ -220,7 +246,8 @@ def greedy_path(
         first_starts: extra start states ``(q (n,), kj (n,))`` for the first waypoint when it is
             not rate-limited: the solver runs from the reference state and from each of these,
             and the usable answer with the lowest criterion is kept (a multi-start against the
-            non-convexity of the first, unconstrained waypoint).
+            non-convexity of the first, unconstrained waypoint); ties (within 0.1%) go to the
+            posture farthest from the joint limits (:func:`_pick`).
         first_maxiter: iteration limit for that first, not rate-limited waypoint (None: the
             solver's default).
 
@@ -247,7 +274,7 @@ def greedy_path(
         starts = [x_start]
         if not rate:
             starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
-        best = None
+        cands = []
         nit = nfev = 0
         for xs in starts:
             try:
@@ -258,12 +285,9 @@ def greedy_path(
             x, status, err = _judge(problem, sol, xs, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
             if status == R.NONFINITE:
                 x = x_start
-            usable = status in R.USABLE
-            f = objective(x, params) if usable else np.inf
-            key = (0 if usable else 1, f if usable else err)
-            if best is None or key < best[0]:
-                best = (key, x, status, err, sol.code)
-        _, x, status, err, code = best
+            f = objective(x, params) if status in R.USABLE else np.inf
+            cands.append((x, status, err, sol.code, f))
+        x, status, err, code, _ = _pick(problem, cands)
         out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
         if status in R.USABLE:
             q_ref = q_ref.copy()
