@@ -8,7 +8,8 @@ beta (uniform 0.5 ... 2).
 
 Timed apart: compilation (first call), the forward rollout, and forward + gradient of a scalar loss
 (mean of u and of the Frobenius error over all rollouts and steps) w.r.t. beta, q0 and K_xd.
-Each timed run is repeated and the best is reported; every call ends with ``block_until_ready``.
+Each timed run is repeated and the best is reported (wall clock, and CPU time of the process, which
+is steadier on a shared machine); every call ends with ``block_until_ready``.
 
 Usage:
     python scripts/bench_csc.py                      # 1024 x 1000, float64
@@ -74,14 +75,16 @@ def main(argv=None) -> int:
     grad = jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))
 
     def timed(fn):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         out = jax.block_until_ready(fn(q0, beta, K))
-        return time.perf_counter() - t, out
+        return time.perf_counter() - t, out, time.process_time() - c
 
-    t_c_fwd, out = timed(fwd)
-    best_fwd = min(timed(fwd)[0] for _ in range(args.repeat))
-    t_c_grad, (val, g) = timed(grad)
-    best_grad = min(timed(grad)[0] for _ in range(args.repeat))
+    t_c_fwd, out, _ = timed(fwd)
+    runs = [timed(fwd) for _ in range(args.repeat)]
+    best_fwd, cpu_fwd = min(r[0] for r in runs), min(r[2] for r in runs)
+    t_c_grad, (val, g), _ = timed(grad)
+    runs = [timed(grad) for _ in range(args.repeat)]
+    best_grad, cpu_grad = min(r[0] for r in runs), min(r[2] for r in runs)
     u, frob, terr = (np.asarray(a) for a in out)
     finite = all(np.all(np.isfinite(np.asarray(a))) for a in (val, *g))
     res = {
@@ -94,6 +97,10 @@ def main(argv=None) -> int:
         "compile_grad_s": round(t_c_grad - best_grad, 3),
         "forward_plus_grad_s": round(best_grad, 3),
         "grad_over_forward": round(best_grad / best_fwd, 2),
+        "forward_cpu_s": round(cpu_fwd, 3),
+        "forward_plus_grad_cpu_s": round(cpu_grad, 3),
+        "grad_over_forward_cpu": round(cpu_grad / cpu_fwd, 2),
+        "load_average_1min": os.getloadavg()[0],
         "us_per_rollout_step_forward": round(1e6 * best_fwd / (B * args.steps), 3),
         "u_start_mean": float(u[:, 0].mean()),
         "u_end_mean": float(u[:, -1].mean()),

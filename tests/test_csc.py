@@ -143,6 +143,22 @@ def test_closed_form_gradient_of_u_equals_autodiff(name, task, m):
     assert_close(g, ref, rtol=1e-10, atol=1e-9 * float(jnp.max(jnp.abs(ref))), what="grad u")
 
 
+def test_kinematics_jvp_closed_form_equals_autodiff():
+    """The rollout's kinematics carry a closed-form JVP (built from J alone); it equals autodiff."""
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
+    rng = np.random.default_rng(4)
+    q, qd = jnp.asarray(rng.uniform(-2, 2, robot.n)), jnp.asarray(rng.normal(size=robot.n))
+    got = jax.jvp(lambda x: csc._pose_jac(robot, x), (q,), (qd,))[1]
+
+    def ref(x):
+        T, J = jaxstiff.fk_and_jacobian(robot, x)
+        return T[:3, 3], T[:3, :3], J
+
+    want = jax.jvp(ref, (q,), (qd,))[1]
+    for a, b, name in zip(got, want, ("dp", "dR", "dJ")):
+        assert_close(a, b, rtol=1e-12, atol=1e-12, what=name)
+
+
 # ---------------------------------------------------------------- gradients through a rollout
 T_GRAD = 200
 
