@@ -179,7 +179,7 @@ def _shape_chunk(plan: SweepPlan, chunk, progress):
         name = f"arrays/chunk-{chunk.id:06d}-{k}.npz"
         res = shape(
             plan.robot, path, st["criterion"], st["ratio"], task=st["task"], solver=st["solver"],
-            starts=st["starts"], q0=q0, dq=math.radians(st["dq_deg"]), dk=st["dk"], kmin=st["kmin"],
+            starts=st["starts"] or None, q0=q0, dq=math.radians(st["dq_deg"]), dk=st["dk"], kmin=st["kmin"],
             kmax=st["kmax"], c=st["c"], first_rate_limit=st["first_rate_limit"], first_starts=st["first_starts"],
             options=dict(plan.options) or None, progress=tick,
             meta_extra={"sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id,

@@ -44,7 +44,7 @@ Layout of a config (every table but ``[robot]`` and ``[[paths]]`` is optional)::
     [solver_options]          # passed to the solver (SLSQP: maxiter, ftol, kj_scale, f_scale)
 
     [report]
-    heatmaps = [["ratio", "dq_deg"]]   # axis pairs of the heat maps (default: up to 6 pairs of varying axes)
+    heatmaps = [["ratio", "dq_deg"]]   # axis pairs of the heat maps ("path" too; default: up to 6 pairs of varying axes)
 
 Ranges: ``{start, stop, num}`` is ``numpy.linspace(start, stop, num)``; ``{start, stop, step}``
 runs from start by step up to stop inclusive (within 1e-9 of a step).
@@ -193,7 +193,7 @@ AXES: dict[str, dict[str, AxisSpec]] = {
             AxisSpec("criterion", "str", "f2", static=True, choices=_criteria, doc="shaping criterion (S0-9 f1, S0-15 f2)"),
             AxisSpec("task", "str", "full", static=True, choices=("full", "xyz", "xy"), doc="task rows of K_T (SPEC 2)"),
             AxisSpec("solver", "str", "slsqp", static=True, choices=_solvers, doc="solver of jaxstiff.shape"),
-            AxisSpec("starts", "int", 1, static=True, check=_ge(1), doc="starts per waypoint (multi-start solvers)"),
+            AxisSpec("starts", "int", 0, static=True, check=_ge(0), doc="starts per waypoint (0: the solver's default; SLSQP: 1)"),
             AxisSpec("ratio", "float", 5.0, check=_gt(1.0, " (lambda1 / lambda2)"), doc="wanted axis ratio r"),
             AxisSpec("c", "float", 0.01, check=_ge(0.0), doc="offset c of f1 (S0-9)"),
             AxisSpec("dq_deg", "float", 2.0, unit="deg per waypoint", check=_ge(0.0), doc="joint rate limit (S0-11, S0-12)"),
@@ -555,7 +555,7 @@ class _Parser:
         axes = self.axes(cfg, kind, robot)
         self.cross_checks(kind, axes, trajectories, robot)
         options = self.options(cfg, axes)
-        heatmaps, metrics = self.report(cfg, kind, axes)
+        heatmaps, metrics = self.report(cfg, kind, axes, len(trajectories))
 
         # ---- expansion
         names = list(AXES[kind])
@@ -889,7 +889,7 @@ class _Parser:
         if kind == "shape":
             for s in axes["solver"]:
                 if s in ("slsqp", "slsqp-fd") and any(k > 1 for k in axes["starts"]):
-                    raise self.err("axes.starts", f"solver {s!r} is single-start; starts must be 1 (or sweep multi-start solvers separately)")
+                    raise self.err("axes.starts", f"solver {s!r} is single-start; starts must be 0 or 1 (or sweep multi-start solvers separately)")
         if "xy" in axes["task"]:
             for t in trajectories:
                 if kind == "shape" and np.any(np.abs(t.directions[:, 2]) > 1e-9):
@@ -913,7 +913,7 @@ class _Parser:
             out[k] = v
         return out
 
-    def report(self, cfg, kind, axes) -> tuple[tuple[tuple[str, str], ...], tuple[str, ...]]:
+    def report(self, cfg, kind, axes, n_paths: int) -> tuple[tuple[tuple[str, str], ...], tuple[str, ...]]:
         from .sweep_metrics import METRICS
 
         tbl = self.table(cfg.get("report", {}), "report")
@@ -927,8 +927,12 @@ class _Parser:
             pairs = []
             for i, (a, b) in enumerate(hm):
                 for ax in (a, b):
+                    if ax == "path":
+                        if n_paths < 2:
+                            raise self.err(f"report.heatmaps[{i}]", "'path' needs at least two paths")
+                        continue
                     if ax not in AXES[kind]:
-                        raise self.err(f"report.heatmaps[{i}]", f"unknown axis {ax!r}{_suggest(str(ax), AXES[kind])}")
+                        raise self.err(f"report.heatmaps[{i}]", f"unknown axis {ax!r}{_suggest(str(ax), list(AXES[kind]) + ['path'])} (axes and 'path')")
                     if len(axes[ax]) < 2:
                         raise self.err(f"report.heatmaps[{i}]", f"axis {ax!r} has one value; a heat map needs two varying axes")
                 if a == b:

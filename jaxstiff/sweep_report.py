@@ -49,7 +49,9 @@ def heatmap(df, plan: SweepPlan, x: str, y: str, metric: str, file: str) -> str:
 
     piv = df.pivot_table(index=y, columns=x, values=metric, aggfunc="mean")
     piv = piv.sort_index(axis=0).sort_index(axis=1)
-    fig, ax = plt.subplots(figsize=(1.2 + 0.9 * max(3, piv.shape[1]), 1.2 + 0.6 * max(3, piv.shape[0])))
+    ylab = max((len(_fmt(v)) for v in piv.index), default=4)
+    width = 2.6 + 0.075 * ylab + 0.8 * max(3, piv.shape[1])
+    fig, ax = plt.subplots(figsize=(max(5.5, width), 1.6 + 0.42 * max(4, piv.shape[0])))
     share = metric.startswith("share_") or metric.endswith("_reduction")
     vmin, vmax = (0.0, 1.0) if metric.startswith("share_") else (None, None)
     im = ax.imshow(piv.values, origin="lower", aspect="auto", cmap="viridis", vmin=vmin, vmax=vmax)
@@ -66,12 +68,13 @@ def heatmap(df, plan: SweepPlan, x: str, y: str, metric: str, file: str) -> str:
             txt = "n/a" if not np.isfinite(v) else (f"{v:.2f}" if share else f"{v:.3g}")
             ax.text(j, i, txt, ha="center", va="center", fontsize=8, color="white" if np.isfinite(v) and v < mid else "black")
     cb = fig.colorbar(im, ax=ax)
-    cb.set_label(metric + (" (share)" if metric.startswith("share_") else ""))
-    ax.set_title(f"{plan.name}: mean {metric}\nover {y} x {x} (other axes and {len(plan.trajectories)} paths averaged)", fontsize=9)
+    cb.set_label(metric + (" (fraction of waypoints)" if metric.startswith("share_") else ""))
+    averaged = "other axes averaged" if "path" in (x, y) else f"other axes and the {len(plan.trajectories)} paths averaged"
+    ax.set_title(f"{plan.name}: mean {metric}\n{y} vs {x} ({averaged})", fontsize=9)
     fig.tight_layout()
     folder = os.path.dirname(file)
     tmp = os.path.join(folder, ".tmp-" + os.path.basename(file))
-    fig.savefig(tmp, dpi=110, format="png")
+    fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight")
     plt.close(fig)
     os.replace(tmp, file)
     return file

@@ -256,3 +256,19 @@ def test_kxd_matrix_axes_and_direction(task, angle):
     t = math.radians(angle)
     d = np.array([math.cos(t), math.sin(t), 0.0])[: K.shape[0]]
     assert abs(abs(v @ d) - 1.0) < 1e-12
+
+
+def test_shipped_quick_sweep():
+    """experiments/sweeps/quick.toml (the README example): >= 200 rows over the shipped LWR and
+    the shipped default path; its heat maps name real axes (the run itself is timed, not tested)."""
+    import os
+
+    from jaxstiff.paths import default_path
+
+    f = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "experiments", "sweeps", "quick.toml")
+    plan = load_config(f)
+    assert plan.n_rows >= 200
+    assert plan.robot.name.lower().startswith("kuka") and plan.robot.n_free == 6
+    d = [t for t in plan.trajectories if t.name == "default"][0]
+    np.testing.assert_allclose(d.points, default_path(n=d.P).points, atol=1e-15)
+    assert ("ratio", "path") in plan.heatmaps
