@@ -33,6 +33,14 @@ import time
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--batch" in argv:  # batch engine benchmark (issue 5): delegate to scripts/bench_batch.py
+        import os
+
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import bench_batch
+
+        return bench_batch.main([a for a in argv if a != "--batch"])
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--waypoints", type=int, default=60, help="first N waypoints of the default path (max 60)")
     ap.add_argument("--criterion", default="f2", choices=["f1", "f2"])
