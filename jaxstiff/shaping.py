@@ -379,6 +379,8 @@ def shape(
         from .paths import default_path
 
         path = default_path()
+    if isinstance(path, (list, tuple)) and path and all(isinstance(p, Path) for p in path):
+        path = Path.stack(list(path))  # a list of equal-length paths -> one batch (B, P, 3)
     if not isinstance(path, Path):
         path = Path(path)
     bpath = path.as_batch()
