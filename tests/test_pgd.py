@@ -115,3 +115,10 @@ def test_bad_options_raise():
         run(path, q0, options={"mode": "greedy"})
     with pytest.raises(ValueError, match="starts"):
         run(path, q0, starts=0)
+
+
+def test_list_of_paths_is_the_same_batch(batch3):
+    path, q0, res = batch3
+    again = run([path[b] for b in range(3)], q0)
+    np.testing.assert_allclose(again.q, res.q, atol=1e-12)
+    assert again.status.shape == (3, 5)
