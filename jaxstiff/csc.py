@@ -22,13 +22,16 @@ One step ``k`` (one per path waypoint), with ``J`` the task rows of the geometri
 Choices this module makes where the seed is silent (SPEC section 6 lets us choose):
 
 * **Damping rule.** With ``A = J J^T`` (m x m), the isotropy ``nu = det A / (tr A / m)^m`` is in
-  [0, 1]: 1 for an isotropic Jacobian, 0 at a singularity, scale- and unit-free (for m = 2 it is
-  about ``4 sigma_min^2 / sigma_max^2`` near a singularity). Below ``nu0`` the damping
-  ``lam^2 = damping^2 * (tr A / m) * (1 - nu / nu0)^2`` switches on (a Nakamura-Hanafusa style
-  rule, made scale-free by ``tr A / m``); above it ``lam = 0`` and ``J+`` is the exact
-  Moore-Penrose inverse (S1-16). ``lam^2`` and its first derivative are continuous at ``nu0``.
-  Status bit :data:`STATUS_DAMPED` marks the steps where it is active. While damped, ``I - J+ J``
-  is no longer an exact projector; the closed loop pulls the TCP back.
+  [0, 1]: 1 for an isotropic Jacobian, 0 at a singularity, scale-free (for m = 2 it is about
+  ``4 sigma_min^2 / sigma_max^2`` near a singularity). It is a product of m ratios, so it is
+  compared with ``nu_th = nu0^(m/2)`` (1e-2 for m = 2, 1e-3 for m = 3, 1e-6 for m = 6 with the
+  default ``nu0 = 1e-2``; for the 6-row task this also allows for rows in m/rad next to rows in
+  rad/rad). Below ``nu_th`` the damping ``lam^2 = damping^2 * (tr A / m) * (1 - nu / nu_th)^2``
+  switches on (a Nakamura-Hanafusa style rule, made scale-free by ``tr A / m``); above it
+  ``lam = 0`` and ``J+`` is the exact Moore-Penrose inverse (S1-16). ``lam^2`` and its first
+  derivative are continuous at ``nu_th``. Status bit :data:`STATUS_DAMPED` marks the steps where
+  it is active. While damped, ``I - J+ J`` is no longer an exact projector; the closed loop pulls
+  the TCP back.
 * **Guard of |dq_N| -> 0.** ``|dq_N|`` is replaced by ``max(|dq_N|, null_eps)``: the null step
   has length beta (constant) or ``beta |dq_P|`` (adaptive) while the projected gradient is larger
   than ``null_eps``, and shrinks to plain projected gradient descent below it; at ``dq_N = 0``
@@ -54,10 +57,19 @@ Choices this module makes where the seed is silent (SPEC section 6 lets us choos
   orientation error is ``1/2 sum_i r_i x r_d,i``, the columns of the current and held rotation).
   By default the task follows from ``K_xd``'s size (2 -> xy, 3 -> xyz, 6 -> full).
 
+* **grad u.** ``u`` is :func:`jaxstiff.offdiag`; its gradient is ``jax.grad`` of ``offdiag`` with
+  respect to the task Jacobian, chained through ``J(q)`` by the closed-form derivative of the
+  geometric Jacobian (:func:`_offdiag_value_and_grad`; equal to ``jax.grad`` of ``u(q)`` through the
+  kinematics to round-off, tested, and about 5x cheaper). The kinematics inside the rollout carry
+  a closed-form JVP built from J alone, so differentiating a rollout never sweeps the chain
+  kernel backwards.
+
 The rollout is differentiable end to end (``jax.grad`` w.r.t. ``beta``, ``q0``, ``K_xd`` and the
 numeric settings), batched over leading axes of every input (``vmap``), and jitted once per robot,
 task and static setting. With ``remat=True`` (default) the scan body is rematerialised in the
-backward pass, so the memory of a gradient grows with ``T * n`` per rollout only.
+backward pass, so the memory of a gradient grows with ``T * n`` per rollout only. Speed
+(``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR): forward
+about 3-4 s; forward + gradient about 4.4x the forward in CPU time.
 
 Example:
     >>> import jax.numpy as jnp, numpy as np, jaxstiff
@@ -103,7 +115,7 @@ __all__ = [
 ]
 
 STATUS_OK = 0  #: a plain step
-STATUS_DAMPED = 1  #: isotropy below ``nu0``: the damped pseudo-inverse was active (near singular)
+STATUS_DAMPED = 1  #: isotropy below ``nu0^(m/2)``: the damped pseudo-inverse was active (near singular)
 STATUS_JOINT_LIMIT = 2  #: a free joint was clamped at its limit after the step
 STATUS_NAN = 4  #: the step came out non-finite and was replaced by no motion
 STATUS_NULL_SMALL = 8  #: ``|dq_N| < null_eps``: at a stationary point of u on the self-motion manifold
@@ -375,8 +387,9 @@ def _damped_pinv(Jf: jax.Array, nu0, damping):
     safe_scale = jnp.where(pos, scale, 1.0)
     nu = jnp.where(pos, _det_small(A0) / safe_scale**m, 0.0)
     nu = jnp.clip(nu, 0.0, 1.0)
-    damped = nu < nu0
-    w = jnp.where(damped, (1.0 - nu / nu0) ** 2, 0.0)
+    thr = nu0 ** (m / 2.0)  # nu0 for m = 2, nu0^1.5 for m = 3, nu0^3 for m = 6 (module docstring)
+    damped = nu < thr
+    w = jnp.where(damped, (1.0 - nu / thr) ** 2, 0.0)
     tiny = jnp.finfo(Jf.dtype).tiny * 1e3
     lam2 = damping**2 * scale * w + tiny
     A = A0 + lam2[..., None, None] * jnp.eye(m, dtype=Jf.dtype)
@@ -598,7 +611,7 @@ def csc_rollout(
         task: ``"xy"``, ``"xyz"`` or ``"full"``; default from K_xd's size.
         step: ``"adaptive"`` or ``"constant"``.
         kmin, kmax: actuator range of the realised joint stiffness, Nm/rad (default [1, inf)).
-        nu0: isotropy threshold below which damping switches on (default 1e-2).
+        nu0: isotropy threshold: damping switches on below ``nu0^(m/2)`` (default 1e-2).
         damping: relative damping ``lam / sqrt(tr(J J^T)/m)`` at a singularity (default 0.1).
         null_eps: floor of ``|dq_N|`` (Nm/rad^2); default ``1e-9 |K_xd|_F`` (1e-5 in float32).
         newton: number of Newton corrections ``q += J+ (x_d - x(q))`` inside each step (static).

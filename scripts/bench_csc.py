@@ -3,7 +3,8 @@
 Task ``"xyz"`` (3 position rows), 7th joint locked at 0 (6 free joints, 3 redundant), constant
 K_xd = R_z(30 deg) diag(3000, 1000, 2000) R_z^T N/m, adaptive step, along the shipped default path
 (jaxstiff.paths.default_path, resampled to T waypoints). The B rollouts differ in start posture
-(the IK solution at the first waypoint plus uniform noise of +-0.1 rad on the free joints) and in
+(the IK solution at the first waypoint, from a bent-elbow guess, plus uniform noise of +-0.1 rad on
+the free joints) and in
 beta (uniform 0.5 ... 2).
 
 Timed apart: compilation (first call), the forward rollout, and forward + gradient of a scalar loss
@@ -51,7 +52,8 @@ def main(argv=None) -> int:
     dt = jnp.float64 if args.dtype == "float64" else jnp.float32
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     path = jnp.asarray(default_path(n=args.steps).points, dtype=dt)
-    q_ik, err = ik_position(robot, np.asarray(path[0], dtype=float))
+    # IK from a bent-elbow guess (as experiments/csc_lwr_path.py): clear of the joint limits
+    q_ik, err = ik_position(robot, np.asarray(path[0], dtype=float), q_start=np.deg2rad([-30.0, 30.0, 0.0, 90.0, 0.0, -30.0, 0.0]))
     assert float(err) < 1e-6, f"IK of the first waypoint failed: {float(err)}"
     rng = np.random.default_rng(0)
     B = args.batch

@@ -264,6 +264,24 @@ def test_locked_joint_never_moves_lwr():
     assert float(r.u[-1]) < float(r.u_start)
 
 
+def test_full_task_holds_position_and_orientation():
+    """Task "full" (6 rows): the 7-joint LWR has one redundant DOF; the tool orientation is held."""
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
+    q0 = np.deg2rad([20.0, 40.0, -30.0, -70.0, 25.0, 50.0, 10.0])
+    T0 = numpy_fk(robot, q0)
+    K = np.diag([3000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0])
+    r = jaxstiff.csc_rollout(robot, np.tile(T0[:3, 3], (100, 1)), K, q0, 2e-3, step="constant")
+    assert r.K_C.shape == (100, 6, 6)
+    q = np.asarray(r.q)
+    assert np.abs(q[-1] - q0).max() > 0.05  # it moved along the self-motion
+    for qk in q[::10]:
+        Tk = numpy_fk(robot, qk)
+        assert np.linalg.norm(Tk[:3, 3] - T0[:3, 3]) < 1e-5
+        assert np.linalg.norm(Tk[:3, :3] - T0[:3, :3]) < 1e-4
+    assert float(r.orientation_error.max()) < 1e-4
+    assert float(r.u[-1]) < float(r.u_start)
+
+
 def test_float32_stays_float32():
     r = jaxstiff.csc_rollout(
         PLANAR, np.tile(X_SEED, (20, 1)).astype(np.float32), K_SEED.astype(np.float32), Q_SEED.astype(np.float32),
