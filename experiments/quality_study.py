@@ -36,6 +36,7 @@ def main(argv=None) -> int:
     ap.add_argument("--paths", type=int, default=None, help="random paths besides the default path")
     ap.add_argument("--criteria", default="f1,f2")
     ap.add_argument("--starts", type=int, default=8)
+    ap.add_argument("--only", default=None, help="comma list of setting names to run (e.g. slsqp,hybrid)")
     ap.add_argument("--out", default=os.path.join(HERE, "out", "quality_study.json"))
     args = ap.parse_args(argv)
     N = args.paths if args.paths is not None else (2 if args.quick else 100)
@@ -80,6 +81,8 @@ def main(argv=None) -> int:
     ]
     if args.quick:  # the rollout mode and the pgd-warm trajectory only in the full study
         settings = [s_ for s_ in settings if s_[0] not in (f"pgd_S{S}_rollout", "traj_from_pgd")]
+    if args.only:
+        settings = [s_ for s_ in settings if s_[0] in args.only.split(",")]
     register_solver("_traj_slsqp", traj_from("slsqp"))
     register_solver("_traj_pgd", traj_from(f"pgd_S{S}"))
     for crit in args.criteria.split(","):
@@ -107,15 +110,17 @@ def main(argv=None) -> int:
                   f"random {rows[name]['total_random']}  usable {u.mean():.3f}  "
                   f"a<1&r>=4.9 default {good[0].mean():.3f}  max pos err {v['max_pos_error']:.1e} "
                   f"rate viol {v['max_rate_violation']:.1e}", flush=True)
-        ref, hyb = rows["slsqp"], rows["hybrid"]
-        both = ref["usable"] & hyb["usable"]
-        le = hyb["criterion"] <= ref["criterion"] + 1e-6
-        summ = {
-            "hybrid_le_slsqp_default": float(le[0][both[0]].mean()),
-            "hybrid_le_slsqp_random": float(le[1:][both[1:]].mean()) if N else None,
-            "multi_vs_single_total_all": [float(rows[f"pgd_S{S}"]["criterion"][rows[f"pgd_S{S}"]["usable"]].sum()),
-                                          float(rows["pgd_S1"]["criterion"][rows["pgd_S1"]["usable"]].sum())],
-        }
+        summ = {}
+        if "slsqp" in rows and "hybrid" in rows:
+            ref, hyb = rows["slsqp"], rows["hybrid"]
+            both = ref["usable"] & hyb["usable"]
+            le = hyb["criterion"] <= ref["criterion"] + 1e-6
+            summ["hybrid_le_slsqp_default"] = float(le[0][both[0]].mean())
+            summ["hybrid_le_slsqp_random"] = float(le[1:][both[1:]].mean()) if N else None
+        if f"pgd_S{S}" in rows and "pgd_S1" in rows:
+            summ["multi_vs_single_total_all"] = [
+                float(rows[f"pgd_S{S}"]["criterion"][rows[f"pgd_S{S}"]["usable"]].sum()),
+                float(rows["pgd_S1"]["criterion"][rows["pgd_S1"]["usable"]].sum())]
         print(crit, json.dumps(summ), flush=True)
         for r in rows.values():
             r.pop("criterion")

@@ -12,7 +12,8 @@ from test_pgd import OPTS, STARTS, check_file, planar_paths, run
 def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
     path, q0 = planar_paths(3, 5)
     base = run(path, q0)  # same pgd settings and keys as inside the hybrid
-    hyb = run(path, q0, solver="hybrid")
+    hyb = run(path, q0, solver="hybrid", options={**OPTS, "chain": "pgd"})
+    gre = run(path, q0, solver="hybrid")  # default chain "greedy": also tries the seed's own start
     ref = run(path, q0, solver="slsqp", options=None)
     assert np.all(R.is_usable(hyb.status))
     both = R.is_usable(base.status)
@@ -22,3 +23,6 @@ def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
     assert hyb.criterion[ok].sum() <= base.criterion[ok].sum() + 1e-9
     assert np.mean(hyb.criterion[ok]) <= 1.5 * np.mean(ref.criterion[ok])
     check_file(hyb, tmp_path)
+    both = R.is_usable(gre.status) & ok
+    assert np.mean(gre.criterion[both] <= ref.criterion[both] + 1e-6) >= 0.9
+    check_file(gre, tmp_path, "g.npz")

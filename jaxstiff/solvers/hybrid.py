@@ -4,6 +4,8 @@ pgd finds a good basin for every waypoint of every path at once; SLSQP (exact JA
 :mod:`.slsqp`) then converges each waypoint to high accuracy from pgd's point. The polish walks
 each path in order and must never undo pgd:
 
+With ``chain="pgd"``:
+
 * waypoint p's box is the rate box around the hybrid's own reference state (the last usable
   waypoint before p, as :func:`jaxstiff.results.reference_states` rebuilds it) **intersected with
   the rate box around pgd's next usable waypoint** p' > p. So pgd's waypoint p' stays feasible
@@ -16,8 +18,20 @@ each path in order and must never undo pgd:
   if that succeeds the waypoint becomes usable (and the next waypoint's box refers to it, which
   the backward intersection keeps consistent).
 
-Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``polish_slsqp`` = ``"all"`` (default)
-or ``"unusable"`` (only where pgd failed).
+Two chainings (``options["chain"]``):
+
+* ``"greedy"`` (default): waypoint p's box is the plain rate box around the hybrid's own previous
+  waypoint (as in the seed); candidates are pgd's x_p (kept when it lies inside this box), SLSQP
+  from pgd's x_p and SLSQP from the previous state (the seed's own start); the lowest usable
+  criterion wins. pgd is never undone where its point is still admissible, and the seed's own
+  candidate is always tried, so per waypoint it is at least as good as a greedy SLSQP step from
+  the same state. Costs up to 2 SLSQP solves per waypoint.
+* ``"pgd"``: the box is additionally intersected with the rate box around pgd's next usable
+  waypoint (described above): per waypoint never worse than pgd, strictly, but the polish can
+  not leave pgd's corridor.
+
+Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``chain``; ``polish_slsqp`` = ``"all"``
+(default) or ``"unusable"`` (only where pgd failed).
 """
 
 from __future__ import annotations
@@ -55,6 +69,9 @@ def polish(
 
     opts = dict(options or {})
     mode = opts.get("polish_slsqp", "all")
+    chain = opts.get("chain", "greedy")
+    if chain not in ("greedy", "pgd"):
+        raise ValueError(f"option chain must be 'greedy' or 'pgd', got {chain!r}")
     if mode not in ("all", "unusable"):
         raise ValueError(f"option polish_slsqp must be 'all' or 'unusable', got {mode!r}")
     sl_opts = {k: opts[k] for k in ("maxiter", "ftol", "kj_scale", "f_scale") if k in opts}
@@ -86,11 +103,14 @@ def polish(
             t0 = time.perf_counter()
             rate = limits.first_rate_limit or not at_start
             lb, ub = limits.box(problem, q_ref, kj_ref, rate)
-            if nxt[p] >= 0:
+            if chain == "pgd" and nxt[p] >= 0:
                 xn = Xb[nxt[p]]
                 lb, ub = np.maximum(lb, xn - dx), np.minimum(ub, xn + dx)
             params = WaypointProblem.params(targets[b, p], directions[b, p], r_arr[b], c)
             have = bool(usable_b[p])
+            if chain == "greedy" and have:
+                # pgd's point is a candidate only where it is inside this waypoint's box
+                have = bool(np.all(Xb[p] >= lb - 1e-12) and np.all(Xb[p] <= ub + 1e-12))
             if have and np.all(lb <= ub):
                 # pgd's point is inside this box up to rounding of the box arithmetic: clip exactly
                 Xb[p] = clip_to_box(Xb[p], lb, ub)
@@ -98,17 +118,21 @@ def polish(
                 out["kj"][b, p] = Xb[p][nf:]
             take = None
             if np.all(lb <= ub) and (mode == "all" or not have):
-                x_start = clip_to_box(Xb[p] if have else problem.x_of(q_ref, kj_ref), lb, ub)
-                try:
-                    sol = solver(x_start.copy(), lb, ub, params)
-                except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
-                    sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
-                x, status, err = _judge(problem, sol, x_start, lb, ub, targets[b, p], params, pj, objective, pos_tol)
-                if status in R.USABLE:
-                    f_new = objective(x, params)
-                    f_old = objective(Xb[p], params) if have else np.inf
-                    if f_new < f_old:
-                        take = (x, status, err, sol)
+                starts = [Xb[p]] if usable_b[p] else []
+                if chain == "greedy" or not have:
+                    starts.append(problem.x_of(q_ref, kj_ref))  # the seed's own start
+                f_best = objective(Xb[p], params) if have else np.inf
+                for xs in starts:
+                    x_start = clip_to_box(xs, lb, ub)
+                    try:
+                        sol = solver(x_start.copy(), lb, ub, params)
+                    except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+                        sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
+                    x, status, err = _judge(problem, sol, x_start, lb, ub, targets[b, p], params, pj, objective, pos_tol)
+                    if status in R.USABLE:
+                        f_new = objective(x, params)
+                        if f_new < f_best:
+                            take, f_best = (x, status, err, sol), f_new
             if take is not None:
                 x, status, err, sol = take
                 out["q"][b, p, free] = x[:nf]
@@ -119,6 +143,12 @@ def polish(
                 out["nit"][b, p] += sol.nit
                 out["nfev"][b, p] += sol.nfev
                 usable_now = True
+            elif chain == "greedy" and usable_b[p] and not have:
+                # pgd's point left the box of the new chain and no SLSQP answer was usable
+                out["q"][b, p, free] = clip_to_box(Xb[p], lb, ub)[:nf]
+                out["kj"][b, p] = clip_to_box(Xb[p], lb, ub)[nf:]
+                out["status"][b, p] = R.UNREACHABLE
+                usable_now = False
             else:
                 usable_now = have
             out["time_s"][b, p] += time.perf_counter() - t0

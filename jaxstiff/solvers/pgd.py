@@ -90,7 +90,7 @@ def _options(options: dict | None, starts: int | None) -> dict[str, Any]:
     opts = {**DEFAULT_OPTIONS, **(options or {})}
     if starts is not None:
         opts["starts"] = int(starts)
-    unknown = set(opts) - set(DEFAULT_OPTIONS) - {"maxiter", "ftol", "kj_scale", "f_scale", "polish_slsqp", "traj_iters", "traj_step0", "traj_step1", "warm", "blocks", "mu0"}
+    unknown = set(opts) - set(DEFAULT_OPTIONS) - {"maxiter", "ftol", "kj_scale", "f_scale", "polish_slsqp", "traj_iters", "traj_step0", "traj_step1", "warm", "blocks", "mu0", "chain"}
     if unknown:
         raise ValueError(f"unknown pgd option(s) {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
     for k in ("starts", "iters", "chunk"):
