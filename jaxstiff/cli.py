@@ -8,6 +8,7 @@ one line ``jaxstiff: error: ...`` with exit code 2, never as a traceback.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from typing import Callable
 
@@ -107,6 +108,12 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return int(args._run(args) or 0)
+    except BrokenPipeError:  # output piped into `head` and the like: not an error of the user's
+        try:
+            sys.stdout = open(os.devnull, "w")
+        except OSError:
+            pass
+        return 0
     except (ValueError, FileNotFoundError, OSError) as exc:
         print(f"jaxstiff: error: {exc}", file=sys.stderr)
         return 2
