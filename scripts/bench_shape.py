@@ -6,7 +6,8 @@ Two measurements:
 1. **Same waypoint problems** (the speed-up): the greedy "slsqp" run defines, for every waypoint, its
    problem (target, direction, rate-limited box around the previous state, start point). Each
    problem is then solved again by both solvers, interleaved (slsqp, fd, slsqp, fd, ...) so that
-   machine load hits both alike; time per waypoint, objective evaluations per waypoint (the FD
+   machine load hits both alike (plus "slsqp" through ``scipy.optimize.minimize`` instead of the
+   lean driver: the same iterates, to show what the driver contributes); time per waypoint, objective evaluations per waypoint (the FD
    solver's count includes its difference quotients), and the criterion reached on the identical
    problem (quality: FD's criterion minus slsqp's).
 2. **Whole runs**: ``jaxstiff.shape`` along the path with each solver (each follows its own
@@ -35,8 +36,6 @@ import time
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if "--batch" in argv:  # batch engine benchmark (issue 5): delegate to scripts/bench_batch.py
-        import os
-
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
         import bench_batch
 
@@ -84,6 +83,7 @@ def main(argv=None) -> int:
     limits = Limits(np.asarray(ref.meta["limits"]["dq"]), np.asarray(ref.meta["limits"]["dk"]), 1.0, 100.0, True)
     t0 = time.perf_counter()
     jx = make_slsqp_solver(prob)
+    jxm = make_slsqp_solver(prob, {"driver": "scipy"})  # same SLSQP through scipy.optimize.minimize
     fd = make_fd_solver(prob)
     fused = compiled(prob)
     obj_np = numpy_objective(prob)
@@ -101,15 +101,20 @@ def main(argv=None) -> int:
         t = time.perf_counter()
         sf = fd(x0.copy(), lb, ub, prm)
         tf = time.perf_counter() - t
+        t = time.perf_counter()
+        jxm(x0.copy(), lb, ub, prm)
+        tm = time.perf_counter() - t
         fj = float(np.asarray(fused(clip_to_box(sj.x, lb, ub), prm))[0])
         ff = obj_np(clip_to_box(sf.x, lb, ub), prm)
-        rows.append((tj, tf, sj.nfev, sf.nfev, sj.nit, sf.nit, fj, ff, sj.code, sf.code))
+        rows.append((tj, tf, sj.nfev, sf.nfev, sj.nit, sf.nit, fj, ff, sj.code, sf.code, tm))
     a = np.asarray(rows, dtype=float)
     med = lambda k: float(np.median(a[:, k]))  # noqa: E731
     speedup_each = a[:, 1] / a[:, 0]
     same = {
         "waypoints": int(len(rows)),
         "slsqp_ms_per_waypoint": 1e3 * med(0),
+        "slsqp_via_minimize_ms_per_waypoint": 1e3 * med(10),
+        "speedup_via_minimize": med(1) / med(10),
         "fd_ms_per_waypoint": 1e3 * med(1),
         "speedup_of_medians": med(1) / med(0),
         "speedup_median_per_waypoint": float(np.median(speedup_each)),
@@ -174,6 +179,8 @@ def main(argv=None) -> int:
     print("\n1. same waypoint problems (waypoints 2..P, interleaved)")
     print(f"{'':34}{'slsqp (JAX)':>14}{'slsqp-fd (seed)':>18}")
     print(f"{'median time per waypoint (ms)':34}{same['slsqp_ms_per_waypoint']:>14.2f}{same['fd_ms_per_waypoint']:>18.1f}")
+    print(f"{'  slsqp via scipy minimize (ms)':34}{same['slsqp_via_minimize_ms_per_waypoint']:>14.2f}"
+          f"{'':>18}  ({same['speedup_via_minimize']:.1f}x; same iterates, scipy's wrappers)")
     print(f"{'median objective evals/waypoint':34}{same['slsqp_evals_per_waypoint']:>14.0f}{same['fd_evals_per_waypoint']:>18.0f}")
     print(f"{'median SLSQP iterations':34}{same['slsqp_iterations']:>14.0f}{same['fd_iterations']:>18.0f}")
     print(f"{'median criterion reached':34}{same['slsqp_median_criterion']:>14.8f}{same['fd_median_criterion']:>18.8f}")

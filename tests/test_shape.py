@@ -306,3 +306,23 @@ def test_verify_can_fail(f2_file):
     good = R.verify(res)
     assert good["max_rate_violation"] <= 1e-9 and good["max_pos_error"] <= 1e-9 and good["max_bound_violation"] <= 1e-9
     assert good["max_alpha_mismatch"] < 1e-6 and good["max_criterion_mismatch"] < 1e-8
+
+
+def test_lean_driver_equals_scipy_minimize(lwr, f2_file):
+    """The lean SLSQP loop runs scipy's own routine: the same iterates as scipy.optimize.minimize."""
+    from jaxstiff.solvers.problem import Limits, clip_to_box
+    from jaxstiff.solvers.slsqp import make_slsqp_solver
+
+    res = f2_file[1]
+    prob = WaypointProblem(lwr, "full", jaxstiff.f2)
+    lim = Limits(np.full(7, math.radians(2)), np.full(7, 5.0), 1.0, 100.0, True)
+    with jax.enable_x64(True):
+        lean, ref = make_slsqp_solver(prob), make_slsqp_solver(prob, {"driver": "scipy"})
+        assert lean.driver == "lean" and ref.driver == "scipy.optimize.minimize"
+        for p in (1, 2):
+            lb, ub = lim.box(prob, res.q[0, p - 1], res.kj[0, p - 1], True)
+            x0 = clip_to_box(prob.x_of(res.q[0, p - 1], res.kj[0, p - 1]), lb, ub)
+            prm = prob.params(res.target[0, p], res.direction[0, p], 5.0, 0.01)
+            a, b = lean(x0, lb, ub, prm), ref(x0, lb, ub, prm)
+            np.testing.assert_array_equal(a.x, b.x)
+            assert (a.nit, a.code, a.nfev) == (b.nit, b.code, b.nfev)

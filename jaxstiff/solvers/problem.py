@@ -266,10 +266,13 @@ def compiled_scaled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarra
 def compiled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
     """``fused(x, params)`` of a problem, unscaled, on the one jitted kernel of :func:`compiled_scaled`."""
     fs = compiled_scaled(problem)
-    ones = np.ones(problem.nx + 1)
+    nx = problem.nx
 
     def fused(x, params):
-        return fs(x, params, ones)
+        # the argument kinds the SLSQP driver uses (x numpy, the rest device arrays): jit's cache
+        # keys numpy and device arrays apart, so mixing them would compile the kernel twice
+        x = np.asarray(x)
+        return fs(x, jnp.asarray(params, dtype=x.dtype), jnp.ones(nx + 1, dtype=x.dtype))
 
     fused._cache_size = fs._cache_size  # type: ignore[attr-defined]
     return fused

@@ -21,6 +21,7 @@ import dataclasses
 import time
 from typing import Callable, Sequence
 
+import jax.numpy as jnp
 import numpy as np
 
 from .. import results as R
@@ -45,7 +46,10 @@ __all__ = ["WaypointOutcome", "SolverOutput", "greedy_path", "make_slsqp_solver"
 #: 1e-8 gives alpha to ~1e-6 deg on the default path), and the scaling SLSQP sees: stiffness in
 #: units of ``kj_scale`` Nm/rad (so q in rad and kj are both of order 1: 2.5x as many first
 #: waypoints aligned as unscaled), the criterion times ``f_scale`` (fewer line-search steps).
-DEFAULT_OPTIONS = {"maxiter": 200, "first_maxiter": 1000, "ftol": 1e-8, "kj_scale": 100.0, "f_scale": 0.1}
+#: ``driver``: ``"lean"`` calls scipy's SLSQP routine (the same compiled Kraft algorithm that
+#: ``minimize(method="SLSQP")`` runs) from a minimal loop, ``"scipy"`` goes through
+#: ``scipy.optimize.minimize``; see :func:`_slsqp_lean`.
+DEFAULT_OPTIONS = {"maxiter": 200, "first_maxiter": 1000, "ftol": 1e-8, "kj_scale": 100.0, "f_scale": 0.1, "driver": "lean"}
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
 
@@ -87,7 +91,9 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
     # compile now (once per problem and dtype), so that waypoint timings exclude compilation
     t0 = time.perf_counter()
     x_dummy = problem.x_of(np.nan_to_num(problem.robot.locked_values) + 0.1, np.ones(problem.n))
-    np.asarray(fused_s(x_dummy, WaypointProblem.params(np.zeros(3), [1.0, 0.0, 0.0], 2.0, 0.0), np.ones(problem.nx + 1)))
+    # argument kinds as in every later call (y numpy; params, scale on the device): one cache entry
+    np.asarray(fused_s(x_dummy, jnp.asarray(WaypointProblem.params(np.zeros(3), [1.0, 0.0, 0.0], 2.0, 0.0)),
+                       jnp.asarray(np.ones(problem.nx + 1))))
     np.asarray(compiled_position(problem)(np.nan_to_num(problem.robot.locked_values)))
     compile_s = time.perf_counter() - t0
     nx, k = problem.nx, len(problem.pos_rows)
@@ -99,17 +105,31 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
     scale = np.r_[np.ones(problem.n_free), np.full(problem.n, float(opts["kj_scale"]))]
     svec = np.r_[scale, float(opts["f_scale"])]
 
+    svec_dev = jnp.asarray(svec)
+
+    lean = opts["driver"] == "lean" and _lean_driver_works()
+
     def solve(x0, lb, ub, params, maxiter=None) -> SolverOutput:
         last = [b"", None]
         count = [0]
+        params_dev = jnp.asarray(params)  # on the device once per waypoint, not once per call
 
         def ev(y):
             key = y.tobytes()
             if key != last[0]:
                 last[0] = key
-                last[1] = np.asarray(fused_s(y, params, svec))
+                last[1] = np.asarray(fused_s(y, params_dev, svec_dev))
                 count[0] += 1
             return last[1]
+
+        iters = int(maxiter or opts["maxiter"])
+        if lean:
+            def fgca(y):
+                out = ev(y)
+                return out[sl_f], out[sl_g], out[sl_c], out[sl_a].reshape(k, nx)
+
+            y, mode, nit = _slsqp_lean(fgca, x0 / scale, lb / scale, ub / scale, k, iters, float(opts["ftol"]))
+            return SolverOutput(y * scale, mode, mode == 0, nit, count[0])
 
         def fun(y):
             out = ev(y)
@@ -122,14 +142,104 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
         }
         res = minimize(
             fun, x0 / scale, jac=True, bounds=Bounds(lb / scale, ub / scale), constraints=[cons], method="SLSQP",
-            options={"maxiter": int(maxiter or opts["maxiter"]), "ftol": float(opts["ftol"])},
+            options={"maxiter": iters, "ftol": float(opts["ftol"])},
         )
         x = np.asarray(res.x, float) * scale
         return SolverOutput(x, int(res.status), int(res.status) == 0, int(res.nit), count[0])
 
     solve.options = opts  # type: ignore[attr-defined]
     solve.compile_s = compile_s  # type: ignore[attr-defined]
+    solve.driver = "lean" if lean else "scipy.optimize.minimize"  # type: ignore[attr-defined]
     return solve
+
+
+# ---------------------------------------------------------------------- lean SLSQP driver
+def _slsqp_lean(fgca, x0, xl, xu, meq, maxiter, acc):
+    """SLSQP with equality constraints only and finite bounds: scipy's own compiled routine
+    (``scipy.optimize._slsqplib.slsqp``, the C port of Kraft's code in scipy >= 1.16), driven by
+    the same reverse-communication loop as ``scipy.optimize.minimize(method="SLSQP")`` but without
+    its per-iteration wrappers (ScalarFunction bookkeeping, constraint list assembly). The result
+    is the same iterate sequence; for a per-waypoint solve with a ~50 us kernel the wrappers cost
+    about as much as the kernel.
+
+    Args:
+        fgca: ``y -> (f, grad (n,), c (meq,), A (meq, n))``.
+        x0, xl, xu: start and bounds (n,).
+        meq: number of equality constraints.
+        maxiter, acc: iteration limit and accuracy (scipy's ``maxiter``, ``ftol``).
+
+    Returns:
+        ``(x, exit mode, iterations)``.
+    """
+    from scipy.optimize._slsqplib import slsqp as _kernel
+
+    n, m = x0.size, meq
+    state = {"acc": float(acc), "alpha": 0.0, "f0": 0.0, "gs": 0.0, "h1": 0.0, "h2": 0.0, "h3": 0.0, "h4": 0.0,
+             "t": 0.0, "t0": 0.0, "tol": 10.0 * float(acc), "exact": 0, "inconsistent": 0, "reset": 0, "iter": 0,
+             "itermax": int(maxiter), "line": 0, "m": m, "meq": meq, "mode": 0, "n": n}
+    indices = np.zeros(max(m + 2 * n + 2, 1), dtype=np.int32)
+    size = n * (n + 1) // 2 + 3 * m * n - (m + 5 * n + 7) * meq + 9 * m + 8 * n * n + 35 * n + meq * meq + 28
+    size += 2 * n * (n + 1)  # no inequality constraints
+    buffer = np.zeros(max(size, 1))
+    mult = np.zeros(max(1, m + 2 * n + 2))
+    xl = np.where(np.isfinite(xl), xl, np.nan)
+    xu = np.where(np.isfinite(xu), xu, np.nan)
+    x = np.clip(np.array(x0, dtype=float), np.nan_to_num(xl, nan=-np.inf), np.nan_to_num(xu, nan=np.inf))
+    f, g, c, A = fgca(x)
+    g = np.array(g, dtype=float)
+    C = np.zeros((max(1, m), n), order="F")
+    d = np.zeros(max(1, m))
+    C[:m] = A
+    d[:m] = c
+    while True:
+        _kernel(state, float(f), g, C, d, x, mult, xl, xu, buffer, indices)
+        mode = state["mode"]
+        if mode == 1:
+            f, _, c, _ = fgca(x)
+            d[:m] = c
+        elif mode == -1:
+            _, gg, _, A = fgca(x)
+            g[:] = gg
+            C[:m] = A
+        else:
+            return x, int(mode), int(state["iter"])
+
+
+_LEAN_OK: list[bool] = []
+
+
+def _lean_driver_works() -> bool:
+    """Check once per process that the lean driver matches ``scipy.optimize.minimize`` exactly on
+    a small bounded, equality-constrained problem (falls back to ``minimize`` otherwise)."""
+    if _LEAN_OK:
+        return _LEAN_OK[0]
+    ok = False
+    try:
+        from scipy.optimize import Bounds, minimize
+
+        n = 5
+        w = np.arange(1.0, n + 1)
+
+        def fgca(x):
+            f = float(np.sum(w * (x - 0.3) ** 4) + x[0] * x[1])
+            g = 4 * w * (x - 0.3) ** 3
+            g[0] += x[1]
+            g[1] += x[0]
+            c = np.array([x[0] + x[2] ** 2 - 0.5, x[1] - x[3] * x[4]])
+            A = np.zeros((2, n))
+            A[0, 0], A[0, 2], A[1, 1], A[1, 3], A[1, 4] = 1.0, 2 * x[2], 1.0, -x[4], -x[3]
+            return f, g, c, A
+
+        x0, lo, hi = np.full(n, 0.9), np.full(n, -1.0), np.full(n, 1.0)
+        ref = minimize(lambda x: fgca(x)[:2], x0, jac=True, bounds=Bounds(lo, hi), method="SLSQP",
+                       constraints=[{"type": "eq", "fun": lambda x: fgca(x)[2], "jac": lambda x: fgca(x)[3]}],
+                       options={"maxiter": 100, "ftol": 1e-10})
+        x, mode, nit = _slsqp_lean(fgca, x0, lo, hi, 2, 100, 1e-10)
+        ok = bool(mode == ref.status and nit == ref.nit and np.allclose(x, ref.x, rtol=0, atol=1e-12))
+    except Exception:  # private API moved or changed: use minimize
+        ok = False
+    _LEAN_OK.append(ok)
+    return ok
 
 
 def _judge(
