@@ -379,6 +379,13 @@ class _Static:
 
 def _damped_pinv(Jf: jax.Array, nu0, damping):
     """Damped pseudo-inverse of the free-joint task Jacobian (m, n) -> (J+ (n, m), nu, damped)."""
+    Ainv, nu, damped = _damped_inverse(Jf, nu0, damping)
+    Jp = jnp.sum(Jf[..., :, :, None] * Ainv[..., :, None, :], axis=-3)  # J^T A^-1, (n, m)
+    return Jp, nu, damped
+
+
+def _damped_inverse(Jf: jax.Array, nu0, damping):
+    """``(J J^T + lam^2 I)^-1`` (m, m) of the damping rule (module docstring), isotropy nu, damped flag."""
     m = Jf.shape[-2]
     A0 = jnp.sum(Jf[..., :, None, :] * Jf[..., None, :, :], axis=-1)  # J J^T
     tr = jnp.trace(A0, axis1=-2, axis2=-1)
@@ -393,9 +400,7 @@ def _damped_pinv(Jf: jax.Array, nu0, damping):
     tiny = jnp.finfo(Jf.dtype).tiny * 1e3
     lam2 = damping**2 * scale * w + tiny
     A = A0 + lam2[..., None, None] * jnp.eye(m, dtype=Jf.dtype)
-    Ainv = _spd_inverse(A)
-    Jp = jnp.sum(Jf[..., :, :, None] * Ainv[..., :, None, :], axis=-3)  # J^T A^-1, (n, m)
-    return Jp, nu, damped
+    return _spd_inverse(A), nu, damped
 
 
 def _orientation_error(R: jax.Array, Rd: jax.Array) -> jax.Array:
@@ -455,19 +460,23 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
     def solve(q, J, g, dx, mask):
         """The CSC update (S1-13 ... S1-22) with the joints of ``mask`` (float 0/1, (n,)) movable."""
         Jm = J * mask
-        Jp, nu, damped = _damped_pinv(Jm, nu0, damping)
-        dqP = _mv(Jp, dx)
+        Ainv, nu, damped = _damped_inverse(Jm, nu0, damping)
+
+        def pinv(v):  # J+ v = J^T (J J^T + lam^2 I)^-1 v, without forming J+
+            return _mtv(Jm, _mv(Ainv, v))
+
+        dqP = pinv(dx)
         gm = g * mask
         if st.joint_limits == "sum":
             gm = gm + jl_gain * finite_j * mask * (q - mid) / half * _safe_norm(gm)
-        dqN = gm - _mv(Jp, _mv(Jm, gm))
+        dqN = gm - pinv(_mv(Jm, gm))
         nN = _safe_norm(dqN)
         length = beta * _safe_norm(dqP) if st.step == "adaptive" else beta
         null = -(length / jnp.maximum(nN, null_eps)) * dqN
         dq = dqP + null
         if st.joint_limits == "priority":
             c = -jl_gain * finite_j * mask * (q - mid) / half
-            cN = c - _mv(Jp, _mv(Jm, c))
+            cN = c - pinv(_mv(Jm, c))
             nn2 = jnp.sum(dqN * dqN)
             pos = nn2 > null_eps**2
             coef = jnp.where(pos, jnp.sum(cN * dqN) / jnp.where(pos, nn2, 1.0), 0.0)
