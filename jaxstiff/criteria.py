@@ -155,7 +155,12 @@ def frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
         K: realised stiffness (..., m, m).
         K_d: desired stiffness (..., m, m), broadcast against K.
     """
-    D = jnp.asarray(K_d) - jnp.asarray(K)
+    return _frobenius(jnp.asarray(K), jnp.asarray(K_d))
+
+
+@jax.jit
+def _frobenius(K, K_d):
+    D = K_d - K
     return _safe_sqrt(jnp.sum(D * D, axis=(-2, -1)))
 
 
@@ -176,12 +181,16 @@ def offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
     K_xd = jnp.asarray(K_xd, dtype=J.dtype)
     if K_xd.shape[-2:] != (J.shape[-2], J.shape[-2]):
         raise ValueError(f"K_xd must have shape (..., {J.shape[-2]}, {J.shape[-2]}) to match J {tuple(J.shape)}, got {tuple(K_xd.shape)}")
+    return _offdiag(J, K_xd)
+
+
+@jax.jit
+def _offdiag(J, K_xd):
     KJ = jnp.sum(K_xd[..., :, :, None] * J[..., None, :, :], axis=-2)  # K_xd J (..., m, n)
     Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K_xd J (..., n, n)
     n = Kq.shape[-1]
-    iu = jnp.triu_indices(n, k=1)
-    off = Kq[..., iu[0], iu[1]]
-    return _safe_sqrt(jnp.sum(off * off, axis=-1))
+    upper = jnp.triu(jnp.ones((n, n), dtype=Kq.dtype), k=1)  # i < j
+    return _safe_sqrt(jnp.sum(upper * Kq * Kq, axis=(-2, -1)))
 
 
 CRITERIA: dict[str, Criterion] = {"f1": f1, "f2": f2}

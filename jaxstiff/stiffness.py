@@ -378,23 +378,27 @@ def joint_stiffness(
         return Kq
     if robot is None or q is None:
         raise ValueError("joint_stiffness with a wrench F needs robot= and q= for the geometric (CCT) term")
-    from .kinematics import jacobian
-
-    rows = list(task_rows(task))
     q = jnp.asarray(q, dtype=Js.dtype)
     F = jnp.asarray(F, dtype=Js.dtype)
-    n = q.shape[-1]
     if F.shape[-1:] != (m,):
         raise ValueError(f"F must have shape (..., {m}) for task {task!r}, got {tuple(F.shape)}")
+    return Kq + _cct_term(robot, task_rows(task), q, F)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1))
+def _cct_term(robot: Any, rows: tuple[int, ...], q: jax.Array, F: jax.Array) -> jax.Array:
+    """``K_G[..., :, i] = d(J_s(q)^T F)/dq_i`` by forward-mode autodiff of the analytic Jacobian."""
+    from .kinematics import jacobian
+
+    n, m = q.shape[-1], F.shape[-1]
 
     def tau(qq, FF):
-        return jacobian(robot, qq)[rows, :].T @ FF
+        return jacobian(robot, qq)[list(rows), :].T @ FF
 
     batch = jnp.broadcast_shapes(q.shape[:-1], F.shape[:-1])
     qf = jnp.broadcast_to(q, batch + (n,)).reshape((-1, n))
     Ff = jnp.broadcast_to(F, batch + (m,)).reshape((-1, m))
-    KG = jax.vmap(jax.jacfwd(tau))(qf, Ff).reshape(batch + (n, n))
-    return Kq + KG
+    return jax.vmap(jax.jacfwd(tau))(qf, Ff).reshape(batch + (n, n))
 
 
 def _check_positive(name: str, value) -> None:

@@ -263,7 +263,7 @@ def _ellipsoid_alpha_grad(K, d):
     return e, a, g
 
 
-@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(spd_batches())
 def test_property_axes_ratio_volume_alpha(data):
     K, lams, d = data
