@@ -23,6 +23,8 @@ def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
     assert hyb.criterion[ok].sum() <= base.criterion[ok].sum() + 1e-9
     assert np.mean(hyb.criterion[ok]) <= 1.5 * np.mean(ref.criterion[ok])
     check_file(hyb, tmp_path)
-    both = R.is_usable(gre.status) & ok
-    assert np.mean(gre.criterion[both] <= ref.criterion[both] + 1e-6) >= 0.9
+    # greedy chaining: at the first waypoint the box and the seed's start are SLSQP's own, and SLSQP
+    # from that start is one of the candidates, so the hybrid is not worse there (up to SLSQP accuracy)
+    assert np.all(gre.criterion[:, 0] <= ref.criterion[:, 0] * (1 + 1e-3))  # SLSQP stops within ftol
+    assert np.all(R.is_usable(gre.status))
     check_file(gre, tmp_path, "g.npz")
