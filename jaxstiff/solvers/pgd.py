@@ -456,6 +456,11 @@ def solve_batch(
                 _pad(targets[sl], C), _pad(directions[sl], C), _pad(x0[sl], C), keys,
                 dq_f, dk, float(limits.kmin), float(limits.kmax), _pad(r_arr[sl], C), float(c), float(pos_tol),
             )
+            if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
+                from .._sharding import shard_rows
+
+                placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 8)})
+                args = tuple(placed.get(i, a) for i, a in enumerate(args))
             t0 = time.perf_counter()
             if s == 0:
                 lowered = fn.lower(*args)
