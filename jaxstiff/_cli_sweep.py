@@ -28,6 +28,8 @@ def _add_sweep(p: argparse.ArgumentParser):
     p.add_argument("--dry-run", action="store_true", help="validate the config, print the plan, run nothing")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-report", action="store_true", help="skip summary.md and the heat maps")
+    p.add_argument("--no-compile-cache", action="store_true",
+                   help="do not use the persistent XLA compilation cache ($JAXSTIFF_CACHE_DIR, ~/.cache/jaxstiff/xla)")
 
     def run(args) -> int:
         from .sweep import run_sweep
@@ -43,7 +45,8 @@ def _add_sweep(p: argparse.ArgumentParser):
         ray_init = {"num_cpus": args.ray_num_cpus} if args.ray_num_cpus else None
         try:
             outcome = run_sweep(plan, args.out, resume=args.resume, backend=args.backend, address=args.address,
-                                ray_init=ray_init, progress=not args.no_progress, report=not args.no_report)
+                                ray_init=ray_init, progress=not args.no_progress, report=not args.no_report,
+                                compile_cache=not args.no_compile_cache)
         except KeyboardInterrupt:
             print(f"jaxstiff: interrupted; finished chunks are saved in {args.out}; "
                   f"continue with: jaxstiff sweep {args.config} --out {args.out} --resume", file=sys.stderr)

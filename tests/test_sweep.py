@@ -27,6 +27,7 @@ from jaxstiff.sweep_store import SweepStore, read_table
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
+
 SHAPE_CFG = {
     "sweep": {"kind": "shape", "name": "tiny-shape", "chunk_size": 4},
     "robot": {"name": "planar_3r"},
@@ -77,6 +78,14 @@ def _files_state(folder: str) -> dict[str, tuple[int, str]]:
         with open(p, "rb") as fh:
             out[f] = (os.stat(p).st_mtime_ns, hashlib.sha256(fh.read()).hexdigest())
     return out
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _no_compile_cache():
+    """Hermetic tests: no persistent compilation cache in ~/.cache (subprocesses inherit this)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("JAXSTIFF_COMPILE_CACHE", "0")
+        yield
 
 
 @pytest.fixture(scope="module")
