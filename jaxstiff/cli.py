@@ -123,4 +123,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    # run the imported module's main, not this __main__ copy: subcommands register on jaxstiff.cli
+    from jaxstiff.cli import main as _main
+
+    sys.exit(_main())
