@@ -195,6 +195,7 @@ def _greedy_solver(kind: str):
             )
         out = _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
         out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
+        out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
         return out
 
     return run
@@ -503,6 +504,7 @@ def shape(
         "solver": solver,
         "starts": 1 if starts is None else int(starts),
         "options": {**_solver_defaults(solver), **dict(options or {})},
+        "solver_driver": arrays.get("driver"),
         "pos_tol": float(pos_tol),
         "limits": {
             "dq": dq_a.tolist(),

@@ -11,7 +11,8 @@ Two measurements:
    solver's count includes its difference quotients), and the criterion reached on the identical
    problem (quality: FD's criterion minus slsqp's).
 2. **Whole runs**: ``jaxstiff.shape`` along the path with each solver (each follows its own
-   trajectory): median time per waypoint, and the quality summary (share of waypoints with
+   trajectory; run one after the other, so load changes between them show up here and not in 1):
+   median time per waypoint, and the quality summary (share of waypoints with
    alpha < 1 deg and |rho - 5|/5 < 2%, max position error).
 
 Compilation is timed apart (the JAX kernels are compiled before any waypoint is timed). Times are
@@ -75,9 +76,7 @@ def main(argv=None) -> int:
     load0 = os.getloadavg()
 
     # ---- reference greedy run with slsqp: defines the waypoint problems
-    t0 = time.perf_counter()
     ref = jaxstiff.shape(robot, path, args.criterion, r)
-    ref_wall = time.perf_counter() - t0
     compile_s = ref.meta["timing_s"]["compile"]
     prob = WaypointProblem(robot, "full", crit)
     limits = Limits(np.asarray(ref.meta["limits"]["dq"]), np.asarray(ref.meta["limits"]["dk"]), 1.0, 100.0, True)
@@ -134,13 +133,11 @@ def main(argv=None) -> int:
     # ---- 2. whole runs
     runs = {}
     if not args.skip_runs:
-        for solver, res in (("slsqp", ref), ("slsqp-fd", None)):
-            if res is None:
-                t0 = time.perf_counter()
-                res = jaxstiff.shape(robot, path, args.criterion, r, solver=solver)
-                wall = time.perf_counter() - t0
-            else:
-                wall = ref_wall
+        # order: fd, then slsqp again (warm; the first slsqp run above also served as warm-up)
+        for solver in ("slsqp-fd", "slsqp"):
+            t0 = time.perf_counter()
+            res = jaxstiff.shape(robot, path, args.criterion, r, solver=solver)
+            wall = time.perf_counter() - t0
             s = R.summary(res)
             v = R.verify(res)
             runs[solver] = {
@@ -190,7 +187,7 @@ def main(argv=None) -> int:
     print(f"quality: FD's criterion >= slsqp's (-1e-9) on {same['share_fd_criterion_not_better']:.0%} of the problems; "
           f"largest slsqp - FD gap {same['max_criterion_gap_slsqp_minus_fd']:.2e}")
     if runs:
-        print("\n2. whole runs along the path (each solver its own trajectory)")
+        print("\n2. whole runs along the path (each solver its own trajectory; sequential, not interleaved)")
         print(f"{'':34}{'slsqp (JAX)':>14}{'slsqp-fd (seed)':>18}")
         for key, fmt, label in [
             ("median_ms_per_waypoint", "{:.1f}", "median time per waypoint (ms)"),
