@@ -1,0 +1,121 @@
+"""Seed 000, Fig. 2: common-mode stiffness (CMS) scales the stiffness ellipse, never turns or reshapes it.
+
+Setup: ``urdf/planar_3r.urdf`` (L1 = L2 = L3 = 1 m), the seed's posture
+q = (75°, -74.74°, -76.30°), task "xy" (K_T = K_C, 2x2, S0-4). The seed does not give the base joint
+stiffnesses k_j0 of Fig. 2; we use those of its Fig. 3, k_j0 = (500, 300, 100) Nm/rad. Every
+k_j = k * k_j0 for k in [0.5, 3] (S0 section III).
+
+Prints, and writes as ``summary.csv``/``summary.md``: per k, the axes lambda1, lambda2 (N/m), the
+ratio rho, the direction of the major axis (deg from x) and the area lambda1*lambda2, plus the
+largest deviation from exact CMS scaling (lambda_i(k) / (k lambda_i(1)) - 1, rho(k) - rho(1), the
+angle between major axes). Writes ``fig2_cms.png``.
+
+Usage:
+    python experiments/fig2_cms.py [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import sys
+import tempfile
+
+Q_DEG = (75.0, -74.74, -76.30)
+KJ0 = (500.0, 300.0, 100.0)
+
+
+def _parse(argv=None):
+    p = argparse.ArgumentParser(description="Seed 000 Fig. 2: CMS of the planar 3R arm")
+    p.add_argument("--out", default=os.path.join("out", "fig2_cms"), help="output folder (default ./out/fig2_cms)")
+    p.add_argument("--k", default="0.5,1,1.5,2,2.5,3", help="CMS factors k, comma-separated (default 0.5..3)")
+    args = p.parse_args(argv)
+    try:
+        args.k = [float(v) for v in args.k.split(",") if v.strip()]
+    except ValueError:
+        p.error(f"--k: expected comma-separated numbers, got {args.k!r}")
+    if not args.k or min(args.k) <= 0:
+        p.error("--k: give at least one factor, all > 0")
+    return args
+
+
+def _write_text(file: str, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(file)), suffix=".tmp")
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        fh.write(text)
+    os.replace(tmp, file)
+
+
+def main(argv=None) -> int:
+    args = _parse(argv)
+    from jaxstiff._x64 import enable_x64
+
+    enable_x64()
+    import jax.numpy as jnp
+    import numpy as np
+
+    import jaxstiff
+    from jaxstiff import plots
+
+    os.makedirs(args.out, exist_ok=True)
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    q = np.radians(Q_DEG)
+    kj0 = np.asarray(KJ0)
+    ks = np.asarray(args.k)
+    J = robot.jacobian(jnp.asarray(q))
+    K = np.asarray(jaxstiff.translational_stiffness(J, jnp.asarray(ks[:, None] * kj0), task="xy"))  # (k, 2, 2)
+    e = jaxstiff.ellipsoid(jnp.asarray(K))
+    axes, ratio, major = np.asarray(e.axes), np.asarray(e.ratio), np.asarray(e.major)
+    angle = np.degrees(np.arctan2(major[:, 1], major[:, 0])) % 180.0  # direction of a line, [0, 180)
+    K1 = np.asarray(jaxstiff.translational_stiffness(J, jnp.asarray(kj0), task="xy"))
+    e1 = jaxstiff.ellipsoid(jnp.asarray(K1))
+    ax1, rho1, v1 = np.asarray(e1.axes), float(e1.ratio), np.asarray(e1.major)
+    dev_axes = float(np.max(np.abs(axes / (ks[:, None] * ax1) - 1.0)))
+    dev_ratio = float(np.max(np.abs(ratio - rho1)))
+    dev_angle = float(np.max(np.degrees(np.arcsin(np.clip(np.abs(major[:, 0] * v1[1] - major[:, 1] * v1[0]), 0, 1)))))
+    tcp = np.asarray(robot.fk(jnp.asarray(q)))[:2, 3]
+
+    rows = [
+        {"k": f"{k:g}", "lambda1_N_per_m": f"{a[0]:.4f}", "lambda2_N_per_m": f"{a[1]:.4f}", "ratio": f"{rho:.6f}",
+         "major_axis_deg": f"{ang:.4f}", "area_lambda1_lambda2": f"{a[0] * a[1]:.2f}"}
+        for k, a, rho, ang in zip(ks, axes, ratio, angle)
+    ]
+    header = list(rows[0])
+    print(f"Seed 000 Fig. 2 (CMS): planar 3R, q = {Q_DEG} deg, TCP = ({tcp[0]:.4f}, {tcp[1]:.4f}) m, k_j0 = {KJ0} Nm/rad, task xy")
+    print("  ".join(f"{h:>20s}" for h in header))
+    for row in rows:
+        print("  ".join(f"{row[h]:>20s}" for h in header))
+    print(f"max |lambda_i(k) / (k lambda_i(1)) - 1| = {dev_axes:.2e};  max |rho(k) - rho(1)| = {dev_ratio:.2e};  "
+          f"max angle between major axes = {dev_angle:.2e} deg")
+
+    fd, tmp = tempfile.mkstemp(dir=args.out, suffix=".tmp")
+    with os.fdopen(fd, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=header)
+        w.writeheader()
+        w.writerows(rows)
+    os.replace(tmp, os.path.join(args.out, "summary.csv"))
+    md = [
+        "# Seed 000 Fig. 2: common-mode stiffness",
+        "",
+        f"Planar 3R (L = 1 m), q = {Q_DEG} deg, TCP = ({tcp[0]:.4f}, {tcp[1]:.4f}) m; k_j = k · k_j0 with "
+        f"k_j0 = {KJ0} Nm/rad (the seed's Fig. 3 values; Fig. 2 does not give them); task xy.",
+        "",
+        "| " + " | ".join(header) + " |",
+        "|" + "---|" * len(header),
+        *("| " + " | ".join(row[h] for h in header) + " |" for row in rows),
+        "",
+        f"CMS is exact: max |λ_i(k)/(k λ_i(1)) − 1| = {dev_axes:.1e}, max |ρ(k) − ρ(1)| = {dev_ratio:.1e}, "
+        f"max angle between major axes = {dev_angle:.1e}°.",
+        "",
+        "![Fig. 2](fig2_cms.png)",
+        "",
+    ]
+    _write_text(os.path.join(args.out, "summary.md"), "\n".join(md))
+    png = plots.figure_cms(robot, q, kj0, list(ks), list(K), os.path.join(args.out, "fig2_cms.png"))
+    print(f"wrote {png}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
