@@ -26,6 +26,7 @@ from .robot import robot_path as robot_path
 from .robot import shipped_robots as shipped_robots
 from .stiffness import cartesian_stiffness as cartesian_stiffness
 from .stiffness import cms_factor as cms_factor
+from .stiffness import cms_scale as cms_scale
 from .stiffness import compliance_condition as compliance_condition
 from .stiffness import joint_stiffness as joint_stiffness
 from .stiffness import translational_stiffness as translational_stiffness

@@ -340,6 +340,9 @@ def translational_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> 
     orientation held), computed directly as the inverse of the Schur complement
     ``C_TT - C_TR C_RR^-1 C_RT`` without forming the rest of ``K_C``.
 
+    A planar chain has no out-of-plane compliance at all: use ``"xy"`` for it; with ``"xyz"`` or
+    ``"full"`` its z direction is a lost (damped) direction, ~1e12 times stiffer than the others.
+
     Args:
         J: geometric Jacobian (..., 6, n), or its task rows.
         kj: joint stiffnesses (..., n), > 0.

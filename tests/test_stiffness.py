@@ -15,6 +15,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import jaxstiff
 from helpers import assert_close, central_diff
@@ -335,3 +337,38 @@ def test_seed_fig2_posture_numbers():
     K = jaxstiff.translational_stiffness(r.jacobian(jnp.asarray(q)), jnp.asarray(kj), "xy")
     assert_close(K, ref, rtol=1e-12)
     assert math.isfinite(float(jaxstiff.ellipsoid(K).ratio))
+
+
+@st.composite
+def jacobian_batches(draw):
+    """Random 6x7 Jacobians (N of them), some rank-deficient, over many scales, and kj in [1, 100]."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**31 - 1)))
+    J = rng.normal(size=(N, 6, 7)) * 10.0 ** draw(st.floats(-2, 1))
+    rank = draw(st.integers(1, 6))
+    if rank < 6:  # J = A B with A 6 x rank: rank-deficient, lost directions in random orientations
+        J = rng.normal(size=(N, 6, rank)) @ rng.normal(size=(N, rank, 7)) * 10.0 ** draw(st.floats(-2, 1))
+    kj = rng.uniform(1.0, 100.0, size=(N, 7))
+    if draw(st.booleans()):
+        kj[:, draw(st.integers(0, 6))] = draw(st.sampled_from([1.0, 100.0]))  # a joint at a bound
+    return J, kj, draw(st.sampled_from(["xyz", "full"]))
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(jacobian_batches())
+def test_property_spd_finite_and_exact_when_regular(data):
+    J, kj, task = data
+    KT = np.asarray(jaxstiff.translational_stiffness(jnp.asarray(J), jnp.asarray(kj), task))
+    assert np.all(np.isfinite(KT))
+    assert_close(KT, np.swapaxes(KT, -1, -2), rtol=0, atol=0, what="symmetric")
+    w = np.linalg.eigvalsh(KT)
+    assert np.all(w[:, 0] > -1e-6 * w[:, -1]), "positive (semi-)definite up to rounding of the huge axes"
+    C = numpy_compliance(J, kj, task)
+    cond = np.linalg.cond(C)
+    regular = cond < 1e5
+    if regular.any():
+        ref = np.linalg.inv(C[regular])
+        ref = ref[:, :3, :3] if task == "full" else ref
+        rel = np.abs(KT[regular] - ref).max((-2, -1)) / np.abs(ref).max((-2, -1))
+        assert np.all(rel < 1e-12 + 2e-15 * cond[regular])
+    else:  # rank-deficient draws: the stiffness functions report it
+        assert np.all(np.asarray(compliance_condition(jnp.asarray(J), jnp.asarray(kj), task)) > 1e10)
