@@ -1,7 +1,9 @@
 """``jaxstiff reproduce --out DIR``: run every experiment and write one report (Markdown + PNG).
 
-The experiments are the scripts in the source checkout's ``experiments/`` folder (seed 000
-Fig. 2-6, CSC of seed 001, ...), each runnable as ``python experiments/NAME.py --out DIR``. They
+The experiments are the scripts in the source checkout's ``experiments/`` folder, each runnable
+as ``python experiments/NAME.py --out DIR``. By default the reproductions of the seeds run: seed 000
+Fig. 2-6 (``fig*``) and the CSC experiments of seed 001 (``csc*``); ``--all`` adds the others
+(studies beyond the seeds, which may take much longer), ``--only`` picks by name. They
 are run here as **subprocesses**, one after another:
 
 * a failing or hanging experiment (``timeout``) cannot take the others or the report down: it is
@@ -99,9 +101,16 @@ def _order_key(name: str) -> tuple:
     return (len(ORDER), name)
 
 
-def discover(folder: str) -> list[str]:
-    """Experiment scripts in ``folder`` (``NAME.py`` with a ``__main__`` block taking ``--out``), report order."""
+def discover(folder: str, everything: bool = True) -> list[str]:
+    """Experiment scripts in ``folder`` (``NAME.py`` with a ``__main__`` block taking ``--out``), report order.
+
+    Args:
+        everything: all of them; False: only the reproductions of the seeds (names starting with
+            ``fig`` or ``csc``), the default set of ``jaxstiff reproduce``.
+    """
     scripts = [p for p in glob.glob(os.path.join(folder, "*.py")) if _is_experiment(p)]
+    if not everything:
+        scripts = [p for p in scripts if _order_key(os.path.basename(p)[:-3])[0] < len(ORDER)]
     return sorted(scripts, key=lambda p: _order_key(os.path.basename(p)[:-3]))
 
 
@@ -329,6 +338,7 @@ def run_reproduce(
     experiments_dir: str | os.PathLike | None = None,
     timeout: float | None = 900.0,
     sweep: bool = True,
+    everything: bool = False,
     log: Callable[[str], None] | None = None,
 ) -> ReproduceOutcome:
     """Run the experiments (and the quick sweep) and write ``DIR/report.md``.
@@ -340,6 +350,8 @@ def run_reproduce(
         experiments_dir: the experiments folder (default: see :func:`find_experiments_dir`).
         timeout: seconds per experiment (None: no limit).
         sweep: also run ``experiments/sweeps/quick.toml``.
+        everything: run every experiment script, not only the seed reproductions (``fig*``,
+            ``csc*``); the others (e.g. the solver quality study) may take much longer.
         log: one-line progress messages (default: stderr).
 
     Returns:
@@ -355,7 +367,7 @@ def run_reproduce(
         log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     exp_dir = find_experiments_dir(experiments_dir)
     repo = os.path.dirname(exp_dir)
-    scripts = discover(exp_dir)
+    scripts = discover(exp_dir, everything=everything or bool(only))
     if only:
         scripts = [s for s in scripts if any(os.path.basename(s).startswith(o) for o in only)]
         if not scripts:

@@ -59,14 +59,17 @@ def fake_experiments(tmp_path):
 
 
 def test_discovery_order(fake_experiments):
+    (fake_experiments / "study_long.py").write_text(_script(""))
     names = [os.path.basename(p) for p in reproduce.discover(str(fake_experiments))]
-    assert names == ["fig2_cms.py", "fig3_hangs.py", "csc_hold.py", "fig9_broken.py"]
+    assert names == ["fig2_cms.py", "fig3_hangs.py", "csc_hold.py", "fig9_broken.py", "study_long.py"]
+    seeds = [os.path.basename(p) for p in reproduce.discover(str(fake_experiments), everything=False)]
+    assert seeds == ["fig2_cms.py", "fig3_hangs.py", "csc_hold.py"]
 
 
 def test_report_gathers_everything_and_survives_failures(fake_experiments, tmp_path):
     out = tmp_path / "report"
     res = reproduce.run_reproduce(out, quick=True, experiments_dir=fake_experiments, timeout=3.0, sweep=False,
-                                  log=lambda s: None)
+                                  everything=True, log=lambda s: None)
     status = {r.name: r.code for r in res.runs}
     assert status == {"fig2_cms": 0, "fig3_hangs": None, "csc_hold": 0, "fig9_broken": 1}
     assert not res.ok
