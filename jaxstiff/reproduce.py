@@ -27,8 +27,9 @@ Layout of ``DIR``::
 
 Experiment contract: a script ``experiments/NAME.py`` accepts ``--out DIR`` (and ``--quick`` if it
 has a shorter variant; ``reproduce --quick`` passes it when the script's source mentions it) and
-writes PNG figures and, optionally, ``summary.md`` (shown verbatim, image links rewritten) and
-small CSV tables (shown as Markdown tables) into DIR.
+writes PNG figures into DIR, and either a ``summary.md`` (shown verbatim, headings demoted, image
+links rewritten) or, without one, what it prints plus small CSV tables and ``*.json`` summaries
+(shown as Markdown tables).
 """
 
 from __future__ import annotations
@@ -263,7 +264,10 @@ def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: st
     md: list[str] = []
     if note:
         md += [note, ""]
-    printed = _printed(log) if log else ""
+    summary = os.path.join(folder, "summary.md")
+    has_summary = os.path.isfile(summary)
+    # an experiment's own summary.md says what matters; otherwise show what it printed and its tables
+    printed = _printed(log) if log and not has_summary else ""
     if printed:
         md += ["What it printed:", "", "```text", printed, "```", ""]
     os.makedirs(fig_dir, exist_ok=True)
@@ -275,8 +279,7 @@ def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: st
         shutil.copyfile(p, dest)
         copied[os.path.normpath(rel)] = os.path.relpath(dest, report_dir).replace(os.sep, "/")
     shown = set()
-    summary = os.path.join(folder, "summary.md")
-    if os.path.isfile(summary):
+    if has_summary:
         text = open(summary, encoding="utf-8", errors="replace").read()
 
         def relink(m):
@@ -290,13 +293,13 @@ def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: st
         # demote the experiment's own headings below the report's section heading
         text = re.sub(r"^(#+)", lambda m: "#" * min(6, len(m.group(1)) + 2), text, flags=re.M)
         md += [text.strip(), ""]
-    for csvf in sorted(glob.glob(os.path.join(folder, "*.csv"))):
+    for csvf in sorted(glob.glob(os.path.join(folder, "*.csv"))) if not has_summary else []:
         if os.path.basename(csvf) in _SKIP_TABLES:
             continue
         tbl = _csv_table(csvf)
         if tbl:
             md += [f"**{os.path.basename(csvf)}**", "", tbl, ""]
-    for jf in sorted(glob.glob(os.path.join(folder, "*.json"))):
+    for jf in sorted(glob.glob(os.path.join(folder, "*.json"))) if not has_summary else []:
         if os.path.basename(jf) in ("manifest.json", "plan.json"):
             continue
         tbl = _json_table(jf)
