@@ -19,6 +19,7 @@ def _add_reproduce(p: argparse.ArgumentParser):
                    help="the experiments folder (none: $JAXSTIFF_EXPERIMENTS, then the source checkout's)")
     p.add_argument("--timeout", type=float, default=900.0, metavar="S", help="seconds per experiment")
     p.add_argument("--no-sweep", action="store_true", help="skip experiments/sweeps/quick.toml")
+    p.add_argument("--report-only", action="store_true", help="run nothing; rebuild DIR/report.md from DIR/runs")
     p.add_argument("--all", action="store_true",
                    help="run every experiment script, not only the seed reproductions (fig*, csc*)")
 
@@ -28,7 +29,8 @@ def _add_reproduce(p: argparse.ArgumentParser):
         if not args.timeout > 0:
             raise ValueError(f"--timeout must be > 0 seconds, got {args.timeout}")
         res = run_reproduce(args.out, quick=args.quick, only=args.only, experiments_dir=args.experiments,
-                            timeout=args.timeout, sweep=not args.no_sweep, everything=args.all)
+                            timeout=args.timeout, sweep=not args.no_sweep, everything=args.all,
+                            report_only=args.report_only)
         failed = [r.name for r in res.runs if not r.ok]
         print(f"{len(res.runs) - len(failed)} of {len(res.runs)} ok in {res.wall_s:.0f} s -> {res.report}")
         if failed:

@@ -290,8 +290,10 @@ def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: st
             return m.group(0)
 
         text = _IMG.sub(relink, text)
-        # demote the experiment's own headings below the report's section heading
-        text = re.sub(r"^(#+)", lambda m: "#" * min(6, len(m.group(1)) + 2), text, flags=re.M)
+        # the experiment's own headings go below the report's section heading: top level -> ###
+        levels = [len(h) for h in re.findall(r"^(#+)\s", text, flags=re.M)]
+        shift = 3 - min(levels) if levels else 0
+        text = re.sub(r"^(#+)(?=\s)", lambda m: "#" * max(1, min(6, len(m.group(1)) + shift)), text, flags=re.M)
         md += [text.strip(), ""]
     for csvf in sorted(glob.glob(os.path.join(folder, "*.csv"))) if not has_summary else []:
         if os.path.basename(csvf) in _SKIP_TABLES:
@@ -342,6 +344,7 @@ def run_reproduce(
     timeout: float | None = 900.0,
     sweep: bool = True,
     everything: bool = False,
+    report_only: bool = False,
     log: Callable[[str], None] | None = None,
 ) -> ReproduceOutcome:
     """Run the experiments (and the quick sweep) and write ``DIR/report.md``.
@@ -355,6 +358,7 @@ def run_reproduce(
         sweep: also run ``experiments/sweeps/quick.toml``.
         everything: run every experiment script, not only the seed reproductions (``fig*``,
             ``csc*``); the others (e.g. the solver quality study) may take much longer.
+        report_only: run nothing; rebuild ``report.md`` from the runs already in ``DIR/runs``.
         log: one-line progress messages (default: stderr).
 
     Returns:
@@ -381,6 +385,18 @@ def run_reproduce(
     os.makedirs(runs_dir, exist_ok=True)
     t0 = time.perf_counter()
     runs: list[ExperimentRun] = []
+    sweep_cfg = os.path.join(exp_dir, "sweeps", "quick.toml")
+    with_sweep = sweep and os.path.isfile(sweep_cfg) and not only
+    if report_only:
+        for name in [os.path.basename(s)[:-3] for s in scripts] + (["sweep_quick"] if with_sweep else []):
+            r = _load_status(os.path.join(runs_dir, name))
+            if r is None:
+                log(f"{name}: no earlier run in {runs_dir}; left out")
+            else:
+                runs.append(r)
+        if not runs:
+            raise ValueError(f"--report-only: no runs in {runs_dir}; run jaxstiff reproduce --out {out} first")
+        scripts = []
     for i, s in enumerate(scripts):
         name = os.path.basename(s)[:-3]
         log(f"[{i + 1}/{len(scripts)}] {name} ...")
@@ -388,19 +404,20 @@ def run_reproduce(
         if os.path.isdir(dest):
             shutil.rmtree(dest)
         r = _run_one(s, dest, quick, timeout, repo)
+        _save_status(r)
         runs.append(r)
         log(f"[{i + 1}/{len(scripts)}] {name}: {'ok' if r.ok else 'FAILED' if r.code is not None else 'TIMED OUT'} "
             f"in {r.wall_s:.1f} s")
-    sweep_cfg = os.path.join(exp_dir, "sweeps", "quick.toml")
-    if sweep and os.path.isfile(sweep_cfg) and not only:
+    if with_sweep and not report_only:
         log("sweep quick.toml ...")
         dest = os.path.join(runs_dir, "sweep_quick")
         if os.path.isdir(dest):
             shutil.rmtree(dest)
         r = _run_sweep(sweep_cfg, dest, timeout, repo)
+        _save_status(r)
         runs.append(r)
         log(f"sweep quick.toml: {'ok' if r.ok else 'FAILED'} in {r.wall_s:.1f} s")
-    wall = time.perf_counter() - t0
+    wall = time.perf_counter() - t0 if not report_only else sum(r.wall_s for r in runs)
 
     if os.path.isdir(figs_dir):
         shutil.rmtree(figs_dir)
@@ -428,6 +445,27 @@ def run_reproduce(
     atomic_write_text(report, "\n".join(md) + "\n")
     log(f"wrote {report}")
     return ReproduceOutcome(report=report, runs=runs, wall_s=wall)
+
+
+_STATUS = ".reproduce.json"
+
+
+def _save_status(r: ExperimentRun) -> None:
+    import json
+
+    from .sweep_store import atomic_write_text
+
+    atomic_write_text(os.path.join(r.out, _STATUS), json.dumps(dataclasses.asdict(r), indent=1))
+
+
+def _load_status(folder: str) -> ExperimentRun | None:
+    import json
+
+    try:
+        with open(os.path.join(folder, _STATUS), encoding="utf-8") as fh:
+            return ExperimentRun(**json.load(fh))
+    except (OSError, ValueError, TypeError):
+        return None
 
 
 def _run_sweep(config: str, out: str, timeout: float | None, repo: str) -> ExperimentRun:

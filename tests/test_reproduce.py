@@ -81,7 +81,7 @@ def test_report_gathers_everything_and_survives_failures(fake_experiments, tmp_p
     assert (out / "figures" / "fig2_cms" / "ellipses.png").read_bytes() == PNG
     assert "![e](figures/fig2_cms/ellipses.png)" in md
     assert "](figures/fig2_cms/extra.png)" in md and "](figures/csc_hold/u.png)" in md
-    assert "### Fig. 2" in md  # the experiment's heading demoted under its section
+    assert "### Fig. 2" in md  # the experiment's top heading goes right below its section
     # CSV as a Markdown table
     assert "| beta | u_end |" in md and "| 0.001 | 2030 |" in md.replace("2031", "2030")
     # what it printed, and its JSON summary as a key/value table
@@ -94,6 +94,13 @@ def test_report_gathers_everything_and_survives_failures(fake_experiments, tmp_p
     # failures: exit code and the end of the log; the hang: timed out
     assert "failed with exit code 1" in md and "the solver diverged at waypoint 7" in md
     assert "timed out" in md
+    # the report can be rebuilt from the runs without running anything again
+    (out / "report.md").unlink()
+    again = reproduce.run_reproduce(out, experiments_dir=fake_experiments, sweep=False, everything=True,
+                                    report_only=True, log=lambda s: None)
+    assert [r.name for r in again.runs] == [r.name for r in res.runs]
+    assert (out / "report.md").read_text().split("- total wall time")[1] == md.split("- total wall time")[1].replace(
+        f"{res.wall_s:.0f} s", f"{sum(r.wall_s for r in res.runs):.0f} s", 1)
 
 
 def test_cli_only_and_errors(fake_experiments, tmp_path, capsys):
