@@ -310,9 +310,9 @@ def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
 
 
 @pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
-def test_ray_backend_gives_the_same_table(csc_cfg, csc_run, tmp_path):
+def test_ray_backend_gives_the_same_table(csc_cfg, csc_run, tmp_path, monkeypatch):
     ray = pytest.importorskip("ray")
-    os.environ.setdefault("RAY_AUTH_MODE", "disabled")
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")  # a local test instance needs no token
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
              runtime_env={"env_vars": {"PYTHONPATH": REPO}})
     try:
