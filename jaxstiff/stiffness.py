@@ -164,9 +164,15 @@ def _fusion_boundary(tree):
     if not leaves or leaves[0].size == 0:
         return tree
     x = leaves[0].ravel()[0]
-    return jax.lax.cond(
-        jnp.isnan(x) | (x == x), lambda t: t, lambda t: jax.tree_util.tree_map(jnp.zeros_like, t), tree
-    )
+    return jax.lax.cond(jnp.isnan(x) | (x == x), _identity, _zeros_like_tree, tree)
+
+
+def _identity(tree):
+    return tree
+
+
+def _zeros_like_tree(tree):
+    return jax.tree_util.tree_map(jnp.zeros_like, tree)
 
 
 def _to_array(S: Sym, m: int, boundary: bool = True) -> jax.Array:
