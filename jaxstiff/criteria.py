@@ -205,15 +205,30 @@ def _accepts_c(fn: Callable) -> bool:
     return any(p.name == "c" or p.kind == inspect.Parameter.VAR_KEYWORD for p in params)
 
 
+_WRAPPED: dict = {}
+
+
 def _normalise(fn: Callable) -> Criterion:
+    """``fn`` itself if it takes ``c``, else one cached wrapper that drops ``c`` (the same object
+    on every call, so a solver that jits with the criterion as a static argument compiles once)."""
     if _accepts_c(fn):
         return fn
+    try:
+        return _WRAPPED[fn]
+    except TypeError:  # unhashable callable: wrap without caching
+        pass
+    except KeyError:
+        pass
 
     @functools.wraps(fn)
     def with_c(K, d, r, c=0.01):
         del c
         return fn(K, d, r)
 
+    try:
+        _WRAPPED[fn] = with_c
+    except TypeError:
+        pass
     return with_c
 
 

@@ -291,6 +291,7 @@ def test_user_criteria_and_registry():
         return jaxstiff.f2(K, d, r) + 1.0
 
     crit = jaxstiff.get_criterion(mine)
+    assert jaxstiff.get_criterion(mine) is crit, "one wrapper per function (static-argument friendly)"
     K, d = k_from_alpha_rho(np.array(0.0), np.array(5.0))
     assert_close(crit(jnp.asarray(K), jnp.asarray(d), 5.0, c=0.3), 2.0, atol=1e-9)
     jaxstiff.register_criterion("_test_mine", mine, overwrite=True)
