@@ -33,6 +33,8 @@ import os
 
 import numpy as np
 
+from ._io import json_default as _json_default
+
 from .cli import command, parse_locks
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
@@ -204,11 +206,3 @@ def _add_csc(p: argparse.ArgumentParser):
         return 0
 
     return run
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

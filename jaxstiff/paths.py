@@ -30,10 +30,11 @@ import dataclasses
 import io
 import math
 import os
-import tempfile
 from typing import Sequence
 
 import numpy as np
+
+from ._io import atomic_write_text
 
 __all__ = [
     "Path",
@@ -242,27 +243,11 @@ class Path:
         for p, d in zip(self.points, self.directions):
             vals = list(p) + (list(d) if directions else [])
             w.writerow([repr(float(v)) for v in vals])
-        _atomic_write_text(os.fspath(file), buf.getvalue())
+        atomic_write_text(os.fspath(file), buf.getvalue())
 
     def __repr__(self) -> str:
         shape = "x".join(str(s) for s in self.points.shape)
         return f"Path({self.name or 'unnamed'}, points {shape})"
-
-
-def _atomic_write_text(file: str, text: str) -> None:
-    folder = os.path.dirname(os.path.abspath(file))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".csv", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)  # mkstemp makes 0600; give the file the usual permissions
-        os.replace(tmp, file)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 # ---------------------------------------------------------------------- generators

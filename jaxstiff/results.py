@@ -61,10 +61,12 @@ import dataclasses
 import hashlib
 import json
 import os
-import tempfile
 from typing import Any
 
 import numpy as np
+
+from ._io import atomic_write
+from ._io import json_default as _json_default
 
 __all__ = [
     "ShapeResult",
@@ -224,20 +226,6 @@ class ShapeResult:
         return summary(self)
 
 
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> str:
     """``np.savez`` to a temporary file in the target folder, then ``os.replace`` onto ``file``.
 
@@ -247,20 +235,7 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
     file = os.fspath(file)
     if not file.endswith(".npz"):
         file = file + ".npz"
-    folder = os.path.dirname(os.path.abspath(file))
-    if not os.path.isdir(folder):
-        raise FileNotFoundError(f"output folder does not exist: {folder}")
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".npz", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
-        os.replace(tmp, file)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return file
+    return atomic_write(file, lambda fh: np.savez(fh, **arrays), binary=True)
 
 
 # ---------------------------------------------------------------------- summaries

@@ -54,6 +54,8 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
+from ._io import json_default as _json_default
+
 from .sweep_config import SweepPlan, kxd_matrix, load_config, parse_config
 from .sweep_metrics import csc_row_metrics, shape_row_metrics
 from .sweep_store import SweepStore, read_table
@@ -258,16 +260,6 @@ def _csc_chunk(plan: SweepPlan, chunk, progress):
         row.update(result_file=name, result_index=i)
         rows.append(row)
     return rows, [(name, data)], devices
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    if isinstance(o, float) and not math.isfinite(o):
-        return str(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 # ---------------------------------------------------------------------------- progress

@@ -89,6 +89,8 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from ._io import json_default as _json_default
+
 __all__ = [
     "SweepConfigError",
     "AxisSpec",
@@ -950,11 +952,3 @@ class _Parser:
             if m not in allowed:
                 raise self.err("report.metrics", f"unknown metric {m!r}{_suggest(str(m), allowed)}; metrics: {', '.join(allowed)}")
         return tuple(pairs), tuple(metrics)
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

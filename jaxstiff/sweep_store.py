@@ -34,7 +34,9 @@ import socket
 import tempfile
 from typing import Any, Iterable
 
-import numpy as np
+
+from ._io import atomic_write_text
+from ._io import json_default as _json_default
 
 from .sweep_config import AXES, SweepPlan
 
@@ -43,32 +45,8 @@ __all__ = ["SweepStore", "read_table", "atomic_write_text", "FORMAT"]
 FORMAT = "jaxstiff.sweep/1"
 
 
-def atomic_write_text(file: str, text: str) -> None:
-    """Write text to ``file`` through a temporary file in the same folder and ``os.replace``."""
-    folder = os.path.dirname(os.path.abspath(file))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(file)[1], dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, file)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
 def _json(obj) -> str:
     return json.dumps(obj, indent=1, sort_keys=True, default=_json_default)
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer, np.bool_)):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 def _now() -> str:
@@ -398,4 +376,3 @@ def _config_diff(old: dict, new: dict, prefix: str = "") -> str:
         elif json.dumps(a, sort_keys=True, default=str) != json.dumps(b, sort_keys=True, default=str):
             keys.append(f"{prefix}{k}")
     return ", ".join(keys)
-
