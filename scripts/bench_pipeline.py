@@ -1,7 +1,8 @@
 """Throughput of the shaping pipeline on a batch of KUKA LWR configurations.
 
-Stages, timed cumulatively (each row runs everything above it in one jitted function, so the
-share of a stage is the difference to the row above):
+Stages, timed cumulatively (each row runs everything above it in one jitted function and returns
+that stage's own products; the share of a stage is the difference to the row above, clipped at 0:
+XLA fuses across stages, so writing out a stage's products can cost more than computing the next):
 
     fk+J        fk_and_jacobian (pose and 6x7 geometric Jacobian)
     +stiffness  translational_stiffness (task "full": Schur complement of the 6x6 compliance)
@@ -76,32 +77,33 @@ def main(argv=None) -> int:
     task, r = args.task, args.ratio
 
     def make_stages(K_fn, eig_fn):
+        # Each stage computes everything up to it and returns only its own products (what a caller
+        # truncating the pipeline there would keep); earlier products are consumed, not written out.
         def fkJ(q, kj, d):
             T, J = jaxstiff.fk_and_jacobian(robot, q)
             return T, J
 
         def stiff(q, kj, d):
-            T, J = jaxstiff.fk_and_jacobian(robot, q)
-            return T[..., :3, 3], K_fn(J, kj)
+            T, J = fkJ(q, kj, d)
+            return (K_fn(J, kj),)
 
         def ellip(q, kj, d):
-            p, K = stiff(q, kj, d)
+            (K,) = stiff(q, kj, d)
             w, V = eig_fn(K)
-            return p, K, w, V, ell._safe_ratio(w[..., 0], w[..., 1]), jnp.prod(w, -1)
+            return w, V, ell._safe_ratio(w[..., 0], w[..., 1]), jnp.prod(w, -1)
 
         def crit(q, kj, d):
-            p, K, w, V, rho, vol = ellip(q, kj, d)
+            w, V, rho, vol = ellip(q, kj, d)
             alpha = ell._alpha_rad(V[..., :, 0], d) * (180.0 / np.pi)
-            f = (1.0 + alpha) * (1.0 + jnp.abs(r - rho))
-            return p, w, V, rho, vol, f
+            return ((1.0 + alpha) * (1.0 + jnp.abs(r - rho)),)
 
         def grad(q, kj, d):
             def total(q, kj):
-                out = crit(q, kj, d)
-                return jnp.sum(out[-1]), out
+                (f,) = crit(q, kj, d)
+                return jnp.sum(f), f
 
-            (_, out), g = jax.value_and_grad(total, argnums=(0, 1), has_aux=True)(q, kj)
-            return out, g
+            (_, f), (gq, gk) = jax.value_and_grad(total, argnums=(0, 1), has_aux=True)(q, kj)
+            return f, gq, gk
 
         return [("fk+J", fkJ), ("+stiffness", stiff), ("+ellipsoid", ellip), ("+f2", crit), ("+grad", grad)]
 
@@ -138,20 +140,19 @@ def main(argv=None) -> int:
         rows, outs = [], {}
         for name, fn in stages:
             t0 = time.perf_counter()
-            compiled = jax.jit(fn).lower(q, kj, d).compile()
+            timed = jax.jit(fn).lower(q, kj, d).compile()
             t_compile = time.perf_counter() - t0
-            out = compiled(q, kj, d)
-            jax.block_until_ready(out)  # warm-up
+            jax.block_until_ready(timed(q, kj, d))  # warm-up
             times, cpu = [], []
             for _ in range(args.repeats):
                 t0, c0 = time.perf_counter(), time.process_time()
-                jax.block_until_ready(compiled(q, kj, d))
+                jax.block_until_ready(timed(q, kj, d))
                 times.append(time.perf_counter() - t0)
                 cpu.append(time.process_time() - c0)
             t = float(np.min(times))
             rows.append({"stage": name, "seconds": t, "median_s": float(np.median(times)), "cpu_seconds": float(np.min(cpu)),
                          "compile_s": t_compile, "configs_per_s": args.batch / t})
-            outs[name] = out
+            outs[name] = timed(q, kj, d)
         prev = 0.0
         total = rows[-1]["seconds"]
         for row in rows:
@@ -171,8 +172,8 @@ def main(argv=None) -> int:
     rows, outs = run(closed, "closed forms (jaxstiff)")
     results["closed_form"] = rows
     # sanity: the values must be finite
-    f_val = np.asarray(outs["+f2"][-1])
-    g_q, g_k = (np.asarray(x) for x in outs["+grad"][1])
+    f_val = np.asarray(outs["+f2"][0])
+    g_q, g_k = (np.asarray(x) for x in outs["+grad"][1:])
     finite = bool(np.isfinite(f_val).all() and np.isfinite(g_q).all() and np.isfinite(g_k).all())
     print(f"all values and gradients finite: {finite}")
     results["finite"] = finite
@@ -180,7 +181,7 @@ def main(argv=None) -> int:
     if args.compare_lapack:
         rows_l, outs_l = run(lapack, "LAPACK inv + eigh (for comparison)")
         results["lapack"] = rows_l
-        f_l = np.asarray(outs_l["+f2"][-1])
+        f_l = np.asarray(outs_l["+f2"][0])
         rel = np.abs(f_l - f_val) / np.maximum(np.abs(f_l), 1.0)
         # f2 is smooth only where the posture is well conditioned; report the median and 99th percentile
         results["f2_rel_diff_vs_lapack"] = {"median": float(np.median(rel)), "p99": float(np.quantile(rel, 0.99))}
