@@ -17,10 +17,11 @@ Example:
 from __future__ import annotations
 
 import os
-import tempfile
 from typing import Sequence
 
 import numpy as np
+
+from ._io import atomic_write
 
 __all__ = [
     "ellipse_points",
@@ -46,16 +47,10 @@ def save_figure(fig, file: str | os.PathLike, dpi: int = 130) -> str:
     file = os.fspath(file)
     folder = os.path.dirname(os.path.abspath(file))
     os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".png.tmp")
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches="tight")
-        os.replace(tmp, file)
+        return atomic_write(file, lambda fh: fig.savefig(fh, dpi=dpi, format="png", bbox_inches="tight"), binary=True)
     finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
         _pyplot().close(fig)
-    return file
 
 
 def ellipse_points(K, n: int = 201) -> np.ndarray:

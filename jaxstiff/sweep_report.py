@@ -17,6 +17,7 @@ import numpy as np
 
 from .sweep_config import AXES, SweepPlan
 from .sweep_metrics import METRICS
+from ._io import atomic_write
 from .sweep_store import atomic_write_text, read_table
 
 __all__ = ["write_report", "heatmap"]
@@ -72,12 +73,10 @@ def heatmap(df, plan: SweepPlan, x: str, y: str, metric: str, file: str) -> str:
     averaged = "other axes averaged" if "path" in (x, y) else f"other axes and the {len(plan.trajectories)} paths averaged"
     ax.set_title(f"{plan.name}: mean {metric}\n{y} vs {x} ({averaged})", fontsize=9)
     fig.tight_layout()
-    folder = os.path.dirname(file)
-    tmp = os.path.join(folder, ".tmp-" + os.path.basename(file))
-    fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, file)
-    return file
+    try:
+        return atomic_write(file, lambda fh: fig.savefig(fh, dpi=110, format="png", bbox_inches="tight"), binary=True)
+    finally:
+        plt.close(fig)
 
 
 def _md_table(header: list[str], rows: list[list]) -> str:

@@ -31,11 +31,10 @@ import glob
 import json
 import os
 import socket
-import tempfile
 from typing import Any, Iterable
 
 
-from ._io import atomic_write_text
+from ._io import atomic_write, atomic_write_text
 from ._io import json_default as _json_default
 
 from .sweep_config import AXES, SweepPlan
@@ -308,16 +307,7 @@ class SweepStore:
             return f
         df = table_frame(rows, cols, self.plan.kind)
         f = self.path("results.parquet")
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=".parquet", dir=self.out)
-        os.close(fd)
-        try:
-            df.to_parquet(tmp, index=False)
-            os.replace(tmp, f)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
-        return f
+        return atomic_write(f, lambda fh: df.to_parquet(fh, index=False), binary=True)
 
 
 def table_frame(rows: list[dict], cols: list[str], kind: str):
