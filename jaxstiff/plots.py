@@ -1,10 +1,12 @@
-"""Figures of seed 000: stiffness ellipses of planar arms (Fig. 2 CMS, Fig. 3 CDS) and the criteria
-landscape (Fig. 6). Matplotlib (Agg backend) is imported only inside these functions: the core
-library never imports this module.
+"""Figures of the experiments: stiffness ellipses of planar arms (seed 000 Fig. 2 CMS, Fig. 3 CDS),
+the criteria landscape (Fig. 6), the seven-panel path figure (Fig. 4/5) and CSC's u / Frobenius
+curves; plus the small pieces every experiment script shares (its ``--out`` parser, summary tables).
+Matplotlib (Agg backend) is imported only inside these functions: the core library never imports
+this module, and importing it pulls in numpy only.
 
-Every function takes numbers computed by the library (stiffness matrices, criterion grids), draws
-them with labelled axes and units, and writes the PNG atomically (a temporary file in the same
-folder, then ``os.replace``), so a failed run never leaves a partial figure.
+Every figure function takes numbers computed by the library (stiffness matrices, criterion grids,
+results), draws them with labelled axes and units, and writes the PNG atomically (a temporary file
+in the same folder, then ``os.replace``), so a failed run never leaves a partial figure.
 
 Example:
     >>> import numpy as np, jaxstiff
@@ -16,6 +18,8 @@ Example:
 
 from __future__ import annotations
 
+import argparse
+import csv
 import os
 from typing import Sequence
 
@@ -24,16 +28,29 @@ import numpy as np
 from ._io import atomic_write
 
 __all__ = [
+    "pyplot",
+    "save_figure",
     "ellipse_points",
     "chain_points",
-    "save_figure",
     "figure_cms",
     "figure_cds",
     "figure_criteria",
+    "figure_u_frobenius",
+    "figure_shape_path",
+    "experiment_parser",
+    "markdown_table",
+    "text_table",
+    "save_table_csv",
 ]
 
 
-def _pyplot():
+def pyplot():
+    """``matplotlib.pyplot`` on the non-interactive Agg backend (matplotlib is imported on the first call).
+
+    Example:
+        >>> plt = plots.pyplot()
+        >>> fig, ax = plt.subplots()
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -42,15 +59,30 @@ def _pyplot():
     return plt
 
 
-def save_figure(fig, file: str | os.PathLike, dpi: int = 130) -> str:
-    """Write ``fig`` as PNG to ``file`` atomically (temp file in the same folder, then ``os.replace``)."""
+def save_figure(fig, file: str | os.PathLike, dpi: int = 130, crop: bool = True) -> str:
+    """Write ``fig`` as PNG to ``file`` atomically, then close it.
+
+    The PNG goes to a temporary file in the target folder (created if missing) and is renamed onto
+    ``file`` only once complete (:func:`jaxstiff._io.atomic_write`): if drawing fails, no partial
+    or temporary file is left and an earlier ``file`` stays as it was. The figure is closed either way.
+
+    Args:
+        fig: a matplotlib Figure.
+        file: the PNG to write.
+        dpi: resolution, dots per inch (the PNG is ``figsize * dpi`` pixels when ``crop`` is False).
+        crop: crop to the drawn content (``bbox_inches="tight"``); False keeps the figure's size.
+
+    Returns:
+        ``file`` as a string.
+    """
     file = os.fspath(file)
     folder = os.path.dirname(os.path.abspath(file))
     os.makedirs(folder, exist_ok=True)
+    extra = {"bbox_inches": "tight"} if crop else {}
     try:
-        return atomic_write(file, lambda fh: fig.savefig(fh, dpi=dpi, format="png", bbox_inches="tight"), binary=True)
+        return atomic_write(file, lambda fh: fig.savefig(fh, dpi=dpi, format="png", **extra), binary=True)
     finally:
-        _pyplot().close(fig)
+        pyplot().close(fig)
 
 
 def ellipse_points(K, n: int = 201) -> np.ndarray:
@@ -118,7 +150,7 @@ def figure_cms(robot, q, kj0, ks: Sequence[float], K_list: Sequence, file, title
         K_list: the 2x2 translational stiffness (N/m) for each k, same order.
         file: PNG to write.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12, 5.4), gridspec_kw={"width_ratios": [1, 1.15]})
     _draw_arm(ax0, robot, q, "black", annotate=True, kj=kj0)
     ax0.set(xlabel="x (m)", ylabel="y (m)", title="planar 3R arm, fixed posture; k_j = k · k_j0")
@@ -154,7 +186,7 @@ def figure_cds(robot, postures: Sequence, kj, K_list: Sequence, file, labels: Se
         file: PNG to write.
         labels: legend label per posture.
     """
-    plt = _pyplot()
+    plt = pyplot()
     fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(12.5, 5.6), gridspec_kw={"width_ratios": [1, 1.15]})
     colors = plt.get_cmap("tab10")(np.arange(len(postures)) % 10)
     labels = labels or [f"posture {i + 1}" for i in range(len(postures))]
@@ -186,7 +218,7 @@ def figure_criteria(alpha_deg, rho, F1, F2, r: float, c: float, file, title: str
         r, c: the criteria's parameters (minimum sets: f1 at alpha = 0, rho >= r; f2 at (0, r)).
         file: PNG to write.
     """
-    plt = _pyplot()
+    plt = pyplot()
     from matplotlib.colors import LogNorm
 
     A, P = np.meshgrid(alpha_deg, rho, indexing="ij")
@@ -225,3 +257,251 @@ def figure_criteria(alpha_deg, rho, F1, F2, r: float, c: float, file, title: str
         fig.colorbar(pcm, ax=ax2, label=name)
     fig.suptitle(title or "Seed 000 Fig. 6: criteria over orientation error × axis ratio", fontsize=12)
     return save_figure(fig, file)
+
+
+def figure_u_frobenius(steps, u, frobenius, labels: Sequence[str], file, *, xlabel: str = "time step k",
+                       titles: Sequence[str] = ("off-diagonal joint stiffness u (S1-19)", "Frobenius error of the realised stiffness"),
+                       suptitle: str | None = None, figsize=(12, 4.5), dpi: int = 120) -> str:
+    """CSC over time: u(q) (left) and ``|K_xd - K_C|_F`` (right), one curve per rollout.
+
+    Args:
+        steps: (T,) time steps k (x axis).
+        u: (B, T) off-diagonal joint stiffness u (S1-19), Nm/rad, one row per rollout.
+        frobenius: (B, T) Frobenius error of the realised stiffness (S1-10), N/m.
+        labels: B legend labels.
+        file: PNG to write (``figsize * dpi`` pixels, not cropped).
+        xlabel: label of both x axes.
+        titles: titles of the two panels.
+        suptitle: title above both panels (none if None).
+
+    Raises:
+        ValueError: u and frobenius are not (B, T) with T = len(steps) and B = len(labels).
+    """
+    steps = np.asarray(steps)
+    u = np.atleast_2d(np.asarray(u, dtype=float))
+    frobenius = np.atleast_2d(np.asarray(frobenius, dtype=float))
+    want = (len(labels), steps.shape[0])
+    if u.shape != want or frobenius.shape != want:
+        raise ValueError(f"figure_u_frobenius: u {u.shape} and frobenius {frobenius.shape} must both be "
+                         f"(len(labels), len(steps)) = {want}")
+    plt = pyplot()
+    fig, ax = plt.subplots(1, 2, figsize=figsize)
+    for ub, fb, lab in zip(u, frobenius, labels):
+        ax[0].plot(steps, ub, label=lab)
+        ax[1].plot(steps, fb, label=lab)
+    ax[0].set(xlabel=xlabel, ylabel="u(q) [Nm/rad]", title=titles[0])
+    ax[1].set(xlabel=xlabel, ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title=titles[1])
+    for a in ax:
+        a.grid(alpha=0.3)
+        a.legend(fontsize=8)
+    if suptitle:
+        fig.suptitle(suptitle)
+    fig.tight_layout()
+    return save_figure(fig, file, dpi=dpi, crop=False)
+
+
+def _stiffness_axes(robot, q, kj_scaled, task="full"):
+    """Eigenvalues (descending, N/m) and eigenvectors (columns) of K_T at each waypoint, (P, 3), (P, 3, 3)."""
+    from .kinematics import jacobian
+    from .stiffness import translational_stiffness
+
+    J = jacobian(robot, np.asarray(q))
+    K = np.asarray(translational_stiffness(J, np.asarray(kj_scaled), task=task))
+    w, V = np.linalg.eigh(K)
+    return w[:, ::-1], V[:, :, ::-1]
+
+
+def figure_shape_path(res, robot, file, title: str, every: int = 5, b: int = 0, dpi: int = 110) -> str:
+    """Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result.
+
+    (a) joint stiffness kj (Nm/rad), (b) joint positions (deg), (c) the criterion's distance to its
+    minimum (log scale), (d) orientation error alpha (deg) and axis ratio, (e) CMS factor, (f) the
+    path (m) with the CMS-scaled 3-D stiffness ellipsoids every ``2 * every`` waypoints, (g) their
+    outlines projected on the xy plane every ``every`` waypoints.
+
+    Args:
+        res: a :class:`jaxstiff.results.ShapeResult` of a task with a 3x3 K_T ("full" or "xyz").
+        robot: the robot it was computed for.
+        file: PNG to write (cropped to the drawing).
+        title: figure title.
+        every: waypoint spacing of the drawn ellipses.
+        b: which path of the batch.
+    """
+    plt = pyplot()
+    from matplotlib.ticker import MaxNLocator
+
+    P, n = res.P, res.n
+    wp = np.arange(P)
+    r = float(res.meta["ratio"])
+    fig = plt.figure(figsize=(17, 14))
+    gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.45, wspace=0.9)
+    colors = plt.cm.tab10(np.arange(n))
+
+    ax = fig.add_subplot(gs[0, 0:2])
+    for i in range(n):
+        ax.plot(wp, res.kj[b, :, i], color=colors[i], label=str(res.joint_names[i]))
+    ax.set(xlabel="waypoint p", ylabel="joint stiffness k_j (Nm/rad)", title="(a) joint stiffness (before CMS)")
+    ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    ax.grid(alpha=0.3)
+
+    ax = fig.add_subplot(gs[0, 2:4])
+    for i in range(n):
+        ax.plot(wp, np.degrees(res.q[b, :, i]), color=colors[i], label=str(res.joint_names[i]))
+    ax.set(xlabel="waypoint p", ylabel="joint position q (deg)", title="(b) joint positions")
+    ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    ax.grid(alpha=0.3)
+
+    ax = fig.add_subplot(gs[0, 4:6])
+    crit = res.meta["criterion"]
+    fmin = {"f1": float(res.meta["c"]), "f2": 1.0}.get(crit)
+    if fmin is not None:  # distance to the criterion's lowest possible value, log scale
+        ax.plot(wp, np.maximum(res.criterion[b] - fmin, 1e-12), "k.-", label=f"{crit} - {fmin:g}")
+        ax.set(ylabel=f"{crit} - min {crit} (-)")
+    else:
+        ax.plot(wp, res.criterion[b], "k.-", label=crit)
+        ax.set(ylabel=f"{crit} (-)")
+    ax.set(xlabel="waypoint p", title=f"(c) criterion {crit} (its minimum is {fmin:g})" if fmin else f"(c) criterion {crit}")
+    ax.set_yscale("log")
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3, which="both")
+
+    ax = fig.add_subplot(gs[1, 0:3])
+    ax.plot(wp, res.alpha_deg[b], "C3.-", label="orientation error alpha")
+    ax.axhline(1.0, color="C3", ls=":", lw=1, label="1 deg")
+    ax.set(xlabel="waypoint p", ylabel="alpha (deg)", title="(d) orientation error and axis ratio")
+    ax.set_ylim(bottom=0, top=max(1.5, 1.1 * float(res.alpha_deg[b].max())))
+    ax2 = ax.twinx()
+    ax2.plot(wp, res.ratio[b], "C0.-", label="axis ratio rho = lambda1/lambda2")
+    ax2.axhline(r, color="C0", ls=":", lw=1, label=f"r = {r:g}")
+    ax2.set_ylabel("axis ratio rho (-)")
+    ax2.set_ylim(0, max(2 * r, 1.1 * float(res.ratio[b].max())))
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3)
+
+    ax = fig.add_subplot(gs[1, 3:6])
+    ax.plot(wp, res.cms[b], "C2.-")
+    ax.set(xlabel="waypoint p", ylabel="CMS factor k (-)",
+           title="(e) common-mode stiffness: kj_scaled = k kj (equal ellipsoid volume)")
+    ax.grid(alpha=0.3)
+
+    lam, V = _stiffness_axes(robot, res.q[b], res.kj_scaled[b], res.meta["task"])
+    pts = res.target[b]
+    idx = np.arange(0, P, every)
+    spacing = float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    unit = lam / lam[:, :1].max()  # axes relative to the largest major axis on the path
+
+    ax = fig.add_subplot(gs[2, 0:4], projection="3d")
+    ax.plot(*pts.T, "k-", lw=1.5, label="path")
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
+    sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1)
+    idx3 = np.arange(0, P, 2 * every)
+    size = 0.5 * 2 * every * spacing  # display semi-major axis (m) of the stiffest ellipsoid
+    for k in idx3:
+        E = sphere * (unit[k] * size) @ V[k].T + pts[k]
+        ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.6, linewidth=0, shade=True)
+        ax.quiver(*pts[k], *(0.6 * size * res.direction[b, k]), color="C0", lw=1)
+    ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title="(f) path and 3-D stiffness ellipsoids (CMS-scaled)")
+    lo, hi = pts.min(0) - 1.1 * size, pts.max(0) + 1.1 * size
+    lo[2], hi[2] = min(lo[2], pts[:, 2].mean() - 0.05), max(hi[2], pts[:, 2].mean() + 0.05)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(hi - lo))  # equal scale on all three axes
+    ax.view_init(elev=45, azim=-30)
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(4))
+
+    ax = fig.add_subplot(gs[2, 4:6])
+    ax.plot(pts[:, 0], pts[:, 1], "k-", lw=1.5, label="path")
+    t = np.linspace(0, 2 * np.pi, 100)
+    size = 0.5 * every * spacing
+    semi = unit * size
+    for j, k in enumerate(idx):
+        M = (V[k] * semi[k])[:2]  # xy rows of the ellipsoid's axis matrix
+        w2, U = np.linalg.eigh(M @ M.T)  # outline of the projection: an ellipse
+        ell = (U * np.sqrt(np.maximum(w2, 0))) @ np.stack([np.cos(t), np.sin(t)])
+        ax.plot(pts[k, 0] + ell[0], pts[k, 1] + ell[1], color="C1", label="ellipsoid outline (xy)" if j == 0 else None)
+        a = V[k][:2, 0] * semi[k, 0]
+        ax.plot(pts[k, 0] + np.array([-a[0], a[0]]), pts[k, 1] + np.array([-a[1], a[1]]), "C3-", lw=1,
+                label="major axis" if j == 0 else None)
+        d = res.direction[b, k, :2] * semi[k, 0]
+        ax.plot(pts[k, 0] + np.array([-d[0], d[0]]), pts[k, 1] + np.array([-d[1], d[1]]), "C0:", lw=1,
+                label="path tangent" if j == 0 else None)
+    ax.set(xlabel="x (m)", ylabel="y (m)", title="(g) projection on the xy plane")
+    ax.set_aspect("equal")
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3)
+
+    fig.suptitle(title, fontsize=13)
+    return save_figure(fig, file, dpi=dpi)
+
+
+def experiment_parser(name: str, description: str) -> argparse.ArgumentParser:
+    """The command line of an experiment script ``experiments/NAME.py``, with its ``--out DIR`` option.
+
+    ``--out`` defaults to ``out/NAME`` (the contract of ``jaxstiff reproduce``: every experiment takes
+    ``--out DIR``). The description is shown as written (line breaks kept).
+
+    Example:
+        >>> ap = plots.experiment_parser("fig2_cms", "Seed 000 Fig. 2")
+        >>> ap.parse_args([]).out
+        'out/fig2_cms'
+    """
+    ap = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default=os.path.join("out", name), help=f"output folder (default {os.path.join('out', name)})")
+    return ap
+
+
+def markdown_table(rows: Sequence[dict]) -> list[str]:
+    """Lines of a Markdown table of ``rows`` (dicts of strings with the same keys; the header is the first row's keys).
+
+
+    Example:
+        >>> plots.markdown_table([{"k": "1", "ratio": "2.5"}])
+        ['| k | ratio |', '|---|---|', '| 1 | 2.5 |']
+
+    Raises:
+        ValueError: no rows.
+    """
+    if not rows:
+        raise ValueError("markdown_table: no rows")
+    header = list(rows[0])
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header),
+            *("| " + " | ".join(row[h] for h in header) + " |" for row in rows)]
+
+
+def text_table(rows: Sequence[dict], width: int, sep: str = " ") -> list[str]:
+    """Lines of a plain-text table of ``rows`` (dicts of strings): the header, then one line a row,
+    every cell right-aligned in ``width`` characters, cells joined by ``sep``.
+
+    Example:
+        >>> plots.text_table([{"k": "1", "ratio": "2.5"}], width=6)
+        ['     k  ratio', '     1    2.5']
+
+    Raises:
+        ValueError: no rows.
+    """
+    if not rows:
+        raise ValueError("text_table: no rows")
+    header = list(rows[0])
+    return [sep.join(f"{h:>{width}s}" for h in header), *(sep.join(f"{row[h]:>{width}s}" for h in header) for row in rows)]
+
+
+def save_table_csv(rows: Sequence[dict], file: str | os.PathLike) -> str:
+    """Write ``rows`` (dicts with the same keys) as CSV with a header line to ``file``, atomically.
+
+    Raises:
+        ValueError: no rows.
+        FileNotFoundError: the target folder does not exist.
+    """
+    if not rows:
+        raise ValueError(f"save_table_csv: no rows to write to {os.fspath(file)}")
+
+    def write(fh):
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+    return atomic_write(file, write)
