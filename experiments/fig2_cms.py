@@ -16,19 +16,17 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
-import csv
 import os
 import sys
-import tempfile
 
 Q_DEG = (75.0, -74.74, -76.30)
 KJ0 = (500.0, 300.0, 100.0)
 
 
 def _parse(argv=None):
-    p = argparse.ArgumentParser(description="Seed 000 Fig. 2: CMS of the planar 3R arm")
-    p.add_argument("--out", default=os.path.join("out", "fig2_cms"), help="output folder (default ./out/fig2_cms)")
+    from jaxstiff.plots import experiment_parser
+
+    p = experiment_parser("fig2_cms", "Seed 000 Fig. 2: CMS of the planar 3R arm")
     p.add_argument("--k", default="0.5,1,1.5,2,2.5,3", help="CMS factors k, comma-separated (default 0.5..3)")
     args = p.parse_args(argv)
     try:
@@ -38,13 +36,6 @@ def _parse(argv=None):
     if not args.k or min(args.k) <= 0:
         p.error("--k: give at least one factor, all > 0")
     return args
-
-
-def _write_text(file: str, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(file)), suffix=".tmp")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write(text)
-    os.replace(tmp, file)
 
 
 def main(argv=None) -> int:
@@ -57,6 +48,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
+    from jaxstiff._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("planar_3r")
@@ -81,29 +73,19 @@ def main(argv=None) -> int:
          "major_axis_deg": f"{ang:.4f}", "area_lambda1_lambda2": f"{a[0] * a[1]:.2f}"}
         for k, a, rho, ang in zip(ks, axes, ratio, angle)
     ]
-    header = list(rows[0])
     print(f"Seed 000 Fig. 2 (CMS): planar 3R, q = {Q_DEG} deg, TCP = ({tcp[0]:.4f}, {tcp[1]:.4f}) m, k_j0 = {KJ0} Nm/rad, task xy")
-    print("  ".join(f"{h:>20s}" for h in header))
-    for row in rows:
-        print("  ".join(f"{row[h]:>20s}" for h in header))
+    print("\n".join(plots.text_table(rows, width=20, sep="  ")))
     print(f"max |lambda_i(k) / (k lambda_i(1)) - 1| = {dev_axes:.2e};  max |rho(k) - rho(1)| = {dev_ratio:.2e};  "
           f"max angle between major axes = {dev_angle:.2e} deg")
 
-    fd, tmp = tempfile.mkstemp(dir=args.out, suffix=".tmp")
-    with os.fdopen(fd, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=header)
-        w.writeheader()
-        w.writerows(rows)
-    os.replace(tmp, os.path.join(args.out, "summary.csv"))
+    plots.save_table_csv(rows, os.path.join(args.out, "summary.csv"))
     md = [
         "# Seed 000 Fig. 2: common-mode stiffness",
         "",
         f"Planar 3R (L = 1 m), q = {Q_DEG} deg, TCP = ({tcp[0]:.4f}, {tcp[1]:.4f}) m; k_j = k · k_j0 with "
         f"k_j0 = {KJ0} Nm/rad (the seed's Fig. 3 values; Fig. 2 does not give them); task xy.",
         "",
-        "| " + " | ".join(header) + " |",
-        "|" + "---|" * len(header),
-        *("| " + " | ".join(row[h] for h in header) + " |" for row in rows),
+        *plots.markdown_table(rows),
         "",
         f"CMS is exact: max |λ_i(k)/(k λ_i(1)) − 1| = {dev_axes:.1e}, max |ρ(k) − ρ(1)| = {dev_ratio:.1e}, "
         f"max angle between major axes = {dev_angle:.1e}°.",
@@ -111,7 +93,7 @@ def main(argv=None) -> int:
         "![Fig. 2](fig2_cms.png)",
         "",
     ]
-    _write_text(os.path.join(args.out, "summary.md"), "\n".join(md))
+    atomic_write_text(os.path.join(args.out, "summary.md"), "\n".join(md))
     png = plots.figure_cms(robot, q, kj0, list(ks), list(K), os.path.join(args.out, "fig2_cms.png"))
     print(f"wrote {png}")
     return 0

@@ -17,12 +17,9 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
-import csv
 import math
 import os
 import sys
-import tempfile
 
 Q_FIG2_DEG = (75.0, -74.74, -76.30)
 KJ = (500.0, 300.0, 100.0)
@@ -30,8 +27,9 @@ LINKS = (1.0, 1.0, 1.0)
 
 
 def _parse(argv=None):
-    p = argparse.ArgumentParser(description="Seed 000 Fig. 3: CDS of the planar 3R arm")
-    p.add_argument("--out", default=os.path.join("out", "fig3_cds"), help="output folder (default ./out/fig3_cds)")
+    from jaxstiff.plots import experiment_parser
+
+    p = experiment_parser("fig3_cds", "Seed 000 Fig. 3: CDS of the planar 3R arm")
     p.add_argument("--phi-deg", default=f"{sum(Q_FIG2_DEG):.2f},-40,0,40,80",
                    help="tool angles q1+q2+q3 (deg), comma-separated; the first default is the Fig. 2 posture's")
     p.add_argument("--elbow", choices=["up", "down"], default="up", help="elbow branch of the 2R sub-chain (up: q2 < 0)")
@@ -72,6 +70,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
+    from jaxstiff._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("planar_3r")
@@ -104,20 +103,12 @@ def main(argv=None) -> int:
             "tcp_error_m": f"{err[i]:.1e}", "lambda1_N_per_m": f"{axes[i, 0]:.3f}", "lambda2_N_per_m": f"{axes[i, 1]:.3f}",
             "ratio": f"{ratio[i]:.4f}", "major_axis_deg": f"{angle[i]:.2f}", "compliance_cond": f"{cond[i]:.3g}",
         })
-    header = list(rows[0])
     print(f"Seed 000 Fig. 3 (CDS): planar 3R, TCP = ({target[0]:.4f}, {target[1]:.4f}) m, k_j = {KJ} Nm/rad, task xy, elbow {args.elbow}")
-    print(" ".join(f"{h:>16s}" for h in header))
-    for row in rows:
-        print(" ".join(f"{row[h]:>16s}" for h in header))
+    print("\n".join(plots.text_table(rows, width=16)))
     print(f"across postures: ratio {ratio.min():.3f} ... {ratio.max():.3f}, major axis {angle.min():.1f} ... {angle.max():.1f} deg, "
           f"max TCP error {err.max():.1e} m")
 
-    fd, tmp = tempfile.mkstemp(dir=args.out, suffix=".tmp")
-    with os.fdopen(fd, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=header)
-        w.writeheader()
-        w.writerows(rows)
-    os.replace(tmp, os.path.join(args.out, "summary.csv"))
+    plots.save_table_csv(rows, os.path.join(args.out, "summary.csv"))
     md = [
         "# Seed 000 Fig. 3: configuration-dependent stiffness",
         "",
@@ -125,9 +116,7 @@ def main(argv=None) -> int:
         f"({target[0]:.4f}, {target[1]:.4f}) m (the Fig. 2 posture's TCP); closed-form IK over the tool angle φ, "
         f"elbow {args.elbow}.",
         "",
-        "| " + " | ".join(header) + " |",
-        "|" + "---|" * len(header),
-        *("| " + " | ".join(row[h] for h in header) + " |" for row in rows),
+        *plots.markdown_table(rows),
         "",
         f"Same TCP point, same k_j: the ratio ranges over {ratio.min():.2f} … {ratio.max():.2f} and the major axis over "
         f"{angle.min():.1f}° … {angle.max():.1f}° — the configuration alone turns and reshapes the ellipse.",
@@ -135,10 +124,7 @@ def main(argv=None) -> int:
         "![Fig. 3](fig3_cds.png)",
         "",
     ]
-    fd, tmp = tempfile.mkstemp(dir=args.out, suffix=".tmp")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write("\n".join(md))
-    os.replace(tmp, os.path.join(args.out, "summary.md"))
+    atomic_write_text(os.path.join(args.out, "summary.md"), "\n".join(md))
     labels = [f"φ = {math.degrees(p):.1f}°" for p in phis]
     png = plots.figure_cds(robot, list(Q), KJ, list(K), os.path.join(args.out, "fig3_cds.png"), labels=labels)
     print(f"wrote {png}")

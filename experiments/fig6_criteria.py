@@ -16,16 +16,14 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
-import csv
 import os
 import sys
-import tempfile
 
 
 def _parse(argv=None):
-    p = argparse.ArgumentParser(description="Seed 000 Fig. 6: f1 and f2 over orientation error x axis ratio")
-    p.add_argument("--out", default=os.path.join("out", "fig6_criteria"), help="output folder (default ./out/fig6_criteria)")
+    from jaxstiff.plots import experiment_parser
+
+    p = experiment_parser("fig6_criteria", "Seed 000 Fig. 6: f1 and f2 over orientation error x axis ratio")
     p.add_argument("--ratio", type=float, default=5.0, help="r of f1 and f2 (default 5)")
     p.add_argument("--c", type=float, default=0.01, help="c of f1 (default 0.01)")
     p.add_argument("--rho-max", type=float, default=10.0, help="largest axis ratio on the grid (default 10)")
@@ -62,6 +60,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
+    from jaxstiff._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     r, c = args.ratio, args.c
@@ -94,12 +93,7 @@ def main(argv=None) -> int:
     for row in rows:
         print(f"{row['alpha_deg']:>10s} {row['rho']:>6s} {row['f1']:>12s} {row['f2']:>12s}")
 
-    fd, tmp = tempfile.mkstemp(dir=args.out, suffix=".tmp")
-    with os.fdopen(fd, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-    os.replace(tmp, os.path.join(args.out, "summary.csv"))
+    plots.save_table_csv(rows, os.path.join(args.out, "summary.csv"))
     md = [
         "# Seed 000 Fig. 6: criteria landscape",
         "",
@@ -114,10 +108,7 @@ def main(argv=None) -> int:
         "![Fig. 6](fig6_criteria.png)",
         "",
     ]
-    fd, tmp = tempfile.mkstemp(dir=args.out, suffix=".tmp")
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        fh.write("\n".join(md))
-    os.replace(tmp, os.path.join(args.out, "summary.md"))
+    atomic_write_text(os.path.join(args.out, "summary.md"), "\n".join(md))
     png = plots.figure_criteria(alpha, rho, F1, F2, r, c, os.path.join(args.out, "fig6_criteria.png"))
     print(f"wrote {png}")
     return 0
