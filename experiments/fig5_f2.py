@@ -17,7 +17,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from fig4_f1 import run  # noqa: E402  (the shared seven-panel figure and summary)
+from fig4_f1 import run  # noqa: E402  (the shared run and summary; the figure is jaxstiff.plots.figure_shape_path)
 
 
 def main(argv=None) -> int:
