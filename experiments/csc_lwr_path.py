@@ -32,7 +32,6 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -40,8 +39,9 @@ import time
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default="out/csc_lwr_path", help="output folder")
+    from jaxstiff.plots import experiment_parser
+
+    ap = experiment_parser("csc_lwr_path", __doc__)
     ap.add_argument("--substeps", type=int, default=10, help="CSC steps per path segment")
     ap.add_argument("--joint-limits", default="sum", choices=["off", "priority", "sum"], help="joint-limit avoidance")
     ap.add_argument("--jl-gain", type=float, default=0.3, help="joint-limit avoidance gain")
@@ -53,17 +53,15 @@ def main(argv=None) -> int:
     enable_x64()
     import jax
     import jax.numpy as jnp
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     import jaxstiff
+    from jaxstiff import plots
+    from jaxstiff._io import atomic_write_text
     from jaxstiff.ik import ik_position
     from jaxstiff.paths import default_path
-    from csc_planar3r_hold import ellipse_points
 
+    plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     base = default_path()
@@ -119,20 +117,10 @@ def main(argv=None) -> int:
     best = int(np.argmin(csc_rel.mean(axis=1)))
 
     # ---------------------------------------------------------------- figure: u and Frobenius
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
-    for b, beta in enumerate(betas):
-        lab = "beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}"
-        ax[0].plot(np.arange(T + 1), u[b], label=lab)
-        ax[1].plot(np.arange(T + 1), fr[b], label=lab)
-    ax[0].set(xlabel="time step k (about 1 mm of path per step)", ylabel="u(q) [Nm/rad]", title="off-diagonal joint stiffness u (S1-19)")
-    ax[1].set(xlabel="time step k (about 1 mm of path per step)", ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title="Frobenius error of the realised stiffness")
-    for a in ax:
-        a.grid(alpha=0.3)
-        a.legend(fontsize=8)
-    fig.suptitle("KUKA LWR 4 (A7 locked), default path, K_xd = 3000 N/m along the tangent, 1000 across; adaptive CSC")
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "u_frobenius.png"), dpi=120)
-    plt.close(fig)
+    labels = ["beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}" for beta in betas]
+    plots.figure_u_frobenius(np.arange(T + 1), u, fr, labels, os.path.join(args.out, "u_frobenius.png"),
+                             xlabel="time step k (about 1 mm of path per step)",
+                             suptitle="KUKA LWR 4 (A7 locked), default path, K_xd = 3000 N/m along the tangent, 1000 across; adaptive CSC")
 
     # ---------------------------------------------------------------- figure: ellipses, top view
     fig, ax = plt.subplots(1, 2, figsize=(9, 7.5), constrained_layout=True)
@@ -140,8 +128,8 @@ def main(argv=None) -> int:
     for a, b in zip(ax, (0, best)):
         a.plot(pts[:, 0], pts[:, 1], "r-", lw=1.5)
         for k in wp_index[::6]:
-            e_d = pts[k, :2] + scale * ellipse_points(K[k, :2, :2])
-            e_c = pts[k, :2] + scale * ellipse_points(res.K_C[b, k, :2, :2])
+            e_d = pts[k, :2] + scale * plots.ellipse_points(K[k, :2, :2])
+            e_c = pts[k, :2] + scale * plots.ellipse_points(res.K_C[b, k, :2, :2])
             a.plot(e_d[:, 0], e_d[:, 1], "k--", lw=1)
             a.plot(e_c[:, 0], e_c[:, 1], color="C3", lw=1.2)
         a.set_aspect("equal")
@@ -154,8 +142,7 @@ def main(argv=None) -> int:
                          r"realised $K_C$, xy block"], loc="lower center", ncol=3)
     fig.get_layout_engine().set(rect=(0, 0.07, 1, 0.93))
     fig.suptitle("LWR stiffness in the path plane: {K u : |u| = 1} of the 2x2 xy block, every 6th waypoint")
-    fig.savefig(os.path.join(args.out, "ellipses_top.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "ellipses_top.png"), dpi=120, crop=False)
 
     # ---------------------------------------------------------------- figure: joints (self-motion)
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
@@ -169,8 +156,7 @@ def main(argv=None) -> int:
     ax[1].legend(fontsize=8, ncol=2)
     fig.suptitle(f"LWR joint angles along the path; max tracking error {res.tracking_error[best].max():.1e} m (one Newton correction per step)")
     fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "joints.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "joints.png"), dpi=120, crop=False)
 
     summary = {
         "setup": {"robot": "kuka_lwr4, lwr_a7 locked at 0", "task": "xyz", "path": "default_path() refined x%d" % S,
@@ -228,8 +214,7 @@ def main(argv=None) -> int:
         ax[0].legend(fontsize=8)
         fig.suptitle(f"Same path and K_xd: CSC ({t_csc:.2f} s for 5 rollouts) vs shaping solver ({t_shape:.1f} s)")
         fig.tight_layout()
-        fig.savefig(os.path.join(args.out, "csc_vs_shape.png"), dpi=120)
-        plt.close(fig)
+        plots.save_figure(fig, os.path.join(args.out, "csc_vs_shape.png"), dpi=120, crop=False)
         cmp = summary["comparison_at_the_60_waypoints"]
         print("\nCSC vs the shaping solver at the 60 waypoints (scale-free: sizes differ by design)")
         print(f"{'method':>28} {'alpha mean [deg]':>17} {'rho mean':>9} {'scale-free err':>15} {'time [s]':>9}")
@@ -242,9 +227,7 @@ def main(argv=None) -> int:
     else:
         summary["comparison_at_the_60_waypoints"] = "skipped"
 
-    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
-        json.dump(summary, f, indent=2)
-    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
     print(f"figures and summary.json in {args.out}")
     return 0
 

@@ -17,7 +17,6 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -25,25 +24,10 @@ import sys
 import time
 
 
-def ellipse_points(K, n=200):
-    """Stiffness ellipse {K u : |u| = 1} of a 2x2 SPD K (N/m): semi-axes lambda_i along v_i."""
-    import numpy as np
-
-    t = np.linspace(0, 2 * np.pi, n)
-    return (np.asarray(K) @ np.stack([np.cos(t), np.sin(t)])).T
-
-
-def arm_points(q):
-    """Joint and TCP positions (n + 1, 2) of a planar nR arm with 1 m links."""
-    import numpy as np
-
-    c = np.cumsum(q)
-    return np.vstack([[0.0, 0.0], np.cumsum(np.stack([np.cos(c), np.sin(c)], -1), axis=0)])
-
-
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default="out/csc_planar3r_hold", help="output folder")
+    from jaxstiff.plots import experiment_parser
+
+    ap = experiment_parser("csc_planar3r_hold", __doc__)
     ap.add_argument("--steps", type=int, default=2000, help="time steps")
     ap.add_argument("--beta", type=float, default=2e-3, help="constant null step, rad")
     args = ap.parse_args(argv)
@@ -52,14 +36,13 @@ def main(argv=None) -> int:
 
     enable_x64()
     import jax
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     import jaxstiff
+    from jaxstiff import plots
+    from jaxstiff._io import atomic_write_text
 
+    plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     q0 = np.deg2rad([75.0, -74.74, -76.30])
@@ -94,8 +77,7 @@ def main(argv=None) -> int:
         a.grid(alpha=0.3)
     fig.suptitle(f"Planar 3R holding ({x0[0]:.3f}, {x0[1]:.3f}) m, constant null step beta = {args.beta:g} rad")
     fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "u_frobenius.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "u_frobenius.png"), dpi=120, crop=False)
 
     # ---------------------------------------------------------------- figure 2: ellipses
     fig, ax = plt.subplots(1, 2, figsize=(12, 5.5))
@@ -107,7 +89,7 @@ def main(argv=None) -> int:
             uu, ff = u[0], fr[0]
         else:
             KC, uu, ff = res.K_C[k], res.u[k], res.frobenius[k]
-        e_d, e_c = ellipse_points(K), ellipse_points(KC)
+        e_d, e_c = plots.ellipse_points(K, 200), plots.ellipse_points(KC, 200)
         a.plot(e_d[:, 0], e_d[:, 1], "k--", label=r"desired $K_{xd}$")
         a.plot(e_c[:, 0], e_c[:, 1], "C3", label=r"realised $K_C$ (diag of $J^T K_{xd} J$)")
         a.set_aspect("equal")
@@ -117,8 +99,7 @@ def main(argv=None) -> int:
         a.legend(loc="lower right", fontsize=8)
     fig.suptitle("Stiffness ellipses {K u : |u| = 1}: desired vs realised by uni-articular joint springs")
     fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "ellipses.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "ellipses.png"), dpi=120, crop=False)
 
     # ---------------------------------------------------------------- figure 3: self-motion
     fig, ax = plt.subplots(1, 2, figsize=(12, 5))
@@ -126,7 +107,7 @@ def main(argv=None) -> int:
     idx = np.linspace(0, len(qs) - 1, 11).astype(int)
     cmap = plt.get_cmap("viridis")
     for j, k in enumerate(idx):
-        P = arm_points(qs[k])
+        P = plots.chain_points(robot, qs[k])[:, :2]
         ax[0].plot(P[:, 0], P[:, 1], "-o", color=cmap(j / (len(idx) - 1)), ms=3, lw=1.5)
     ax[0].plot(*x0, "r*", ms=14, label="held TCP point", zorder=5)
     ax[0].set_aspect("equal")
@@ -144,8 +125,7 @@ def main(argv=None) -> int:
     ax[1].legend(loc="center right")
     ax[1].grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "self_motion.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "self_motion.png"), dpi=120, crop=False)
 
     # ---------------------------------------------------------------- figure 4: batched beta sweep
     betas = np.array([0.5e-3, 1e-3, 2e-3, 4e-3, 8e-3])
@@ -157,8 +137,7 @@ def main(argv=None) -> int:
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "beta_sweep.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "beta_sweep.png"), dpi=120, crop=False)
 
     summary = {
         "setup": {"robot": "planar_3r", "q0_deg": [75.0, -74.74, -76.30], "x_hold_m": x0.tolist(),
@@ -181,9 +160,7 @@ def main(argv=None) -> int:
                        for i, b in enumerate(betas)},
         "run_time_s_incl_compile": round(t_run, 3),
     }
-    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
-        json.dump(summary, f, indent=2)
-    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
     print(f"u: {u[0]:.1f} -> {u[-1]:.1f} Nm/rad ({summary['u_drop_percent']:.1f} % lower; min {u[k_min]:.1f} at step {k_min}; "
           f"halved at step {k_half})")
     print(f"Frobenius |K_xd - K_C|: {fr[0]:.1f} -> {fr[-1]:.1f} N/m (min {fr.min():.1f})")

@@ -16,7 +16,6 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -25,8 +24,9 @@ import time
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default="out/csc_planar4r_line", help="output folder")
+    from jaxstiff.plots import experiment_parser
+
+    ap = experiment_parser("csc_planar4r_line", __doc__)
     ap.add_argument("--steps", type=int, default=500, help="time steps (waypoints on the line)")
     args = ap.parse_args(argv)
 
@@ -34,15 +34,13 @@ def main(argv=None) -> int:
 
     enable_x64()
     import jax
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     import jaxstiff
-    from csc_planar3r_hold import arm_points, ellipse_points
+    from jaxstiff import plots
+    from jaxstiff._io import atomic_write_text
 
+    plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("planar_4r")
     q0 = np.deg2rad([90.0, -60.0, -60.0, -50.0])
@@ -65,20 +63,10 @@ def main(argv=None) -> int:
     u = np.hstack([res.u_start[:, None], res.u])
     fr = np.hstack([res.frobenius_start[:, None], res.frobenius])
 
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
-    for b, beta in enumerate(betas):
-        lab = "beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}"
-        ax[0].plot(k_axis, u[b], label=lab)
-        ax[1].plot(k_axis, fr[b], label=lab)
-    ax[0].set(xlabel="time step k (2 mm of path per step)", ylabel="u(q) [Nm/rad]", title="off-diagonal joint stiffness u (S1-19)")
-    ax[1].set(xlabel="time step k (2 mm of path per step)", ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title="Frobenius error of the realised stiffness")
-    for a in ax:
-        a.grid(alpha=0.3)
-        a.legend(fontsize=8)
-    fig.suptitle("Planar 4R following a 1 m line, adaptive null step (S1-22), 5 rollouts in one vmap")
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "u_frobenius.png"), dpi=120)
-    plt.close(fig)
+    labels = ["beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}" for beta in betas]
+    plots.figure_u_frobenius(k_axis, u, fr, labels, os.path.join(args.out, "u_frobenius.png"),
+                             xlabel="time step k (2 mm of path per step)",
+                             suptitle="Planar 4R following a 1 m line, adaptive null step (S1-22), 5 rollouts in one vmap")
 
     best = int(np.argmin(u[:, -1]))
     fig, ax = plt.subplots(1, 2, figsize=(14, 7), constrained_layout=True)
@@ -88,12 +76,12 @@ def main(argv=None) -> int:
         idx = np.linspace(0, T, 6).astype(int)
         cmap = plt.get_cmap("viridis")
         for j, k in enumerate(idx):
-            P = arm_points(qs[k])
+            P = plots.chain_points(robot, qs[k])[:, :2]
             col = cmap(j / (len(idx) - 1))
             a.plot(P[:, 0], P[:, 1], "-o", color=col, ms=3, lw=1.2, alpha=0.8)
             if k > 0:
-                e_d = P[-1] + scale * ellipse_points(K)
-                e_c = P[-1] + scale * ellipse_points(res.K_C[b, k - 1])
+                e_d = P[-1] + scale * plots.ellipse_points(K)
+                e_c = P[-1] + scale * plots.ellipse_points(res.K_C[b, k - 1])
                 a.plot(e_d[:, 0], e_d[:, 1], "k--", lw=1)
                 a.plot(e_c[:, 0], e_c[:, 1], color="C3", lw=1.2)
         a.plot(path[:, 0], path[:, 1], "r-", lw=2)
@@ -110,8 +98,7 @@ def main(argv=None) -> int:
     fig.colorbar(sm, ax=ax, label="time step k (arm drawn every %d steps)" % (T // 5), shrink=0.7)
     fig.suptitle("Planar 4R: self-motion along the line and the stiffness ellipses at the TCP")
     fig.get_layout_engine().set(rect=(0, 0.06, 1, 0.94))
-    fig.savefig(os.path.join(args.out, "self_motion.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "self_motion.png"), dpi=120, crop=False)
 
     summary = {
         "setup": {"robot": "planar_4r", "q0_deg": np.rad2deg(q0).tolist(), "line_start_m": x0.tolist(),
@@ -125,9 +112,7 @@ def main(argv=None) -> int:
         "time_first_call_s_incl_compile": round(t_first, 3),
         "time_5_rollouts_s": round(t_run, 4),
     }
-    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
-        json.dump(summary, f, indent=2)
-    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
     print(f"{'beta':>5} {'u start':>9} {'u end':>9} {'u mean':>9} {'|dK|_F end':>11} {'|dK|_F mean':>12} {'max track err [m]':>18}")
     for b, beta in enumerate(betas):
         v = summary["per_beta"][f"{beta:g}"]

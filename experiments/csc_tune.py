@@ -28,7 +28,6 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
@@ -37,8 +36,9 @@ import time
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default="out/csc_tune", help="output folder")
+    from jaxstiff.plots import experiment_parser
+
+    ap = experiment_parser("csc_tune", __doc__)
     ap.add_argument("--iters", type=int, default=120, help="Adam iterations")
     ap.add_argument("--steps", type=int, default=500, help="rollout steps")
     ap.add_argument("--lr", type=float, default=0.05, help="Adam step size")
@@ -49,15 +49,14 @@ def main(argv=None) -> int:
     enable_x64()
     import jax
     import jax.numpy as jnp
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
     import jaxstiff
+    from jaxstiff import plots
+    from jaxstiff._io import atomic_write_text
     from jaxstiff.csc import project_to_target
 
+    plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("planar_4r")
     q_ref = np.deg2rad([90.0, -60.0, -60.0, -50.0])
@@ -140,8 +139,7 @@ def main(argv=None) -> int:
         a.grid(alpha=0.3)
     fig.suptitle("Tuning CSC by gradient descent through a 500-step rollout (planar 4R, line)")
     fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "tuning.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "tuning.png"), dpi=120, crop=False)
 
     fig, ax = plt.subplots(figsize=(7, 6))
     cs = ax.contourf(g1, g2, grid_theta.T, levels=30, cmap="viridis")
@@ -153,22 +151,13 @@ def main(argv=None) -> int:
            title="loss over the start posture's self-motion manifold\n(21 x 21 batched rollouts)")
     ax.legend(loc="lower left", fontsize=8)
     fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "theta_landscape.png"), dpi=120)
-    plt.close(fig)
+    plots.save_figure(fig, os.path.join(args.out, "theta_landscape.png"), dpi=120, crop=False)
 
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.3))
-    kk = np.arange(T + 1)
-    for r, lab in ((before, "before: beta = 1, q0 = q_ref"), (after, f"after: beta = {beta_opt:.2f}, tuned q0")):
-        ax[0].plot(kk, np.r_[r.u_start, r.u], label=lab)
-        ax[1].plot(kk, np.r_[r.frobenius_start, r.frobenius], label=lab)
-    ax[0].set(xlabel="time step k", ylabel="u(q) [Nm/rad]", title="off-diagonal joint stiffness u")
-    ax[1].set(xlabel="time step k", ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title="Frobenius error of the realised stiffness")
-    for a in ax:
-        a.grid(alpha=0.3)
-        a.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "before_after.png"), dpi=120)
-    plt.close(fig)
+    runs = (before, after)
+    plots.figure_u_frobenius(np.arange(T + 1), [np.r_[r.u_start, r.u] for r in runs], [np.r_[r.frobenius_start, r.frobenius] for r in runs],
+                             ["before: beta = 1, q0 = q_ref", f"after: beta = {beta_opt:.2f}, tuned q0"],
+                             os.path.join(args.out, "before_after.png"), titles=("off-diagonal joint stiffness u", "Frobenius error of the realised stiffness"),
+                             figsize=(12, 4.3))
 
     i_best = int(np.argmin(grid_theta))
     summary = {
@@ -189,9 +178,7 @@ def main(argv=None) -> int:
         "time_optimisation_s_incl_compile": round(t_opt, 2),
         "time_441_rollouts_s_incl_compile": round(t_grid, 2),
     }
-    with open(os.path.join(args.out, "summary.json.tmp"), "w") as f:
-        json.dump(summary, f, indent=2)
-    os.replace(os.path.join(args.out, "summary.json.tmp"), os.path.join(args.out, "summary.json"))
+    atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
     print(f"loss {L[0]:.4f} -> {final:.4f}; beta 1 -> {beta_opt:.3f}; theta (0, 0) -> ({theta_opt[0]:.3f}, {theta_opt[1]:.3f}) rad")
     print(f"grid check: best over 21x21 theta at the tuned beta {summary['grid_theta_best_loss']:.4f} at {TH[i_best].round(3).tolist()}; "
           f"best over 48 betas at the tuned theta {summary['grid_beta_best_loss']:.4f} at beta {summary['grid_beta_best']:.3f}")
