@@ -139,6 +139,14 @@ def _draw_arm(ax, robot, q, color, label=None, lw=3.0, annotate=False, kj=None):
     return pts
 
 
+def _style_ellipse_panel(ax, title: str) -> None:
+    """Axes in N/m at equal scale, grid, legend to the right: the ellipse panel of Fig. 2 and Fig. 3."""
+    ax.set(xlabel="stiffness along x (N/m)", ylabel="stiffness along y (N/m)", title=title)
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+
+
 def figure_cms(robot, q, kj0, ks: Sequence[float], K_list: Sequence, file, title: str | None = None) -> str:
     """Seed 000 Fig. 2: one planar posture, joint stiffnesses ``k * kj0``, the ellipses of ``K(k)``.
 
@@ -167,10 +175,7 @@ def figure_cms(robot, q, kj0, ks: Sequence[float], K_list: Sequence, file, title
     w, V = np.linalg.eigh(np.asarray(K_list[-1]))
     v1 = V[:, -1] * w[-1] * 1.08
     ax1.plot([-v1[0], v1[0]], [-v1[1], v1[1]], "--", color="tab:red", lw=1, label="major axis (all k)")
-    ax1.set(xlabel="stiffness along x (N/m)", ylabel="stiffness along y (N/m)", title="stiffness ellipses: CMS scales size only")
-    ax1.set_aspect("equal")
-    ax1.grid(alpha=0.3)
-    ax1.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    _style_ellipse_panel(ax1, "stiffness ellipses: CMS scales size only")
     fig.suptitle(title or "Seed 000 Fig. 2: common-mode stiffness (CMS)", fontsize=12)
     return save_figure(fig, file)
 
@@ -200,10 +205,7 @@ def figure_cds(robot, postures: Sequence, kj, K_list: Sequence, file, labels: Se
     ax0.margins(0.08)
     ax0.grid(alpha=0.3)
     ax0.legend(fontsize=8, loc="best")
-    ax1.set(xlabel="stiffness along x (N/m)", ylabel="stiffness along y (N/m)", title="stiffness ellipses: CDS turns and reshapes them")
-    ax1.set_aspect("equal")
-    ax1.grid(alpha=0.3)
-    ax1.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    _style_ellipse_panel(ax1, "stiffness ellipses: CDS turns and reshapes them")
     fig.suptitle(title or "Seed 000 Fig. 3: configuration-dependent stiffness (CDS)", fontsize=12)
     return save_figure(fig, file)
 
