@@ -27,6 +27,11 @@ meta            ()          JSON string: every input, default, solver setting, v
                             URDF path + sha256, base/tip link, locked joints, tcp
 ==============  ==========  ======================================================================
 
+Per-path parameters in ``meta``: ``ratio`` is a number (every path) or a list of B numbers;
+``limits.dq`` / ``limits.dk`` are n numbers (every path) or B lists of n numbers; ``per_path``
+(newer files) names those given per path. :func:`path_parameters` reads either form (older
+files included) as ``ratio (B,)``, ``dq (B, n)``, ``dk (B, n)``.
+
 Status codes (per waypoint; the verdict comes from checking the final point, never from the
 solver's own "success" flag):
 
@@ -80,6 +85,7 @@ __all__ = [
     "is_usable",
     "verify",
     "summary",
+    "path_parameters",
     "file_sha256",
     "atomic_save_npz",
 ]
@@ -238,6 +244,32 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
     return atomic_write(file, lambda fh: np.savez(fh, **arrays), binary=True)
 
 
+# ---------------------------------------------------------------------- per-path parameters
+def path_parameters(meta: dict[str, Any], B: int, n: int) -> dict[str, np.ndarray]:
+    """The shaping parameters of every path from a result's ``meta``: ``ratio`` (B,), ``dq`` and
+    ``dk`` (B, n) (rate limits per waypoint, rad and Nm/rad), ``c`` (float).
+
+    Reads both forms ``meta`` may hold (module docstring): a number / n numbers shared by every
+    path (all files, older ones included), or one value / one row of n per path.
+
+    Raises:
+        ValueError: the recorded values do not fit B paths and n joints.
+    """
+    lim = meta["limits"]
+    r = np.asarray(meta.get("ratio", np.nan), float)
+    if r.ndim > 1 or (r.ndim == 1 and r.shape != (B,)):
+        raise ValueError(f"meta ratio has shape {r.shape}; expected a number or ({B},)")
+    out: dict[str, Any] = {"ratio": np.broadcast_to(r, (B,)).copy(), "c": float(meta.get("c", np.nan))}
+    for key in ("dq", "dk"):
+        a = np.asarray(lim[key], float)
+        if a.ndim == 0:
+            a = np.full(n, float(a))
+        if a.shape not in ((n,), (B, n)):
+            raise ValueError(f"meta limits.{key} has shape {a.shape}; expected ({n},) or ({B}, {n})")
+        out[key] = np.broadcast_to(a, (B, n)).copy()
+    return out
+
+
 # ---------------------------------------------------------------------- summaries
 def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float = 0.02) -> dict[str, Any]:
     """Headline numbers of a result (over all B x P waypoints).
@@ -248,7 +280,9 @@ def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float =
     * ``share_both``  : both at once; ``share_usable``, ``share_solved``: status 0-2, status 0;
     * ``max_pos_error`` (m), ``median_time_s`` and ``mean_time_s`` per waypoint, ``total_time_s``.
     """
-    r = float(res.meta.get("ratio", np.nan))
+    r_raw = res.meta.get("ratio", np.nan)
+    r_b = np.broadcast_to(np.asarray(r_raw if r_raw is not None else np.nan, float), (res.B,))
+    r = r_b[:, None]  # one target per path
     crit = str(res.meta.get("criterion", ""))
     a_ok = res.alpha_deg < alpha_tol_deg
     if crit == "f1":
@@ -260,7 +294,7 @@ def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float =
         "B": res.B,
         "P": res.P,
         "criterion": crit,
-        "ratio_target": r,
+        "ratio_target": float(r_b[0]) if np.ndim(r_raw) == 0 else r_b.tolist(),
         "share_alpha": float(np.mean(a_ok)),
         "share_ratio": float(np.mean(r_ok)),
         "share_both": float(np.mean(a_ok & r_ok)),
@@ -352,10 +386,10 @@ def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
     if robot is None:
         robot = robot_from_meta(res.meta, urdf)
     lim = res.meta["limits"]
-    dq, dk = np.asarray(lim["dq"], float), np.asarray(lim["dk"], float)
+    prm = path_parameters(res.meta, res.B, res.n)  # per-path ratio, dq, dk (or the shared ones)
     kmin, kmax = float(lim["kmin"]), float(lim["kmax"])
     task = res.meta["task"]
-    r, c = float(res.meta["ratio"]), float(res.meta["c"])
+    c = prm["c"]
     out = dict(
         max_pos_error=0.0,
         max_bound_violation=0.0,
@@ -383,8 +417,8 @@ def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
             out["max_locked_violation"] = max(out["max_locked_violation"], float(np.abs(q[:, lmask] - locked[lmask]).max()))
         Qr, Kr, rate = reference_states(res, b)
         if rate.any():
-            dqv = np.abs(q[rate] - Qr[rate]) - dq
-            dkv = np.abs(kj[rate] - Kr[rate]) - dk
+            dqv = np.abs(q[rate] - Qr[rate]) - prm["dq"][b]
+            dkv = np.abs(kj[rate] - Kr[rate]) - prm["dk"][b]
             out["max_rate_violation"] = max(out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0])))
         # reported stiffness quantities, recomputed in numpy
         K = np.stack([_np_translational_stiffness(robot, q[p], kj[p], task) for p in range(res.P)])
@@ -393,7 +427,7 @@ def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
         out["max_ratio_mismatch"] = max(out["max_ratio_mismatch"], float((np.abs(rho - res.ratio[b]) / rho).max()))
         crit = res.meta["criterion"]
         if crit in ("f1", "f2"):
-            f = _np_criterion(crit, alpha, rho, r, c)
+            f = _np_criterion(crit, alpha, rho, float(prm["ratio"][b]), c)
             out["max_criterion_mismatch"] = max(out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max()))
         cms_ref = _np_cms(K, res.meta["cms"])
         out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))

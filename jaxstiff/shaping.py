@@ -21,7 +21,8 @@ Defaults the seed does not give (each one is also written into ``result.meta``):
   starts). Pass ``True`` when ``(q0, kj0)`` is the arm's actual state.
 * ``first_starts = 8``: that first, unconstrained waypoint is non-convex (from a single start SLSQP
   finds an aligned ellipsoid about half the time on the default path), so it is solved from q0
-  and 7 more IK postures (nominal posture perturbed by up to +-60 deg, fixed seed) and the best
+  and 7 more IK postures (nominal posture perturbed by up to +-60 deg, from a fixed seed and the
+  path's own data, so a path's postures do not depend on the rest of its batch) and the best
   usable answer is kept. Later waypoints are single-start from the previous one, as in the seed.
 * CMS target: a geometric-mean axis of 1000 N/m, i.e. ``target_volume = 1000**m`` (N/m)^m (m = 3,
   or 2 for task "xy"), so the scaled ellipsoids are comparable along the path (seed Fig. 4e, 5e).
@@ -58,10 +59,11 @@ from .criteria import CRITERIA, get_criterion
 from .ik import ik_position, nominal_posture, NOMINAL_OFFSET_DEG
 from .paths import DEFAULT_PATH_SPEC, Path
 from .robot import Robot
-from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report
+from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report, content_seed
 from .stiffness import task_rows
 
-__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "prefer_sync_cpu_dispatch"]
+__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "prefer_sync_cpu_dispatch",
+           "first_start_rng"]
 
 #: Defaults of the parameters the seed does not fix (see the module docstring).
 DEFAULTS: dict[str, Any] = {
@@ -78,7 +80,7 @@ DEFAULTS: dict[str, Any] = {
 }
 
 
-FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures (results are reproducible)
+FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures, mixed with each path's own data (:func:`first_start_rng`)
 FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg
 
 def prefer_sync_cpu_dispatch() -> bool:
@@ -119,8 +121,11 @@ class SolveRequest:
         problem: :class:`~jaxstiff.solvers.problem.WaypointProblem`.
         targets, directions: (B, P, 3).
         q0, kj0: (B, n) start states.
-        limits: :class:`~jaxstiff.solvers.problem.Limits`.
-        ratio, c: criterion parameters.
+        limits: :class:`~jaxstiff.solvers.problem.Limits`; ``dq``/``dk`` are (n,) (the same for
+            every path) or (B, n) (per path): take path b's with ``limits.for_path(b)``.
+        ratio: the wanted axis ratio, a float (every path) or a (B,) array (per path);
+            :attr:`ratios` is always (B,).
+        c: f1's offset (a float, every path).
         starts: number of starts (multi-start solvers).
         options: solver options (dict).
         pos_tol: m, position tolerance of a usable waypoint.
@@ -129,6 +134,11 @@ class SolveRequest:
 
     def __init__(self, **kw):
         self.__dict__.update(kw)
+
+    @property
+    def ratios(self) -> np.ndarray:
+        """(B,) the wanted axis ratio of every path."""
+        return np.broadcast_to(np.asarray(self.ratio, float), (self.targets.shape[0],)).copy()
 
 
 #: A solver maps a :class:`SolveRequest` to a dict of arrays: ``q``, ``kj`` (B,P,n), ``status``,
@@ -186,11 +196,12 @@ def _greedy_solver(kind: str):
             solver = make_fd_solver(prob, req.options)
             extra = {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)}
         per_path = []
+        ratios = req.ratios
         for b in range(req.targets.shape[0]):
             prog = None if req.progress is None else (lambda p, b=b: req.progress(b, p))
             per_path.append(
-                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits,
-                            req.ratio, req.c, solver, pos_tol=req.pos_tol, progress=prog,
+                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits.for_path(b),
+                            float(ratios[b]), req.c, solver, pos_tol=req.pos_tol, progress=prog,
                             first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
             )
         out = _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
@@ -222,17 +233,58 @@ register_solver("trajectory", _lazy_solver("trajectory"))  # whole-trajectory op
 
 
 # ---------------------------------------------------------------------- input checks
-def _per_joint(value, n: int, what: str, unit: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
+def _per_joint(value, n: int, what: str, unit: str, B: int = 1) -> np.ndarray:
+    """A rate limit: a number or (n,) -> (n,), the same for every path; (B, n) -> one row per path
+    ((n,) again if all rows are equal). Errors name the path (row) and joint of a bad value."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a number, {n} numbers or ({B}, {n}) numbers ({unit})") from None
     if a.ndim == 0:
         a = np.full(n, float(a))
-    if a.shape != (n,):
-        raise ValueError(f"{what} must be a number or {n} numbers ({unit}), got shape {a.shape}")
-    if np.any(np.isnan(a)):
-        raise ValueError(f"{what} contains NaN")
-    if np.any(a < 0):
-        raise ValueError(f"{what} must be >= 0 ({unit}; inf = no limit), got {a.tolist()}")
+    if a.shape != (n,) and a.shape != (B, n):
+        raise ValueError(f"{what} must be a number, {n} numbers (one per joint) or shape ({B}, {n}) "
+                         f"(one row per path) ({unit}), got shape {a.shape}")
+    bad_nan = np.argwhere(np.isnan(a))
+    bad_neg = np.argwhere(a < 0)
+    for bad, why in ((bad_nan, "is NaN"), (bad_neg, f"must be >= 0 ({unit}; inf = no limit)")):
+        if bad.size:
+            idx = tuple(int(i) for i in bad[0])
+            where = f"path {idx[0]}, joint {idx[1]}" if a.ndim == 2 else f"joint {idx[0]}"
+            raise ValueError(f"{what} {why}: {where} has {a[idx]}")
+    if a.ndim == 2 and np.all(a == a[:1]):
+        a = a[0].copy()
     return a
+
+
+def _ratios(value, B: int) -> float | np.ndarray:
+    """The wanted axis ratio: a number (every path) or (B,) (one per path; a number again if all
+    are equal). Each must be finite and > 1; errors name the path of a bad value."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"ratio must be a number or {B} numbers (one per path), got {value!r}") from None
+    if a.ndim == 0:
+        r = float(a)
+        if not (math.isfinite(r) and r > 1.0):
+            raise ValueError(f"ratio must be > 1 (lambda1 / lambda2), got {r}")
+        return r
+    if a.shape != (B,):
+        raise ValueError(f"ratio must be a number or {B} numbers (one per path of the batch of {B}), got shape {a.shape}")
+    bad = np.flatnonzero(~(np.isfinite(a) & (a > 1.0)))
+    if bad.size:
+        b = int(bad[0])
+        raise ValueError(f"ratio must be > 1 (lambda1 / lambda2) for every path, got {a[b]} for path {b}")
+    if np.all(a == a[0]):
+        return float(a[0])
+    return a.copy()
+
+
+def first_start_rng(seed: int, target: np.ndarray, direction: np.ndarray, q0: np.ndarray) -> np.random.Generator:
+    """The random generator of one path's extra first-waypoint start postures: seeded by ``seed``
+    and a CRC-32 of the path's targets (P, 3), directions (P, 3) and start posture q0 (n,), so the
+    same path gets the same postures wherever it stands in a batch."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), content_seed(target, direction, q0)]))
 
 
 def _start_states(robot: Robot, value, B: int, what: str) -> np.ndarray | None:
@@ -311,7 +363,7 @@ def shape(
     robot: Robot | str,
     path: Path | np.ndarray | None = None,
     criterion: str | Callable = "f2",
-    ratio: float = 5.0,
+    ratio: float | np.ndarray = 5.0,
     *,
     task: str = "full",
     solver: str = "slsqp",
@@ -341,7 +393,7 @@ def shape(
             :func:`~jaxstiff.paths.default_path`.
         criterion: ``"f1"`` (S0-9, ratio >= r), ``"f2"`` (S0-15, ratio = r), a registered name, or a
             JAX-traceable ``crit(K, d, r[, c])``.
-        ratio: wanted axis ratio r = lambda1 / lambda2, > 1.
+        ratio: wanted axis ratio r = lambda1 / lambda2, > 1: a number, or (B,) one per path.
         task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, seed), ``"xyz"`` or ``"xy"``.
         solver: a name in :data:`SOLVERS`: ``"slsqp"`` (JAX derivatives) or ``"slsqp-fd"``
             (the seed's own way: numpy + finite differences; the speed baseline).
@@ -349,14 +401,17 @@ def shape(
         q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values;
             default: IK from the nominal posture to each path's first waypoint.
         kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
-        dq: joint rate limit per waypoint, rad (a number or (n,)); ``inf`` = none. Default 2 deg.
-        dk: stiffness rate limit per waypoint, Nm/rad (a number or (n,)). Default 5.
+        dq: joint rate limit per waypoint, rad: a number, (n,) per joint, or (B, n) per path and
+            joint; ``inf`` = none. Default 2 deg.
+        dk: stiffness rate limit per waypoint, Nm/rad: a number, (n,) or (B, n). Default 5.
         kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax. Default 1, 100 (seed).
-        c: f1's offset (seed: 0.01).
+        c: f1's offset (seed: 0.01), a number (the same for every path).
         first_rate_limit: apply dq/dk between (q0, kj0) and the first waypoint (default False).
         first_starts: when the first waypoint is not rate-limited, solve it from this many start
             postures (q0, then IK from the nominal posture perturbed by up to +-60 deg per free
-            joint, fixed seed; kj from kj0) and keep the best (default 8).
+            joint, drawn from a fixed seed and the path's own targets, directions and q0
+            (:func:`first_start_rng`), so a path gets the same postures wherever it stands in a
+            batch; kj from kj0) and keep the best (default 8).
         cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m. Default ``1000**m``.
         cms_major: CMS target: the major axis lambda1, N/m (instead of the volume).
         options: solver options (SLSQP: ``maxiter``, ``ftol``).
@@ -369,7 +424,14 @@ def shape(
 
     Raises:
         ValueError: bad input (ratio <= 1, kmin <= 0 or kmin >= kmax, negative rate limits,
-            q0/kj0 of the wrong length or outside the limits, unknown solver/criterion/task).
+            per-path values of the wrong shape, q0/kj0 of the wrong length or outside the limits,
+            unknown solver/criterion/task); per-path values name the offending path.
+
+    Per-path parameters: ``ratio`` (B,), ``dq``/``dk`` (B, n) give each path of the batch its
+    own values; every solver honours them, and a path's result does not depend on the other paths
+    of its batch (nor on its position there). ``meta`` records them: ``meta["ratio"]`` a number,
+    or a list of B numbers when the paths differ; ``meta["limits"]["dq"]``/``["dk"]`` n numbers,
+    or B lists of n when the paths differ (see :func:`jaxstiff.results.path_parameters`).
     """
     t_start = time.perf_counter()
     if isinstance(robot, (str, os.PathLike)):
@@ -394,21 +456,19 @@ def shape(
     crit_fn = get_criterion(criterion)
     crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
     task_rows(task)
+    ratio = _ratios(ratio, B)
     try:
-        ratio = float(ratio)
         kmin, kmax, c = float(kmin), float(kmax), float(c)
     except (TypeError, ValueError):
-        raise ValueError("ratio, kmin, kmax and c must be numbers") from None
-    if not (math.isfinite(ratio) and ratio > 1.0):
-        raise ValueError(f"ratio must be > 1 (lambda1 / lambda2), got {ratio}")
+        raise ValueError("kmin, kmax and c must be numbers (c is the same for every path)") from None
     if not (math.isfinite(kmin) and math.isfinite(kmax)) or kmin <= 0 or kmin >= kmax:
         raise ValueError(f"need 0 < kmin < kmax (Nm/rad), got kmin={kmin}, kmax={kmax}")
     if not math.isfinite(c) or c < 0:
         raise ValueError(f"c must be a finite number >= 0, got {c}")
     if not (pos_tol > 0):
         raise ValueError(f"pos_tol must be > 0 (m), got {pos_tol}")
-    dq_a = _per_joint(dq, n, "dq (joint rate limit per waypoint)", "rad")
-    dk_a = _per_joint(dk, n, "dk (stiffness rate limit per waypoint)", "Nm/rad")
+    dq_a = _per_joint(dq, n, "dq (joint rate limit per waypoint)", "rad", B)
+    dk_a = _per_joint(dk, n, "dk (stiffness rate limit per waypoint)", "Nm/rad", B)
     if task == "xy" and np.any(np.abs(bpath.directions[..., 2]) > 1e-9):
         raise ValueError("task 'xy' needs directions in the xy plane (dz = 0)")
     m = 2 if task == "xy" else 3
@@ -453,11 +513,12 @@ def shape(
         if n_first < 1:
             raise ValueError(f"first_starts must be >= 1, got {first_starts}")
         extra_starts: list[list[tuple[np.ndarray, np.ndarray]]] = []
-        rng = np.random.default_rng(FIRST_STARTS_SEED)
         spread = np.deg2rad(FIRST_STARTS_SPREAD_DEG)
         for b in range(B):
             lst = []
             if not first_rate_limit:
+                # per path: from the seed and the path's own data, not from its place in the batch
+                rng = first_start_rng(FIRST_STARTS_SEED, bpath.points[b], bpath.directions[b], q0[b])
                 for _ in range(n_first - 1):
                     qn = nominal_posture(robot) + np.where(robot.free, rng.uniform(-spread, spread, n), 0.0)
                     qn = np.clip(qn, robot.lower, robot.upper)
@@ -478,11 +539,12 @@ def shape(
 
         # reported quantities, recomputed at the final points for every solver
         report = compiled_report(problem)
+        ratios = req.ratios
         pos, K, alpha, rho, f = (np.zeros((B * P, 3)), np.zeros((B * P, m, m)), np.zeros(B * P),
                                  np.zeros(B * P), np.zeros(B * P))
         for i, (b, p) in enumerate(np.ndindex(B, P)):
             x = problem.x_of(arrays["q"][b, p], arrays["kj"][b, p])
-            prm = WaypointProblem.params(bpath.points[b, p], bpath.directions[b, p], ratio, c)
+            prm = WaypointProblem.params(bpath.points[b, p], bpath.directions[b, p], ratios[b], c)
             pos[i], K[i], alpha[i], rho[i], f[i] = problem.unpack_report(np.asarray(report(x, prm)))
     w = np.linalg.eigvalsh(K)
     if cms_major is not None:
@@ -498,7 +560,7 @@ def shape(
         "robot": _robot_meta(robot),
         "criterion": crit_name,
         "criterion_custom": not (isinstance(criterion, str) and criterion in CRITERIA),
-        "ratio": ratio,
+        "ratio": ratio if isinstance(ratio, float) else ratio.tolist(),
         "c": c,
         "task": task,
         "solver": solver,
@@ -515,8 +577,11 @@ def shape(
             "dq_unit": "rad per waypoint",
             "dk_unit": "Nm/rad per waypoint",
         },
+        "per_path": [k for k, v in (("ratio", ratio), ("dq", dq_a), ("dk", dk_a)) if np.ndim(v) > (0 if k == "ratio" else 1)],
         "first_starts": {"count": n_first if not first_rate_limit else 1, "seed": FIRST_STARTS_SEED,
-                         "spread_deg": FIRST_STARTS_SPREAD_DEG},
+                         "spread_deg": FIRST_STARTS_SPREAD_DEG,
+                         "rng": "numpy default_rng(SeedSequence([seed, crc32 of the path's target, direction "
+                                "(P, 3) and q0 (n,) as float64 bytes]))"},
         "q0_source": "given" if q0_given else f"ik_dls from nominal posture (mid-range + {NOMINAL_OFFSET_DEG:g} deg)",
         "q_nominal": nominal_posture(robot).tolist(),
         "ik_error_m": ik_err,

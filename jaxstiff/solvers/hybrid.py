@@ -62,6 +62,8 @@ def polish(
 ) -> dict[str, np.ndarray]:
     """SLSQP polish of a feasible batch solution ``base`` (the SOLVERS dict format, e.g. pgd's).
 
+    ``ratio``: a number or (B,); ``limits.dq``/``dk``: (n,) or (B, n) (per path).
+
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
     """
@@ -84,11 +86,13 @@ def polish(
 
     free = list(problem.free_idx)
     nf = problem.n_free
-    dx = np.r_[np.asarray(limits.dq, float)[free], np.asarray(limits.dk, float)]
     B, P = targets.shape[:2]
     out = {k: np.array(v, copy=True) for k, v in base.items() if isinstance(v, np.ndarray)}
     r_arr = np.broadcast_to(np.asarray(ratio, float), (B,))
+    all_limits = limits
     for b in range(B):
+        limits = all_limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
+        dx = np.r_[np.asarray(limits.dq, float)[free], np.asarray(limits.dk, float)]
         Xb = problem.x_of(base["q"][b], base["kj"][b])
         usable_b = R.is_usable(base["status"][b])
         nxt = np.full(P, -1)

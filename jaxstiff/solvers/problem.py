@@ -43,6 +43,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import inspect
+import zlib
 from typing import Callable
 
 import jax
@@ -69,6 +70,7 @@ __all__ = [
     "PointCheck",
     "POS_TOL",
     "BOUND_TOL",
+    "content_seed",
 ]
 
 POS_TOL = 1e-9  #: m, largest position error of a waypoint that counts as reached
@@ -316,6 +318,19 @@ def jax_pos_and_jac(problem: WaypointProblem) -> Callable[[np.ndarray], tuple[np
 
 
 # ---------------------------------------------------------------------- numpy helpers
+def content_seed(*arrays) -> int:
+    """A 32-bit number (CRC-32) of the arrays' float64 bytes, C order, in the order given.
+
+    Seeds a path's own randomness from its data (targets, directions, start state), so that a
+    path's result does not depend on its position in a batch, on the batch size or on the chunk
+    size (identical paths get identical random numbers).
+    """
+    h = 0
+    for a in arrays:
+        h = zlib.crc32(np.ascontiguousarray(np.asarray(a, dtype=np.float64)).tobytes(), h)
+    return h
+
+
 def box(
     problem: WaypointProblem,
     q_prev: np.ndarray | None,
@@ -424,12 +439,16 @@ class Limits:
     """Joint-stiffness range and rate limits of a shaping run (S0-11 ... S0-14).
 
     Attributes:
-        dq: (n,) largest joint change per waypoint (rad or m); ``inf`` = none.
-        dk: (n,) largest stiffness change per waypoint (Nm/rad); ``inf`` = none.
+        dq: (n,) largest joint change per waypoint (rad or m), the same for every path, or
+            (B, n): one row per path of the batch; ``inf`` = none.
+        dk: (n,) or (B, n) largest stiffness change per waypoint (Nm/rad); ``inf`` = none.
         kmin, kmax: stiffness range (Nm/rad), 0 < kmin < kmax.
         first_rate_limit: apply ``dq``/``dk`` between the start state ``(q0, kj0)`` and the first
             waypoint (True), or let the first waypoint use the whole joint/stiffness range
             (False: the start state is only the initial guess).
+
+    A solver of a batch takes path b's limits from :meth:`for_path` (or :meth:`rows` for all
+    paths at once); :meth:`box` needs (n,) limits, i.e. one path's.
     """
 
     dq: np.ndarray
@@ -438,8 +457,36 @@ class Limits:
     kmax: float
     first_rate_limit: bool
 
+    @property
+    def per_path(self) -> bool:
+        """True if ``dq`` or ``dk`` has one row per path (B, n)."""
+        return np.ndim(self.dq) == 2 or np.ndim(self.dk) == 2
+
+    def for_path(self, b: int) -> "Limits":
+        """The limits of path ``b`` with (n,) ``dq`` and ``dk`` (itself when they are per joint only)."""
+        if not self.per_path:
+            return self
+        dq = np.asarray(self.dq, float)
+        dk = np.asarray(self.dk, float)
+        return Limits(dq[b] if dq.ndim == 2 else dq, dk[b] if dk.ndim == 2 else dk, self.kmin, self.kmax,
+                      self.first_rate_limit)
+
+    def rows(self, B: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(dq (B, n), dk (B, n))``: the rate limits of every path of a batch of B."""
+        dq, dk = np.asarray(self.dq, float), np.asarray(self.dk, float)
+        for name, a in (("dq", dq), ("dk", dk)):
+            if a.ndim == 2 and a.shape[0] != B:
+                raise ValueError(f"Limits.{name} has {a.shape[0]} rows, the batch has {B} paths")
+        n = dq.shape[-1]
+        return np.broadcast_to(dq, (B, n)).copy(), np.broadcast_to(dk, (B, dk.shape[-1])).copy()
+
     def box(self, problem: "WaypointProblem", q_ref, kj_ref, rate: bool):
-        """Bounds ``(lb, ub)`` around a reference state; ``rate=False`` drops the rate limits."""
+        """Bounds ``(lb, ub)`` around a reference state; ``rate=False`` drops the rate limits.
+
+        Needs one path's limits ((n,) ``dq``/``dk``): use ``limits.for_path(b).box(...)``.
+        """
+        if self.per_path:
+            raise ValueError("Limits.box needs one path's rate limits; use limits.for_path(b).box(...)")
         if not rate:
             return box(problem, None, None, self.dq, self.dk, self.kmin, self.kmax)
         return box(problem, q_ref, kj_ref, self.dq, self.dk, self.kmin, self.kmax)

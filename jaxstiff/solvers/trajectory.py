@@ -149,7 +149,8 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
 @functools.lru_cache(maxsize=16)
 def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
     traj = _kernel(problem, dict(opts_items), first_rate)
-    return jax.jit(jax.vmap(traj, in_axes=(0, 0, 0, 0, None, None, None, None, 0, None, None)))
+    # per path: warm start, targets, directions, start state, rate limits (dq_f, dk) and ratio
+    return jax.jit(jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None)))
 
 
 def refine_batch(
@@ -168,7 +169,8 @@ def refine_batch(
     """Trajectory-level refinement of a feasible batch solution ``warm`` (SOLVERS dict format).
 
     Args:
-        targets, directions: (B, P, 3); q0, kj0: (B, n); ratio: a number or (B,).
+        targets, directions: (B, P, 3); q0, kj0: (B, n); ratio: a number or (B,);
+            ``limits.dq``/``dk``: (n,) or (B, n) (per path).
         warm: the greedy solution (``q``, ``kj`` (B,P,n), ``status``...).
 
     Returns:
@@ -183,11 +185,14 @@ def refine_batch(
     Xw = problem.x_of(warm["q"], warm["kj"])
     x0 = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
     r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
-    C = min(int(opts["chunk"]), B)
+    # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
+    # simplified away), so a lone path would differ from the same path in a batch in the last bits;
+    # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
+    C = max(min(int(opts["chunk"]), B), 2)
     items = tuple(sorted((k, v) for k, v in opts.items() if k not in ("chunk", "warm")))
     fn = _compiled(problem, items, bool(limits.first_rate_limit))
-    dq_f = np.asarray(limits.dq, float)[free]
-    dk = np.asarray(limits.dk, float)
+    dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
+    dq_f = dq_all[:, free]
     out = {k: np.array(v, copy=True) for k, v in warm.items() if isinstance(v, np.ndarray)}
     pad = _pgd._pad
     with jax.enable_x64(True):
@@ -195,7 +200,7 @@ def refine_batch(
             e = min(s + C, B)
             sl = slice(s, e)
             t0 = time.perf_counter()
-            res = fn(pad(Xw[sl], C), pad(targets[sl], C), pad(directions[sl], C), pad(x0[sl], C), dq_f, dk,
+            res = fn(pad(Xw[sl], C), pad(targets[sl], C), pad(directions[sl], C), pad(x0[sl], C), pad(dq_f[sl], C), pad(dk[sl], C),
                      float(limits.kmin), float(limits.kmax), pad(r_arr[sl], C), float(c), float(pos_tol))
             res = jax.tree_util.tree_map(np.asarray, res)
             dt = time.perf_counter() - t0
@@ -206,7 +211,7 @@ def refine_batch(
             out["kj"][sl] = res["x"][:m, :, nf:]
             out["status"][sl] = res["status"][:m]
             out["pos_error"][sl] = res["err"][:m]
-            out["time_s"][sl] += dt / (C * P)
+            out["time_s"][sl] += dt / ((e - s) * P)  # over the real waypoints (padding rows excluded)
             out["nit"][sl] += int(opts["traj_iters"])
     return out
 
