@@ -68,8 +68,12 @@ The rollout is differentiable end to end (``jax.grad`` w.r.t. ``beta``, ``q0``, 
 numeric settings), batched over leading axes of every input (``vmap``), and jitted once per robot,
 task and static setting. With ``remat=True`` (default) the scan body is rematerialised in the
 backward pass, so the memory of a gradient grows with ``T * n`` per rollout only. Speed
-(``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR): forward
-about 3-4 s; forward + gradient about 4.4x the forward in CPU time.
+(``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, measured
+on an otherwise idle machine, load ~1): forward 3.2 s; forward + gradient 10.0 s, 3.1x the
+forward in wall time (3.6x in CPU time). A smaller ``chunk`` speeds up the forward (16: 2.1 s)
+but not the gradient (8.6 s, 4.1x). Where the backward time goes (profile of the compiled
+program, 256 x 300): about 1x forward for the recomputed step, 1.8x for its transpose, with
+the small batched contractions (``J^T K J`` and the like) the largest single items.
 
 Example:
     >>> import jax.numpy as jnp, numpy as np, jaxstiff
