@@ -103,6 +103,7 @@ def main(argv=None) -> int:
         "forward_plus_grad_cpu_s": round(cpu_grad, 3),
         "grad_over_forward_cpu": round(cpu_grad / cpu_fwd, 2),
         "load_average_1min": os.getloadavg()[0],
+        "load_average_1_5_15min": [round(x, 2) for x in os.getloadavg()],  # the CPU is shared: say how busy it was
         "us_per_rollout_step_forward": round(1e6 * best_fwd / (B * args.steps), 3),
         "u_start_mean": float(u[:, 0].mean()),
         "u_end_mean": float(u[:, -1].mean()),
