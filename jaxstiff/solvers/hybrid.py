@@ -59,10 +59,15 @@ def polish(
     base: dict[str, np.ndarray],
     options: dict | None = None,
     pos_tol: float = 1e-9,
+    first_starts=None,
 ) -> dict[str, np.ndarray]:
     """SLSQP polish of a feasible batch solution ``base`` (the SOLVERS dict format, e.g. pgd's).
 
     ``ratio``: a number or (B,); ``limits.dq``/``dk``: (n,) or (B, n) (per path).
+    ``first_starts``: per path, the extra start states ``(q, kj)`` greedy SLSQP tries at a first
+    waypoint without rate limit (:func:`jaxstiff.solvers.slsqp.greedy_path`); with the greedy
+    chain SLSQP runs from them there too, so the hybrid's first waypoint is never worse than
+    greedy SLSQP's.
 
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
@@ -125,11 +130,13 @@ def polish(
                 starts = [Xb[p]] if usable_b[p] else []
                 if chain == "greedy" or not have:
                     starts.append(problem.x_of(q_ref, kj_ref))  # the seed's own start
+                    if chain == "greedy" and not rate and first_starts is not None:
+                        starts += [problem.x_of(qs, ks) for qs, ks in first_starts[b]]  # greedy SLSQP's others
                 f_best = objective(Xb[p], params) if have else np.inf
                 for xs in starts:
                     x_start = clip_to_box(xs, lb, ub)
                     try:
-                        sol = solver(x_start.copy(), lb, ub, params)
+                        sol = solver(x_start.copy(), lb, ub, params, maxiter=None if rate else solver.options["first_maxiter"])
                     except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
                         sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
                     x, status, err = _judge(problem, sol, x_start, lb, ub, targets[b, p], params, pj, objective, pos_tol)
@@ -173,4 +180,4 @@ def run_request(req) -> dict[str, np.ndarray]:
     )
     base.pop("criterion", None)
     return polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-                  base, options=opts, pos_tol=req.pos_tol)
+                  base, options=opts, pos_tol=req.pos_tol, first_starts=req.first_starts)
