@@ -62,8 +62,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import results as R
+from ..criteria import f1 as _f1, f2 as _f2
 from ..kinematics import position_and_jacobian
-from .problem import POS_TOL, Limits, WaypointProblem
+from ..stiffness import task_rows, translational_stiffness
+from .problem import POS_TOL, Limits, WaypointProblem, rate_bounds
 
 __all__ = ["DEFAULT_OPTIONS", "solve_batch", "make_kernel"]
 
@@ -84,6 +86,11 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "spread": 0.5,  # random starts: fraction of the box half-width around the reference
     "posture_spread": 0.6,  # rad, joint perturbation of the first-waypoint postures (no rate limit)
     "accept_tol": 1e-7,  # m, position error of an iterate that may be kept as the best
+    "lm_iters": 20,  # Levenberg-Marquardt steps on the f1/f2 residuals before the gradient stage
+    "lm_iters_first": 25,  # the same at the first waypoint
+    "lm_wpos": 1e3,  # 1/m, weight of the position rows in the LM residual
+    "lm_walign": 100.0,  # weight of the alignment rows against the log-ratio row (alpha first, as f1/f2 do)
+    "tie_tol": 1e-7,  # starts within this (relative) of the best criterion tie; the one farthest from the limits is kept
     "chunk": 256,  # trajectories per compiled call (memory bound)
     "seed": 0,
 }
@@ -127,10 +134,12 @@ class _Ops:
         qlo, qhi = jnp.asarray(self.qlo, dt), jnp.asarray(self.qhi, dt)
         klo = jnp.full((self.n,), kmin, dt)
         khi = jnp.full((self.n,), kmax, dt)
-        lbq = jnp.where(rate, jnp.maximum(qlo, xref[: self.nf] - dq_f), qlo)
-        ubq = jnp.where(rate, jnp.minimum(qhi, xref[: self.nf] + dq_f), qhi)
-        lbk = jnp.where(rate, jnp.maximum(klo, xref[self.nf :] - dk), klo)
-        ubk = jnp.where(rate, jnp.minimum(khi, xref[self.nf :] + dk), khi)
+        rlq, ruq = rate_bounds(xref[: self.nf], dq_f, jnp)
+        rlk, ruk = rate_bounds(xref[self.nf :], dk, jnp)
+        lbq = jnp.where(rate, jnp.maximum(qlo, rlq), qlo)
+        ubq = jnp.where(rate, jnp.minimum(qhi, ruq), qhi)
+        lbk = jnp.where(rate, jnp.maximum(klo, rlk), klo)
+        ubk = jnp.where(rate, jnp.minimum(khi, ruk), khi)
         return jnp.concatenate([lbq, lbk]), jnp.concatenate([ubq, ubk])
 
     def pos_jac(self, x):
@@ -184,6 +193,100 @@ class _Ops:
         p, _ = self.pos_jac(x)
         return jnp.linalg.norm(p - target)
 
+    # ------------------------------------------------------------ Levenberg-Marquardt stage
+    def lm_residual(self, x, target, d, r, kind: str, wpos, walign):
+        """Residuals whose zeros are exactly the criterion's minimum set, position rows first.
+
+        With ``Kn = K / (tr K / m)``, ``d`` unit and ``E`` an orthonormal basis of d's complement:
+
+        * alignment ``a = (Kn d - (d^T Kn d) d) / (d^T Kn d)`` (m entries): zero iff d is an
+          eigenvector of K; ``|a| ~ sin(alpha) (1 - 1/rho)`` near the optimum;
+        * ratio ``b = log(d^T Kn d) - log(lambda_max(E^T Kn E)) - log(r)``: once d is an
+          eigenvector, ``d^T K d / lambda_max(E^T K E)`` is the axis ratio rho (d the major axis
+          iff it is >= 1), so b = 0 iff rho = r (f2); for f1 (rho >= r) ``b = min(b, 0)``.
+
+        No eigen-decomposition of K: lambda_max of the 2x2 ``E^T Kn E`` is a closed form with a
+        smoothed square root, so the residuals are smooth everywhere (spheres included).
+        """
+        q, kj = self.pr.q_of(x), self.pr.kj_of(x)
+        p, J = position_and_jacobian(self.pr.robot, q, task_rows(self.pr.task))
+        K = translational_stiffness(J, kj, task=self.pr.task)
+        m = K.shape[-1]
+        dd = d[:m] / jnp.maximum(jnp.linalg.norm(d[:m]), 1e-300)
+        Kn = K / jnp.maximum(jnp.trace(K) / m, 1e-300)
+        Kd = Kn @ dd
+        dKd = jnp.maximum(dd @ Kd, 1e-12)
+        a = (Kd - dKd * dd) / dKd
+        E = _complement_basis(dd)
+        M = E.T @ Kn @ E
+        if m == 3:
+            h = 0.5 * (M[0, 0] - M[1, 1])
+            lam2 = 0.5 * (M[0, 0] + M[1, 1]) + jnp.sqrt(h * h + M[0, 1] ** 2 + 1e-24)
+        else:
+            lam2 = M[0, 0]
+        b = jnp.log(dKd) - jnp.log(jnp.maximum(lam2, 1e-12)) - jnp.log(r)
+        if kind == "f1":
+            b = jnp.minimum(b, 0.0)
+        rows = list(self.rows)
+        e = wpos * (p[jnp.asarray(rows)] - target[jnp.asarray(rows)])
+        return jnp.concatenate([e, walign * a, b[None]])
+
+    def lm(self, x, lb, ub, target, d, r, kind: str, iters: int, wpos: float, walign: float, s):
+        """``iters`` box-constrained Levenberg-Marquardt steps on :meth:`lm_residual`.
+
+        Minimum-norm steps in box-scaled coordinates (``s``: per-coordinate box width): the system
+        is underdetermined (3 + m + 1 residuals, nf + n unknowns), so from a start near the
+        minimum set the iteration converges to a nearby zero. Coordinates at a bound whose step
+        points outward are removed and the step recomputed (one active-set pass); the step is
+        then clipped into the box. A step is kept only if it lowers the residual norm (damping
+        divided by 3), else the damping is multiplied by 4.
+        """
+        res = lambda z: self.lm_residual(z, target, d, r, kind, wpos, walign)  # noqa: E731
+        jac = jax.jacfwd(res)
+        nr = len(self.rows) + (3 if self.pr.m == 3 else 2) + 1
+        eye = jnp.eye(nr, dtype=x.dtype)
+
+        def solve(Jy, e, lam):
+            A = Jy @ Jy.T
+            mu = lam * jnp.maximum(jnp.trace(A) / nr, 1e-300)
+            return -Jy.T @ jnp.linalg.solve(A + mu * eye, e)
+
+        def body(_, carry):
+            x, lam, e = carry
+            Jy = jac(x) * s[None, :]
+            Jy = jnp.where(jnp.isfinite(Jy), Jy, 0.0)
+            dy = solve(Jy, e, lam)
+            out = ((x <= lb) & (dy < 0)) | ((x >= ub) & (dy > 0)) | (s <= 0)
+            dy = solve(jnp.where(out[None, :], 0.0, Jy), e, lam)
+            dy = jnp.where(out, 0.0, dy)
+            xn = _clip(x + s * dy, lb, ub)
+            en = res(xn)
+            ok = jnp.all(jnp.isfinite(en)) & jnp.all(jnp.isfinite(xn)) & (en @ en < e @ e)
+            return (
+                jnp.where(ok, xn, x),
+                jnp.where(ok, jnp.maximum(lam / 3.0, 1e-9), jnp.minimum(lam * 4.0, 1e6)),
+                jnp.where(ok, en, e),
+            )
+
+        e0 = res(x)
+        e0 = jnp.where(jnp.isfinite(e0), e0, 1e6)
+        x, _, _ = jax.lax.fori_loop(0, iters, body, (x, jnp.asarray(1e-3, x.dtype), e0))
+        return x
+
+
+def _complement_basis(d):
+    """Orthonormal basis (m, m-1) of the plane (m = 3) or line (m = 2) orthogonal to unit d."""
+    m = d.shape[0]
+    if m == 2:
+        return jnp.stack([-d[1], d[0]])[:, None]
+    # helper axis: the coordinate axis least aligned with d (never parallel to it)
+    k = jnp.argmin(jnp.abs(d))
+    h = jnp.zeros(3, d.dtype).at[k].set(1.0)
+    e1 = h - (h @ d) * d
+    e1 = e1 / jnp.linalg.norm(e1)
+    e2 = jnp.cross(d, e1)
+    return jnp.stack([e1, e2], axis=1)
+
 
 def _clip(x, lb, ub):
     return jnp.minimum(jnp.maximum(x, lb), ub)
@@ -197,8 +300,10 @@ def _scales(lb, ub, nf, kspan):
     return jnp.maximum(w, 0.0)
 
 
-def _optimise(ops: _Ops, x0, lb, ub, target, d, r, c, kspan, opts, first=False):
-    """Surrogate phase, then the criterion phase, from x0 (on the path). Returns the best iterate.
+def _optimise(ops: _Ops, x0, lb, ub, target, d, r, c, kspan, opts, first=False, lm=None):
+    """Surrogate phase, LM phase (``lm``: x -> x, f1/f2 only), then the criterion phase, from x0
+    (on the path). Returns the best iterate of the criterion phase (its first iterate is the LM
+    point, so the criterion phase never returns anything worse than LM's answer).
 
     ``first``: the first waypoint's settings (``iters_first``, ``surrogate_first``, ``step0_first``).
     """
@@ -208,6 +313,8 @@ def _optimise(ops: _Ops, x0, lb, ub, target, d, r, c, kspan, opts, first=False):
     ns = int(round(float(opts["surrogate"]) * iters))
     if ns > 0:
         x0 = _descend(ops, ops.surrogate, x0, lb, ub, target, d, r, c, kspan, opts, ns, track=False)
+    if lm is not None:
+        x0 = lm(x0)
     return _descend(ops, ops.f, x0, lb, ub, target, d, r, c, kspan, opts, max(iters - ns, 1), track=True)
 
 
@@ -300,24 +407,55 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
         """(S, nx) start points in the box: start 0 the reference, others random around it."""
         u = jax.random.uniform(key, (S, nx), xref.dtype, -1.0, 1.0)
         half = 0.5 * _scales(lb, ub, nf, kmax - kmin)
-        # first waypoint without rate limit: distinct postures (large joint moves), random stiffness
-        radius = jnp.where(
-            rate,
-            spread * half,
-            jnp.concatenate([jnp.full((nf,), pspread, xref.dtype), 2.0 * half[nf:]]),
-        )
-        xs = xref[None, :] + u * radius[None, :]
+        near = xref[None, :] + u * (spread * half)[None, :]
+        # first waypoint without rate limit: distinct postures (large joint moves) and stiffnesses
+        # drawn log-uniformly over the range: the criterion only sees stiffness ratios, and the
+        # minima often have several joints near kmin, which uniform draws almost never visit
+        lo = jnp.log(jnp.maximum(lb[nf:], 1e-6 * kmax))
+        hi = jnp.log(jnp.maximum(ub[nf:], 1e-6 * kmax))
+        kfar = jnp.exp(lo[None, :] + 0.5 * (u[:, nf:] + 1.0) * (hi - lo)[None, :])
+        far = jnp.concatenate([xref[None, :nf] + u[:, :nf] * pspread, kfar], axis=1)
+        xs = jnp.where(rate, near, far)
         xs = xs.at[0].set(xref)
         return _clip(xs, lb[None, :], ub[None, :])
 
+    kind = "f2" if problem.criterion is _f2 else ("f1" if problem.criterion is _f1 else None)
+    lm_it = int(opts["lm_iters_first"]), int(opts["lm_iters"])
+    wpos, walign = float(opts["lm_wpos"]), float(opts["lm_walign"])
+
     def one_start(x0, lb, ub, tgt, d, r, c, kspan, pos_tol, rate, first=False):
         x0 = ops.newton(x0, tgt, lb, ub, 8)
-        xb = _optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, opts, first)
+        nlm = lm_it[0] if first else lm_it[1]
+        lm = None
+        if kind is not None and nlm > 0:
+            def lm(x):
+                x = ops.lm(x, lb, ub, tgt, d, r, kind, nlm, wpos, walign, _scales(lb, ub, nf, kspan))
+                return ops.newton(x, tgt, lb, ub, 3)
+        xb = _optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, opts, first, lm=lm)
         return _finish(ops, xb, lb, ub, tgt, d, r, c, pos_tol, polish)
 
     vstart = jax.vmap(one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0))
     S1 = max(S, int(opts["starts_first"])) if mode == "best" else S
     vfirst = jax.vmap(lambda *a: one_start(*a, first=True), in_axes=(0, None, None, None, None, None, None, None, None, None))
+
+    qlo, qhi = ops.qlo, ops.qhi
+    tie = float(opts["tie_tol"])
+
+    def pick(x, fv, err, usable, finite, kmin, kmax):
+        """Index of the kept start: among the usable ones within ``tie_tol`` (relative) of the best
+        criterion, the one farthest from the joint and stiffness limits (normalised; stiffness in
+        log scale), so that later waypoints have room to follow the path. None usable: the
+        finite one closest to the path."""
+        sc = jnp.where(usable, fv, jnp.inf)
+        fb = jnp.min(sc)
+        near = usable & (sc <= fb + tie * jnp.maximum(jnp.abs(fb), 1.0))
+        dt = x.dtype
+        lo = jnp.concatenate([jnp.asarray(np.where(np.isfinite(qlo), qlo, -np.pi), dt), jnp.full((ops.n,), jnp.log(kmin))])
+        hi = jnp.concatenate([jnp.asarray(np.where(np.isfinite(qhi), qhi, np.pi), dt), jnp.full((ops.n,), jnp.log(kmax))])
+        y = jnp.concatenate([x[:, :nf], jnp.log(jnp.maximum(x[:, nf:], 1e-300))], axis=1)
+        room = jnp.min(jnp.minimum(y - lo, hi - y) / jnp.maximum(hi - lo, 1e-300), axis=1)
+        i_near = jnp.argmax(jnp.where(near, room, -jnp.inf))
+        return jnp.where(jnp.any(usable), i_near, jnp.argmin(jnp.where(finite, err, jnp.inf)))
 
     def traj(targets, dirs, x0, key, dq_f, dk, kmin, kmax, r, c, pos_tol):
         kspan = kmax - kmin
@@ -336,8 +474,7 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
                 xs = jnp.where(at_start[:, None], xs0, jax.vmap(_clip)(xref, lb, ub))
             x, fv, err, usable, finite = vstart(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate)
             if mode == "best":
-                sc = jnp.where(usable, fv, jnp.inf)
-                i = jnp.where(jnp.any(usable), jnp.argmin(sc), jnp.argmin(jnp.where(finite, err, jnp.inf)))
+                i = pick(x, fv, err, usable, finite, kmin, kmax)
                 xw, fw, ew, uw, finw = x[i], fv[i], err[i], usable[i], finite[i]
                 newref = jnp.where(uw, xw, xref[0])
                 carry = (jnp.broadcast_to(newref, xref.shape), jnp.broadcast_to(at_start[0] & ~uw, at_start.shape))
@@ -362,7 +499,7 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
         st1 = jnp.where(u1, R.SOLVED, jnp.where(fin1, R.UNREACHABLE, R.NONFINITE))
         x1 = jnp.where(fin1[:, None], x1, _clip(x0, lb0, ub0)[None, :])
         if mode == "best":
-            i1 = jnp.where(jnp.any(u1), jnp.argmin(jnp.where(u1, f1, jnp.inf)), jnp.argmin(jnp.where(fin1, e1, jnp.inf)))
+            i1 = pick(x1, f1, e1, u1, fin1, kmin, kmax)
             first = (x1[i1], f1[i1], e1[i1], st1[i1], jnp.where(jnp.any(u1), i1, -1))
             carry0 = (jnp.broadcast_to(jnp.where(u1[i1], x1[i1], x0), (S, nx)), jnp.broadcast_to(~u1[i1], (S,)))
         else:
@@ -387,7 +524,8 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
 def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
     opts = dict(opts_items)
     traj = make_kernel(problem, opts, first_rate)
-    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, None, None, None, None, 0, None, None))
+    # per path: targets, directions, start state, key, rate limits (dq_f, dk) and ratio
+    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None))
     return jax.jit(batched)
 
 
@@ -419,7 +557,8 @@ def solve_batch(
         problem: the waypoint problem (robot, task, criterion).
         targets, directions: (B, P, 3), m and unit vectors, base frame.
         q0, kj0: (B, n) start states (rad; Nm/rad).
-        limits: rate limits and stiffness range (S0-11 ... S0-14).
+        limits: rate limits and stiffness range (S0-11 ... S0-14); ``dq``/``dk`` (n,) or (B, n)
+            (one row per path).
         ratio: wanted axis ratio r, a number or (B,) (one per path: a parameter sweep in one call).
         c: f1's offset.
         starts: S (default ``options["starts"]``).
@@ -438,12 +577,20 @@ def solve_batch(
     n, nf = problem.n, problem.n_free
     r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
     x0 = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
-    C = min(int(opts["chunk"]), B)
+    # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
+    # simplified away), so a lone path would differ from the same path in a batch in the last bits;
+    # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
+    C = max(min(int(opts["chunk"]), B), 2)
     key_items = tuple(sorted((k, v) for k, v in opts.items() if k in DEFAULT_OPTIONS and k not in ("chunk", "seed")))
     fn = _compiled(problem, key_items, bool(limits.first_rate_limit))
-    dq_f = np.asarray(limits.dq, float)[list(problem.free_idx)]
-    dk = np.asarray(limits.dk, float)
+    dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
+    dq_f = dq_all[:, list(problem.free_idx)]
     base = jax.random.PRNGKey(int(opts["seed"]))
+    # each path's key from the seed and the path's own data, never from its index: a path's result
+    # does not depend on its position in the batch or on the chunk size
+    from .problem import content_seed
+
+    path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     X = np.zeros((B, P, problem.nx))
     out = {k: np.zeros((B, P), dt) for k, dt in (("status", np.int64), ("solver_code", np.int64), ("pos_error", float), ("criterion", float), ("time_s", float))}
     compile_s, run_s = 0.0, 0.0
@@ -451,15 +598,16 @@ def solve_batch(
         for s in range(0, B, C):
             e = min(s + C, B)
             sl = slice(s, e)
-            keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(_pad(np.arange(s, e), C))
+            keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(_pad(path_data[sl], C))
             args = (
                 _pad(targets[sl], C), _pad(directions[sl], C), _pad(x0[sl], C), keys,
-                dq_f, dk, float(limits.kmin), float(limits.kmax), _pad(r_arr[sl], C), float(c), float(pos_tol),
+                _pad(dq_f[sl], C), _pad(dk[sl], C), float(limits.kmin), float(limits.kmax), _pad(r_arr[sl], C),
+                float(c), float(pos_tol),
             )
             if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
                 from .._sharding import shard_rows
 
-                placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 8)})
+                placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 4, 5, 8)})
                 args = tuple(placed.get(i, a) for i, a in enumerate(args))
             t0 = time.perf_counter()
             if s == 0:
@@ -479,7 +627,7 @@ def solve_batch(
             out["solver_code"][sl] = res["start"][:m]
             out["pos_error"][sl] = res["err"][:m]
             out["criterion"][sl] = res["f"][:m]
-            out["time_s"][sl] = dt / (C * P)
+            out["time_s"][sl] = dt / ((e - s) * P)  # the chunk's wall time over its real waypoints (padding rows excluded)
     q = np.repeat(np.asarray(q0, float)[:, None, :], P, axis=1)
     q[..., list(problem.free_idx)] = X[..., :nf]
     out["q"], out["kj"] = q, X[..., nf:].copy()

@@ -350,12 +350,22 @@ def box(
     ql, qu = robot.lower.copy(), robot.upper.copy()
     kl, ku = np.full(problem.n, float(kmin)), np.full(problem.n, float(kmax))
     if q_prev is not None:
-        ql = np.maximum(ql, q_prev - dq)
-        qu = np.minimum(qu, q_prev + dq)
+        lo, hi = rate_bounds(q_prev, dq)
+        ql, qu = np.maximum(ql, lo), np.minimum(qu, hi)
     if kj_prev is not None:
-        kl = np.maximum(kl, kj_prev - dk)
-        ku = np.minimum(ku, kj_prev + dk)
+        lo, hi = rate_bounds(kj_prev, dk)
+        kl, ku = np.maximum(kl, lo), np.minimum(ku, hi)
     return np.concatenate([ql[free], kl]), np.concatenate([qu[free], ku])
+
+
+def rate_bounds(ref, step, xp=np):
+    """``(ref - step, ref + step)`` rounded inwards where needed, so that every x between them
+    satisfies ``|x - ref| <= step`` exactly as a file check computes it in floating point
+    (``ref + step`` can round up by half an ulp of ``ref``: 7e-15 at 100 Nm/rad)."""
+    lo, hi = ref - step, ref + step
+    lo = xp.where(ref - lo > step, xp.nextafter(lo, xp.inf), lo)
+    hi = xp.where(hi - ref > step, xp.nextafter(hi, -xp.inf), hi)
+    return lo, hi
 
 
 def clip_to_box(x: np.ndarray, lb: np.ndarray, ub: np.ndarray) -> np.ndarray:
