@@ -89,7 +89,11 @@ def run(criterion: str, tag: str, title: str, argv=None) -> int:
     atomic_write_text(os.path.join(args.out, "summary.csv"), "metric,value\n" + "".join(f"\"{k}\",\"{v}\"\n" for k, v in rows))
     lines = [f"## {title}", "", f"![{tag}]({tag}.png)", "", "| metric | value |", "| --- | --- |"]
     lines += [f"| {k} | {v} |" for k, v in rows]
-    lines += ["", "Setup: " + " ".join(__doc__.split("Setup")[1].split("Panels")[0].split())]
+    setup = " ".join(__doc__.split("Setup")[1].split("Panels")[0].split())
+    if criterion == "f2":  # fig5: the same setup with the other criterion
+        setup = setup.replace("criterion f1 (S0-9) with r = 5, c = 0.01", "criterion f2 (S0-15) with r = 5")
+        assert "f2 (S0-15)" in setup, "fig4_f1's setup text changed: update the f2 substitution"
+    lines += ["", "Setup: " + setup]
     atomic_write_text(os.path.join(args.out, "summary.md"), "\n".join(lines) + "\n")
     for k, v in rows:
         print(f"{k:<90} {v}")

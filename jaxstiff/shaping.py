@@ -287,6 +287,27 @@ def first_start_rng(seed: int, target: np.ndarray, direction: np.ndarray, q0: np
     return np.random.default_rng(np.random.SeedSequence([int(seed), content_seed(target, direction, q0)]))
 
 
+def first_start_postures(robot: Robot, points: np.ndarray, directions: np.ndarray, q0: np.ndarray, kj0: np.ndarray,
+                         count: int, task: str = "full", seed: int = FIRST_STARTS_SEED) -> list[tuple[np.ndarray, np.ndarray]]:
+    """``count`` extra start states ``(q, kj0)`` for a path's first waypoint (no rate limit there).
+
+    Each posture is the position IK of the first waypoint from the nominal posture perturbed by up
+    to +-:data:`FIRST_STARTS_SPREAD_DEG` per free joint; the random draws come from
+    :func:`first_start_rng` (the seed and the path's own data), so a path gets the same postures
+    wherever it stands in a batch. Greedy SLSQP solves the first waypoint from each of them
+    besides ``q0``; pgd and the hybrid use them as some of their first-waypoint starts.
+    """
+    spread = np.deg2rad(FIRST_STARTS_SPREAD_DEG)
+    rng = first_start_rng(seed, points, directions, q0)
+    out = []
+    for _ in range(int(count)):
+        qn = nominal_posture(robot) + np.where(robot.free, rng.uniform(-spread, spread, robot.n), 0.0)
+        qn = np.clip(qn, robot.lower, robot.upper)
+        qs, _ = ik_position(robot, points[0], qn, planar=(task == "xy"))
+        out.append((qs, np.array(kj0, float, copy=True)))
+    return out
+
+
 def _start_states(robot: Robot, value, B: int, what: str) -> np.ndarray | None:
     if value is None:
         return None
@@ -512,19 +533,10 @@ def shape(
         n_first = int(first_starts)
         if n_first < 1:
             raise ValueError(f"first_starts must be >= 1, got {first_starts}")
-        extra_starts: list[list[tuple[np.ndarray, np.ndarray]]] = []
-        spread = np.deg2rad(FIRST_STARTS_SPREAD_DEG)
-        for b in range(B):
-            lst = []
-            if not first_rate_limit:
-                # per path: from the seed and the path's own data, not from its place in the batch
-                rng = first_start_rng(FIRST_STARTS_SEED, bpath.points[b], bpath.directions[b], q0[b])
-                for _ in range(n_first - 1):
-                    qn = nominal_posture(robot) + np.where(robot.free, rng.uniform(-spread, spread, n), 0.0)
-                    qn = np.clip(qn, robot.lower, robot.upper)
-                    qs, _ = ik_position(robot, bpath.points[b, 0], qn, planar=(task == "xy"))
-                    lst.append((qs, kj0[b].copy()))
-            extra_starts.append(lst)
+        extra_starts = [
+            [] if first_rate_limit else first_start_postures(robot, bpath.points[b], bpath.directions[b], q0[b], kj0[b], n_first - 1, task)
+            for b in range(B)
+        ]
 
         problem = WaypointProblem(robot, task, crit_fn)
         limits = Limits(dq=dq_a, dk=dk_a, kmin=kmin, kmax=kmax, first_rate_limit=bool(first_rate_limit))

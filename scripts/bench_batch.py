@@ -69,7 +69,7 @@ def main(argv=None) -> int:
     ap.add_argument("--B", type=int, default=1000, help="trajectories")
     ap.add_argument("--P", type=int, default=100, help="waypoints per trajectory")
     ap.add_argument("--starts", type=int, default=4, help="pgd starts per waypoint")
-    ap.add_argument("--iters", type=int, default=20, help="pgd iterations per start and waypoint")
+    ap.add_argument("--iters", type=int, default=None, help="pgd iterations per start and waypoint (default: pgd's)")
     ap.add_argument("--chunk", type=int, default=250, help="trajectories per compiled call")
     ap.add_argument("--seed-paths", type=int, default=3, help="trajectories also solved with slsqp-fd")
     ap.add_argument("--criterion", default="f2")
@@ -90,7 +90,9 @@ def main(argv=None) -> int:
     limits = Limits(dq=np.full(n, np.radians(2.0)), dk=np.full(n, 5.0), kmin=1.0, kmax=100.0, first_rate_limit=False)
     prob = WaypointProblem(robot, "full", get_criterion(args.criterion))
     load0 = os.getloadavg()
-    opts = {"iters": args.iters, "chunk": args.chunk, "iters_first": 5 * args.iters}
+    opts = {"chunk": args.chunk}
+    if args.iters is not None:
+        opts.update(iters=args.iters, iters_lm=args.iters, iters_first=5 * args.iters)
     res = pgd.solve_batch(prob, pts, dirs, q0, kj0, limits, 5.0, 0.01, starts=args.starts, options=opts, return_timing=True)
     nwp = args.B * args.P
     usable = np.isin(res["status"], (0, 1, 2))
@@ -110,10 +112,11 @@ def main(argv=None) -> int:
     ok = np.isin(ref.status, (0, 1, 2)) & usable[:k]
     out = {
         "B": args.B, "P": args.P, "waypoints": nwp, "criterion": args.criterion, "starts": args.starts,
-        "iters": args.iters, "chunk": args.chunk, "devices": str(jax.devices()),
+        "iters": args.iters or "default", "chunk": args.chunk, "devices": str(jax.devices()),
         "compile_s": round(res["compile_s"], 2), "run_s": round(res["run_s"], 2),
         "pgd_waypoints_per_s": round(pgd_wps, 1), "peak_rss_mib": round(peak_mib, 1),
         "pgd_usable_fraction": float(usable.mean()), "pgd_mean_criterion_all": float(res["criterion"][usable].mean()),
+        "pgd_median_criterion_all": float(np.median(res["criterion"][usable])),
         "slsqp_fd_paths": k, "slsqp_fd_solve_s": round(ref.meta["timing_s"]["solve"], 2), "slsqp_fd_total_s": round(t_fd, 2),
         "slsqp_fd_waypoints_per_s": round(fd_wps, 2), "speedup_per_waypoint": round(pgd_wps / fd_wps, 1),
         "same_paths_mean_criterion_pgd": float(f_pgd[ok].mean()) if ok.any() else None,

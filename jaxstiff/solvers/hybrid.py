@@ -176,7 +176,7 @@ def run_request(req) -> dict[str, np.ndarray]:
     pg_opts = {k: v for k, v in opts.items() if k in _pgd.DEFAULT_OPTIONS}
     base = _pgd.solve_batch(
         req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-        starts=req.starts, options=pg_opts, pos_tol=req.pos_tol,
+        starts=req.starts, options=pg_opts, pos_tol=req.pos_tol, first_starts=req.first_starts,
     )
     base.pop("criterion", None)
     return polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,

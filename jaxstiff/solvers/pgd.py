@@ -8,25 +8,40 @@ last usable waypoint before it, exactly as :func:`jaxstiff.results.reference_sta
 one compilation serves every chunk of the same shape (chunks are padded to the chunk size).
 
 One waypoint, one start (``x = [q_free, kj]``, box ``[lb, ub]`` = joint/stiffness limits
-intersected with the rate box around the reference state):
+intersected with the rate box around the reference state, rounded inwards so that
+``|x - x_ref| <= dq, dk`` holds exactly in floating point):
 
 1. start point: the reference state clipped into the box (start 0) or a uniform random point
    of a sub-box around it (starts 1..S-1); at the first waypoint without rate limits the joint
    perturbation is large (``posture_spread`` rad), so that after the Newton correction the starts
-   are distinct null-space postures of the arm on the same TCP point;
+   are distinct null-space postures of the arm on the same TCP point, and the stiffnesses are
+   drawn log-uniformly over ``[kmin, kmax]`` (the minima of f1/f2 often have several joints
+   near ``kmin``, which uniform draws almost never visit);
 2. Newton corrections onto the path (minimum-norm Gauss-Newton on the free joints, clipped to the
    box; joints that hit a bound are frozen for the rest of the correction, so every Newton step
    respects the box);
-3. ``iters`` projected gradient steps: the gradient of the criterion in box-scaled variables
-   (each coordinate divided by its box width), bound-active coordinates removed, the joint part
-   projected onto the null space of the position Jacobian (first-order motion along the path
-   constraint), normalised to unit length and scaled by a geometrically decaying step size
-   ``step0 -> step1`` (normalised steps with decay do not chatter at the kinks of f1/f2:
-   |alpha|, |r - rho|, min(rho, r)); after each step: clip into the box, ``newton`` corrections;
-4. the best iterate (lowest criterion among iterates whose position error is below
+3. first waypoint only: a warm-up on a smooth shape surrogate (``surrogate_first``);
+4. f1 and f2: ``lm_iters`` (first waypoint ``lm_iters_first``) box-constrained
+   Levenberg-Marquardt steps on residuals whose zeros are exactly the criterion's minimum set
+   (position rows, alignment of d with an eigenvector of K, log of the axis ratio minus log r;
+   :meth:`_Ops.lm_residual`). Where the minimum set is reachable this converges to it to ~1e-9
+   in a few steps, which first-order steps on the kinked criteria (|alpha|, |r - rho|) do not;
+   where it is not, the alignment rows weigh ``lm_walign`` times more than the ratio row, as the
+   criteria weigh degrees of alpha;
+5. projected Adam steps on the criterion itself (``iters``; after the LM stage ``iters_lm``; first
+   waypoint ``iters_first``) in box-scaled variables (each coordinate divided by its box width),
+   bound-active coordinates removed, the joint part projected onto the null space of the position
+   Jacobian, a geometrically decaying step ``step0 -> step1``; after each step: clip into the
+   box, ``newton`` corrections. Its first iterate is the LM point, so it never returns worse;
+6. the best iterate (lowest criterion among iterates whose position error is below
    ``accept_tol``) gets a final ``polish`` Newton corrections; the final status is decided on
    that point exactly as :mod:`jaxstiff.results` defines it: every coordinate inside the box
    (by construction: clip), position error <= ``pos_tol``, criterion finite.
+
+Among the usable starts whose criterion is within ``tie_tol`` (relative) of the best, the one
+farthest from the joint and stiffness limits (normalised, stiffness in log scale) is kept: f1 and
+f2 have whole sets of optimal states, and one with a stiffness pinned at ``kmin``/``kmax`` or a
+joint at its limit may leave no room to follow the rest of the path.
 
 Two ways to use the S starts (``options["mode"]``):
 
@@ -86,6 +101,7 @@ DEFAULT_OPTIONS: dict[str, Any] = {
     "spread": 0.5,  # random starts: fraction of the box half-width around the reference
     "posture_spread": 0.6,  # rad, joint perturbation of the first-waypoint postures (no rate limit)
     "accept_tol": 1e-7,  # m, position error of an iterate that may be kept as the best
+    "iters_lm": 10,  # criterion iterations after the LM stage (f1, f2; later waypoints)
     "lm_iters": 20,  # Levenberg-Marquardt steps on the f1/f2 residuals before the gradient stage
     "lm_iters_first": 25,  # the same at the first waypoint
     "lm_wpos": 1e3,  # 1/m, weight of the position rows in the LM residual
@@ -103,7 +119,7 @@ def _options(options: dict | None, starts: int | None) -> dict[str, Any]:
     unknown = set(opts) - set(DEFAULT_OPTIONS) - {"maxiter", "ftol", "kj_scale", "f_scale", "polish_slsqp", "traj_iters", "traj_step0", "traj_step1", "warm", "blocks", "mu0", "chain"}
     if unknown:
         raise ValueError(f"unknown pgd option(s) {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
-    for k in ("starts", "iters", "chunk"):
+    for k in ("starts", "iters", "iters_first", "iters_lm", "chunk"):
         if int(opts[k]) < 1:
             raise ValueError(f"pgd option {k!r} must be >= 1, got {opts[k]}")
     for k in ("newton", "polish"):
@@ -309,6 +325,8 @@ def _optimise(ops: _Ops, x0, lb, ub, target, d, r, c, kspan, opts, first=False, 
     """
     if first:
         opts = {**opts, "iters": opts["iters_first"], "surrogate": opts["surrogate_first"], "step0": opts["step0_first"]}
+    elif lm is not None:
+        opts = {**opts, "iters": opts["iters_lm"]}
     iters = int(opts["iters"])
     ns = int(round(float(opts["surrogate"]) * iters))
     if ns > 0:
@@ -395,7 +413,8 @@ def _finish(ops: _Ops, x, lb, ub, target, d, r, c, pos_tol, polish):
 
 def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
     """The per-trajectory function ``(targets (P,3), dirs (P,3), x0 (nx,), key, dq_f, dk, kmin,
-    kmax, r, c, pos_tol) -> dict`` (traceable, vmappable over trajectories)."""
+    kmax, r, c, pos_tol, extra (E, nx)) -> dict`` (traceable, vmappable over trajectories);
+    ``extra``: given first-waypoint start states (E may be 0)."""
     ops = _Ops(problem)
     S = int(opts["starts"])
     mode = opts["mode"]
@@ -457,7 +476,7 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
         i_near = jnp.argmax(jnp.where(near, room, -jnp.inf))
         return jnp.where(jnp.any(usable), i_near, jnp.argmin(jnp.where(finite, err, jnp.inf)))
 
-    def traj(targets, dirs, x0, key, dq_f, dk, kmin, kmax, r, c, pos_tol):
+    def traj(targets, dirs, x0, key, dq_f, dk, kmin, kmax, r, c, pos_tol, extra):
         kspan = kmax - kmin
 
         def step(carry, inp):
@@ -495,6 +514,10 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
         rate0 = jnp.asarray(first_rate)
         lb0, ub0 = ops.box(x0, rate0, dq_f, dk, kmin, kmax)
         xs0 = starts_at(keys[P], x0, lb0, ub0, rate0, kmin, kmax, S=S1)
+        # given start states (greedy SLSQP's IK postures) replace random starts 1..E
+        E = min(extra.shape[0], S1 - 1)
+        if E > 0:
+            xs0 = xs0.at[1 : 1 + E].set(_clip(extra[:E], lb0[None, :], ub0[None, :]))
         x1, f1, e1, u1, fin1 = vfirst(xs0, lb0, ub0, targets[0], dirs[0], r, c, kspan, pos_tol, rate0)
         st1 = jnp.where(u1, R.SOLVED, jnp.where(fin1, R.UNREACHABLE, R.NONFINITE))
         x1 = jnp.where(fin1[:, None], x1, _clip(x0, lb0, ub0)[None, :])
@@ -525,7 +548,7 @@ def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
     opts = dict(opts_items)
     traj = make_kernel(problem, opts, first_rate)
     # per path: targets, directions, start state, key, rate limits (dq_f, dk) and ratio
-    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None))
+    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None, 0))
     return jax.jit(batched)
 
 
@@ -550,6 +573,7 @@ def solve_batch(
     options: dict | None = None,
     pos_tol: float = POS_TOL,
     return_timing: bool = False,
+    first_starts=None,
 ) -> dict[str, np.ndarray]:
     """Shape B paths with multi-start projected gradient (the solver behind ``solver="pgd"``).
 
@@ -565,6 +589,9 @@ def solve_batch(
         options: see :data:`DEFAULT_OPTIONS`.
         pos_tol: m, position error of a usable waypoint.
         return_timing: also return ``compile_s`` and ``run_s`` (first chunk's compile apart).
+        first_starts: per path, a list of start states ``(q (n,), kj (n,))`` for the first waypoint
+            (e.g. :func:`jaxstiff.shaping.first_start_postures`, greedy SLSQP's IK postures); they
+            replace random first-waypoint starts 1..E (at most ``starts_first - 1`` of them).
 
     Returns:
         dict with ``q``, ``kj`` (B,P,n), ``status``, ``pos_error``, ``solver_code``, ``nit``,
@@ -590,6 +617,10 @@ def solve_batch(
     # does not depend on its position in the batch or on the chunk size
     from .problem import content_seed
 
+    E = min(len(fs) for fs in first_starts) if first_starts else 0
+    extra = np.zeros((B, E, problem.nx))
+    for b in range(B if E else 0):
+        extra[b] = [problem.x_of(np.asarray(qs, float), np.asarray(ks, float)) for qs, ks in first_starts[b][:E]]
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     X = np.zeros((B, P, problem.nx))
     out = {k: np.zeros((B, P), dt) for k, dt in (("status", np.int64), ("solver_code", np.int64), ("pos_error", float), ("criterion", float), ("time_s", float))}
@@ -602,12 +633,12 @@ def solve_batch(
             args = (
                 _pad(targets[sl], C), _pad(directions[sl], C), _pad(x0[sl], C), keys,
                 _pad(dq_f[sl], C), _pad(dk[sl], C), float(limits.kmin), float(limits.kmax), _pad(r_arr[sl], C),
-                float(c), float(pos_tol),
+                float(c), float(pos_tol), _pad(extra[sl], C),
             )
             if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
                 from .._sharding import shard_rows
 
-                placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 4, 5, 8)})
+                placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
                 args = tuple(placed.get(i, a) for i, a in enumerate(args))
             t0 = time.perf_counter()
             if s == 0:
@@ -632,8 +663,15 @@ def solve_batch(
     q[..., list(problem.free_idx)] = X[..., :nf]
     out["q"], out["kj"] = q, X[..., nf:].copy()
     S = int(opts["starts"])
-    out["nit"] = np.full((B, P), int(opts["iters"]), np.int64)
-    out["nfev"] = np.full((B, P), S * (int(opts["iters"]) + 1), np.int64)
+    S1 = max(S, int(opts["starts_first"])) if opts["mode"] == "best" else S
+    lm = problem.criterion is _f1 or problem.criterion is _f2
+    # fixed iteration counts per start (gradient/LM steps), first waypoint apart
+    it = int(opts["iters_lm"]) + int(opts["lm_iters"]) if lm else int(opts["iters"])
+    it1 = int(opts["iters_first"]) + (int(opts["lm_iters_first"]) if lm else 0)
+    out["nit"] = np.full((B, P), it, np.int64)
+    out["nit"][:, 0] = it1
+    out["nfev"] = np.full((B, P), S * (it + 1), np.int64)
+    out["nfev"][:, 0] = S1 * (it1 + 1)
     if return_timing:
         out["compile_s"], out["run_s"] = compile_s, run_s
     return out
@@ -643,7 +681,7 @@ def run_request(req) -> dict[str, np.ndarray]:
     """Adapter for :data:`jaxstiff.shaping.SOLVERS` (``solver="pgd"``)."""
     res = solve_batch(
         req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-        starts=req.starts, options=req.options, pos_tol=req.pos_tol,
+        starts=req.starts, options=req.options, pos_tol=req.pos_tol, first_starts=req.first_starts,
     )
     res.pop("criterion", None)
     return res
