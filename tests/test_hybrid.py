@@ -28,3 +28,33 @@ def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
     assert np.all(gre.criterion[:, 0] <= ref.criterion[:, 0] * (1 + 1e-3))  # SLSQP stops within ftol
     assert np.all(R.is_usable(gre.status))
     check_file(gre, tmp_path, "g.npz")
+
+
+def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
+    """A waypoint no solver can reach, where pgd's stored (unusable) state lies outside the box of
+    the hybrid's own chain (pgd's chain differs): the hybrid reports it unreachable with a state
+    inside its box, so the rate limits hold at every waypoint (the file check tests them all)."""
+    import jaxstiff
+    from jaxstiff.criteria import get_criterion
+    from jaxstiff.solvers import hybrid
+    from jaxstiff.solvers.problem import Limits, WaypointProblem
+    from test_pgd import PLANAR
+
+    path, q0 = planar_paths(1, 4, seed=1)
+    pts = path.points.copy()
+    pts[0, 2, :2] *= 10.0  # far outside the arm's reach
+    base_res = run(jaxstiff.Path(pts, path.directions), q0)
+    assert base_res.status[0, 2] == R.UNREACHABLE
+    base = {k: np.array(getattr(base_res, k)) for k in ("q", "kj", "status", "pos_error", "solver_code", "nit", "nfev", "time_s")}
+    base["kj"][0, 2] = 100.0  # as if pgd's chain had carried another stiffness there
+    problem = WaypointProblem(PLANAR, "xy", get_criterion("f2"))
+    dk = 5.0
+    limits = Limits(dq=np.full(3, 0.1), dk=np.full(3, dk), kmin=1.0, kmax=100.0, first_rate_limit=False)
+    out = hybrid.polish(problem, pts, base_res.direction, q0, np.full((1, 3), 50.5), limits, 3.0, 0.0, base,
+                        options={"chain": "greedy"})
+    assert out["status"][0, 2] == R.UNREACHABLE
+    assert np.all(R.is_usable(out["status"][0, [0, 1, 3]]))
+    # waypoint 2's reference is waypoint 1 (the last usable one), waypoint 3's too
+    for p in (2, 3):
+        assert np.all(np.abs(out["kj"][0, p] - out["kj"][0, 1]) <= dk), (p, out["kj"][0, p], out["kj"][0, 1])
+        assert np.all(np.abs(out["q"][0, p] - out["q"][0, 1]) <= 0.1)

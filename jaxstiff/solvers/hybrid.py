@@ -162,6 +162,13 @@ def polish(
                 usable_now = False
             else:
                 usable_now = have
+                if not have and np.all(lb <= ub):
+                    # an unusable waypoint still reports a state inside its own box (bounds and rate
+                    # limits hold at every waypoint): pgd's point, from pgd's chain, may be outside
+                    # the box of the hybrid's chain
+                    xc = clip_to_box(Xb[p], lb, ub)
+                    out["q"][b, p, free] = xc[:nf]
+                    out["kj"][b, p] = xc[nf:]
             out["time_s"][b, p] += time.perf_counter() - t0
             if usable_now:
                 q_ref = out["q"][b, p].copy()
