@@ -74,13 +74,13 @@ def main(argv=None) -> int:
         ("slsqp", "slsqp", None, {}),
         ("pgd_S1", "pgd", 1, {"starts_first": 1}),
         (f"pgd_S{S}", "pgd", S, {}),
-        (f"pgd_S{S}_rollout", "pgd", S, {"mode": "rollout"}),
+        (f"pgd_S{S}_best", "pgd", S, {"mode": "best"}),
         ("hybrid", "hybrid", S, {}),
         ("traj_from_slsqp", "_traj_slsqp", None, {}),
         ("traj_from_pgd", "_traj_pgd", None, {}),
     ]
-    if args.quick:  # the rollout mode and the pgd-warm trajectory only in the full study
-        settings = [s_ for s_ in settings if s_[0] not in (f"pgd_S{S}_rollout", "traj_from_pgd")]
+    if args.quick:  # the "best" mode and the pgd-warm trajectory only in the full study
+        settings = [s_ for s_ in settings if s_[0] not in (f"pgd_S{S}_best", "traj_from_pgd")]
     if args.only:
         settings = [s_ for s_ in settings if s_[0] in args.only.split(",")]
     register_solver("_traj_slsqp", traj_from("slsqp"))

@@ -94,9 +94,10 @@ def test_pgd_quality_close_to_slsqp(batch3):
 
 
 
-def test_rollout_mode_feasible(tmp_path):
+@pytest.mark.parametrize("mode", ["rollout", "best"])
+def test_both_modes_feasible(tmp_path, mode):
     path, q0 = planar_paths(2, 4, seed=3)
-    res = run(path, q0, options={**OPTS, "mode": "rollout"})
+    res = run(path, q0, options={**OPTS, "mode": mode})
     assert np.all(R.is_usable(res.status))
     check_file(res, tmp_path)
 
