@@ -85,7 +85,7 @@ from .. import results as R
 from ..criteria import f1 as _f1, f2 as _f2
 from ..kinematics import position_and_jacobian
 from ..stiffness import task_rows, translational_stiffness
-from .problem import POS_TOL, Limits, WaypointProblem, rate_bounds
+from .problem import POS_TOL, Limits, WaypointProblem, content_seed, rate_bounds
 
 __all__ = ["DEFAULT_OPTIONS", "solve_batch", "make_kernel"]
 
@@ -309,6 +309,11 @@ def _complement_basis(d):
     return jnp.stack([e1, e2], axis=1)
 
 
+def _lm_kind(problem: WaypointProblem) -> str | None:
+    """``"f1"``/``"f2"`` where the LM stage applies (the built-in criteria), else None."""
+    return "f2" if problem.criterion is _f2 else ("f1" if problem.criterion is _f1 else None)
+
+
 def _clip(x, lb, ub):
     return jnp.minimum(jnp.maximum(x, lb), ub)
 
@@ -443,7 +448,7 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
         xs = xs.at[0].set(xref)
         return _clip(xs, lb[None, :], ub[None, :])
 
-    kind = "f2" if problem.criterion is _f2 else ("f1" if problem.criterion is _f1 else None)
+    kind = _lm_kind(problem)
     lm_it = int(opts["lm_iters_first"]), int(opts["lm_iters"])
     wpos, walign = float(opts["lm_wpos"]), float(opts["lm_walign"])
 
@@ -620,8 +625,6 @@ def solve_batch(
     base = jax.random.PRNGKey(int(opts["seed"]))
     # each path's key from the seed and the path's own data, never from its index: a path's result
     # does not depend on its position in the batch or on the chunk size
-    from .problem import content_seed
-
     E = min(len(fs) for fs in first_starts) if first_starts else 0
     extra = np.zeros((B, E, problem.nx))
     for b in range(B if E else 0):
@@ -669,7 +672,7 @@ def solve_batch(
     out["q"], out["kj"] = q, X[..., nf:].copy()
     S = int(opts["starts"])
     S1 = max(S, int(opts["starts_first"])) if opts["mode"] == "best" else S
-    lm = problem.criterion is _f1 or problem.criterion is _f2
+    lm = _lm_kind(problem) is not None
     # fixed iteration counts per start (gradient/LM steps), first waypoint apart
     it = int(opts["iters_lm"]) + int(opts["lm_iters"]) if lm else int(opts["iters"])
     it1 = int(opts["iters_first"]) + (int(opts["lm_iters_first"]) if lm else 0)
