@@ -263,7 +263,7 @@ class _Ops:
         divided by 3), else the damping is multiplied by 4.
         """
         res = lambda z: self.lm_residual(z, target, d, r, kind, wpos, walign)  # noqa: E731
-        jac = jax.jacfwd(res)
+        jac = jax.jacrev(res)
         nr = len(self.rows) + (3 if self.pr.m == 3 else 2) + 1
         eye = jnp.eye(nr, dtype=x.dtype)
 
