@@ -100,7 +100,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .criteria import frobenius, offdiag
-from .kinematics import fk_and_jacobian, position_and_jacobian
+from .kinematics import _cross_cols, fk_and_jacobian, jacobian_tangent, position_and_jacobian
 from .robot import Robot
 from .stiffness import TASK_ROWS, cartesian_stiffness
 
@@ -239,13 +239,6 @@ def _spd_inverse(A: jax.Array) -> jax.Array:
     return jax.scipy.linalg.cho_solve((L, True), eye)
 
 
-def _cross(a: jax.Array, b: jax.Array) -> jax.Array:
-    """Cross product over axis -2 of (..., 3, k) arrays."""
-    a0, a1, a2 = a[..., 0, :], a[..., 1, :], a[..., 2, :]
-    b0, b1, b2 = b[..., 0, :], b[..., 1, :], b[..., 2, :]
-    return jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-2)
-
-
 def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]):
     """``u(q)`` (S1-19) and ``grad u(q)`` (n,) from the full geometric Jacobian J6 (6, n) at q.
 
@@ -282,35 +275,18 @@ def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...
     G = jnp.sum(KJ[..., :, :, None] * M[..., None, :, :], axis=-2) * inv_u[..., None, None]  # (m, n)
     G6 = jnp.concatenate([G, jnp.zeros_like(J6[..., m:, :])], axis=-2)
     Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
-    a = _cross(Jv, Gv) + _cross(Jw, Gw)  # (3, n): term of joint i
+    a = _cross_cols(Jv, Gv) + _cross_cols(Jw, Gw)  # (3, n): term of joint i
     suffix = jnp.cumsum(a[..., ::-1], axis=-1)[..., ::-1] - a  # sum over i > k
-    prefix = jnp.cumsum(_cross(Gv, Jw), axis=-1)  # sum over i <= k
+    prefix = jnp.cumsum(_cross_cols(Gv, Jw), axis=-1)  # sum over i <= k
     g = jnp.sum(Jw * suffix, axis=-2) + jnp.sum(Jv * prefix, axis=-2)
     return u, g
-
-
-def _jacobian_tangent(J6: jax.Array, qd: jax.Array):
-    """Directional derivative of the TCP position and of J6 (6, n) along qd (n,), from J6 alone.
-
-    With columns ``[v_i; w_i]`` (``w_i`` = 0 for prismatic joints), ``Om_i = sum_{k<i} qd_k w_k`` and
-    ``V_i = sum_{k>=i} qd_k v_k``: ``dp = sum_k qd_k v_k``, ``dv_i = Om_i x v_i + w_i x V_i``,
-    ``dw_i = Om_i x w_i`` (the closed-form Jacobian derivative of :func:`_offdiag_value_and_grad`).
-    Returns ``(dp (3,), dJ6 (6, n), omega (3,))``, omega the TCP's angular velocity.
-    """
-    v, w = J6[..., :3, :], J6[..., 3:, :]
-    wq, vq = w * qd[..., None, :], v * qd[..., None, :]
-    Om = jnp.cumsum(wq, axis=-1) - wq
-    V = jnp.cumsum(vq[..., ::-1], axis=-1)[..., ::-1]
-    dv = _cross(Om, v) + _cross(w, V)
-    dw = _cross(Om, w)
-    return jnp.sum(vq, axis=-1), jnp.concatenate([dv, dw], axis=-2), jnp.sum(wq, axis=-1)
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
 def _pos_jac(robot: Robot, q: jax.Array):
     """``position_and_jacobian(robot, q)`` (all 6 rows) with a closed-form JVP.
 
-    The JVP needs only the Jacobian itself (:func:`_jacobian_tangent`), so reverse mode through a
+    The JVP needs only the Jacobian itself (:func:`jacobian_tangent`), so reverse mode through a
     rollout never differentiates the kinematics kernel's internals: the backward pass of a step
     costs a few cross products instead of a reverse sweep through the chain.
     """
@@ -321,7 +297,7 @@ def _pos_jac(robot: Robot, q: jax.Array):
 def _pos_jac_jvp(robot, primals, tangents):
     (q,), (qd,) = primals, tangents
     p, J6 = _pos_jac(robot, q)
-    dp, dJ6, _ = _jacobian_tangent(J6, qd)
+    dp, dJ6, _ = jacobian_tangent(J6, qd)
     return (p, J6), (dp, dJ6)
 
 
@@ -336,8 +312,8 @@ def _pose_jac(robot: Robot, q: jax.Array):
 def _pose_jac_jvp(robot, primals, tangents):
     (q,), (qd,) = primals, tangents
     p, R, J6 = _pose_jac(robot, q)
-    dp, dJ6, om = _jacobian_tangent(J6, qd)
-    dR = _cross(jnp.broadcast_to(om[..., :, None], R.shape), R)  # omega x each column of R
+    dp, dJ6, om = jacobian_tangent(J6, qd)
+    dR = _cross_cols(jnp.broadcast_to(om[..., :, None], R.shape), R)  # omega x each column of R
     return (p, R, J6), (dp, dR, dJ6)
 
 

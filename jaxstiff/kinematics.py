@@ -34,7 +34,7 @@ import jax.numpy as jnp
 
 from .robot import JOINT_PRISMATIC, Robot
 
-__all__ = ["fk", "jacobian", "fk_and_jacobian", "position_and_jacobian"]
+__all__ = ["fk", "jacobian", "fk_and_jacobian", "position_and_jacobian", "jacobian_tangent"]
 
 Scalar = Union[float, jax.Array]  # a Python float is a compile-time constant
 
@@ -320,3 +320,31 @@ def position_and_jacobian(robot: Robot, q: jax.Array, rows: tuple[int, ...] = (0
     _, p, frames = _chain(robot, q, want_jacobian=True)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
     return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)
+
+
+# ------------------------------------------------------------------ derivatives from J alone
+def _cross_cols(a: jax.Array, b: jax.Array) -> jax.Array:
+    """Cross product over axis -2 of (..., 3, k) arrays."""
+    a0, a1, a2 = a[..., 0, :], a[..., 1, :], a[..., 2, :]
+    b0, b1, b2 = b[..., 0, :], b[..., 1, :], b[..., 2, :]
+    return jnp.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-2)
+
+
+def jacobian_tangent(J6: jax.Array, qd: jax.Array):
+    """Directional derivative of the TCP position and of J6 (6, n) along qd (n,), from J6 alone.
+
+    With columns ``[v_i; w_i]`` (``w_i`` = 0 for prismatic joints), ``Om_i = sum_{k<i} qd_k w_k`` and
+    ``V_i = sum_{k>=i} qd_k v_k``: ``dp = sum_k qd_k v_k``, ``dv_i = Om_i x v_i + w_i x V_i``,
+    ``dw_i = Om_i x w_i``: the closed-form derivative of the geometric Jacobian of a serial chain
+    (``d v_i/d q_k = w_k x v_i`` for k < i and ``w_i x v_k`` for k >= i; ``d w_i/d q_k = w_k x w_i``
+    for k < i, else 0), O(n) cross products and no differentiation of the chain.
+    Returns ``(dp (3,), dJ6 (6, n), omega (3,))``, omega the TCP's angular velocity; batches over
+    leading axes.
+    """
+    v, w = J6[..., :3, :], J6[..., 3:, :]
+    wq, vq = w * qd[..., None, :], v * qd[..., None, :]
+    Om = jnp.cumsum(wq, axis=-1) - wq
+    V = jnp.cumsum(vq[..., ::-1], axis=-1)[..., ::-1]
+    dv = _cross_cols(Om, v) + _cross_cols(w, V)
+    dw = _cross_cols(Om, w)
+    return jnp.sum(vq, axis=-1), jnp.concatenate([dv, dw], axis=-2), jnp.sum(wq, axis=-1)

@@ -488,3 +488,25 @@ def test_random_chains_match_numpy_fk_and_finite_differences(joints, seed):
     T_fd = fd6(lambda x: _fk_from_parameters(joints, x), q)
     J_fd = jacobian_from_pose_derivative(_fk_from_parameters(joints, q), T_fd)
     assert_close(J, J_fd, rtol=0, atol=1e-10, what="J vs finite differences")
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(joints=random_chains(), seed=st.integers(0, 2**31 - 1))
+def test_jacobian_tangent_matches_autodiff_on_random_chains(joints, seed):
+    """The closed-form derivative of J (from J alone) against forward-mode autodiff through the
+    chain, revolute, prismatic and fixed joints mixed."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "random.urdf")
+        with open(path, "w") as fh:
+            fh.write(_chain_urdf(joints))
+        robot = jaxstiff.Robot.from_urdf(path, tip_link=f"l{len(joints)}")
+    rng = np.random.default_rng(seed)
+    q = jnp.asarray(rng.uniform(-3.0, 3.0, size=robot.n))
+    qd = jnp.asarray(rng.normal(size=robot.n))
+    T, J = jaxstiff.fk_and_jacobian(robot, q)
+    (_, J_ad), (dT, dJ_ad) = jax.jvp(lambda x: jaxstiff.fk_and_jacobian(robot, x), (q,), (qd,))
+    dp, dJ, omega = jaxstiff.kinematics.jacobian_tangent(J, qd)
+    assert_close(dp, dT[:3, 3], rtol=0, atol=1e-12, what="dp")
+    assert_close(dJ, dJ_ad, rtol=0, atol=1e-12, what="dJ")
+    # omega: dR = [omega]x R
+    assert_close(dT[:3, :3], np.cross(np.asarray(omega)[:, None], np.asarray(T[:3, :3]), axis=0), rtol=0, atol=1e-12, what="omega")

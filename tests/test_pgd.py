@@ -167,3 +167,54 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
                         rho = w[-1] / w[-2]
                         b = np.log(rho / r) if kind == "f2" else min(np.log(rho / r), 0.0)
                         assert abs(e[-1] - b) < 1e-9, (e[-1], b)
+
+
+@pytest.mark.parametrize(
+    "robot_name,task,locked", [("planar_3r", "xy", None), ("kuka_lwr4", "full", {"lwr_a7": 0.0}), ("kuka_lwr4", "xyz", None)]
+)
+def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
+    """The LM stage's Jacobian (closed-form kinematic and stiffness derivatives) against forward-mode
+    autodiff of the residual through the whole chain, and its residual against :meth:`lm_residual`,
+    at random postures and stiffnesses (f1 with the ratio row active and inactive, f2)."""
+    import jax
+
+    from jaxstiff.criteria import get_criterion
+    from jaxstiff.solvers.problem import WaypointProblem
+
+    robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)
+    rng = np.random.default_rng(11)
+    with jax.enable_x64(True):
+        for kind, r in (("f1", 1.5), ("f1", 40.0), ("f2", 5.0)):
+            ops = pgd._Ops(WaypointProblem(robot, task, get_criterion(kind)))
+            for _ in range(4):
+                q = rng.uniform(robot.lower * 0.8, robot.upper * 0.8)
+                kj = np.exp(rng.uniform(0.0, np.log(100.0), robot.n))
+                x = jax.numpy.asarray(np.r_[q[list(ops.pr.free_idx)], kj])
+                tgt = jax.numpy.asarray(numpy_fk(robot, q)[:3, 3] + rng.normal(size=3) * 0.01)
+                d = jax.numpy.asarray(rng.normal(size=3))
+                args = (tgt, d, r, kind, 1e3, 100.0)
+                e, jac = ops.lm_residual_and_jacobian(x, *args)
+                e_ref = ops.lm_residual(x, *args)
+                jac_ref = jax.jacfwd(lambda z: ops.lm_residual(z, *args))(x)
+                assert jac.shape == jac_ref.shape == (e.shape[0], x.shape[0])
+                np.testing.assert_allclose(e, e_ref, rtol=1e-9, atol=1e-9)
+                # per row, relative to the row's largest entry (the rows differ by orders of magnitude)
+                scale = np.abs(np.asarray(jac_ref)).max(axis=1, keepdims=True) + 1e-12
+                err = np.abs(np.asarray(jac) - np.asarray(jac_ref)) / scale
+                assert err.max() < 1e-9, (kind, r, err.max(), np.unravel_index(err.argmax(), err.shape))
+
+
+def test_unrolled_spd_solve_against_numpy():
+    """The unrolled Cholesky solve used in the kernels: numpy's solve on random SPD systems of the
+    sizes that occur (1..7), batched by vmap, and finite on an all-zero system."""
+    import jax
+
+    rng = np.random.default_rng(5)
+    with jax.enable_x64(True):
+        for k in range(1, 8):
+            M = rng.normal(size=(16, k, k + 2))
+            A = M @ np.swapaxes(M, -1, -2) + 1e-3 * np.eye(k)
+            b = rng.normal(size=(16, k))
+            x = jax.vmap(pgd._spd_solve)(jax.numpy.asarray(A), jax.numpy.asarray(b))
+            np.testing.assert_allclose(x, np.linalg.solve(A, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)
+        assert np.all(np.isfinite(pgd._spd_solve(jax.numpy.zeros((3, 3)), jax.numpy.zeros(3))))

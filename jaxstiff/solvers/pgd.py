@@ -83,8 +83,8 @@ import numpy as np
 
 from .. import results as R
 from ..criteria import f1 as _f1, f2 as _f2
-from ..kinematics import position_and_jacobian
-from ..stiffness import task_rows, translational_stiffness
+from ..kinematics import jacobian_tangent, position_and_jacobian
+from ..stiffness import _fusion_boundary, _inverse_primal, task_rows, translational_stiffness
 from .problem import POS_TOL, Limits, WaypointProblem, content_seed, rate_bounds
 
 __all__ = ["DEFAULT_OPTIONS", "solve_batch", "make_kernel"]
@@ -185,7 +185,7 @@ class _Ops:
             Ja = jnp.where(active[None, :], 0.0, J)
             JJt = Ja @ Ja.T
             mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
-            step = Ja.T @ jnp.linalg.solve(JJt + mu * jnp.eye(k, dtype=x.dtype), e)
+            step = Ja.T @ _spd_solve(JJt + mu * jnp.eye(k, dtype=x.dtype), e)
             step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
             raw = x[: self.nf] + step
             new = jnp.minimum(jnp.maximum(raw, lb[: self.nf]), ub[: self.nf])
@@ -229,9 +229,21 @@ class _Ops:
         No eigen-decomposition of K: lambda_max of the 2x2 ``E^T Kn E`` is a closed form with a
         smoothed square root, so the residuals are smooth everywhere (spheres included).
         """
-        q, kj = self.pr.q_of(x), self.pr.kj_of(x)
-        p, J = position_and_jacobian(self.pr.robot, q, task_rows(self.pr.task))
-        K = translational_stiffness(J, kj, task=self.pr.task)
+        q = self.pr.q_of(x)
+        p, J6 = position_and_jacobian(self.pr.robot, q)
+        return self._residual_of(p, J6, self.pr.kj_of(x), target, d, r, kind, wpos, walign)
+
+    def _residual_of(self, p, J6, kj, target, d, r, kind: str, wpos, walign):
+        """:meth:`lm_residual` from the TCP position, the full Jacobian and the joint stiffnesses."""
+        K = translational_stiffness(J6[..., list(task_rows(self.pr.task)), :], kj, task=self.pr.task)
+        return jnp.concatenate([self._pos_rows(p, target, wpos), self._shape_rows(K, d, r, kind, walign)])
+
+    def _pos_rows(self, p, target, wpos):
+        rows = jnp.asarray(list(self.rows))
+        return wpos * (p[rows] - target[rows])
+
+    @staticmethod
+    def _shape_rows(K, d, r, kind: str, walign):
         m = K.shape[-1]
         dd = d[:m] / jnp.maximum(jnp.linalg.norm(d[:m]), 1e-300)
         Kn = K / jnp.maximum(jnp.trace(K) / m, 1e-300)
@@ -248,9 +260,49 @@ class _Ops:
         b = jnp.log(dKd) - jnp.log(jnp.maximum(lam2, 1e-12)) - jnp.log(r)
         if kind == "f1":
             b = jnp.minimum(b, 0.0)
-        rows = list(self.rows)
-        e = wpos * (p[jnp.asarray(rows)] - target[jnp.asarray(rows)])
-        return jnp.concatenate([e, walign * a, b[None]])
+        return jnp.concatenate([walign * a, b[None]])
+
+    def lm_residual_and_jacobian(self, x, target, d, r, kind: str, wpos, walign):
+        """:meth:`lm_residual` (nr,) and its Jacobian (nr, nx), without differentiating the chain.
+
+        The kinematics are evaluated once and their derivative along each free joint is the closed
+        form :func:`jaxstiff.kinematics.jacobian_tangent` (from J alone). The stiffness derivatives
+        are closed forms too: with ``C = J_s W J_s^T`` (``W = diag(1/kj)``), its (damped) inverse
+        ``K_C``, ``P`` the translational columns of ``K_C`` (``K_T`` their top block; ``dK_C = -K_C
+        dC K_C``), ``G = P^T J_s`` and ``H_j = P^T dJ_s/dq_j``:
+        ``dK_T/dq_j = -(H_j W G^T + G W H_j^T)`` and ``dK_T/dkj_i = g_i g_i^T / kj_i^2`` (g_i the
+        column i of G), the damping held fixed as in :func:`jaxstiff.stiffness.translational_stiffness`.
+        Only the tiny map ``K_T -> shape rows`` is differentiated by JAX. Several times cheaper
+        than ``jax.jacrev`` of :meth:`lm_residual` through the chain.
+        """
+        q, kj = self.pr.q_of(x), self.pr.kj_of(x)
+        p, J6 = position_and_jacobian(self.pr.robot, q)
+        n, nf = self.n, self.nf
+        dt = x.dtype
+        dp, dJ6, _ = jacobian_tangent(J6, jnp.eye(n, dtype=dt)[self.free])  # (nf, 3), (nf, 6, n)
+        rows_t = list(task_rows(self.pr.task))
+        Js, dJs = J6[rows_t, :], dJ6[:, rows_t, :]  # (m, n), (nf, m, n)
+        w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))
+        m = Js.shape[0]
+        t = 3 if m == 6 else m
+        C = jnp.sum(Js[:, None, :] * (Js * w)[None, :, :], axis=-1)
+        Kc = _damped_full_inverse(C)
+        P = Kc[:, :t]  # (m, t)
+        K = Kc[:t, :t]
+        G = jnp.sum(P[:, :, None] * Js[:, None, :], axis=0)  # (t, n)
+        H = jnp.sum(P[None, :, :, None] * dJs[:, :, None, :], axis=1)  # (nf, t, n)
+        HWG = jnp.sum(H[:, :, None, :] * (G * w)[None, None, :, :], axis=-1)  # (nf, t, t)
+        dKq = -(HWG + jnp.swapaxes(HWG, -1, -2))
+        gw = G * w  # (t, n)
+        dKk = gw.T[:, :, None] * gw.T[:, None, :]  # (n, t, t)
+        dK = jnp.concatenate([dKq, dKk])  # (nx, t, t)
+        shape = lambda K: self._shape_rows(K, d, r, kind, walign)  # noqa: E731
+        e_shape, dshape = jax.vmap(lambda T: jax.jvp(shape, (K,), (T,)))(dK)
+        ep = self._pos_rows(p, target, wpos)
+        rows_p = list(self.rows)
+        Jp = jnp.concatenate([wpos * dp[:, rows_p], jnp.zeros((n, len(rows_p)), dt)])  # (nx, k)
+        e = jnp.concatenate([ep, e_shape[0]])
+        return e, jnp.concatenate([Jp, dshape], axis=1).T
 
     def lm(self, x, lb, ub, target, d, r, kind: str, iters: int, wpos: float, walign: float, s):
         """``iters`` box-constrained Levenberg-Marquardt steps on :meth:`lm_residual`.
@@ -262,37 +314,68 @@ class _Ops:
         then clipped into the box. A step is kept only if it lowers the residual norm (damping
         divided by 3), else the damping is multiplied by 4.
         """
-        res = lambda z: self.lm_residual(z, target, d, r, kind, wpos, walign)  # noqa: E731
-        jac = jax.jacrev(res)
+        ev = lambda z: self.lm_residual_and_jacobian(z, target, d, r, kind, wpos, walign)  # noqa: E731
         nr = len(self.rows) + (3 if self.pr.m == 3 else 2) + 1
         eye = jnp.eye(nr, dtype=x.dtype)
 
         def solve(Jy, e, lam):
             A = Jy @ Jy.T
             mu = lam * jnp.maximum(jnp.trace(A) / nr, 1e-300)
-            return -Jy.T @ jnp.linalg.solve(A + mu * eye, e)
+            return -Jy.T @ _spd_solve(A + mu * eye, e)
+
+        def scaled(J):
+            Jy = J * s[None, :]
+            return jnp.where(jnp.isfinite(Jy), Jy, 0.0)
 
         def body(_, carry):
-            x, lam, e = carry
-            Jy = jac(x) * s[None, :]
-            Jy = jnp.where(jnp.isfinite(Jy), Jy, 0.0)
+            x, lam, e, Jy = carry
             dy = solve(Jy, e, lam)
             out = ((x <= lb) & (dy < 0)) | ((x >= ub) & (dy > 0)) | (s <= 0)
             dy = solve(jnp.where(out[None, :], 0.0, Jy), e, lam)
             dy = jnp.where(out, 0.0, dy)
             xn = _clip(x + s * dy, lb, ub)
-            en = res(xn)
+            en, Jn = ev(xn)
             ok = jnp.all(jnp.isfinite(en)) & jnp.all(jnp.isfinite(xn)) & (en @ en < e @ e)
             return (
                 jnp.where(ok, xn, x),
                 jnp.where(ok, jnp.maximum(lam / 3.0, 1e-9), jnp.minimum(lam * 4.0, 1e6)),
                 jnp.where(ok, en, e),
+                jnp.where(ok, scaled(Jn), Jy),
             )
 
-        e0 = res(x)
+        e0, J0 = ev(x)
         e0 = jnp.where(jnp.isfinite(e0), e0, 1e6)
-        x, _, _ = jax.lax.fori_loop(0, iters, body, (x, jnp.asarray(1e-3, x.dtype), e0))
+        x, _, _, _ = jax.lax.fori_loop(0, iters, body, (x, jnp.asarray(1e-3, x.dtype), e0, scaled(J0)))
         return x
+
+
+def _spd_solve(A, b):
+    """``A^-1 b`` for a small symmetric positive definite A (k, k) by an unrolled Cholesky
+    factorisation: under vmap this is elementwise arithmetic over the batch, several times
+    faster on a CPU than LAPACK's batched LU for k ~ 7."""
+    k = A.shape[-1]
+    tiny = jnp.finfo(A.dtype).tiny
+    L: dict = {}
+    inv = []
+    for j in range(k):
+        s = A[j, j] - sum((L[(j, i)] * L[(j, i)] for i in range(j)), start=jnp.zeros((), A.dtype))
+        L[(j, j)] = jnp.sqrt(jnp.maximum(s, tiny))
+        inv.append(1.0 / L[(j, j)])
+        for r in range(j + 1, k):
+            L[(r, j)] = (A[r, j] - sum((L[(r, i)] * L[(j, i)] for i in range(j)), start=jnp.zeros((), A.dtype))) * inv[j]
+    y = []
+    for r in range(k):
+        y.append((b[r] - sum((L[(r, i)] * y[i] for i in range(r)), start=jnp.zeros((), A.dtype))) * inv[r])
+    x: list = [None] * k
+    for r in reversed(range(k)):
+        x[r] = (y[r] - sum((L[(i, r)] * x[i] for i in range(r + 1, k)), start=jnp.zeros((), A.dtype))) * inv[r]
+    return jnp.stack(_fusion_boundary(x))
+
+
+def _damped_full_inverse(C):
+    """The damped inverse of a compliance, all of it (m, m): the same numbers as
+    :func:`jaxstiff.stiffness.translational_stiffness` uses (no derivative needed here)."""
+    return _inverse_primal(C, False)
 
 
 def _complement_basis(d):
@@ -387,7 +470,7 @@ def _descend(ops: _Ops, obj, x0, lb, ub, target, d, r, c, kspan, opts, iters, tr
             Jy = J * s[None, :nf] * free_c[None, :nf]
             JJt = Jy @ Jy.T
             mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
-            lam = jnp.linalg.solve(JJt + mu * jnp.eye(k, dtype=x.dtype), Jy @ u[:nf])
+            lam = _spd_solve(JJt + mu * jnp.eye(k, dtype=x.dtype), Jy @ u[:nf])
             uq = u[:nf] - Jy.T @ lam
             u = u.at[:nf].set(jnp.where(free_c[:nf], uq, 0.0))
         eta = s0 * decay**t
