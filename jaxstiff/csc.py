@@ -99,6 +99,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._xla import kernel_compiler_options
 from .criteria import frobenius, offdiag
 from .kinematics import _cross_cols, fk_and_jacobian, jacobian_tangent, position_and_jacobian
 from .robot import Robot
@@ -530,8 +531,21 @@ def _mtv_cols(K: jax.Array, J: jax.Array) -> jax.Array:
     return jnp.sum(K[..., :, :, None] * J[..., None, :, :], axis=-2)
 
 
-@functools.partial(jax.jit, static_argnums=(0, 1, 2))
-def _rollout_batch(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
+def _rollout_batch(*args):
+    """The jitted batch rollout (static: robot, settings, chunk). Called on concrete arrays it is
+    compiled with jaxstiff's kernel options (:mod:`jaxstiff._xla`); inside a caller's trace (jit,
+    grad) the caller's compilation decides (JAX refuses options on a nested jit)."""
+    traced = any(isinstance(a, jax.core.Tracer) for a in jax.tree_util.tree_leaves(args[3:]))
+    return _rollout_batch_jit(jax.default_backend(), not traced)(*args)
+
+
+@functools.lru_cache(maxsize=None)
+def _rollout_batch_jit(backend: str, top_level: bool):
+    opts = kernel_compiler_options() if top_level else None
+    return jax.jit(_rollout_batch_impl, static_argnums=(0, 1, 2), compiler_options=opts)
+
+
+def _rollout_batch_impl(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
     def one(xs):
         t, K, q, b, e = xs
         return _rollout_one(robot, st, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain)

@@ -35,6 +35,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions (best is reported)")
     ap.add_argument("--no-remat", action="store_true", help="store the scan residuals instead of recomputing them")
     ap.add_argument("--chunk", type=int, default=128, help="rollouts per vmap chunk (csc_rollout chunk=)")
+    ap.add_argument("--xla-defaults", action="store_true", help="compile with XLA's defaults, not jaxstiff's kernel options")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
 
@@ -46,6 +47,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     import jaxstiff
+    from jaxstiff._xla import kernel_compiler_options
     from jaxstiff.ik import ik_position
     from jaxstiff.paths import default_path
 
@@ -73,8 +75,11 @@ def main(argv=None) -> int:
         r = jaxstiff.csc_rollout(robot, path, K, q0, beta, step="adaptive", remat=remat, chunk=args.chunk)
         return jnp.mean(r.u) + jnp.mean(r.frobenius)
 
-    fwd = jax.jit(forward)
-    grad = jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)))
+    # jaxstiff's kernel compiler options (jaxstiff._xla), passed as a user jitting around
+    # csc_rollout would; --xla-defaults measures XLA's own defaults instead
+    copts = {} if args.xla_defaults else kernel_compiler_options()
+    fwd = jax.jit(forward, compiler_options=copts)
+    grad = jax.jit(jax.value_and_grad(loss, argnums=(0, 1, 2)), compiler_options=copts)
 
     def timed(fn):
         t, c = time.perf_counter(), time.process_time()
@@ -94,6 +99,7 @@ def main(argv=None) -> int:
         "steps": args.steps,
         "dtype": args.dtype,
         "remat": remat,
+        "compiler_options": copts,
         "compile_forward_s": round(t_c_fwd - best_fwd, 3),
         "forward_s": round(best_fwd, 3),
         "compile_grad_s": round(t_c_grad - best_grad, 3),

@@ -82,6 +82,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import results as R
+from .._xla import kernel_compiler_options
 from ..criteria import f1 as _f1, f2 as _f2
 from ..kinematics import jacobian_tangent, position_and_jacobian
 from ..stiffness import _fusion_boundary, _inverse_primal, task_rows, translational_stiffness
@@ -642,7 +643,7 @@ def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
     traj = make_kernel(problem, opts, first_rate)
     # per path: targets, directions, start state, key, rate limits (dq_f, dk) and ratio
     batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None, 0))
-    return jax.jit(batched)
+    return jax.jit(batched, compiler_options=kernel_compiler_options())
 
 
 def _pad(a: np.ndarray, C: int) -> np.ndarray:

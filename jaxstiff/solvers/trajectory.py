@@ -37,6 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import results as R
+from .._xla import kernel_compiler_options
 from .problem import POS_TOL, Limits, WaypointProblem
 from . import pgd as _pgd
 
@@ -150,7 +151,7 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
 def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
     traj = _kernel(problem, dict(opts_items), first_rate)
     # per path: warm start, targets, directions, start state, rate limits (dq_f, dk) and ratio
-    return jax.jit(jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None)))
+    return jax.jit(jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None)), compiler_options=kernel_compiler_options())
 
 
 def refine_batch(
