@@ -535,8 +535,8 @@ def _rollout_batch(*args):
     """The jitted batch rollout (static: robot, settings, chunk). Called on concrete arrays it is
     compiled with jaxstiff's kernel options (:mod:`jaxstiff._xla`); inside a caller's trace (jit,
     grad) the caller's compilation decides (JAX refuses options on a nested jit)."""
-    traced = any(isinstance(a, jax.core.Tracer) for a in jax.tree_util.tree_leaves(args[3:]))
-    return _rollout_batch_jit(jax.default_backend(), not traced)(*args)
+    top_level = all(_is_concrete(a) for a in jax.tree_util.tree_leaves(args[3:]))
+    return _rollout_batch_jit(jax.default_backend(), top_level)(*args)
 
 
 @functools.lru_cache(maxsize=None)

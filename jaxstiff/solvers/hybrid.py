@@ -199,13 +199,15 @@ def polish(
             # (chain "pgd": per waypoint never above pgd), and the better of the two is kept.
             k_g, k_b = path_key(out, b), path_key(base, b)
             if k_g[0] > k_b[0] or (k_g[0] == k_b[0] and k_g[1] > k_b[1] * (1 + 1e-9) + 1e-12):
-                alt = {k: np.array(v, copy=True) for k, v in base.items() if isinstance(v, np.ndarray)}
-                polish_path(b, "pgd", alt)
-                if path_key(alt, b) < k_g:
-                    t_greedy = out["time_s"][b] - base["time_s"][b]
-                    for k in alt:
-                        out[k][b] = alt[k][b]
-                    out["time_s"][b] += t_greedy  # both polishes were paid for
+                greedy = {k: out[k][b].copy() for k in out}
+                for k in out:
+                    out[k][b] = base[k][b]
+                polish_path(b, "pgd", out)
+                t_both = greedy["time_s"] + out["time_s"][b] - 2 * base["time_s"][b]  # polish times
+                if not path_key(out, b) < k_g:
+                    for k in out:
+                        out[k][b] = greedy[k]
+                out["time_s"][b] = base["time_s"][b] + t_both  # both polishes were paid for
     return out
 
 

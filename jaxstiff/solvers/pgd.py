@@ -287,7 +287,7 @@ class _Ops:
         m = Js.shape[0]
         t = 3 if m == 6 else m
         C = jnp.sum(Js[:, None, :] * (Js * w)[None, :, :], axis=-1)
-        Kc = _damped_full_inverse(C)
+        Kc = _inverse_primal(C, False)  # the damped inverse, all of it (no AD through it here)
         P = Kc[:, :t]  # (m, t)
         K = Kc[:t, :t]
         G = jnp.sum(P[:, :, None] * Js[:, None, :], axis=0)  # (t, n)
@@ -371,12 +371,6 @@ def _spd_solve(A, b):
     for r in reversed(range(k)):
         x[r] = (y[r] - sum((L[(i, r)] * x[i] for i in range(r + 1, k)), start=jnp.zeros((), A.dtype))) * inv[r]
     return jnp.stack(_fusion_boundary(x))
-
-
-def _damped_full_inverse(C):
-    """The damped inverse of a compliance, all of it (m, m): the same numbers as
-    :func:`jaxstiff.stiffness.translational_stiffness` uses (no derivative needed here)."""
-    return _inverse_primal(C, False)
 
 
 def _complement_basis(d):
