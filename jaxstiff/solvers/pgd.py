@@ -85,7 +85,7 @@ from .. import results as R
 from .._xla import kernel_compiler_options
 from ..criteria import f1 as _f1, f2 as _f2
 from ..kinematics import jacobian_tangent, position_and_jacobian
-from ..stiffness import _fusion_boundary, _inverse_primal, task_rows, translational_stiffness
+from ..stiffness import _fusion_boundary, _inverse_primal, compliance, task_rows, translational_stiffness
 from .problem import POS_TOL, Limits, WaypointProblem, content_seed, rate_bounds
 
 __all__ = ["DEFAULT_OPTIONS", "solve_batch", "make_kernel"]
@@ -283,11 +283,10 @@ class _Ops:
         dp, dJ6, _ = jacobian_tangent(J6, jnp.eye(n, dtype=dt)[self.free])  # (nf, 3), (nf, 6, n)
         rows_t = list(task_rows(self.pr.task))
         Js, dJs = J6[rows_t, :], dJ6[:, rows_t, :]  # (m, n), (nf, m, n)
-        w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))
+        w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
         m = Js.shape[0]
         t = 3 if m == 6 else m
-        C = jnp.sum(Js[:, None, :] * (Js * w)[None, :, :], axis=-1)
-        Kc = _inverse_primal(C, False)  # the damped inverse, all of it (no AD through it here)
+        Kc = _inverse_primal(compliance(Js, kj, self.pr.task), False)  # the damped inverse, all of it (no AD through it here)
         P = Kc[:, :t]  # (m, t)
         K = Kc[:t, :t]
         G = jnp.sum(P[:, :, None] * Js[:, None, :], axis=0)  # (t, n)
