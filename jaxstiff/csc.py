@@ -68,12 +68,16 @@ The rollout is differentiable end to end (``jax.grad`` w.r.t. ``beta``, ``q0``, 
 numeric settings), batched over leading axes of every input (``vmap``), and jitted once per robot,
 task and static setting. With ``remat=True`` (default) the scan body is rematerialised in the
 backward pass, so the memory of a gradient grows with ``T * n`` per rollout only. Speed
-(``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, measured
-on an otherwise idle machine, load ~1): forward 3.2 s; forward + gradient 10.0 s, 3.1x the
-forward in wall time (3.6x in CPU time). A smaller ``chunk`` speeds up the forward (16: 2.1 s)
-but not the gradient (8.6 s, 4.1x). Where the backward time goes (profile of the compiled
-program, 256 x 300): about 1x forward for the recomputed step, 1.8x for its transpose, with
-the small batched contractions (``J^T K J`` and the like) the largest single items.
+(``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
+128, jaxstiff's XLA options; the machine is shared, so ranges of repeated runs): forward
+1.0-1.5 s; forward + gradient 4.7-5.4 s, 3.5-4.6x the forward in wall time (3.8-4.9x in CPU
+time). Where the gradient's time goes (profile of the compiled program, 128 x 1000, kernels per
+step): the forward pass ~1x (~90 small kernels), the recomputed step ~1x, its transpose ~2x
+(~170 kernels, the largest items the reductions of ``J^T K J``-like contractions and the pads
+that transpose entry-wise slices of J). Tried without gain: saving the kinematics instead of
+recomputing them, no remat (residual stores cost more than the recomputation), the step written
+entry-wise (structure of arrays: 4x fewer forward kernels, but XLA:CPU splits its transpose into
+~500 tiny ones).
 
 Example:
     >>> import jax.numpy as jnp, numpy as np, jaxstiff
@@ -209,35 +213,70 @@ def _safe_norm(x: jax.Array) -> jax.Array:
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
 
 
-def _det_small(A: jax.Array) -> jax.Array:
+def _det_cofactors(A: jax.Array):
+    """``det A`` and its cofactor matrix (= ``d det / dA``) for m = 2, 3, entry-wise closed forms."""
     m = A.shape[-1]
+    c = [[A[..., i, j] for j in range(m)] for i in range(m)]
     if m == 2:
-        return A[..., 0, 0] * A[..., 1, 1] - A[..., 0, 1] * A[..., 1, 0]
-    if m == 3:
-        return (
-            A[..., 0, 0] * (A[..., 1, 1] * A[..., 2, 2] - A[..., 1, 2] * A[..., 2, 1])
-            - A[..., 0, 1] * (A[..., 1, 0] * A[..., 2, 2] - A[..., 1, 2] * A[..., 2, 0])
-            + A[..., 0, 2] * (A[..., 1, 0] * A[..., 2, 1] - A[..., 1, 1] * A[..., 2, 0])
-        )
+        cof = [[c[1][1], -c[1][0]], [-c[0][1], c[0][0]]]
+    else:
+        cof = [[c[(i + 1) % 3][(j + 1) % 3] * c[(i + 2) % 3][(j + 2) % 3]
+                - c[(i + 1) % 3][(j + 2) % 3] * c[(i + 2) % 3][(j + 1) % 3] for j in range(3)] for i in range(3)]
+    det = sum(c[0][j] * cof[0][j] for j in range(m))
+    return det, jnp.stack([jnp.stack(r, -1) for r in cof], -2)
+
+
+@jax.custom_jvp
+def _det_small(A: jax.Array) -> jax.Array:
+    """``det A`` of (..., m, m), m = 2, 3 (closed form) or larger (LU).
+
+    JVP ``d det = sum_ij cof_ij dA_ij`` with the cofactors from the primal pass: reverse mode
+    through it is one multiply-and-sum, not the transpose of the entry-wise formula (whose
+    slices become pads of whole arrays in the backward pass of a rollout).
+    """
+    if A.shape[-1] in (2, 3):
+        return _det_cofactors(A)[0]
     return jnp.linalg.det(A)
 
 
-def _spd_inverse(A: jax.Array) -> jax.Array:
-    """Inverse of a symmetric positive-definite (..., m, m): adjugate for m = 2, 3, Cholesky else."""
+@_det_small.defjvp
+def _det_small_jvp(primals, tangents):
+    (A,), (dA,) = primals, tangents
+    if A.shape[-1] not in (2, 3):
+        return jax.jvp(jnp.linalg.det, (A,), (dA,))
+    det, cof = _det_cofactors(A)
+    return det, jnp.sum(cof * dA, axis=(-2, -1))
+
+
+def _spd_inverse_primal(A: jax.Array) -> jax.Array:
     m = A.shape[-1]
-    if m == 2:
-        a, b, d = A[..., 0, 0], A[..., 0, 1], A[..., 1, 1]
-        inv = jnp.stack([jnp.stack([d, -b], -1), jnp.stack([-b, a], -1)], -2)
-        return inv / _det_small(A)[..., None, None]
-    if m == 3:
-        c = [[A[..., i, j] for j in range(3)] for i in range(3)]
-        adj = [[c[(j + 1) % 3][(i + 1) % 3] * c[(j + 2) % 3][(i + 2) % 3]
-                - c[(j + 1) % 3][(i + 2) % 3] * c[(j + 2) % 3][(i + 1) % 3] for j in range(3)] for i in range(3)]
-        inv = jnp.stack([jnp.stack(r, -1) for r in adj], -2)
-        return inv / _det_small(A)[..., None, None]
+    if m in (2, 3):
+        det, cof = _det_cofactors(A)
+        return jnp.swapaxes(cof, -1, -2) / det[..., None, None]  # adjugate / det
     L = jnp.linalg.cholesky(A)
     eye = jnp.broadcast_to(jnp.eye(m, dtype=A.dtype), A.shape)
     return jax.scipy.linalg.cho_solve((L, True), eye)
+
+
+@jax.custom_jvp
+def _spd_inverse(A: jax.Array) -> jax.Array:
+    """Inverse of a symmetric positive-definite (..., m, m): adjugate for m = 2, 3, Cholesky else.
+
+    JVP ``d(A^-1) = -A^-1 dA A^-1`` (two small products), for the same reason as :func:`_det_small`.
+    """
+    return _spd_inverse_primal(A)
+
+
+@_spd_inverse.defjvp
+def _spd_inverse_jvp(primals, tangents):
+    (A,), (dA,) = primals, tangents
+    Ai = _spd_inverse_primal(A)
+    return Ai, -_mm(_mm(Ai, dA), Ai)
+
+
+def _mm(A: jax.Array, B: jax.Array) -> jax.Array:
+    """(..., a, b) @ (..., b, c) as a broadcast sum (fuses on a CPU; tiny dot_generals do not)."""
+    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
 
 
 def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]):
