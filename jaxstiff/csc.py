@@ -104,7 +104,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._xla import kernel_compiler_options
-from .criteria import frobenius, offdiag
+from .criteria import _safe_sqrt, frobenius, offdiag
 from .kinematics import _cross_cols, fk_and_jacobian, jacobian_tangent, position_and_jacobian
 from .robot import Robot
 from .stiffness import TASK_ROWS, cartesian_stiffness
@@ -302,13 +302,24 @@ def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...
     It equals ``jax.grad`` of ``offdiag(J_s(q), K_xd)`` through the kinematics (tested to 1e-15)
     but costs about a fifth of it, and its own derivative (needed by the gradient of a rollout)
     about a tenth, and it compiles to a much smaller program.
+
+    Reverse mode uses a hand-written VJP (:func:`_offdiag_vjp_bwd`): with ``Gb`` the cotangent of
+    G, the chain through the contraction above is ``Gb6 = dJ6[gb]`` (the directional derivative
+    of J along the cotangent ``gb`` of g, :func:`jacobian_tangent`) plus a J6 cotangent built
+    from the same prefix/suffix sums; the rest is the product rule on ``G = K J M / u``. Equal to
+    autodiff of this function to round-off (tested), about half its backward cost.
     """
+    u, g, _ = _offdiag_forward(J6, K_xd, rows)
+    return u, g
+
+
+def _offdiag_forward(J6, K_xd, rows):
     m = len(rows)
     J = J6[..., :m, :]
-    u = offdiag(J, K_xd)
     KJ = _mtv_cols(K_xd, J)  # (m, n)
     Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K J (n, n)
     n = Kq.shape[-1]
+    u = _safe_sqrt(jnp.sum(jnp.triu(jnp.ones((n, n), dtype=Kq.dtype), k=1) * Kq * Kq, axis=(-2, -1)))  # offdiag(J, K)
     M = Kq * (1.0 - jnp.eye(n, dtype=Kq.dtype))
     pos = u > 0
     inv_u = jnp.where(pos, 1.0 / jnp.where(pos, u, 1.0), 0.0)
@@ -319,7 +330,57 @@ def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...
     suffix = jnp.cumsum(a[..., ::-1], axis=-1)[..., ::-1] - a  # sum over i > k
     prefix = jnp.cumsum(_cross_cols(Gv, Jw), axis=-1)  # sum over i <= k
     g = jnp.sum(Jw * suffix, axis=-2) + jnp.sum(Jv * prefix, axis=-2)
-    return u, g
+    return u, g, (J6, K_xd, KJ, Kq, M, inv_u, G6, prefix, suffix)
+
+
+def _offdiag_vjp_bwd(rows, res, cts):
+    """VJP of ``(u, g)`` w.r.t. ``(J6, K_xd)`` (derivation: :func:`_offdiag_value_and_grad`)."""
+    J6, K, KJ, Kq, M, s, G6, prefix, suffix = res
+    ub, gb = cts
+    m = len(rows)
+    n = Kq.shape[-1]
+    Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
+    # g = <G6, dJ6/dq_k>: its cotangent reaches G6 as the directional derivative of J6 along gb
+    # and J6 through both factors of the contraction (Om, V: jacobian_tangent's sums along gb)
+    wq, vq = Jw * gb[..., None, :], Jv * gb[..., None, :]
+    Om = jnp.cumsum(wq, axis=-1) - wq  # sum over k < i of gb_k w_k
+    V = jnp.cumsum(vq[..., ::-1], axis=-1)[..., ::-1]  # sum over k >= i of gb_k v_k
+    Gb6 = jnp.concatenate([_cross_cols(Om, Jv) + _cross_cols(Jw, V), _cross_cols(Om, Jw)], axis=-2)
+    Jvb = _cross_cols(Gv, Om) + gb[..., None, :] * prefix
+    Jwb = _cross_cols(V, Gv) + _cross_cols(Gw, Om) + gb[..., None, :] * suffix
+    # G = K J M s, s = 1/u (0 where u = 0)
+    Gb = Gb6[..., :m, :]
+    KJM = jnp.sum(KJ[..., :, :, None] * M[..., None, :, :], axis=-2)  # (m, n)
+    sb = jnp.sum(Gb * KJM, axis=(-2, -1))
+    ub_tot = ub - sb * s * s  # ds/du = -1/u^2 = -s^2 (0 where u = 0: s = 0)
+    KJb = s[..., None, None] * jnp.sum(Gb[..., :, None, :] * M[..., None, :, :], axis=-1)  # Gb M^T s
+    Mb = s[..., None, None] * jnp.sum(KJ[..., :, :, None] * Gb[..., :, None, :], axis=-3)  # KJ^T Gb s
+    upper = jnp.triu(jnp.ones((n, n), dtype=Kq.dtype), k=1)
+    Kqb = Mb * (1.0 - jnp.eye(n, dtype=Kq.dtype)) + (ub_tot * s)[..., None, None] * upper * Kq  # du/dKq_ij = Kq_ij/u, i<j
+    # Kq = J^T KJ, KJ = K J
+    J = J6[..., :m, :]
+    Jb = jnp.sum(KJ[..., :, None, :] * Kqb[..., None, :, :], axis=-1)  # KJ Kqb^T (m, n)
+    KJb = KJb + jnp.sum(J[..., :, :, None] * Kqb[..., None, :, :], axis=-2)  # J Kqb (m, n)
+    Kb = jnp.sum(KJb[..., :, None, :] * J[..., None, :, :], axis=-1)  # KJb J^T (m, m)
+    Jb = Jb + jnp.sum(K[..., :, :, None] * KJb[..., :, None, :], axis=-3)  # K^T KJb (m, n)
+    J6b = jnp.concatenate([Jvb, Jwb], axis=-2)
+    J6b = J6b + jnp.concatenate([Jb, jnp.zeros_like(J6[..., m:, :])], axis=-2)
+    return J6b, Kb
+
+
+def _offdiag_jvp(rows, primals, tangents):
+    """Forward mode through the transpose of the hand-written VJP (a linear map of the cotangents):
+    JVP and VJP then agree exactly, forward mode (``jax.jvp``, ``jax.hessian``) keeps working, and
+    reverse mode transposes that map back into the VJP's own arithmetic."""
+    (J6, K), (dJ6, dK) = primals, tangents
+    u, g, res = _offdiag_forward(J6, K, rows)
+    lin = jax.linear_transpose(lambda ub, gb: _offdiag_vjp_bwd(rows, res, (ub, gb)), u, g)
+    du, dg = lin((dJ6, dK))
+    return (u, g), (du, dg)
+
+
+_offdiag_value_and_grad = jax.custom_jvp(_offdiag_value_and_grad, nondiff_argnums=(2,))
+_offdiag_value_and_grad.defjvp(_offdiag_jvp)
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
@@ -379,7 +440,7 @@ def _offdiag_gradient(robot: Robot, task: str, q, K_xd):
     batch = jnp.broadcast_shapes(q.shape[:-1], K_xd.shape[:-2])
     J6 = jnp.broadcast_to(J6, batch + J6.shape[-2:])
     K_xd = jnp.broadcast_to(K_xd, batch + K_xd.shape[-2:])
-    f = functools.partial(_offdiag_value_and_grad, rows=rows)
+    f = lambda J, K: _offdiag_value_and_grad(J, K, rows)  # noqa: E731 (rows positional: a custom_vjp)
     for _ in batch:
         f = jax.vmap(f)
     return f(J6, K_xd)

@@ -169,6 +169,34 @@ def test_closed_form_gradient_of_u_equals_autodiff(name, task, m):
     assert_close(g, ref, rtol=1e-10, atol=1e-9 * float(jnp.max(jnp.abs(ref))), what="grad u")
 
 
+@pytest.mark.parametrize("task", ["xy", "xyz", "full"])
+def test_offdiag_value_and_grad_derivatives_equal_autodiff(task):
+    """(u, grad u) carry a hand-written VJP (and its transpose as JVP); both equal plain autodiff
+    of the same forward formulas, also at u = 0 (K_xd diagonal, J with orthogonal columns)."""
+    rows = jaxstiff.stiffness.TASK_ROWS[task]
+    m, n = len(rows), 7
+    rng = np.random.default_rng(11)
+    cases = []
+    for _ in range(3):
+        X = rng.normal(size=(m, m))
+        cases.append((rng.normal(size=(6, n)), X @ X.T * 1000.0))
+    J0 = np.zeros((6, n))
+    J0[:m, :m] = np.eye(m)
+    cases.append((J0, np.diag(np.arange(1.0, m + 1.0)) * 1000.0))  # u = 0
+    for J6, K in cases:
+        J6, K = jnp.asarray(J6), jnp.asarray(K)
+        ub, gb = jnp.asarray(rng.normal()), jnp.asarray(rng.normal(size=n))
+        dJ, dK = jnp.asarray(rng.normal(size=(6, n))), jnp.asarray(rng.normal(size=(m, m)))
+        plain = lambda a, b: csc._offdiag_forward(a, b, rows)[:2]  # noqa: E731
+        ours = lambda a, b: csc._offdiag_value_and_grad(a, b, rows)  # noqa: E731
+        got_v, want_v = jax.vjp(ours, J6, K)[1]((ub, gb)), jax.vjp(plain, J6, K)[1]((ub, gb))
+        got_t, want_t = jax.jvp(ours, (J6, K), (dJ, dK))[1], jax.jvp(plain, (J6, K), (dJ, dK))[1]
+        for a, b, what in zip((*got_v, *got_t), (*want_v, *want_t), ("J6 bar", "K bar", "du", "dg")):
+            b = np.asarray(b)
+            assert np.all(np.isfinite(np.asarray(a))), what
+            assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + np.max(np.abs(b))), what=what)
+
+
 def test_kinematics_jvp_closed_form_equals_autodiff():
     """The rollout's kinematics carry a closed-form JVP (built from J alone); it equals autodiff."""
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
