@@ -70,14 +70,15 @@ task and static setting. With ``remat=True`` (default) the scan body is remateri
 backward pass, so the memory of a gradient grows with ``T * n`` per rollout only. Speed
 (``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
 128, jaxstiff's XLA options; the machine is shared, so ranges of repeated runs): forward
-1.0-1.5 s; forward + gradient 4.7-5.4 s, 3.5-4.6x the forward in wall time (3.8-4.9x in CPU
-time). Where the gradient's time goes (profile of the compiled program, 128 x 1000, kernels per
-step): the forward pass ~1x (~90 small kernels), the recomputed step ~1x, its transpose ~2x
-(~170 kernels, the largest items the reductions of ``J^T K J``-like contractions and the pads
-that transpose entry-wise slices of J). Tried without gain: saving the kinematics instead of
-recomputing them, no remat (residual stores cost more than the recomputation), the step written
-entry-wise (structure of arrays: 4x fewer forward kernels, but XLA:CPU splits its transpose into
-~500 tiny ones).
+1.0-1.4 s; forward + gradient 4.0-5.0 s, 3.4-4.0x the forward in wall and in CPU time. The
+gradient's parts (profile of the compiled program, 128 x 1000): the forward pass ~1x (~90 small
+kernels per step), the recomputed step ~1x, its transpose ~1.5-2x (~200 kernels; the largest
+items the two damped solves, the realised stiffness and the pads that transpose entry-wise
+slices of J). ``u`` and ``grad u`` carry a hand-written VJP (:func:`_offdiag_value_and_grad`),
+the small det and inverse closed-form JVPs. Tried without gain: saving the kinematics instead of
+recomputing them, no remat (the residual stores cost more than the recomputation), the step
+written entry-wise (structure of arrays: 4x fewer forward kernels, but XLA:CPU splits its
+transpose into ~500 tiny ones).
 
 Example:
     >>> import jax.numpy as jnp, numpy as np, jaxstiff
