@@ -188,6 +188,11 @@ def offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
 def _offdiag(J, K_xd):
     KJ = jnp.sum(K_xd[..., :, :, None] * J[..., None, :, :], axis=-2)  # K_xd J (..., m, n)
     Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K_xd J (..., n, n)
+    return _offdiag_of(Kq)
+
+
+def _offdiag_of(Kq: jax.Array) -> jax.Array:
+    """``sqrt(sum_{i<j} Kq_ij^2)`` of a joint stiffness ``Kq`` (..., n, n) (S1-19)."""
     n = Kq.shape[-1]
     upper = jnp.triu(jnp.ones((n, n), dtype=Kq.dtype), k=1)  # i < j
     return _safe_sqrt(jnp.sum(upper * Kq * Kq, axis=(-2, -1)))

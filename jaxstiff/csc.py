@@ -105,10 +105,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._xla import kernel_compiler_options
-from .criteria import _safe_sqrt, frobenius, offdiag
-from .kinematics import _cross_cols, fk_and_jacobian, jacobian_tangent, position_and_jacobian
+from .criteria import _offdiag_of, frobenius, offdiag
+from .kinematics import _cross_cols, _tangent_sums, fk_and_jacobian, jacobian_tangent, position_and_jacobian
 from .robot import Robot
-from .stiffness import TASK_ROWS, cartesian_stiffness
+from .stiffness import TASK_ROWS, _mm, cartesian_stiffness
 
 __all__ = [
     "CSCResult",
@@ -275,11 +275,6 @@ def _spd_inverse_jvp(primals, tangents):
     return Ai, -_mm(_mm(Ai, dA), Ai)
 
 
-def _mm(A: jax.Array, B: jax.Array) -> jax.Array:
-    """(..., a, b) @ (..., b, c) as a broadcast sum (fuses on a CPU; tiny dot_generals do not)."""
-    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
-
-
 def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]):
     """``u(q)`` (S1-19) and ``grad u(q)`` (n,) from the full geometric Jacobian J6 (6, n) at q.
 
@@ -320,7 +315,7 @@ def _offdiag_forward(J6, K_xd, rows):
     KJ = _mtv_cols(K_xd, J)  # (m, n)
     Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K J (n, n)
     n = Kq.shape[-1]
-    u = _safe_sqrt(jnp.sum(jnp.triu(jnp.ones((n, n), dtype=Kq.dtype), k=1) * Kq * Kq, axis=(-2, -1)))  # offdiag(J, K)
+    u = _offdiag_of(Kq)  # offdiag(J, K_xd) from the same J^T K J
     M = Kq * (1.0 - jnp.eye(n, dtype=Kq.dtype))
     pos = u > 0
     inv_u = jnp.where(pos, 1.0 / jnp.where(pos, u, 1.0), 0.0)
@@ -340,13 +335,11 @@ def _offdiag_vjp_bwd(rows, res, cts):
     ub, gb = cts
     m = len(rows)
     n = Kq.shape[-1]
-    Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
+    Gv, Gw = G6[..., :3, :], G6[..., 3:, :]
     # g = <G6, dJ6/dq_k>: its cotangent reaches G6 as the directional derivative of J6 along gb
     # and J6 through both factors of the contraction (Om, V: jacobian_tangent's sums along gb)
-    wq, vq = Jw * gb[..., None, :], Jv * gb[..., None, :]
-    Om = jnp.cumsum(wq, axis=-1) - wq  # sum over k < i of gb_k w_k
-    V = jnp.cumsum(vq[..., ::-1], axis=-1)[..., ::-1]  # sum over k >= i of gb_k v_k
-    Gb6 = jnp.concatenate([_cross_cols(Om, Jv) + _cross_cols(Jw, V), _cross_cols(Om, Jw)], axis=-2)
+    Om, V = _tangent_sums(J6, gb)  # sum over k < i of gb_k w_k, over k >= i of gb_k v_k
+    Gb6 = jacobian_tangent(J6, gb)[1]  # the same sums inside (XLA merges the duplicate)
     Jvb = _cross_cols(Gv, Om) + gb[..., None, :] * prefix
     Jwb = _cross_cols(V, Gv) + _cross_cols(Gw, Om) + gb[..., None, :] * suffix
     # G = K J M s, s = 1/u (0 where u = 0)

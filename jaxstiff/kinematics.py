@@ -342,9 +342,15 @@ def jacobian_tangent(J6: jax.Array, qd: jax.Array):
     leading axes.
     """
     v, w = J6[..., :3, :], J6[..., 3:, :]
-    wq, vq = w * qd[..., None, :], v * qd[..., None, :]
-    Om = jnp.cumsum(wq, axis=-1) - wq
-    V = jnp.cumsum(vq[..., ::-1], axis=-1)[..., ::-1]
+    Om, V = _tangent_sums(J6, qd)
     dv = _cross_cols(Om, v) + _cross_cols(w, V)
     dw = _cross_cols(Om, w)
-    return jnp.sum(vq, axis=-1), jnp.concatenate([dv, dw], axis=-2), jnp.sum(wq, axis=-1)
+    return jnp.sum(v * qd[..., None, :], axis=-1), jnp.concatenate([dv, dw], axis=-2), jnp.sum(w * qd[..., None, :], axis=-1)
+
+
+def _tangent_sums(J6: jax.Array, qd: jax.Array):
+    """``Om_i = sum_{k<i} qd_k w_k`` and ``V_i = sum_{k>=i} qd_k v_k`` (each (..., 3, n)) of
+    :func:`jacobian_tangent`; also used by the VJP of ``grad u`` in :mod:`jaxstiff.csc`."""
+    v, w = J6[..., :3, :], J6[..., 3:, :]
+    wq, vq = w * qd[..., None, :], v * qd[..., None, :]
+    return jnp.cumsum(wq, axis=-1) - wq, jnp.cumsum(vq[..., ::-1], axis=-1)[..., ::-1]
