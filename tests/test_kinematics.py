@@ -510,3 +510,24 @@ def test_jacobian_tangent_matches_autodiff_on_random_chains(joints, seed):
     assert_close(dJ, dJ_ad, rtol=0, atol=1e-12, what="dJ")
     # omega: dR = [omega]x R
     assert_close(dT[:3, :3], np.cross(np.asarray(omega)[:, None], np.asarray(T[:3, :3]), axis=0), rtol=0, atol=1e-12, what="omega")
+
+
+@pytest.mark.parametrize("n", [1, 2, 7, 40])  # 40: above the unrolled range, jnp.cumsum is used
+@pytest.mark.parametrize("reverse", [False, True])
+@pytest.mark.parametrize("exclusive", [False, True])
+def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
+    """The unrolled running sum of the Jacobian's closed-form derivative against numpy's cumsum,
+    forward/backward, inclusive/exclusive, on a batch; its transpose (reverse mode) against the
+    matrix of the linear map."""
+    x = np.random.default_rng(n).normal(size=(4, 3, n))
+    want = np.flip(np.cumsum(np.flip(x, -1), -1), -1) if reverse else np.cumsum(x, -1)
+    if exclusive:
+        want = want - x
+    f = jax.jit(lambda a: jaxstiff.kinematics._running_sum(a, reverse=reverse, exclusive=exclusive))
+    assert_close(f(jnp.asarray(x)), want, rtol=1e-14, atol=1e-14, what="running sum")
+    k = np.arange(n)
+    L = (k[None, :] >= k[:, None]) if reverse else (k[None, :] <= k[:, None])  # out_i = sum_k L_ik x_k
+    if exclusive:
+        L = L & (k[None, :] != k[:, None])
+    ct = np.random.default_rng(n + 1).normal(size=x.shape)
+    assert_close(jax.vjp(f, jnp.asarray(x))[1](jnp.asarray(ct))[0], ct @ L.astype(float), rtol=1e-14, atol=1e-14, what="VJP")
