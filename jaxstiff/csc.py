@@ -106,7 +106,17 @@ import numpy as np
 
 from ._xla import kernel_compiler_options
 from .criteria import _offdiag_of, frobenius, offdiag
-from .kinematics import _cross_cols, _tangent_sums, fk_and_jacobian, jacobian_tangent, position_and_jacobian
+from .kinematics import (
+    _POLY_MIN_BATCH,
+    _cross_cols,
+    _fk_and_jacobian,
+    _position_and_jacobian,
+    _running_sum,
+    _tangent_from_sums,
+    _tangent_sums,
+    jacobian_tangent,
+    position_and_jacobian,
+)
 from .robot import Robot
 from .stiffness import TASK_ROWS, _mm, cartesian_stiffness
 
@@ -325,8 +335,8 @@ def _offdiag_forward(J6, K_xd, rows):
     G6 = jnp.concatenate([G, jnp.zeros_like(J6[..., m:, :])], axis=-2)
     Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
     a = _cross_cols(Jv, Gv) + _cross_cols(Jw, Gw)  # (3, n): term of joint i
-    suffix = jnp.cumsum(a[..., ::-1], axis=-1)[..., ::-1] - a  # sum over i > k
-    prefix = jnp.cumsum(_cross_cols(Gv, Jw), axis=-1)  # sum over i <= k
+    suffix = _running_sum(a, reverse=True, exclusive=True)  # sum over i > k
+    prefix = _running_sum(_cross_cols(Gv, Jw))  # sum over i <= k
     g = jnp.sum(Jw * suffix, axis=-2) + jnp.sum(Jv * prefix, axis=-2)
     return u, g, (J6, K_xd, KJ, Kq, M, inv_u, G6, prefix, suffix)
 
@@ -341,7 +351,7 @@ def _offdiag_vjp_bwd(rows, res, cts):
     # g = <G6, dJ6/dq_k>: its cotangent reaches G6 as the directional derivative of J6 along gb
     # and J6 through both factors of the contraction (Om, V: jacobian_tangent's sums along gb)
     Om, V = _tangent_sums(J6, gb)  # sum over k < i of gb_k w_k, over k >= i of gb_k v_k
-    Gb6 = jacobian_tangent(J6, gb)[1]  # the same sums inside (XLA merges the duplicate)
+    Gb6 = _tangent_from_sums(J6, Om, V)  # = jacobian_tangent(J6, gb)[1]
     Jvb = _cross_cols(Gv, Om) + gb[..., None, :] * prefix
     Jwb = _cross_cols(V, Gv) + _cross_cols(Gw, Om) + gb[..., None, :] * suffix
     # G = K J M s, s = 1/u (0 where u = 0)
@@ -379,36 +389,36 @@ _offdiag_value_and_grad = jax.custom_jvp(_offdiag_value_and_grad, nondiff_argnum
 _offdiag_value_and_grad.defjvp(_offdiag_jvp)
 
 
-@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
-def _pos_jac(robot: Robot, q: jax.Array):
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
+def _pos_jac(robot: Robot, poly: bool, q: jax.Array):
     """``position_and_jacobian(robot, q)`` (all 6 rows) with a closed-form JVP.
 
     The JVP needs only the Jacobian itself (:func:`jacobian_tangent`), so reverse mode through a
     rollout never differentiates the kinematics kernel's internals: the backward pass of a step
     costs a few cross products instead of a reverse sweep through the chain.
     """
-    return position_and_jacobian(robot, q)
+    return _position_and_jacobian(robot, q, poly=poly)
 
 
 @_pos_jac.defjvp
-def _pos_jac_jvp(robot, primals, tangents):
+def _pos_jac_jvp(robot, poly, primals, tangents):
     (q,), (qd,) = primals, tangents
-    p, J6 = _pos_jac(robot, q)
+    p, J6 = _pos_jac(robot, poly, q)
     dp, dJ6, _ = jacobian_tangent(J6, qd)
     return (p, J6), (dp, dJ6)
 
 
-@functools.partial(jax.custom_jvp, nondiff_argnums=(0,))
-def _pose_jac(robot: Robot, q: jax.Array):
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
+def _pose_jac(robot: Robot, poly: bool, q: jax.Array):
     """``(p (3,), R (3, 3), J6 (6, n))`` from ``fk_and_jacobian`` with a closed-form JVP."""
-    T, J6 = fk_and_jacobian(robot, q)
+    T, J6 = _fk_and_jacobian(robot, q, poly=poly)
     return T[..., :3, 3], T[..., :3, :3], J6
 
 
 @_pose_jac.defjvp
-def _pose_jac_jvp(robot, primals, tangents):
+def _pose_jac_jvp(robot, poly, primals, tangents):
     (q,), (qd,) = primals, tangents
-    p, R, J6 = _pose_jac(robot, q)
+    p, R, J6 = _pose_jac(robot, poly, q)
     dp, dJ6, om = jacobian_tangent(J6, qd)
     dR = _cross_cols(jnp.broadcast_to(om[..., :, None], R.shape), R)  # omega x each column of R
     return (p, R, J6), (dp, dR, dJ6)
@@ -452,6 +462,7 @@ class _Static:
     joint_limits: str
     remat: bool
     varying: bool
+    poly: bool = False  # joint cos/sin from kinematics.cos_sin (a CPU batch of >= 64 rollouts)
 
 
 def _damped_pinv(Jf: jax.Array, nu0, damping):
@@ -480,12 +491,161 @@ def _damped_inverse(Jf: jax.Array, nu0, damping):
     return _spd_inverse(A), nu, damped
 
 
+def _damped_projections(Jf: jax.Array, dx: jax.Array, vs: tuple, nu0, damping):
+    """``(J+ dx, tuple((I - J+ J) v for v in vs), nu)`` with ``J+ = J^T (J J^T + lam^2 I)^-1`` of the
+    damping rule (module docstring; :func:`_damped_inverse` gives the same ``(J J^T + lam^2 I)^-1``)
+    and the isotropy ``nu``, for the free-joint task Jacobian ``Jf`` (m, n), dx (m,), vs of (n,).
+
+    The core of a CSC step, with a hand-written VJP (:func:`_projections_vjp`): with the
+    forward's ``y = A^-1 dx`` and ``z = A^-1 J v`` (``A = J J^T + lam^2 I``), the cotangents
+    ``dqP_b``, ``Pv_b`` give ``dx_b = A^-1 J dqP_b``, ``r_b = -A^-1 J Pv_b``, ``v_b = Pv_b + J^T r_b``,
+    ``A_b = -dx_b y^T - sum r_b z^T`` (no matrix product: ``A^-1`` is symmetric), and
+    ``J_b = y dqP_b^T + sum (r_b v^T - z Pv_b^T) + (A0_b + A0_b^T) J`` where ``A0_b`` adds to
+    ``A_b`` the damping rule's chain (``lam^2`` through ``tr A0 / m`` and ``nu = det A0 / (tr A0 /
+    m)^m``, the determinant's cofactors; zero while undamped). It is installed, like
+    :func:`_offdiag_value_and_grad`'s, as a custom JVP that is its transpose, so forward mode keeps
+    working and reverse mode runs the VJP's own arithmetic (fewer, larger kernels than the
+    transpose of the forward formulas).
+    """
+    dqP, Pvs, nu, _ = _projections_forward(Jf, dx, vs, nu0, damping)
+    return dqP, Pvs, nu
+
+
+def _projections_forward(Jf, dx, vs, nu0, damping):
+    m = Jf.shape[-2]
+    A0 = jnp.sum(Jf[..., :, None, :] * Jf[..., None, :, :], axis=-1)  # J J^T
+    scale = jnp.trace(A0, axis1=-2, axis2=-1) / m
+    pos = scale > 0
+    safe_scale = jnp.where(pos, scale, 1.0)
+    if m in (2, 3):
+        det, cof = _det_cofactors(A0)
+    else:
+        det, cof = jnp.linalg.det(A0), None
+    nu_raw = det / safe_scale**m
+    nu = jnp.where(pos, jnp.clip(nu_raw, 0.0, 1.0), 0.0)
+    thr = nu0 ** (m / 2.0)  # nu0 for m = 2, nu0^1.5 for m = 3, nu0^3 for m = 6 (module docstring)
+    damped = nu < thr
+    t = 1.0 - nu / thr
+    w = jnp.where(damped, t * t, 0.0)
+    lam2 = damping**2 * scale * w + jnp.finfo(Jf.dtype).tiny * 1e3
+    eye = jnp.eye(m, dtype=Jf.dtype)
+    # J = 0 (every joint frozen): any A gives J+ = 0; I keeps the inverse finite (tiny I underflows)
+    Ainv = _spd_inverse_primal(jnp.where(pos[..., None, None], A0 + lam2[..., None, None] * eye, eye))
+    y = _mv(Ainv, dx)
+    dqP = _mtv(Jf, y)
+    zs = tuple(_mv(Ainv, _mv(Jf, v)) for v in vs)
+    Pvs = tuple(v - _mtv(Jf, z) for v, z in zip(vs, zs))
+    res = (Jf, A0, cof, Ainv, y, zs, vs, scale, safe_scale, pos, nu_raw, nu, damped, t, w, thr, nu0, damping)
+    return dqP, Pvs, nu, res
+
+
+def _outer(a: jax.Array, b: jax.Array) -> jax.Array:
+    return a[..., :, None] * b[..., None, :]
+
+
+def _projections_vjp(res, cts):
+    """VJP of :func:`_damped_projections` w.r.t. ``(Jf, dx, vs, nu0, damping)`` (derivation there)."""
+    Jf, A0, cof, Ainv, y, zs, vs, scale, safe_scale, pos, nu_raw, nu, damped, t, w, thr, nu0, damping = res
+    dqP_b, Pv_bs, nu_b = cts
+    m = Jf.shape[-2]
+    dx_b = _mv(Ainv, _mv(Jf, dqP_b))
+    J_b = _outer(y, dqP_b)
+    A_b = -_outer(dx_b, y)
+    vs_b = []
+    for v, z, Pv_b in zip(vs, zs, Pv_bs):
+        r_b = -_mv(Ainv, _mv(Jf, Pv_b))
+        J_b = J_b + _outer(r_b, v) - _outer(z, Pv_b)
+        A_b = A_b - _outer(r_b, z)
+        vs_b.append(Pv_b + _mtv(Jf, r_b))
+    # A = A0 + lam2 I, lam2 = damping^2 scale w (+ tiny), w = t^2 (damped), t = 1 - nu / thr
+    lam2_b = jnp.trace(A_b, axis1=-2, axis2=-1)
+    damping_b = lam2_b * 2.0 * damping * scale * w
+    scale_b = lam2_b * damping**2 * w
+    t_b = jnp.where(damped, 2.0 * t * lam2_b * damping**2 * scale, 0.0)
+    nu_b = nu_b - t_b / thr
+    thr_b = t_b * nu / (thr * thr)
+    nu0_b = thr_b * (m / 2.0) * nu0 ** (m / 2.0 - 1.0)
+    # nu = clip(det / scale^m, 0, 1) where scale > 0
+    nr_b = jnp.where(pos & (nu_raw > 0) & (nu_raw < 1), nu_b, 0.0)
+    det_b = nr_b / safe_scale**m
+    scale_b = scale_b - m * nr_b * nu_raw / safe_scale
+    if cof is not None:
+        det_grad = det_b[..., None, None] * cof
+    else:
+        det_grad = jax.vjp(jnp.linalg.det, A0)[1](det_b)[0]
+    A0_b = A_b + det_grad + (scale_b / m)[..., None, None] * jnp.eye(m, dtype=A0.dtype)
+    J_b = J_b + _mm(A0_b + jnp.swapaxes(A0_b, -1, -2), Jf)
+    return J_b, dx_b, tuple(vs_b), nu0_b, damping_b
+
+
+@jax.custom_jvp
+def _damped_projections_ad(Jf, dx, vs, nu0, damping):
+    return _damped_projections(Jf, dx, vs, nu0, damping)
+
+
+@_damped_projections_ad.defjvp
+def _damped_projections_jvp(primals, tangents):
+    """Forward mode as the transpose of :func:`_projections_vjp` (see :func:`_offdiag_jvp`)."""
+    dqP, Pvs, nu, res = _projections_forward(*primals)
+    lin = jax.linear_transpose(lambda *cts: _projections_vjp(res, cts), dqP, Pvs, nu)
+    return (dqP, Pvs, nu), lin(tuple(tangents))
+
+
+def _realised_stiffness(J: jax.Array, kj: jax.Array, K_xd: jax.Array, task: str):
+    """``K_C = cartesian_stiffness(J, kj, task)`` (m, m) and ``|K_xd - K_C|_F`` (S1-10).
+
+    With a hand-written VJP (:func:`_realised_vjp`; :func:`cartesian_stiffness`'s JVP rule
+    ``dK_C = -K_C dC K_C``, damping held, and ``C = J diag(1/kj) J^T``): with ``E = K_xd - K_C``,
+    ``E_b = f_b E / |E|_F``, ``S = sym(KC_b - E_b)`` and ``C_b = -K_C S K_C``, the cotangents are
+    ``J_b = 2 C_b J diag(1/kj)``, ``kj_b = -diag(J^T C_b J) / kj^2`` and ``K_xd_b = E_b``: four
+    small products instead of the transpose of the factorisation's JVP and of the compliance's
+    entry-wise rows. Installed as a custom JVP that is its transpose (see :func:`_offdiag_jvp`).
+    """
+    K_C, frob, _ = _realised_forward(J, kj, K_xd, task)
+    return K_C, frob
+
+
+def _realised_forward(J, kj, K_xd, task):
+    K_C = cartesian_stiffness(J, kj, task)
+    E = K_xd - K_C
+    ss = jnp.sum(E * E, axis=(-2, -1))
+    pos = ss > 0
+    frob = jnp.where(pos, jnp.sqrt(jnp.where(pos, ss, 1.0)), 0.0)
+    kmin = jnp.sqrt(jnp.finfo(J.dtype).tiny)  # compliance's floor of kj (stiffness._joint_stiffness_array)
+    return K_C, frob, (J, jnp.maximum(kj, kmin), kj > kmin, K_C, E, pos, frob)
+
+
+def _realised_vjp(task, res, cts):
+    """VJP of :func:`_realised_stiffness` w.r.t. ``(J, kj, K_xd)`` (derivation there)."""
+    J, kj, kj_free, K_C, E, pos, frob = res
+    KC_b, f_b = cts
+    E_b = (jnp.where(pos, f_b / jnp.where(pos, frob, 1.0), 0.0))[..., None, None] * E
+    S = KC_b - E_b
+    S = 0.5 * (S + jnp.swapaxes(S, -1, -2))
+    CbJ = -_mm(_mm(K_C, S), _mm(K_C, J))  # C_b J, C_b = -K_C S K_C (symmetric)
+    inv_kj = 1.0 / kj
+    J_b = 2.0 * CbJ * inv_kj[..., None, :]
+    kj_b = jnp.where(kj_free, -jnp.sum(J * CbJ, axis=-2) * inv_kj * inv_kj, 0.0)
+    return J_b, kj_b, E_b
+
+
+_realised_stiffness = jax.custom_jvp(_realised_stiffness, nondiff_argnums=(3,))
+
+
+@_realised_stiffness.defjvp
+def _realised_jvp(task, primals, tangents):
+    K_C, frob, res = _realised_forward(*primals, task)
+    lin = jax.linear_transpose(lambda a, b: _realised_vjp(task, res, (a, b)), K_C, frob)
+    return (K_C, frob), lin(tuple(tangents))
+
+
 def _orientation_error(R: jax.Array, Rd: jax.Array) -> jax.Array:
     """``1/2 sum_i r_i x r_d,i`` (base frame, rad for small errors): rotates R towards Rd."""
     return 0.5 * jnp.sum(jnp.cross(R, Rd, axisa=-2, axisb=-2, axisc=-1), axis=-2)
 
 
-def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
+def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain,
+                 axis_name=None):
     """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (). See csc_rollout."""
     dtype = q0.dtype
     rows = TASK_ROWS[st.task]
@@ -506,13 +666,13 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
     def kin(q):
         """Task position (d,), full Jacobian (6, n), full position (3,), rotation (3, 3) or None."""
         if full:
-            p, R, J6 = _pose_jac(robot, q)
+            p, R, J6 = _pose_jac(robot, st.poly, q)
             return p, J6, p, R
-        p, J6 = _pos_jac(robot, q)
+        p, J6 = _pos_jac(robot, st.poly, q)
         return p[:d], J6, p, None
 
     if full:
-        Rd = _pose_jac(robot, q0)[1]
+        Rd = _pose_jac(robot, st.poly, q0)[1]
 
     def task_error(p, R, target):
         e = target - p
@@ -521,39 +681,39 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
         return e
 
     def evaluate(q, K):
-        p, J6, p3, R = kin(q)
+        with jax.named_scope("csc_kinematics"):
+            p, J6, p3, R = kin(q)
         J = J6[..., : len(rows), :]
-        u, g = _offdiag_value_and_grad(J6, K, rows)
+        with jax.named_scope("csc_offdiag"):
+            u, g = _offdiag_value_and_grad(J6, K, rows)
         return u, g, (p, J, p3, R)
 
     def measures(J, K, p, p3, R, target):
         kj = jnp.sum(J * _mtv_cols(K, J), axis=-2)  # diag(J^T K J)
         kj = jnp.clip(kj, kmin, kmax)
-        K_C = cartesian_stiffness(J, kj, st.task)
+        K_C, frob = _realised_stiffness(J, kj, K, st.task)
         err = _safe_norm(target - p)
         oerr = _safe_norm(_orientation_error(R, Rd)) if full else jnp.zeros((), dtype)
-        return kj, K_C, frobenius(K_C, K), err, oerr
+        return kj, K_C, frob, err, oerr
 
     def solve(q, J, g, dx, mask):
         """The CSC update (S1-13 ... S1-22) with the joints of ``mask`` (float 0/1, (n,)) movable."""
         Jm = J * mask
-        Ainv, nu, damped = _damped_inverse(Jm, nu0, damping)
-
-        def pinv(v):  # J+ v = J^T (J J^T + lam^2 I)^-1 v, without forming J+
-            return _mtv(Jm, _mv(Ainv, v))
-
-        dqP = pinv(dx)
         gm = g * mask
         if st.joint_limits == "sum":
             gm = gm + jl_gain * finite_j * mask * (q - mid) / half * _safe_norm(gm)
-        dqN = gm - pinv(_mv(Jm, gm))
+        vs = (gm,)
+        if st.joint_limits == "priority":
+            vs = (gm, -jl_gain * finite_j * mask * (q - mid) / half)
+        dqP, Pvs, nu = _damped_projections_ad(Jm, dx, vs, nu0, damping)
+        damped = nu < nu0 ** (len(rows) / 2.0)
+        dqN = Pvs[0]
         nN = _safe_norm(dqN)
         length = beta * _safe_norm(dqP) if st.step == "adaptive" else beta
         null = -(length / jnp.maximum(nN, null_eps)) * dqN
         dq = dqP + null
         if st.joint_limits == "priority":
-            c = -jl_gain * finite_j * mask * (q - mid) / half
-            cN = c - pinv(_mv(Jm, c))
+            cN = Pvs[1]
             nn2 = jnp.sum(dqN * dqN)
             pos = nn2 > null_eps**2
             coef = jnp.where(pos, jnp.sum(cN * dqN) / jnp.where(pos, nn2, 1.0), 0.0)
@@ -565,9 +725,11 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
         u, g, (p, J, p3, R) = evaluate(q, K)
         # measures of the posture q (reached by the previous step) against the previous waypoint
         u_rep = u if not st.varying else offdiag(J, K_prev)
-        kj, K_C, frob, err, oerr = measures(J, K_prev, p, p3, R, target_prev)
+        with jax.named_scope("csc_measures"):
+            kj, K_C, frob, err, oerr = measures(J, K_prev, p, p3, R, target_prev)
         dx = task_error(p, R, target)
-        dq1, null1, nu, damped, small1 = solve(q, J, g, dx, free)
+        with jax.named_scope("csc_solve"):
+            dq1, null1, nu, damped, small1 = solve(q, J, g, dx, free)
         # Saturation: joints that the step would push past a limit go exactly to the limit and
         # are frozen; the remaining free joints re-solve the same linearised step for the rest.
         q1 = q + dq1
@@ -575,10 +737,20 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
         any_over = jnp.any(over)
         dq_sat = jnp.where(over, jnp.clip(q1, lower, upper) - q, 0.0)
         mask2 = free * (1.0 - over.astype(dtype))
-        dq2, null2, _, _, small2 = solve(q, J, g, dx - _mv(J, dq_sat), mask2)
-        dq = jnp.where(any_over, dq2 + dq_sat, dq1)
-        null = jnp.where(any_over, null2, null1)
-        small = jnp.where(any_over, small2, small1)
+
+        def resolve(_):
+            with jax.named_scope("csc_resolve"):
+                dq2, null2, _, _, small2 = solve(q, J, g, dx - _mv(J, dq_sat), mask2)
+            return (jnp.where(any_over, dq2 + dq_sat, dq1), jnp.where(any_over, null2, null1),
+                    jnp.where(any_over, small2, small1))
+
+        if axis_name is None:
+            dq, null, small = resolve(None)
+        else:
+            # Rare (a limit reached): re-solve only when some rollout of the vmapped batch needs it.
+            # The predicate is reduced over the batch axis, so it stays a branch under vmap.
+            need = jax.lax.pmax(any_over.astype(jnp.int32), axis_name) > 0
+            dq, null, small = jax.lax.cond(need, resolve, lambda _: (dq1, null1, small1), None)
         q_new = q + dq
         for _ in range(st.newton):
             pn, Jn, _, Rn = kin(q_new)
@@ -644,14 +816,28 @@ def _rollout_batch_jit(backend: str, top_level: bool):
 def _rollout_batch_impl(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
     def one(xs):
         t, K, q, b, e = xs
-        return _rollout_one(robot, st, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain)
+        return _rollout_one(robot, st, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain, axis_name=_BATCH_AXIS)
 
+    B = q0.shape[0]
+    # one rollout's kinematics sees a single posture under vmap: choose its cos/sin by the batch
+    per_call = B if chunk is None else min(B, chunk)
+    st = dataclasses.replace(st, poly=jax.default_backend() == "cpu" and per_call >= _POLY_MIN_BATCH)
+    batched = jax.vmap(one, axis_name=_BATCH_AXIS)
     xs = (targets, K_xd, q0, beta, null_eps)
-    if chunk is None or q0.shape[0] <= chunk:
-        return jax.vmap(one)(xs)
+    if chunk is None or B <= chunk:
+        return batched(xs)
     # rollouts in chunks of `chunk` (vmap inside a sequential map): the working set of one
     # chunk stays in the CPU caches, which is faster than one vmap over a large batch
-    return jax.lax.map(one, xs, batch_size=chunk)
+    nfull = B // chunk * chunk
+    head = jax.tree.map(lambda x: x[:nfull].reshape((B // chunk, chunk) + x.shape[1:]), xs)
+    out = jax.tree.map(lambda y: y.reshape((nfull,) + y.shape[2:]), jax.lax.map(batched, head))
+    if nfull == B:
+        return out
+    tail = batched(jax.tree.map(lambda x: x[nfull:], xs))
+    return jax.tree.map(lambda a, b: jnp.concatenate([a, b], axis=0), out, tail)
+
+
+_BATCH_AXIS = "jaxstiff_csc_rollouts"
 
 
 # ------------------------------------------------------------------------ public entry point

@@ -197,12 +197,96 @@ def test_offdiag_value_and_grad_derivatives_equal_autodiff(task):
             assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + np.max(np.abs(b))), what=what)
 
 
-def test_kinematics_jvp_closed_form_equals_autodiff():
-    """The rollout's kinematics carry a closed-form JVP (built from J alone); it equals autodiff."""
+def _plain_projections(Jf, dx, vs, nu0, damping):
+    """The CSC step's projections written directly (autodiff reference for the hand-written VJP)."""
+    Ainv, nu, _ = csc._damped_inverse(Jf, nu0, damping)
+    pinv = lambda v: csc._mtv(Jf, csc._mv(Ainv, v))  # noqa: E731
+    return pinv(dx), tuple(v - pinv(csc._mv(Jf, v)) for v in vs), nu
+
+
+@pytest.mark.parametrize("m,n", [(2, 3), (3, 7), (6, 7)])
+@pytest.mark.parametrize("case", ["regular", "near_singular"])
+def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
+    """J+ dx, (I - J+ J) v and the isotropy with their hand-written VJP (and the JVP that is its
+    transpose) equal autodiff of the plain formulas, also inside the damping band (nu < nu_th),
+    where the damping rule's chain (trace, determinant, threshold) contributes; and their
+    cotangents reach every input, nu0 and damping included."""
+    rng = np.random.default_rng(10 * m + n)
+    J = rng.normal(size=(m, n))
+    if case == "near_singular":
+        J[1] = J[0] * 0.999 + 1e-3 * rng.normal(size=n)
+    args = (jnp.asarray(J), jnp.asarray(rng.normal(size=m)), (jnp.asarray(rng.normal(size=n)), jnp.asarray(rng.normal(size=n))),
+            jnp.asarray(1e-2), jnp.asarray(0.1))
+    _, _, nu = jax.jit(csc._damped_projections_ad)(*args)
+    assert (float(nu) < 1e-2 ** (m / 2)) == (case == "near_singular")  # the case is what it says
+    w = [jnp.asarray(rng.normal(size=n)) for _ in range(3)]
+
+    def loss(f):
+        def inner(*a):
+            dqP, (p1, p2), nu = f(*a)
+            return jnp.sum(w[0] * jnp.sin(dqP)) + jnp.sum(w[1] * p1) + jnp.sum(w[2] * p2 * p2) + 3.0 * nu
+        return inner
+
+    for a, b in zip(jax.tree.leaves(jax.jit(csc._damped_projections_ad)(*args)), jax.tree.leaves(jax.jit(_plain_projections)(*args))):
+        assert_close(a, b, rtol=1e-13, atol=1e-13, what="values")
+    got = jax.jit(jax.grad(loss(csc._damped_projections_ad), argnums=(0, 1, 2, 3, 4)))(*args)  # jitted: no op-by-op dispatch
+    want = jax.jit(jax.grad(loss(_plain_projections), argnums=(0, 1, 2, 3, 4)))(*args)
+    for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want)):
+        assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="VJP")
+    tangents = jax.tree.map(lambda x: jnp.asarray(rng.normal(size=np.shape(x))), args)
+    got_t = jax.jit(lambda a, t: jax.jvp(csc._damped_projections_ad, a, t)[1])(args, tangents)
+    want_t = jax.jit(lambda a, t: jax.jvp(_plain_projections, a, t)[1])(args, tangents)
+    for a, b in zip(jax.tree.leaves(got_t), jax.tree.leaves(want_t)):
+        assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="JVP")
+
+
+def test_damped_projections_of_a_zero_jacobian_are_finite():
+    """Every joint frozen (J = 0, the re-solve after all joints saturate): J+ = 0 exactly, the
+    projection is the identity, and values and gradients are finite (the damped inverse of the
+    zero matrix used to underflow to 1/0)."""
+    for m in (2, 3, 6):
+        Jf = jnp.zeros((m, 4))
+        dx, v = jnp.ones(m), jnp.arange(1.0, 5.0)
+        dqP, (Pv,), nu = jax.jit(csc._damped_projections_ad)(Jf, dx, (v,), jnp.asarray(1e-2), jnp.asarray(0.1))
+        assert np.all(np.asarray(dqP) == 0.0) and np.all(np.asarray(Pv) == np.asarray(v)) and float(nu) == 0.0
+        g = jax.jit(jax.grad(lambda J: jnp.sum(csc._damped_projections_ad(J, dx, (v,), 1e-2, 0.1)[0] ** 2 + 1.0)))(Jf)
+        assert np.all(np.isfinite(np.asarray(g)))
+
+
+@pytest.mark.parametrize("task,m", [("xy", 2), ("xyz", 3), ("full", 6)])
+def test_realised_stiffness_vjp_and_jvp_equal_autodiff(task, m):
+    """(K_C, |K_xd - K_C|_F) with its hand-written VJP / transposed JVP equal autodiff of
+    cartesian_stiffness and frobenius (whose inverse has the JVP -K dC K)."""
+    rng = np.random.default_rng(m)
+    n = 7
+    J, kj = jnp.asarray(rng.normal(size=(m, n))), jnp.asarray(rng.uniform(1.0, 5.0, size=n))
+    A = rng.normal(size=(m, m))
+    K = jnp.asarray(A @ A.T + m * np.eye(m))
+
+    def plain(J, kj, K):
+        KC = jaxstiff.cartesian_stiffness(J, kj, task)
+        return KC, jaxstiff.frobenius(KC, K)
+
+    ours = lambda J, kj, K: csc._realised_stiffness(J, kj, K, task)  # noqa: E731
+    W = jnp.asarray(rng.normal(size=(m, m)))
+    loss = lambda f: lambda *a: (lambda o: jnp.sum(W * o[0]) + 2.5 * o[1])(f(*a))  # noqa: E731
+    grads = [jax.jit(jax.grad(loss(f), argnums=(0, 1, 2)))(J, kj, K) for f in (ours, plain)]
+    for a, b in zip(*grads):
+        assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="VJP")
+    for tangents in [(J * 0.0 + 1.0, kj * 0.0, K * 0.0), (J * 0.0, jnp.asarray(rng.normal(size=n)), K * 0.0), (J * 0.0, kj * 0.0, W + W.T)]:
+        tans = [jax.jit(lambda p, t, f=f: jax.jvp(f, p, t)[1])((J, kj, K), tangents) for f in (ours, plain)]
+        for a, b in zip(*tans):
+            assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="JVP")
+
+
+@pytest.mark.parametrize("poly", [False, True])
+def test_kinematics_jvp_closed_form_equals_autodiff(poly):
+    """The rollout's kinematics carry a closed-form JVP (built from J alone); it equals autodiff
+    (with XLA's cos/sin, and with the polynomial ones that rollout batches of >= 64 use)."""
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
     rng = np.random.default_rng(4)
     q, qd = jnp.asarray(rng.uniform(-2, 2, robot.n)), jnp.asarray(rng.normal(size=robot.n))
-    got = jax.jit(lambda x, xd: jax.jvp(lambda y: csc._pose_jac(robot, y), (x,), (xd,))[1])(q, qd)
+    got = jax.jit(lambda x, xd: jax.jvp(lambda y: csc._pose_jac(robot, poly, y), (x,), (xd,))[1])(q, qd)
 
     def ref(x):
         T, J = jaxstiff.fk_and_jacobian(robot, x)
@@ -340,6 +424,48 @@ def test_gradient_with_an_active_joint_limit_is_finite_and_matches_differences()
     assert np.all(np.isfinite(g))
     fd = central_diff(lambda v: float(loss(jnp.asarray(v))), x, h=1e-5)[0]
     assert_close(g, fd, rtol=0.05, atol=0.0, what="d loss / (beta, q0) with a joint at its limit")
+
+
+def test_chunked_batch_with_some_rollouts_at_a_limit_equals_separate_rollouts():
+    """The saturation re-solve runs only in chunks where some rollout reaches a limit (a branch on
+    the batch): a chunk with one saturating and one free rollout, a chunk with neither, and a
+    remainder; values and the gradient of a batch loss equal those of separate rollouts."""
+    rng = np.random.default_rng(6)
+    q0 = Q_SEED + rng.uniform(-1e-3, 1e-3, size=(5, 3))
+    beta = np.array([2e-3, 1e-5, 1e-5, 2e-3, 1e-5])  # the small steps never reach the -80 deg limit
+    chunked = jaxstiff.csc_rollout(PLANAR_LIM, HOLD_300, K_SEED, q0, beta, step="constant", chunk=2)
+    hit = (np.asarray(chunked.status) & csc.STATUS_JOINT_LIMIT).any(axis=1)
+    assert hit[0] and hit[3] and not hit[1] and not hit[2], hit
+
+    def loss(x, b):
+        r = jaxstiff.csc_rollout(PLANAR_LIM, HOLD_300, K_SEED, x, beta[b] if b is not None else beta, step="constant", chunk=2)
+        return jnp.sum(jnp.mean(r.u, axis=-1))
+
+    g_batch = np.asarray(jax.grad(loss)(jnp.asarray(q0), None))
+    for b in range(5):
+        single = jaxstiff.csc_rollout(PLANAR_LIM, HOLD_300, K_SEED, q0[b], beta[b], step="constant")
+        for name in ("q", "u", "status", "frobenius"):
+            assert_close(getattr(chunked, name)[b], getattr(single, name), rtol=1e-12, atol=1e-9, what=f"{name}[{b}]")
+        assert_close(g_batch[b], jax.grad(loss)(jnp.asarray(q0[b]), b), rtol=1e-9, atol=1e-9, what=f"grad[{b}]")
+
+
+def test_every_joint_saturating_moves_to_the_limits_without_nan():
+    """All free joints pushed past their limits in one step: the re-solve has no joint left (J = 0);
+    the step still takes every joint to its limit (no NaN guard, finite gradient)."""
+    lo, hi = Q_SEED - 1e-3, Q_SEED + 1e-3
+    robot = dataclasses.replace(PLANAR, lower_limits=tuple(lo), upper_limits=tuple(hi))
+    path = X_SEED + np.linspace(0.0, 1.0, 20)[:, None] * np.array([0.5, -0.5])  # far faster than 1 mrad per step
+
+    def loss(x):
+        return jnp.mean(jaxstiff.csc_rollout(robot, path, K_SEED, x, 2e-3, step="constant").u)
+
+    r = jaxstiff.csc_rollout(robot, path, K_SEED, Q_SEED, 2e-3, step="constant")
+    status = np.asarray(r.status)
+    assert not np.any(status & csc.STATUS_NAN), status
+    assert np.all(status[1:] & csc.STATUS_JOINT_LIMIT)
+    q = np.asarray(r.q)
+    assert np.all((np.isclose(q[2:], lo) | np.isclose(q[2:], hi)))  # every joint sits at a limit
+    assert np.all(np.isfinite(np.asarray(jax.grad(loss)(jnp.asarray(Q_SEED)))))
 
 
 def test_locked_joint_never_moves_lwr():
