@@ -67,18 +67,30 @@ Choices this module makes where the seed is silent (SPEC section 6 lets us choos
 The rollout is differentiable end to end (``jax.grad`` w.r.t. ``beta``, ``q0``, ``K_xd`` and the
 numeric settings), batched over leading axes of every input (``vmap``), and jitted once per robot,
 task and static setting. With ``remat=True`` (default) the scan body is rematerialised in the
-backward pass, so the memory of a gradient grows with ``T * n`` per rollout only. Speed
-(``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
+backward pass, so the memory of a gradient grows with ``T * n`` per rollout only.
+
+Speed (``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
 128, jaxstiff's XLA options; the machine is shared, so ranges of repeated runs): forward
-1.0-1.4 s; forward + gradient 4.0-5.0 s, 3.4-4.0x the forward in wall and in CPU time. The
-gradient's parts (profile of the compiled program, 128 x 1000): the forward pass ~1x (~90 small
-kernels per step), the recomputed step ~1x, its transpose ~1.5-2x (~200 kernels; the largest
-items the two damped solves, the realised stiffness and the pads that transpose entry-wise
-slices of J). ``u`` and ``grad u`` carry a hand-written VJP (:func:`_offdiag_value_and_grad`),
-the small det and inverse closed-form JVPs. Tried without gain: saving the kinematics instead of
-recomputing them, no remat (the residual stores cost more than the recomputation), the step
-written entry-wise (structure of arrays: 4x fewer forward kernels, but XLA:CPU splits its
-transpose into ~500 tiny ones).
+0.83-0.88 s, forward + gradient 3.2-3.6 s, 3.8-4.2x the forward (goal 3x: not met). What makes
+it so:
+
+* hand-written VJPs, each installed as a custom JVP that is its transpose (forward mode and
+  hessians keep working): ``(u, grad u)`` (:func:`_offdiag_value_and_grad`), the step's
+  projections ``J+ dx``, ``(I - J+ J) v`` with the damping rule (:func:`_damped_projections`), and
+  the realised stiffness (:func:`_realised_stiffness`); closed-form JVPs of the small det and
+  inverse and of the kinematics (from J alone);
+* the saturation re-solve runs only in a chunk where some rollout reaches a limit: a
+  ``lax.cond`` whose predicate is reduced over the named ``vmap`` axis of the chunk, so it stays a
+  branch (under a caller's own ``vmap`` it becomes a select: same values, no saving);
+* the joint cosines and sines from :func:`jaxstiff.kinematics.cos_sin` (a batch of >= 64
+  rollouts) and running sums unrolled (``jnp.cumsum`` is an unfusable reduce-window on CPU).
+
+The gradient's parts (profile of the compiled program, 128 x 1000; ``jax.named_scope`` names
+``csc_kinematics``, ``csc_offdiag``, ``csc_measures``, ``csc_solve``, ``csc_resolve``): the forward
+pass ~1x, the recomputed step ~1x, its transpose ~1.5-2x. Tried without gain: saving the
+kinematics instead of recomputing them, no remat (the residual stores cost more than the
+recomputation), the step written entry-wise (structure of arrays: 4x fewer forward kernels, but
+XLA:CPU splits its transpose into ~500 tiny ones), cumsum as a triangular product.
 
 Example:
     >>> import jax.numpy as jnp, numpy as np, jaxstiff
