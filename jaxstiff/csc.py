@@ -110,7 +110,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -486,21 +486,42 @@ def _damped_pinv(Jf: jax.Array, nu0, damping):
 
 def _damped_inverse(Jf: jax.Array, nu0, damping):
     """``(J J^T + lam^2 I)^-1`` (m, m) of the damping rule (module docstring), isotropy nu, damped flag."""
+    d = _damping_rule(Jf, nu0, damping)
+    return _spd_inverse(d.A), d.nu, d.damped
+
+
+class _Damping(NamedTuple):
+    A0: jax.Array  # J J^T
+    A: jax.Array  # J J^T + lam^2 I (I where J = 0)
+    scale: jax.Array  # tr(J J^T) / m
+    safe_scale: jax.Array
+    pos: jax.Array  # scale > 0
+    nu_raw: jax.Array  # det(J J^T) / scale^m
+    nu: jax.Array  # the isotropy, in [0, 1]
+    thr: jax.Array  # nu0^(m/2)
+    damped: jax.Array  # nu < thr
+    t: jax.Array  # 1 - nu / thr
+    w: jax.Array  # t^2 where damped, else 0: lam^2 = damping^2 scale w
+
+
+def _damping_rule(Jf: jax.Array, nu0, damping) -> _Damping:
+    """The damping rule of the module docstring for a task Jacobian Jf (m, n), term by term."""
     m = Jf.shape[-2]
     A0 = jnp.sum(Jf[..., :, None, :] * Jf[..., None, :, :], axis=-1)  # J J^T
-    tr = jnp.trace(A0, axis1=-2, axis2=-1)
-    scale = tr / m
+    scale = jnp.trace(A0, axis1=-2, axis2=-1) / m
     pos = scale > 0
     safe_scale = jnp.where(pos, scale, 1.0)
-    nu = jnp.where(pos, _det_small(A0) / safe_scale**m, 0.0)
-    nu = jnp.clip(nu, 0.0, 1.0)
+    nu_raw = _det_small(A0) / safe_scale**m
+    nu = jnp.where(pos, jnp.clip(nu_raw, 0.0, 1.0), 0.0)
     thr = nu0 ** (m / 2.0)  # nu0 for m = 2, nu0^1.5 for m = 3, nu0^3 for m = 6 (module docstring)
     damped = nu < thr
-    w = jnp.where(damped, (1.0 - nu / thr) ** 2, 0.0)
-    tiny = jnp.finfo(Jf.dtype).tiny * 1e3
-    lam2 = damping**2 * scale * w + tiny
-    A = A0 + lam2[..., None, None] * jnp.eye(m, dtype=Jf.dtype)
-    return _spd_inverse(A), nu, damped
+    t = 1.0 - nu / thr
+    w = jnp.where(damped, t * t, 0.0)
+    lam2 = damping**2 * scale * w + jnp.finfo(Jf.dtype).tiny * 1e3
+    eye = jnp.eye(m, dtype=Jf.dtype)
+    # J = 0 (every joint frozen): any A gives J+ = 0; I keeps the inverse finite (tiny I underflows)
+    A = jnp.where(pos[..., None, None], A0 + lam2[..., None, None] * eye, eye)
+    return _Damping(A0, A, scale, safe_scale, pos, nu_raw, nu, thr, damped, t, w)
 
 
 def _damped_projections(Jf: jax.Array, dx: jax.Array, vs: tuple, nu0, damping):
@@ -524,31 +545,14 @@ def _damped_projections(Jf: jax.Array, dx: jax.Array, vs: tuple, nu0, damping):
 
 
 def _projections_forward(Jf, dx, vs, nu0, damping):
-    m = Jf.shape[-2]
-    A0 = jnp.sum(Jf[..., :, None, :] * Jf[..., None, :, :], axis=-1)  # J J^T
-    scale = jnp.trace(A0, axis1=-2, axis2=-1) / m
-    pos = scale > 0
-    safe_scale = jnp.where(pos, scale, 1.0)
-    if m in (2, 3):
-        det, cof = _det_cofactors(A0)
-    else:
-        det, cof = jnp.linalg.det(A0), None
-    nu_raw = det / safe_scale**m
-    nu = jnp.where(pos, jnp.clip(nu_raw, 0.0, 1.0), 0.0)
-    thr = nu0 ** (m / 2.0)  # nu0 for m = 2, nu0^1.5 for m = 3, nu0^3 for m = 6 (module docstring)
-    damped = nu < thr
-    t = 1.0 - nu / thr
-    w = jnp.where(damped, t * t, 0.0)
-    lam2 = damping**2 * scale * w + jnp.finfo(Jf.dtype).tiny * 1e3
-    eye = jnp.eye(m, dtype=Jf.dtype)
-    # J = 0 (every joint frozen): any A gives J+ = 0; I keeps the inverse finite (tiny I underflows)
-    Ainv = _spd_inverse_primal(jnp.where(pos[..., None, None], A0 + lam2[..., None, None] * eye, eye))
+    d = _damping_rule(Jf, nu0, damping)
+    cof = _det_cofactors(d.A0)[1] if Jf.shape[-2] in (2, 3) else None  # d det / dA0 (XLA shares it with det)
+    Ainv = _spd_inverse_primal(d.A)
     y = _mv(Ainv, dx)
     dqP = _mtv(Jf, y)
     zs = tuple(_mv(Ainv, _mv(Jf, v)) for v in vs)
     Pvs = tuple(v - _mtv(Jf, z) for v, z in zip(vs, zs))
-    res = (Jf, A0, cof, Ainv, y, zs, vs, scale, safe_scale, pos, nu_raw, nu, damped, t, w, thr, nu0, damping)
-    return dqP, Pvs, nu, res
+    return dqP, Pvs, d.nu, (Jf, d, cof, Ainv, y, zs, vs, nu0, damping)
 
 
 def _outer(a: jax.Array, b: jax.Array) -> jax.Array:
@@ -557,7 +561,9 @@ def _outer(a: jax.Array, b: jax.Array) -> jax.Array:
 
 def _projections_vjp(res, cts):
     """VJP of :func:`_damped_projections` w.r.t. ``(Jf, dx, vs, nu0, damping)`` (derivation there)."""
-    Jf, A0, cof, Ainv, y, zs, vs, scale, safe_scale, pos, nu_raw, nu, damped, t, w, thr, nu0, damping = res
+    Jf, d, cof, Ainv, y, zs, vs, nu0, damping = res
+    A0, scale, safe_scale, pos, nu_raw, nu, damped, t, w, thr = (
+        d.A0, d.scale, d.safe_scale, d.pos, d.nu_raw, d.nu, d.damped, d.t, d.w, d.thr)
     dqP_b, Pv_bs, nu_b = cts
     m = Jf.shape[-2]
     dx_b = _mv(Ainv, _mv(Jf, dqP_b))
@@ -590,12 +596,10 @@ def _projections_vjp(res, cts):
     return J_b, dx_b, tuple(vs_b), nu0_b, damping_b
 
 
-@jax.custom_jvp
-def _damped_projections_ad(Jf, dx, vs, nu0, damping):
-    return _damped_projections(Jf, dx, vs, nu0, damping)
+_damped_projections = jax.custom_jvp(_damped_projections)
 
 
-@_damped_projections_ad.defjvp
+@_damped_projections.defjvp
 def _damped_projections_jvp(primals, tangents):
     """Forward mode as the transpose of :func:`_projections_vjp` (see :func:`_offdiag_jvp`)."""
     dqP, Pvs, nu, res = _projections_forward(*primals)
@@ -717,8 +721,8 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
         vs = (gm,)
         if st.joint_limits == "priority":
             vs = (gm, -jl_gain * finite_j * mask * (q - mid) / half)
-        dqP, Pvs, nu = _damped_projections_ad(Jm, dx, vs, nu0, damping)
-        damped = nu < nu0 ** (len(rows) / 2.0)
+        dqP, Pvs, nu = _damped_projections(Jm, dx, vs, nu0, damping)
+        damped = nu < nu0 ** (len(rows) / 2.0)  # as in _damping_rule
         dqN = Pvs[0]
         nN = _safe_norm(dqN)
         length = beta * _safe_norm(dqP) if st.step == "adaptive" else beta

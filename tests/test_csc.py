@@ -217,7 +217,7 @@ def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
         J[1] = J[0] * 0.999 + 1e-3 * rng.normal(size=n)
     args = (jnp.asarray(J), jnp.asarray(rng.normal(size=m)), (jnp.asarray(rng.normal(size=n)), jnp.asarray(rng.normal(size=n))),
             jnp.asarray(1e-2), jnp.asarray(0.1))
-    _, _, nu = jax.jit(csc._damped_projections_ad)(*args)
+    _, _, nu = jax.jit(csc._damped_projections)(*args)
     assert (float(nu) < 1e-2 ** (m / 2)) == (case == "near_singular")  # the case is what it says
     w = [jnp.asarray(rng.normal(size=n)) for _ in range(3)]
 
@@ -227,14 +227,14 @@ def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
             return jnp.sum(w[0] * jnp.sin(dqP)) + jnp.sum(w[1] * p1) + jnp.sum(w[2] * p2 * p2) + 3.0 * nu
         return inner
 
-    for a, b in zip(jax.tree.leaves(jax.jit(csc._damped_projections_ad)(*args)), jax.tree.leaves(jax.jit(_plain_projections)(*args))):
+    for a, b in zip(jax.tree.leaves(jax.jit(csc._damped_projections)(*args)), jax.tree.leaves(jax.jit(_plain_projections)(*args))):
         assert_close(a, b, rtol=1e-13, atol=1e-13, what="values")
-    got = jax.jit(jax.grad(loss(csc._damped_projections_ad), argnums=(0, 1, 2, 3, 4)))(*args)  # jitted: no op-by-op dispatch
+    got = jax.jit(jax.grad(loss(csc._damped_projections), argnums=(0, 1, 2, 3, 4)))(*args)  # jitted: no op-by-op dispatch
     want = jax.jit(jax.grad(loss(_plain_projections), argnums=(0, 1, 2, 3, 4)))(*args)
     for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want)):
         assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="VJP")
     tangents = jax.tree.map(lambda x: jnp.asarray(rng.normal(size=np.shape(x))), args)
-    got_t = jax.jit(lambda a, t: jax.jvp(csc._damped_projections_ad, a, t)[1])(args, tangents)
+    got_t = jax.jit(lambda a, t: jax.jvp(csc._damped_projections, a, t)[1])(args, tangents)
     want_t = jax.jit(lambda a, t: jax.jvp(_plain_projections, a, t)[1])(args, tangents)
     for a, b in zip(jax.tree.leaves(got_t), jax.tree.leaves(want_t)):
         assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="JVP")
@@ -247,9 +247,9 @@ def test_damped_projections_of_a_zero_jacobian_are_finite():
     for m in (2, 3, 6):
         Jf = jnp.zeros((m, 4))
         dx, v = jnp.ones(m), jnp.arange(1.0, 5.0)
-        dqP, (Pv,), nu = jax.jit(csc._damped_projections_ad)(Jf, dx, (v,), jnp.asarray(1e-2), jnp.asarray(0.1))
+        dqP, (Pv,), nu = jax.jit(csc._damped_projections)(Jf, dx, (v,), jnp.asarray(1e-2), jnp.asarray(0.1))
         assert np.all(np.asarray(dqP) == 0.0) and np.all(np.asarray(Pv) == np.asarray(v)) and float(nu) == 0.0
-        g = jax.jit(jax.grad(lambda J: jnp.sum(csc._damped_projections_ad(J, dx, (v,), 1e-2, 0.1)[0] ** 2 + 1.0)))(Jf)
+        g = jax.jit(jax.grad(lambda J: jnp.sum(csc._damped_projections(J, dx, (v,), 1e-2, 0.1)[0] ** 2 + 1.0)))(Jf)
         assert np.all(np.isfinite(np.asarray(g)))
 
 
