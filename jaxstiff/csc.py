@@ -738,6 +738,8 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
 
     def step_fn(q, xs):
         target, K, K_prev, target_prev = xs
+        if not st.varying:
+            K = K_prev = K_xd
         u, g, (p, J, p3, R) = evaluate(q, K)
         # measures of the posture q (reached by the previous step) against the previous waypoint
         u_rep = u if not st.varying else offdiag(J, K_prev)
@@ -788,15 +790,15 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
                    position=p3, isotropy=nu, null_step=step_len, status=status)
         return q_next, out
 
-    if st.varying:
-        K_seq = K_xd
-    else:
-        K_seq = jnp.broadcast_to(K_xd, (targets.shape[0],) + K_xd.shape)
     # T + 1 iterations: iteration k reports the posture q_k (reached by step k - 1) against
     # waypoint k - 1, then steps towards waypoint k. The last iteration only reports q_T (its
     # step is discarded); row 0 reports the start posture. One loop body, no duplicate code.
-    K_ext = jnp.concatenate([K_seq, K_seq[-1:]], axis=0)
-    K_prev = jnp.concatenate([K_seq[:1], K_seq], axis=0)
+    # A constant K_xd is a constant of the loop, not a sequence: its cotangent then sums in the
+    # loop instead of filling (and zeroing) a (T + 1, m, m) buffer per rollout.
+    K_ext = K_prev = None
+    if st.varying:
+        K_ext = jnp.concatenate([K_xd, K_xd[-1:]], axis=0)
+        K_prev = jnp.concatenate([K_xd[:1], K_xd], axis=0)
     t_ext = jnp.concatenate([targets, targets[-1:]], axis=0)
     t_prev = jnp.concatenate([targets[:1], targets], axis=0)
     body = jax.checkpoint(step_fn) if st.remat else step_fn
