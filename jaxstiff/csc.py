@@ -767,8 +767,10 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
         else:
             # Rare (a limit reached): re-solve only when some rollout of the vmapped batch needs it.
             # The predicate is reduced over the batch axis, so it stays a branch under vmap.
+            # The branch is rematerialised on its own: a cond's linearisation returns the residuals of
+            # both branches, and the branch not taken fills them with zeros (28 copies per step).
             need = jax.lax.pmax(any_over.astype(jnp.int32), axis_name) > 0
-            dq, null, small = jax.lax.cond(need, resolve, lambda _: (dq1, null1, small1), None)
+            dq, null, small = jax.lax.cond(need, jax.checkpoint(resolve), lambda _: (dq1, null1, small1), None)
         q_new = q + dq
         for _ in range(st.newton):
             pn, Jn, _, Rn = kin(q_new)
