@@ -71,7 +71,7 @@ backward pass, so the memory of a gradient grows with ``T * n`` per rollout only
 
 Speed (``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
 128, jaxstiff's XLA options; the machine is shared, so ranges of repeated runs): forward
-0.83-0.88 s, forward + gradient 3.2-3.6 s, 3.8-4.2x the forward (goal 3x: not met). What makes
+0.73-0.85 s, forward + gradient 2.7-3.0 s, 3.5-3.7x the forward (goal 3x: not met). What makes
 it so:
 
 * hand-written VJPs, each installed as a custom JVP that is its transpose (forward mode and
@@ -81,7 +81,10 @@ it so:
   inverse and of the kinematics (from J alone);
 * the saturation re-solve runs only in a chunk where some rollout reaches a limit: a
   ``lax.cond`` whose predicate is reduced over the named ``vmap`` axis of the chunk, so it stays a
-  branch (under a caller's own ``vmap`` it becomes a select: same values, no saving);
+  branch (under a caller's own ``vmap`` it becomes a select: same values, no saving); the branch
+  is rematerialised on its own, else the linearised cond carries both branches' residuals;
+* a constant ``K_xd`` is a constant of the time loop, not a per-step sequence (no (T + 1, m, m)
+  buffers per rollout for it and its cotangent);
 * the joint cosines and sines from :func:`jaxstiff.kinematics.cos_sin` (a batch of >= 64
   rollouts) and running sums unrolled (``jnp.cumsum`` is an unfusable reduce-window on CPU).
 
