@@ -120,7 +120,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._xla import kernel_compiler_options
-from .criteria import _offdiag_of, frobenius, offdiag
+from .criteria import _offdiag_of, _safe_sqrt, offdiag
 from .kinematics import (
     _POLY_MIN_BATCH,
     _cross_cols,
@@ -507,6 +507,11 @@ class _Damping(NamedTuple):
     w: jax.Array  # t^2 where damped, else 0: lam^2 = damping^2 scale w
 
 
+def _isotropy_threshold(nu0, m: int):
+    """``nu_th = nu0^(m/2)``: nu0 for m = 2, nu0^1.5 for m = 3, nu0^3 for m = 6 (module docstring)."""
+    return nu0 ** (m / 2.0)
+
+
 def _damping_rule(Jf: jax.Array, nu0, damping) -> _Damping:
     """The damping rule of the module docstring for a task Jacobian Jf (m, n), term by term."""
     m = Jf.shape[-2]
@@ -516,7 +521,7 @@ def _damping_rule(Jf: jax.Array, nu0, damping) -> _Damping:
     safe_scale = jnp.where(pos, scale, 1.0)
     nu_raw = _det_small(A0) / safe_scale**m
     nu = jnp.where(pos, jnp.clip(nu_raw, 0.0, 1.0), 0.0)
-    thr = nu0 ** (m / 2.0)  # nu0 for m = 2, nu0^1.5 for m = 3, nu0^3 for m = 6 (module docstring)
+    thr = _isotropy_threshold(nu0, m)
     damped = nu < thr
     t = 1.0 - nu / thr
     w = jnp.where(damped, t * t, 0.0)
@@ -627,11 +632,9 @@ def _realised_stiffness(J: jax.Array, kj: jax.Array, K_xd: jax.Array, task: str)
 def _realised_forward(J, kj, K_xd, task):
     K_C = cartesian_stiffness(J, kj, task)
     E = K_xd - K_C
-    ss = jnp.sum(E * E, axis=(-2, -1))
-    pos = ss > 0
-    frob = jnp.where(pos, jnp.sqrt(jnp.where(pos, ss, 1.0)), 0.0)
-    kmin = jnp.sqrt(jnp.finfo(J.dtype).tiny)  # compliance's floor of kj (stiffness._joint_stiffness_array)
-    return K_C, frob, (J, jnp.maximum(kj, kmin), kj > kmin, K_C, E, pos, frob)
+    frob = _safe_sqrt(jnp.sum(E * E, axis=(-2, -1)))  # as criteria.frobenius
+    floor = jnp.sqrt(jnp.finfo(J.dtype).tiny)  # compliance's floor of kj (stiffness._joint_stiffness_array)
+    return K_C, frob, (J, jnp.maximum(kj, floor), kj > floor, K_C, E, frob > 0, frob)
 
 
 def _realised_vjp(task, res, cts):
@@ -663,9 +666,10 @@ def _orientation_error(R: jax.Array, Rd: jax.Array) -> jax.Array:
     return 0.5 * jnp.sum(jnp.cross(R, Rd, axisa=-2, axisb=-2, axisc=-1), axis=-2)
 
 
-def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain,
-                 axis_name=None):
-    """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (). See csc_rollout."""
+def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps,
+                 jl_gain):
+    """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (). See csc_rollout.
+    Runs under ``vmap(axis_name=axis_name)`` over the rollouts of a chunk."""
     dtype = q0.dtype
     rows = TASK_ROWS[st.task]
     full = st.task == "full"
@@ -725,7 +729,7 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
         if st.joint_limits == "priority":
             vs = (gm, -jl_gain * finite_j * mask * (q - mid) / half)
         dqP, Pvs, nu = _damped_projections(Jm, dx, vs, nu0, damping)
-        damped = nu < nu0 ** (len(rows) / 2.0)  # as in _damping_rule
+        damped = nu < _isotropy_threshold(nu0, len(rows))
         dqN = Pvs[0]
         nN = _safe_norm(dqN)
         length = beta * _safe_norm(dqP) if st.step == "adaptive" else beta
@@ -765,15 +769,12 @@ def _rollout_one(robot: Robot, st: _Static, targets, K_xd, q0, beta, kmin, kmax,
             return (jnp.where(any_over, dq2 + dq_sat, dq1), jnp.where(any_over, null2, null1),
                     jnp.where(any_over, small2, small1))
 
-        if axis_name is None:
-            dq, null, small = resolve(None)
-        else:
-            # Rare (a limit reached): re-solve only when some rollout of the vmapped batch needs it.
-            # The predicate is reduced over the batch axis, so it stays a branch under vmap.
-            # The branch is rematerialised on its own: a cond's linearisation returns the residuals of
-            # both branches, and the branch not taken fills them with zeros (28 copies per step).
-            need = jax.lax.pmax(any_over.astype(jnp.int32), axis_name) > 0
-            dq, null, small = jax.lax.cond(need, jax.checkpoint(resolve), lambda _: (dq1, null1, small1), None)
+        # Rare (a limit reached): re-solve only when some rollout of the vmapped chunk needs it.
+        # The predicate is reduced over the batch axis, so it stays a branch under vmap.
+        # The branch is rematerialised on its own: a cond's linearisation returns the residuals of
+        # both branches, and the branch not taken fills them with zeros (28 copies per step).
+        need = jax.lax.pmax(any_over.astype(jnp.int32), axis_name) > 0
+        dq, null, small = jax.lax.cond(need, jax.checkpoint(resolve), lambda _: (dq1, null1, small1), None)
         q_new = q + dq
         for _ in range(st.newton):
             pn, Jn, _, Rn = kin(q_new)
@@ -839,7 +840,7 @@ def _rollout_batch_jit(backend: str, top_level: bool):
 def _rollout_batch_impl(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
     def one(xs):
         t, K, q, b, e = xs
-        return _rollout_one(robot, st, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain, axis_name=_BATCH_AXIS)
+        return _rollout_one(robot, st, _BATCH_AXIS, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain)
 
     B = q0.shape[0]
     # one rollout's kinematics sees a single posture under vmap: choose its cos/sin by the batch
