@@ -184,12 +184,13 @@ def _cos_sin_jvp(primals, tangents):
 _POLY_MIN_BATCH = 64
 
 
-def _joint_cos_sin(q: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """cos/sin of all joint values: :func:`cos_sin` for CPU batches, else XLA's sin and cos."""
-    batch = q.size // max(q.shape[-1], 1)
-    if jax.default_backend() == "cpu" and batch >= _POLY_MIN_BATCH:
-        return cos_sin(q)
-    return jnp.cos(q), jnp.sin(q)
+def _joint_cos_sin(q: jax.Array, poly: bool | None = None) -> tuple[jax.Array, jax.Array]:
+    """cos/sin of all joint values: :func:`cos_sin` if ``poly``, else XLA's sin and cos; ``poly=None``
+    chooses :func:`cos_sin` for CPU batches of at least ``_POLY_MIN_BATCH`` configurations."""
+    if poly is None:
+        batch = q.size // max(q.shape[-1], 1)
+        poly = jax.default_backend() == "cpu" and batch >= _POLY_MIN_BATCH
+    return cos_sin(q) if poly else (jnp.cos(q), jnp.sin(q))
 
 
 # ---------------------------------------------------------------- the kernel
@@ -203,10 +204,7 @@ def _chain(robot: Robot, q: jax.Array, want_jacobian: bool, poly: bool | None = 
     R = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     p = [0.0, 0.0, 0.0]
     frames = []
-    if poly is None:
-        cos_q, sin_q = _joint_cos_sin(q)
-    else:
-        cos_q, sin_q = cos_sin(q) if poly else (jnp.cos(q), jnp.sin(q))
+    cos_q, sin_q = _joint_cos_sin(q, poly)
     for i in range(robot.n):
         org = robot.origins[i]
         R0 = [list(org[r][:3]) for r in range(3)]
