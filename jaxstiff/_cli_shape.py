@@ -189,9 +189,12 @@ def _add_shape(p: argparse.ArgumentParser):
             locks = parse_locks(args.lock)
         else:  # the seed's lock for the shipped LWR, nothing for other robots
             locks = {}
-            src = args.robot if os.path.isfile(args.robot) else robot_path(args.robot)
+            try:
+                src = args.robot if os.path.isfile(args.robot) else robot_path(args.robot)
+            except FileNotFoundError:  # neither a file nor a shipped name: Robot.from_urdf says which
+                src = None
             for name, lock in _DEFAULT_LOCK.items():
-                if os.path.samefile(src, robot_path(name)):
+                if src is not None and os.path.samefile(src, robot_path(name)):
                     locks = dict(lock)
         tcp = _nums(args.tcp, "--tcp")
         robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=locks or None, tcp=tcp)

@@ -198,7 +198,7 @@ class Path:
         if not os.path.isfile(file):
             raise FileNotFoundError(f"path file not found: {file}")
         try:
-            with open(file, newline="", encoding="utf-8") as fh:
+            with open(file, newline="", encoding="utf-8-sig") as fh:  # -sig: a BOM (spreadsheet export) is dropped
                 text = fh.read()
         except UnicodeDecodeError:
             raise ValueError(f"{file}: not a text CSV file (cannot decode as UTF-8)") from None

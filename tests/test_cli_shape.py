@@ -90,6 +90,8 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--q0", "3.5,0,0,0,0,0,0"], "outside its limits"),
         (lambda t: ["--kj0", "500"], "outside"),
         (lambda t: ["--solver", "magic"], "unknown solver"),
+        (lambda t: ["--robot", str(t / "typo.urdf")], "URDF file not found"),  # not "no shipped robot"
+        (lambda t: ["--robot", str(t)], "is not a file"),  # a folder
         (lambda t: ["--out", str(t / "no" / "dir" / "x.npz")], "folder does not exist"),
     ],
 )

@@ -180,3 +180,13 @@ def test_default_path_n_and_spec():
     assert_close(p.points[0], paths.DEFAULT_PATH_SPEC["start"])
     assert_close(p.points[-1], paths.DEFAULT_PATH_SPEC["end"], atol=1e-15)
     assert math.isclose(float(p.points[2, 0]), 0.7, abs_tol=1e-12)
+
+
+def test_csv_with_a_byte_order_mark_reads_like_one_without(tmp_path):
+    """Spreadsheet programs write UTF-8 with a BOM; the header must still be recognised."""
+    text = "x,y,z,dx,dy,dz\n0.6,0.2,0.3,1,0,0\n0.6,0.1,0.3,0,1,0\n"
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbf" + text.encode())
+    (tmp_path / "plain.csv").write_text(text)
+    a, b = Path.from_csv(tmp_path / "bom.csv"), Path.from_csv(tmp_path / "plain.csv")
+    np.testing.assert_array_equal(np.asarray(a.points), np.asarray(b.points))
+    np.testing.assert_array_equal(np.asarray(a.directions), np.asarray(b.directions))
