@@ -82,6 +82,17 @@ def _add_robot(p: argparse.ArgumentParser):
     return run
 
 
+class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Appends ``(default: X)`` only where it says something: not for a None default, and not where the
+    help text already states its default in words."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if action.default is None or "default" in text.lower():
+            return text
+        return super()._get_help_string(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
     # importing these modules registers their subcommands
     from . import _cli_commands  # noqa: F401
@@ -95,7 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"jaxstiff {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (add, _, help_) in COMMANDS.items():
-        sp = sub.add_parser(name, help=help_, description=help_, formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        sp = sub.add_parser(name, help=help_, description=help_, formatter_class=_HelpFormatter)
         sp.set_defaults(_run=add(sp))
     return parser
 

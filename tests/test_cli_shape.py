@@ -2,6 +2,7 @@
 units, every bad input of the acceptance list -> one-line error, exit 2, no output file; Ctrl-C -> no file."""
 
 import os
+import re
 
 import numpy as np
 import pytest
@@ -126,3 +127,12 @@ def test_ctrl_c_leaves_no_file(tmp_path, small_csv, capsys, monkeypatch):
     assert "interrupted" in capsys.readouterr().err
     assert sorted(os.listdir(tmp_path)) == ["small.csv"]
     assert shaping.SOLVERS["slsqp"] is not real
+
+
+@pytest.mark.parametrize("command", ["shape", "csc", "sweep", "reproduce"])
+def test_help_states_each_default_once_and_never_none(command, capsys):
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
+    assert "(default: None)" not in text
+    assert not re.search(r"\(default: [^)]*\) \(default:", text), text  # stated in words, then by argparse
