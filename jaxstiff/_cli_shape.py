@@ -109,16 +109,16 @@ def _add_shape(p: argparse.ArgumentParser):
     from .shaping import DEFAULTS
 
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
-    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)%(default).0s")
-    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)%(default).0s")
+    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
+    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
     p.add_argument("--lock", action="append", metavar="JOINT=RAD",
                    help="lock a joint at a value, rad (repeatable). Default for the shipped kuka_lwr4: "
-                        "lwr_a7=0 (seed 000); '--lock none' frees every joint%(default).0s")
-    p.add_argument("--tcp", default=None, metavar="X,Y,Z", help="tool offset after the tip link, m, in the tip frame (default: none)%(default).0s")
+                        "lwr_a7=0 (seed 000); '--lock none' frees every joint")
+    p.add_argument("--tcp", default=None, metavar="X,Y,Z", help="tool offset after the tip link, m, in the tip frame (default: none)")
     p.add_argument("--path", action="append", metavar="CSV",
                    help="path file with header x,y,z[,dx,dy,dz], metres in the base frame (repeatable: several "
                         "paths with the same number of waypoints, one result file). Default: the shipped "
-                        "default path (jaxstiff.paths.default_path)%(default).0s")
+                        "default path (jaxstiff.paths.default_path)")
     p.add_argument("--criterion", default="f2", help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
     p.add_argument("--ratio", default="5", metavar="R", help="wanted axis ratio lambda1/lambda2, > 1")
     p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)")
@@ -126,10 +126,10 @@ def _add_shape(p: argparse.ArgumentParser):
                    help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2")
     p.add_argument("--q0", default=None, metavar="RAD,...",
                    help="start posture, one value per joint (rad, locked joints at their values); "
-                        "default: damped-least-squares IK from the nominal posture to the first waypoint%(default).0s")
+                        "default: damped-least-squares IK from the nominal posture to the first waypoint")
     p.add_argument("--kj0", default=None, metavar="V|V,...",
                    help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
-                        "(default: mid-range (kmin+kmax)/2)%(default).0s")
+                        "(default: mid-range (kmin+kmax)/2)")
     p.add_argument("--dq-deg", default=str(DEFAULTS["dq_deg"]), metavar="D",
                    help="joint rate limit, degrees per waypoint (inf = none)")
     p.add_argument("--dk", default=str(DEFAULTS["dk"]), metavar="K",
@@ -140,19 +140,19 @@ def _add_shape(p: argparse.ArgumentParser):
     p.add_argument("--solver", default="slsqp",
                    help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
                         "or another registered solver (pgd, hybrid)")
-    p.add_argument("--starts", default=None, metavar="S", help="starts per waypoint, multi-start solvers only (default: the solver's own)%(default).0s")
+    p.add_argument("--starts", default=None, metavar="S", help="starts per waypoint, multi-start solvers only (default: the solver's own)")
     p.add_argument("--first-rate-limit", dest="first_rate_limit", action="store_true",
                    help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
-                        "first waypoint may use the full joint and stiffness ranges)%(default).0s")
+                        "first waypoint may use the full joint and stiffness ranges)")
     p.add_argument("--no-first-rate-limit", dest="first_rate_limit", action="store_false",
-                   help="the default: do not rate-limit the first waypoint%(default).0s")
+                   help="the default: do not rate-limit the first waypoint")
     p.set_defaults(first_rate_limit=DEFAULTS["first_rate_limit"])
     p.add_argument("--first-starts", default=str(DEFAULTS["first_starts"]), metavar="N",
                    help="start postures for the first (not rate-limited) waypoint")
     p.add_argument("--cms-volume", default=None, metavar="V",
                    help="CMS target: product of the ellipsoid axes, (N/m)^3 (default: 1000^3, "
-                        "i.e. a geometric-mean axis of 1000 N/m)%(default).0s")
-    p.add_argument("--cms-major", default=None, metavar="N_PER_M", help="CMS target: major axis lambda1, N/m, instead of the volume%(default).0s")
+                        "i.e. a geometric-mean axis of 1000 N/m)")
+    p.add_argument("--cms-major", default=None, metavar="N_PER_M", help="CMS target: major axis lambda1, N/m, instead of the volume")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary table")
 
     def run(args) -> int:
