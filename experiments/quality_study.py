@@ -89,7 +89,7 @@ def main(argv=None) -> int:
         rows = {}
         for name, solver, starts, opts in settings:
             t0 = time.perf_counter()
-            res = jaxstiff.shape(robot, path, crit, 5.0, solver=solver, starts=starts, q0=q0, options={**opts, "chunk": B})
+            res = jaxstiff.shape(robot, path, crit, 5.0, solver=solver, starts=starts, q0=q0, options=({**opts, "chunk": B} if solver != "slsqp" else opts or None))
             dt = time.perf_counter() - t0
             cached[name] = to_arrays(res)
             v = R.verify(res, robot=robot)

@@ -237,6 +237,15 @@ def _add_shape(p: argparse.ArgumentParser):
         if not args.quiet:
             print(summary_table(res))
             print(f"wrote {written}  ({B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")
+        from . import results as R
+
+        usable = R.is_usable(res.status)
+        if not usable.all():  # the file is still complete: every waypoint has its status
+            worst = int(np.argmin(usable.sum(axis=1)))
+            far = float(np.max(res.pos_error[~usable]))
+            print(f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
+                  f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
+                  "check the path's units and the robot's reach (status codes: see jaxstiff.results)", file=sys.stderr)
         return 0
 
     return run

@@ -133,7 +133,7 @@ from .kinematics import (
     position_and_jacobian,
 )
 from .robot import Robot
-from .stiffness import TASK_ROWS, _mm, cartesian_stiffness
+from .stiffness import TASK_ROWS, _mm, cartesian_stiffness, check_task_feasible
 
 __all__ = [
     "CSCResult",
@@ -682,6 +682,7 @@ def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, b
     upper = jnp.asarray(np.where(free_b, robot.upper, np.inf), dtype=dtype)
     lo_f, hi_f = robot.lower, robot.upper
     finite = np.isfinite(lo_f) & np.isfinite(hi_f) & free_b
+    lo_f, hi_f = np.where(finite, lo_f, 0.0), np.where(finite, hi_f, 0.0)  # continuous joints: no inf - inf
     mid = jnp.asarray(np.where(finite, 0.5 * (lo_f + hi_f), 0.0), dtype=dtype)
     half = jnp.asarray(np.where(finite, 0.5 * (hi_f - lo_f), 1.0), dtype=dtype)
     finite_j = jnp.asarray(finite, dtype=dtype)
@@ -969,9 +970,10 @@ def csc_rollout(
         raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASK_ROWS)}")
     if len(TASK_ROWS[task]) != m:
         raise ValueError(f"task {task!r} needs K_xd of shape (..., {len(TASK_ROWS[task])}, {len(TASK_ROWS[task])}), got {tuple(K_xd.shape)}")
-    if robot.n_free <= (2 if task == "xy" else 3 if task == "xyz" else 6):
-        # not an error: no redundancy, the CSC step is then zero. Kept permissive on purpose.
-        pass
+    # Fewer free joints than task rows, or rows that are dead at every posture: K_C would be the
+    # regularisation's 1e12, not the robot's. (As many free joints as rows is allowed: no
+    # redundancy, so the null-space step is zero and the rollout only tracks.)
+    check_task_feasible(robot, task)
 
     pts = _path_points(path)
     targets = jnp.asarray(pts, dtype=dtype)

@@ -38,7 +38,8 @@ NOMINAL_OFFSET_DEG = 30.0
 def nominal_posture(robot: Robot) -> np.ndarray:
     """A generic non-singular start posture (n,): mid-range + 30 deg per free joint; locked at their values."""
     lo, hi = robot.lower, robot.upper
-    mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+    finite = np.isfinite(lo) & np.isfinite(hi)  # continuous joints: (-inf, inf), mid-range 0
+    mid = np.where(finite, 0.5 * (np.where(finite, lo, 0.0) + np.where(finite, hi, 0.0)), 0.0)
     q = np.clip(mid + np.deg2rad(NOMINAL_OFFSET_DEG), lo, hi)
     return np.where(robot.free, q, np.nan_to_num(robot.locked_values))
 

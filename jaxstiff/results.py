@@ -211,6 +211,12 @@ class ShapeResult:
         file = os.fspath(file)
         if not os.path.isfile(file):
             raise FileNotFoundError(f"result file not found: {file}")
+        with open(file, "rb") as fh:
+            head = fh.read(4)
+        if head != b"PK\x03\x04":  # every .npz is a zip archive; anything else numpy would try to unpickle
+            text = all(32 <= b < 127 or b in (9, 10, 13) for b in head)
+            kind = "the file is empty" if not head else "it is text, e.g. a CSV" if text else "it is not a zip archive"
+            raise ValueError(f"{file}: not a readable .npz result file ({kind}); results are written by `jaxstiff shape --out r.npz`")
         try:
             with np.load(file, allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}

@@ -60,7 +60,7 @@ from .ik import ik_position, nominal_posture, NOMINAL_OFFSET_DEG
 from .paths import DEFAULT_PATH_SPEC, Path
 from .robot import Robot
 from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report, content_seed
-from .stiffness import task_rows
+from .stiffness import check_task_feasible, task_rows
 
 __all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "prefer_sync_cpu_dispatch",
            "first_start_rng"]
@@ -418,7 +418,8 @@ def shape(
         task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, seed), ``"xyz"`` or ``"xy"``.
         solver: a name in :data:`SOLVERS`: ``"slsqp"`` (JAX derivatives) or ``"slsqp-fd"``
             (the seed's own way: numpy + finite differences; the speed baseline).
-        starts: starts per waypoint for multi-start solvers (SLSQP: 1).
+        starts: starts per waypoint for multi-start solvers (default: their ``starts`` option, 8 for
+            pgd and the hybrid; SLSQP: 1). Recorded in ``meta["starts"]``.
         q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values;
             default: IK from the nominal posture to each path's first waypoint.
         kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
@@ -435,7 +436,11 @@ def shape(
             batch; kj from kj0) and keep the best (default 8).
         cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m. Default ``1000**m``.
         cms_major: CMS target: the major axis lambda1, N/m (instead of the volume).
-        options: solver options (SLSQP: ``maxiter``, ``ftol``).
+        options: solver options: SLSQP's :data:`jaxstiff.solvers.slsqp.DEFAULT_OPTIONS`, pgd's
+            :data:`jaxstiff.solvers.pgd.DEFAULT_OPTIONS`, both (plus ``polish_slsqp``, ``chain``) for
+            the hybrid, :data:`jaxstiff.solvers.trajectory.DEFAULT_OPTIONS` plus those of its warm
+            start for the trajectory solver. An unknown name or a bad value is a ValueError before
+            any work; ``meta["options"]`` records every option the run used, defaults included.
         pos_tol: m, largest position error of a usable waypoint (default 1e-9).
         progress: ``progress(b, p)`` called after each waypoint (for progress bars).
         meta_extra: more entries for ``meta`` (e.g. the CLI's path file names).
@@ -476,7 +481,9 @@ def shape(
         raise ValueError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
     crit_fn = get_criterion(criterion)
     crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
+    _check_options(solver, options)
     task_rows(task)
+    check_task_feasible(robot, task)
     ratio = _ratios(ratio, B)
     try:
         kmin, kmax, c = float(kmin), float(kmax), float(c)
@@ -576,8 +583,7 @@ def shape(
         "c": c,
         "task": task,
         "solver": solver,
-        "starts": 1 if starts is None else int(starts),
-        "options": {**_solver_defaults(solver), **dict(options or {})},
+        **_options_meta(solver, starts, options),
         "solver_driver": arrays.get("driver"),
         "pos_tol": float(pos_tol),
         "limits": {
@@ -636,8 +642,81 @@ def shape(
 
 
 def _solver_defaults(solver: str) -> dict[str, Any]:
-    if solver in ("slsqp", "slsqp-fd"):
-        from .solvers.slsqp import DEFAULT_OPTIONS
+    """The default options of a shipped solver, as it applies them ({} for a user-registered one).
 
-        return dict(DEFAULT_OPTIONS)
+    The hybrid is pgd followed by an SLSQP polish, so its options are both sets plus its own two.
+    The trajectory solver's own options are here; those of its warm start go to ``warm_options``."""
+    from .solvers import pgd, slsqp, trajectory
+
+    if solver in ("slsqp", "slsqp-fd"):
+        return dict(slsqp.DEFAULT_OPTIONS)
+    if solver == "pgd":
+        return dict(pgd.DEFAULT_OPTIONS)
+    if solver == "hybrid":
+        return {**pgd.DEFAULT_OPTIONS, **slsqp.DEFAULT_OPTIONS, "polish_slsqp": "all", "chain": "greedy"}
+    if solver == "trajectory":
+        return dict(trajectory.DEFAULT_OPTIONS)
     return {}
+
+
+def solver_option_names(solver: str, warm: str = "pgd") -> set[str] | None:
+    """The option names a shipped solver reads (the trajectory solver's include those of its warm
+    start ``warm``); None for a user-registered solver (its options are not checked)."""
+    if solver not in ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory"):
+        return None
+    known = set(_solver_defaults(solver))
+    if solver == "trajectory":
+        known |= set(_solver_defaults(warm))
+    return known
+
+
+def _check_options(solver: str, options: Mapping[str, Any] | None) -> None:
+    """Unknown option names of a shipped solver are an error (a typo would otherwise be ignored)."""
+    if not options or solver not in ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory"):
+        return
+    if not isinstance(options, Mapping):
+        raise ValueError(f"options must be a dict of solver options, got {type(options).__name__}")
+    warm = options.get("warm", "pgd")
+    if solver == "trajectory" and warm not in ("pgd", "hybrid", "slsqp"):
+        raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm!r}")
+    known = solver_option_names(solver, warm)
+    unknown = sorted(str(k) for k in options if k not in known)
+    if unknown:
+        import difflib
+
+        hints = [f"{k!r} (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, known, n=1)) else repr(k) for k in unknown]
+        raise ValueError(f"unknown option(s) for solver {solver!r}: {', '.join(hints)}; known: {', '.join(sorted(known))}")
+    # values, before any work (a hybrid would otherwise find a bad SLSQP option after its pgd stage)
+    from .solvers import pgd, slsqp
+
+    parts = {"slsqp": "s", "slsqp-fd": "s", "pgd": "p", "hybrid": "ps"}.get(solver, "")
+    if solver == "trajectory":
+        parts = {"pgd": "p", "hybrid": "ps", "slsqp": "s"}[warm]
+    if "p" in parts:
+        pgd._options({k: v for k, v in options.items() if k in pgd.DEFAULT_OPTIONS}, None)
+    if "s" in parts:
+        slsqp.check_options({k: v for k, v in options.items() if k in slsqp.DEFAULT_OPTIONS})
+
+
+def _options_meta(solver: str, starts: int | None, options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """meta's ``starts`` and ``options`` (and ``warm_options`` for the trajectory solver): the
+    values the solver ran with, defaults filled in, so that a result file says how it was made."""
+    given = dict(options or {})
+    own = _solver_defaults(solver)
+    opts = {**own, **given}
+    out: dict[str, Any] = {"options": opts}
+    warm = None
+    if solver == "trajectory":
+        warm = str(opts.get("warm", "pgd"))
+        wdef = _solver_defaults(warm)
+        out["options"] = opts = {**own, **{k: v for k, v in given.items() if k in own}}
+        out["warm_options"] = {**wdef, **{k: v for k, v in given.items() if k in wdef}}
+    multi = solver in ("pgd", "hybrid") or warm in ("pgd", "hybrid")
+    if not multi:
+        out["starts"] = 1
+    else:
+        target = out["warm_options"] if solver == "trajectory" else opts
+        if starts is not None:
+            target["starts"] = int(starts)
+        out["starts"] = int(target["starts"])
+    return out

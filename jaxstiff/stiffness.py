@@ -60,12 +60,14 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jax.extend.core import Primitive as _Primitive
 from jax.interpreters import ad, batching, mlir
 
 __all__ = [
     "TASK_ROWS",
     "task_rows",
+    "check_task_feasible",
     "compliance",
     "compliance_condition",
     "cartesian_stiffness",
@@ -84,6 +86,59 @@ def task_rows(task: str) -> tuple[int, ...]:
         return TASK_ROWS[task]
     except (KeyError, TypeError):
         raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASK_ROWS)}") from None
+
+
+_ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
+
+
+@functools.lru_cache(maxsize=64)
+def _task_rank_report(robot, task: str) -> str | None:
+    rows = task_rows(task)
+    m, free = len(rows), robot.free
+    if robot.n_free < m:
+        return (f"task {task!r} controls {m} Cartesian rows ({', '.join(_ROW_NAMES[r] for r in rows)}) but the robot "
+                f"has only {robot.n_free} free joint(s), so its stiffness along the missing rows is undefined")
+    # Structural rank: sample postures within the limits (continuous joints in [-pi, pi]); a task
+    # whose Jacobian rows lose rank at every sample (a planar chain asked for z, an axis parallel
+    # to another ...) is not a singular posture but a wrong task for this robot.
+    from .kinematics import jacobian
+
+    rng = np.random.default_rng(0)
+    lo = np.clip(robot.lower, -np.pi, np.pi)
+    hi = np.clip(robot.upper, -np.pi, np.pi)
+    q = lo + (hi - lo) * rng.uniform(0.05, 0.95, size=(6, robot.n))
+    q = np.where(free, q, np.nan_to_num(robot.locked_values))
+    with jax.ensure_compile_time_eval(), jax.enable_x64(True):
+        J = np.asarray(jacobian(robot, jnp.asarray(q, dtype=jnp.float64)))
+    Js = J[:, list(rows), :][:, :, free]
+    s = np.linalg.svd(Js, compute_uv=False)
+    if np.any(s[:, -1] > 1e-9 * np.maximum(s[:, 0], 1e-300)):
+        return None
+    dead = [_ROW_NAMES[r] for i, r in enumerate(rows) if np.all(np.abs(Js[:, i, :]) < 1e-12)]
+    rank = int(np.max(np.sum(s > 1e-9 * s[:, :1], axis=1)))
+    why = (f"row(s) {', '.join(dead)} of its Jacobian are zero at every posture (a planar chain?)" if dead
+           else f"its {m} task rows have rank {rank} at every sampled posture")
+    return f"task {task!r} controls {m} Cartesian rows but {why}, so its stiffness along the missing direction is undefined"
+
+
+def check_task_feasible(robot, task: str) -> None:
+    """Raise ValueError if ``robot`` cannot control the rows of ``task`` at any posture.
+
+    Two causes: fewer free joints than task rows (a 3-joint arm with ``"full"``), and task rows
+    that lose rank at every posture (a planar chain with ``"xyz"``: its ``vz`` row is always zero).
+    Either makes the Cartesian stiffness infinite along a lost direction everywhere, not just
+    near a singular posture, so the result would only reflect the regularisation. The check samples
+    six postures within the joint limits once per (robot, task) and is cached.
+    """
+    msg = _task_rank_report(robot, task)
+    if msg is not None:
+        smaller = [t for t in ("xyz", "xy") if len(TASK_ROWS[t]) < len(TASK_ROWS[task])]
+        ok = [t for t in smaller if _task_rank_report(robot, t) is None]
+        hint = (f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'a chain in the xy plane'})" if ok
+                else "task 'xy' needs a chain that moves in the base xy plane")
+        if not robot.free.all():
+            hint += ", or unlock joints"
+        raise ValueError(f"{msg}; {hint}")
 
 
 def _reg_eps(dtype) -> float:

@@ -892,6 +892,13 @@ class _Parser:
             for s in axes["solver"]:
                 if s in ("slsqp", "slsqp-fd") and any(k > 1 for k in axes["starts"]):
                     raise self.err("axes.starts", f"solver {s!r} is single-start; starts must be 0 or 1 (or sweep multi-start solvers separately)")
+        from .stiffness import check_task_feasible
+
+        for task in axes["task"]:
+            try:
+                check_task_feasible(robot, task)
+            except ValueError as e:
+                raise self.err("axes.task", f"robot {robot.name!r}: {e}") from None
         if "xy" in axes["task"]:
             for t in trajectories:
                 if kind == "shape" and np.any(np.abs(t.directions[:, 2]) > 1e-9):
@@ -901,18 +908,30 @@ class _Parser:
         tbl = self.table(cfg.get("solver_options", {}), "solver_options")
         out = {}
         known = None
-        if "solver" in axes and set(axes["solver"]) <= {"slsqp", "slsqp-fd"}:
-            from .solvers.slsqp import DEFAULT_OPTIONS
+        if "solver" in axes:  # each row's solver gets the options it knows (shaping.solver_option_names)
+            from .shaping import solver_option_names
 
-            known = tuple(DEFAULT_OPTIONS)
+            warm = tbl.get("warm", "pgd") if tbl.get("warm", "pgd") in ("pgd", "hybrid", "slsqp") else "pgd"
+            names = [solver_option_names(s, warm) for s in axes["solver"]]
+            if all(n is not None for n in names):
+                known = tuple(sorted(set().union(*names)))
+            which = "SLSQP" if set(axes["solver"]) <= {"slsqp", "slsqp-fd"} else "solver(s) " + ", ".join(axes["solver"])
         for k, v in tbl.items():
             if known is not None and k not in known:
-                raise self.err(f"solver_options.{k}", f"unknown option{_suggest(k, known)} for SLSQP; options: {', '.join(known)}")
+                raise self.err(f"solver_options.{k}", f"unknown option{_suggest(k, known)} for {which}; options: {', '.join(known)}")
             if isinstance(v, bool) or not isinstance(v, (int, float, str)):
                 raise self.err(f"solver_options.{k}", f"expected a number or a string, got {_typename(v)} {v!r}")
-            if isinstance(v, (int, float)) and not (isinstance(v, int) or math.isfinite(v)) or (isinstance(v, (int, float)) and v <= 0):
-                raise self.err(f"solver_options.{k}", f"must be a finite number > 0, got {v!r}")
+            if isinstance(v, (int, float)) and not (isinstance(v, int) or math.isfinite(v)) or (isinstance(v, (int, float)) and v < 0):
+                raise self.err(f"solver_options.{k}", f"must be a finite number >= 0, got {v!r}")
             out[k] = v
+        if known is not None:  # values, as each solver of the sweep will see them
+            from .shaping import _check_options
+
+            for s in axes["solver"]:
+                try:
+                    _check_options(s, {k: v for k, v in out.items() if k in solver_option_names(s, warm)})
+                except ValueError as e:
+                    raise self.err("solver_options", str(e)) from None
         return out
 
     def report(self, cfg, kind, axes, n_paths: int) -> tuple[tuple[tuple[str, str], ...], tuple[str, ...]]:

@@ -106,7 +106,7 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
         f"{len(plan.groups)} groups, {len(plan.chunks)} chunks",
         f"- robot: `{plan.robot.name}` ({plan.robot.n} joints, {plan.robot.n_free} free)"
         + (f", locked {plan.robot_spec.get('locked')}" if plan.robot_spec.get("locked") else ""),
-        f"- paths: " + ", ".join(f"`{t.name}` (P={t.P})" for t in plan.trajectories[:12])
+        "- paths: " + ", ".join(f"`{t.name}` (P={t.P})" for t in plan.trajectories[:12])
         + (" ..." if len(plan.trajectories) > 12 else ""),
         f"- plan hash: `{plan.plan_hash[:16]}`",
     ]

@@ -38,7 +38,7 @@ def planar_paths(B: int, P: int, seed: int = 0):
 
 
 def shape(pts, d, q0, solver="slsqp", ratio=3.0, **kw):
-    if solver != "slsqp":
+    if solver in ("pgd", "hybrid"):
         kw.setdefault("options", PGD_OPTS)
     kw.setdefault("first_starts", 3)
     return jaxstiff.shape(PLANAR, jaxstiff.Path(pts, d), "f2", ratio, task="xy", solver=solver, q0=q0, **kw)
@@ -172,6 +172,18 @@ def test_every_solver_honours_per_path_parameters(solver):
         kw["options"] = TRAJ_OPTS
     res = shape(PTS, DIRS, Q0, solver=solver, **kw)
     assert R.is_usable(res.status).mean() >= 0.8
+    # meta says how the run was made: the given options over the solver's own defaults
+    from jaxstiff.solvers import pgd, slsqp
+
+    meta = res.meta
+    if solver == "hybrid":  # pgd (2 starts given) then SLSQP
+        assert meta["starts"] == 2 and meta["options"]["iters"] == 5 and meta["options"]["mode"] == pgd.DEFAULT_OPTIONS["mode"]
+        assert meta["options"]["maxiter"] == slsqp.DEFAULT_OPTIONS["maxiter"] and meta["options"]["chain"] == "greedy"
+    elif solver == "trajectory":  # warm start from SLSQP: single start
+        assert meta["starts"] == 1 and meta["options"]["traj_iters"] == 4 and meta["options"]["mu0"] > 0
+        assert meta["warm_options"]["maxiter"] == slsqp.DEFAULT_OPTIONS["maxiter"]
+    else:
+        assert meta["starts"] == 1 and meta["options"] == slsqp.DEFAULT_OPTIONS
     for b in range(2):
         assert rate_excess(res, b, DQ[b], DK[b]) <= 1e-12, f"path {b}"
     assert rate_excess(res, 0, DQ[1], DK[1]) > 1e-3

@@ -57,6 +57,19 @@ def test_two_paths_one_file_and_options(tmp_path, small_csv, capsys):
     assert np.all(res.kj0 == 40.0) and np.all(res.kj >= 2.0) and np.all(res.kj <= 90.0)
 
 
+def test_unreachable_waypoints_warn_on_stderr_and_the_file_is_complete(tmp_path, small_csv, capsys):
+    base = jaxstiff.Path.from_csv(small_csv)
+    far = tmp_path / "far.csv"
+    jaxstiff.Path(np.vstack([base.points[:1], [[3.0, 3.0, 3.0]]]), base.directions[:2]).to_csv(far)  # 3 m: out of reach
+    out = tmp_path / "far.npz"
+    rc = main(["shape", "--path", str(far), "--out", str(out), "--quiet", "--first-starts", "1"])
+    err = capsys.readouterr().err
+    assert rc == 0 and out.exists()
+    assert re.search(r"warning: 1 of 2 waypoints have no usable solution .*path 0: 1 of 2", err), err
+    status = jaxstiff.ShapeResult.load(out).status[0]
+    assert R.is_usable(status[0]) and status[1] == R.UNREACHABLE
+
+
 def test_help_has_units(capsys):
     with pytest.raises(SystemExit):
         main(["shape", "--help"])

@@ -65,6 +65,12 @@ def check_file(res, tmp_path, name="r.npz"):
     return back
 
 
+def test_meta_records_the_starts_and_options_pgd_ran_with(batch3):
+    meta = batch3[2].meta
+    assert meta["solver"] == "pgd" and meta["starts"] == STARTS
+    assert meta["options"] == {**pgd.DEFAULT_OPTIONS, **OPTS, "starts": STARTS}
+
+
 def test_pgd_batch_feasible_and_verified(batch3, tmp_path):
     path, q0, res = batch3
     assert res.q.shape == (3, 5, 3) and res.status.shape == (3, 5)
@@ -115,7 +121,7 @@ def test_unreachable_waypoint_is_flagged_and_skipped(tmp_path):
 
 def test_bad_options_raise():
     path, q0 = planar_paths(1, 3)
-    with pytest.raises(ValueError, match="unknown pgd option"):
+    with pytest.raises(ValueError, match=r"unknown option\(s\) for solver 'pgd': 'itres' \(did you mean 'iters'\?\)"):
         run(path, q0, options={"itres": 3})
     with pytest.raises(ValueError, match="mode"):
         run(path, q0, options={"mode": "greedy"})

@@ -88,9 +88,12 @@ def test_load_errors(tmp_path):
     np.savez(tmp_path / "other.npz", a=np.zeros(3))
     with pytest.raises(ValueError, match="missing keys: joint_names"):
         jaxstiff.ShapeResult.load(tmp_path / "other.npz")
-    (tmp_path / "junk.npz").write_bytes(b"not a zip")
-    with pytest.raises(ValueError, match="not a readable"):
+    (tmp_path / "junk.npz").write_bytes(b"\x00\x01binary")
+    with pytest.raises(ValueError, match="not a readable .*not a zip archive"):
         jaxstiff.ShapeResult.load(tmp_path / "junk.npz")
+    (tmp_path / "path.csv").write_text("x,y,z\n1,2,3\n")  # numpy alone would talk about pickles here
+    with pytest.raises(ValueError, match=r"path.csv: not a readable .*text, e.g. a CSV"):
+        jaxstiff.ShapeResult.load(tmp_path / "path.csv")
     with pytest.raises(FileNotFoundError, match="folder does not exist"):
         make_result().save(tmp_path / "no" / "such" / "dir.npz")
 

@@ -5,6 +5,7 @@ the waypoint problem against finite differences and against the numpy baseline; 
 import hashlib
 import json
 import math
+import re
 
 import jax
 import numpy as np
@@ -264,6 +265,42 @@ def test_planar_task_xy(tmp_path):
     assert np.all(data["alpha_deg"] < 1.0) and np.all(np.abs(data["ratio"] - 3) < 0.06)
 
 
+def test_continuous_joint_runs_without_numpy_warnings(tmp_path):
+    """A continuous joint has limits (-inf, inf): mid-range and limit margins must not compute
+    inf - inf (numpy RuntimeWarning, and NaN if it were used)."""
+    import warnings
+
+    src = open(jaxstiff.robot_path("planar_3r")).read()
+    f = tmp_path / "cont.urdf"
+    f.write_text(src.replace('name="joint_1" type="revolute"', 'name="joint_1" type="continuous"', 1))
+    robot = jaxstiff.Robot.from_urdf(str(f))
+    assert robot.lower[0] == -math.inf and robot.upper[0] == math.inf
+    path = paths.arc([0.0, 0.0, 0.0], 1.5, 20.0, 40.0, n=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = jaxstiff.shape(robot, path, "f2", 3.0, task="xy", first_starts=2, dq=math.radians(10), dk=20.0)
+        roll = jaxstiff.csc_rollout(robot, np.tile([1.2, 1.0], (20, 1)), np.diag([3000.0, 1000.0]),
+                                    np.radians([75.0, -74.74, -76.30]), 1e-3, step="constant")
+    assert np.all(R.is_usable(res.status)) and np.all(res.alpha_deg < 1.0)
+    assert np.all(np.isfinite(np.asarray(roll.q))) and np.all(np.isfinite(np.asarray(roll.u)))
+
+
+@pytest.mark.parametrize("task, match", [("full", r"only 3 free joint.*use task 'xy'"), ("xyz", r"row\(s\) vz .* zero at every posture")])
+def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match):
+    """Planar 3R with task full/xyz: the z stiffness would be the 1e-12 regularisation's (ratios
+    ~1e10 written as if solved). Refused in the library and, with exit 2 and no file, in the CLI."""
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    path = paths.arc([0.0, 0.0, 0.0], 1.5, 20.0, 40.0, n=2)
+    with pytest.raises(ValueError, match=match):
+        jaxstiff.shape(robot, path, "f2", 3.0, task=task)
+    from jaxstiff.cli import main
+
+    out = tmp_path / "r.npz"
+    assert main(["shape", "--robot", "planar_3r", "--task", task, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(match, err) and "Traceback" not in err and not out.exists()
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [
@@ -280,6 +317,10 @@ def test_planar_task_xy(tmp_path):
         (dict(solver="nope"), "unknown solver 'nope'"),
         (dict(criterion="f9"), "unknown criterion"),
         (dict(task="xz"), "unknown task"),
+        (dict(options={"iters": 5}), r"unknown option\(s\) for solver 'slsqp': 'iters' \(did you mean 'maxiter'\?\)"),
+        (dict(options={"maxiter": 0}), "SLSQP option 'maxiter' must be an integer >= 1"),
+        (dict(solver="hybrid", options={"driver": "fast"}), "SLSQP option 'driver' must be 'lean' or 'scipy'"),
+        (dict(solver="trajectory", options={"warm": "nope"}), "option warm must be"),
         (dict(starts=4), "single-start"),
         (dict(cms_volume=-1.0), "cms_volume must be > 0"),
         (dict(first_starts=0), "first_starts must be >= 1"),

@@ -94,9 +94,13 @@ CATALOGUE = [
     ("q0 posture outside its list", lambda t: _set(base(), "axes.q0", [0.1, 0.2, 0.3]), "axes.q0", ["inside a list"]),
     ("unknown q0 family", lambda t: _set(base(), "axes.q0", "rand"), "axes.q0", ["unknown q0 family 'rand'", "did you mean 'random'"]),
     ("task xy with 3-D directions", lambda t: _set(_set(base(), "paths.0.normal", [1.0, 0.0, 0.0]), "axes.task", "xy"), "axes.task", ["xy plane"]),
+    ("pgd option in an slsqp sweep", lambda t: {**base(), "solver_options": {"iters": 10}}, "solver_options.iters", ["for SLSQP", "maxiter"]),
+    ("bad option value", lambda t: {**_set(base(), "axes.solver", ["slsqp", "pgd"]), "solver_options": {"maxiter": 2.5}}, "solver_options", ["'maxiter' must be an integer"]),
     ("unknown solver option", lambda t: {**base(), "solver_options": {"maxiters": 10}}, "solver_options.maxiters", ["did you mean 'maxiter'"]),
     ("heat map of a fixed axis", lambda t: {**base(), "report": {"heatmaps": [["ratio", "dk"]]}}, "report.heatmaps[0]", ["'dk' has one value"]),
     ("csc kxd ratio below 1", lambda t: _set(csc_base(), "axes.kxd_ratio", 0.5), "axes.kxd_ratio", ["must be >= 1"]),
+    ("task beyond the robot's joints", lambda t: _set(base(), "axes.task", ["xy", "full"]), "axes.task", ["'planar_3r'", "only 3 free joint"]),
+    ("csc task the robot cannot control", lambda t: _set(csc_base(), "axes.task", "xyz"), "axes.task", ["vz", "zero at every posture"]),
     ("csc task full", lambda t: _set(csc_base(), "axes.task", "full"), "axes.task", ["unknown value 'full'", "xy, xyz"]),
 ]
 

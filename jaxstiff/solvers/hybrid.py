@@ -85,7 +85,7 @@ def polish(
         raise ValueError(f"option chain must be 'greedy' or 'pgd', got {chain!r}")
     if mode not in ("all", "unusable"):
         raise ValueError(f"option polish_slsqp must be 'all' or 'unusable', got {mode!r}")
-    sl_opts = {k: opts[k] for k in ("maxiter", "ftol", "kj_scale", "f_scale") if k in opts}
+    sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
     solver = make_slsqp_solver(problem, sl_opts)
     fused = compiled(problem)
     pj = jax_pos_and_jac(problem)

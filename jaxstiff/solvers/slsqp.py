@@ -18,6 +18,7 @@ be reached keeps its status and the run goes on from the last usable state.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from typing import Callable, Sequence
 
@@ -82,11 +83,32 @@ class WaypointOutcome:
 WaypointSolver = Callable[..., SolverOutput]
 
 
+def check_options(options: dict | None) -> dict:
+    """:data:`DEFAULT_OPTIONS` updated by ``options``, values checked (ValueError naming the option)."""
+    opts = {**DEFAULT_OPTIONS, **(options or {})}
+    for k in ("maxiter", "first_maxiter"):
+        v = opts[k]
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) and not (isinstance(v, float) and v.is_integer()) or v < 1:
+            raise ValueError(f"SLSQP option {k!r} must be an integer >= 1, got {v!r}")
+        opts[k] = int(v)
+    for k in ("ftol", "kj_scale", "f_scale"):
+        try:
+            v = float(opts[k])
+        except (TypeError, ValueError):
+            v = float("nan")
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"SLSQP option {k!r} must be a finite number > 0, got {opts[k]!r}")
+        opts[k] = v
+    if opts["driver"] not in ("lean", "scipy"):
+        raise ValueError(f"SLSQP option 'driver' must be 'lean' or 'scipy', got {opts['driver']!r}")
+    return opts
+
+
 def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> WaypointSolver:
     """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX derivatives."""
     from scipy.optimize import Bounds, minimize
 
-    opts = {**DEFAULT_OPTIONS, **(options or {})}
+    opts = check_options(options)
     fused_s = compiled_scaled(problem)
     # compile now (once per problem and dtype), so that waypoint timings exclude compilation
     t0 = time.perf_counter()
@@ -307,12 +329,14 @@ def _pick(problem: WaypointProblem, cands):
     lo, hi = problem.robot.lower, problem.robot.upper
     free = list(problem.free_idx)
     nf = problem.n_free
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.inf)[free]
+    span = (hi - lo)[free]
+    finite = np.isfinite(span)  # a continuous joint has no limit to keep away from
+    span = np.where(finite, span, 1.0)
 
     def margin(c):
         qf = c[0][:nf]
-        m = np.minimum(qf - lo[free], hi[free] - qf) / span
-        return float(np.min(np.where(np.isfinite(m), m, np.inf))) if nf else 0.0
+        m = np.where(finite, np.minimum(qf - np.where(finite, lo[free], 0.0), np.where(finite, hi[free], 0.0) - qf) / span, np.inf)
+        return float(np.min(m)) if nf else 0.0
 
     return max(ties, key=margin)
 

@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from .problem import WaypointProblem
-from .slsqp import DEFAULT_OPTIONS, SolverOutput
+from .slsqp import SolverOutput, check_options
 
 __all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain"]
 
@@ -137,7 +137,7 @@ def make_fd_solver(problem: WaypointProblem, options: dict | None = None):
     """
     from scipy.optimize import Bounds, minimize
 
-    opts = {**DEFAULT_OPTIONS, **(options or {})}
+    opts = check_options(options)
     objective = numpy_objective(problem)
     chain = NumpyChain(problem.robot)
     q_of, _ = _split(problem)
