@@ -30,6 +30,7 @@ import argparse
 import json
 import math
 import os
+import sys
 
 import numpy as np
 
@@ -38,6 +39,7 @@ from ._io import json_default as _json_default
 from .cli import command, parse_locks
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
+TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
 
 
 def _numbers(text: str, flag: str) -> list[float]:
@@ -177,7 +179,7 @@ def _add_csc(p: argparse.ArgumentParser):
             "null_eps": "1e-9 * |K_xd|_F",
             **{k: (v if not (isinstance(v, float) and math.isinf(v)) else str(v)) for k, v in settings.items()},
             "status_bits": {str(k): v for k, v in csc._STATUS_NAMES.items()},
-            "units": {"q": "rad", "u": "Nm/rad", "kj": "Nm/rad", "K_C": "N/m (translational)", "position": "m",
+            "units": {"q": "rad", "u": "Nm/rad", "kj": "Nm/rad", "K_C": "N/m (translational)" if task != "full" else "6x6 [N/m, N/rad; Nm/m, Nm/rad]", "position": "m",
                       "tracking_error": "m", "orientation_error": "rad", "null_step": "rad"},
             "row_k": "posture after step k, measured against waypoint k",
             "versions": _versions(),
@@ -203,6 +205,15 @@ def _add_csc(p: argparse.ArgumentParser):
             print(f"[{b}] status: {counts}")
             print(f"[{b}] final q (deg): {np.round(np.rad2deg(res.q[b, -1]), 3).tolist()}")
         print(f"wrote {written}")
+        last = res.tracking_error[:, -1]
+        for b in np.flatnonzero(~(last <= TRACKING_WARN_M)):  # (NaN included)
+            start = float(np.linalg.norm(np.asarray(robot.fk(q0))[:d, 3] - points[b, 0]))
+            hint = (f"the start posture's TCP is {start:.3g} m from the first waypoint, and a CSC step is a "
+                    "linearisation: start on the path" if start > 10 * TRACKING_WARN_M else
+                    "the path may leave the workspace or the joint limits, or the null-space step is too large "
+                    "(try a smaller --beta)")
+            print(f"jaxstiff: warning: path {b} ends {last[b]:.3g} m from its last waypoint "
+                  f"(max {res.tracking_error[b].max():.3g} m): {hint}", file=sys.stderr)
         return 0
 
     return run

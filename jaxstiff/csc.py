@@ -666,6 +666,13 @@ def _orientation_error(R: jax.Array, Rd: jax.Array) -> jax.Array:
     return 0.5 * jnp.sum(jnp.cross(R, Rd, axisa=-2, axisb=-2, axisc=-1), axis=-2)
 
 
+def _orientation_angle(R: jax.Array, Rd: jax.Array) -> jax.Array:
+    """Angle (rad, in [0, pi]) of the rotation from R to Rd. ``|_orientation_error|`` is its sine
+    and ``(tr(R^T Rd) - 1) / 2`` its cosine; atan2 of the two is accurate at every angle (arccos
+    of the cosine alone loses half the digits near 0), with a finite gradient at 0."""
+    return jnp.arctan2(_safe_norm(_orientation_error(R, Rd)), 0.5 * (jnp.sum(R * Rd, axis=(-2, -1)) - 1.0))
+
+
 def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps,
                  jl_gain):
     """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (). See csc_rollout.
@@ -717,7 +724,7 @@ def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, b
         kj = jnp.clip(kj, kmin, kmax)
         K_C, frob = _realised_stiffness(J, kj, K, st.task)
         err = _safe_norm(target - p)
-        oerr = _safe_norm(_orientation_error(R, Rd)) if full else jnp.zeros((), dtype)
+        oerr = _orientation_angle(R, Rd) if full else jnp.zeros((), dtype)
         return kj, K_C, frob, err, oerr
 
     def solve(q, J, g, dx, mask):
@@ -942,7 +949,7 @@ def csc_rollout(
 
     Raises:
         ValueError: bad shapes, task, step, non-finite or out-of-limit inputs, negative beta,
-            a non-symmetric K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs).
+            a non-symmetric or indefinite K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs).
     """
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a jaxstiff.Robot, got {type(robot).__name__}")
@@ -1049,6 +1056,11 @@ def _validate(robot, targets, K_xd, q0, beta, scalars, null_eps) -> None:
         asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)))
         if asym > 1e-6 * np.max(np.abs(K)) + 1e-12:
             raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {asym:g})")
+        w = np.linalg.eigvalsh(0.5 * (K + np.swapaxes(K, -1, -2)))
+        worst = np.unravel_index(np.argmin(w[..., 0]), w.shape[:-1]) if w.ndim > 1 else ()
+        if w[worst][0] < -1e-9 * np.max(np.abs(w[worst])):
+            at = f" (K_xd{list(worst)})" if worst else ""
+            raise ValueError(f"K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue {w[worst][0]:g}{at}")
     kmin, kmax = val(scalars["kmin"]), val(scalars["kmax"])
     if kmin is not None and not kmin > 0:
         raise ValueError(f"kmin must be > 0 Nm/rad, got {float(kmin):g}")

@@ -40,6 +40,7 @@ import math
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 __all__ = [
     "Ellipsoid",
@@ -149,11 +150,16 @@ def _eig3(K: jax.Array, sweeps: int = JACOBI_SWEEPS):
 def _eigh_desc_primal(K: jax.Array):
     m = K.shape[-1]
     if m == 2:
-        return _eig2(K)
-    if m == 3:
-        return _eig3(K)
-    w, V = jnp.linalg.eigh(0.5 * (K + jnp.swapaxes(K, -1, -2)))
-    return w[..., ::-1], V[..., ::-1]
+        w, V = _eig2(K)
+    elif m == 3:
+        w, V = _eig3(K)
+    else:
+        w, V = jnp.linalg.eigh(0.5 * (K + jnp.swapaxes(K, -1, -2)))
+        w, V = w[..., ::-1], V[..., ::-1]
+    # A NaN/Inf entry stops the Jacobi rotations (they become the identity), which would report
+    # the coordinate axes as the ellipsoid: NaN in, NaN out instead.
+    bad = ~jnp.all(jnp.isfinite(K), axis=(-2, -1))
+    return jnp.where(bad[..., None], jnp.nan, w), jnp.where(bad[..., None, None], jnp.nan, V)
 
 
 def _mm(A: jax.Array, B: jax.Array) -> jax.Array:
@@ -239,7 +245,8 @@ def _safe_ratio(lam1: jax.Array, lam2: jax.Array) -> jax.Array:
     eps = jnp.finfo(lam1.dtype).eps
     den = jnp.maximum(lam2, lam1 * eps)
     ok = (lam1 > 0) & (den > 0)
-    return jnp.where(ok, lam1 / jnp.where(ok, den, 1.0), 1.0)
+    rho = jnp.where(ok, lam1 / jnp.where(ok, den, 1.0), 1.0)
+    return jnp.where(jnp.isnan(lam1) | jnp.isnan(lam2), jnp.nan, rho)  # NaN is not "a sphere"
 
 
 def ellipsoid(K: jax.Array) -> Ellipsoid:
@@ -256,7 +263,15 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
         >>> e.axes.tolist(), float(e.ratio)
         ([4.0, 2.0], 2.0)
     """
-    return _ellipsoid(_check_square(K))
+    e = _ellipsoid(_check_square(K))
+    if not isinstance(e.axes, jax.core.Tracer):  # concrete input: an indefinite K has no ellipsoid
+        w = np.asarray(e.axes)
+        neg = w[..., -1] < -100 * np.finfo(w.dtype).eps * np.abs(w[..., 0])
+        if np.any(neg):
+            at = np.argwhere(neg)[0]
+            where = f" at index {tuple(int(i) for i in at)}" if at.size else ""
+            raise ValueError(f"K must be positive definite (a stiffness); it has the eigenvalue {float(w[tuple(at)][-1]):g}{where}")
+    return e
 
 
 @jax.jit

@@ -52,7 +52,8 @@ _ZERO_SEGMENT = 1e-12  # m: segments shorter than this have no direction
 
 
 def tangents(points: np.ndarray, where: str = "path") -> np.ndarray:
-    """Unit tangents of a polyline (P, 3) -> (P, 3) by central differences (one-sided at the ends).
+    """Unit tangents of a polyline (P, 3) -> (P, 3) by central differences (one-sided at the ends;
+    at a waypoint where the path turns straight back, the line of its two segments).
 
     Raises:
         ValueError: a waypoint whose neighbours coincide with it (zero-length segment), since then
@@ -67,6 +68,12 @@ def tangents(points: np.ndarray, where: str = "path") -> np.ndarray:
         t[1:-1] = pts[2:] - pts[:-2]
     norm = np.linalg.norm(t, axis=-1)
     seg = np.linalg.norm(np.diff(pts, axis=0), axis=-1)
+    if P > 2:
+        # an out-and-back turn (the path reverses at waypoint i): the central difference cancels,
+        # but both segments lie on one line, which is the direction (alpha is sign-free)
+        rev = np.flatnonzero((norm[1:-1] <= 1e-9 * (seg[:-1] + seg[1:])) & (seg[:-1] > _ZERO_SEGMENT) & (seg[1:] > _ZERO_SEGMENT)) + 1
+        t[rev] = (pts[rev] - pts[rev - 1]) / seg[rev - 1, None] - (pts[rev + 1] - pts[rev]) / seg[rev, None]
+        norm[rev] = np.linalg.norm(t[rev], axis=-1)
     bad = np.flatnonzero((norm <= _ZERO_SEGMENT) | np.r_[seg <= _ZERO_SEGMENT, False] | np.r_[False, seg <= _ZERO_SEGMENT])
     if bad.size:
         raise ValueError(

@@ -423,8 +423,11 @@ def run_reproduce(
         shutil.rmtree(figs_dir)
     md = ["# jaxstiff: reproduction report", ""]
     md += [
-        "Every experiment of the repository, run by `jaxstiff reproduce"
-        + (" --quick" if quick else "") + "` as its own process; each section shows what the experiment "
+        ("The experiments " + ", ".join(f"`{o}*`" for o in only) if only else
+         "Every experiment of the repository" if everything else "The reproductions of the seeds (fig*, csc*)")
+        + ", run by `jaxstiff reproduce" + (" --quick" if quick else "")
+        + (" --only " + " ".join(only) if only else "") + (" --all" if everything and not only else "")
+        + "` as its own process; each section shows what the experiment "
         "wrote (its summary, tables and figures).", "",
     ]
     md += _environment()

@@ -267,14 +267,14 @@ def _ratios(value, B: int) -> float | np.ndarray:
     if a.ndim == 0:
         r = float(a)
         if not (math.isfinite(r) and r > 1.0):
-            raise ValueError(f"ratio must be > 1 (lambda1 / lambda2), got {r}")
+            raise ValueError(f"ratio must be finite and > 1 (lambda1 / lambda2), got {r}")
         return r
     if a.shape != (B,):
         raise ValueError(f"ratio must be a number or {B} numbers (one per path of the batch of {B}), got shape {a.shape}")
     bad = np.flatnonzero(~(np.isfinite(a) & (a > 1.0)))
     if bad.size:
         b = int(bad[0])
-        raise ValueError(f"ratio must be > 1 (lambda1 / lambda2) for every path, got {a[b]} for path {b}")
+        raise ValueError(f"ratio must be finite and > 1 (lambda1 / lambda2) for every path, got {a[b]} for path {b}")
     if np.all(a == a[0]):
         return float(a[0])
     return a.copy()
@@ -490,7 +490,7 @@ def shape(
     except (TypeError, ValueError):
         raise ValueError("kmin, kmax and c must be numbers (c is the same for every path)") from None
     if not (math.isfinite(kmin) and math.isfinite(kmax)) or kmin <= 0 or kmin >= kmax:
-        raise ValueError(f"need 0 < kmin < kmax (Nm/rad), got kmin={kmin}, kmax={kmax}")
+        raise ValueError(f"need finite 0 < kmin < kmax (Nm/rad), got kmin={kmin}, kmax={kmax}")
     if not math.isfinite(c) or c < 0:
         raise ValueError(f"c must be a finite number >= 0, got {c}")
     if not (pos_tol > 0):

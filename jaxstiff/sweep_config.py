@@ -214,7 +214,7 @@ AXES: dict[str, dict[str, AxisSpec]] = {
             AxisSpec("task", "str", "xyz", static=True, choices=("xy", "xyz"), doc="task rows (K_xd is 2x2 or 3x3)"),
             AxisSpec("step", "str", "adaptive", static=True, choices=("adaptive", "constant"), doc="null-step rule (S1-22 or constant)"),
             AxisSpec("kmin", "float", 1.0, static=True, unit="Nm/rad", check=_gt(0.0), doc="actuator range, lower"),
-            AxisSpec("kmax", "float", math.inf, static=True, unit="Nm/rad", check=_gt(0.0), doc="actuator range, upper"),
+            AxisSpec("kmax", "float", math.inf, static=True, unit="Nm/rad", check=_gt(0.0), doc="actuator range, upper (inf: open)"),
             AxisSpec("newton", "int", 0, static=True, check=_ge(0), doc="Newton corrections per step"),
             AxisSpec("joint_limits", "str", "off", static=True, choices=("off", "priority", "sum"), doc="joint-limit secondary task"),
             AxisSpec("jl_gain", "float", 0.0, static=True, check=_ge(0.0), doc="joint-limit gain"),
@@ -834,6 +834,8 @@ class _Parser:
                     want = "an integer" if spec.type == "int" else "a number"
                     raise self.err(key, f"expected {want} or a list/range of them, got {_typename(v)} {v!r}") from None
                 problem = spec.check(x) if spec.check else None
+                if not problem and not math.isfinite(x) and not (spec.name == "kmax" and math.isinf(spec.default)):
+                    problem = f"must be finite, got {v!r}"  # (only the csc actuator range may be open: kmax = inf)
                 if problem:
                     raise self.err(key, problem)
                 out.append(x)

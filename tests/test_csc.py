@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 
 import jax
 import jax.numpy as jnp
@@ -502,6 +503,23 @@ def test_full_task_holds_position_and_orientation():
     assert float(r.u[-1]) < float(r.u_start)
 
 
+def test_orientation_error_is_the_rotation_angle():
+    """CSCResult.orientation_error is an angle: compared with the angle of an axis-angle rotation
+    built with numpy (Rodrigues), from 1e-9 rad to just below pi, and with an autodiff-finite gradient at 0."""
+    rng = np.random.default_rng(3)
+    Rd = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    Rd *= np.sign(np.linalg.det(Rd))  # a rotation (det +1)
+    for th in (1e-9, 1e-3, 0.5, 1.5, 3.0, 3.14):
+        a = rng.normal(size=3)
+        a /= np.linalg.norm(a)
+        S = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+        Rot = np.eye(3) + np.sin(th) * S + (1 - np.cos(th)) * S @ S
+        got = float(csc._orientation_angle(jnp.asarray(Rot @ Rd), jnp.asarray(Rd)))
+        assert abs(got - th) <= 1e-12 * max(1.0, th), (th, got)
+    g = jax.grad(lambda R: csc._orientation_angle(R, jnp.asarray(Rd)))(jnp.asarray(Rd))
+    assert np.all(np.isfinite(np.asarray(g)))
+
+
 def test_float32_stays_float32():
     r = jaxstiff.csc_rollout(
         PLANAR, np.tile(X_SEED, (20, 1)).astype(np.float32), K_SEED.astype(np.float32), Q_SEED.astype(np.float32),
@@ -533,6 +551,7 @@ def test_path_object_is_accepted(hold):
     [
         (dict(K_xd=np.eye(3)), "task 'xy' needs K_xd"),
         (dict(K_xd=np.array([[1.0, 2.0], [0.0, 1.0]])), "symmetric"),
+        (dict(K_xd=np.diag([3000.0, -1000.0])), r"positive semi-definite .* eigenvalue -1000"),
         (dict(q0=np.zeros(4)), "q0 must have shape"),
         (dict(q0=np.array([0.0, 0.0, 4.0])), "joint_3.*outside its limits"),
         (dict(beta=-1.0), "beta must be >= 0"),
@@ -581,6 +600,17 @@ def test_cli_hold_writes_result_file(tmp_path, capsys, hold):
         meta = json.loads(str(f["meta"]))
     assert meta["step"] == "constant" and meta["task"] == "xy" and meta["beta"] == 2e-3
     assert [p.name for p in tmp_path.iterdir()] == ["hold.npz"]  # no temporary file left behind
+
+
+def test_cli_warns_when_a_path_ends_off_its_target(tmp_path, capsys):
+    """Holding a point out of reach (|x| = 5 m > 3 m): the file is written, and stderr says the
+    rollout ends far from the target instead of only printing the number."""
+    out = tmp_path / "far.npz"
+    rc = cli_main(["csc", "--robot", "planar_3r", "--hold", "5,0", "--kxd", "3000,1000", "--q0", "0.3,0.3,0.3",
+                   "--steps", "20", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 0 and out.exists()
+    assert re.search(r"warning: path 0 ends [\d.]+ m from its last waypoint .*start posture's TCP is 3\.\d+ m from the first", err), err
 
 
 @pytest.mark.parametrize(

@@ -293,3 +293,26 @@ def test_plot_ellipse_points_lie_on_the_stiffness_ellipse():
     Kinv = np.linalg.inv(K)
     assert_close(np.einsum("ni,ij,nj->n", pts, Kinv @ Kinv, pts), np.ones(len(pts)), rtol=1e-12)
     assert_close(np.linalg.norm(pts, axis=1).max(), np.linalg.eigvalsh(K).max(), rtol=1e-3)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_non_finite_stiffness_gives_nan_not_a_perfect_score(bad):
+    """A NaN/Inf entry used to stop the Jacobi rotations and report the coordinate axes: ratio 1,
+    alpha 0 and finite f1/f2, i.e. a NaN looked like a solved waypoint."""
+    K = np.diag([3.0, 2.0, 1.0])
+    K[0, 1] = K[1, 0] = bad
+    e = jaxstiff.ellipsoid(jnp.asarray(K))
+    assert np.isnan(float(e.ratio)) and np.all(np.isnan(np.asarray(e.axes)))
+    d = jnp.array([1.0, 0.0, 0.0])
+    for value in (jaxstiff.orientation_error(jnp.asarray(K), d), jaxstiff.f1(jnp.asarray(K), d, 3.0), jaxstiff.f2(jnp.asarray(K), d, 3.0)):
+        assert np.isnan(float(value))
+    both = jaxstiff.ellipsoid(jnp.stack([jnp.asarray(K), jnp.eye(3)]))  # the finite one is unaffected
+    assert np.isnan(float(both.ratio[0])) and float(both.ratio[1]) == 1.0
+
+
+def test_indefinite_stiffness_is_refused():
+    with pytest.raises(ValueError, match=r"positive definite .* eigenvalue -2"):
+        jaxstiff.ellipsoid(-np.diag([1.0, 2.0]))
+    with pytest.raises(ValueError, match=r"eigenvalue -1 at index \(1,\)"):
+        jaxstiff.ellipsoid(np.stack([np.eye(3), np.diag([2.0, 1.0, -1.0])]))
+    assert float(jaxstiff.ellipsoid(np.diag([4.0, 0.0])).ratio) > 1e6  # singular but not indefinite: allowed

@@ -190,3 +190,12 @@ def test_csv_with_a_byte_order_mark_reads_like_one_without(tmp_path):
     a, b = Path.from_csv(tmp_path / "bom.csv"), Path.from_csv(tmp_path / "plain.csv")
     np.testing.assert_array_equal(np.asarray(a.points), np.asarray(b.points))
     np.testing.assert_array_equal(np.asarray(a.directions), np.asarray(b.directions))
+
+
+def test_out_and_back_path_has_the_line_of_its_segments_at_the_turn():
+    """The central difference cancels where a path turns straight back; the turn's direction is
+    then the line both segments lie on (alpha does not see the sign), not an error."""
+    pts = np.array([[0.5, 0.0, 0.4], [0.5, 0.1, 0.4], [0.5, 0.0, 0.4], [0.5, 0.0, 0.5]])
+    d = jaxstiff.Path(pts).directions
+    assert np.allclose(np.abs(d[1]), [0.0, 1.0, 0.0], atol=1e-15)
+    assert np.allclose(d[0], [0.0, 1.0, 0.0]) and np.allclose(np.linalg.norm(d, axis=-1), 1.0)

@@ -304,8 +304,10 @@ def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match)
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(ratio=1.0), "ratio must be > 1"),
-        (dict(ratio=float("nan")), "ratio must be > 1"),
+        (dict(ratio=1.0), "ratio must be finite and > 1"),
+        (dict(ratio=float("inf")), "ratio must be finite and > 1"),
+        (dict(kmax=float("inf")), "need finite 0 < kmin < kmax"),
+        (dict(ratio=float("nan")), "ratio must be finite and > 1"),
         (dict(kmin=0.0), "0 < kmin < kmax"),
         (dict(kmin=50.0, kmax=50.0), "0 < kmin < kmax"),
         (dict(dq=-0.1), r"dq .* must be >= 0"),
@@ -367,3 +369,21 @@ def test_lean_driver_equals_scipy_minimize(lwr, f2_file):
             a, b = lean(x0, lb, ub, prm), ref(x0, lb, ub, prm)
             np.testing.assert_array_equal(a.x, b.x)
             assert (a.nit, a.code, a.nfev) == (b.nit, b.code, b.nfev)
+
+
+def test_newton_projection_stops_cleanly_when_no_joint_moves_the_tcp():
+    """J = 0 (no free joint moves the TCP) used to solve with a 1e-312 damping: inf * 0 = NaN
+    (a numpy warning) and a NaN step. The projection must stop and return a finite point in its box."""
+    import warnings
+
+    from jaxstiff.solvers.problem import newton_project
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    prob = WaypointProblem(robot, "xy", jaxstiff.f2)
+    x = np.r_[0.1, 0.2, 0.3, 10.0, 10.0, 10.0]
+    lb, ub = np.r_[-1.0, -1.0, -1.0, 1.0, 1.0, 1.0], np.r_[1.0, 1.0, 1.0, 100.0, 100.0, 100.0]
+    dead = lambda q: (np.zeros(3), np.zeros((6, 3)))  # noqa: E731
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = newton_project(prob, x, np.array([1.0, 1.0, 0.0]), lb, ub, pos_and_jac=dead)
+    assert np.array_equal(out, x)

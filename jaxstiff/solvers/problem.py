@@ -414,10 +414,14 @@ def newton_project(
             break
         Ja = np.where(active[None, :], 0.0, J)
         JJt = Ja @ Ja.T
-        mu = 1e-12 * max(np.trace(JJt), 1e-300)
+        tr = float(np.trace(JJt))
+        if not tr > 1e-200:  # no joint left that moves the TCP (all at a bound, or a singular posture)
+            break
         try:
-            step = Ja.T @ np.linalg.solve(JJt + mu * np.eye(len(rows)), e)
+            step = Ja.T @ np.linalg.solve(JJt + 1e-12 * tr * np.eye(len(rows)), e)
         except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(step)):
             break
         new = clip_to_box(x[:nf] + step, lb[:nf], ub[:nf])
         hit = (new != x[:nf] + step)
