@@ -257,6 +257,10 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
 
     Returns:
         :class:`Ellipsoid` with axes (..., m), directions (..., m, m), ratio (...,), volume (...,).
+        NaN or Inf in K gives NaN (never a made-up ellipsoid).
+
+    Raises:
+        ValueError: a (concrete, not traced) K with an eigenvalue below ``-1e-9 * lambda1``.
 
     Example:
         >>> e = ellipsoid(jnp.array([[3.0, 1.0], [1.0, 3.0]]))  # axes 4 and 2 along the diagonals
@@ -266,11 +270,12 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
     e = _ellipsoid(_check_square(K))
     if not isinstance(e.axes, jax.core.Tracer):  # concrete input: an indefinite K has no ellipsoid
         w = np.asarray(e.axes)
-        neg = w[..., -1] < -100 * np.finfo(w.dtype).eps * np.abs(w[..., 0])
+        # (a positive semi-definite K, e.g. rotated diag(3000, 1000, 0), has rounding-level negatives)
+        neg = w[..., -1] < -max(1e-9, 100 * np.finfo(w.dtype).eps) * np.abs(w[..., 0])
         if np.any(neg):
             at = np.argwhere(neg)[0]
             where = f" at index {tuple(int(i) for i in at)}" if at.size else ""
-            raise ValueError(f"K must be positive definite (a stiffness); it has the eigenvalue {float(w[tuple(at)][-1]):g}{where}")
+            raise ValueError(f"K must be positive (semi-)definite (a stiffness); it has the eigenvalue {float(w[tuple(at)][-1]):g}{where}")
     return e
 
 

@@ -311,8 +311,12 @@ def test_non_finite_stiffness_gives_nan_not_a_perfect_score(bad):
 
 
 def test_indefinite_stiffness_is_refused():
-    with pytest.raises(ValueError, match=r"positive definite .* eigenvalue -2"):
+    with pytest.raises(ValueError, match=r"positive \(semi-\)definite .* eigenvalue -2"):
         jaxstiff.ellipsoid(-np.diag([1.0, 2.0]))
     with pytest.raises(ValueError, match=r"eigenvalue -1 at index \(1,\)"):
         jaxstiff.ellipsoid(np.stack([np.eye(3), np.diag([2.0, 1.0, -1.0])]))
     assert float(jaxstiff.ellipsoid(np.diag([4.0, 0.0])).ratio) > 1e6  # singular but not indefinite: allowed
+    c, s = math.cos(0.3), math.sin(0.3)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]) @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+    K = R @ np.diag([3000.0, 1000.0, 0.0]) @ R.T  # PSD with rounding-level negative eigenvalues
+    assert np.linalg.eigvalsh(K)[0] <= 1e-12 and abs(float(jaxstiff.ellipsoid(K).ratio) - 3.0) < 1e-9
