@@ -646,14 +646,14 @@ def _solver_defaults(solver: str) -> dict[str, Any]:
 
     The hybrid is pgd followed by an SLSQP polish, so its options are both sets plus its own two.
     The trajectory solver's own options are here; those of its warm start go to ``warm_options``."""
-    from .solvers import pgd, slsqp, trajectory
+    from .solvers import hybrid, pgd, slsqp, trajectory
 
     if solver in ("slsqp", "slsqp-fd"):
         return dict(slsqp.DEFAULT_OPTIONS)
     if solver == "pgd":
         return dict(pgd.DEFAULT_OPTIONS)
     if solver == "hybrid":
-        return {**pgd.DEFAULT_OPTIONS, **slsqp.DEFAULT_OPTIONS, "polish_slsqp": "all", "chain": "greedy"}
+        return {**pgd.DEFAULT_OPTIONS, **slsqp.DEFAULT_OPTIONS, **hybrid.DEFAULT_OPTIONS}
     if solver == "trajectory":
         return dict(trajectory.DEFAULT_OPTIONS)
     return {}
@@ -670,31 +670,40 @@ def solver_option_names(solver: str, warm: str = "pgd") -> set[str] | None:
     return known
 
 
+def options_for_solver(solver: str, options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The entries of ``options`` that ``solver`` reads (all of them for a user-registered solver):
+    a sweep over several solvers shares one options table."""
+    opts = dict(options or {})
+    known = solver_option_names(solver, opts.get("warm", "pgd"))
+    return opts if known is None else {k: v for k, v in opts.items() if k in known}
+
+
 def _check_options(solver: str, options: Mapping[str, Any] | None) -> None:
-    """Unknown option names of a shipped solver are an error (a typo would otherwise be ignored)."""
-    if not options or solver not in ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory"):
+    """Unknown option names of a shipped solver are an error (a typo would otherwise be ignored),
+    and so are bad values, before any work (a hybrid would otherwise meet a bad SLSQP option only
+    after its pgd stage). A user-registered solver checks its own options."""
+    if not options:
         return
     if not isinstance(options, Mapping):
         raise ValueError(f"options must be a dict of solver options, got {type(options).__name__}")
+    from .solvers import pgd, slsqp, trajectory
+
     warm = options.get("warm", "pgd")
-    if solver == "trajectory" and warm not in ("pgd", "hybrid", "slsqp"):
-        raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm!r}")
+    if solver == "trajectory" and warm not in trajectory.WARM_STARTS:
+        raise ValueError(f"option warm must be one of {', '.join(map(repr, trajectory.WARM_STARTS))}, got {warm!r}")
     known = solver_option_names(solver, warm)
+    if known is None:
+        return
     unknown = sorted(str(k) for k in options if k not in known)
     if unknown:
         import difflib
 
         hints = [f"{k!r} (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, known, n=1)) else repr(k) for k in unknown]
         raise ValueError(f"unknown option(s) for solver {solver!r}: {', '.join(hints)}; known: {', '.join(sorted(known))}")
-    # values, before any work (a hybrid would otherwise find a bad SLSQP option after its pgd stage)
-    from .solvers import pgd, slsqp
-
-    parts = {"slsqp": "s", "slsqp-fd": "s", "pgd": "p", "hybrid": "ps"}.get(solver, "")
-    if solver == "trajectory":
-        parts = {"pgd": "p", "hybrid": "ps", "slsqp": "s"}[warm]
-    if "p" in parts:
-        pgd._options({k: v for k, v in options.items() if k in pgd.DEFAULT_OPTIONS}, None)
-    if "s" in parts:
+    greedy = warm if solver == "trajectory" else solver  # the part that runs pgd and/or SLSQP
+    if greedy in ("pgd", "hybrid"):
+        pgd.check_options({k: v for k, v in options.items() if k in pgd.DEFAULT_OPTIONS})
+    if greedy in ("slsqp", "slsqp-fd", "hybrid"):
         slsqp.check_options({k: v for k, v in options.items() if k in slsqp.DEFAULT_OPTIONS})
 
 

@@ -170,7 +170,7 @@ def _base_row(plan: SweepPlan, chunk, r: int) -> dict:
 
 def _shape_chunk(plan: SweepPlan, chunk, progress):
     from .paths import Path
-    from .shaping import shape
+    from .shaping import options_for_solver, shape
 
     calls: dict[str, list[int]] = {}
     for r in chunk.rows:
@@ -190,7 +190,7 @@ def _shape_chunk(plan: SweepPlan, chunk, progress):
             plan.robot, path, st["criterion"], st["ratio"], task=st["task"], solver=st["solver"],
             starts=st["starts"] or None, q0=q0, dq=math.radians(st["dq_deg"]), dk=st["dk"], kmin=st["kmin"],
             kmax=st["kmax"], c=st["c"], first_rate_limit=st["first_rate_limit"], first_starts=st["first_starts"],
-            options=_options_for(st["solver"], plan.options), progress=tick,
+            options=options_for_solver(st["solver"], plan.options) or None, progress=tick,
             meta_extra={"sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id,
                                   "row_ids": list(rids), "paths": [t.name for t in trajs],
                                   "q0": [_table_settings(plan.row_settings(r))["q0"] for r in rids]}},
@@ -209,17 +209,6 @@ def _shape_chunk(plan: SweepPlan, chunk, progress):
 
     devices = 1 if plan.settings[plan.rows[chunk.rows[0]][0]]["solver"] in ("slsqp", "slsqp-fd") else jax.local_device_count()
     return rows, arrays, devices
-
-
-def _options_for(solver: str, options) -> dict | None:
-    """The sweep's solver_options that ``solver`` reads (a sweep over several solvers shares one table)."""
-    from .shaping import solver_option_names
-
-    opts = dict(options or {})
-    known = solver_option_names(solver, opts.get("warm", "pgd"))
-    if known is not None:
-        opts = {k: v for k, v in opts.items() if k in known}
-    return opts or None
 
 
 def _csc_chunk(plan: SweepPlan, chunk, progress):

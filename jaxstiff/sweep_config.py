@@ -913,7 +913,9 @@ class _Parser:
         if "solver" in axes:  # each row's solver gets the options it knows (shaping.solver_option_names)
             from .shaping import solver_option_names
 
-            warm = tbl.get("warm", "pgd") if tbl.get("warm", "pgd") in ("pgd", "hybrid", "slsqp") else "pgd"
+            from .solvers.trajectory import WARM_STARTS
+
+            warm = tbl.get("warm", "pgd") if tbl.get("warm", "pgd") in WARM_STARTS else "pgd"
             names = [solver_option_names(s, warm) for s in axes["solver"]]
             if all(n is not None for n in names):
                 known = tuple(sorted(set().union(*names)))
@@ -927,11 +929,11 @@ class _Parser:
                 raise self.err(f"solver_options.{k}", f"must be a finite number >= 0, got {v!r}")
             out[k] = v
         if known is not None:  # values, as each solver of the sweep will see them
-            from .shaping import _check_options
+            from .shaping import _check_options, options_for_solver
 
             for s in axes["solver"]:
                 try:
-                    _check_options(s, {k: v for k, v in out.items() if k in solver_option_names(s, warm)})
+                    _check_options(s, options_for_solver(s, out))
                 except ValueError as e:
                     raise self.err("solver_options", str(e)) from None
         return out

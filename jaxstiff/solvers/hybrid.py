@@ -48,7 +48,11 @@ from .. import results as R
 from .problem import Limits, WaypointProblem, clip_to_box, compiled, jax_pos_and_jac
 from . import pgd as _pgd
 
-__all__ = ["polish", "run_request"]
+__all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
+
+#: The hybrid's own options (besides pgd's and SLSQP's): ``polish_slsqp`` "all" (every waypoint)
+#: or "unusable" (only where pgd found no usable point); ``chain`` "greedy" or "pgd" (module docstring).
+DEFAULT_OPTIONS = {"polish_slsqp": "all", "chain": "greedy"}
 
 
 def polish(
@@ -79,8 +83,8 @@ def polish(
     from .slsqp import SolverOutput, _judge, make_slsqp_solver
 
     opts = dict(options or {})
-    mode = opts.get("polish_slsqp", "all")
-    chain = opts.get("chain", "greedy")
+    mode = opts.get("polish_slsqp", DEFAULT_OPTIONS["polish_slsqp"])
+    chain = opts.get("chain", DEFAULT_OPTIONS["chain"])
     if chain not in ("greedy", "pgd"):
         raise ValueError(f"option chain must be 'greedy' or 'pgd', got {chain!r}")
     if mode not in ("all", "unusable"):

@@ -118,7 +118,8 @@ DEFAULT_OPTIONS: dict[str, Any] = {
 }
 
 
-def _options(options: dict | None, starts: int | None) -> dict[str, Any]:
+def check_options(options: dict | None, starts: int | None = None) -> dict[str, Any]:
+    """:data:`DEFAULT_OPTIONS` updated by ``options`` (and ``starts``), values checked (ValueError)."""
     opts = {**DEFAULT_OPTIONS, **(options or {})}
     if starts is not None:
         opts["starts"] = int(starts)
@@ -684,7 +685,7 @@ def solve_batch(
         dict with ``q``, ``kj`` (B,P,n), ``status``, ``pos_error``, ``solver_code``, ``nit``,
         ``nfev``, ``time_s``, ``criterion`` (B,P) in the :data:`jaxstiff.shaping.SOLVERS` format.
     """
-    opts = _options(options, starts)
+    opts = check_options(options, starts)
     targets = np.asarray(targets, float)
     directions = np.asarray(directions, float)
     B, P = targets.shape[:2]

@@ -43,6 +43,8 @@ from . import pgd as _pgd
 
 __all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]
 
+WARM_STARTS = ("pgd", "hybrid", "slsqp")  #: the greedy solvers option ``warm`` may name
+
 DEFAULT_OPTIONS: dict[str, Any] = {
     "warm": "pgd",  # greedy warm start: "pgd" | "hybrid" | "slsqp"
     "traj_iters": 240,  # Adam steps over the whole trajectory (all blocks)
