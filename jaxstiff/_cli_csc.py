@@ -89,7 +89,7 @@ def _add_csc(p: argparse.ArgumentParser):
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
     p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
-    p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable)")
+    p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable; 'none': every joint free)")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--path", action="append", metavar="CSV",
                      help="path CSV (header x,y,z; m, base frame), one step per waypoint; repeat for a batch")

@@ -183,10 +183,8 @@ def _add_shape(p: argparse.ArgumentParser):
         if dk is not None and (math.isnan(dk) or dk < 0):
             raise ValueError(f"--dk must be >= 0 (Nm/rad per waypoint), got {args.dk}")
 
-        if args.lock and [x.strip().lower() for x in args.lock] == ["none"]:
-            locks: dict[str, float] = {}
-        elif args.lock:
-            locks = parse_locks(args.lock)
+        if args.lock:  # ("--lock none": {}, which also drops the default lock below)
+            locks: dict[str, float] = parse_locks(args.lock)
         else:  # the seed's lock for the shipped LWR, nothing for other robots
             locks = {}
             try:

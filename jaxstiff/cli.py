@@ -33,8 +33,11 @@ def _floats(text: str, what: str) -> list[float]:
 
 
 def parse_locks(items: list[str] | None) -> dict[str, float]:
-    """``["JOINT=RAD", ...]`` -> dict; raises ValueError naming a malformed item."""
+    """``["JOINT=RAD", ...]`` -> dict (``["none"]``: no joint locked, {}); raises ValueError naming a
+    malformed item."""
     out: dict[str, float] = {}
+    if items and [x.strip().lower() for x in items] == ["none"]:
+        return out
     for item in items or []:
         name, sep, value = item.partition("=")
         if not sep or not name:

@@ -104,8 +104,10 @@ def _task_rank_report(robot, task: str) -> str | None:
     from .kinematics import jacobian
 
     rng = np.random.default_rng(0)
-    lo = np.clip(robot.lower, -np.pi, np.pi)
-    hi = np.clip(robot.upper, -np.pi, np.pi)
+    lo, hi = robot.lower, robot.upper  # a joint's own range; one turn where it is open
+    lo_ok, hi_ok = np.isfinite(lo), np.isfinite(hi)
+    lo = np.where(lo_ok, lo, np.where(hi_ok, np.where(hi_ok, hi, 0.0) - 2 * np.pi, -np.pi))
+    hi = np.where(hi_ok, hi, lo + 2 * np.pi)
     q = lo + (hi - lo) * rng.uniform(0.05, 0.95, size=(6, robot.n))
     q = np.where(free, q, np.nan_to_num(robot.locked_values))
     with jax.ensure_compile_time_eval(), jax.enable_x64(True):

@@ -415,3 +415,26 @@ def test_fusion_boundary_survives_vmap_on_cpu():
     assert "conditional(" in hlo
     hlo = jax.jit(jax.vmap(jax.grad(lambda q, kj: jnp.sum(K(q, kj) ** 2)))).lower(q, kj).compile().as_text()
     assert "conditional(" in hlo
+
+
+_ELBOW_BEYOND_PI = """<robot name="r"><link name="l0"/><link name="l1"/><link name="l2"/><link name="l3"/><link name="l4"/>
+<joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><origin xyz="0 0 0.2"/><axis xyz="0 0 1"/><limit lower="-2.5" upper="2.5" effort="1" velocity="1"/></joint>
+<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 0.1"/><axis xyz="0 1 0"/><limit lower="-2.5" upper="2.5" effort="1" velocity="1"/></joint>
+<joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/><origin xyz="0.3 0 0"/><axis xyz="0 1 0"/><limit lower="3.3" upper="3.8" effort="1" velocity="1"/></joint>
+<joint name="j4" type="fixed"><parent link="l3"/><child link="l4"/><origin xyz="0.25 0 0"/></joint></robot>"""
+
+
+def test_task_check_samples_each_joint_inside_its_own_range(tmp_path):
+    """An elbow whose range [3.3, 3.8] rad lies beyond pi: clipping it to [-pi, pi] sampled only the
+    folded (singular) elbow and refused a controllable 'xyz' task. numpy (independent): the
+    position Jacobian has 3 singular values well above 0 inside the range."""
+    from jaxstiff.stiffness import check_task_feasible
+
+    f = tmp_path / "elbow.urdf"
+    f.write_text(_ELBOW_BEYOND_PI)
+    robot = jaxstiff.Robot.from_urdf(str(f))
+    s = np.linalg.svd(np.asarray(robot.jacobian(np.array([0.3, -0.8, 3.5])))[:3], compute_uv=False)
+    assert s[-1] > 1e-3
+    check_task_feasible(robot, "xyz")  # no error
+    with pytest.raises(ValueError, match="only 3 free joint"):
+        check_task_feasible(robot, "full")
