@@ -901,6 +901,9 @@ class _Parser:
                 check_task_feasible(robot, task)
             except ValueError as e:
                 raise self.err("axes.task", f"robot {robot.name!r}: {e}") from None
+        if len(axes["q0_seed"]) > 1 and "random" not in axes["q0"]:
+            raise self.err("axes.q0_seed", f"{len(axes['q0_seed'])} seeds, but axes.q0 has no \"random\" family: "
+                                           "the seed only draws random postures, so every seed would repeat the same rows")
         if "xy" in axes["task"]:
             for t in trajectories:
                 if kind == "shape" and np.any(np.abs(t.directions[:, 2]) > 1e-9):

@@ -78,6 +78,7 @@ CATALOGUE = [
     ("missing generator parameter", lambda t: _set(base(), "paths.0.radius", _DELETE), "paths[0].radius", ["missing", "radius"]),
     ("bad generator value", lambda t: _set(base(), "paths.0.radius", -1.0), "paths[0]", ["radius must be > 0"]),
     ("no paths", lambda t: {k: v for k, v in base().items() if k != "paths"}, "paths", ["missing", "[[paths]]"]),
+    ("q0 seeds without random postures", lambda t: _set(base(), "axes.q0_seed", [0, 1]), "axes.q0_seed", ["no \"random\" family", "repeat the same rows"]),
     ("infinite ratio", lambda t: _set(base(), "axes.ratio", [2.0, float("inf")]), "axes.ratio", ["must be finite", "inf"]),
     ("infinite c", lambda t: _set(base(), "axes.c", float("inf")), "axes.c", ["must be finite"]),
     ("infinite shape kmax", lambda t: _set(base(), "axes.kmax", float("inf")), "axes.kmax", ["must be finite"]),
