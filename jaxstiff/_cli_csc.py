@@ -206,8 +206,10 @@ def _add_csc(p: argparse.ArgumentParser):
             print(f"[{b}] final q (deg): {np.round(np.rad2deg(res.q[b, -1]), 3).tolist()}")
         print(f"wrote {written}")
         last = res.tracking_error[:, -1]
-        for b in np.flatnonzero(~(last <= TRACKING_WARN_M)):  # (NaN included)
-            start = float(np.linalg.norm(np.asarray(robot.fk(q0))[:d, 3] - points[b, 0]))
+        off = np.flatnonzero(~(last <= TRACKING_WARN_M))  # (NaN included)
+        tcp0 = np.asarray(robot.fk(q0))[:d, 3] if off.size else None  # one start posture for every path
+        for b in off:
+            start = float(np.linalg.norm(tcp0 - points[b, 0]))
             hint = (f"the start posture's TCP is {start:.3g} m from the first waypoint, and a CSC step is a "
                     "linearisation: start on the path" if start > 10 * TRACKING_WARN_M else
                     "the path may leave the workspace or the joint limits, or the null-space step is too large "

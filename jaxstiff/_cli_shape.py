@@ -158,6 +158,7 @@ def _add_shape(p: argparse.ArgumentParser):
     def run(args) -> int:
         import numpy as np
 
+        from . import results as R
         from ._x64 import enable_x64
         from .paths import Path, default_path
         from .robot import Robot, robot_path
@@ -235,8 +236,6 @@ def _add_shape(p: argparse.ArgumentParser):
         if not args.quiet:
             print(summary_table(res))
             print(f"wrote {written}  ({B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")
-        from . import results as R
-
         usable = R.is_usable(res.status)
         if not usable.all():  # the file is still complete: every waypoint has its status
             worst = int(np.argmin(usable.sum(axis=1)))
