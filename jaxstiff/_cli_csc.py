@@ -84,6 +84,15 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
     return K
 
 
+def _warn_ignored_z(robot, q0, z, flag: str) -> None:
+    """Task "xy" tracks x and y only: say so when the targets' z is not the TCP's (> 1 mm apart)."""
+    z_tcp = float(np.asarray(robot.fk(q0))[2, 3])
+    dz = float(np.max(np.abs(z - z_tcp)))
+    if not dz <= TRACKING_WARN_M:
+        print(f"jaxstiff: warning: task 'xy' tracks x and y only: the z of {flag} (up to {dz:.3g} m from the "
+              f"start TCP's z = {z_tcp:.3g} m) is ignored", file=sys.stderr)
+
+
 @command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
 def _add_csc(p: argparse.ArgumentParser):
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
@@ -144,7 +153,7 @@ def _add_csc(p: argparse.ArgumentParser):
             x = _numbers(args.hold, "--hold")
             if len(x) not in (d, 3):
                 raise ValueError(f"--hold needs {d} coordinates (m) for task {task!r}, got {len(x)}")
-            points = np.tile(np.asarray(x[:d]), (1, args.steps, 1))
+            points = np.tile(np.asarray(x), (1, args.steps, 1))
             sources = [f"hold {x}"]
         else:
             from .paths import Path
@@ -159,6 +168,9 @@ def _add_csc(p: argparse.ArgumentParser):
                 raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {sorted(lengths)}")
             points = np.stack(pts)
             sources = [os.path.abspath(f) for f in args.path]
+        if task == "xy" and points.shape[-1] == 3:
+            _warn_ignored_z(robot, q0, points[..., 2], "--hold" if args.hold is not None else "--path")
+            points = points[..., :2]
         settings = dict(task=task, step=args.step, kmin=args.kmin, kmax=args.kmax, newton=args.newton,
                         joint_limits=args.joint_limits, jl_gain=args.jl_gain)
         res = csc.csc_rollout(robot, points, K, q0, args.beta, **settings)

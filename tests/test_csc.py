@@ -613,6 +613,22 @@ def test_cli_warns_when_a_path_ends_off_its_target(tmp_path, capsys):
     assert re.search(r"warning: path 0 ends [\d.]+ m from its last waypoint .*start posture's TCP is 3\.\d+ m from the first", err), err
 
 
+def test_cli_warns_when_task_xy_ignores_the_targets_z(tmp_path, capsys):
+    """Task xy tracks x, y only: a 3-D --hold whose z is not the TCP's gets a warning naming the
+    ignored z (it used to be dropped silently); a z equal to the TCP's, or a 2-D point, none."""
+    z_tcp = float(PLANAR.fk(Q_SEED)[2, 3])
+    x, y = float(X_SEED[0]), float(X_SEED[1])
+    base = ["csc", "--robot", "planar_3r", "--kxd", "3000,1000", "--q0-deg", "75,-74.74,-76.30", "--steps", "3"]
+    for hold, warned in ((f"{x!r},{y!r},{z_tcp + 0.5!r}", True), (f"{x!r},{y!r},{z_tcp!r}", False), (f"{x!r},{y!r}", False)):
+        assert cli_main(base + ["--hold", hold, "--out", str(tmp_path / "h.npz")]) == 0
+        err = capsys.readouterr().err
+        assert ("tracks x and y only" in err) == warned, (hold, err)
+        if warned:
+            assert re.search(r"z of --hold \(up to 0\.5 m from the start TCP's z = ", err), err
+        with np.load(tmp_path / "h.npz") as f:
+            assert f["target"].shape == (1, 3, 2)
+
+
 @pytest.mark.parametrize(
     "argv,match",
     [
