@@ -135,6 +135,15 @@ class SweepStore:
                 raise ValueError(f"{plan_file}: unreadable ({exc}); this folder is not a usable sweep store") from None
             if old.get("plan_hash") != plan.plan_hash:
                 diff = _config_diff(old.get("config", {}), plan.config)
+                if diff and set(diff.split(", ")) <= {"sweep.name", "sweep.description"}:
+                    was = old.get("config", {}).get("sweep", {})
+                    raise ValueError(
+                        f"--out {self.out} holds this sweep under another label (sweep.name {was.get('name')!r}, now "
+                        f"{plan.name!r}; the name defaults to the config's file name, so a renamed file changes it): "
+                        f"set name = {json.dumps(was.get('name'))}"
+                        + (f" and description = {json.dumps(was.get('description', ''))}" if "sweep.description" in diff else "")
+                        + " in [sweep] to continue it, or use a new --out"
+                    )
                 raise ValueError(
                     f"--out {self.out} holds a different sweep ({old.get('name')!r}, plan {str(old.get('plan_hash'))[:12]}); "
                     f"changed: {diff or 'robot or path data'}. Use a new --out for a changed config"

@@ -209,6 +209,10 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
     other = parse_config({**SHAPE_CFG, "axes": {**SHAPE_CFG["axes"], "ratio": [2.0, 4.0]}})
     with pytest.raises(ValueError, match=r"holds a different sweep .*changed: axes.ratio"):
         SweepStore(shape_run.out, other, resume=True)
+    # a renamed config file renames the sweep (its label only): the error says how to continue
+    renamed = parse_config({**SHAPE_CFG, "sweep": {**SHAPE_CFG["sweep"], "name": "renamed"}})
+    with pytest.raises(ValueError, match=r"holds this sweep under another label \(sweep.name '.+', now 'renamed'.*set name = \".+\" in \[sweep\] to continue"):
+        SweepStore(shape_run.out, renamed, resume=True)
     foreign = tmp_path / "foreign"
     foreign.mkdir()
     (foreign / "notes.txt").write_text("mine")
