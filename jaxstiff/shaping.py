@@ -597,6 +597,7 @@ def shape(
         },
         "per_path": [k for k, v in (("ratio", ratio), ("dq", dq_a), ("dk", dk_a)) if np.ndim(v) > (0 if k == "ratio" else 1)],
         "first_starts": {"count": n_first if not first_rate_limit else 1, "seed": FIRST_STARTS_SEED,
+                         "use": _first_starts_use(solver, _options_meta(solver, starts, options), n_first, first_rate_limit),
                          "spread_deg": FIRST_STARTS_SPREAD_DEG,
                          "rng": "numpy default_rng(SeedSequence([seed, crc32 of the path's target, direction "
                                 "(P, 3) and q0 (n,) as float64 bytes]))"},
@@ -705,6 +706,26 @@ def _check_options(solver: str, options: Mapping[str, Any] | None) -> None:
         pgd.check_options({k: v for k, v in options.items() if k in pgd.DEFAULT_OPTIONS})
     if greedy in ("slsqp", "slsqp-fd", "hybrid"):
         slsqp.check_options({k: v for k, v in options.items() if k in slsqp.DEFAULT_OPTIONS})
+
+
+def _first_starts_use(solver: str, opts_meta: dict, n_first: int, first_rate_limit: bool) -> str:
+    """What the solver does with the first waypoint's start postures (meta ``first_starts.use``):
+    SLSQP solves from each of them, pgd makes them some of its own (more) random starts."""
+    if first_rate_limit:
+        return "first waypoint rate-limited: solved from q0 alone"
+    greedy = solver
+    popts = opts_meta["options"]
+    if solver == "trajectory":
+        popts = opts_meta["warm_options"]
+        greedy = str(opts_meta["options"].get("warm", "pgd"))
+    if greedy in ("pgd", "hybrid"):
+        S = int(opts_meta["starts"])
+        S1 = max(S, int(popts["starts_first"])) if popts.get("mode") == "best" else S
+        return (f"{min(n_first, S1)} of the {S1} first-waypoint starts of pgd (q0 first; the rest random "
+                "postures, options starts/starts_first)")
+    if greedy in ("slsqp", "slsqp-fd"):
+        return "SLSQP solves the first waypoint from each (q0 first); the best is kept"
+    return "passed to the solver as SolveRequest.first_starts"
 
 
 def _options_meta(solver: str, starts: int | None, options: Mapping[str, Any] | None) -> dict[str, Any]:

@@ -184,6 +184,9 @@ def test_every_solver_honours_per_path_parameters(solver):
         assert meta["warm_options"]["maxiter"] == slsqp.DEFAULT_OPTIONS["maxiter"]
     else:
         assert meta["starts"] == 1 and meta["options"] == slsqp.DEFAULT_OPTIONS
+    # what the solver did with the first waypoint's start postures (pgd: some of its own starts)
+    use = meta["first_starts"]["use"]
+    assert ("first-waypoint starts of pgd" in use) == (solver == "hybrid") and ("SLSQP solves" in use) == (solver != "hybrid"), use
     for b in range(2):
         assert rate_excess(res, b, DQ[b], DK[b]) <= 1e-12, f"path {b}"
     assert rate_excess(res, 0, DQ[1], DK[1]) > 1e-3

@@ -69,6 +69,11 @@ def test_meta_records_the_starts_and_options_pgd_ran_with(batch3):
     meta = batch3[2].meta
     assert meta["solver"] == "pgd" and meta["starts"] == STARTS
     assert meta["options"] == {**pgd.DEFAULT_OPTIONS, **OPTS, "starts": STARTS}
+    # the IK start postures of the first waypoint are some of pgd's own first-waypoint starts
+    opts = {**pgd.DEFAULT_OPTIONS, **OPTS}
+    s1 = max(STARTS, opts["starts_first"]) if opts["mode"] == "best" else STARTS
+    fs = meta["first_starts"]
+    assert f"{min(fs['count'], s1)} of the {s1} first-waypoint starts of pgd" in fs["use"], fs
 
 
 def test_pgd_batch_feasible_and_verified(batch3, tmp_path):
