@@ -71,7 +71,7 @@ backward pass, so the memory of a gradient grows with ``T * n`` per rollout only
 
 Speed (``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
 128, jaxstiff's XLA options; the machine is shared, so ranges of repeated runs): forward
-0.73-0.85 s, forward + gradient 2.7-3.0 s, 3.5-3.7x the forward (goal 3x: not met). What makes
+0.73-0.88 s, forward + gradient 2.7-3.6 s, 3.5-4.1x the forward (goal 3x: not met). What makes
 it so:
 
 * hand-written VJPs, each installed as a custom JVP that is its transpose (forward mode and
@@ -90,10 +90,14 @@ it so:
 
 The gradient's parts (profile of the compiled program, 128 x 1000; ``jax.named_scope`` names
 ``csc_kinematics``, ``csc_offdiag``, ``csc_measures``, ``csc_solve``, ``csc_resolve``): the forward
-pass ~1x, the recomputed step ~1x, its transpose ~1.5-2x. Tried without gain: saving the
-kinematics instead of recomputing them, no remat (the residual stores cost more than the
-recomputation), the step written entry-wise (structure of arrays: 4x fewer forward kernels, but
-XLA:CPU splits its transpose into ~500 tiny ones), cumsum as a triangular product.
+pass ~1x, the recomputed step ~1-1.4x, its transpose ~1.5-2x. Kernels are a few microseconds
+each, so their number counts as much as their arithmetic. Tried without gain: saving the
+kinematics, the realised-stiffness, projection or ``(u, grad u)`` residuals (named inside the custom
+JVP rules, so the rematerialised step really skips them) instead of recomputing them, no remat
+(the residual stores cost more than the recomputation), the step written entry-wise (structure of
+arrays: 4x fewer forward kernels, but XLA:CPU splits its transpose into ~500 tiny ones), cumsum
+as a triangular product, a fusion boundary in the ``(u, grad u)`` VJP (XLA fuses its nested sums
+into one loop that re-evaluates the inner ones per output entry; the boundary costs what it saves).
 
 Example:
     >>> import jax.numpy as jnp, numpy as np, jaxstiff
