@@ -226,6 +226,9 @@ def _add_csc(p: argparse.ArgumentParser):
                     "linearisation: start on the path" if start > 10 * TRACKING_WARN_M else
                     "the path may leave the workspace or the joint limits, or the null-space step is too large "
                     "(try a smaller --beta)")
+            if int(res.status[b, 0]) & csc.STATUS_DAMPED and int(res.status[b, -1]) & csc.STATUS_DAMPED:
+                hint += ("; the arm started at and stayed in a (near) singular posture, where the damped step "
+                         "cannot move along the direction the Jacobian lost: start from a bent posture")
             print(f"jaxstiff: warning: path {b} ends {last[b]:.3g} m from its last waypoint "
                   f"(max {res.tracking_error[b].max():.3g} m): {hint}", file=sys.stderr)
         return 0

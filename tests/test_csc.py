@@ -613,6 +613,25 @@ def test_cli_warns_when_a_path_ends_off_its_target(tmp_path, capsys):
     assert re.search(r"warning: path 0 ends [\d.]+ m from its last waypoint .*start posture's TCP is 3\.\d+ m from the first", err), err
 
 
+def test_cli_warns_when_the_arm_stays_at_a_singular_start(tmp_path, capsys):
+    """The LWR straight up (a singular posture) with a target 0.2 m down its own axis: no joint
+    moves the TCP along the arm, so the damped step is zero and the rollout stays there. The warning
+    says so (it used to suggest only starting on the path); a bent start reaches the target."""
+    out = tmp_path / "s.npz"
+    lwr = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    tcp = np.asarray(lwr.fk(np.zeros(7)))[:3, 3]
+    hold = ",".join(repr(float(v)) for v in tcp - [0.0, 0.0, 0.2])
+    argv = ["csc", "--robot", "kuka_lwr4", "--lock", "lwr_a7=0", "--hold", hold, "--kxd", "3000,1000,2000",
+            "--steps", "30", "--step", "constant", "--beta", "1e-3", "--out", str(out)]
+    assert cli_main(argv + ["--q0", "0,0,0,0,0,0,0"]) == 0
+    err = capsys.readouterr().err
+    assert "stayed in a (near) singular posture" in err and "start from a bent posture" in err, err
+    with np.load(out) as f:
+        assert f["status"][0, 0] & jaxstiff.csc.STATUS_DAMPED and f["tracking_error"][0, -1] > 0.19
+    assert cli_main(argv + ["--q0", "0,0.3,0,-0.6,0,0.3,0"]) == 0
+    assert "singular" not in capsys.readouterr().err
+
+
 def test_cli_warns_when_task_xy_ignores_the_targets_z(tmp_path, capsys):
     """Task xy tracks x, y only: a 3-D --hold whose z is not the TCP's gets a warning naming the
     ignored z (it used to be dropped silently); a z equal to the TCP's, or a 2-D point, none."""
