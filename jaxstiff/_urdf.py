@@ -120,6 +120,10 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
     for elem in root.findall("link"):
         if not elem.get("name"):
             raise ValueError(f"{path}: a <link> has no name attribute")
+    if not root.get("name"):
+        # URDF requires <robot name=...>; yourdfpy fails with a bare KeyError without it. The name
+        # is only a label here: the file's name stands in for it (as Robot.name does below).
+        root.set("name", os.path.splitext(os.path.basename(path))[0])
     try:
         model = yourdfpy.URDF._parse_robot(root)
     except Exception as exc:  # yourdfpy raises bare KeyError/AttributeError on odd files
@@ -182,7 +186,7 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
         if len(tips) != 1:
             raise ValueError(
                 f"{path}: the tip link is ambiguous below {base_link!r}: leaves {', '.join(tips) or '(none)'} "
-                f"each have {best} actuated joints; pass tip_link"
+                f"each have {best} actuated joints; pass tip_link (command line: --tip-link)"
             )
         tip_link = tips[0]
     elif tip_link not in link_set:
@@ -202,7 +206,8 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
         if j.mimic is not None:
             raise ValueError(
                 f"{path}: joint {j.name!r} mimics joint {j.mimic.joint!r}; mimic joints in the chain "
-                f"are not supported (lock it or choose another tip)"
+                f"are not supported (its value is tied to {j.mimic.joint!r}, so locking it does not help): "
+                f"choose a tip link above it (tip_link, command line: --tip-link)"
             )
         if j.type in ("floating", "planar"):
             raise ValueError(f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported")
@@ -219,8 +224,8 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
         else:
             if j.limit is None:
                 raise ValueError(
-                    f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one "
-                    f"(use type=\"continuous\" for an unlimited revolute joint)"
+                    f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one"
+                    + (" (use type=\"continuous\" for an unlimited revolute joint)" if j.type == "revolute" else "")
                 )
             # URDF spec (and urdfdom): a missing lower/upper attribute defaults to 0.
             lo = 0.0 if j.limit.lower is None else float(j.limit.lower)

@@ -136,7 +136,7 @@ def check_task_feasible(robot, task: str) -> None:
     if msg is not None:
         smaller = [t for t in ("xyz", "xy") if len(TASK_ROWS[t]) < len(TASK_ROWS[task])]
         ok = [t for t in smaller if _task_rank_report(robot, t) is None]
-        hint = (f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'a chain in the xy plane'})" if ok
+        hint = (f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'the x and y rows only'})" if ok
                 else "task 'xy' needs a chain that moves in the base xy plane")
         if not robot.free.all():
             hint += ", or unlock joints"

@@ -153,7 +153,7 @@ def test_no_path_between_base_and_tip():
 
 
 def test_ambiguous_tip():
-    with raises(ValueError, "tip link is ambiguous below 'world'", "camera, tool", "pass tip_link"):
+    with raises(ValueError, "tip link is ambiguous below 'world'", "camera, tool", "pass tip_link (command line: --tip-link)"):
         jaxstiff.Robot.from_urdf(BRANCHED)
 
 
@@ -222,6 +222,22 @@ def test_bad_joint_numbers(write, j2, message):
         jaxstiff.Robot.from_urdf(path)
 
 
+def test_a_prismatic_joint_without_limit_gets_no_revolute_hint(write):
+    path = write(two_joint_urdf(j2='<axis xyz="1 0 0"/>').replace('name="j2" type="revolute"', 'name="j2" type="prismatic"'))
+    with pytest.raises(ValueError, match=r"prismatic joint 'j2' has no <limit>; URDF requires one$"):
+        jaxstiff.Robot.from_urdf(path)
+
+
+def test_a_robot_without_a_name_attribute_is_read_under_its_file_name(write):
+    """<robot> without name= (URDF requires it, yourdfpy raised a bare KeyError): the name is only
+    a label, so the file's name stands in; the kinematics are those of the named file."""
+    named = jaxstiff.Robot.from_urdf(write(two_joint_urdf(), "named.urdf"))
+    robot = jaxstiff.Robot.from_urdf(write(two_joint_urdf().replace('<robot name="two">', "<robot>"), "anon.urdf"))
+    assert robot.name == "anon" and robot.joint_names == ("j1", "j2")
+    q = np.array([0.3, -0.7])
+    np.testing.assert_array_equal(np.asarray(robot.fk(q)), np.asarray(named.fk(q)))
+
+
 def test_bad_numbers_in_a_fixed_joint_outside_the_chain(write):
     """NaN anywhere in the file is refused, even on a joint the chain does not use."""
     path = write(two_joint_urdf(extra='<link name="s"/><joint name="cam" type="fixed"><parent link="l1"/>'
@@ -232,8 +248,11 @@ def test_bad_numbers_in_a_fixed_joint_outside_the_chain(write):
 
 def test_mimic_joint_in_the_chain_is_refused_by_name(write):
     path = write(two_joint_urdf(j2=f'<origin xyz="1 0 0"/><axis xyz="0 0 1"/>{LIMIT}<mimic joint="j1" multiplier="2"/>'))
-    with raises(ValueError, path, "joint 'j2' mimics joint 'j1'", "not supported"):
+    with raises(ValueError, path, "joint 'j2' mimics joint 'j1'", "not supported", "locking it does not help",
+                "choose a tip link above it", "--tip-link"):
         jaxstiff.Robot.from_urdf(path)
+    with raises(ValueError, "joint 'j2' mimics joint 'j1'"):  # the hint is right: a lock does not help
+        jaxstiff.Robot.from_urdf(path, locked={"j2": 0.0})
     # a chain that stops before the mimic joint is fine
     assert jaxstiff.Robot.from_urdf(path, tip_link="l1").joint_names == ("j1",)
 
@@ -320,3 +339,19 @@ def test_robot_argument_must_be_a_robot():
 def test_position_and_jacobian_rows_are_checked(lwr, rows):
     with raises(ValueError, "rows must be a non-empty tuple of Jacobian row indices in 0..5"):
         jaxstiff.position_and_jacobian(lwr, jnp.zeros(7), rows)
+
+
+def test_cli_prints_a_urdf_warning_as_one_line(write, capsys):
+    """A joint with an empty range warns (UserWarning from Python); the command line prints it as
+    one 'jaxstiff: warning:' line like its other warnings, without Python's file:line and source."""
+    from jaxstiff.cli import main as cli_main
+
+    path = write(two_joint_urdf(j2='<origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit effort="1" velocity="1"/>'))
+    with pytest.warns(UserWarning, match="empty range"):  # the Python API keeps a real warning
+        jaxstiff.Robot.from_urdf(path)
+    rc = cli_main(["csc", "--robot", path, "--hold", "1,0", "--kxd", "bad", "--q0", "0,0", "--out", str(os.path.dirname(path))])
+    err = capsys.readouterr().err
+    assert rc == 2 and "jaxstiff: error:" in err
+    lines = [ln for ln in err.splitlines() if "empty range" in ln]
+    assert len(lines) == 1 and lines[0].startswith("jaxstiff: warning: ") and path in lines[0], err
+    assert "UserWarning" not in err and ".py:" not in err, err
