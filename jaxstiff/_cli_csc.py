@@ -84,6 +84,12 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
     return K
 
 
+def _prismatic(robot) -> np.ndarray:
+    from .robot import JOINT_PRISMATIC
+
+    return np.asarray(robot.joint_types) == JOINT_PRISMATIC
+
+
 def _warn_ignored_z(robot, q0, z, flag: str) -> None:
     """Task "xy" tracks x and y only: say so when the targets' z is not the TCP's (> 1 mm apart)."""
     z_tcp = float(np.asarray(robot.fk(q0))[2, 3])
@@ -107,8 +113,8 @@ def _add_csc(p: argparse.ArgumentParser):
     p.add_argument("--kxd", required=True,
                    help="desired Cartesian stiffness, N/m: 'K1,...,Km[@DEG]' (R_z(DEG) diag(K) R_z^T) or m*m entries")
     q0 = p.add_mutually_exclusive_group(required=True)
-    q0.add_argument("--q0", metavar="RAD,...", help="start posture, rad (locked joints: their locked values)")
-    q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees")
+    q0.add_argument("--q0", metavar="RAD,...", help="start posture, rad; m for prismatic joints (locked joints: their locked values)")
+    q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees (prismatic joints: m)")
     p.add_argument("--beta", type=float, default=1.0,
                    help="null-step multiplier: adaptive = beta x |dq_P| (S1-22); constant = beta rad per step")
     p.add_argument("--step", choices=["adaptive", "constant"], default="adaptive", help="null-space step rule")
@@ -143,7 +149,9 @@ def _add_csc(p: argparse.ArgumentParser):
         if args.q0 is not None:
             q0 = np.asarray(_numbers(args.q0, "--q0"))
         else:
-            q0 = np.deg2rad(_numbers(args.q0_deg, "--q0-deg"))
+            q0 = np.asarray(_numbers(args.q0_deg, "--q0-deg"), dtype=float)
+            if q0.shape == (robot.n,):  # degrees for revolute joints; a prismatic joint's value is a length
+                q0 = np.where(_prismatic(robot), q0, np.deg2rad(q0))
         flag = "--q0" if args.q0 is not None else "--q0-deg"
         if q0.shape != (robot.n,):
             raise ValueError(f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}")
@@ -210,12 +218,16 @@ def _add_csc(p: argparse.ArgumentParser):
         print(f"K_xd (N/m):\n{K}")
         for b in range(B):
             u, fr, st = res.u[b], res.frobenius[b], res.status[b]
-            print(f"[{b}] u: {res.u_start[b]:.6g} -> {u[-1]:.6g} Nm/rad (min {u.min():.6g}, {100 * (1 - u[-1] / res.u_start[b]):.1f}% lower)")
+            change = 100 * (1 - u[-1] / res.u_start[b]) if res.u_start[b] > 0 else 0.0
+            print(f"[{b}] u: {res.u_start[b]:.6g} -> {u[-1]:.6g} Nm/rad (min {u.min():.6g}, "
+                  f"{abs(change):.1f}% {'lower' if change >= 0 else 'higher'})")
             print(f"[{b}] |K_xd - K_C|_F: {res.frobenius_start[b]:.6g} -> {fr[-1]:.6g} N/m")
             print(f"[{b}] tracking error: max {res.tracking_error[b].max():.3g} m, last {res.tracking_error[b, -1]:.3g} m")
             counts = {csc.describe_status(c): int(n) for c, n in zip(*np.unique(st, return_counts=True))}
             print(f"[{b}] status: {counts}")
-            print(f"[{b}] final q (deg): {np.round(np.rad2deg(res.q[b, -1]), 3).tolist()}")
+            qf = np.where(_prismatic(robot), res.q[b, -1], np.rad2deg(res.q[b, -1]))
+            unit = "deg; m for prismatic joints" if _prismatic(robot).any() else "deg"
+            print(f"[{b}] final q ({unit}): {np.round(qf, 3).tolist()}")
         print(f"wrote {written}")
         last = res.tracking_error[:, -1]
         off = np.flatnonzero(~(last <= TRACKING_WARN_M))  # (NaN included)

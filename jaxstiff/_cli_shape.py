@@ -104,6 +104,20 @@ def summary_table(res) -> str:
     return "\n".join(lines)
 
 
+
+def _rate_limits(robot, dq_deg: float, dq_m: float | None):
+    """Per-joint rate limit (n,): revolute joints from --dq-deg (rad), prismatic ones from --dq-m
+    (m; default the same number as the revolute joints' radians), a scalar when all are revolute."""
+    import numpy as np
+
+    from .robot import JOINT_PRISMATIC
+
+    dq = math.radians(dq_deg)
+    prismatic = np.asarray(robot.joint_types) == JOINT_PRISMATIC
+    if not prismatic.any():
+        return dq
+    return np.where(prismatic, dq if dq_m is None else dq_m, dq)
+
 @command("shape", "shape the stiffness ellipsoid along TCP paths (seed 000): per-waypoint SLSQP -> .npz")
 def _add_shape(p: argparse.ArgumentParser):
     from .shaping import DEFAULTS
@@ -125,13 +139,16 @@ def _add_shape(p: argparse.ArgumentParser):
     p.add_argument("--task", default="full", choices=["full", "xyz", "xy"],
                    help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2")
     p.add_argument("--q0", default=None, metavar="RAD,...",
-                   help="start posture, one value per joint (rad, locked joints at their values); "
+                   help="start posture, one value per joint (rad; m for prismatic joints; locked joints at their values); "
                         "default: damped-least-squares IK from the nominal posture to the first waypoint")
     p.add_argument("--kj0", default=None, metavar="V|V,...",
                    help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
                         "(default: mid-range (kmin+kmax)/2)")
     p.add_argument("--dq-deg", default=str(DEFAULTS["dq_deg"]), metavar="D",
                    help="joint rate limit, degrees per waypoint (inf = none)")
+    p.add_argument("--dq-m", default=None, metavar="M",
+                   help="rate limit of prismatic joints, m per waypoint (inf = none; default: the value of "
+                        "--dq-deg in radians read as metres, 2 -> 0.0349 m)")
     p.add_argument("--dk", default=str(DEFAULTS["dk"]), metavar="K",
                    help="joint-stiffness rate limit, Nm/rad per waypoint (inf = none)")
     p.add_argument("--kmin", default=str(DEFAULTS["kmin"]), metavar="A", help="lowest joint stiffness, Nm/rad, > 0")
@@ -181,6 +198,9 @@ def _add_shape(p: argparse.ArgumentParser):
         cms_volume, cms_major = _num(args.cms_volume, "--cms-volume"), _num(args.cms_major, "--cms-major")
         if dq_deg is not None and (math.isnan(dq_deg) or dq_deg < 0):
             raise ValueError(f"--dq-deg must be >= 0 (degrees per waypoint), got {args.dq_deg}")
+        dq_m = None if args.dq_m is None else _num(args.dq_m, "--dq-m")
+        if dq_m is not None and (math.isnan(dq_m) or dq_m < 0):
+            raise ValueError(f"--dq-m must be >= 0 (m per waypoint), got {args.dq_m}")
         if dk is not None and (math.isnan(dk) or dk < 0):
             raise ValueError(f"--dk must be >= 0 (Nm/rad per waypoint), got {args.dk}")
 
@@ -227,7 +247,7 @@ def _add_shape(p: argparse.ArgumentParser):
         res = shape(
             robot, path, args.criterion, ratio, task=args.task, solver=args.solver, starts=starts,
             q0=None if q0 is None else np.asarray(q0), kj0=kj0,
-            dq=math.radians(dq_deg), dk=dk, kmin=kmin, kmax=kmax, c=c,
+            dq=_rate_limits(robot, dq_deg, dq_m), dk=dk, kmin=kmin, kmax=kmax, c=c,
             first_rate_limit=args.first_rate_limit, first_starts=first_starts,
             cms_volume=cms_volume, cms_major=cms_major, progress=progress,
             meta_extra={"path_files": path_files, "cli": {k: v for k, v in vars(args).items() if not k.startswith("_")}},

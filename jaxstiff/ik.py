@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .kinematics import position_and_jacobian
-from .robot import Robot
+from .robot import JOINT_REVOLUTE, Robot
 
 __all__ = ["ik_position", "nominal_posture", "NOMINAL_OFFSET_DEG"]
 
@@ -36,11 +36,13 @@ NOMINAL_OFFSET_DEG = 30.0
 
 
 def nominal_posture(robot: Robot) -> np.ndarray:
-    """A generic non-singular start posture (n,): mid-range + 30 deg per free joint; locked at their values."""
+    """A generic non-singular start posture (n,): mid-range + 30 deg per free revolute joint, mid-range
+    for a prismatic one (30 deg is no length); locked joints at their values."""
     lo, hi = robot.lower, robot.upper
     finite = np.isfinite(lo) & np.isfinite(hi)  # continuous joints: (-inf, inf), mid-range 0
     mid = np.where(finite, 0.5 * (np.where(finite, lo, 0.0) + np.where(finite, hi, 0.0)), 0.0)
-    q = np.clip(mid + np.deg2rad(NOMINAL_OFFSET_DEG), lo, hi)
+    revolute = np.asarray(robot.joint_types) == JOINT_REVOLUTE
+    q = np.clip(mid + np.where(revolute, np.deg2rad(NOMINAL_OFFSET_DEG), 0.0), lo, hi)
     return np.where(robot.free, q, np.nan_to_num(robot.locked_values))
 
 

@@ -601,7 +601,7 @@ def shape(
                          "spread_deg": FIRST_STARTS_SPREAD_DEG,
                          "rng": "numpy default_rng(SeedSequence([seed, crc32 of the path's target, direction "
                                 "(P, 3) and q0 (n,) as float64 bytes]))"},
-        "q0_source": "given" if q0_given else f"ik_dls from nominal posture (mid-range + {NOMINAL_OFFSET_DEG:g} deg)",
+        "q0_source": "given" if q0_given else f"ik_dls from nominal posture (mid-range, + {NOMINAL_OFFSET_DEG:g} deg for revolute joints)",
         "q_nominal": nominal_posture(robot).tolist(),
         "ik_error_m": ik_err,
         "kj0_source": "given" if kj0_given else "mid-range (kmin + kmax) / 2",

@@ -665,3 +665,18 @@ def test_cli_errors_are_one_line(tmp_path, capsys, argv, match):
     err = capsys.readouterr().err
     assert err.startswith("jaxstiff: error:") and match in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_cli_takes_negative_comma_lists_as_values(tmp_path):
+    """`--hold -1.2,0.9` (argparse alone takes '-1.2,0.9' for an unknown option and refuses)."""
+    from jaxstiff.cli import _join_negative_values
+
+    assert _join_negative_values(["csc", "--hold", "-1.2,0.9", "--beta", "-1", "--q0", ".5,1", "-x"]) == [
+        "csc", "--hold=-1.2,0.9", "--beta=-1", "--q0", ".5,1", "-x"]
+    out = tmp_path / "neg.npz"
+    rc = cli_main(["csc", "--robot", "planar_3r", "--hold", "-1.2,0.9", "--kxd", "3000,1000", "--q0-deg", "-60,-40,-30",
+                   "--steps", "3", "--out", str(out)])
+    assert rc == 0
+    with np.load(out) as f:
+        np.testing.assert_array_equal(f["target"][0, 0], [-1.2, 0.9])
+        np.testing.assert_allclose(f["q0"], np.deg2rad([-60.0, -40.0, -30.0]), rtol=0, atol=1e-15)

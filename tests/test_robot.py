@@ -200,3 +200,41 @@ def test_pickled_robot_equals_and_hashes_like_a_fresh_read():
     assert remote == local and hash(remote) == hash(local)
     assert {local: 1}[remote] == 1
     assert "_hash" not in local.__getstate__()
+
+
+def test_prismatic_joints_get_lengths_not_degrees():
+    """A prismatic joint's value is a length: the nominal posture puts it at mid-range (not
+    mid-range + 30 deg read as 0.52 m, which the clip sent to its limit), `csc --q0-deg` leaves its
+    entry in metres, and `shape --dq-m` sets its rate limit apart from --dq-deg."""
+    from jaxstiff._cli_shape import _rate_limits
+    from jaxstiff.ik import nominal_posture
+
+    robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
+    pris = np.asarray(robot.joint_types) == jaxstiff.robot.JOINT_PRISMATIC
+    assert pris.tolist() == [False, True, False, False]
+    lo, hi = robot.lower, robot.upper
+    q = nominal_posture(robot)
+    assert q[1] == pytest.approx(0.5 * (lo[1] + hi[1]), abs=1e-15)
+    fin = np.isfinite(lo) & np.isfinite(hi) & ~pris
+    np.testing.assert_allclose(q[fin], np.clip(0.5 * (lo + hi) + np.deg2rad(30.0), lo, hi)[fin], atol=1e-15)
+    np.testing.assert_array_equal(_rate_limits(robot, 2.0, None), np.full(4, np.deg2rad(2.0)))
+    np.testing.assert_array_equal(_rate_limits(robot, 2.0, 0.01), [np.deg2rad(2.0), 0.01, np.deg2rad(2.0), np.deg2rad(2.0)])
+    assert _rate_limits(jaxstiff.Robot.from_urdf("planar_3r"), 2.0, 0.01) == np.deg2rad(2.0)  # no prismatic joint
+
+
+def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):
+    robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
+    q_deg = [10.0, 0.2, 20.0, 30.0]  # the prismatic joint (second) at 0.2 m
+    q0 = np.array([np.deg2rad(10.0), 0.2, np.deg2rad(20.0), np.deg2rad(30.0)])
+    x = ",".join(repr(float(v)) for v in np.asarray(robot.fk(q0))[:3, 3])
+    out = tmp_path / "c.npz"
+    rc = main(["csc", "--robot", BRANCHED, "--tip-link", "tool", "--hold", x, "--kxd", "3000,1000,2000",
+               "--q0-deg", ",".join(map(str, q_deg)), "--steps", "2", "--out", str(out)])
+    text = capsys.readouterr().out
+    assert rc == 0
+    with np.load(out) as f:
+        np.testing.assert_allclose(f["q0"], q0, rtol=0, atol=1e-15)
+    assert "final q (deg; m for prismatic joints)" in text
+    line = next(ln for ln in text.splitlines() if "final q" in ln)
+    vals = [float(v) for v in line.split(":", 1)[1].strip(" []").split(",")]
+    assert abs(vals[1] - 0.2) < 0.05 and abs(vals[0] - 10.0) < 5.0, line  # metres and degrees, near the start
