@@ -36,7 +36,7 @@ import numpy as np
 
 from ._io import json_default as _json_default
 
-from .cli import command, parse_locks
+from .cli import check_out_file, command, parse_locks
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
@@ -107,7 +107,7 @@ def _add_csc(p: argparse.ArgumentParser):
     p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable; 'none': every joint free)")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--path", action="append", metavar="CSV",
-                     help="path CSV (header x,y,z; m, base frame), one step per waypoint; repeat for a batch")
+                     help="path CSV (header x,y,z[,dx,dy,dz]; m, base frame; directions unused), one step per row (a repeated row holds still); repeat for a batch")
     src.add_argument("--hold", metavar="X,Y[,Z]", help="hold the TCP at this point (m) for --steps steps")
     p.add_argument("--steps", type=int, default=1000, help="steps with --hold")
     p.add_argument("--kxd", required=True,
@@ -140,9 +140,7 @@ def _add_csc(p: argparse.ArgumentParser):
 
         if args.steps < 1:
             raise ValueError(f"--steps must be >= 1, got {args.steps}")
-        out_dir = os.path.dirname(os.path.abspath(args.out))
-        if not os.path.isdir(out_dir):
-            raise FileNotFoundError(f"--out: folder does not exist: {out_dir}")
+        out = check_out_file(args.out)
         robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
         K = parse_kxd(args.kxd, args.task)
         task = args.task or _M_TASK[K.shape[0]]
@@ -164,13 +162,14 @@ def _add_csc(p: argparse.ArgumentParser):
             points = np.tile(np.asarray(x), (1, args.steps, 1))
             sources = [f"hold {x}"]
         else:
-            from .paths import Path
+            from .paths import read_csv
 
             pts = []
             for f in args.path:
                 if not os.path.isfile(f):
                     raise FileNotFoundError(f"--path: no such file: {f}")
-                pts.append(np.asarray(Path.from_csv(f).points, dtype=float))
+                # the points only: one step per row, repeated rows hold still, directions unused
+                pts.append(read_csv(f)[0])
             lengths = {len(a) for a in pts}
             if len(lengths) != 1:
                 raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {sorted(lengths)}")
@@ -210,7 +209,7 @@ def _add_csc(p: argparse.ArgumentParser):
         arrays["q0"] = q0
         arrays["K_xd"] = K
         arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
-        written = atomic_save_npz(args.out, arrays)
+        written = atomic_save_npz(out, arrays)
 
         np.set_printoptions(precision=4, suppress=True, linewidth=120)
         B = points.shape[0]

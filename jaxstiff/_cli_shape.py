@@ -12,7 +12,7 @@ import os
 import sys
 import time
 
-from .cli import command, parse_locks
+from .cli import check_out_file, command, parse_locks
 
 _DEFAULT_LOCK = {"kuka_lwr4": {"lwr_a7": 0.0}}
 
@@ -182,12 +182,7 @@ def _add_shape(p: argparse.ArgumentParser):
         from .shaping import prefer_sync_cpu_dispatch, shape
 
         # ---- validate everything before any work, so bad input never leaves a file
-        out = os.path.abspath(args.out if args.out.endswith(".npz") else args.out + ".npz")
-        folder = os.path.dirname(out)
-        if not os.path.isdir(folder):
-            raise FileNotFoundError(f"--out: folder does not exist: {folder}")
-        if not os.access(folder, os.W_OK):
-            raise ValueError(f"--out: folder is not writable: {folder}")
+        out = check_out_file(args.out)
         ratio = _num(args.ratio, "--ratio")
         dq_deg = _num(args.dq_deg, "--dq-deg")
         dk = _num(args.dk, "--dk")

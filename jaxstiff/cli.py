@@ -129,6 +129,23 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
         _default_showwarning(message, category, filename, lineno, file, line)
 
 
+def check_out_file(out: str, flag: str = "--out") -> str:
+    """The result file of a command, checked before any work: a file name (``.npz`` added when
+    missing) in an existing, writable folder, and not an existing folder. Returns the absolute path."""
+    name = out if out.endswith(".npz") else out + ".npz"
+    if not out.strip() or os.path.basename(name) == ".npz" or out.endswith(("/", os.sep)):
+        raise ValueError(f"{flag}: expected a file name like result.npz, got {out!r}")
+    path = os.path.abspath(name)
+    if os.path.isdir(path):
+        raise ValueError(f"{flag}: {path} is a folder; give a file name inside it, like {os.path.join(out, 'result.npz')}")
+    folder = os.path.dirname(path)
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"{flag}: folder does not exist: {folder}")
+    if not os.access(folder, os.W_OK):
+        raise ValueError(f"{flag}: folder is not writable: {folder}")
+    return path
+
+
 _NEGATIVE_VALUE = re.compile(r"^-\.?\d")
 
 

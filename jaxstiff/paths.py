@@ -30,6 +30,7 @@ import dataclasses
 import io
 import math
 import os
+import re
 from typing import Sequence
 
 import numpy as np
@@ -38,6 +39,7 @@ from ._io import atomic_write_text
 
 __all__ = [
     "Path",
+    "read_csv",
     "tangents",
     "line",
     "arc",
@@ -199,46 +201,20 @@ class Path:
             FileNotFoundError: the file does not exist.
             ValueError: empty file, missing/unknown columns, a non-numeric or missing cell (the
                 message names file, line and column), NaN/Inf, fewer than 2 waypoints, a
-                zero-length segment without directions.
+                zero-length segment without directions (named by waypoint and line).
         """
         file = os.fspath(file)
-        if not os.path.isfile(file):
-            raise FileNotFoundError(f"path file not found: {file}")
+        points, directions, lines = read_csv(file)
+        if len(points) < 2:
+            raise ValueError(f"{file}: a path needs at least 2 waypoints, got {len(points)}")
+        name = os.path.basename(file)
         try:
-            with open(file, newline="", encoding="utf-8-sig") as fh:  # -sig: a BOM (spreadsheet export) is dropped
-                text = fh.read()
-        except UnicodeDecodeError:
-            raise ValueError(f"{file}: not a text CSV file (cannot decode as UTF-8)") from None
-        lines = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip() and not ln.lstrip().startswith("#")]
-        if not lines:
-            raise ValueError(f"{file}: empty file; expected a header x,y,z[,dx,dy,dz] and waypoint rows")
-        header_no, header_line = lines[0]
-        header = [h.strip().lower() for h in next(csv.reader([header_line]))]
-        if header[:3] != ["x", "y", "z"] or header not in (["x", "y", "z"], ["x", "y", "z", "dx", "dy", "dz"]):
-            raise ValueError(
-                f"{file}:{header_no}: header must be 'x,y,z' or 'x,y,z,dx,dy,dz', got {header_line.strip()!r}"
-            )
-        ncol = len(header)
-        rows = []
-        for line_no, ln in lines[1:]:
-            cells = next(csv.reader([ln]))
-            if len(cells) != ncol:
-                raise ValueError(f"{file}:{line_no}: expected {ncol} values ({','.join(header)}), got {len(cells)}")
-            row = []
-            for col, cell in zip(header, cells):
-                try:
-                    v = float(cell)
-                except ValueError:
-                    raise ValueError(f"{file}:{line_no}: column {col}: {cell.strip()!r} is not a number") from None
-                if not math.isfinite(v):
-                    raise ValueError(f"{file}:{line_no}: column {col}: value {cell.strip()!r} is not finite")
-                row.append(v)
-            rows.append(row)
-        if len(rows) < 2:
-            raise ValueError(f"{file}: a path needs at least 2 waypoints, got {len(rows)}")
-        data = np.asarray(rows, dtype=float)
-        directions = data[:, 3:6] if ncol == 6 else None
-        return Path(data[:, :3], directions, name=os.path.basename(file))
+            return Path(points, directions, name=name)
+        except ValueError as exc:  # geometry (zero-length segment or direction): say which line
+            msg = re.sub(r"waypoint (\d+)", lambda m: f"waypoint {m[1]} (line {lines[int(m[1])]})", str(exc))
+            if msg.startswith(name + ":"):
+                msg = file + msg[len(name):]
+            raise ValueError(msg) from None
 
     def to_csv(self, file: str | os.PathLike, directions: bool = True) -> None:
         """Write an unbatched path as CSV (``x,y,z,dx,dy,dz``), atomically (temp file + rename)."""
@@ -413,3 +389,60 @@ def default_path(n: int | None = None) -> Path:
         spec["n"] = int(n)
     p = half_sine(spec["start"], spec["end"], spec["amplitude"], n=spec["n"], periods=spec["periods"])
     return Path(p.points, p.directions, name="default")
+
+
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:inf|infinity|nan)", re.IGNORECASE | re.ASCII)
+
+
+def read_csv(file: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None, list[int]]:
+    """The rows of a path CSV (header ``x,y,z[,dx,dy,dz]``), without :class:`Path`'s geometry
+    checks: ``(points (P, 3), directions (P, 3) or None, line number of each row)``, P >= 1.
+
+    For users of the points alone (a CSC rollout takes one step per row and holds still where
+    rows repeat). Blank lines and lines starting with ``#`` are skipped; a UTF-8 BOM is dropped;
+    a cell must be a plain decimal number (``1_0`` or full-width digits, which Python's ``float``
+    takes, are refused).
+
+    Raises:
+        FileNotFoundError: the file does not exist.
+        ValueError: not UTF-8 text, no header or rows, a bad header, a row of the wrong length, a
+            cell that is not a finite number (the message names file, line and column).
+    """
+    file = os.fspath(file)
+    if not os.path.isfile(file):
+        raise FileNotFoundError(f"path file not found: {file}")
+    try:
+        with open(file, newline="", encoding="utf-8-sig") as fh:  # -sig: a BOM (spreadsheet export) is dropped
+            text = fh.read()
+    except UnicodeDecodeError:
+        raise ValueError(f"{file}: not a text CSV file (cannot decode as UTF-8)") from None
+    # CSV line ends only (str.splitlines also splits at form feeds, vertical tabs, U+2028, ...)
+    lines = [(i + 1, ln) for i, ln in enumerate(re.split(r"\r\n|\r|\n", text)) if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise ValueError(f"{file}: empty file; expected a header x,y,z[,dx,dy,dz] and waypoint rows")
+    header_no, header_line = lines[0]
+    header = [h.strip().lower() for h in next(csv.reader([header_line]))]
+    if header[:3] != ["x", "y", "z"] or header not in (["x", "y", "z"], ["x", "y", "z", "dx", "dy", "dz"]):
+        raise ValueError(
+            f"{file}:{header_no}: header must be 'x,y,z' or 'x,y,z,dx,dy,dz', got {header_line.strip()!r}"
+        )
+    ncol = len(header)
+    rows, numbers = [], []
+    for line_no, ln in lines[1:]:
+        cells = next(csv.reader([ln]))
+        if len(cells) != ncol:
+            raise ValueError(f"{file}:{line_no}: expected {ncol} values ({','.join(header)}), got {len(cells)}")
+        row = []
+        for col, cell in zip(header, cells):
+            if not _NUMBER.fullmatch(cell.strip()):
+                raise ValueError(f"{file}:{line_no}: column {col}: {cell.strip()!r} is not a number")
+            v = float(cell)
+            if not math.isfinite(v):
+                raise ValueError(f"{file}:{line_no}: column {col}: value {cell.strip()!r} is not finite")
+            row.append(v)
+        rows.append(row)
+        numbers.append(line_no)
+    if not rows:
+        raise ValueError(f"{file}: no waypoint rows after the header")
+    data = np.asarray(rows, dtype=float)
+    return data[:, :3], (data[:, 3:6] if ncol == 6 else None), numbers

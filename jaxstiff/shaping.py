@@ -498,7 +498,13 @@ def shape(
     dq_a = _per_joint(dq, n, "dq (joint rate limit per waypoint)", "rad", B)
     dk_a = _per_joint(dk, n, "dk (stiffness rate limit per waypoint)", "Nm/rad", B)
     if task == "xy" and np.any(np.abs(bpath.directions[..., 2]) > 1e-9):
-        raise ValueError("task 'xy' needs directions in the xy plane (dz = 0)")
+        b, k = (int(i) for i in np.argwhere(np.abs(bpath.directions[..., 2]) > 1e-9)[0])
+        raise ValueError(
+            f"task 'xy' needs directions in the xy plane (dz = 0); path {b}"
+            + (f" ({bpath.name})" if bpath.name else "")
+            + f" has dz = {bpath.directions[b, k, 2]:.3g} at waypoint {k} (its z changes along the path, or a "
+            "given direction leaves the plane: a planar task needs a path at constant z)"
+        )
     m = 2 if task == "xy" else 3
     if cms_volume is not None and cms_major is not None:
         raise ValueError("give at most one of cms_volume and cms_major")

@@ -249,6 +249,21 @@ def kxd_matrix(task: str, major: float, ratio: float, angle_deg: float) -> np.nd
     return 0.5 * (K + K.T)
 
 
+def _csc_directions(points: np.ndarray, given) -> np.ndarray:
+    """Directions of a CSC sweep's CSV path, kept for the plan and result files only (a CSC
+    rollout never reads them): the given ones, else the tangents where the path has them, else
+    (a path that holds still somewhere) the x axis."""
+    from .paths import Path
+
+    if given is not None:
+        n = np.linalg.norm(given, axis=-1, keepdims=True)
+        return np.where(n > 1e-12, given / np.where(n > 1e-12, n, 1.0), [1.0, 0.0, 0.0])
+    try:
+        return np.array(Path(points).directions)
+    except ValueError:
+        return np.tile([1.0, 0.0, 0.0], (len(points), 1))
+
+
 # ---------------------------------------------------------------------------- path generators
 def _point_path(point, n: int = 20, direction=(1.0, 0.0, 0.0)):
     """A path that holds one point for ``n`` waypoints (CSC "hold" studies); directions constant."""
@@ -553,7 +568,7 @@ class _Parser:
             raise self.err("sweep.ratio_rel_tol", f"must be in (0, 1), got {ratio_tol}")
 
         robot, robot_spec = self.robot(cfg)
-        trajectories = self.paths(cfg)
+        trajectories = self.paths(cfg, kind)
         axes = self.axes(cfg, kind, robot)
         self.cross_checks(kind, axes, trajectories, robot)
         options = self.options(cfg, axes)
@@ -686,8 +701,8 @@ class _Parser:
         return robot, spec
 
     # ------------------------------------------------------------------ [[paths]]
-    def paths(self, cfg) -> list[Trajectory]:
-        from .paths import Path
+    def paths(self, cfg, kind: str = "shape") -> list[Trajectory]:
+        from .paths import Path, read_csv
 
         if "paths" not in cfg:
             raise self.err("paths", "missing: give at least one [[paths]] table (file = CSV, or generator = ...)")
@@ -714,13 +729,18 @@ class _Parser:
                 if not os.path.isfile(fp):
                     raise self.err(f"{key}.file", f"path file not found: {fp}")
                 try:
-                    p = Path.from_csv(fp)
+                    if kind == "csc":  # points only: a CSC rollout may hold still (repeated rows)
+                        pts, dirs, _ = read_csv(fp)
+                        dirs = _csc_directions(pts, dirs)
+                    else:
+                        p = Path.from_csv(fp)
+                        pts, dirs = p.points, p.directions
                 except (ValueError, FileNotFoundError) as exc:
                     raise self.err(f"{key}.file", str(exc)) from None
                 from .results import file_sha256
 
                 nm = label or os.path.splitext(os.path.basename(fp))[0]
-                out.append(Trajectory(len(out), nm, np.array(p.points), np.array(p.directions),
+                out.append(Trajectory(len(out), nm, np.array(pts), np.array(dirs),
                                       {"file": os.path.abspath(fp), "sha256": file_sha256(fp)}))
                 continue
             gen = tbl["generator"]

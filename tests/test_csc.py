@@ -680,3 +680,18 @@ def test_cli_takes_negative_comma_lists_as_values(tmp_path):
     with np.load(out) as f:
         np.testing.assert_array_equal(f["target"][0, 0], [-1.2, 0.9])
         np.testing.assert_allclose(f["q0"], np.deg2rad([-60.0, -40.0, -30.0]), rtol=0, atol=1e-15)
+
+
+def test_cli_path_with_a_pause_holds_still(tmp_path):
+    """`csc --path` with a repeated row (the arm pauses): one step per row, no tangents needed
+    (it was refused as a zero-length segment, a check only the shaping's directions need)."""
+    f = tmp_path / "pause.csv"
+    x, y = float(X_SEED[0]), float(X_SEED[1])
+    f.write_text(f"x,y,z\n{x!r},{y!r},0\n{x!r},{y + 0.01!r},0\n{x!r},{y + 0.01!r},0\n{x!r},{y + 0.02!r},0\n")
+    out = tmp_path / "p.npz"
+    rc = cli_main(["csc", "--robot", "planar_3r", "--path", str(f), "--kxd", "3000,1000", "--q0-deg", "75,-74.74,-76.30",
+                   "--out", str(out)])
+    assert rc == 0
+    with np.load(out) as r:
+        np.testing.assert_array_equal(r["target"][0], [[x, y], [x, y + 0.01], [x, y + 0.01], [x, y + 0.02]])
+        assert np.all(np.isfinite(r["q"])) and r["tracking_error"][0, -1] < 1e-3

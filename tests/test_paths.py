@@ -122,8 +122,11 @@ def test_csv_round_trip(tmp_path):
         ("x,y,z\n1,2,3\n4,five,6\n", r":3: column y: 'five' is not a number"),
         ("x,y,z\n1,2,3\n4,5\n", r":3: expected 3 values"),
         ("x,y,z\n1,2,3\n4,nan,6\n", "not finite"),
-        ("x,y,z\n1,2,3\n1,2,3\n", "zero-length segment"),
-        ("x,y,z,dx,dy,dz\n1,2,3,0,0,0\n4,5,6,1,0,0\n", "zero-length direction"),
+        ("x,y,z\n1,2,3\n1,2,3\n", r"bad.csv: zero-length segment at waypoint 0 \(line 2\)"),
+        ("# note\nx,y,z,dx,dy,dz\n1,2,3,1,0,0\n4,5,6,0,0,0\n", r"bad.csv: zero-length direction at waypoint 1 \(line 4\)"),
+        ("x,y,z\n1,2,3\n4,1_0,6\n", r":3: column y: '1_0' is not a number"),  # float() takes it as 10
+        ("x,y,z\n1,2,3\n4,\uff15,6\n", r":3: column y: '\uff15' is not a number"),  # full-width 5
+        ("x,y,z\n1,2,3\n4,5\x0b,6\n7,8\n", r"bad.csv:4: expected 3 values"),  # a vertical tab is no line end
     ],
 )
 def test_csv_errors_name_the_problem(tmp_path, text, match):
@@ -199,3 +202,19 @@ def test_out_and_back_path_has_the_line_of_its_segments_at_the_turn():
     d = jaxstiff.Path(pts).directions
     assert np.allclose(np.abs(d[1]), [0.0, 1.0, 0.0], atol=1e-15)
     assert np.allclose(d[0], [0.0, 1.0, 0.0]) and np.allclose(np.linalg.norm(d, axis=-1), 1.0)
+
+
+def test_read_csv_gives_the_rows_without_geometry_checks(tmp_path):
+    """paths.read_csv (the points a CSC rollout steps through): repeated rows and one row are fine,
+    numbers as written, line numbers of the rows; Path.from_csv of the same file refuses the pause."""
+    f = tmp_path / "pause.csv"
+    f.write_text("x,y,z\r\n1.5,1.0,0\r\n# hold\r\n1.5,1.05,0\r\n1.5,1.05,0\r\n-1e-1,+2.,.5\r\n")
+    pts, dirs, lines = paths.read_csv(f)
+    np.testing.assert_array_equal(pts, [[1.5, 1.0, 0], [1.5, 1.05, 0], [1.5, 1.05, 0], [-0.1, 2.0, 0.5]])
+    assert dirs is None and lines == [2, 4, 5, 6]
+    with pytest.raises(ValueError, match=r"pause.csv: zero-length segment at waypoint 1 \(line 4\)"):
+        Path.from_csv(f)
+    one = tmp_path / "one.csv"
+    one.write_text("x,y,z,dx,dy,dz\n1,2,3,0,0,1\n")
+    pts, dirs, lines = paths.read_csv(one)
+    assert pts.shape == (1, 3) and dirs.tolist() == [[0.0, 0.0, 1.0]] and lines == [2]

@@ -238,3 +238,19 @@ def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):
     line = next(ln for ln in text.splitlines() if "final q" in ln)
     vals = [float(v) for v in line.split(":", 1)[1].strip(" []").split(",")]
     assert abs(vals[1] - 0.2) < 0.05 and abs(vals[0] - 10.0) < 5.0, line  # metres and degrees, near the start
+
+
+@pytest.mark.parametrize("command", ["shape", "csc"])
+def test_out_must_be_a_file_name_checked_before_any_work(tmp_path, capsys, monkeypatch, command):
+    """--out "" wrote a hidden './.npz'; --out naming a folder failed only after the solve with an
+    internal temporary name. Both are refused up front, and nothing is written."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "adir.npz").mkdir()
+    args = {"shape": ["shape", "--robot", "planar_3r", "--task", "xy", "--quiet"],
+            "csc": ["csc", "--robot", "planar_3r", "--hold", "1.2,1.0", "--kxd", "3000,1000", "--q0", "0.3,0.3,0.3"]}[command]
+    for out, match in (("", "expected a file name like result.npz, got ''"), ("adir.npz", "adir.npz is a folder"),
+                       ("adir", "adir.npz is a folder"), ("sub/", "expected a file name")):
+        assert main(args + ["--out", out]) == 2
+        err = capsys.readouterr().err
+        assert match in err and "Traceback" not in err and ".tmp" not in err, err
+    assert sorted(os.listdir(tmp_path)) == ["adir.npz"] and os.listdir(tmp_path / "adir.npz") == []

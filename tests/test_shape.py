@@ -387,3 +387,12 @@ def test_newton_projection_stops_cleanly_when_no_joint_moves_the_tcp():
         warnings.simplefilter("error")
         out = newton_project(prob, x, np.array([1.0, 1.0, 0.0]), lb, ub, pos_and_jac=dead)
     assert np.array_equal(out, x)
+
+
+def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane(lwr):
+    pts = short_default(3).points.copy()
+    pts[2, 2] += 0.01  # the path climbs at its end: the default tangents get a z component
+    path = jaxstiff.Path(pts, name="climb")
+    with pytest.raises(ValueError, match=r"task 'xy' needs directions in the xy plane \(dz = 0\); path 0 \(climb\) "
+                                         r"has dz = 0\.\d+ at waypoint 1 \(its z changes along the path"):
+        jaxstiff.shape(lwr, path, "f2", 5.0, task="xy")

@@ -280,3 +280,16 @@ def test_shipped_quick_sweep():
     d = [t for t in plan.trajectories if t.name == "default"][0]
     np.testing.assert_allclose(d.points, default_path(n=d.P).points, atol=1e-15)
     assert ("ratio", "path") in plan.heatmaps
+
+
+def test_csc_sweep_reads_a_csv_path_that_holds_still(tmp_path):
+    """A CSC rollout takes one step per row and holds still where rows repeat; its sweep reads the
+    points alone (a shape sweep, which needs tangents, still refuses the pause, naming the line)."""
+    f = tmp_path / "pause.csv"
+    f.write_text("x,y,z\n1.2,1.0,0\n1.2,1.05,0\n1.2,1.05,0\n1.2,1.1,0\n")
+    plan = parse_config(_set(csc_base(), "paths", [{"file": str(f)}]))
+    t = plan.trajectories[0]
+    np.testing.assert_array_equal(t.points, [[1.2, 1.0, 0], [1.2, 1.05, 0], [1.2, 1.05, 0], [1.2, 1.1, 0]])
+    assert t.directions.shape == (4, 3) and np.all(np.isfinite(t.directions))
+    with pytest.raises(ValueError, match=r"paths\[0\]\.file.*zero-length segment at waypoint 1 \(line 3\)"):
+        parse_config(_set(base(), "paths", [{"file": str(f)}]))
