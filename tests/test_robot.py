@@ -216,7 +216,7 @@ def test_prismatic_joints_get_lengths_not_degrees():
     q = nominal_posture(robot)
     assert q[1] == pytest.approx(0.5 * (lo[1] + hi[1]), abs=1e-15)
     fin = np.isfinite(lo) & np.isfinite(hi) & ~pris
-    np.testing.assert_allclose(q[fin], np.clip(0.5 * (lo + hi) + np.deg2rad(30.0), lo, hi)[fin], atol=1e-15)
+    np.testing.assert_allclose(q[fin], np.clip(0.5 * (lo[fin] + hi[fin]) + np.deg2rad(30.0), lo[fin], hi[fin]), atol=1e-15)
     np.testing.assert_array_equal(_rate_limits(robot, 2.0, None), np.full(4, np.deg2rad(2.0)))
     np.testing.assert_array_equal(_rate_limits(robot, 2.0, 0.01), [np.deg2rad(2.0), 0.01, np.deg2rad(2.0), np.deg2rad(2.0)])
     assert _rate_limits(jaxstiff.Robot.from_urdf("planar_3r"), 2.0, 0.01) == np.deg2rad(2.0)  # no prismatic joint
