@@ -422,6 +422,10 @@ def read_csv(file: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None, li
         raise ValueError(f"{file}: empty file; expected a header x,y,z[,dx,dy,dz] and waypoint rows")
     header_no, header_line = lines[0]
     header = [h.strip().lower() for h in next(csv.reader([header_line]))]
+    trailing = 0  # empty trailing columns (a spreadsheet's 'x,y,z,'): dropped where every row leaves them empty
+    while len(header) > 3 and header[-1] == "":
+        header.pop()
+        trailing += 1
     if header[:3] != ["x", "y", "z"] or header not in (["x", "y", "z"], ["x", "y", "z", "dx", "dy", "dz"]):
         raise ValueError(
             f"{file}:{header_no}: header must be 'x,y,z' or 'x,y,z,dx,dy,dz', got {header_line.strip()!r}"
@@ -430,6 +434,8 @@ def read_csv(file: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None, li
     rows, numbers = [], []
     for line_no, ln in lines[1:]:
         cells = next(csv.reader([ln]))
+        if trailing and len(cells) == ncol + trailing and not any(c.strip() for c in cells[ncol:]):
+            cells = cells[:ncol]
         if len(cells) != ncol:
             raise ValueError(f"{file}:{line_no}: expected {ncol} values ({','.join(header)}), got {len(cells)}")
         row = []

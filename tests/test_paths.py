@@ -218,3 +218,14 @@ def test_read_csv_gives_the_rows_without_geometry_checks(tmp_path):
     one.write_text("x,y,z,dx,dy,dz\n1,2,3,0,0,1\n")
     pts, dirs, lines = paths.read_csv(one)
     assert pts.shape == (1, 3) and dirs.tolist() == [[0.0, 0.0, 1.0]] and lines == [2]
+
+
+def test_csv_with_empty_trailing_columns_reads_like_one_without(tmp_path):
+    """A spreadsheet export 'x,y,z,' with rows '1,2,3,': the empty column is dropped; a value in it
+    is still an error (a row of 4 values for 3 columns)."""
+    f = tmp_path / "t.csv"
+    f.write_text("x,y,z,\n1,2,3,\n4,5,6,\n")
+    np.testing.assert_array_equal(Path.from_csv(f).points, [[1, 2, 3], [4, 5, 6]])
+    f.write_text("x,y,z,\n1,2,3,\n4,5,6,7\n")
+    with pytest.raises(ValueError, match=r"t.csv:3: expected 3 values"):
+        Path.from_csv(f)
