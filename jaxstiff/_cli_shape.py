@@ -104,7 +104,6 @@ def summary_table(res) -> str:
     return "\n".join(lines)
 
 
-
 def _rate_limits(robot, dq_deg: float, dq_m: float | None):
     """Per-joint rate limit (n,): revolute joints from --dq-deg (rad), prismatic ones from --dq-m
     (m; default the same number as the revolute joints' radians), a scalar when all are revolute."""
@@ -117,6 +116,7 @@ def _rate_limits(robot, dq_deg: float, dq_m: float | None):
     if not prismatic.any():
         return dq
     return np.where(prismatic, dq if dq_m is None else dq_m, dq)
+
 
 @command("shape", "shape the stiffness ellipsoid along TCP paths (seed 000): per-waypoint SLSQP -> .npz")
 def _add_shape(p: argparse.ArgumentParser):

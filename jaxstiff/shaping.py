@@ -579,6 +579,7 @@ def shape(
     position = pos.reshape(B, P, 3)
     pos_error = np.linalg.norm(position - bpath.points, axis=-1)
 
+    opts_meta = _options_meta(solver, starts, options)
     meta: dict[str, Any] = {
         "format": "jaxstiff.shape/1",
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -589,7 +590,7 @@ def shape(
         "c": c,
         "task": task,
         "solver": solver,
-        **_options_meta(solver, starts, options),
+        **opts_meta,
         "solver_driver": arrays.get("driver"),
         "pos_tol": float(pos_tol),
         "limits": {
@@ -603,7 +604,7 @@ def shape(
         },
         "per_path": [k for k, v in (("ratio", ratio), ("dq", dq_a), ("dk", dk_a)) if np.ndim(v) > (0 if k == "ratio" else 1)],
         "first_starts": {"count": n_first if not first_rate_limit else 1, "seed": FIRST_STARTS_SEED,
-                         "use": _first_starts_use(solver, _options_meta(solver, starts, options), n_first, first_rate_limit),
+                         "use": _first_starts_use(solver, opts_meta, n_first, first_rate_limit),
                          "spread_deg": FIRST_STARTS_SPREAD_DEG,
                          "rng": "numpy default_rng(SeedSequence([seed, crc32 of the path's target, direction "
                                 "(P, 3) and q0 (n,) as float64 bytes]))"},
