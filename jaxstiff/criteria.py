@@ -144,8 +144,10 @@ def f2(K: jax.Array, d: jax.Array, r, c: float = 0.0) -> jax.Array:
 
 
 def _safe_sqrt(s: jax.Array) -> jax.Array:
+    """``sqrt(s)`` of a sum of squares with a finite (zero) gradient at 0 (double ``where``); NaN
+    stays NaN (a NaN input must not read as a perfect match, 0)."""
     pos = s > 0
-    return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
+    return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), jnp.where(jnp.isnan(s), s, 0.0))
 
 
 def frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
@@ -178,6 +180,8 @@ def offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
         (...,) Nm/rad, with a gradient that is finite also where u = 0.
     """
     J = jnp.asarray(J)
+    if not jnp.issubdtype(J.dtype, jnp.floating):
+        raise ValueError(f"J must have a floating dtype (float32 or float64), got {J.dtype}")
     K_xd = jnp.asarray(K_xd, dtype=J.dtype)
     if K_xd.shape[-2:] != (J.shape[-2], J.shape[-2]):
         raise ValueError(f"K_xd must have shape (..., {J.shape[-2]}, {J.shape[-2]}) to match J {tuple(J.shape)}, got {tuple(K_xd.shape)}")

@@ -36,7 +36,8 @@ Choices this module makes where the seed is silent (SPEC section 6 lets us choos
   has length beta (constant) or ``beta |dq_P|`` (adaptive) while the projected gradient is larger
   than ``null_eps``, and shrinks to plain projected gradient descent below it; at ``dq_N = 0``
   exactly it is zero. Norms use the double-``where`` trick, so values and gradients stay finite.
-  Default ``null_eps = 1e-9 * |K_xd|_F * 1 m^2`` (1e-5 in float32). Status :data:`STATUS_NULL_SMALL`.
+  Default ``null_eps = 1e-9 * |K_xd|_F * 1 m^2`` (1e-5 in float32) plus a floor of ``tiny^(1/4)``
+  (1e-77 in float64: derivatives stay finite at K_xd = 0). Status :data:`STATUS_NULL_SMALL`.
 * **Joint limits.** Optional lower-priority secondary task (``joint_limits="priority"``): the
   Liegeois cost ``h = 1/2 sum_i (q_i - c_i)^2 / h_i`` (c_i the middle, h_i the half range of
   joint i, joints with finite limits only) gives ``dq_L = -jl_gain * grad h``; it is projected into
@@ -238,9 +239,7 @@ def _mtv(A: jax.Array, x: jax.Array) -> jax.Array:
 
 def _safe_norm(x: jax.Array) -> jax.Array:
     """Euclidean norm over the last axis with a finite gradient at 0 (double ``where``)."""
-    s = jnp.sum(x * x, axis=-1)
-    pos = s > 0
-    return jnp.where(pos, jnp.sqrt(jnp.where(pos, s, 1.0)), 0.0)
+    return _safe_sqrt(jnp.sum(x * x, axis=-1))
 
 
 def _det_cofactors(A: jax.Array):
@@ -1019,8 +1018,10 @@ def csc_rollout(
         scalars[name] = a
     if null_eps is None:
         rel = 1e-9 if jnp.finfo(dtype).bits >= 64 else 1e-5
-        knorm = jnp.sqrt(jnp.sum(K_xd * K_xd, axis=(-2, -1)))
-        null_eps_a = rel * (knorm if not kxd_varying else jnp.max(knorm, axis=-1)) + jnp.finfo(dtype).tiny
+        knorm = _safe_sqrt(jnp.sum(K_xd * K_xd, axis=(-2, -1)))  # finite gradient at K_xd = 0
+        # floor tiny^(1/4) (1e-77 in float64): 1 / null_eps^2, which a tangent of the null step
+        # carries, stays finite for K_xd = 0 (tiny itself made it inf, and inf * 0 = NaN)
+        null_eps_a = rel * (knorm if not kxd_varying else jnp.max(knorm, axis=-1)) + jnp.finfo(dtype).tiny ** 0.25
     else:
         null_eps_a = jnp.asarray(null_eps, dtype=dtype)
         if null_eps_a.ndim != 0:

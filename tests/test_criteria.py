@@ -361,3 +361,20 @@ def test_property_bounds_and_finiteness(data):
     w = np.linalg.eigvalsh(K)
     sep = (w[..., -1] - w[..., -2]) > 1e-6 * w[..., -1]
     assert_close(np.asarray(v2)[sep], numpy_f("f2", K, d, r)[sep], rtol=1e-6, atol=1e-6)
+
+
+def test_nan_in_gives_nan_out_and_integer_J_is_refused():
+    """frobenius/offdiag of a NaN input were 0 (a NaN sum of squares failed 's > 0' and read as a
+    perfect match); offdiag of an integer J cast K_xd to int ([[1.5, .4], [.4, .7]] -> [[1, 0], [0, 0]])."""
+    nan = jnp.nan
+    assert np.isnan(float(jaxstiff.frobenius(jnp.array([[nan, 0.0], [0.0, 1.0]]), jnp.eye(2))))
+    assert np.isnan(float(jaxstiff.frobenius(jnp.eye(2), jnp.full((2, 2), nan))))
+    assert np.isnan(float(jaxstiff.offdiag(jnp.array([[nan, 1.0, 0.0], [0.0, 1.0, 1.0]]), jnp.eye(2))))
+    assert float(jaxstiff.frobenius(jnp.eye(2), jnp.eye(2))) == 0.0  # and 0 stays 0, with a zero gradient
+    assert np.all(np.asarray(jax.grad(lambda K: jaxstiff.frobenius(K, jnp.eye(2)))(jnp.eye(2))) == 0.0)
+    K = jnp.array([[1.5, 0.4], [0.4, 0.7]])
+    with pytest.raises(ValueError, match="J must have a floating dtype"):
+        jaxstiff.offdiag(np.array([[1, 0, 1], [0, 1, 1]]), K)
+    J = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 1.0]])
+    Kq = J.T @ np.asarray(K) @ J
+    assert float(jaxstiff.offdiag(J, K)) == pytest.approx(np.sqrt(np.sum(np.triu(Kq, 1) ** 2)), rel=1e-14)

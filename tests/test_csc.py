@@ -695,3 +695,25 @@ def test_cli_path_with_a_pause_holds_still(tmp_path):
     with np.load(out) as r:
         np.testing.assert_array_equal(r["target"][0], [[x, y], [x, y + 0.01], [x, y + 0.01], [x, y + 0.02]])
         assert np.all(np.isfinite(r["q"])) and r["tracking_error"][0, -1] < 1e-3
+
+
+def test_gradients_finite_at_a_zero_desired_stiffness():
+    """K_xd = 0 passes the PSD check; its default null_eps was tiny, so 1/null_eps^2 in a tangent of
+    the null step overflowed (inf * 0 = NaN) and |K_xd|_F had no gradient at 0: grad w.r.t. K_xd
+    and jacfwd w.r.t. q0 and beta were NaN. With the floor, every derivative is finite and equals
+    central differences where the rollout is smooth (K_xd = 0 itself is a kink of |K - K_C|)."""
+    hold = jnp.tile(jnp.asarray(X_SEED), (6, 1))
+    q0 = jnp.asarray(Q_SEED)
+
+    def loss(K, q, b, step="constant"):
+        r = jaxstiff.csc_rollout(PLANAR, hold, K, q, b, step=step)
+        return jnp.sum(r.frobenius) + jnp.sum(r.u) + jnp.sum(r.q)
+
+    Z = jnp.zeros((2, 2))
+    for step in ("constant", "adaptive"):
+        for g in (jax.grad(loss, argnums=(0, 1, 2))(Z, q0, 2e-3, step), jax.jacfwd(loss, argnums=(0, 1, 2))(Z, q0, 2e-3, step)):
+            assert all(np.all(np.isfinite(np.asarray(x))) for x in g), (step, g)
+    # with K_xd = 0 nothing depends on beta or q0's null motion: q0's gradient is the tracking's, finite
+    gq = jax.grad(lambda q: loss(Z, q, 2e-3))(q0)
+    fd = central_diff(lambda q: float(loss(Z, jnp.asarray(q), 2e-3)), np.asarray(q0), 1e-6)[0]
+    assert_close(gq, fd, rtol=1e-5, atol=1e-6, what="d loss / d q0 at K_xd = 0")
