@@ -171,6 +171,31 @@ def _joint_stiffness_array(kj, J: jax.Array) -> jax.Array:
     return jnp.maximum(kj, jnp.sqrt(jnp.finfo(J.dtype).tiny))
 
 
+def _positive_kj(fn):
+    """A stiffness function that refuses a concrete ``kj <= 0`` with a clear error. Inside a trace
+    (jit, grad, vmap) ``kj`` is not known, and the clamp of :func:`_joint_stiffness_array` keeps a
+    batch finite; a concrete zero or negative kj would otherwise come back as a matrix of ~1e-140
+    from the regularisation, which reads like data."""
+
+    @functools.wraps(fn)
+    def checked(J, kj, task: str = "full"):
+        if not isinstance(kj, jax.core.Tracer):
+            try:
+                a = np.asarray(kj, dtype=float)
+            except (TypeError, ValueError):
+                a = None  # not numbers: the function's own checks say so
+            if a is not None and np.any(a <= 0):
+                idx = tuple(int(i) for i in np.argwhere(a <= 0)[0])
+                raise ValueError(f"kj must be > 0 (Nm/rad; N/m for prismatic joints), got kj{list(idx)} = {a[idx]:g}")
+        return fn(J, kj, task)
+
+    for attr in ("lower", "trace", "eval_shape", "clear_cache", "_cache_size"):  # the jitted function's API
+        if hasattr(fn, attr):
+            setattr(checked, attr, getattr(fn, attr))
+    return checked
+
+
+@_positive_kj
 @functools.partial(jax.jit, static_argnames="task")
 def compliance(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
     """Cartesian compliance ``C = J_s diag(1/kj) J_s^T`` (..., m, m), unregularised (S0-4).
@@ -378,6 +403,7 @@ def _damped_inverse_jvp(translational_only, primals, tangents):
     return K, -_mm(_mm(K, dC), K)
 
 
+@_positive_kj
 @functools.partial(jax.jit, static_argnames="task")
 def compliance_condition(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
     """Condition number (...,) of the compliance as damped by the stiffness functions.
@@ -405,6 +431,7 @@ def compliance_condition(J: jax.Array, kj: jax.Array, task: str = "full") -> jax
     return w[..., -1] / jnp.maximum(w[..., 0], jnp.finfo(C.dtype).tiny)
 
 
+@_positive_kj
 @functools.partial(jax.jit, static_argnames="task")
 def cartesian_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
     """Cartesian stiffness ``K_C = (J_s K_j^-1 J_s^T)^-1`` (..., m, m), m = 2, 3 or 6 (S0-4).
@@ -422,6 +449,7 @@ def cartesian_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.
     return _damped_inverse(compliance(J, kj, task), False)
 
 
+@_positive_kj
 @functools.partial(jax.jit, static_argnames="task")
 def translational_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
     """Translational stiffness ``K_T`` whose ellipsoid is shaped (SPEC section 2), N/m.

@@ -270,9 +270,11 @@ def test_condition_of_regular_postures_is_modest():
 
 
 def test_zero_or_negative_kj_stays_finite():
+    """Inside a trace (a batch where some kj are not known to be positive) the clamp keeps K finite;
+    given as numbers, kj <= 0 is refused (test_concrete_non_positive_kj_is_refused_by_name)."""
     r = robot("planar_3r")
     J = r.jacobian(jnp.asarray([0.5, 0.5, 0.5]))
-    K = jaxstiff.translational_stiffness(J, jnp.asarray([0.0, -1.0, 10.0]), "xy")
+    K = jax.jit(jaxstiff.translational_stiffness, static_argnames="task")(J, jnp.asarray([0.0, -1.0, 10.0]), task="xy")
     assert bool(jnp.all(jnp.isfinite(K)))
 
 
@@ -438,3 +440,20 @@ def test_task_check_samples_each_joint_inside_its_own_range(tmp_path):
     check_task_feasible(robot, "xyz")  # no error
     with pytest.raises(ValueError, match="only 3 free joint"):
         check_task_feasible(robot, "full")
+
+
+@pytest.mark.parametrize("fn", ["compliance", "cartesian_stiffness", "translational_stiffness", "compliance_condition"])
+def test_concrete_non_positive_kj_is_refused_by_name(fn):
+    """kj <= 0 given as numbers: a ValueError naming the entry (it came back as a matrix of ~1e-140
+    from the regularisation, for every direction); under a trace the clamp keeps a batch finite."""
+    r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    J = jaxstiff.jacobian(r, jnp.full(7, 0.3))
+    f = getattr(jaxstiff.stiffness, fn)
+    kj = np.full(7, 50.0)
+    assert np.all(np.isfinite(np.asarray(f(J, kj, task="xyz"))))
+    for bad, where in ((-kj, r"kj\[0\] = -50"), (np.where(np.arange(7) == 2, 0.0, kj), r"kj\[2\] = 0"),
+                       (np.tile(kj, (2, 1)) * [[1.0], [-1.0]], r"kj\[1, 0\] = -50")):
+        with pytest.raises(ValueError, match=r"kj must be > 0 .*" + where):
+            f(J, bad, task="xyz")
+    traced = jax.jit(lambda k: f(J, k, task="xyz"))(jnp.asarray(np.where(np.arange(7) == 2, 0.0, kj)))
+    assert np.all(np.isfinite(np.asarray(traced)))
