@@ -157,7 +157,22 @@ def frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
         K: realised stiffness (..., m, m).
         K_d: desired stiffness (..., m, m), broadcast against K.
     """
-    return _frobenius(jnp.asarray(K), jnp.asarray(K_d))
+    K, K_d = jnp.asarray(K), jnp.asarray(K_d)
+    for name, a in (("K", K), ("K_d", K_d)):
+        if a.ndim < 2 or a.shape[-1] != a.shape[-2]:
+            raise ValueError(f"{name} must be square matrices (..., m, m), got shape {tuple(a.shape)}")
+    if K.shape[-1] != K_d.shape[-1]:
+        raise ValueError(f"K {tuple(K.shape)} and K_d {tuple(K_d.shape)} must be matrices of the same size m")
+    _broadcast_batch(("K", K.shape[:-2]), ("K_d", K_d.shape[:-2]))
+    return _frobenius(K, K_d)
+
+
+def _broadcast_batch(*named_shapes) -> tuple[int, ...]:
+    """The broadcast of the leading (batch) axes, or a ValueError naming the arguments."""
+    try:
+        return jnp.broadcast_shapes(*(s for _, s in named_shapes))
+    except ValueError:
+        raise ValueError("batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)) from None
 
 
 @jax.jit
@@ -182,9 +197,12 @@ def offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
     J = jnp.asarray(J)
     if not jnp.issubdtype(J.dtype, jnp.floating):
         raise ValueError(f"J must have a floating dtype (float32 or float64), got {J.dtype}")
+    if J.ndim < 2:
+        raise ValueError(f"J must be a task-row Jacobian (..., m, n), got shape {tuple(J.shape)}")
     K_xd = jnp.asarray(K_xd, dtype=J.dtype)
     if K_xd.shape[-2:] != (J.shape[-2], J.shape[-2]):
         raise ValueError(f"K_xd must have shape (..., {J.shape[-2]}, {J.shape[-2]}) to match J {tuple(J.shape)}, got {tuple(K_xd.shape)}")
+    _broadcast_batch(("J", J.shape[:-2]), ("K_xd", K_xd.shape[:-2]))
     return _offdiag(J, K_xd)
 
 

@@ -167,6 +167,9 @@ def _joint_stiffness_array(kj, J: jax.Array) -> jax.Array:
     kj = jnp.asarray(kj, dtype=J.dtype)
     if kj.ndim < 1 or kj.shape[-1] != J.shape[-1]:
         raise ValueError(f"kj must have shape (..., {J.shape[-1]}) to match J {tuple(J.shape)}, got {tuple(kj.shape)}")
+    from .criteria import _broadcast_batch
+
+    _broadcast_batch(("J", J.shape[:-2]), ("kj", kj.shape[:-1]))
     # kj > 0 is required; a clamp keeps a zero/negative kj from producing Inf/NaN inside a batch.
     return jnp.maximum(kj, jnp.sqrt(jnp.finfo(J.dtype).tiny))
 

@@ -378,3 +378,24 @@ def test_nan_in_gives_nan_out_and_integer_J_is_refused():
     J = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, 1.0]])
     Kq = J.T @ np.asarray(K) @ J
     assert float(jaxstiff.offdiag(J, K)) == pytest.approx(np.sqrt(np.sum(np.triu(Kq, 1) ** 2)), rel=1e-14)
+
+
+def test_shape_mismatches_name_the_arguments():
+    """Raw JAX errors (TypeError 'mul got incompatible shapes', 'axis -2 is out of bounds',
+    IndexError) were what a wrong shape gave; now a ValueError naming the arguments and shapes."""
+    r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    J = jaxstiff.jacobian(r, jnp.full((2, 7), 0.3))
+    cases = [
+        (lambda: jaxstiff.translational_stiffness(J, jnp.ones((3, 7))), r"batch axes do not broadcast: J \(2,\), kj \(3,\)"),
+        (lambda: jaxstiff.frobenius(jnp.eye(3), jnp.eye(2)), r"K \(3, 3\) and K_d \(2, 2\) must be matrices of the same size"),
+        (lambda: jaxstiff.frobenius(jnp.ones(3), jnp.ones(3)), r"K must be square matrices \(\.\.\., m, m\), got shape \(3,\)"),
+        (lambda: jaxstiff.frobenius(jnp.ones((2, 3, 3)), jnp.ones((3, 3, 3))), r"batch axes do not broadcast: K \(2,\), K_d \(3,\)"),
+        (lambda: jaxstiff.offdiag(jnp.ones(3), jnp.eye(3)), r"J must be a task-row Jacobian \(\.\.\., m, n\), got shape \(3,\)"),
+        (lambda: jaxstiff.offdiag(jnp.ones((2, 3, 7)), jnp.ones((3, 3, 3))), r"batch axes do not broadcast: J \(2,\), K_xd \(3,\)"),
+    ]
+    for call, match in cases:
+        with pytest.raises(ValueError, match=match):
+            call()
+    # broadcasting that is allowed still works
+    assert jaxstiff.translational_stiffness(J, jnp.full(7, 50.0)).shape == (2, 3, 3)
+    assert jaxstiff.frobenius(jnp.ones((2, 3, 3)), jnp.eye(3)).shape == (2,)
