@@ -46,6 +46,7 @@ import jax
 import jax.numpy as jnp
 
 from .ellipsoid import _alpha_rad, _check_direction, _check_square, _safe_ratio, eigh_descending
+from .stiffness import _broadcast_batch
 
 __all__ = [
     "f1",
@@ -165,14 +166,6 @@ def frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
         raise ValueError(f"K {tuple(K.shape)} and K_d {tuple(K_d.shape)} must be matrices of the same size m")
     _broadcast_batch(("K", K.shape[:-2]), ("K_d", K_d.shape[:-2]))
     return _frobenius(K, K_d)
-
-
-def _broadcast_batch(*named_shapes) -> tuple[int, ...]:
-    """The broadcast of the leading (batch) axes, or a ValueError naming the arguments."""
-    try:
-        return jnp.broadcast_shapes(*(s for _, s in named_shapes))
-    except ValueError:
-        raise ValueError("batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)) from None
 
 
 @jax.jit

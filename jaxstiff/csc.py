@@ -138,7 +138,7 @@ from .kinematics import (
     position_and_jacobian,
 )
 from .robot import Robot
-from .stiffness import TASK_ROWS, _mm, cartesian_stiffness, check_task_feasible
+from .stiffness import TASK_ROWS, _broadcast_batch, _mm, cartesian_stiffness, check_task_feasible
 
 __all__ = [
     "CSCResult",
@@ -1030,13 +1030,7 @@ def csc_rollout(
     _validate(robot, targets, K_xd, q0, beta, scalars, null_eps_a)
     K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
 
-    try:
-        batch = jnp.broadcast_shapes(q0.shape[:-1], beta.shape, targets.shape[:-2], k_batch)
-    except ValueError:
-        raise ValueError(
-            f"batch axes do not broadcast: q0 {tuple(q0.shape[:-1])}, beta {tuple(beta.shape)}, "
-            f"path {tuple(targets.shape[:-2])}, K_xd {tuple(k_batch)}"
-        ) from None
+    batch = _broadcast_batch(("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch))
     B = math.prod(batch)
     k_tail = K_xd.shape[-3:] if kxd_varying else K_xd.shape[-2:]
     tb = jnp.broadcast_to(targets, batch + targets.shape[-2:]).reshape((B,) + targets.shape[-2:])

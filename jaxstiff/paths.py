@@ -205,8 +205,6 @@ class Path:
         """
         file = os.fspath(file)
         points, directions, lines = read_csv(file)
-        if len(points) < 2:
-            raise ValueError(f"{file}: a path needs at least 2 waypoints, got {len(points)}")
         name = os.path.basename(file)
         try:
             return Path(points, directions, name=name)

@@ -163,12 +163,18 @@ def _select(J: jax.Array, task: str) -> jax.Array:
     return J[..., list(rows), :]
 
 
+def _broadcast_batch(*named_shapes) -> tuple[int, ...]:
+    """The broadcast of the leading (batch) axes, or a ValueError naming the arguments."""
+    try:
+        return jnp.broadcast_shapes(*(s for _, s in named_shapes))
+    except ValueError:
+        raise ValueError("batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)) from None
+
+
 def _joint_stiffness_array(kj, J: jax.Array) -> jax.Array:
     kj = jnp.asarray(kj, dtype=J.dtype)
     if kj.ndim < 1 or kj.shape[-1] != J.shape[-1]:
         raise ValueError(f"kj must have shape (..., {J.shape[-1]}) to match J {tuple(J.shape)}, got {tuple(kj.shape)}")
-    from .criteria import _broadcast_batch
-
     _broadcast_batch(("J", J.shape[:-2]), ("kj", kj.shape[:-1]))
     # kj > 0 is required; a clamp keeps a zero/negative kj from producing Inf/NaN inside a batch.
     return jnp.maximum(kj, jnp.sqrt(jnp.finfo(J.dtype).tiny))
