@@ -44,6 +44,7 @@ from typing import Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .ellipsoid import _alpha_rad, _check_direction, _check_square, _safe_ratio, eigh_descending
 from .stiffness import _broadcast_batch
@@ -83,9 +84,32 @@ def _alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
     return alpha, _safe_ratio(w[..., 0], w[..., 1])
 
 
-def _check_ratio(r) -> None:
-    if isinstance(r, (int, float)) and not r >= 1.0:
-        raise ValueError(f"ratio r must be >= 1 (rho = lambda1 / lambda2 is >= 1), got {r}")
+def _check_ratio(r, K=None, d=None) -> None:
+    """A known ``r`` (a number or an array, not a value inside a trace) must be >= 1 everywhere
+    and, with K and d given, broadcast against their batch axes."""
+    if isinstance(r, jax.core.Tracer):
+        return
+    try:
+        a = np.asarray(r, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"ratio r must be a number or an array of numbers, got {type(r).__name__}") from None
+    if not np.all(a >= 1.0):  # NaN fails too
+        bad = a if a.ndim == 0 else a[~(a >= 1.0)].flat[0]
+        where = "" if a.ndim == 0 else f" at index {tuple(int(i) for i in np.argwhere(~(a >= 1.0))[0])}"
+        raise ValueError(f"ratio r must be >= 1 (rho = lambda1 / lambda2 is >= 1), got {float(bad)}{where}")
+    if K is not None:
+        _broadcast_batch(("K", K.shape[:-2]), ("d", d.shape[:-1]), ("r", a.shape))
+
+
+def _check_offset(c) -> None:
+    if isinstance(c, jax.core.Tracer):
+        return
+    try:
+        a = np.asarray(c, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"offset c must be a number, got {type(c).__name__}") from None
+    if not np.all(a >= 0.0):
+        raise ValueError(f"offset c must be >= 0 degrees (f1's minimum is at alpha = 0 only for c >= 0), got {c}")
 
 
 def _inputs(K, d):
@@ -121,8 +145,10 @@ def f1(K: jax.Array, d: jax.Array, r, c: float = 0.01) -> jax.Array:
     Returns:
         (...,) dimensionless (degrees).
     """
-    _check_ratio(r)
-    return _f1(*_inputs(K, d), r, c)
+    K, d = _inputs(K, d)
+    _check_ratio(r, K, d)
+    _check_offset(c)
+    return _f1(K, d, r, c)
 
 
 def f2(K: jax.Array, d: jax.Array, r, c: float = 0.0) -> jax.Array:
@@ -140,8 +166,9 @@ def f2(K: jax.Array, d: jax.Array, r, c: float = 0.0) -> jax.Array:
         (...,).
     """
     del c
-    _check_ratio(r)
-    return _f2(*_inputs(K, d), r)
+    K, d = _inputs(K, d)
+    _check_ratio(r, K, d)
+    return _f2(K, d, r)
 
 
 def _safe_sqrt(s: jax.Array) -> jax.Array:

@@ -324,6 +324,33 @@ def test_bad_ratio_and_shapes():
         jaxstiff.offdiag(jnp.ones((2, 3)), jnp.eye(3))
 
 
+def test_array_ratio_offset_and_batch_mismatches_are_named():
+    """An array r is checked like a number (each entry >= 1, NaN refused, its batch against K's
+    and d's), f1's offset c must be >= 0, and a d whose batch does not broadcast against K's is a
+    ValueError naming both (these reached JAX as a broadcasting TypeError, or were accepted)."""
+    K = jnp.stack([jnp.diag(jnp.array([5.0, 1.0]))] * 4)
+    d = jnp.array([1.0, 0.0])
+    for f in (jaxstiff.f1, jaxstiff.f2):
+        with pytest.raises(ValueError, match=r"ratio r must be >= 1 .* got 0.5 at index \(1,\)"):
+            f(K, d, np.array([2.0, 0.5, 3.0, 4.0]))
+        with pytest.raises(ValueError, match="ratio r must be >= 1"):
+            f(K, d, np.array([2.0, np.nan, 3.0, 4.0]))
+        with pytest.raises(ValueError, match=r"batch axes do not broadcast: K \(4,\), d \(\), r \(3,\)"):
+            f(K, d, jnp.array([2.0, 3.0, 4.0]))
+        with pytest.raises(ValueError, match=r"batch axes do not broadcast: K \(4,\), d \(3,\)"):
+            f(K, jnp.ones((3, 2)), 2.0)
+        with pytest.raises(ValueError, match="must be a number or an array of numbers"):
+            f(K, d, "five")
+    with pytest.raises(ValueError, match=r"batch axes do not broadcast: K \(4,\), d \(3,\)"):
+        jaxstiff.orientation_error(K, jnp.ones((3, 2)))
+    with pytest.raises(ValueError, match="offset c must be >= 0"):
+        jaxstiff.f1(K, d, 2.0, c=-0.5)
+    # valid arrays still work, and a traced r is not inspected (jit, grad)
+    np.testing.assert_allclose(np.asarray(jaxstiff.f2(K, d, jnp.array([5.0, 5.0, 6.0, 5.0]))), [1.0, 1.0, 2.0, 1.0])
+    np.testing.assert_allclose(float(jax.jit(lambda r: jaxstiff.f2(K[0], d, r))(6.0)), 2.0)
+    np.testing.assert_allclose(float(jax.grad(lambda r: jaxstiff.f2(K[0], d, r))(6.0)), 1.0)
+
+
 @st.composite
 def criterion_inputs(draw):
     m = draw(st.sampled_from([2, 3]))
