@@ -279,6 +279,10 @@ def fk(robot: Robot, q: jax.Array) -> jax.Array:
 
     Returns:
         (..., 4, 4) homogeneous transforms, dtype of ``q``.
+
+    Shapes and dtypes are checked; values are not (the function is jitted, and a value check
+    would need them on the host): a NaN in ``q`` gives NaN, as in ``jnp.sin``. The method
+    :meth:`jaxstiff.Robot.fk` (likewise ``jacobian``) also refuses non-finite concrete values.
     """
     q = jnp.asarray(q)
     _check(robot, q)

@@ -349,7 +349,9 @@ def _check_q(robot: Robot, q, name: str = "q"):
             f"({robot.n} actuated joints), got shape {tuple(q.shape)}"
         )
     if not isinstance(q, jax.core.Tracer):
-        finite = np.all(np.isfinite(np.asarray(q)))
-        if not finite:
-            raise ValueError(f"{name} contains NaN or Inf")
+        a = np.asarray(q)
+        if not np.all(np.isfinite(a)):
+            idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+            raise ValueError(f"{name} contains NaN or Inf: {name}{list(idx)} = {a[idx]} "
+                             f"(joint {robot.joint_names[idx[-1]]!r} of robot {robot.name!r})")
     return q

@@ -324,8 +324,12 @@ def test_q_of_wrong_dtype(lwr, call, dtype):
 
 
 def test_q_with_nan_or_inf_at_the_boundary(lwr):
-    with raises(ValueError, "q contains NaN or Inf"):
+    with raises(ValueError, "q contains NaN or Inf: q[2] = nan (joint 'lwr_a3' of robot"):
         lwr.fk(np.array([0, 0, np.nan, 0, 0, 0, 0.0]))
+    with raises(ValueError, "q contains NaN or Inf: q[1, 6] = inf (joint 'lwr_a7'"):
+        lwr.jacobian(np.array([[0.0] * 7, [0.0] * 6 + [np.inf]]))
+    # the jitted functions check shapes, not values: NaN in, NaN out (documented)
+    assert np.all(np.isnan(np.asarray(jaxstiff.fk(lwr, jnp.array([0, 0, np.nan, 0, 0, 0, 0.0])))[:3, 3]))
     with raises(ValueError, "q must be an array of shape (..., 7)"):
         lwr.jacobian("0 0 0 0 0 0 0")
 
