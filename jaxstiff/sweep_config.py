@@ -526,6 +526,8 @@ class _Parser:
             num = self.number(v["num"], f"{key}.num", integer=True)
             if num < 1:
                 raise self.err(key, f"empty axis: a range needs num >= 1, got num = {num}")
+            if num > _MAX_ROWS:
+                raise self.err(key, f"range has num = {num} values; the limit is {_MAX_ROWS}")
             vals = np.linspace(start, stop, num)
         else:
             step = self.number(v["step"], f"{key}.step", integer)
@@ -779,12 +781,21 @@ class _Parser:
                 nm = base + ("(" + ", ".join(f"{k}={_fmt_value(kw[k])}" for k in varying) + ")" if varying else "")
                 out.append(Trajectory(len(out), nm, np.array(p.points), np.array(p.directions), {"generator": gen, **kw}))
         # unique names
-        seen: dict[str, int] = {}
+        # unique names: a repeated name gets the first free "#k" suffix (k = 2, 3, ...), never one
+        # that another path already has ("p", "p", "p#2" -> "p", "p#3", "p#2")
+        taken = {t.name for t in out}
+        seen: set[str] = set()
         fixed = []
         for t in out:
-            k = seen.get(t.name, 0)
-            seen[t.name] = k + 1
-            fixed.append(t if k == 0 else dataclasses.replace(t, name=f"{t.name}#{k + 1}"))
+            name = t.name
+            if name in seen:
+                k = 2
+                while f"{t.name}#{k}" in taken:
+                    k += 1
+                name = f"{t.name}#{k}"
+                taken.add(name)
+            seen.add(name)
+            fixed.append(t if name == t.name else dataclasses.replace(t, name=name))
         return fixed
 
     def gen_values(self, v, ptype: str, key: str) -> list:

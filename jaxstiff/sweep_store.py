@@ -72,14 +72,29 @@ class SweepStore:
         self.plan = plan
         if os.path.exists(self.out) and not os.path.isdir(self.out):
             raise ValueError(f"--out {self.out}: exists and is not a folder")
+        # a folder that is not a sweep store is refused before anything (even the lock) is written into it
+        self._check_foreign()
+        created = not os.path.exists(self.out)
         os.makedirs(self.out, exist_ok=True)
         self._lock_fh = None
-        self._lock()
         try:
+            self._lock()
             self._open(resume)
         except BaseException:
             self.close()
+            if created:  # refused or interrupted before the store existed: leave nothing behind
+                with contextlib.suppress(OSError):
+                    os.unlink(self.path(".lock"))
+                with contextlib.suppress(OSError):
+                    os.rmdir(self.out)
             raise
+
+    def _check_foreign(self) -> None:
+        if not os.path.isdir(self.out) or os.path.isfile(self.path("plan.json")):
+            return
+        others = [f for f in os.listdir(self.out) if f not in (".lock",)]
+        if others:
+            raise ValueError(f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder")
 
     # ------------------------------------------------------------------ paths
     def path(self, *parts: str) -> str:

@@ -218,6 +218,7 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
     (foreign / "notes.txt").write_text("mine")
     with pytest.raises(ValueError, match="not empty and holds no sweep"):
         SweepStore(foreign, plan)
+    assert sorted(os.listdir(foreign)) == ["notes.txt"]  # refused before anything (the lock) was written
     fresh = tmp_path / "fresh"
     with SweepStore(fresh, plan):
         with pytest.raises(ValueError, match="another jaxstiff sweep is writing"):

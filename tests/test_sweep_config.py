@@ -66,6 +66,8 @@ CATALOGUE = [
     ("empty axis list", lambda t: _set(base(), "axes.ratio", []), "axes.ratio", ["empty axis"]),
     ("empty range", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "num": 0}), "axes.ratio", ["empty axis", "num"]),
     ("range without stop", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "num": 3}), "axes.ratio", ["needs 'stop'"]),
+    ("huge range", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 3.0, "num": 2_000_000_000}), "axes.ratio",
+     ["num = 2000000000", "the limit is"]),
     ("range step going nowhere", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "step": -1.0}), "axes.ratio", ["step"]),
     ("unknown robot", lambda t: _set(base(), "robot.name", "kuka_lwr5"), "robot.name", ["unknown robot", "kuka_lwr4", "planar_3r"]),
     ("missing urdf file", lambda t: {**_set(base(), "robot", {"urdf": "nope.urdf"})}, "robot.urdf", ["file not found", "nope.urdf"]),
@@ -186,6 +188,17 @@ def test_zip_pairs_generator_lists():
     cfg["paths"][0].update(zip=True, end=[[1.5, 0.1, 0.0]] * 3)
     with pytest.raises(SweepConfigError, match=r"paths\[0\].zip: .*equal lengths"):
         parse_config(cfg)
+
+
+def test_repeated_path_names_get_free_suffixes():
+    """A renamed duplicate never takes a name another path has ("p", "p", "p#2" gave two "p#2",
+    whose rows a per-path report then mixed)."""
+    cfg = base()
+    pt = {"generator": "point", "point": [1.2, 1.0, 0.0], "n": 3}
+    cfg["paths"] = [{**pt, "name": "p"}, {**pt, "name": "p"}, {**pt, "name": "p#2"}, {**pt, "name": "p"}]
+    names = [t.name for t in parse_config(cfg).trajectories]
+    assert names == ["p", "p#3", "p#2", "p#4"]
+    assert len(set(names)) == len(names)
 
 
 def test_step_range_is_inclusive():
