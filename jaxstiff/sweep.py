@@ -50,6 +50,7 @@ import os
 import socket
 import sys
 import time
+import warnings
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -77,7 +78,7 @@ BACKENDS = ("local", "ray")
 
 
 # ---------------------------------------------------------------------------- start postures
-_Q0_CACHE: dict[tuple, np.ndarray] = {}
+_Q0_CACHE: dict[tuple, tuple[np.ndarray, float]] = {}
 
 
 def start_posture(plan: SweepPlan, row_id: int) -> np.ndarray:
@@ -87,7 +88,24 @@ def start_posture(plan: SweepPlan, row_id: int) -> np.ndarray:
     (x, y only for task ``"xy"``); ``"nominal"``: the nominal posture; ``"random"``: IK from a
     posture drawn uniformly inside the joint limits (``[-pi, pi]`` for continuous joints) with
     ``numpy.random.default_rng([seed, q0_seed, path_index])``; a list: that posture.
+
+    An IK that ends more than :data:`IK_TOL_M` from the waypoint is retried from up to
+    :data:`IK_RETRIES` further postures drawn the same way (for ``"random"`` the same generator
+    continues; for ``"ik"`` ``default_rng([seed, path_index, 1])``), and the closest result is
+    kept; if none reaches it, a warning names the path. The remaining distance of every row is
+    the table column ``q0_ik_error_m`` (NaN for ``"nominal"`` and given postures).
     """
+    return _start_posture(plan, row_id)[0]
+
+
+#: IK distance (m) above which a start posture counts as not reaching the first waypoint
+IK_TOL_M = 1e-4
+#: further IK starts tried before a start posture is given up as not reaching the waypoint
+IK_RETRIES = 8
+
+
+def _start_posture(plan: SweepPlan, row_id: int) -> tuple[np.ndarray, float]:
+    """``(q0, IK distance to the first waypoint in m, NaN without IK)`` of a row (:func:`start_posture`)."""
     from .ik import ik_position, nominal_posture
 
     st = plan.row_settings(row_id)
@@ -95,25 +113,43 @@ def start_posture(plan: SweepPlan, row_id: int) -> np.ndarray:
     v = st["q0"]
     robot = plan.robot
     if isinstance(v, list):
-        return np.asarray(v, dtype=float)
+        return np.asarray(v, dtype=float), math.nan
     if v == "nominal":
-        return nominal_posture(robot)
+        return nominal_posture(robot), math.nan
     planar = st["task"] == "xy"
     seed_key = st["q0_seed"] if v == "random" else None
     key = (plan.plan_hash, v, seed_key, traj.index, planar)
     if key in _Q0_CACHE:
-        return _Q0_CACHE[key].copy()
-    q_start = None
-    if v == "random":
-        rng = np.random.default_rng([plan.seed, int(st["q0_seed"]), traj.index])
-        lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
-        hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
-        q_start = np.where(robot.free, rng.uniform(lo, hi), np.nan_to_num(robot.locked_values))
-    q, _err = ik_position(robot, traj.points[0], q_start=q_start, planar=planar)
+        q, err = _Q0_CACHE[key]
+        return q.copy(), err
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+
+    def draw(rng):
+        return np.where(robot.free, rng.uniform(lo, hi), np.nan_to_num(robot.locked_values))
+
+    rng = np.random.default_rng([plan.seed, int(st["q0_seed"]), traj.index]) if v == "random" else None
+    q, err = ik_position(robot, traj.points[0], q_start=None if rng is None else draw(rng), planar=planar)
+    if not err <= IK_TOL_M:
+        rng = rng if rng is not None else np.random.default_rng([plan.seed, traj.index, 1])
+        for _ in range(IK_RETRIES):
+            q2, e2 = ik_position(robot, traj.points[0], q_start=draw(rng), planar=planar)
+            if e2 < err or not math.isfinite(err):
+                q, err = q2, e2
+            if err <= IK_TOL_M:
+                break
+        if not err <= IK_TOL_M:
+            warnings.warn(
+                f"sweep: no start posture found for path {traj.name!r} (q0 = {v!r}"
+                + (f", q0_seed = {st['q0_seed']}" if v == "random" else "")
+                + f"): the IK ends {err:.3g} m from its first waypoint after {1 + IK_RETRIES} tries; its rows start "
+                f"there (table column q0_ik_error_m). Is the waypoint within reach?",
+                stacklevel=2,
+            )
     if len(_Q0_CACHE) > 10000:
         _Q0_CACHE.clear()
-    _Q0_CACHE[key] = q
-    return q.copy()
+    _Q0_CACHE[key] = (q, err)
+    return q.copy(), err
 
 
 # ---------------------------------------------------------------------------- device sharding
@@ -146,7 +182,7 @@ def compute_chunk(plan: SweepPlan, chunk_id: int, progress: Callable[[int], None
 
     Returns:
         dict with ``chunk``, ``rows`` (one dict per row: row_id, chunk, group, path, path_index, P,
-        the settings, the metrics, result_file, result_index), ``arrays`` (``(name, data)``),
+        the settings, q0_ik_error_m, the metrics, result_file, result_index), ``arrays`` (``(name, data)``),
         ``wall_s``, ``worker``, ``devices``.
     """
     from ._x64 import enable_x64
@@ -183,7 +219,8 @@ def _shape_chunk(plan: SweepPlan, chunk, progress):
         trajs = [plan.row_trajectory(r) for r in rids]
         path = Path(np.stack([t.points for t in trajs]), np.stack([t.directions for t in trajs]),
                     name=";".join(t.name for t in trajs))
-        q0 = np.stack([start_posture(plan, r) for r in rids])
+        starts = [_start_posture(plan, r) for r in rids]
+        q0 = np.stack([q for q, _ in starts])
         tick = None if progress is None else (lambda b, p: progress(1))
         name = f"arrays/chunk-{chunk.id:06d}-{k}.npz"
         res = shape(
@@ -193,11 +230,13 @@ def _shape_chunk(plan: SweepPlan, chunk, progress):
             options=options_for_solver(st["solver"], plan.options) or None, progress=tick,
             meta_extra={"sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id,
                                   "row_ids": list(rids), "paths": [t.name for t in trajs],
-                                  "q0": [_table_settings(plan.row_settings(r))["q0"] for r in rids]}},
+                                  "q0": [_table_settings(plan.row_settings(r))["q0"] for r in rids],
+                                  "q0_ik_error_m": [None if math.isnan(e) else e for _, e in starts]}},
         )
         arrays.append((name, res))
         for b, r in enumerate(rids):
             row = _base_row(plan, chunk, r)
+            row["q0_ik_error_m"] = starts[b][1]
             row.update(shape_row_metrics(
                 res.status[b], res.alpha_deg[b], res.ratio[b], res.criterion[b], res.pos_error[b], res.cms[b],
                 res.nfev[b], criterion=st["criterion"], ratio_target=st["ratio"],
@@ -220,10 +259,11 @@ def _csc_chunk(plan: SweepPlan, chunk, progress):
     task = g["task"]
     sts = [plan.row_settings(r) for r in rids]
     trajs = [plan.row_trajectory(r) for r in rids]
+    starts = [_start_posture(plan, r) for r in rids]
     inputs = {
         "targets": np.stack([t.points for t in trajs]),
         "K_xd": np.stack([kxd_matrix(task, s["kxd_major"], s["kxd_ratio"], s["kxd_angle_deg"]) for s in sts]),
-        "q0": np.stack([start_posture(plan, r) for r in rids]),
+        "q0": np.stack([q for q, _ in starts]),
         "beta": np.array([s["beta"] for s in sts], dtype=float),
     }
     chunk_size = int(plan.config["sweep"]["chunk_size"])
@@ -255,6 +295,7 @@ def _csc_chunk(plan: SweepPlan, chunk, progress):
     rows = []
     for i, r in enumerate(rids):
         row = _base_row(plan, chunk, r)
+        row["q0_ik_error_m"] = starts[i][1]
         row.update(csc_row_metrics(out["u"][i], out["frobenius"][i], out["tracking_error"][i], out["status"][i],
                                    out["u_start"][i], out["frobenius_start"][i]))
         row.update(result_file=name, result_index=i)

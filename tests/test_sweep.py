@@ -225,6 +225,44 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
             SweepStore(fresh, plan, resume=True)
 
 
+def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch):
+    """q0 = "ik"/"random": an IK that ends off the first waypoint is retried from further drawn
+    postures (the closest kept); one that never reaches it warns, naming the path, and the distance
+    is the row's q0_ik_error_m (a failed IK was used silently before, its rows then "unreachable")."""
+    import jaxstiff.ik as ik
+    from jaxstiff.ik import nominal_posture
+    from jaxstiff.sweep import IK_RETRIES, IK_TOL_M, _Q0_CACHE, _start_posture
+
+    far = {**SHAPE_CFG, "paths": [{"generator": "point", "point": [5.0, 0.0, 0.0], "n": 3, "name": "far"}],
+           "axes": {"task": "xy", "q0": ["ik", "random", "nominal"]}}
+    plan = parse_config(far)
+    _Q0_CACHE.clear()
+    for r, fam in enumerate(("ik", "random")):
+        assert plan.row_settings(r)["q0"] == fam
+        with pytest.warns(UserWarning, match=rf"path 'far' \(q0 = '{fam}'.*ends 2(\.\d+)? m from its first waypoint after {1 + IK_RETRIES} tries"):
+            q, err = _start_posture(plan, r)
+        # planar 3R with unit links reaches 3 m at most: the IK stops ~2 m short, at the limits
+        assert 1.9 < err < 2.1 and np.all(q >= plan.robot.lower - 1e-12) and np.all(q <= plan.robot.upper + 1e-12)
+    q, err = _start_posture(plan, 2)
+    assert math.isnan(err) and np.allclose(q, nominal_posture(plan.robot))
+
+    # a first IK that fails and a retry that succeeds: the retry's posture is used
+    near = parse_config({**SHAPE_CFG, "axes": {"task": "xy", "q0": "ik"}})
+    calls = []
+    good = np.array([0.3, 0.2, 0.1])
+
+    def fake_ik(robot, target, q_start=None, iters=150, planar=False):
+        calls.append(q_start)
+        return (np.zeros(3), 0.5) if len(calls) == 1 else (good, 0.1 * IK_TOL_M)
+
+    monkeypatch.setattr(ik, "ik_position", fake_ik)
+    _Q0_CACHE.clear()
+    q, err = _start_posture(near, 0)
+    assert len(calls) == 2 and calls[0] is None and calls[1] is not None  # nominal first, then a drawn start
+    assert np.array_equal(q, good) and err == 0.1 * IK_TOL_M
+    _Q0_CACHE.clear()
+
+
 # ---------------------------------------------------------------------------- csc sweeps
 def test_csc_table_against_numpy(csc_run):
     df = csc_run.table()
