@@ -49,6 +49,7 @@ import os
 import platform
 import sys
 import time
+import warnings
 from typing import Any, Callable, Mapping
 
 import jax
@@ -578,6 +579,17 @@ def shape(
         cms = (cms_volume / np.prod(w, axis=-1)) ** (1.0 / m)
     position = pos.reshape(B, P, 3)
     pos_error = np.linalg.norm(position - bpath.points, axis=-1)
+    if task == "xy":
+        dz = np.abs(position[..., 2] - bpath.points[..., 2])
+        if np.any(dz > 1e-3):
+            b = int(np.argmax(dz.max(axis=1)))
+            warnings.warn(
+                f"task 'xy' matches x and y only, and {int((dz > 1e-3).sum())} of {dz.size} waypoints end more than "
+                f"1 mm from their target's z (path {b}: target z = {bpath.points[b, 0, 2]:.4g} m, TCP z = "
+                f"{position[b, 0, 2]:.4g} m at the first waypoint); their status and pos_error count the 3-D "
+                "distance (status 3, unreachable). Give the path the TCP's z (a planar chain moves in one plane)",
+                stacklevel=2,
+            )
 
     opts_meta = _options_meta(solver, starts, options)
     meta: dict[str, Any] = {

@@ -5,6 +5,7 @@ the waypoint problem against finite differences and against the numpy baseline; 
 import hashlib
 import json
 import math
+import warnings
 import re
 
 import jax
@@ -263,6 +264,23 @@ def test_planar_task_xy(tmp_path):
     data, meta, _ = verify_file(tmp_path / "xy.npz")
     assert meta["task"] == "xy" and np.all(R.is_usable(data["status"]))
     assert np.all(data["alpha_deg"] < 1.0) and np.all(np.abs(data["ratio"] - 3) < 0.06)
+
+
+def test_task_xy_warns_when_the_path_is_off_the_tcp_plane():
+    """Task xy matches x and y only: a path at z = 0.3 m for a chain moving in z = 0 ends every
+    waypoint 0.3 m off (status unreachable, by the 3-D distance). That is now said in a warning
+    naming the target's and the TCP's z (it came back silently as an unreachable path)."""
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    pts = np.array([[1.5, 0.5 + 0.02 * i, 0.3] for i in range(3)])
+    with pytest.warns(UserWarning, match=r"task 'xy' matches x and y only, and 3 of 3 waypoints .*target z = 0\.3 m, TCP z = 0 m"):
+        res = jaxstiff.shape(robot, paths.Path(pts), "f2", 3.0, task="xy", first_starts=2)
+    assert np.all(res.status == R.UNREACHABLE) and np.allclose(res.pos_error, 0.3)
+    # the same path in the plane: solved, no warning
+    pts[:, 2] = 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = jaxstiff.shape(robot, paths.Path(pts), "f2", 3.0, task="xy", first_starts=2)
+    assert np.all(res.status == R.SOLVED)
 
 
 def test_continuous_joint_runs_without_numpy_warnings(tmp_path):
