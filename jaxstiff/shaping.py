@@ -706,7 +706,7 @@ def _check_options(solver: str, options: Mapping[str, Any] | None) -> None:
         return
     if not isinstance(options, Mapping):
         raise ValueError(f"options must be a dict of solver options, got {type(options).__name__}")
-    from .solvers import pgd, slsqp, trajectory
+    from .solvers import hybrid, pgd, slsqp, trajectory
 
     warm = options.get("warm", "pgd")
     if solver == "trajectory" and warm not in trajectory.WARM_STARTS:
@@ -721,6 +721,10 @@ def _check_options(solver: str, options: Mapping[str, Any] | None) -> None:
         hints = [f"{k!r} (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, known, n=1)) else repr(k) for k in unknown]
         raise ValueError(f"unknown option(s) for solver {solver!r}: {', '.join(hints)}; known: {', '.join(sorted(known))}")
     greedy = warm if solver == "trajectory" else solver  # the part that runs pgd and/or SLSQP
+    if solver == "trajectory":
+        trajectory.check_options(options)
+    if greedy == "hybrid":
+        hybrid.check_options(options)
     if greedy in ("pgd", "hybrid"):
         pgd.check_options({k: v for k, v in options.items() if k in pgd.DEFAULT_OPTIONS})
     if greedy in ("slsqp", "slsqp-fd", "hybrid"):

@@ -55,6 +55,14 @@ __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 DEFAULT_OPTIONS = {"polish_slsqp": "all", "chain": "greedy"}
 
 
+def check_options(options: dict | None) -> dict:
+    """The hybrid's own options (:data:`DEFAULT_OPTIONS`) checked (ValueError naming the option)."""
+    from .problem import check_option_values
+
+    opts = {k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}
+    return check_option_values("hybrid", opts, choices={"polish_slsqp": ("all", "unusable"), "chain": ("greedy", "pgd")})
+
+
 def polish(
     problem: WaypointProblem,
     targets: np.ndarray,

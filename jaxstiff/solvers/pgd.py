@@ -86,7 +86,7 @@ from .._xla import kernel_compiler_options
 from ..criteria import f1 as _f1, f2 as _f2
 from ..kinematics import jacobian_tangent, position_and_jacobian
 from ..stiffness import _fusion_boundary, _inverse_primal, compliance, task_rows, translational_stiffness
-from .problem import POS_TOL, Limits, WaypointProblem, content_seed, rate_bounds
+from .problem import POS_TOL, Limits, WaypointProblem, check_option_values, content_seed, rate_bounds
 
 __all__ = ["DEFAULT_OPTIONS", "solve_batch", "make_kernel"]
 
@@ -126,15 +126,14 @@ def check_options(options: dict | None, starts: int | None = None) -> dict[str, 
     unknown = set(opts) - set(DEFAULT_OPTIONS) - {"maxiter", "ftol", "kj_scale", "f_scale", "polish_slsqp", "traj_iters", "traj_step0", "traj_step1", "warm", "blocks", "mu0", "chain"}
     if unknown:
         raise ValueError(f"unknown pgd option(s) {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
-    for k in ("starts", "iters", "iters_first", "iters_lm", "chunk"):
-        if int(opts[k]) < 1:
-            raise ValueError(f"pgd option {k!r} must be >= 1, got {opts[k]}")
-    for k in ("newton", "polish"):
-        if int(opts[k]) < 0:
-            raise ValueError(f"pgd option {k!r} must be >= 0, got {opts[k]}")
-    if opts["mode"] not in ("best", "rollout"):
-        raise ValueError(f"pgd option 'mode' must be 'best' or 'rollout', got {opts['mode']!r}")
-    return opts
+    return check_option_values(
+        "pgd", opts,
+        int_min={"starts": 1, "iters": 1, "iters_first": 1, "starts_first": 1, "iters_lm": 1, "chunk": 1, "newton": 0,
+                 "polish": 0, "lm_iters": 0, "lm_iters_first": 0, "seed": 0},
+        positive=("step0_first", "step0", "step1", "accept_tol", "lm_wpos", "lm_walign"),
+        nonnegative=("surrogate", "surrogate_first", "spread", "posture_spread", "tie_tol"),
+        choices={"mode": ("best", "rollout")},
+    )
 
 
 # ---------------------------------------------------------------------- JAX building blocks

@@ -43,6 +43,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import inspect
+import math
 import zlib
 from typing import Callable
 
@@ -504,3 +505,35 @@ class Limits:
         if not rate:
             return box(problem, None, None, self.dq, self.dk, self.kmin, self.kmax)
         return box(problem, q_ref, kj_ref, self.dq, self.dk, self.kmin, self.kmax)
+
+
+def check_option_values(solver: str, opts: dict, *, int_min: dict | None = None, positive: tuple = (),
+                        nonnegative: tuple = (), choices: dict | None = None) -> dict:
+    """Check and normalise a solver's option values before any work (ValueError naming the option).
+
+    ``int_min``: option -> smallest allowed integer (an integer-valued float such as 2.0 is taken,
+    2.5 or "many" is not); ``positive`` / ``nonnegative``: finite numbers > 0 / >= 0;
+    ``choices``: option -> allowed strings. Options not named are left alone. Returns a copy.
+    """
+    out = dict(opts)
+    for k, lo in (int_min or {}).items():
+        if k not in out:
+            continue
+        v = out[k]
+        ok = not isinstance(v, bool) and (isinstance(v, (int, np.integer)) or (isinstance(v, (float, np.floating)) and float(v).is_integer()))
+        if not ok or v < lo:
+            raise ValueError(f"{solver} option {k!r} must be an integer >= {lo}, got {v!r}")
+        out[k] = int(v)
+    for names, lo, strict in ((positive, 0.0, True), (nonnegative, 0.0, False)):
+        for k in names:
+            if k not in out:
+                continue
+            v = out[k]
+            num = not isinstance(v, bool) and isinstance(v, (int, float, np.integer, np.floating))
+            if not num or not math.isfinite(float(v)) or (float(v) <= lo if strict else float(v) < lo):
+                raise ValueError(f"{solver} option {k!r} must be a finite number {'>' if strict else '>='} {lo:g}, got {v!r}")
+            out[k] = float(v)
+    for k, allowed in (choices or {}).items():
+        if k in out and out[k] not in allowed:
+            raise ValueError(f"{solver} option {k!r} must be one of {', '.join(map(repr, allowed))}, got {out[k]!r}")
+    return out

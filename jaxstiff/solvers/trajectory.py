@@ -58,6 +58,20 @@ DEFAULT_OPTIONS: dict[str, Any] = {
 }
 
 
+def check_options(options: dict | None) -> dict:
+    """The trajectory solver's own options (:data:`DEFAULT_OPTIONS`) checked and normalised
+    (ValueError naming the option); those of its warm start are checked by that solver."""
+    from .problem import check_option_values
+
+    opts = {k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}
+    return check_option_values(
+        "trajectory", opts,
+        int_min={"traj_iters": 1, "blocks": 1, "newton": 0, "polish": 0, "chunk": 1},
+        positive=("traj_step0", "traj_step1", "mu0"),
+        choices={"warm": WARM_STARTS},
+    )
+
+
 def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
     ops = _pgd._Ops(problem)
     nf, nx = ops.nf, ops.nx
