@@ -99,8 +99,32 @@ def _warn_ignored_z(robot, q0, z, flag: str) -> None:
               f"start TCP's z = {z_tcp:.3g} m) is ignored", file=sys.stderr)
 
 
+def _units(robot, task: str) -> dict:
+    """Units of the result file's arrays (meta ``units``); per joint where prismatic joints differ."""
+    pris = _prismatic(robot)
+    per_joint = pris.any()
+    q = [("m" if p else "rad") for p in pris] if per_joint else "rad"
+    kj = [("N/m" if p else "Nm/rad") for p in pris] if per_joint else "Nm/rad"
+    return {
+        "q": q, "q0": q, "kj": kj, "u": "Nm/rad", "u_start": "Nm/rad",
+        "K_C": "N/m" if task != "full" else "6x6 [[N/m, N/rad], [Nm/m, Nm/rad]]", "K_xd": "as K_C",
+        "frobenius": "as K_C (Frobenius norm of K_xd - K_C)", "frobenius_start": "as frobenius",
+        "position": "m", "target": "m", "tracking_error": "m", "orientation_error": "rad",
+        "isotropy": "1 (in [0, 1])", "null_step": "rad (m for prismatic joints)", "status": "bit mask (status_bits)",
+    }
+
+
 @command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
 def _add_csc(p: argparse.ArgumentParser):
+    p.epilog = (
+        "Result file (--out, .npz, numpy.load(..., allow_pickle=False)); B paths (1 for --hold), T steps, n joints, "
+        "m task rows, d target coordinates: q (B,T,n), u (B,T), frobenius (B,T), tracking_error (B,T), "
+        "orientation_error (B,T), kj (B,T,n), K_C (B,T,m,m), position (B,T,3), target (B,T,d), isotropy (B,T), "
+        "null_step (B,T), status (B,T) bit mask, u_start (B,), frobenius_start (B,), joint_names (n,), q0 (n,), "
+        "K_xd (m,m), and meta (JSON: every input and default, units per array, status bits, versions). Row k is "
+        "the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m for prismatic "
+        "joints), N/m, m."
+    )
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
     p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
@@ -180,6 +204,10 @@ def _add_csc(p: argparse.ArgumentParser):
             points = points[..., :2]
         settings = dict(task=task, step=args.step, kmin=args.kmin, kmax=args.kmax, newton=args.newton,
                         joint_limits=args.joint_limits, jl_gain=args.jl_gain)
+        if args.hold is not None and args.step == "adaptive":
+            print("jaxstiff: warning: --hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero "
+                  "while the target stands still, so the arm will not move to lower u; use --step constant "
+                  "(beta = rad per step, e.g. --beta 2e-3)", file=sys.stderr)
         res = csc.csc_rollout(robot, points, K, q0, args.beta, **settings)
         res = jax.tree_util.tree_map(np.asarray, res)
 
@@ -198,8 +226,7 @@ def _add_csc(p: argparse.ArgumentParser):
             "null_eps": "1e-9 * |K_xd|_F",
             **{k: (v if not (isinstance(v, float) and math.isinf(v)) else str(v)) for k, v in settings.items()},
             "status_bits": {str(k): v for k, v in csc._STATUS_NAMES.items()},
-            "units": {"q": "rad", "u": "Nm/rad", "kj": "Nm/rad", "K_C": "N/m (translational)" if task != "full" else "6x6 [N/m, N/rad; Nm/m, Nm/rad]", "position": "m",
-                      "tracking_error": "m", "orientation_error": "rad", "null_step": "rad"},
+            "units": _units(robot, task),
             "row_k": "posture after step k, measured against waypoint k",
             "versions": _versions(),
         }

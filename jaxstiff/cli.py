@@ -58,7 +58,7 @@ def _add_robot(p: argparse.ArgumentParser):
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
     p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
     p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable)")
-    p.add_argument("--q", default=None, help="posture, comma-separated rad (default: 30 deg on every joint)")
+    p.add_argument("--q", default=None, help="posture, comma-separated rad (m for prismatic joints; default: the nominal posture, mid-range + 30 deg per revolute joint, mid-range for a prismatic one)")
 
     def run(args) -> int:
         import numpy as np
@@ -69,7 +69,9 @@ def _add_robot(p: argparse.ArgumentParser):
         enable_x64()
         robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
         if args.q is None:
-            q = np.where(robot.free, np.deg2rad(30.0), np.nan_to_num(robot.locked_values))
+            from .ik import nominal_posture
+
+            q = nominal_posture(robot)  # +30 deg (revolute), mid-range (prismatic), within the limits
         else:
             q = np.asarray(_floats(args.q, "--q"), dtype=float)
             if q.shape != (robot.n,):
@@ -77,7 +79,11 @@ def _add_robot(p: argparse.ArgumentParser):
         T, J = robot.fk_and_jacobian(q)
         np.set_printoptions(precision=5, suppress=True, linewidth=120)
         print(robot.describe())
-        print(f"\nposture q (deg): {np.round(np.rad2deg(q), 4).tolist()}")
+        from .robot import JOINT_PRISMATIC
+
+        pris = np.asarray(robot.joint_types) == JOINT_PRISMATIC
+        unit = "deg; m for prismatic joints" if pris.any() else "deg"
+        print(f"\nposture q ({unit}): {np.round(np.where(pris, q, np.rad2deg(q)), 4).tolist()}")
         print("\nT_base_tcp (m):")
         print(np.asarray(T) + 0.0)  # + 0.0 turns -0.0 into 0.0
         print("\nJ_base (rows vx vy vz [m/s per rad/s], wx wy wz [rad/s per rad/s]):")

@@ -36,6 +36,12 @@ Choices this module makes where the seed is silent (SPEC section 6 lets us choos
   has length beta (constant) or ``beta |dq_P|`` (adaptive) while the projected gradient is larger
   than ``null_eps``, and shrinks to plain projected gradient descent below it; at ``dq_N = 0``
   exactly it is zero. Norms use the double-``where`` trick, so values and gradients stay finite.
+  With no more movable joints than task rows (a non-redundant arm, or too many joints frozen at
+  their limits in a step) there is no null space: ``(I - J+ J) grad u`` is round-off or, damped,
+  a leftover that the adaptive rule would scale up to ``|dq_P|``; the null step is then zero
+  (status :data:`STATUS_NULL_SMALL`). In the adaptive rule ``|dq_P|`` below ``10 eps`` counts as 0:
+  a path that starts at the TCP sits on the kink of ``|dq_P|`` at ``dx = 0``, and the derivative
+  there is then the symmetric one (central differences'), not a side picked by the FK's round-off.
   Default ``null_eps = 1e-9 * |K_xd|_F * 1 m^2`` (1e-5 in float32) plus a floor of ``tiny^(1/4)``
   (1e-77 in float64: derivatives stay finite at K_xd = 0). Status :data:`STATUS_NULL_SMALL`.
 * **Joint limits.** Optional lower-priority secondary task (``joint_limits="priority"``): the
@@ -205,7 +211,9 @@ class CSCResult:
         isotropy: (*B, T) ``nu = det(J J^T) / (tr(J J^T)/m)^m`` of the free joints, in [0, 1].
         null_step: (*B, T) length of the null-space step ``|alpha dq_N|`` taken in step k, rad.
         status: (*B, T) int32 bit mask of :data:`STATUS_DAMPED`, :data:`STATUS_JOINT_LIMIT`,
-            :data:`STATUS_NAN`, :data:`STATUS_NULL_SMALL` (0 = plain step).
+            :data:`STATUS_NAN`, :data:`STATUS_NULL_SMALL` (0 = plain step) of step k, the step that
+            reached row k's posture. It was computed at the posture before it, so its
+            :data:`STATUS_DAMPED` goes with ``isotropy`` of row k - 1 (of the start posture for k = 0).
         u_start: (*B,) ``u`` at the start posture (with the first waypoint's ``K_xd``).
         frobenius_start: (*B,) ``|K_xd - K_C|_F`` at the start posture.
     """
@@ -757,16 +765,28 @@ def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, b
         damped = nu < _isotropy_threshold(nu0, len(rows))
         dqN = Pvs[0]
         nN = _safe_norm(dqN)
-        length = beta * _safe_norm(dqP) if st.step == "adaptive" else beta
-        null = -(length / jnp.maximum(nN, null_eps)) * dqN
+        if st.step == "adaptive":
+            # |dq_P| has a kink at dx = 0 (holding still, a path that starts at the TCP), where the
+            # FK's round-off (~eps) would pick the derivative's side; below 10 eps it is taken as 0
+            # (value change ~1e-15 rad), so the derivative there is the symmetric one
+            nP = _safe_norm(dqP)
+            length = beta * jnp.where(nP > 10.0 * jnp.finfo(dtype).eps, nP, 0.0)
+        else:
+            length = beta
+        # no null space without more movable joints than task rows (a non-redundant arm, or
+        # joints frozen at their limits): (I - J+ J) g is then round-off, or with damping a
+        # leftover that is no null-space motion at all, which the adaptive length would blow up
+        # to |dq_P| and could cancel the tracking step. The null step is then zero (status 8).
+        has_null = jnp.sum(mask) > len(rows)
+        null = jnp.where(has_null, -(length / jnp.maximum(nN, null_eps)), 0.0) * dqN
         dq = dqP + null
         if st.joint_limits == "priority":
             cN = Pvs[1]
             nn2 = jnp.sum(dqN * dqN)
             pos = nn2 > null_eps**2
             coef = jnp.where(pos, jnp.sum(cN * dqN) / jnp.where(pos, nn2, 1.0), 0.0)
-            dq = dq + cN - coef * dqN
-        return dq, null, nu, damped, nN < null_eps
+            dq = dq + jnp.where(has_null, 1.0, 0.0) * (cN - coef * dqN)
+        return dq, null, nu, damped, (nN < null_eps) | ~has_null
 
     def step_fn(q, xs):
         target, K, K_prev, target_prev = xs
@@ -980,7 +1000,12 @@ def csc_rollout(
     # dtype: the caller's floating dtype of q0 (or JAX's default float)
     q0 = jnp.asarray(q0) if not isinstance(q0, (list, tuple)) else jnp.asarray(np.asarray(q0, dtype=float))
     dtype = q0.dtype if jnp.issubdtype(q0.dtype, jnp.floating) else jnp.asarray(1.0).dtype
+    if jnp.finfo(dtype).bits < 32:
+        raise ValueError(f"q0 has dtype {jnp.dtype(dtype).name}: the rollout computes in q0's dtype, and {jnp.dtype(dtype).name} "
+                         "overflows (u ~ 1e3 Nm/rad squared) and cannot hold a step; pass float32 or float64")
     q0 = q0.astype(dtype)
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
+        raise ValueError(f"chunk must be a positive integer (rollouts per vmap chunk) or None, got {chunk!r}")
     if q0.ndim == 0 or q0.shape[-1] != robot.n:
         raise ValueError(f"q0 must have shape (..., {robot.n}) for robot {robot.name!r}, got {tuple(q0.shape)}")
 

@@ -323,6 +323,44 @@ def test_gradient_through_200_steps_matches_central_differences():
     assert_close(g, fd, rtol=1e-5, atol=1e-5 * np.max(np.abs(fd)), what="d loss / (beta, K params, q0)")
 
 
+@pytest.mark.parametrize("shift", [0.0, 1e-15, -1e-15])
+def test_adaptive_gradient_when_the_path_starts_at_the_tcp(shift):
+    """|dq_P| has a kink at dx = 0; a path that starts exactly at the start TCP sits on it, and the
+    FK's round-off (a shift of 1e-15 m) decided which one-sided derivative autodiff took: 2-4x off
+    (even of the other sign) against central differences. Below 10 eps |dq_P| counts as 0, so the
+    derivative there is the symmetric one, equal to central differences whatever the round-off."""
+    x0 = np.asarray(PLANAR.fk(Q_SEED))[:2, 3] + shift
+    path = x0 + (np.arange(30) / 200.0)[:, None] * np.array([-0.4, 0.3])
+
+    def loss(q0):
+        r = jaxstiff.csc_rollout(PLANAR, path, K_SEED, q0, 1.0, step="adaptive")
+        return jnp.mean(r.u) / 1000.0 + jnp.mean(r.frobenius) / 1000.0
+
+    g = np.asarray(jax.grad(loss)(jnp.asarray(Q_SEED)))
+    fd = central_diff(lambda q: float(loss(jnp.asarray(q))), Q_SEED, h=1e-6)[0]
+    assert_close(g, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)), what=f"d loss / d q0, path shifted {shift:g} m")
+
+
+def test_no_null_step_without_a_null_space():
+    """Two free joints, two task rows (planar 3R, joint 3 locked), near the stretched posture: there
+    is no null space, and (I - J+ J) grad u is only round-off or, damped, a leftover that the
+    adaptive rule scaled up to |dq_P| (0.17 rad steps in an audit). The null step is now zero
+    (status 8), and beta changes nothing."""
+    robot = jaxstiff.Robot.from_urdf("planar_3r", locked={"joint_3": 0.0})
+    q0 = np.array([0.2, 0.05, 0.0])
+    x0 = np.asarray(robot.fk(q0))[:2, 3]
+    path = x0 + (np.arange(40) / 40.0)[:, None] * np.array([-0.3, 0.1])  # inward, from the TCP
+    r1 = jaxstiff.csc_rollout(robot, path, K_SEED, q0, 1.0, step="adaptive")
+    r0 = jaxstiff.csc_rollout(robot, path, K_SEED, q0, 0.0, step="adaptive")
+    assert np.any(np.asarray(r1.status) & csc.STATUS_DAMPED)  # the case where the leftover was large
+    assert np.all(np.asarray(r1.null_step) == 0.0)
+    assert np.all(np.asarray(r1.status) & csc.STATUS_NULL_SMALL)
+    assert_close(r1.q, r0.q, rtol=0, atol=1e-15, what="q with beta 1 vs beta 0")
+    # a redundant arm still moves in its null space
+    r3 = jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (5, 1)), K_SEED, Q_SEED, 2e-3, step="constant")
+    assert np.all(np.asarray(r3.null_step) > 1e-3)
+
+
 def test_forward_mode_equals_reverse_mode_and_hessian_is_finite():
     """The rollout's closed-form derivatives are custom JVPs (reverse mode transposes them), so
     jax.jvp / jacfwd / hessian work too: forward and reverse mode agree, the hessian matches
@@ -561,6 +599,9 @@ def test_path_object_is_accepted(hold):
         (dict(kmin=0.0), "kmin must be > 0"),
         (dict(newton=-1), "newton"),
         (dict(joint_limits="hard"), "joint_limits"),
+        (dict(q0=Q_SEED.astype(np.float16)), "q0 has dtype float16.*pass float32 or float64"),
+        (dict(chunk=0), "chunk must be a positive integer"),
+        (dict(chunk=1.5), "chunk must be a positive integer"),
     ],
 )
 def test_bad_input_raises_clear_value_error(kwargs, match):

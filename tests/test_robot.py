@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import json
 import os
 import shutil
 import subprocess
@@ -230,7 +231,8 @@ def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):
     out = tmp_path / "c.npz"
     rc = main(["csc", "--robot", BRANCHED, "--tip-link", "tool", "--hold", x, "--kxd", "3000,1000,2000",
                "--q0-deg", ",".join(map(str, q_deg)), "--steps", "2", "--out", str(out)])
-    text = capsys.readouterr().out
+    cap = capsys.readouterr()
+    text, err = cap.out, cap.err
     assert rc == 0
     with np.load(out) as f:
         np.testing.assert_allclose(f["q0"], q0, rtol=0, atol=1e-15)
@@ -238,6 +240,20 @@ def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):
     line = next(ln for ln in text.splitlines() if "final q" in ln)
     vals = [float(v) for v in line.split(":", 1)[1].strip(" []").split(",")]
     assert abs(vals[1] - 0.2) < 0.05 and abs(vals[0] - 10.0) < 5.0, line  # metres and degrees, near the start
+    # the file's units say so per joint (meta said "rad" and "Nm/rad" for every joint)
+    with np.load(out) as f:
+        units = json.loads(str(f["meta"]))["units"]
+    assert units["q"] == ["rad", "m", "rad", "rad"] and units["kj"] == ["Nm/rad", "N/m", "Nm/rad", "Nm/rad"]
+    assert {"frobenius", "target", "isotropy", "u_start", "K_C"} <= set(units)
+    # --hold with the adaptive step cannot move (its null step is beta |dq_P| = 0): said, not silent
+    assert "--hold with --step adaptive" in err and "--step constant" in err, err
+    # `jaxstiff robot` shows its default posture within the limits, the prismatic joint in metres
+    assert main(["robot", "--robot", BRANCHED, "--tip-link", "tool"]) == 0
+    text = capsys.readouterr().out
+    line = next(ln for ln in text.splitlines() if ln.startswith("posture q"))
+    assert "(deg; m for prismatic joints)" in line
+    vals = np.array([float(v) for v in line.split(":", 1)[1].strip(" []").split(",")])
+    assert robot.lower[1] <= vals[1] <= robot.upper[1] and vals[1] == pytest.approx(0.5 * (robot.lower[1] + robot.upper[1]))
 
 
 @pytest.mark.parametrize("command", ["shape", "csc"])
