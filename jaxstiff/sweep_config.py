@@ -636,9 +636,14 @@ class _Parser:
             "solver_options": options,
             "report": {"heatmaps": [list(p) for p in heatmaps], "metrics": list(metrics)},
         }
+        # the hash sees the files' contents (sha256), not where they lie: a moved or copied sweep
+        # folder (or a symlinked one) resumes; the report section does not change results
+        hashed = {k: v for k, v in normalised.items() if k != "report"}
+        hashed["robot"] = {k: v for k, v in robot_spec.items() if k != "urdf_file"}
+        hashed["paths"] = [{k: v for k, v in p.items() if k != "file"} for p in normalised["paths"]]
         h = hashlib.sha256()
-        h.update(json.dumps({k: v for k, v in normalised.items() if k != "report"}, sort_keys=True, default=_json_default).encode())
-        h.update(repr(dataclasses.astuple(robot)).encode())
+        h.update(json.dumps(hashed, sort_keys=True, default=_json_default).encode())
+        h.update(repr(dataclasses.astuple(dataclasses.replace(robot, source=""))).encode())
         for t in trajectories:
             h.update(np.ascontiguousarray(t.points, dtype="<f8").tobytes())
             h.update(np.ascontiguousarray(t.directions, dtype="<f8").tobytes())

@@ -261,6 +261,29 @@ def test_plan_hash_tracks_what_changes_results():
     assert parse_config({**base(), "report": {"metrics": ["share_ratio"]}}).plan_hash == h0
 
 
+def test_plan_hash_sees_file_contents_not_their_folder(tmp_path):
+    """A sweep folder moved, copied or reached through a symlink must resume: the hash holds the
+    URDF's and the CSV's sha256, not their absolute paths (those made --resume refuse the same
+    files elsewhere); a changed file content still changes it."""
+    import os
+    import shutil
+
+    import jaxstiff
+
+    a = tmp_path / "a"
+    a.mkdir()
+    shutil.copy(jaxstiff.robot_path("planar_3r"), a / "arm.urdf")
+    P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 14.0, n=3).to_csv(a / "p.csv")
+    (a / "s.toml").write_text('[robot]\nurdf = "arm.urdf"\n[[paths]]\nfile = "p.csv"\n[axes]\ntask = "xy"\n', encoding="utf-8")
+    h0 = load_config(a / "s.toml").plan_hash
+    shutil.copytree(a, tmp_path / "b")
+    os.symlink(a, tmp_path / "link")
+    assert load_config(tmp_path / "b" / "s.toml").plan_hash == h0
+    assert load_config(tmp_path / "link" / "s.toml").plan_hash == h0
+    P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 15.0, n=3).to_csv(tmp_path / "b" / "p.csv")
+    assert load_config(tmp_path / "b" / "s.toml").plan_hash != h0
+
+
 def test_defaults_match_shape_defaults():
     """A sweep row with every axis at its default is the same problem as a bare shape() call."""
     from jaxstiff.shaping import DEFAULTS
