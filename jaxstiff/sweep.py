@@ -22,7 +22,15 @@ number of waypoints, so one compiled kernel serves the whole group):
 Backends. ``"local"`` runs the chunks one after another in this process. ``"ray"`` submits each
 chunk as a Ray task (``ray.init(address=...)``, extra ``jaxstiff[dist]``); the workers get the plan
 (robot and paths included, no files needed) and return rows and arrays, which the driver writes to
-the same store as they arrive. Both give the same table: a row's result depends only on its inputs.
+the same store as they arrive. Both give the same table: a row's result depends only on its inputs
+and on the numeric environment. One caveat there: Ray workers run with ``OMP_NUM_THREADS=1``, and
+a different thread count (read by numpy's OpenBLAS when it loads) changes the last digits of the
+linear algebra, which an optimiser can amplify (an audit measured up to 0.02 rad in q and one
+status change between a local and a Ray run of the same SLSQP rows; a local run with
+``OMP_NUM_THREADS=1`` gave the Ray table exactly). For bit-identical
+tables across backends, machines and resumes, run every part with the same ``OMP_NUM_THREADS``
+(``OMP_NUM_THREADS=1 jaxstiff sweep ...`` matches Ray's workers); each run's setting is recorded in
+``manifest.json``.
 
 Compilation. Every process compiles a group's kernel once (pgd on the LWR: about 100 s on a busy
 2-core CPU). ``run_sweep`` turns on JAX's persistent compilation cache (``~/.cache/jaxstiff/xla``,

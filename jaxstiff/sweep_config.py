@@ -72,7 +72,7 @@ Example:
     >>> from jaxstiff.sweep_config import load_config
     >>> plan = load_config("experiments/sweeps/quick.toml")     # doctest: +SKIP
     >>> len(plan.rows), len(plan.chunks)                        # doctest: +SKIP
-    (240, 15)
+    (312, 6)
 """
 
 from __future__ import annotations
@@ -198,7 +198,8 @@ AXES: dict[str, dict[str, AxisSpec]] = {
             AxisSpec("starts", "int", 0, static=True, check=_ge(0), doc="starts per waypoint (0: the solver's default; SLSQP: 1)"),
             AxisSpec("ratio", "float", 5.0, check=_gt(1.0, " (lambda1 / lambda2)"), doc="wanted axis ratio r"),
             AxisSpec("c", "float", 0.01, check=_ge(0.0), doc="offset c of f1 (S0-9)"),
-            AxisSpec("dq_deg", "float", 2.0, unit="deg per waypoint", check=_ge(0.0), doc="joint rate limit (S0-11, S0-12)"),
+            AxisSpec("dq_deg", "float", 2.0, unit="deg per waypoint", check=_ge(0.0),
+                     doc="joint rate limit (S0-11, S0-12); a prismatic joint gets the same number in m (3 deg -> 0.0524 m)"),
             AxisSpec("dk", "float", 5.0, unit="Nm/rad per waypoint", check=_ge(0.0), doc="stiffness rate limit (S0-13, S0-14)"),
             AxisSpec("kmin", "float", 1.0, unit="Nm/rad", check=_gt(0.0), doc="lower stiffness bound"),
             AxisSpec("kmax", "float", 100.0, unit="Nm/rad", check=_gt(0.0), doc="upper stiffness bound"),

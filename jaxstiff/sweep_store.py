@@ -185,7 +185,8 @@ class SweepStore:
         self.manifest = self._load_manifest()
         self.run_index = len(self.manifest["runs"])
         self.manifest["runs"].append({"run": self.run_index, "started": _now(), "host": socket.gethostname(),
-                                      "pid": os.getpid(), "skipped": sorted(self.done), "computed": []})
+                                      "pid": os.getpid(), "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"),
+                                      "skipped": sorted(self.done), "computed": []})
         self._write_manifest()
 
     def _plan_record(self) -> dict:
