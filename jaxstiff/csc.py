@@ -52,7 +52,11 @@ Choices this module makes where the seed is silent (SPEC section 6 lets us choos
   redundant degree of freedom. ``joint_limits="sum"`` instead adds it to the CSC gradient (a
   weighted sum, projected into the path task's null space only), which trades some ``u`` for
   distance from the limits. Independently of both, every free joint is clamped to its limits
-  after each step (status :data:`STATUS_JOINT_LIMIT`).
+  after each step (status :data:`STATUS_JOINT_LIMIT`). Known limit of the saturation rule (in
+  the rollout's step): all joints that the unconstrained step pushes past a limit are frozen
+  together for that step, not one at a time; from a start with joints at their limits, where
+  lowering u needs one of them to move back inward, the arm can stall (status 2 + 8 on every
+  step). Start inside the limits, or use ``joint_limits="priority"`` to keep the arm off them.
 * **Locked joints** never move: their Jacobian columns are zeroed for motion and their entries of
   ``q0`` are replaced by the locked values. They keep their springs: ``u``, the realised joint
   stiffness and ``K_C`` use the full Jacobian.
