@@ -82,8 +82,8 @@ backward pass, so the memory of a gradient grows with ``T * n`` per rollout only
 
 Speed (``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
 128, jaxstiff's XLA options; the machine is shared, so ranges of repeated runs): forward
-0.73-0.88 s, forward + gradient 2.7-3.6 s, 3.5-4.1x the forward (goal 3x: not met). What makes
-it so:
+0.73-1.49 s, forward + gradient 2.7-3.7 s, 2.3-4.2x the forward over the runs of 2026-12-01/02
+(mostly 3.1-3.7x; goal 3x: not met reliably). What makes it so:
 
 * hand-written VJPs, each installed as a custom JVP that is its transpose (forward mode and
   hessians keep working): ``(u, grad u)`` (:func:`_offdiag_value_and_grad`), the step's
