@@ -386,3 +386,19 @@ def test_cli_validates_before_any_work(tmp_path, capsys):
     assert "2 rows = 2 settings x 1 paths" in capsys.readouterr().out
     assert not out.exists()
     assert main(["sweep", str(good), "--out", str(out), "--backend", "ray", "--ray-num-cpus", "0"]) == 2
+
+
+def test_heatmap_of_an_all_nan_metric_is_written_without_warnings(tmp_path):
+    """A metric with no finite value (e.g. max_alpha_deg when no waypoint is usable): the cells say
+    n/a, and matplotlib's 'identical low and high xlims' warnings (shown as jaxstiff warnings by
+    the CLI) no longer appear."""
+    import warnings
+
+    from jaxstiff.sweep_report import heatmap
+
+    plan = parse_config(SHAPE_CFG)
+    df = pd.DataFrame({"ratio": [2.0, 2.0, 3.0, 3.0], "dk": [5.0, 10.0, 5.0, 10.0], "max_alpha_deg": [np.nan] * 4})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        f = heatmap(df, plan, "ratio", "dk", "max_alpha_deg", str(tmp_path / "h.png"))
+    assert os.path.getsize(f) > 1000
