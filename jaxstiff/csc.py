@@ -1001,6 +1001,9 @@ def csc_rollout(
     if not isinstance(newton, (int, np.integer)) or isinstance(newton, bool) or newton < 0:
         raise ValueError(f"newton must be an integer >= 0, got {newton!r}")
 
+    for name, v in (("K_xd", K_xd), ("q0", q0), ("path", getattr(path, "points", path)), ("beta", beta)):
+        if not isinstance(v, (list, tuple)) and np.iscomplexobj(v):  # (a cast would drop the imaginary part)
+            raise ValueError(f"{name} is complex ({v.dtype}): stiffnesses, postures and paths are real")
     # dtype: the caller's floating dtype of q0 (or JAX's default float)
     q0 = jnp.asarray(q0) if not isinstance(q0, (list, tuple)) else jnp.asarray(np.asarray(q0, dtype=float))
     dtype = q0.dtype if jnp.issubdtype(q0.dtype, jnp.floating) else jnp.asarray(1.0).dtype

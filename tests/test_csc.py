@@ -601,6 +601,7 @@ def test_path_object_is_accepted(hold):
         (dict(joint_limits="hard"), "joint_limits"),
         (dict(q0=Q_SEED.astype(np.float16)), "q0 has dtype float16.*pass float32 or float64"),
         (dict(chunk=0), "chunk must be a positive integer"),
+        (dict(K_xd=K_SEED + 1j), "K_xd is complex"),
         (dict(chunk=1.5), "chunk must be a positive integer"),
     ],
 )
@@ -693,7 +694,8 @@ def test_cli_warns_when_task_xy_ignores_the_targets_z(tmp_path, capsys):
     "argv,match",
     [
         (["--hold", "1,1", "--kxd", "1,2,3,4,5@30", "--q0", "0,0,0"], "--kxd"),
-        (["--hold", "1,1", "--kxd", "1,2,2,-5", "--q0", "0,0,0"], "positive definite"),
+        (["--hold", "1,1", "--kxd", "1,2,2,-5", "--q0", "0,0,0"], "positive semi-definite"),
+        (["--hold", "1,1", "--kxd", "3000,-1", "--q0", "0,0,0"], "semi-definite (stiffness in N/m), eigenvalue -1"),
         (["--hold", "1,1", "--kxd", "3000,1000", "--q0", "0,0"], "--q0"),
         (["--path", "/nonexistent/p.csv", "--kxd", "3000,1000", "--q0", "0,0,0"], "p.csv"),
         (["--hold", "1,x", "--kxd", "3000,1000", "--q0", "0,0,0"], "--hold"),
