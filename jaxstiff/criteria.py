@@ -47,7 +47,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .ellipsoid import _alpha_rad, _check_direction, _check_square, _safe_ratio, eigh_descending
-from .stiffness import _broadcast_batch
+from .stiffness import _broadcast_batch, _known_floats
 
 __all__ = [
     "f1",
@@ -87,12 +87,9 @@ def _alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
 def _check_ratio(r, K=None, d=None) -> None:
     """A known ``r`` (a number or an array, not a value inside a trace) must be >= 1 everywhere
     and, with K and d given, broadcast against their batch axes."""
-    if isinstance(r, jax.core.Tracer):
+    a = _known_floats(r, "ratio r")
+    if a is None:
         return
-    try:
-        a = np.asarray(r, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"ratio r must be a number or an array of numbers, got {type(r).__name__}") from None
     if not np.all(a >= 1.0):  # NaN fails too
         bad = a if a.ndim == 0 else a[~(a >= 1.0)].flat[0]
         where = "" if a.ndim == 0 else f" at index {tuple(int(i) for i in np.argwhere(~(a >= 1.0))[0])}"
@@ -102,13 +99,8 @@ def _check_ratio(r, K=None, d=None) -> None:
 
 
 def _check_offset(c) -> None:
-    if isinstance(c, jax.core.Tracer):
-        return
-    try:
-        a = np.asarray(c, dtype=float)
-    except (TypeError, ValueError):
-        raise ValueError(f"offset c must be a number, got {type(c).__name__}") from None
-    if not np.all(a >= 0.0):
+    a = _known_floats(c, "offset c")
+    if a is not None and not np.all(a >= 0.0):
         raise ValueError(f"offset c must be >= 0 degrees (f1's minimum is at alpha = 0 only for c >= 0), got {c}")
 
 

@@ -180,6 +180,20 @@ def _joint_stiffness_array(kj, J: jax.Array) -> jax.Array:
     return jnp.maximum(kj, jnp.sqrt(jnp.finfo(J.dtype).tiny))
 
 
+def _known_floats(x, what: str | None = None):
+    """The values of ``x`` as a float numpy array where they are known here, else None: inside a
+    trace (jit, grad, vmap), and for non-numbers unless ``what`` names the argument (then a
+    ValueError says it must be numbers). For value checks that a traced call cannot make."""
+    if isinstance(x, jax.core.Tracer):
+        return None
+    try:
+        return np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        if what is None:
+            return None  # the function's own checks say so
+        raise ValueError(f"{what} must be a number or an array of numbers, got {type(x).__name__}") from None
+
+
 def _positive_kj(fn):
     """A stiffness function that refuses a concrete ``kj <= 0`` with a clear error. Inside a trace
     (jit, grad, vmap) ``kj`` is not known, and the clamp of :func:`_joint_stiffness_array` keeps a
@@ -188,14 +202,10 @@ def _positive_kj(fn):
 
     @functools.wraps(fn)
     def checked(J, kj, task: str = "full"):
-        if not isinstance(kj, jax.core.Tracer):
-            try:
-                a = np.asarray(kj, dtype=float)
-            except (TypeError, ValueError):
-                a = None  # not numbers: the function's own checks say so
-            if a is not None and np.any(a <= 0):
-                idx = tuple(int(i) for i in np.argwhere(a <= 0)[0])
-                raise ValueError(f"kj must be > 0 (Nm/rad; N/m for prismatic joints), got kj{list(idx)} = {a[idx]:g}")
+        a = _known_floats(kj)
+        if a is not None and np.any(a <= 0):
+            idx = tuple(int(i) for i in np.argwhere(a <= 0)[0])
+            raise ValueError(f"kj must be > 0 (Nm/rad; N/m for prismatic joints), got kj{list(idx)} = {a[idx]:g}")
         return fn(J, kj, task)
 
     for attr in ("lower", "trace", "eval_shape", "clear_cache", "_cache_size"):  # the jitted function's API
