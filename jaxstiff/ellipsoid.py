@@ -42,6 +42,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .stiffness import _broadcast_batch
+
 __all__ = [
     "Ellipsoid",
     "ellipsoid",
@@ -326,11 +328,7 @@ def _check_direction(K: jax.Array, d) -> jax.Array:
     d = jnp.asarray(d)
     if d.ndim < 1 or d.shape[-1] != K.shape[-1]:
         raise ValueError(f"d must have shape (..., {K.shape[-1]}) to match K {tuple(K.shape)}, got {tuple(d.shape)}")
-    try:
-        jnp.broadcast_shapes(K.shape[:-2], d.shape[:-1])
-    except ValueError:
-        raise ValueError(f"batch axes do not broadcast: K {tuple(K.shape[:-2])}, d {tuple(d.shape[:-1])} "
-                         f"(K {tuple(K.shape)}, d {tuple(d.shape)})") from None
+    _broadcast_batch(("K", K.shape[:-2]), ("d", d.shape[:-1]))
     return d
 
 

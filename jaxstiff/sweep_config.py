@@ -786,7 +786,6 @@ class _Parser:
                 base = label or gen
                 nm = base + ("(" + ", ".join(f"{k}={_fmt_value(kw[k])}" for k in varying) + ")" if varying else "")
                 out.append(Trajectory(len(out), nm, np.array(p.points), np.array(p.directions), {"generator": gen, **kw}))
-        # unique names
         # unique names: a repeated name gets the first free "#k" suffix (k = 2, 3, ...), never one
         # that another path already has ("p", "p", "p#2" -> "p", "p#3", "p#2")
         taken = {t.name for t in out}

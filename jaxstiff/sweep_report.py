@@ -55,8 +55,6 @@ def heatmap(df, plan: SweepPlan, x: str, y: str, metric: str, file: str) -> str:
     fig, ax = plt.subplots(figsize=(max(5.5, width), 1.6 + 0.42 * max(4, piv.shape[0])))
     share = metric.startswith("share_") or metric.endswith("_reduction")
     vmin, vmax = (0.0, 1.0) if metric.startswith("share_") else (None, None)
-    if not np.isfinite(piv.values).any():  # every cell n/a: a fixed colour range (matplotlib warned of xlims)
-        vmin, vmax = 0.0, 1.0
     im = ax.imshow(piv.values, origin="lower", aspect="auto", cmap="viridis", vmin=vmin, vmax=vmax)
     ax.set_xticks(range(piv.shape[1]), [_fmt(v) for v in piv.columns])
     ax.set_yticks(range(piv.shape[0]), [_fmt(v) for v in piv.index])

@@ -170,9 +170,7 @@ class SweepStore:
                     "pass --resume to continue it, or choose another --out"
                 )
         else:
-            others = [f for f in os.listdir(self.out) if f not in (".lock",)]
-            if others:
-                raise ValueError(f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder")
+            self._check_foreign()  # again under the lock: another process may have written meanwhile
             for sub in ("chunks", "arrays"):
                 os.makedirs(self.path(sub), exist_ok=True)
             if plan.config_text:

@@ -91,12 +91,8 @@ def polish(
     from .slsqp import SolverOutput, _judge, make_slsqp_solver
 
     opts = dict(options or {})
-    mode = opts.get("polish_slsqp", DEFAULT_OPTIONS["polish_slsqp"])
-    chain = opts.get("chain", DEFAULT_OPTIONS["chain"])
-    if chain not in ("greedy", "pgd"):
-        raise ValueError(f"option chain must be 'greedy' or 'pgd', got {chain!r}")
-    if mode not in ("all", "unusable"):
-        raise ValueError(f"option polish_slsqp must be 'all' or 'unusable', got {mode!r}")
+    own = {**DEFAULT_OPTIONS, **check_options(opts)}
+    mode, chain = own["polish_slsqp"], own["chain"]
     sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
     solver = make_slsqp_solver(problem, sl_opts)
     fused = compiled(problem)
