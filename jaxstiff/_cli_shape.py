@@ -156,7 +156,8 @@ def _add_shape(p: argparse.ArgumentParser):
     p.add_argument("--c", default=str(DEFAULTS["c"]), metavar="C", help="f1's offset c (S0-9), deg")
     p.add_argument("--solver", default="slsqp",
                    help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
-                        "or another registered solver (pgd, hybrid)")
+                        "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
+                        "trajectory after a greedy warm start), or another registered solver")
     p.add_argument("--starts", default=None, metavar="S", help="starts per waypoint, multi-start solvers only (default: the solver's own)")
     p.add_argument("--first-rate-limit", dest="first_rate_limit", action="store_true",
                    help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "

@@ -417,8 +417,10 @@ def shape(
             JAX-traceable ``crit(K, d, r[, c])``.
         ratio: wanted axis ratio r = lambda1 / lambda2, > 1: a number, or (B,) one per path.
         task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, seed), ``"xyz"`` or ``"xy"``.
-        solver: a name in :data:`SOLVERS`: ``"slsqp"`` (JAX derivatives) or ``"slsqp-fd"``
-            (the seed's own way: numpy + finite differences; the speed baseline).
+        solver: a name in :data:`SOLVERS`: ``"slsqp"`` (JAX derivatives), ``"slsqp-fd"`` (the
+            seed's own way: numpy + finite differences; the speed baseline), ``"pgd"`` (batched
+            projected gradient, multi-start), ``"hybrid"`` (pgd, then an SLSQP polish) or
+            ``"trajectory"`` (a greedy warm start, then the whole trajectory at once).
         starts: starts per waypoint for multi-start solvers (default: their ``starts`` option, 8 for
             pgd and the hybrid; SLSQP: 1). Recorded in ``meta["starts"]``.
         q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values;
