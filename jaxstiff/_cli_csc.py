@@ -85,12 +85,6 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
     return K
 
 
-def _prismatic(robot) -> np.ndarray:
-    from .robot import JOINT_PRISMATIC
-
-    return np.asarray(robot.joint_types) == JOINT_PRISMATIC
-
-
 def _warn_ignored_z(robot, q0, z, flag: str) -> None:
     """Task "xy" tracks x and y only: say so when the targets' z is not the TCP's (> 1 mm apart)."""
     z_tcp = float(np.asarray(robot.fk(q0))[2, 3])
@@ -102,7 +96,7 @@ def _warn_ignored_z(robot, q0, z, flag: str) -> None:
 
 def _units(robot, task: str) -> dict:
     """Units of the result file's arrays (meta ``units``); per joint where prismatic joints differ."""
-    pris = _prismatic(robot)
+    pris = robot.prismatic
     per_joint = pris.any()
     q = [("m" if p else "rad") for p in pris] if per_joint else "rad"
     kj = [("N/m" if p else "Nm/rad") for p in pris] if per_joint else "Nm/rad"
@@ -174,7 +168,7 @@ def _add_csc(p: argparse.ArgumentParser):
         else:
             q0 = np.asarray(_numbers(args.q0_deg, "--q0-deg"), dtype=float)
             if q0.shape == (robot.n,):  # degrees for revolute joints; a prismatic joint's value is a length
-                q0 = np.where(_prismatic(robot), q0, np.deg2rad(q0))
+                q0 = np.where(robot.prismatic, q0, np.deg2rad(q0))
         flag = "--q0" if args.q0 is not None else "--q0-deg"
         if q0.shape != (robot.n,):
             raise ValueError(f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}")
@@ -252,8 +246,8 @@ def _add_csc(p: argparse.ArgumentParser):
             print(f"[{b}] tracking error: max {res.tracking_error[b].max():.3g} m, last {res.tracking_error[b, -1]:.3g} m")
             counts = {csc.describe_status(c): int(n) for c, n in zip(*np.unique(st, return_counts=True))}
             print(f"[{b}] status: {counts}")
-            qf = np.where(_prismatic(robot), res.q[b, -1], np.rad2deg(res.q[b, -1]))
-            unit = "deg; m for prismatic joints" if _prismatic(robot).any() else "deg"
+            qf = np.where(robot.prismatic, res.q[b, -1], np.rad2deg(res.q[b, -1]))
+            unit = "deg; m for prismatic joints" if robot.prismatic.any() else "deg"
             print(f"[{b}] final q ({unit}): {np.round(qf, 3).tolist()}")
         print(f"wrote {written}")
         last = res.tracking_error[:, -1]

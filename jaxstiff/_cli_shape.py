@@ -109,10 +109,8 @@ def _rate_limits(robot, dq_deg: float, dq_m: float | None):
     (m; default the same number as the revolute joints' radians), a scalar when all are revolute."""
     import numpy as np
 
-    from .robot import JOINT_PRISMATIC
-
     dq = math.radians(dq_deg)
-    prismatic = np.asarray(robot.joint_types) == JOINT_PRISMATIC
+    prismatic = robot.prismatic
     if not prismatic.any():
         return dq
     return np.where(prismatic, dq if dq_m is None else dq_m, dq)

@@ -79,9 +79,7 @@ def _add_robot(p: argparse.ArgumentParser):
         T, J = robot.fk_and_jacobian(q)
         np.set_printoptions(precision=5, suppress=True, linewidth=120)
         print(robot.describe())
-        from .robot import JOINT_PRISMATIC
-
-        pris = np.asarray(robot.joint_types) == JOINT_PRISMATIC
+        pris = robot.prismatic
         unit = "deg; m for prismatic joints" if pris.any() else "deg"
         print(f"\nposture q ({unit}): {np.round(np.where(pris, q, np.rad2deg(q)), 4).tolist()}")
         print("\nT_base_tcp (m):")

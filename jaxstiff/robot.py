@@ -207,6 +207,11 @@ class Robot:
         return np.asarray([v is None for v in self.locked], dtype=bool)
 
     @property
+    def prismatic(self) -> np.ndarray:
+        """Boolean mask (n,): True where the joint is prismatic (its values are lengths, m)."""
+        return np.asarray(self.joint_types) == JOINT_PRISMATIC
+
+    @property
     def n_free(self) -> int:
         """Number of free joints."""
         return int(self.free.sum())

@@ -213,6 +213,7 @@ def test_prismatic_joints_get_lengths_not_degrees():
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
     pris = np.asarray(robot.joint_types) == jaxstiff.robot.JOINT_PRISMATIC
     assert pris.tolist() == [False, True, False, False]
+    assert robot.prismatic.tolist() == pris.tolist()
     lo, hi = robot.lower, robot.upper
     q = nominal_posture(robot)
     assert q[1] == pytest.approx(0.5 * (lo[1] + hi[1]), abs=1e-15)
