@@ -1026,10 +1026,11 @@ def csc_rollout(
         raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASK_ROWS)}")
     if len(TASK_ROWS[task]) != m:
         raise ValueError(f"task {task!r} needs K_xd of shape (..., {len(TASK_ROWS[task])}, {len(TASK_ROWS[task])}), got {tuple(K_xd.shape)}")
-    # Fewer free joints than task rows, or rows that are dead at every posture: K_C would be the
-    # regularisation's 1e12, not the robot's. (As many free joints as rows is allowed: no
-    # redundancy, so the null-space step is zero and the rollout only tracks.)
-    check_task_feasible(robot, task)
+    # Fewer free joints than task rows, or free joints' rows that are dead at every posture: the
+    # primary task could not be followed (the damped step would only approximate it). As many free
+    # joints as rows is allowed: no redundancy, so the null-space step is zero and the rollout only
+    # tracks. (The stiffness itself has every joint's spring, locked ones too.)
+    check_task_feasible(robot, task, motion=True)
 
     pts = _path_points(path)
     targets = jnp.asarray(pts, dtype=dtype)

@@ -92,12 +92,18 @@ _ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
 
 
 @functools.lru_cache(maxsize=64)
-def _task_rank_report(robot, task: str) -> str | None:
+def _task_rank_report(robot, task: str, motion: bool = False) -> str | None:
     rows = task_rows(task)
-    m, free = len(rows), robot.free
-    if robot.n_free < m:
-        return (f"task {task!r} controls {m} Cartesian rows ({', '.join(_ROW_NAMES[r] for r in rows)}) but the robot "
-                f"has only {robot.n_free} free joint(s), so its stiffness along the missing rows is undefined")
+    m = len(rows)
+    # the stiffness K = (J diag(1/kj) J^T)^-1 has every joint's spring, locked ones included; the
+    # motion (a CSC rollout's primary task) has the free joints only
+    cols = robot.free if motion else np.ones(robot.n, dtype=bool)
+    k = int(cols.sum())
+    lost = "so the path cannot be followed along the missing {}" if motion else "so its stiffness along the missing {} is undefined"
+    if k < m:
+        have = f"only {k} free joint(s) move the TCP" if motion else f"the robot has only {k} joint(s)"
+        return (f"task {task!r} controls {m} Cartesian rows ({', '.join(_ROW_NAMES[r] for r in rows)}) but {have}, "
+                + lost.format("rows"))
     # Structural rank: sample postures within the limits (continuous joints in [-pi, pi]); a task
     # whose Jacobian rows lose rank at every sample (a planar chain asked for z, an axis parallel
     # to another ...) is not a singular posture but a wrong task for this robot.
@@ -109,36 +115,40 @@ def _task_rank_report(robot, task: str) -> str | None:
     lo = np.where(lo_ok, lo, np.where(hi_ok, np.where(hi_ok, hi, 0.0) - 2 * np.pi, -np.pi))
     hi = np.where(hi_ok, hi, lo + 2 * np.pi)
     q = lo + (hi - lo) * rng.uniform(0.05, 0.95, size=(6, robot.n))
-    q = np.where(free, q, np.nan_to_num(robot.locked_values))
+    q = np.where(robot.free, q, np.nan_to_num(robot.locked_values))
     with jax.ensure_compile_time_eval(), jax.enable_x64(True):
         J = np.asarray(jacobian(robot, jnp.asarray(q, dtype=jnp.float64)))
-    Js = J[:, list(rows), :][:, :, free]
+    Js = J[:, list(rows), :][:, :, cols]
     s = np.linalg.svd(Js, compute_uv=False)
     if np.any(s[:, -1] > 1e-9 * np.maximum(s[:, 0], 1e-300)):
         return None
     dead = [_ROW_NAMES[r] for i, r in enumerate(rows) if np.all(np.abs(Js[:, i, :]) < 1e-12)]
     rank = int(np.max(np.sum(s > 1e-9 * s[:, :1], axis=1)))
-    why = (f"row(s) {', '.join(dead)} of its Jacobian are zero at every posture (a planar chain?)" if dead
+    which = "free joints' " if motion else ""
+    why = (f"row(s) {', '.join(dead)} of its {which}Jacobian are zero at every posture (a planar chain?)" if dead
            else f"its {m} task rows have rank {rank} at every sampled posture")
-    return f"task {task!r} controls {m} Cartesian rows but {why}, so its stiffness along the missing direction is undefined"
+    return f"task {task!r} controls {m} Cartesian rows but {why}, " + lost.format("direction")
 
 
-def check_task_feasible(robot, task: str) -> None:
+def check_task_feasible(robot, task: str, *, motion: bool = False) -> None:
     """Raise ValueError if ``robot`` cannot control the rows of ``task`` at any posture.
 
-    Two causes: fewer free joints than task rows (a 3-joint arm with ``"full"``), and task rows
-    that lose rank at every posture (a planar chain with ``"xyz"``: its ``vz`` row is always zero).
+    Two causes: fewer joints than task rows (a 3-joint arm with ``"full"``), and task rows that
+    lose rank at every posture (a planar chain with ``"xyz"``: its ``vz`` row is always zero).
     Either makes the Cartesian stiffness infinite along a lost direction everywhere, not just
-    near a singular posture, so the result would only reflect the regularisation. The check samples
-    six postures within the joint limits once per (robot, task) and is cached.
+    near a singular posture, so the result would only reflect the regularisation. Locked joints
+    count: they keep their springs (SPEC section 1), so a 7-joint arm with two joints locked has a
+    defined 6-row stiffness. With ``motion=True`` (a CSC rollout, whose primary task the free
+    joints follow) only the free joints count. The check samples six postures within the joint
+    limits once per (robot, task).
     """
-    msg = _task_rank_report(robot, task)
+    msg = _task_rank_report(robot, task, motion)
     if msg is not None:
         smaller = [t for t in ("xyz", "xy") if len(TASK_ROWS[t]) < len(TASK_ROWS[task])]
-        ok = [t for t in smaller if _task_rank_report(robot, t) is None]
+        ok = [t for t in smaller if _task_rank_report(robot, t, motion) is None]
         hint = (f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'the x and y rows only'})" if ok
                 else "task 'xy' needs a chain that moves in the base xy plane")
-        if not robot.free.all():
+        if motion and not robot.free.all():
             hint += ", or unlock joints"
         raise ValueError(f"{msg}; {hint}")
 

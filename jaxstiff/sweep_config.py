@@ -934,7 +934,7 @@ class _Parser:
 
         for task in axes["task"]:
             try:
-                check_task_feasible(robot, task)
+                check_task_feasible(robot, task, motion=kind == "csc")
             except ValueError as e:
                 raise self.err("axes.task", f"robot {robot.name!r}: {e}") from None
         if len(axes["q0_seed"]) > 1 and "random" not in axes["q0"]:

@@ -615,13 +615,14 @@ def test_bad_input_raises_clear_value_error(kwargs, match):
 
 
 def test_task_the_robot_cannot_control_is_refused():
-    """A planar chain asked for xyz (vz row dead everywhere) or an arm with fewer free joints than
-    task rows: K_C would be the regulariser's 1e12, so the call must fail and say why."""
+    """A planar chain asked for xyz (vz row dead everywhere: K_C would be the regulariser's 1e12) or
+    an arm with fewer free joints than task rows (the path cannot be followed): the call must fail
+    and say why."""
     path = np.tile(np.r_[X_SEED, 0.0], (3, 1))
     with pytest.raises(ValueError, match=r"task 'xyz'.*vz.*zero at every posture.*use task 'xy'"):
         jaxstiff.csc_rollout(PLANAR, path, np.diag([3000.0, 1000.0, 500.0]), Q_SEED, 1.0)
     lwr5 = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.0})
-    with pytest.raises(ValueError, match=r"task 'full' controls 6 Cartesian rows .* only 5 free joint.*or unlock joints"):
+    with pytest.raises(ValueError, match=r"task 'full' controls 6 Cartesian rows .* only 5 free joint.*cannot be followed.*or unlock joints"):
         jaxstiff.csc_rollout(lwr5, np.array([[0.0, 0.3, 0.9]]), np.eye(6) * 1e3, np.full(7, 0.3) * lwr5.free, 1.0)
 
 

@@ -303,7 +303,7 @@ def test_continuous_joint_runs_without_numpy_warnings(tmp_path):
     assert np.all(np.isfinite(np.asarray(roll.q))) and np.all(np.isfinite(np.asarray(roll.u)))
 
 
-@pytest.mark.parametrize("task, match", [("full", r"only 3 free joint.*use task 'xy'"), ("xyz", r"row\(s\) vz .* zero at every posture")])
+@pytest.mark.parametrize("task, match", [("full", r"only 3 joint.*use task 'xy'"), ("xyz", r"row\(s\) vz .* zero at every posture")])
 def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match):
     """Planar 3R with task full/xyz: the z stiffness would be the 1e-12 regularisation's (ratios
     ~1e10 written as if solved). Refused in the library and, with exit 2 and no file, in the CLI."""
@@ -317,6 +317,22 @@ def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match)
     assert main(["shape", "--robot", "planar_3r", "--task", task, "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert re.search(match, err) and "Traceback" not in err and not out.exists()
+
+
+def test_full_task_with_locked_joints_keeps_their_springs(tmp_path):
+    """Two of the LWR's joints locked (five free, fewer than the six rows of task 'full'): the
+    stiffness still has seven springs (SPEC section 1), so the task is defined and solved; the
+    file verifies from the URDF alone (numpy K_T with all seven columns). It was refused as
+    'undefined' when the check counted free joints only."""
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.2})
+    q = np.where(robot.free, np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0]), robot.locked_values)
+    x0 = numpy_fk(robot, q)[:3, 3]
+    path = jaxstiff.Path(x0 + np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]]), np.array([[1.0, 0.0, 0.0]] * 2))
+    res = jaxstiff.shape(robot, path, "f2", 3.0, task="full", q0=q, first_starts=2)
+    f = tmp_path / "locked_full.npz"
+    res.save(f)
+    data, meta, _ = verify_file(f)
+    assert meta["task"] == "full" and np.all(R.is_usable(data["status"]))
 
 
 @pytest.mark.parametrize(

@@ -438,8 +438,28 @@ def test_task_check_samples_each_joint_inside_its_own_range(tmp_path):
     s = np.linalg.svd(np.asarray(robot.jacobian(np.array([0.3, -0.8, 3.5])))[:3], compute_uv=False)
     assert s[-1] > 1e-3
     check_task_feasible(robot, "xyz")  # no error
-    with pytest.raises(ValueError, match="only 3 free joint"):
+    with pytest.raises(ValueError, match="only 3 joint"):
         check_task_feasible(robot, "full")
+
+
+def test_locked_joints_keep_their_springs_in_the_task_check():
+    """Two of the LWR's seven joints locked: the 6-row stiffness still has seven springs, so task
+    'full' is defined (numpy: the full 6 x 7 Jacobian has rank 6 with a finite condition number),
+    while a CSC rollout, whose free joints must follow all six rows, is refused. Before, the shape
+    check counted only free joints and refused the stiffness as undefined."""
+    from jaxstiff.stiffness import check_task_feasible
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.2})
+    q = np.where(robot.free, np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0]), robot.locked_values)
+    J = np.asarray(robot.jacobian(np.asarray(q, dtype=np.float64)), dtype=float)
+    s = np.linalg.svd(J, compute_uv=False)
+    assert s[-1] > 1e-3 * s[0]  # all seven columns: rank 6
+    assert np.linalg.matrix_rank(J[:, robot.free]) == 5  # the free joints alone: rank 5
+    check_task_feasible(robot, "full")  # no error: the stiffness is defined
+    K = np.asarray(jaxstiff.cartesian_stiffness(J, np.full(7, 50.0), task="full"))
+    assert_close(K, np.linalg.inv(J @ np.diag(np.full(7, 1 / 50.0)) @ J.T), rtol=1e-9, what="K with locked springs")
+    with pytest.raises(ValueError, match=r"only 5 free joint\(s\) move the TCP.*cannot be followed.*or unlock joints"):
+        check_task_feasible(robot, "full", motion=True)
 
 
 @pytest.mark.parametrize("fn", ["compliance", "cartesian_stiffness", "translational_stiffness", "compliance_condition"])

@@ -113,7 +113,7 @@ CATALOGUE = [
     ("unknown solver option", lambda t: {**base(), "solver_options": {"maxiters": 10}}, "solver_options.maxiters", ["did you mean 'maxiter'"]),
     ("heat map of a fixed axis", lambda t: {**base(), "report": {"heatmaps": [["ratio", "dk"]]}}, "report.heatmaps[0]", ["'dk' has one value"]),
     ("csc kxd ratio below 1", lambda t: _set(csc_base(), "axes.kxd_ratio", 0.5), "axes.kxd_ratio", ["must be >= 1"]),
-    ("task beyond the robot's joints", lambda t: _set(base(), "axes.task", ["xy", "full"]), "axes.task", ["'planar_3r'", "only 3 free joint"]),
+    ("task beyond the robot's joints", lambda t: _set(base(), "axes.task", ["xy", "full"]), "axes.task", ["'planar_3r'", "only 3 joint"]),
     ("csc task the robot cannot control", lambda t: _set(csc_base(), "axes.task", "xyz"), "axes.task", ["vz", "zero at every posture"]),
     ("csc task full", lambda t: _set(csc_base(), "axes.task", "full"), "axes.task", ["unknown value 'full'", "xy, xyz"]),
 ]
