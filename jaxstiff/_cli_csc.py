@@ -31,12 +31,14 @@ import json
 import math
 import os
 import sys
+import time
 
 import numpy as np
 
 from ._io import json_default as _json_default
+from ._io import raise_if_interrupted
 
-from .cli import check_out_file, command, parse_locks
+from .cli import TIP_LINK_HELP, check_out_file, command, parse_locks
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
@@ -122,7 +124,7 @@ def _add_csc(p: argparse.ArgumentParser):
     )
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
-    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
+    p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
     p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable; 'none': every joint free)")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--path", action="append", metavar="CSV",
@@ -203,8 +205,12 @@ def _add_csc(p: argparse.ArgumentParser):
             print("jaxstiff: warning: --hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero "
                   "while the target stands still, so the arm will not move to lower u; use --step constant "
                   "(beta = rad per step, e.g. --beta 2e-3)", file=sys.stderr)
+        t0 = time.perf_counter()
+        print(f"csc: {points.shape[0]} rollout(s) x {points.shape[1]} steps in one compiled run (compiling, then "
+              "running; no progress in between, and Ctrl-C takes effect when it ends) ...", file=sys.stderr, flush=True)
         res = csc.csc_rollout(robot, points, K, q0, args.beta, **settings)
         res = jax.tree_util.tree_map(np.asarray, res)
+        print(f"csc: done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
 
         meta = {
             "kind": "csc",
@@ -231,6 +237,7 @@ def _add_csc(p: argparse.ArgumentParser):
         arrays["q0"] = q0
         arrays["K_xd"] = K
         arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
+        raise_if_interrupted()
         written = atomic_save_npz(out, arrays)
 
         np.set_printoptions(precision=4, suppress=True, linewidth=120)

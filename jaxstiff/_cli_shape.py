@@ -12,7 +12,8 @@ import os
 import sys
 import time
 
-from .cli import check_out_file, command, parse_locks
+from ._io import raise_if_interrupted
+from .cli import TIP_LINK_HELP, check_out_file, command, parse_locks
 
 _DEFAULT_LOCK = {"kuka_lwr4": {"lwr_a7": 0.0}}
 
@@ -55,6 +56,7 @@ class _Progress:
         self.tty = sys.stderr.isatty()
 
     def __call__(self, b: int, p: int) -> None:
+        raise_if_interrupted()  # a Ctrl-C that JAX swallowed stops the run at the next waypoint
         self.done += 1
         if not self.enabled:
             return
@@ -68,7 +70,7 @@ class _Progress:
         width = 30
         fill = int(width * self.done / max(self.total, 1))
         msg = (f"shape [{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} waypoints "
-               f"(path {b + 1})  {el:6.1f} s  ETA {eta:6.1f} s")
+               f"(path {b})  {el:6.1f} s  ETA {eta:6.1f} s")  # 0-based, as the result file and the warnings
         if self.tty:
             sys.stderr.write("\r" + msg + ("\n" if self.done >= self.total else ""))
         else:
@@ -120,16 +122,22 @@ def _rate_limits(robot, dq_deg: float, dq_m: float | None):
 def _add_shape(p: argparse.ArgumentParser):
     from .shaping import DEFAULTS
 
+    p.epilog = ("Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
+                "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
+                "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
+                "file is written with the waypoints finished so far (the others have status 5, not run; meta "
+                "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written.")
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
-    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
+    p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
     p.add_argument("--lock", action="append", metavar="JOINT=RAD",
                    help="lock a joint at a value, rad (repeatable). Default for the shipped kuka_lwr4: "
                         "lwr_a7=0 (seed 000); '--lock none' frees every joint")
     p.add_argument("--tcp", default=None, metavar="X,Y,Z", help="tool offset after the tip link, m, in the tip frame (default: none)")
     p.add_argument("--path", action="append", metavar="CSV",
                    help="path file with header x,y,z[,dx,dy,dz], metres in the base frame (repeatable: several "
-                        "paths with the same number of waypoints, one result file). Default: the shipped "
+                        "paths with the same number of waypoints, one result file; messages number them from "
+                        "0, in the order given, as the file's first axis). Default: the shipped "
                         "default path (jaxstiff.paths.default_path)")
     p.add_argument("--criterion", default="f2", help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
     p.add_argument("--ratio", default="5", metavar="R", help="wanted axis ratio lambda1/lambda2, > 1")
@@ -178,7 +186,7 @@ def _add_shape(p: argparse.ArgumentParser):
         from ._x64 import enable_x64
         from .paths import Path, default_path
         from .robot import Robot, robot_path
-        from .shaping import prefer_sync_cpu_dispatch, shape
+        from .shaping import ShapeInterrupted, prefer_sync_cpu_dispatch, shape
 
         # ---- validate everything before any work, so bad input never leaves a file
         out = check_out_file(args.out)
@@ -238,14 +246,34 @@ def _add_shape(p: argparse.ArgumentParser):
         prefer_sync_cpu_dispatch()  # per-waypoint SLSQP is latency-bound: see its docstring
         B = path.B
         progress = _Progress(B * path.P, enabled=not args.quiet)
-        res = shape(
-            robot, path, args.criterion, ratio, task=args.task, solver=args.solver, starts=starts,
-            q0=None if q0 is None else np.asarray(q0), kj0=kj0,
-            dq=_rate_limits(robot, dq_deg, dq_m), dk=dk, kmin=kmin, kmax=kmax, c=c,
-            first_rate_limit=args.first_rate_limit, first_starts=first_starts,
-            cms_volume=cms_volume, cms_major=cms_major, progress=progress,
-            meta_extra={"path_files": path_files, "cli": {k: v for k, v in vars(args).items() if not k.startswith("_")}},
-        )
+        if args.solver in ("pgd", "trajectory", "hybrid") and not args.quiet:
+            print(f"shape: solver {args.solver} solves all {B} path(s) x {path.P} waypoints as one batch (compiling, "
+                  "then solving; no per-waypoint progress until then, and Ctrl-C takes effect when it ends) ...",
+                  file=sys.stderr, flush=True)
+        try:
+            res = shape(
+                robot, path, args.criterion, ratio, task=args.task, solver=args.solver, starts=starts,
+                q0=None if q0 is None else np.asarray(q0), kj0=kj0,
+                dq=_rate_limits(robot, dq_deg, dq_m), dk=dk, kmin=kmin, kmax=kmax, c=c,
+                first_rate_limit=args.first_rate_limit, first_starts=first_starts,
+                cms_volume=cms_volume, cms_major=cms_major, progress=progress,
+                meta_extra={"path_files": path_files, "cli": {k: v for k, v in vars(args).items() if not k.startswith("_")}},
+            )
+        except ShapeInterrupted as e:  # keep what was finished, then stop as interrupted
+            st = e.result.status
+            if np.all(st == R.NOT_RUN):
+                print("\njaxstiff: nothing was written (no waypoint was finished)", file=sys.stderr)
+                raise
+            written = e.result.save(out)
+            print(f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
+                  f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)", file=sys.stderr)
+            raise
+        except KeyboardInterrupt:
+            print(f"\njaxstiff: nothing was written (solver {args.solver!r} "
+                  + ("finishes all paths together)" if args.solver not in ("slsqp", "slsqp-fd") else "had finished no waypoint)"),
+                  file=sys.stderr)
+            raise
+        raise_if_interrupted()
         written = res.save(out)
         if not args.quiet:
             print(summary_table(res))
@@ -254,9 +282,17 @@ def _add_shape(p: argparse.ArgumentParser):
         if not usable.all():  # the file is still complete: every waypoint has its status
             worst = int(np.argmin(usable.sum(axis=1)))
             far = float(np.max(res.pos_error[~usable]))
+            # the first waypoint has no rate limit (unless --first-rate-limit): if it was reached
+            # and later ones were not, the limits per waypoint are the likelier cause
+            after_first = bool(np.all(usable[:, 0])) and not args.first_rate_limit
+            hint = ("the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
+                    "tight for the waypoint spacing, or the path leaves the robot's reach" if after_first
+                    else "check the path's units and the robot's reach")
             print(f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
                   f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
-                  "check the path's units and the robot's reach (status codes: see jaxstiff.results)", file=sys.stderr)
+                  f"{hint} (status codes: see jaxstiff.results)", file=sys.stderr)
+            if not usable.any():
+                return 3  # the file is written, but holds no usable waypoint
         return 0
 
     return run

@@ -2,18 +2,22 @@
 
 Every file jaxstiff writes goes through :func:`atomic_write`: a temporary file in the target
 folder, then ``os.replace`` (atomic on POSIX), so an interrupted run never leaves a partial file.
+The command line turns SIGTERM into the same ``KeyboardInterrupt`` as Ctrl-C
+(:func:`interrupt_handlers`), so the temporary file is removed on either.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import tempfile
-from typing import IO, Callable
+import threading
+from typing import IO, Callable, Iterator
 
 import numpy as np
 
-__all__ = ["atomic_write", "atomic_write_text", "json_default"]
+__all__ = ["atomic_write", "atomic_write_text", "json_default", "interrupt_handlers", "interrupt_pending", "raise_if_interrupted"]
 
 
 def _umask() -> int:
@@ -59,3 +63,45 @@ def json_default(o):
     if isinstance(o, (np.floating, np.integer, np.bool_)):
         return o.item()
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+# ----------------------------------------------------------------------------- interrupts
+_PENDING: dict[str, int | None] = {"signal": None}
+
+
+def _on_signal(signum, frame):  # noqa: ARG001 - the signal module's handler signature
+    _PENDING["signal"] = signum
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def interrupt_handlers() -> Iterator[None]:
+    """SIGINT and SIGTERM raise ``KeyboardInterrupt`` and are remembered while the block runs.
+
+    Remembering matters because Python delivers the exception wherever the main thread happens to
+    be, and JAX runs some of its own code (a garbage-collection callback) where an exception is
+    printed and dropped: :func:`raise_if_interrupted` at the commands' checkpoints (between
+    waypoints, before a result file is written) raises it again. Outside the main thread (where
+    handlers cannot be installed) the block runs with the process's handlers unchanged.
+    """
+    _PENDING["signal"] = None
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+def interrupt_pending() -> int | None:
+    """The signal number of an interrupt received inside :func:`interrupt_handlers`, else None."""
+    return _PENDING["signal"]
+
+
+def raise_if_interrupted() -> None:
+    """Raise ``KeyboardInterrupt`` if an interrupt arrived (and was perhaps swallowed) earlier."""
+    if _PENDING["signal"] is not None:
+        raise KeyboardInterrupt

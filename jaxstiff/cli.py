@@ -10,9 +10,13 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 import sys
+import tempfile
 import warnings
 from typing import Callable
+
+from ._io import interrupt_handlers, interrupt_pending
 
 COMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int], str]] = {}
 
@@ -31,7 +35,7 @@ def _floats(text: str, what: str) -> list[float]:
     try:
         return [float(v) for v in text.split(",") if v.strip() != ""]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{what}: expected comma-separated numbers, got {text!r}") from None
+        raise ValueError(f"{what}: expected comma-separated numbers, got {text!r}") from None
 
 
 def parse_locks(items: list[str] | None) -> dict[str, float]:
@@ -44,6 +48,8 @@ def parse_locks(items: list[str] | None) -> dict[str, float]:
         name, sep, value = item.partition("=")
         if not sep or not name:
             raise ValueError(f"--lock expects JOINT=RAD, got {item!r}")
+        if name in out:
+            raise ValueError(f"--lock: joint {name!r} is given twice ({name}={out[name]:g} and {item})")
         try:
             out[name] = float(value)
         except ValueError:
@@ -51,12 +57,16 @@ def parse_locks(items: list[str] | None) -> dict[str, float]:
     return out
 
 
+#: --tip-link's help, shared by the commands that read a chain (Robot.from_urdf's rule)
+TIP_LINK_HELP = "last link of the chain (default: the leaf reached through the most actuated joints; an error if several tie)"
+
+
 # ----------------------------------------------------------------------------- robot
 @command("robot", "print a robot's chain, limits, and FK/Jacobian at a posture")
 def _add_robot(p: argparse.ArgumentParser):
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name (default: kuka_lwr4)")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
-    p.add_argument("--tip-link", default=None, help="last link of the chain (default: the unique deepest leaf)")
+    p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
     p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable)")
     p.add_argument("--q", default=None, help="posture, comma-separated rad (m for prismatic joints; default: the nominal posture, mid-range + 30 deg per revolute joint, mid-range for a prismatic one)")
 
@@ -76,6 +86,15 @@ def _add_robot(p: argparse.ArgumentParser):
             q = np.asarray(_floats(args.q, "--q"), dtype=float)
             if q.shape != (robot.n,):
                 raise ValueError(f"--q needs {robot.n} values for {robot.name!r}, got {q.size}")
+            for i in np.flatnonzero(~robot.free):
+                if q[i] != robot.locked_values[i]:
+                    raise ValueError(f"--q gives joint {robot.joint_names[i]!r} = {q[i]:g}, but it is locked at "
+                                     f"{robot.locked_values[i]:g} (--lock); give the locked value or drop the lock")
+            out = np.flatnonzero((q < robot.lower) | (q > robot.upper))
+            if out.size:
+                i = int(out[0])
+                warnings.warn(f"--q: joint {robot.joint_names[i]!r} = {q[i]:g} is outside its limits "
+                              f"[{robot.lower[i]:g}, {robot.upper[i]:g}] (FK and Jacobian shown anyway)", stacklevel=1)
         T, J = robot.fk_and_jacobian(q)
         np.set_printoptions(precision=5, suppress=True, linewidth=120)
         print(robot.describe())
@@ -136,6 +155,9 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 def check_out_file(out: str, flag: str = "--out") -> str:
     """The result file of a command, checked before any work: a file name (``.npz`` added when
     missing) in an existing, writable folder, and not an existing folder. Returns the absolute path."""
+    if out.strip() and os.path.isdir(out):  # checked before ".npz" is added: the folder itself was meant
+        raise ValueError(f"{flag}: {os.path.abspath(out)} is a folder; give a file name inside it, like "
+                         f"{os.path.join(out, 'result.npz')}")
     name = out if out.endswith(".npz") else out + ".npz"
     if not out.strip() or os.path.basename(name) == ".npz" or out.endswith(("/", os.sep)):
         raise ValueError(f"{flag}: expected a file name like result.npz, got {out!r}")
@@ -145,8 +167,14 @@ def check_out_file(out: str, flag: str = "--out") -> str:
     folder = os.path.dirname(path)
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"{flag}: folder does not exist: {folder}")
-    if not os.access(folder, os.W_OK):
-        raise ValueError(f"{flag}: folder is not writable: {folder}")
+    # a real probe, not os.access (which says yes to root on a read-only mount): create and remove
+    # a temporary file where the result will go, so the work does not start for nothing
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".probe-", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ValueError(f"{flag}: cannot write into folder {folder}: {e.strerror or e}") from None
     return path
 
 
@@ -173,9 +201,15 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), interrupt_handlers():
             warnings.showwarning = _show_warning
-            return int(args._run(args) or 0)
+            rc = int(args._run(args) or 0)
+        sig = interrupt_pending()
+        if sig is not None:  # swallowed inside JAX and not seen at a checkpoint: the work had finished
+            print(f"jaxstiff: interrupted ({signal.Signals(sig).name}) after the work had finished; its output was written",
+                  file=sys.stderr)
+            return 128 + int(sig)
+        return rc
     except BrokenPipeError:  # output piped into `head` and the like: not an error of the user's
         try:
             sys.stdout = open(os.devnull, "w")
@@ -186,8 +220,16 @@ def main(argv: list[str] | None = None) -> int:
         print(f"jaxstiff: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("jaxstiff: interrupted", file=sys.stderr)
-        return 130
+        sig = interrupt_pending() or signal.SIGINT
+        print(f"jaxstiff: interrupted ({signal.Signals(sig).name})", file=sys.stderr)
+        code = 128 + int(sig)  # 130 for Ctrl-C, 143 for SIGTERM, as a shell reports them
+        if argv is None:
+            # the process's own entry point: leave without Python's shutdown, which can crash
+            # (segfault) while XLA's threads are still busy with the interrupted computation
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(code)
+        return code
 
 
 if __name__ == "__main__":  # pragma: no cover

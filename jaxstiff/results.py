@@ -20,7 +20,10 @@ ratio           (B,P)       axis ratio lambda1 / lambda2
 criterion       (B,P)       criterion value at (q, kj)
 status          (B,P)       per-waypoint status, codes below
 q0, kj0         (B,n)       start state (rad; Nm/rad) the rate limits of waypoint 0 refer to
-solver_code     (B,P)       the solver's own exit code (SLSQP exit mode; -1 = exception/none)
+solver_code     (B,P)       the solver's own code, per solver (meta ``solver_code_meaning``): slsqp /
+                            slsqp-fd the SLSQP exit mode (0 = converged, -1 = exception); pgd and
+                            trajectory the index of the start that won (-1 = none); hybrid the
+                            SLSQP mode where the polish's answer was taken, else pgd's start index
 nit, nfev       (B,P)       solver iterations and objective evaluations
 time_s          (B,P)       wall time per waypoint, s
 meta            ()          JSON string: every input, default, solver setting, versions, robot
@@ -36,7 +39,9 @@ Status codes (per waypoint; the verdict comes from checking the final point, nev
 solver's own "success" flag):
 
 * ``0`` SOLVED: TCP within ``pos_tol`` (1e-9 m) of the waypoint, q and kj inside the rate-limited
-  box (exactly), criterion finite, and the solver reported convergence.
+  box (exactly), criterion finite, and (SLSQP) the solver reported convergence. The batch solvers
+  pgd and trajectory run a fixed number of iterations and have no convergence flag: for them 0
+  means feasible (the best of their starts), not a certified optimum.
 * ``1`` NOT_CONVERGED: the point passes every check above, but SLSQP stopped without reporting
   convergence (iteration limit, line-search stall, failed QP subproblem) or raised; the returned
   point is feasible and used as the next waypoint's start, but may be sub-optimal.
@@ -48,9 +53,13 @@ solver's own "success" flag):
   (inside the box); the next waypoint starts again from the last usable state.
 * ``4`` NONFINITE: NaN/Inf in the solver's answer or the criterion; q/kj hold the last usable
   state (clipped into the box); the next waypoint starts from the last usable state.
+* ``5`` NOT_RUN: the run was interrupted (Ctrl-C, SIGTERM) before this waypoint was solved; q/kj
+  hold the reference state (the last usable waypoint's, or the start state) unchanged. Only the
+  per-waypoint SLSQP solvers keep their finished waypoints this way (meta ``interrupted``); the
+  batch solvers finish all paths together and write nothing when interrupted.
 
 Codes 0-2 are *usable*: the point is feasible and becomes the reference state of the next
-waypoint's rate limits. Codes 3-4 are not: the next waypoint's rate limits refer to the last usable
+waypoint's rate limits. Codes 3-5 are not: the next waypoint's rate limits refer to the last usable
 waypoint before it (or to the start state). :func:`verify` checks exactly that.
 
 Example:
@@ -80,6 +89,7 @@ __all__ = [
     "CLIPPED",
     "UNREACHABLE",
     "NONFINITE",
+    "NOT_RUN",
     "STATUS_NAMES",
     "USABLE",
     "is_usable",
@@ -95,12 +105,14 @@ NOT_CONVERGED = 1
 CLIPPED = 2
 UNREACHABLE = 3
 NONFINITE = 4
+NOT_RUN = 5
 STATUS_NAMES = {
     SOLVED: "solved",
     NOT_CONVERGED: "not converged (feasible)",
     CLIPPED: "clipped and re-projected (feasible)",
     UNREACHABLE: "unreachable",
     NONFINITE: "non-finite",
+    NOT_RUN: "not run (interrupted)",
 }
 USABLE = (SOLVED, NOT_CONVERGED, CLIPPED)  #: codes whose point is feasible and used as the next reference
 

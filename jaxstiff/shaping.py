@@ -63,8 +63,8 @@ from .robot import Robot
 from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report, content_seed
 from .stiffness import check_task_feasible, task_rows
 
-__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "prefer_sync_cpu_dispatch",
-           "first_start_rng"]
+__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "ShapeInterrupted", "SolverInterrupted",
+           "prefer_sync_cpu_dispatch", "first_start_rng"]
 
 #: Defaults of the parameters the seed does not fix (see the module docstring).
 DEFAULTS: dict[str, Any] = {
@@ -150,6 +150,28 @@ class SolveRequest:
 SOLVERS: dict[str, Callable[[SolveRequest], dict[str, np.ndarray]]] = {}
 
 
+class SolverInterrupted(KeyboardInterrupt):
+    """Raised by a solver interrupted (Ctrl-C, or SIGTERM under the command line) after some
+    waypoints were finished: ``arrays`` is its full result dict, the waypoints not reached with
+    status NOT_RUN (5) at their reference state. Solvers that cannot keep partial work let the
+    plain ``KeyboardInterrupt`` through."""
+
+    def __init__(self, arrays: dict):
+        super().__init__()
+        self.arrays = arrays
+
+
+class ShapeInterrupted(KeyboardInterrupt):
+    """:func:`shape` was interrupted after some waypoints were finished: ``result`` is a complete
+    :class:`~jaxstiff.ShapeResult` whose unfinished waypoints have status NOT_RUN (5) and whose
+    meta has ``interrupted: true``. A subclass of ``KeyboardInterrupt``, so an interrupt still
+    stops the caller; catch it to keep the finished part (the command line saves it)."""
+
+    def __init__(self, result):
+        super().__init__()
+        self.result = result
+
+
 def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, np.ndarray]]) -> None:
     """Make a solver available as ``shape(..., solver=name)`` and ``jaxstiff shape --solver name``."""
     if not callable(fn):
@@ -196,18 +218,33 @@ def _greedy_solver(kind: str):
 
             solver = make_fd_solver(prob, req.options)
             extra = {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)}
+        from .solvers.slsqp import PathInterrupted, not_run_outcomes
+
         per_path = []
         ratios = req.ratios
-        for b in range(req.targets.shape[0]):
+        B, P = req.targets.shape[:2]
+        interrupted = False
+        for b in range(B):
             prog = None if req.progress is None else (lambda p, b=b: req.progress(b, p))
-            per_path.append(
-                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits.for_path(b),
-                            float(ratios[b]), req.c, solver, pos_tol=req.pos_tol, progress=prog,
-                            first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
-            )
+            try:
+                per_path.append(
+                    greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits.for_path(b),
+                                float(ratios[b]), req.c, solver, pos_tol=req.pos_tol, progress=prog,
+                                first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
+                )
+            except PathInterrupted as e:
+                per_path.append(e.done)
+                interrupted = True
+                break
+        # paths (or their ends) not reached before an interrupt: NOT_RUN at the reference state
+        per_path += [[] for _ in range(B - len(per_path))]
+        per_path = [not_run_outcomes(prob, d, P, req.q0[b], req.kj0[b]) for b, d in enumerate(per_path)]
         out = _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
         out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
         out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
+        out["code_meaning"] = "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise), -1 = exception"
+        if interrupted:
+            raise SolverInterrupted(out)
         return out
 
     return run
@@ -318,7 +355,9 @@ def _start_states(robot: Robot, value, B: int, what: str) -> np.ndarray | None:
     if a.ndim != 2 or a.shape != (B, robot.n):
         raise ValueError(f"{what} must have {robot.n} values (one per joint of {robot.name!r}) or shape ({B}, {robot.n}), got shape {np.shape(value)}")
     if not np.all(np.isfinite(a)):
-        raise ValueError(f"{what} contains NaN or Inf")
+        idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+        where = f"joint {robot.joint_names[idx[-1]]!r}" + (f" of path {idx[0]}" if B > 1 else "")
+        raise ValueError(f"{what} contains NaN or Inf: {where} has {a[idx]}")
     return np.array(a, dtype=float)
 
 
@@ -455,6 +494,8 @@ def shape(
         ValueError: bad input (ratio <= 1, kmin <= 0 or kmin >= kmax, negative rate limits,
             per-path values of the wrong shape, q0/kj0 of the wrong length or outside the limits,
             unknown solver/criterion/task); per-path values name the offending path.
+        ShapeInterrupted: a ``KeyboardInterrupt`` after some waypoints were finished (SLSQP
+            solvers): its ``result`` holds them, the others with status NOT_RUN (5).
 
     Per-path parameters: ``ratio`` (B,), ``dq``/``dk`` (B, n) give each path of the batch its
     own values; every solver honours them, and a path's result does not depend on the other paths
@@ -562,7 +603,11 @@ def shape(
             progress=progress, first_starts=extra_starts,
         )
         t_solve = time.perf_counter()
-        arrays = SOLVERS[solver](req)
+        try:
+            arrays = SOLVERS[solver](req)
+            interrupted = False
+        except SolverInterrupted as e:  # the finished waypoints are kept, the others are NOT_RUN
+            arrays, interrupted = e.arrays, True
         t_solved = time.perf_counter()
 
         # reported quantities, recomputed at the final points for every solver
@@ -606,6 +651,7 @@ def shape(
         "solver": solver,
         **opts_meta,
         "solver_driver": arrays.get("driver"),
+        "solver_code_meaning": arrays.get("code_meaning"),
         "pos_tol": float(pos_tol),
         "limits": {
             "dq": dq_a.tolist(),
@@ -636,10 +682,11 @@ def shape(
         "versions": _versions(),
         "jax_cpu_async_dispatch": _cpu_async_dispatch(),
         "units": {"q": "rad", "kj": "Nm/rad", "position": "m", "alpha_deg": "deg", "stiffness": "N/m"},
+        "interrupted": interrupted,
     }
     if meta_extra:
         meta.update(dict(meta_extra))
-    return R.ShapeResult(
+    result = R.ShapeResult(
         joint_names=np.asarray(robot.joint_names, dtype=str),
         q=arrays["q"],
         kj=arrays["kj"],
@@ -661,6 +708,9 @@ def shape(
         time_s=arrays["time_s"],
         meta=meta,
     )
+    if interrupted:
+        raise ShapeInterrupted(result)
+    return result
 
 
 def _solver_defaults(solver: str) -> dict[str, Any]:

@@ -108,6 +108,8 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--robot", str(t / "typo.urdf")], "URDF file not found"),  # not "no shipped robot"
         (lambda t: ["--robot", str(t)], "is not a file"),  # a folder
         (lambda t: ["--out", str(t / "no" / "dir" / "x.npz")], "folder does not exist"),
+        (lambda t: ["--out", str(t)], "is a folder"),  # was written beside it as <folder>.npz
+        (lambda t: ["--out", "/proc/x.npz"], "cannot write into folder /proc"),  # found before the work
     ],
 )
 def test_bad_input_one_line_exit_2_no_file(tmp_path, capsys, args, match):
@@ -150,3 +152,125 @@ def test_help_states_each_default_once_and_never_none(command, capsys):
     text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
     assert "(default: None)" not in text
     assert not re.search(r"\(default: [^)]*\) \(default:", text), text  # stated in words, then by argparse
+
+
+def _main_thread_only():
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers can only be installed in the main thread")
+
+
+def test_sigterm_is_an_interrupt_and_leaves_no_file(tmp_path, small_csv, capsys, monkeypatch):
+    """SIGTERM (a scheduler's kill, `timeout`) is handled like Ctrl-C: exit 143, a message, and no
+    result or temporary file, also when it arrives in the middle of writing the file (a partial
+    .tmp-*.npz of 200 MB was left behind before)."""
+    import signal
+
+    _main_thread_only()
+    written = {}
+    real_savez = np.savez
+
+    def savez_then_sigterm(fh, **arrays):
+        real_savez(fh, **arrays)
+        written["tmp"] = [f for f in os.listdir(tmp_path) if f.startswith(".tmp-")]
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    monkeypatch.setattr(np, "savez", savez_then_sigterm)
+    out = tmp_path / "res.npz"
+    rc = main(["shape", "--path", str(small_csv), "--out", str(out), "--quiet", "--first-starts", "1"])
+    assert rc == 143
+    assert "interrupted (SIGTERM)" in capsys.readouterr().err
+    assert len(written["tmp"]) == 1  # the signal came while the temporary file existed
+    assert sorted(os.listdir(tmp_path)) == ["small.csv"]
+    assert signal.getsignal(signal.SIGTERM) is not None and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_an_interrupt_swallowed_inside_jax_stops_the_run_at_the_next_waypoint(tmp_path, small_csv, capsys, monkeypatch):
+    """Python delivers Ctrl-C wherever the main thread is; inside JAX's garbage-collection callback
+    it is printed and dropped, and the run went on to write its file and exit 0. The handler
+    remembers the signal, and the next waypoint raises it again."""
+    import signal
+
+    import jaxstiff._io as io
+    import jaxstiff.shaping as shaping
+
+    _main_thread_only()
+    calls = []
+
+    def solver(req):
+        req.progress(0, 0)
+        io._PENDING["signal"] = signal.SIGINT  # as after a KeyboardInterrupt lost in a callback
+        calls.append("before")
+        req.progress(0, 1)
+        calls.append("after")  # never reached
+        raise AssertionError("the run went on")
+
+    monkeypatch.setitem(shaping.SOLVERS, "slsqp", solver)
+    out = tmp_path / "res.npz"
+    rc = main(["shape", "--path", str(small_csv), "--out", str(out), "--quiet"])
+    assert rc == 130 and calls == ["before"] and not out.exists()
+    assert "interrupted (SIGINT)" in capsys.readouterr().err
+
+
+def test_no_usable_waypoint_exits_3_with_the_file_written(tmp_path, small_csv, capsys):
+    far = tmp_path / "far.csv"
+    jaxstiff.Path(np.array([[3.0, 3.0, 3.0], [3.0, 3.1, 3.0]])).to_csv(far)  # 3 m away: out of the LWR's reach
+    out = tmp_path / "far.npz"
+    rc = main(["shape", "--path", str(far), "--out", str(out), "--quiet", "--first-starts", "1"])
+    err = capsys.readouterr().err
+    assert rc == 3 and out.exists()
+    assert "2 of 2 waypoints have no usable solution" in err and "robot's reach" in err
+    assert not R.is_usable(jaxstiff.ShapeResult.load(out).status).any()
+
+
+def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, monkeypatch):
+    """Ctrl-C during a two-path SLSQP run, after 5 of 6 waypoints: the file is written with the 5
+    finished ones (they verify from the file alone, rate limits included) and the last as
+    NOT_RUN (5) at its reference state; exit 130, and stderr says what was kept."""
+    import signal
+
+    import jaxstiff._cli_shape as cs
+    import jaxstiff._io as io
+
+    real = cs._Progress.__call__
+
+    def tick(self, b, p):
+        real(self, b, p)
+        if self.done == 4:
+            io._PENDING["signal"] = signal.SIGINT  # raised at the next waypoint's tick
+    monkeypatch.setattr(cs._Progress, "__call__", tick)
+    out = tmp_path / "part.npz"
+    rc = main(["shape", "--path", str(small_csv), "--path", str(small_csv), "--out", str(out), "--quiet",
+               "--first-starts", "1"])
+    err = capsys.readouterr().err
+    assert rc == 130 and out.exists(), err
+    assert "with the 5 of 6 waypoints finished" in err and "interrupted (SIGINT)" in err
+    back = jaxstiff.ShapeResult.load(out)
+    assert back.meta["interrupted"] is True
+    assert R.is_usable(back.status[0]).all() and R.is_usable(back.status[1, :2]).all() and back.status[1, 2] == R.NOT_RUN
+    np.testing.assert_array_equal(back.q[1, 2], back.q[1, 1])  # the reference state, unchanged
+    v = R.verify(back)
+    assert v["max_pos_error"] <= 1e-9 and v["max_bound_violation"] <= 0.0 and v["max_rate_violation"] <= 1e-12
+
+
+def test_library_interrupt_carries_the_finished_part():
+    """shape() raises ShapeInterrupted, a KeyboardInterrupt that holds the finished part."""
+    from jaxstiff.shaping import ShapeInterrupted
+
+    p = jaxstiff.default_path()
+    path = jaxstiff.Path(p.points[:3], p.directions[:3])
+    calls = []
+
+    def progress(b, k):
+        calls.append(k)
+        if k == 1:
+            raise KeyboardInterrupt
+
+    lwr = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    with pytest.raises(KeyboardInterrupt) as info:
+        jaxstiff.shape(lwr, path, "f2", 5.0, first_starts=1, progress=progress)
+    assert isinstance(info.value, ShapeInterrupted) and calls == [0, 1]
+    res = info.value.result
+    assert list(res.status[0, 2:]) == [R.NOT_RUN] and R.is_usable(res.status[0, :2]).all()
+    assert res.meta["interrupted"] is True and np.all(np.isfinite(res.alpha_deg))

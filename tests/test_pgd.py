@@ -229,3 +229,12 @@ def test_unrolled_spd_solve_against_numpy():
             x = jax.vmap(pgd._spd_solve)(jax.numpy.asarray(A), jax.numpy.asarray(b))
             np.testing.assert_allclose(x, np.linalg.solve(A, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)
         assert np.all(np.isfinite(pgd._spd_solve(jax.numpy.zeros((3, 3)), jax.numpy.zeros(3))))
+
+
+def test_solver_code_is_the_winning_start_and_meta_says_so(batch3):
+    """pgd's solver_code is the index of the start that won (not an SLSQP mode, as a reader of the
+    file might think): meta names the meaning, and every usable waypoint's code is a start index."""
+    res = batch3[2]
+    assert res.meta["solver_code_meaning"].startswith("index of the start that won")
+    usable = R.is_usable(res.status)
+    assert np.all((res.solver_code[usable] >= 0) & (res.solver_code[usable] < STARTS))

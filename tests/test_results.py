@@ -104,9 +104,9 @@ def test_shapes_are_checked():
 
 
 def test_status_helpers():
-    st = np.array([0, 1, 2, 3, 4])
-    np.testing.assert_array_equal(R.is_usable(st), [True, True, True, False, False])
-    assert set(R.STATUS_NAMES) == {0, 1, 2, 3, 4}
+    st = np.array([0, 1, 2, 3, 4, 5])
+    np.testing.assert_array_equal(R.is_usable(st), [True, True, True, False, False, False])
+    assert set(R.STATUS_NAMES) == {0, 1, 2, 3, 4, 5}
     assert R.USABLE == (R.SOLVED, R.NOT_CONVERGED, R.CLIPPED)
 
 

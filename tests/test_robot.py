@@ -169,12 +169,21 @@ def test_cli_robot_default_and_locks(capsys):
         (["robot", "--lock", "lwr_a7"], "JOINT=RAD"),
         (["robot", "--lock", "lwr_a7=3.5"], "outside its limits"),
         (["robot", "--tip-link", "nowhere"], "unknown tip link 'nowhere'"),
+        (["robot", "--robot", "planar_3r", "--q", "1,a,0"], "--q: expected comma-separated numbers"),  # was a traceback
+        (["robot", "--robot", "planar_3r", "--lock", "joint_1=0.5", "--q", "0,0,0"], "locked at 0.5"),  # was ignored
+        (["robot", "--lock", "lwr_a7=0", "--lock", "lwr_a7=1"], "joint 'lwr_a7' is given twice"),
     ],
 )
 def test_cli_robot_errors_are_one_line(argv, message, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("jaxstiff: error:") and message in err and "\n" not in err
+
+
+def test_cli_robot_warns_for_a_posture_outside_the_limits(capsys):
+    assert main(["robot", "--robot", "planar_3r", "--q", "0,10,0"]) == 0
+    err = capsys.readouterr().err
+    assert "outside its limits" in err and "joint_2" in err
 
 
 def test_console_script_runs():

@@ -149,6 +149,10 @@ def test_meta_records_every_input_and_default(f2_file):
     assert meta["limits"]["dk"] == [5.0] * 7 and meta["limits"]["kmin"] == 1.0 and meta["limits"]["kmax"] == 100.0
     assert meta["robot"]["tcp"] == np.eye(4).tolist()
     assert {"jax", "numpy", "scipy", "jaxstiff"} <= set(meta["versions"])
+    # solver_code is SLSQP's exit mode here, and status 0 (solved) needs mode 0 (converged)
+    res = f2_file[1]
+    assert meta["solver_code_meaning"].startswith("SLSQP exit mode")
+    assert np.all(res.solver_code[res.status == R.SOLVED] == 0) and np.all((res.solver_code >= -1) & (res.solver_code <= 9))
 
 
 def test_load_round_trip(f2_file):
@@ -349,6 +353,7 @@ def test_full_task_with_locked_joints_keeps_their_springs(tmp_path):
         (dict(q0=np.zeros(3)), "q0 must have 7 values"),
         (dict(q0=np.r_[np.zeros(6), 0.0] + [3.5, 0, 0, 0, 0, 0, 0]), r"q0\[0\] = 3.5 .* 'lwr_a1' is outside"),
         (dict(q0=np.r_[np.full(6, 0.3), 0.2]), "locked at 0"),
+        (dict(q0=np.r_[0.1, np.nan, np.zeros(5)]), r"q0 contains NaN or Inf: joint 'lwr_a2' has nan"),
         (dict(kj0=500.0), r"kj0\[0\] = 500 .* outside"),
         (dict(solver="nope"), "unknown solver 'nope'"),
         (dict(criterion="f9"), "unknown criterion"),

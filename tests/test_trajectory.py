@@ -21,3 +21,4 @@ def test_trajectory_beats_or_keeps_warm_start(tmp_path):
         if nt == nw:
             assert traj.criterion[b][R.is_usable(traj.status[b])].sum() <= warm.criterion[b][R.is_usable(warm.status[b])].sum() + 1e-9
     check_file(traj, tmp_path)
+    assert traj.meta["solver_code_meaning"].startswith("the warm start's (pgd): index of the start")

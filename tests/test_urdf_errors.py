@@ -353,7 +353,7 @@ def test_cli_prints_a_urdf_warning_as_one_line(write, capsys):
     path = write(two_joint_urdf(j2='<origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit effort="1" velocity="1"/>'))
     with pytest.warns(UserWarning, match="empty range"):  # the Python API keeps a real warning
         jaxstiff.Robot.from_urdf(path)
-    rc = cli_main(["csc", "--robot", path, "--hold", "1,0", "--kxd", "bad", "--q0", "0,0", "--out", str(os.path.dirname(path))])
+    rc = cli_main(["csc", "--robot", path, "--hold", "1,0", "--kxd", "bad", "--q0", "0,0", "--out", os.path.join(os.path.dirname(path), "r.npz")])
     err = capsys.readouterr().err
     assert rc == 2 and "jaxstiff: error:" in err
     lines = [ln for ln in err.splitlines() if "empty range" in ln]

@@ -762,6 +762,10 @@ def solve_batch(
     return out
 
 
+#: meaning of the result file's ``solver_code`` for this solver (meta ``solver_code_meaning``)
+CODE_MEANING = "index of the start that won (-1 = none); no convergence flag (fixed iterations)"
+
+
 def run_request(req) -> dict[str, np.ndarray]:
     """Adapter for :data:`jaxstiff.shaping.SOLVERS` (``solver="pgd"``)."""
     res = solve_batch(
@@ -769,4 +773,5 @@ def run_request(req) -> dict[str, np.ndarray]:
         starts=req.starts, options=req.options, pos_tol=req.pos_tol, first_starts=req.first_starts,
     )
     res.pop("criterion", None)
+    res["code_meaning"] = CODE_MEANING
     return res

@@ -39,7 +39,8 @@ from .problem import (
     newton_project,
 )
 
-__all__ = ["WaypointOutcome", "SolverOutput", "greedy_path", "make_slsqp_solver", "solve_path", "DEFAULT_OPTIONS"]
+__all__ = ["WaypointOutcome", "SolverOutput", "PathInterrupted", "greedy_path", "make_slsqp_solver", "solve_path",
+           "DEFAULT_OPTIONS"]
 
 #: SLSQP settings used unless overridden (``shape(..., options=...)``): ``maxiter`` iterations per
 #: waypoint (``first_maxiter`` for a first waypoint that is not rate-limited: a long way from the
@@ -77,6 +78,25 @@ class WaypointOutcome:
     nit: int
     nfev: int
     time_s: float
+
+
+class PathInterrupted(KeyboardInterrupt):
+    """A ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM under the command line) during
+    :func:`greedy_path`, carrying the outcomes of the waypoints finished before it (``done``)."""
+
+    def __init__(self, done: list):
+        super().__init__()
+        self.done = done
+
+
+def not_run_outcomes(problem, done: list, P: int, q0: np.ndarray, kj0: np.ndarray) -> list:
+    """``done`` completed to P waypoints with status NOT_RUN: each holds the reference state (the
+    last usable waypoint's x, else the start state), so bounds and rate limits still hold."""
+    x_ref = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
+    for o in done:
+        if o.status in R.USABLE:
+            x_ref = o.x
+    return list(done) + [WaypointOutcome(x_ref.copy(), R.NOT_RUN, 0.0, -1, 0, 0, 0.0) for _ in range(P - len(done))]
 
 
 #: ``solver(x0, lb, ub, params, maxiter=None) -> SolverOutput``
@@ -399,6 +419,19 @@ def greedy_path(
     q_ref, kj_ref = np.asarray(q0, float), np.asarray(kj0, float)
     at_start = True
     out: list[WaypointOutcome] = []
+    try:
+        _greedy_loop(problem, targets, directions, limits, ratio, c, solver, pos_and_jac, objective, pos_tol,
+                     progress, first_starts, first_maxiter, q_ref, kj_ref, at_start, out)
+    except KeyboardInterrupt:
+        # the waypoints in `out` are finished and consistent (each is appended whole); the caller
+        # may keep them (shape marks the rest NOT_RUN)
+        raise PathInterrupted(out) from None
+    return out
+
+
+def _greedy_loop(problem, targets, directions, limits, ratio, c, solver, pos_and_jac, objective, pos_tol, progress,
+                 first_starts, first_maxiter, q_ref, kj_ref, at_start, out) -> None:
+    """:func:`greedy_path`'s loop; appends one outcome per waypoint to ``out``."""
     for p in range(targets.shape[0]):
         t0 = time.perf_counter()
         rate = limits.first_rate_limit or not at_start
@@ -430,7 +463,6 @@ def greedy_path(
             at_start = False
         if progress is not None:
             progress(p)
-    return out
 
 
 def solve_path(problem, targets, directions, q0, kj0, limits, ratio, c, options=None, progress=None):

@@ -248,8 +248,13 @@ def run_request(req) -> dict[str, np.ndarray]:
     elif warm_kind == "slsqp":
         from ..shaping import SOLVERS
 
-        warm = SOLVERS["slsqp"](req)
+        try:
+            warm = SOLVERS["slsqp"](req)
+        except KeyboardInterrupt:  # a partial warm start is no trajectory result: keep nothing
+            raise KeyboardInterrupt from None
     else:
         raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm_kind!r}")
-    return refine_batch(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-                        warm, options=opts, pos_tol=req.pos_tol)
+    out = refine_batch(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
+                       warm, options=opts, pos_tol=req.pos_tol)
+    out["code_meaning"] = f"the warm start's ({warm_kind}): {warm.get('code_meaning')}"
+    return out
