@@ -26,6 +26,10 @@ def _add_reproduce(p: argparse.ArgumentParser):
     def run(args) -> int:
         from .reproduce import run_reproduce
 
+        import os
+
+        if os.path.exists(args.out) and not os.path.isdir(args.out):
+            raise ValueError(f"--out: {args.out} is a file; the report needs a folder (made if missing)")
         if not args.timeout > 0:
             raise ValueError(f"--timeout must be > 0 seconds, got {args.timeout}")
         res = run_reproduce(args.out, quick=args.quick, only=args.only, experiments_dir=args.experiments,

@@ -52,25 +52,28 @@ class _Progress:
         self.total, self.enabled = total, enabled
         self.done = 0
         self.t0 = time.perf_counter()
+        self.t1 = self.t0
         self.last = 0.0
         self.tty = sys.stderr.isatty()
 
     def __call__(self, b: int, p: int) -> None:
         raise_if_interrupted()  # a Ctrl-C that JAX swallowed stops the run at the next waypoint
         self.done += 1
+        now = time.perf_counter()
+        if self.done == 1:
+            self.t1 = now  # the rate leaves out the first waypoint: compilation and its start postures
         if not self.enabled:
             return
-        now = time.perf_counter()
         if self.done < self.total and now - self.last < (0.2 if self.tty else 5.0):
             return
         self.last = now
         el = now - self.t0
-        rate = self.done / el if el > 0 else 0.0
-        eta = (self.total - self.done) / rate if rate > 0 else float("nan")
+        rate = (self.done - 1) / (now - self.t1) if self.done > 1 and now > self.t1 else 0.0
+        eta = f"{(self.total - self.done) / rate:6.1f} s" if rate > 0 else "   ..."
         width = 30
         fill = int(width * self.done / max(self.total, 1))
         msg = (f"shape [{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} waypoints "
-               f"(path {b})  {el:6.1f} s  ETA {eta:6.1f} s")  # 0-based, as the result file and the warnings
+               f"(path {b})  {el:6.1f} s  ETA {eta}")  # 0-based, as the result file and the warnings
         if self.tty:
             sys.stderr.write("\r" + msg + ("\n" if self.done >= self.total else ""))
         else:
@@ -96,11 +99,11 @@ def summary_table(res) -> str:
         a_ok = res.alpha_deg[b] < 1.0
         r_ok = res.ratio[b] >= 0.98 * r if crit == "f1" else np.abs(res.ratio[b] - r) / r < 0.02
         usable = is_usable(res.status[b])
-        perr = float(res.pos_error[b][usable].max()) if usable.any() else float("nan")
+        perr = f"{float(res.pos_error[b][usable].max()):.2e}" if usable.any() else "n/a"
         name = os.path.basename(str(names[b])) if b < len(names) else f"path {b}"
         lines.append(
             f"{name[:24]:<24} {res.P:>4} {np.mean(res.status[b] == SOLVED):>7.0%} {np.mean(usable):>7.0%} "
-            f"{np.mean(a_ok):>7.0%} {np.mean(r_ok):>11.0%} {np.mean(a_ok & r_ok):>6.0%} {perr:>16.2e} "
+            f"{np.mean(a_ok):>7.0%} {np.mean(r_ok):>11.0%} {np.mean(a_ok & r_ok):>6.0%} {perr:>16} "
             f"{1e3 * np.median(res.time_s[b]):>12.1f}"
         )
     return "\n".join(lines)

@@ -407,6 +407,8 @@ def read_csv(file: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None, li
             cell that is not a finite number (the message names file, line and column).
     """
     file = os.fspath(file)
+    if os.path.isdir(file):
+        raise ValueError(f"path file {file} is a folder; give a CSV file")
     if not os.path.isfile(file):
         raise FileNotFoundError(f"path file not found: {file}")
     try:

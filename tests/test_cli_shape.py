@@ -108,7 +108,8 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--robot", str(t / "typo.urdf")], "URDF file not found"),  # not "no shipped robot"
         (lambda t: ["--robot", str(t)], "is not a file"),  # a folder
         (lambda t: ["--out", str(t / "no" / "dir" / "x.npz")], "folder does not exist"),
-        (lambda t: ["--out", str(t)], "is a folder"),  # was written beside it as <folder>.npz
+        (lambda t: ["--out", str(t)], "is a folder"),
+        (lambda t: ["--path", str(t)], "is a folder; give a CSV file"),  # was "not found"  # was written beside it as <folder>.npz
         (lambda t: ["--out", "/proc/x.npz"], "cannot write into folder /proc"),  # found before the work
     ],
 )
@@ -217,9 +218,11 @@ def test_no_usable_waypoint_exits_3_with_the_file_written(tmp_path, small_csv, c
     far = tmp_path / "far.csv"
     jaxstiff.Path(np.array([[3.0, 3.0, 3.0], [3.0, 3.1, 3.0]])).to_csv(far)  # 3 m away: out of the LWR's reach
     out = tmp_path / "far.npz"
-    rc = main(["shape", "--path", str(far), "--out", str(out), "--quiet", "--first-starts", "1"])
-    err = capsys.readouterr().err
+    rc = main(["shape", "--path", str(far), "--out", str(out), "--first-starts", "1"])
+    cap = capsys.readouterr()
+    err = cap.err
     assert rc == 3 and out.exists()
+    assert "nan" not in cap.out and " n/a " in cap.out  # the summary's max position error of no usable waypoint
     assert "2 of 2 waypoints have no usable solution" in err and "robot's reach" in err
     assert not R.is_usable(jaxstiff.ShapeResult.load(out).status).any()
 

@@ -113,6 +113,10 @@ def test_cli_only_and_errors(fake_experiments, tmp_path, capsys):
     assert "--only fig7: no experiment matches" in capsys.readouterr().err
     assert main(["reproduce", "--out", str(out), "--experiments", str(tmp_path / "nope")]) == 2
     assert "not a folder with experiment scripts" in capsys.readouterr().err
+    a_file = tmp_path / "report.txt"
+    a_file.write_text("x")
+    assert main(["reproduce", "--out", str(a_file), "--experiments", str(fake_experiments), "--only", "csc"]) == 2
+    assert "--out: " in capsys.readouterr().err and a_file.read_text() == "x"  # was a raw "[Errno 20] Not a directory"
 
 
 def test_without_a_source_checkout_the_message_says_what_to_do(tmp_path, monkeypatch):
