@@ -272,9 +272,10 @@ def _add_shape(p: argparse.ArgumentParser):
                   f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)", file=sys.stderr)
             raise
         except KeyboardInterrupt:
-            print(f"\njaxstiff: nothing was written (solver {args.solver!r} "
-                  + ("finishes all paths together)" if args.solver not in ("slsqp", "slsqp-fd") else "had finished no waypoint)"),
-                  file=sys.stderr)
+            why = ("it solves all paths together" if args.solver not in ("slsqp", "slsqp-fd")
+                   else "the interrupt came before the first waypoint was finished, or after the last, while the "
+                        "result was assembled")
+            print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
             raise
         raise_if_interrupted()
         written = res.save(out)
