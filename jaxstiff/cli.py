@@ -205,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
             warnings.showwarning = _show_warning
             rc = int(args._run(args) or 0)
         sig = interrupt_pending()
-        if sig is not None:  # swallowed inside JAX and not seen at a checkpoint: the work had finished
+        if sig is not None and rc == 0:  # swallowed inside JAX and not seen at a checkpoint: the work had finished
             print(f"jaxstiff: interrupted ({signal.Signals(sig).name}) after the work had finished; its output was written",
                   file=sys.stderr)
             return 128 + int(sig)

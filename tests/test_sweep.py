@@ -388,6 +388,30 @@ def test_cli_validates_before_any_work(tmp_path, capsys):
     assert main(["sweep", str(good), "--out", str(out), "--backend", "ray", "--ray-num-cpus", "0"]) == 2
 
 
+def test_cli_sigterm_is_an_interrupt_with_exit_143(tmp_path, capsys, monkeypatch):
+    """SIGTERM (a scheduler's kill) stops a sweep like Ctrl-C: the resume hint, exit 143 (not the
+    generic 'after the work had finished' message of the command line)."""
+    import threading
+
+    import jaxstiff.sweep as sweep_mod
+    from jaxstiff.cli import main
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers can only be installed in the main thread")
+
+    def killed(*a, **k):
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise AssertionError("SIGTERM did not interrupt")
+
+    monkeypatch.setattr(sweep_mod, "run_sweep", killed)
+    good = tmp_path / "good.toml"
+    good.write_text('[robot]\nname = "planar_3r"\n[[paths]]\ngenerator = "point"\npoint = [1.0, 1.0, 0.0]\nn = 3\n'
+                    '[axes]\ntask = "xy"\nratio = [2.0, 3.0]\n')
+    assert main(["sweep", str(good), "--out", str(tmp_path / "out")]) == 143
+    err = capsys.readouterr().err
+    assert "interrupted; finished chunks are saved" in err and "--resume" in err and "after the work" not in err
+
+
 def test_heatmap_of_an_all_nan_metric_is_written_without_warnings(tmp_path):
     """A metric with no finite value (e.g. max_alpha_deg when no waypoint is usable): the cells say
     n/a, and matplotlib's 'identical low and high xlims' warnings (shown as jaxstiff warnings by
