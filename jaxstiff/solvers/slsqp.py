@@ -420,49 +420,42 @@ def greedy_path(
     at_start = True
     out: list[WaypointOutcome] = []
     try:
-        _greedy_loop(problem, targets, directions, limits, ratio, c, solver, pos_and_jac, objective, pos_tol,
-                     progress, first_starts, first_maxiter, q_ref, kj_ref, at_start, out)
+        for p in range(targets.shape[0]):
+            t0 = time.perf_counter()
+            rate = limits.first_rate_limit or not at_start
+            lb, ub = limits.box(problem, q_ref, kj_ref, rate)
+            x_start = clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)
+            params = WaypointProblem.params(targets[p], directions[p], ratio, c)
+            starts = [x_start]
+            if not rate:
+                starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
+            cands = []
+            nit = nfev = 0
+            for xs in starts:
+                try:
+                    sol = solver(xs.copy(), lb, ub, params, maxiter=None if rate else first_maxiter)
+                except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+                    sol = SolverOutput(xs.copy(), -1, False, 0, 0)
+                nit, nfev = nit + sol.nit, nfev + sol.nfev
+                x, status, err = _judge(problem, sol, xs, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
+                if status == R.NONFINITE:
+                    x = x_start
+                f = objective(x, params) if status in R.USABLE else np.inf
+                cands.append((x, status, err, sol.code, f))
+            x, status, err, code, _ = _pick(problem, cands)
+            out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
+            if status in R.USABLE:
+                q_ref = q_ref.copy()
+                q_ref[list(problem.free_idx)] = x[: problem.n_free]
+                kj_ref = x[problem.n_free :].copy()
+                at_start = False
+            if progress is not None:
+                progress(p)
     except KeyboardInterrupt:
         # the waypoints in `out` are finished and consistent (each is appended whole); the caller
         # may keep them (shape marks the rest NOT_RUN)
         raise PathInterrupted(out) from None
     return out
-
-
-def _greedy_loop(problem, targets, directions, limits, ratio, c, solver, pos_and_jac, objective, pos_tol, progress,
-                 first_starts, first_maxiter, q_ref, kj_ref, at_start, out) -> None:
-    """:func:`greedy_path`'s loop; appends one outcome per waypoint to ``out``."""
-    for p in range(targets.shape[0]):
-        t0 = time.perf_counter()
-        rate = limits.first_rate_limit or not at_start
-        lb, ub = limits.box(problem, q_ref, kj_ref, rate)
-        x_start = clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)
-        params = WaypointProblem.params(targets[p], directions[p], ratio, c)
-        starts = [x_start]
-        if not rate:
-            starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
-        cands = []
-        nit = nfev = 0
-        for xs in starts:
-            try:
-                sol = solver(xs.copy(), lb, ub, params, maxiter=None if rate else first_maxiter)
-            except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
-                sol = SolverOutput(xs.copy(), -1, False, 0, 0)
-            nit, nfev = nit + sol.nit, nfev + sol.nfev
-            x, status, err = _judge(problem, sol, xs, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
-            if status == R.NONFINITE:
-                x = x_start
-            f = objective(x, params) if status in R.USABLE else np.inf
-            cands.append((x, status, err, sol.code, f))
-        x, status, err, code, _ = _pick(problem, cands)
-        out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
-        if status in R.USABLE:
-            q_ref = q_ref.copy()
-            q_ref[list(problem.free_idx)] = x[: problem.n_free]
-            kj_ref = x[problem.n_free :].copy()
-            at_start = False
-        if progress is not None:
-            progress(p)
 
 
 def solve_path(problem, targets, directions, q0, kj0, limits, ratio, c, options=None, progress=None):
