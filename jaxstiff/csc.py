@@ -82,7 +82,7 @@ backward pass, so the memory of a gradient grows with ``T * n`` per rollout only
 
 Speed (``scripts/bench_csc.py``, 2-core CPU, float64, 1024 rollouts x 1000 steps of the LWR, chunk
 128, jaxstiff's XLA options; the machine is shared, so ranges of repeated runs): forward
-0.73-1.49 s, forward + gradient 2.7-3.7 s, 2.3-4.2x the forward over the runs of 2026-12-01/02
+0.68-1.49 s, forward + gradient 2.7-3.7 s, 2.3-4.7x the forward over the runs of 2026-12-01/02
 (mostly 3.1-3.7x; goal 3x: not met reliably). What makes it so:
 
 * hand-written VJPs, each installed as a custom JVP that is its transpose (forward mode and
@@ -114,7 +114,10 @@ and no remat with every residual of a step packed into one array (~1090 numbers 
 step: 3.8x slower than recomputing; storing is bound by memory traffic, not by kernel count). A
 bound from an ablation (128 x 1000, the three hand-written VJPs replaced by near-free stand-ins):
 the gradient would still take ~2.8x the forward, so the remaining cost is the recomputed step and
-the transposes of the glue between them, not any one block.
+the transposes of the glue between them, not any one block. The step is compute-bound: a
+rollout-step costs the same (~1.0 us) run sequentially (a scan of 1000 steps) or all at once
+(64000 postures, one step, chunks of 128 to 8192), so recomputing the residuals of every step in
+one batched pass would save nothing either.
 
 Example:
     >>> import jax.numpy as jnp, numpy as np, jaxstiff
