@@ -12,7 +12,7 @@ import os
 import sys
 import time
 
-from ._io import raise_if_interrupted
+from ._io import deferred_interrupts, interrupt_pending, raise_if_interrupted
 from .cli import TIP_LINK_HELP, check_out_file, command, parse_locks
 
 _DEFAULT_LOCK = {"kuka_lwr4": {"lwr_a7": 0.0}}
@@ -267,7 +267,8 @@ def _add_shape(p: argparse.ArgumentParser):
             if np.all(st == R.NOT_RUN):
                 print("\njaxstiff: nothing was written (no waypoint was finished)", file=sys.stderr)
                 raise
-            written = e.result.save(out)
+            with deferred_interrupts():
+                written = e.result.save(out)
             print(f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
                   f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)", file=sys.stderr)
             raise
@@ -277,8 +278,11 @@ def _add_shape(p: argparse.ArgumentParser):
                         "result was assembled")
             print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
             raise
-        raise_if_interrupted()
-        written = res.save(out)
+        with deferred_interrupts():  # the work is done: an interrupt now still gets the file
+            written = res.save(out)
+        if interrupt_pending() is not None:
+            print(f"\njaxstiff: interrupted after the last waypoint: wrote the complete result {written}", file=sys.stderr)
+            raise KeyboardInterrupt
         if not args.quiet:
             print(summary_table(res))
             print(f"wrote {written}  ({B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")

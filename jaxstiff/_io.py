@@ -11,13 +11,15 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import tempfile
 import threading
 from typing import IO, Callable, Iterator
 
 import numpy as np
 
-__all__ = ["atomic_write", "atomic_write_text", "json_default", "interrupt_handlers", "interrupt_pending", "raise_if_interrupted"]
+__all__ = ["atomic_write", "atomic_write_text", "json_default", "interrupt_handlers", "interrupt_pending", "raise_if_interrupted",
+           "deferred_interrupts"]
 
 
 def _umask() -> int:
@@ -67,11 +69,38 @@ def json_default(o):
 
 # ----------------------------------------------------------------------------- interrupts
 _PENDING: dict[str, int | None] = {"signal": None}
+_DEFER = {"depth": 0}
 
 
 def _on_signal(signum, frame):  # noqa: ARG001 - the signal module's handler signature
     _PENDING["signal"] = signum
-    raise KeyboardInterrupt
+    if not _DEFER["depth"]:
+        raise KeyboardInterrupt
+
+
+def _drop_interrupt_unraisable(hook):
+    """An unraisable-exception hook that stays quiet about a KeyboardInterrupt (one raised by the
+    handler inside a callback that cannot propagate it, e.g. JAX's garbage-collection callback):
+    the signal is remembered and raised again at the next checkpoint."""
+
+    def quiet(unraisable):
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            hook(unraisable)
+
+    return quiet
+
+
+@contextlib.contextmanager
+def deferred_interrupts() -> Iterator[None]:
+    """Inside the block, SIGINT/SIGTERM under :func:`interrupt_handlers` are only remembered (for
+    :func:`interrupt_pending`), not raised: for work that is cheap to finish and costly to lose,
+    such as assembling and writing a result whose computation is complete. Outside
+    :func:`interrupt_handlers` (library use) it changes nothing."""
+    _DEFER["depth"] += 1
+    try:
+        yield
+    finally:
+        _DEFER["depth"] -= 1
 
 
 @contextlib.contextmanager
@@ -89,9 +118,12 @@ def interrupt_handlers() -> Iterator[None]:
         yield
         return
     old = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    old_hook = sys.unraisablehook
+    sys.unraisablehook = _drop_interrupt_unraisable(old_hook)
     try:
         yield
     finally:
+        sys.unraisablehook = old_hook
         for sig, handler in old.items():
             signal.signal(sig, handler)
 

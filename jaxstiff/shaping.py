@@ -59,6 +59,7 @@ from . import results as R
 from .criteria import CRITERIA, get_criterion
 from .ik import ik_position, nominal_posture, NOMINAL_OFFSET_DEG
 from .paths import DEFAULT_PATH_SPEC, Path
+from ._io import deferred_interrupts
 from .robot import Robot
 from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report, content_seed
 from .stiffness import check_task_feasible, task_rows
@@ -610,15 +611,17 @@ def shape(
             arrays, interrupted = e.arrays, True
         t_solved = time.perf_counter()
 
-        # reported quantities, recomputed at the final points for every solver
-        report = compiled_report(problem)
-        ratios = req.ratios
-        pos, K, alpha, rho, f = (np.zeros((B * P, 3)), np.zeros((B * P, m, m)), np.zeros(B * P),
-                                 np.zeros(B * P), np.zeros(B * P))
-        for i, (b, p) in enumerate(np.ndindex(B, P)):
-            x = problem.x_of(arrays["q"][b, p], arrays["kj"][b, p])
-            prm = WaypointProblem.params(bpath.points[b, p], bpath.directions[b, p], ratios[b], c)
-            pos[i], K[i], alpha[i], rho[i], f[i] = problem.unpack_report(np.asarray(report(x, prm)))
+        # reported quantities, recomputed at the final points for every solver (a compile and B x P
+        # small calls, seconds: the command line's Ctrl-C waits for them rather than lose the solve)
+        with deferred_interrupts():
+            report = compiled_report(problem)
+            ratios = req.ratios
+            pos, K, alpha, rho, f = (np.zeros((B * P, 3)), np.zeros((B * P, m, m)), np.zeros(B * P),
+                                     np.zeros(B * P), np.zeros(B * P))
+            for i, (b, p) in enumerate(np.ndindex(B, P)):
+                x = problem.x_of(arrays["q"][b, p], arrays["kj"][b, p])
+                prm = WaypointProblem.params(bpath.points[b, p], bpath.directions[b, p], ratios[b], c)
+                pos[i], K[i], alpha[i], rho[i], f[i] = problem.unpack_report(np.asarray(report(x, prm)))
     w = np.linalg.eigvalsh(K)
     if cms_major is not None:
         cms = cms_major / w[:, -1]
