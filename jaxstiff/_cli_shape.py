@@ -129,7 +129,8 @@ def _add_shape(p: argparse.ArgumentParser):
                 "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
                 "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
                 "file is written with the waypoints finished so far (the others have status 5, not run; meta "
-                "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written.")
+                "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written; after the "
+                "last waypoint the complete file is still written.")
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
     p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
