@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 
-from ._io import interrupt_pending
+from ._io import interrupt_exit_code
 from .cli import command
 
 _EPILOG = """\
@@ -52,7 +51,7 @@ def _add_sweep(p: argparse.ArgumentParser):
         except KeyboardInterrupt:
             print(f"jaxstiff: interrupted; finished chunks are saved in {args.out}; "
                   f"continue with: jaxstiff sweep {args.config} --out {args.out} --resume", file=sys.stderr)
-            return 128 + int(interrupt_pending() or signal.SIGINT)  # 130 Ctrl-C, 143 SIGTERM
+            return interrupt_exit_code()  # 130 Ctrl-C, 143 SIGTERM
         print(f"{outcome.n_rows} rows ({len(outcome.computed)} chunks computed, {len(outcome.skipped)} resumed) "
               f"in {outcome.wall_s:.1f} s -> {outcome.table_file}")
         return 0

@@ -19,7 +19,7 @@ from typing import IO, Callable, Iterator
 import numpy as np
 
 __all__ = ["atomic_write", "atomic_write_text", "json_default", "interrupt_handlers", "interrupt_pending", "raise_if_interrupted",
-           "deferred_interrupts"]
+           "deferred_interrupts", "interrupt_exit_code"]
 
 
 def _umask() -> int:
@@ -131,6 +131,13 @@ def interrupt_handlers() -> Iterator[None]:
 def interrupt_pending() -> int | None:
     """The signal number of an interrupt received inside :func:`interrupt_handlers`, else None."""
     return _PENDING["signal"]
+
+
+def interrupt_exit_code() -> int:
+    """The exit status of an interrupted command, as a shell reports it: 128 + the signal (130 for
+    Ctrl-C, 143 for SIGTERM); Ctrl-C's when no signal was recorded (a KeyboardInterrupt raised
+    outside :func:`interrupt_handlers`)."""
+    return 128 + int(_PENDING["signal"] or signal.SIGINT)
 
 
 def raise_if_interrupted() -> None:

@@ -16,7 +16,7 @@ import tempfile
 import warnings
 from typing import Callable
 
-from ._io import interrupt_handlers, interrupt_pending
+from ._io import interrupt_exit_code, interrupt_handlers, interrupt_pending
 
 COMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int], str]] = {}
 
@@ -220,9 +220,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"jaxstiff: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        sig = interrupt_pending() or signal.SIGINT
-        print(f"jaxstiff: interrupted ({signal.Signals(sig).name})", file=sys.stderr)
-        code = 128 + int(sig)  # 130 for Ctrl-C, 143 for SIGTERM, as a shell reports them
+        code = interrupt_exit_code()
+        print(f"jaxstiff: interrupted ({signal.Signals(code - 128).name})", file=sys.stderr)
         if argv is None:
             # the process's own entry point: leave without Python's shutdown, which can crash
             # (segfault) while XLA's threads are still busy with the interrupted computation

@@ -219,7 +219,7 @@ def _greedy_solver(kind: str):
 
             solver = make_fd_solver(prob, req.options)
             extra = {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)}
-        from .solvers.slsqp import PathInterrupted, not_run_outcomes
+        from .solvers.slsqp import CODE_MEANING, PathInterrupted, not_run_outcomes
 
         per_path = []
         ratios = req.ratios
@@ -243,7 +243,7 @@ def _greedy_solver(kind: str):
         out = _outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
         out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
         out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
-        out["code_meaning"] = "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise), -1 = exception"
+        out["code_meaning"] = CODE_MEANING
         if interrupted:
             raise SolverInterrupted(out)
         return out

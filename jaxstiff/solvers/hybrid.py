@@ -230,6 +230,8 @@ def run_request(req) -> dict[str, np.ndarray]:
     base.pop("criterion", None)
     out = polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
                  base, options=opts, pos_tol=req.pos_tol, first_starts=req.first_starts)
-    out["code_meaning"] = ("SLSQP exit mode (0 = converged, -1 = exception) where the polish's answer was taken, "
-                           "else the index of pgd's winning start (the file does not tell the two apart)")
+    from .slsqp import CODE_MEANING
+
+    out["code_meaning"] = (f"{CODE_MEANING}, where the polish's answer was taken; else the index of pgd's "
+                           "winning start (the file does not tell the two apart)")
     return out

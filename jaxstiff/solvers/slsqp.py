@@ -80,6 +80,10 @@ class WaypointOutcome:
     time_s: float
 
 
+#: meaning of the result file's ``solver_code`` for the SLSQP solvers (meta ``solver_code_meaning``)
+CODE_MEANING = "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise), -1 = exception"
+
+
 class PathInterrupted(KeyboardInterrupt):
     """A ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM under the command line) during
     :func:`greedy_path`, carrying the outcomes of the waypoints finished before it (``done``)."""

@@ -246,11 +246,11 @@ def run_request(req) -> dict[str, np.ndarray]:
 
         warm = hybrid.run_request(req)
     elif warm_kind == "slsqp":
-        from ..shaping import SOLVERS
+        from ..shaping import SOLVERS, SolverInterrupted
 
         try:
             warm = SOLVERS["slsqp"](req)
-        except KeyboardInterrupt:  # a partial warm start is no trajectory result: keep nothing
+        except SolverInterrupted:  # a partial warm start is no trajectory result: keep nothing
             raise KeyboardInterrupt from None
     else:
         raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm_kind!r}")
