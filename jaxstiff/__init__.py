@@ -11,6 +11,7 @@ from .criteria import offdiag as offdiag
 from .criteria import register_criterion as register_criterion
 from .csc import CSCResult as CSCResult
 from .csc import csc_rollout as csc_rollout
+from .csc import csc_rollout_segments as csc_rollout_segments
 from .ellipsoid import Ellipsoid as Ellipsoid
 from .ellipsoid import ellipsoid as ellipsoid
 from .ellipsoid import orientation_error as orientation_error

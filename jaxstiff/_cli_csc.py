@@ -22,6 +22,11 @@ paths (B = 1 for ``--hold`` or one ``--path``), T steps, n joints: the arrays of
 ``isotropy``, ``null_step``, ``status`` (bit mask, documented in meta), ``u_start (B,)``,
 ``frobenius_start (B,)``), plus ``joint_names (n,)``, ``q0 (n,)``, ``K_xd (m,m)`` and ``meta`` (JSON:
 every input and default, the robot's URDF path and sha256, versions). Written atomically.
+
+A run of more than :data:`SEGMENT_WORK` rollout-steps (paths x steps) runs as
+:func:`jaxstiff.csc.csc_rollout_segments`: segments of equal length (one compilation), a progress
+line after each, and Ctrl-C or SIGTERM writes the finished steps (``meta["interrupted"]`` true,
+``meta["steps"]`` the rows written) and exits 130 / 143. A shorter run is one compiled call.
 """
 
 from __future__ import annotations
@@ -35,13 +40,45 @@ import time
 
 import numpy as np
 
+from ._io import deferred_interrupts, interrupt_pending
 from ._io import json_default as _json_default
-from ._io import raise_if_interrupted
 
 from .cli import TIP_LINK_HELP, check_out_file, command, parse_locks
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
+#: rollout-steps per segment of a long run (about 0.5-1 s for a batch of a 7-joint arm on a CPU core, 3-5 s for one rollout): a
+#: progress line after each, and an interrupt keeps the finished segments
+SEGMENT_WORK = 500_000
+MIN_SEGMENT = 10
+
+
+def segment_steps(B: int, T: int) -> int:
+    """Steps per segment for B rollouts of T steps (T itself for a short run: one compiled call)."""
+    return int(min(T, max(MIN_SEGMENT, math.ceil(SEGMENT_WORK / max(B, 1)))))
+
+
+class _StepProgress:
+    """Progress of a segmented run on stderr (redrawn in place on a terminal, a line per segment otherwise)."""
+
+    def __init__(self, B: int, T: int):
+        self.B, self.T = B, T
+        self.t0 = time.perf_counter()
+        self.t1, self.first = None, 0
+        self.tty = sys.stderr.isatty()
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.perf_counter()
+        if self.t1 is None:  # the rate leaves out the first segment (it includes the compilation)
+            self.t1, self.first = now, done
+        rate = (done - self.first) / (now - self.t1) if done > self.first and now > self.t1 else 0.0
+        eta = f"ETA {(total - done) / rate:.1f} s" if rate > 0 and done < total else ("done" if done >= total else "ETA ...")
+        msg = f"csc: {done}/{total} steps x {self.B} rollout(s) ({100 * done / total:.0f}%)  {now - self.t0:.1f} s  {eta}"
+        if self.tty:
+            sys.stderr.write("\r" + msg + ("\n" if done >= total else ""))
+        else:
+            sys.stderr.write(msg + "\n")
+        sys.stderr.flush()
 
 
 def _numbers(text: str, flag: str) -> list[float]:
@@ -120,7 +157,10 @@ def _add_csc(p: argparse.ArgumentParser):
         "null_step (B,T), status (B,T) bit mask, u_start (B,), frobenius_start (B,), joint_names (n,), q0 (n,), "
         "K_xd (m,m), and meta (JSON: every input and default, units per array, status bits, versions). Row k is "
         "the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m for prismatic "
-        "joints), N/m, m."
+        "joints), N/m, m. A long run (paths x steps over 5 x 10^5) runs in segments with a progress line after each; "
+        "Ctrl-C or SIGTERM then writes the steps finished so far (meta 'interrupted' true, 'steps' = rows written, "
+        "'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 130 / 143 interrupted by "
+        "Ctrl-C / SIGTERM."
     )
     p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
@@ -152,8 +192,6 @@ def _add_csc(p: argparse.ArgumentParser):
         from ._x64 import enable_x64
 
         enable_x64()
-        import jax
-
         from . import csc
         from .results import atomic_save_npz
         from .robot import Robot
@@ -161,6 +199,17 @@ def _add_csc(p: argparse.ArgumentParser):
 
         if args.steps < 1:
             raise ValueError(f"--steps must be >= 1, got {args.steps}")
+        # the numeric flags first (named as flags), before any work or warning
+        if not (math.isfinite(args.beta) and args.beta >= 0):
+            raise ValueError(f"--beta must be finite and >= 0, got {args.beta:g}")
+        if not (math.isfinite(args.kmin) and args.kmin > 0):
+            raise ValueError(f"--kmin must be finite and > 0 Nm/rad, got {args.kmin:g}")
+        if not args.kmax >= args.kmin:
+            raise ValueError(f"--kmax ({args.kmax:g}) must be >= --kmin ({args.kmin:g})")
+        if args.newton < 0:
+            raise ValueError(f"--newton must be >= 0, got {args.newton}")
+        if not (math.isfinite(args.jl_gain) and args.jl_gain >= 0):
+            raise ValueError(f"--jl-gain must be finite and >= 0, got {args.jl_gain:g}")
         out = check_out_file(args.out)
         robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
         K = parse_kxd(args.kxd, args.task)
@@ -206,18 +255,36 @@ def _add_csc(p: argparse.ArgumentParser):
                   "while the target stands still, so the arm will not move to lower u; use --step constant "
                   "(beta = rad per step, e.g. --beta 2e-3)", file=sys.stderr)
         t0 = time.perf_counter()
-        print(f"csc: {points.shape[0]} rollout(s) x {points.shape[1]} steps in one compiled run (compiling, then "
-              "running; no progress in between, and Ctrl-C takes effect when it ends) ...", file=sys.stderr, flush=True)
-        res = csc.csc_rollout(robot, points, K, q0, args.beta, **settings)
-        res = jax.tree_util.tree_map(np.asarray, res)
-        print(f"csc: done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        B, T = points.shape[:2]
+        L = segment_steps(B, T)
+        if L >= T:
+            print(f"csc: {B} rollout(s) x {T} steps in one compiled run (compiling, then running; no progress in "
+                  "between, and Ctrl-C takes effect when it ends) ...", file=sys.stderr, flush=True)
+        else:
+            print(f"csc: {B} rollout(s) x {T} steps in segments of {L} steps (compiling, then a line per segment; "
+                  "Ctrl-C keeps the finished segments) ...", file=sys.stderr, flush=True)
+        interrupted = None
+        try:
+            res = csc.csc_rollout_segments(robot, points, K, q0, args.beta, segment_steps=L,
+                                           progress=_StepProgress(B, T) if L < T else None, **settings)
+        except csc.CSCInterrupted as e:
+            res, interrupted = e.result, e
+        except KeyboardInterrupt:
+            print("\njaxstiff: nothing was written (the interrupt came before the first "
+                  + ("segment" if L < T else "and only compiled run") + " was finished)", file=sys.stderr)
+            raise
+        T_done = res.q.shape[-2]
+        partial = T_done < T  # (an interrupt while the last segment was joined still has every step)
+        print(f"csc: {'interrupted' if partial else 'done'} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
 
         meta = {
             "kind": "csc",
             "robot": _robot_meta(robot),
             "paths": sources,
             "hold": args.hold,
-            "steps": int(points.shape[1]),
+            "steps": int(T_done),
+            "steps_requested": int(T),
+            "interrupted": partial,
             "kxd": args.kxd,
             "K_xd": K.tolist(),
             "q0": q0.tolist(),
@@ -231,18 +298,24 @@ def _add_csc(p: argparse.ArgumentParser):
             "row_k": "posture after step k, measured against waypoint k",
             "versions": _versions(),
         }
-        arrays = {name: np.asarray(a) for name, a in res.as_dict().items()}
-        arrays["status"] = arrays["status"].astype(np.int64)
-        arrays["joint_names"] = np.asarray(robot.joint_names, dtype=str)
-        arrays["q0"] = q0
-        arrays["K_xd"] = K
-        arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
-        raise_if_interrupted()
-        written = atomic_save_npz(out, arrays)
+        with deferred_interrupts():  # the rollout is finished (or cut at a segment): an interrupt now still gets the file
+            arrays = {name: np.asarray(a) for name, a in res.as_dict().items()}
+            arrays["status"] = arrays["status"].astype(np.int64)
+            arrays["joint_names"] = np.asarray(robot.joint_names, dtype=str)
+            arrays["q0"] = q0
+            arrays["K_xd"] = K
+            arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
+            written = atomic_save_npz(out, arrays)
+        if partial:
+            print(f"\njaxstiff: interrupted: wrote {written} with the {T_done} of {T} steps finished before it "
+                  "(meta 'interrupted' is true, 'steps' says how many)", file=sys.stderr)
+            raise KeyboardInterrupt
+        if interrupted is not None or interrupt_pending() is not None:
+            print(f"\njaxstiff: interrupted after the last step: wrote the complete result {written}", file=sys.stderr)
+            raise KeyboardInterrupt
 
         np.set_printoptions(precision=4, suppress=True, linewidth=120)
-        B = points.shape[0]
-        print(f"CSC {robot.name!r}, task {task}, {args.step} step, beta {args.beta:g}, {points.shape[1]} steps x {B} path(s)")
+        print(f"CSC {robot.name!r}, task {task}, {args.step} step, beta {args.beta:g}, {T} steps x {B} path(s)")
         print(f"K_xd (N/m):\n{K}")
         for b in range(B):
             u, fr, st = res.u[b], res.frobenius[b], res.status[b]

@@ -706,8 +706,9 @@ def _orientation_angle(R: jax.Array, Rd: jax.Array) -> jax.Array:
 
 
 def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps,
-                 jl_gain):
-    """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (). See csc_rollout.
+                 jl_gain, R_hold=None):
+    """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (), R_hold (3, 3) or
+    None (task "full": the orientation held; None: q0's). See csc_rollout.
     Runs under ``vmap(axis_name=axis_name)`` over the rollouts of a chunk."""
     dtype = q0.dtype
     rows = TASK_ROWS[st.task]
@@ -735,7 +736,7 @@ def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, b
         return p[:d], J6, p, None
 
     if full:
-        Rd = _pose_jac(robot, st.poly, q0)[1]
+        Rd = _pose_jac(robot, st.poly, q0)[1] if R_hold is None else R_hold
 
     def task_error(p, R, target):
         e = target - p
@@ -889,17 +890,17 @@ def _rollout_batch_jit(backend: str, top_level: bool):
     return jax.jit(_rollout_batch_impl, static_argnums=(0, 1, 2), compiler_options=opts)
 
 
-def _rollout_batch_impl(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain):
+def _rollout_batch_impl(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, nu0, damping, null_eps, jl_gain, R_hold):
     def one(xs):
-        t, K, q, b, e = xs
-        return _rollout_one(robot, st, _BATCH_AXIS, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain)
+        t, K, q, b, e, R = xs
+        return _rollout_one(robot, st, _BATCH_AXIS, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain, R)
 
     B = q0.shape[0]
     # one rollout's kinematics sees a single posture under vmap: choose its cos/sin by the batch
     per_call = B if chunk is None else min(B, chunk)
     st = dataclasses.replace(st, poly=jax.default_backend() == "cpu" and per_call >= _POLY_MIN_BATCH)
     batched = jax.vmap(one, axis_name=_BATCH_AXIS)
-    xs = (targets, K_xd, q0, beta, null_eps)
+    xs = (targets, K_xd, q0, beta, null_eps, R_hold)
     if chunk is None or B <= chunk:
         return batched(xs)
     # rollouts in chunks of `chunk` (vmap inside a sequential map): the working set of one
@@ -948,6 +949,7 @@ def csc_rollout(
     joint_limits: str = "off",
     jl_gain=0.0,
     kxd_varying: bool | None = None,
+    hold_orientation=None,
     remat: bool = True,
     chunk: int | None = 128,
 ) -> CSCResult:
@@ -983,6 +985,9 @@ def csc_rollout(
         kxd_varying: whether K_xd's axis -3 runs along the path. Default: True when
             ``K_xd.ndim >= 3`` and ``K_xd.shape[-3] == T``; pass False for a batch of constant
             K_xd whose batch size happens to equal T.
+        hold_orientation: task ``"full"`` only: the tool orientation to hold, a rotation matrix
+            (*B, 3, 3) in the base frame; default: the orientation at ``q0``. (A rollout continued
+            from a later posture, as :func:`csc_rollout_segments` does, passes the first one's.)
         remat: rematerialise the scan body in the backward pass (memory ~ T n per rollout);
             without it the stored residuals make a gradient about twice as slow on a CPU.
         chunk: rollouts per ``vmap`` chunk; a larger batch runs as a sequential ``lax.map`` over
@@ -1069,10 +1074,27 @@ def csc_rollout(
         if null_eps_a.ndim != 0:
             raise ValueError(f"null_eps must be a scalar, got shape {tuple(null_eps_a.shape)}")
 
+    R_hold = None
+    if hold_orientation is not None:
+        if task != "full":
+            raise ValueError(f"hold_orientation is for task 'full' (the held tool orientation); task {task!r} has no orientation rows")
+        R_hold = jnp.asarray(hold_orientation, dtype=dtype)
+        if R_hold.ndim < 2 or R_hold.shape[-2:] != (3, 3):
+            raise ValueError(f"hold_orientation must be a rotation matrix of shape (..., 3, 3), got {tuple(R_hold.shape)}")
+        if _is_concrete(R_hold):
+            Rn = np.asarray(R_hold, dtype=float)
+            orth = np.max(np.abs(np.swapaxes(Rn, -1, -2) @ Rn - np.eye(3))) if np.all(np.isfinite(Rn)) else np.inf
+            if not (orth < 1e-6 and np.all(np.linalg.det(Rn) > 0)):
+                raise ValueError(f"hold_orientation must be a finite rotation matrix (R^T R = I, det R = +1), "
+                                 f"max |R^T R - I| = {orth:g}")
+
     _validate(robot, targets, K_xd, q0, beta, scalars, null_eps_a)
     K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
 
-    batch = _broadcast_batch(("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch))
+    batches = [("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch)]
+    if R_hold is not None:
+        batches.append(("hold_orientation", R_hold.shape[:-2]))
+    batch = _broadcast_batch(*batches)
     B = math.prod(batch)
     k_tail = K_xd.shape[-3:] if kxd_varying else K_xd.shape[-2:]
     tb = jnp.broadcast_to(targets, batch + targets.shape[-2:]).reshape((B,) + targets.shape[-2:])
@@ -1080,10 +1102,11 @@ def csc_rollout(
     qb = jnp.broadcast_to(q0, batch + (robot.n,)).reshape((B, robot.n))
     bb = jnp.broadcast_to(beta, batch).reshape((B,))
     eb = jnp.broadcast_to(null_eps_a, batch).reshape((B,)) if null_eps_a.ndim else jnp.broadcast_to(null_eps_a, (B,))
+    rb = None if R_hold is None else jnp.broadcast_to(R_hold, batch + (3, 3)).reshape((B, 3, 3))
 
     st = _Static(task=task, step=step, newton=int(newton), joint_limits=joint_limits, remat=bool(remat), varying=bool(kxd_varying))
     res = _rollout_batch(robot, st, chunk, tb, kb, qb, bb, scalars["kmin"], scalars["kmax"], scalars["nu0"],
-                         scalars["damping"], eb, scalars["jl_gain"])
+                         scalars["damping"], eb, scalars["jl_gain"], rb)
     return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), res)
 
 
@@ -1136,6 +1159,112 @@ def _validate(robot, targets, K_xd, q0, beta, scalars, null_eps) -> None:
                 f"q0 of joint {robot.joint_names[i]!r} is outside its limits [{lo[i]:g}, {hi[i]:g}] "
                 f"(got values in [{qn[:, i].min():g}, {qn[:, i].max():g}])"
             )
+
+
+class CSCInterrupted(KeyboardInterrupt):
+    """A :func:`csc_rollout_segments` run stopped by Ctrl-C (or SIGTERM under the command line).
+
+    Attributes:
+        result: :class:`CSCResult` of numpy arrays with the ``steps_done`` finished steps (the
+            segment in flight when the interrupt came is lost).
+        steps_done, steps_total: finished and requested steps per rollout.
+    """
+
+    def __init__(self, result: CSCResult, steps_done: int, steps_total: int):
+        super().__init__(f"CSC rollout interrupted after {steps_done} of {steps_total} steps")
+        self.result, self.steps_done, self.steps_total = result, steps_done, steps_total
+
+
+_START_FIELDS = ("u_start", "frobenius_start")  # per rollout, no step axis
+
+
+def _step_axis(name: str, ndim: int) -> int:
+    """Axis of the steps in a CSCResult field with ``ndim`` dimensions: (*B, T, m, m), (*B, T, n) or (*B, T)."""
+    return ndim - (3 if name == "K_C" else 2 if name in ("q", "kj", "position", "target") else 1)
+
+
+def _concat_results(parts: list[CSCResult]) -> CSCResult:
+    """Join segments along the step axis; the start values are the first segment's."""
+    out = {}
+    for f in dataclasses.fields(CSCResult):
+        arrays = [getattr(r, f.name) for r in parts]
+        out[f.name] = arrays[0] if f.name in _START_FIELDS else np.concatenate(arrays, axis=_step_axis(f.name, arrays[0].ndim))
+    return CSCResult(**out)
+
+
+def csc_rollout_segments(robot: Robot, path, K_xd, q0, beta, *, segment_steps: int, progress=None, **kwargs) -> CSCResult:
+    """:func:`csc_rollout` run as consecutive segments of ``segment_steps`` steps, for long runs
+    that should show progress and keep their finished steps when interrupted.
+
+    Each segment continues from the posture the previous one reached, with the same held
+    orientation (task ``"full"``: ``q0``'s) and the same settings, so the rows are those of one
+    :func:`csc_rollout` over the whole path (the same compiled step, to round-off). All segments
+    have the same length (the last is padded with its final waypoint and the extra rows are
+    dropped), so the program is compiled once. Not differentiable and not jittable (numpy out,
+    Python loop): for gradients use :func:`csc_rollout`.
+
+    Args:
+        robot, path, K_xd, q0, beta: as :func:`csc_rollout` (``K_xd`` constant or along the path).
+        segment_steps: steps per segment (>= 1).
+        progress: optional ``progress(steps_done, steps_total)``, called after every segment.
+        **kwargs: the other keywords of :func:`csc_rollout` (not ``hold_orientation``).
+
+    Returns:
+        :class:`CSCResult` of numpy arrays, as :func:`csc_rollout`'s.
+
+    Raises:
+        CSCInterrupted: a ``KeyboardInterrupt`` after at least one finished segment, carrying the
+            finished rows (``.result``). One before the first segment ends is raised as is.
+        ValueError: as :func:`csc_rollout`, or a bad ``segment_steps``.
+    """
+    from ._io import raise_if_interrupted
+
+    if isinstance(segment_steps, bool) or not isinstance(segment_steps, (int, np.integer)) or segment_steps < 1:
+        raise ValueError(f"segment_steps must be a positive integer, got {segment_steps!r}")
+    if "hold_orientation" in kwargs:
+        raise ValueError("csc_rollout_segments holds q0's orientation itself; hold_orientation is not accepted")
+    pts = np.asarray(_path_points(path))
+    if pts.ndim < 2:
+        raise ValueError(f"path points must have shape (..., T, 2 or 3), got {tuple(pts.shape)}")
+    T = pts.shape[-2]
+    L = int(min(segment_steps, T))
+    K = np.asarray(K_xd)
+    varying = kwargs.pop("kxd_varying", None)
+    if varying is None:
+        varying = K.ndim >= 3 and K.shape[-3] == T
+    q = np.asarray(q0, dtype=float) if not hasattr(q0, "dtype") else np.asarray(q0)
+    task = kwargs.get("task") or _M_TO_TASK.get(K.shape[-1])
+    R_hold = None
+    if task == "full" and q.shape[-1:] == (robot.n,):
+        q_locked = np.where(robot.free, q, np.nan_to_num(robot.locked_values))
+        R_hold = np.asarray(robot.fk(q_locked))[..., :3, :3]
+
+    def seg(a, x, axis):  # rows a ... a + L - 1 of axis `axis`, padded with the last row
+        idx = np.minimum(np.arange(a, a + L), T - 1)
+        return np.take(x, idx, axis=axis)
+
+    parts, done = [], 0
+    try:
+        while done < T:
+            keep = min(L, T - done)
+            Kseg = seg(done, K, K.ndim - 3) if varying else K
+            r = csc_rollout(robot, seg(done, pts, pts.ndim - 2), Kseg, q, beta, kxd_varying=bool(varying),
+                            hold_orientation=R_hold, **kwargs)
+            r = jax.tree_util.tree_map(np.asarray, r)
+            if keep < L:  # the padded last segment: drop the rows past the path's end
+                r = CSCResult(**{name: (a if name in _START_FIELDS else np.take(a, np.arange(keep), axis=_step_axis(name, a.ndim)))
+                                 for name, a in r.as_dict().items()})
+            parts.append(r)
+            q = r.q[..., -1, :]
+            done += keep
+            if progress is not None:
+                progress(done, T)
+            raise_if_interrupted()  # (an interrupt that JAX swallowed during the segment)
+    except KeyboardInterrupt as e:
+        if not parts:
+            raise
+        raise CSCInterrupted(_concat_results(parts), done, T) from e
+    return _concat_results(parts)
 
 
 def null_space_direction(robot: Robot, q, K_xd, *, task: str | None = None, nu0=1e-2, damping=0.1):

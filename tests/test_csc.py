@@ -761,3 +761,137 @@ def test_gradients_finite_at_a_zero_desired_stiffness():
     gq = jax.grad(lambda q: loss(Z, q, 2e-3))(q0)
     fd = central_diff(lambda q: float(loss(Z, jnp.asarray(q), 2e-3)), np.asarray(q0), 1e-6)[0]
     assert_close(gq, fd, rtol=1e-5, atol=1e-6, what="d loss / d q0 at K_xd = 0")
+
+
+# ---------------------------------------------------------------- long runs in segments
+def _fields_close(a, b, rtol=1e-12, atol=1e-12, rows=None):
+    for f in dataclasses.fields(jaxstiff.CSCResult):
+        x, y = np.asarray(getattr(a, f.name)), np.asarray(getattr(b, f.name))
+        if rows is not None and f.name not in ("u_start", "frobenius_start"):
+            axis = csc._step_axis(f.name, y.ndim)
+            y = np.take(y, np.arange(rows), axis=axis)
+        assert x.shape == y.shape, (f.name, x.shape, y.shape)
+        if f.name == "status":
+            np.testing.assert_array_equal(x, y, err_msg=f.name)
+        else:
+            np.testing.assert_allclose(x, y, rtol=rtol, atol=atol, err_msg=f.name)
+
+
+@pytest.mark.parametrize("seg", [1, 7, 50, 60])
+def test_segments_equal_one_rollout_planar_line(seg):
+    """csc_rollout_segments continues each segment from the posture the previous one reached:
+    the rows equal one rollout over the whole path (a last segment shorter than the others is
+    padded and trimmed; seg >= T is one call). Two rollouts (different beta) at once."""
+    robot = jaxstiff.Robot.from_urdf("planar_4r")
+    q0 = np.deg2rad([30.0, 40.0, -50.0, 20.0])
+    x0 = np.asarray(robot.fk(q0))[:2, 3]
+    path = x0 + np.linspace(0.0, 0.3, 50)[:, None] * np.array([0.0, 1.0])
+    K = rot2(30.0) @ np.diag([3000.0, 1000.0]) @ rot2(30.0).T
+    beta = np.array([0.5, 2.0])
+    whole = jaxstiff.csc_rollout(robot, path, K, q0, beta)
+    seen = []
+    parts = csc.csc_rollout_segments(robot, path, K, q0, beta, segment_steps=seg, progress=lambda d, t: seen.append((d, t)))
+    _fields_close(parts, whole)
+    assert seen[-1] == (50, 50) and len(seen) == -(-50 // seg)
+
+
+def test_segments_hold_the_first_orientation_in_task_full():
+    """Task full: every segment holds q0's tool orientation (not its own start's), so the rows
+    equal one rollout's; K_xd varying along the path is cut with the path."""
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
+    q0 = np.deg2rad([20.0, 40.0, -30.0, -70.0, 25.0, 50.0, 10.0])
+    T0 = numpy_fk(robot, q0)
+    path = T0[:3, 3] + np.linspace(0.0, 0.05, 23)[:, None] * np.array([1.0, 0.0, 0.0])
+    K = np.diag([3000.0, 1000.0, 1000.0, 100.0, 100.0, 100.0])
+    Kt = K * np.linspace(1.0, 2.0, 23)[:, None, None]
+    for Kx in (K, Kt):
+        whole = jaxstiff.csc_rollout(robot, path, Kx, q0, 2e-3, step="constant")
+        parts = csc.csc_rollout_segments(robot, path, Kx, q0, 2e-3, segment_steps=5, step="constant")
+        _fields_close(parts, whole, rtol=1e-10, atol=1e-10)
+    # holding another orientation is a different rollout: the held rotation is really used
+    Rz = np.array([[np.cos(0.01), -np.sin(0.01), 0.0], [np.sin(0.01), np.cos(0.01), 0.0], [0.0, 0.0, 1.0]])
+    other = jaxstiff.csc_rollout(robot, path, K, q0, 2e-3, step="constant", hold_orientation=Rz @ T0[:3, :3])
+    assert float(other.orientation_error[-1]) < 1e-3 and float(other.orientation_error[0]) < 0.011
+    Tend = numpy_fk(robot, np.asarray(other.q[-1]))
+    assert np.linalg.norm(Tend[:3, :3] - Rz @ T0[:3, :3]) < 1e-3
+
+
+@pytest.mark.parametrize("kwargs,match", [
+    (dict(hold_orientation=np.eye(3) * 2.0), "rotation matrix"),
+    (dict(hold_orientation=np.diag([1.0, 1.0, -1.0])), "rotation matrix"),
+    (dict(hold_orientation=np.eye(2)), r"shape \(\.\.\., 3, 3\)"),
+])
+def test_hold_orientation_is_checked(kwargs, match):
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
+    q0 = np.deg2rad([20.0, 40.0, -30.0, -70.0, 25.0, 50.0, 10.0])
+    with pytest.raises(ValueError, match=match):
+        jaxstiff.csc_rollout(robot, np.zeros((3, 3)) + 0.5, np.eye(6) * 1e3, q0, 1.0, **kwargs)
+    with pytest.raises(ValueError, match="task 'full'"):
+        jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (3, 1)), K_SEED, Q_SEED, 1.0, hold_orientation=np.eye(3))
+
+
+def test_segments_interrupted_keep_the_finished_rows(hold):
+    """A KeyboardInterrupt after two segments: CSCInterrupted carries exactly the finished rows,
+    equal to the first rows of the whole rollout; one before the first segment ends is re-raised."""
+    path = np.tile(X_SEED, (1000, 1))
+
+    def stop_after(n):
+        calls = []
+
+        def progress(done, total):
+            calls.append(done)
+            if len(calls) == n:
+                raise KeyboardInterrupt
+
+        return progress
+
+    with pytest.raises(csc.CSCInterrupted) as e:
+        csc.csc_rollout_segments(PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant", segment_steps=300, progress=stop_after(2))
+    assert e.value.steps_done == 600 and e.value.steps_total == 1000
+    _fields_close(e.value.result, hold, rows=600)
+    with pytest.raises(ValueError, match="segment_steps"):
+        csc.csc_rollout_segments(PLANAR, path, K_SEED, Q_SEED, 2e-3, segment_steps=0)
+
+
+def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(tmp_path, capsys, monkeypatch, hold):
+    """A run longer than one segment prints a progress line per segment; an interrupt after the
+    second writes the finished steps (meta: interrupted, steps) and exits 130. The rows equal the
+    library's uninterrupted rollout."""
+    from jaxstiff import _cli_csc
+
+    monkeypatch.setattr(_cli_csc, "SEGMENT_WORK", 300)
+    argv = ["csc", "--robot", "planar_3r", "--hold", f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}", "--kxd", "3000,1000@30",
+            "--q0-deg", "75,-74.74,-76.30", "--beta", "2e-3", "--step", "constant", "--steps", "1000"]
+    out = tmp_path / "full.npz"
+    assert cli_main(argv + ["--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "in segments of 300 steps" in err and re.search(r"csc: 600/1000 steps x 1 rollout\(s\) \(60%\)", err), err
+    with np.load(out) as f:
+        assert_close(f["u"][0], hold.u, rtol=1e-12, what="segmented CLI u vs library")
+        assert json.loads(str(f["meta"]))["interrupted"] is False
+
+    class Stop(_cli_csc._StepProgress):
+        def __call__(self, done, total):
+            super().__call__(done, total)
+            if done >= 600:
+                raise KeyboardInterrupt
+
+    monkeypatch.setattr(_cli_csc, "_StepProgress", Stop)
+    part = tmp_path / "part.npz"
+    assert cli_main(argv + ["--out", str(part)]) == 130
+    err = capsys.readouterr().err
+    assert "wrote" in err and "600 of 1000 steps" in err, err
+    with np.load(part) as f:
+        meta = json.loads(str(f["meta"]))
+        assert meta["interrupted"] is True and meta["steps"] == 600 and meta["steps_requested"] == 1000
+        assert f["q"].shape == (1, 600, 3) and f["target"].shape == (1, 600, 2)
+        assert_close(f["q"][0], np.asarray(hold.q)[:600], rtol=1e-12, atol=1e-14, what="interrupted rows")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["full.npz", "part.npz"]  # no temporary file
+
+
+def test_cli_checks_numeric_flags_before_warning(tmp_path, capsys):
+    """--kmin 0 with --hold and the adaptive step: the flag's error, and no hold warning first."""
+    rc = cli_main(["csc", "--robot", "planar_3r", "--hold", "1,1", "--kxd", "3000,1000", "--q0", "0,0,0",
+                   "--kmin", "0", "--out", str(tmp_path / "r.npz")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--kmin must be" in err and "warning" not in err, err
