@@ -398,6 +398,8 @@ def _robot_meta(robot: Robot) -> dict[str, Any]:
             bare = Robot.from_urdf(src, base_link=robot.base_link or None, tip_link=robot.tip_link or None)
             tcp = np.linalg.solve(bare.tip_matrix, robot.tip_matrix)
             tcp[np.abs(tcp) < 1e-15] = 0.0
+            # 15 significant digits: the solve's round-off goes (0.09999999999999996 -> 0.1, as given)
+            tcp = np.array([[float(f"{x:.15g}") for x in row] for row in tcp])
             tcp[3] = [0.0, 0.0, 0.0, 1.0]
         except (ValueError, FileNotFoundError):
             tcp = None

@@ -435,3 +435,23 @@ def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane(lwr):
     with pytest.raises(ValueError, match=r"task 'xy' needs directions in the xy plane \(dz = 0\); path 0 \(climb\) "
                                          r"has dz = 0\.\d+ at waypoint 1 \(its z changes along the path"):
         jaxstiff.shape(lwr, path, "f2", 5.0, task="xy")
+
+
+def test_meta_tcp_is_the_offset_given(tmp_path):
+    """meta.robot.tcp is recovered from the URDF's bare tip by a solve; on a chain with rpy origins
+    its round-off (0.09999999999999996 for 0.1) is not passed on: the offset reads as given."""
+    from jaxstiff.shaping import _robot_meta
+
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(
+        '<robot name="r"><link name="b"/><link name="l1"/><link name="l2"/><link name="t"/>'
+        '<joint name="j1" type="revolute"><parent link="b"/><child link="l1"/><origin xyz="0 0 0.1" rpy="0.3 -0.7 1.1"/>'
+        '<axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'
+        '<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0" rpy="0.2 0.5 -0.9"/>'
+        '<axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'
+        '<joint name="f" type="fixed"><parent link="l2"/><child link="t"/><origin xyz="0.3 0.01 0.02" rpy="0.77 -1.23 2.01"/>'
+        '</joint></robot>')
+    assert _robot_meta(jaxstiff.Robot.from_urdf(str(urdf)))["tcp"] == np.eye(4).tolist()
+    want = np.eye(4)
+    want[:3, 3] = [0.05, -0.02, 0.1]
+    assert _robot_meta(jaxstiff.Robot.from_urdf(str(urdf), tcp=[0.05, -0.02, 0.1]))["tcp"] == want.tolist()
