@@ -1,8 +1,9 @@
 """TCP paths: waypoints and desired ellipsoid directions (SPEC section 5), CSV files, generators.
 
-A :class:`Path` holds ``P >= 2`` waypoints ``x_p`` (metres, in the robot's base frame) and one
-desired direction ``d_p`` per waypoint (unit vectors). Seed 000 aligns the stiffness ellipsoid
-with the direction of motion, so the default direction is the unit tangent of the path:
+A :class:`Path` holds ``P >= 2`` waypoints ``x_p`` (metres, in the robot's base frame; one is
+enough when its direction is given) and one desired direction ``d_p`` per waypoint (unit
+vectors). Seed 000 aligns the stiffness ellipsoid with the direction of motion, so the default
+direction is the unit tangent of the path:
 ``(x_{p+1} - x_{p-1}) / |...|`` inside, one-sided differences at the two ends. For equally spaced
 points on a circle the central difference is exactly the tangent. The generators below pass their
 analytic tangents instead.
@@ -90,7 +91,8 @@ class Path:
     """Waypoints and desired directions of one TCP path, or of a batch of paths.
 
     Args:
-        points: (P, 3) or (B, P, 3) waypoints, metres, robot base frame; P >= 2.
+        points: (P, 3) or (B, P, 3) waypoints, metres, robot base frame; P >= 2, or P = 1 with
+            ``directions`` (one point has no tangent).
         directions: same shape, desired direction of the ellipsoid's major axis per waypoint
             (any non-zero length; stored normalised). Default: the unit path tangent.
         name: a label (file name or generator), kept in result metadata.
@@ -100,7 +102,7 @@ class Path:
         directions: same shape, unit vectors.
 
     Raises:
-        ValueError: wrong shape, fewer than 2 waypoints, NaN/Inf, a zero direction, or a
+        ValueError: wrong shape, fewer than 2 waypoints (1 without directions), NaN/Inf, a zero direction, or a
             zero-length segment where no direction was given.
     """
 
@@ -113,8 +115,9 @@ class Path:
         where = name or "path"
         if pts.ndim not in (2, 3) or pts.shape[-1] != 3:
             raise ValueError(f"{where}: points must have shape (P, 3) or (B, P, 3), got {pts.shape}")
-        if pts.shape[-2] < 2:
-            raise ValueError(f"{where}: a path needs at least 2 waypoints, got {pts.shape[-2]}")
+        if pts.shape[-2] < 1 or (pts.shape[-2] < 2 and directions is None):
+            raise ValueError(f"{where}: a path needs at least 2 waypoints, or 1 with its direction given (columns "
+                             f"dx,dy,dz): one point has no tangent; got {pts.shape[-2]}")
         if pts.ndim == 3 and pts.shape[0] < 1:
             raise ValueError(f"{where}: empty batch of paths")
         if not np.all(np.isfinite(pts)):

@@ -77,7 +77,8 @@ def test_batch_and_stack():
 @pytest.mark.parametrize(
     "points, directions, match",
     [
-        (np.zeros((1, 3)), None, "at least 2 waypoints"),
+        (np.zeros((1, 3)), None, "at least 2 waypoints, or 1 with its direction given"),
+        (np.zeros((0, 3)), np.zeros((0, 3)), "at least 2 waypoints"),
         (np.zeros((3, 2)), None, "shape"),
         (np.array([[0, 0, 0], [np.nan, 0, 0]]), None, "NaN"),
         (np.array([[0, 0, 0], [0, 0, 0], [1, 0, 0.0]]), None, "zero-length segment at waypoint 0"),
