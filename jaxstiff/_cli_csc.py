@@ -51,6 +51,7 @@ TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last way
 #: progress line after each, and an interrupt keeps the finished segments
 SEGMENT_WORK = 500_000
 MIN_SEGMENT = 10
+DEFAULT_JL_GAIN = 0.3  #: --jl-gain when --joint-limits is priority or sum (as experiments/csc_lwr_path.py)
 
 
 def segment_steps(B: int, T: int) -> int:
@@ -59,16 +60,30 @@ def segment_steps(B: int, T: int) -> int:
 
 
 class _StepProgress:
-    """Progress of a segmented run on stderr (redrawn in place on a terminal, a line per segment otherwise)."""
+    """The run's lines on stderr: what runs how (once the inputs are checked), then for a segmented
+    run the progress after each segment (redrawn in place on a terminal, a line each otherwise)."""
 
-    def __init__(self, B: int, T: int):
-        self.B, self.T = B, T
+    def __init__(self, B: int, T: int, L: int, notes: list[str] = ()):
+        self.B, self.T, self.L, self.notes = B, T, L, list(notes)
         self.t0 = time.perf_counter()
         self.t1, self.first = None, 0
         self.tty = sys.stderr.isatty()
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
+        if done == 0:
+            for note in self.notes:  # warnings about the settings, once they are known to be valid
+                print(f"jaxstiff: warning: {note}", file=sys.stderr)
+            if self.L >= self.T:
+                msg = (f"csc: {self.B} rollout(s) x {self.T} steps in one compiled run (compiling, then running; no "
+                       "progress in between, and Ctrl-C takes effect when it ends) ...")
+            else:
+                msg = (f"csc: {self.B} rollout(s) x {self.T} steps in segments of {self.L} steps (compiling, then a line "
+                       "per segment; Ctrl-C keeps the finished segments) ...")
+            print(msg, file=sys.stderr, flush=True)
+            return
+        if self.L >= self.T:
+            return
         if self.t1 is None:  # the rate leaves out the first segment (it includes the compilation)
             self.t1, self.first = now, done
         rate = (done - self.first) / (now - self.t1) if done > self.first and now > self.t1 else 0.0
@@ -140,7 +155,10 @@ def _units(robot, task: str) -> dict:
     q = [("m" if p else "rad") for p in pris] if per_joint else "rad"
     kj = [("N/m" if p else "Nm/rad") for p in pris] if per_joint else "Nm/rad"
     return {
-        "q": q, "q0": q, "kj": kj, "u": "Nm/rad", "u_start": "Nm/rad",
+        "q": q, "q0": q, "kj": kj,
+        "u": "Nm/rad" if not per_joint else ("norm of J^T K_xd J's off-diagonal entries: Nm/rad between revolute "
+                                             "joints, N/m between prismatic ones, N (= Nm/m) across"),
+        "u_start": "as u",
         "K_C": "N/m" if task != "full" else "6x6 [[N/m, N/rad], [Nm/m, Nm/rad]]", "K_xd": "as K_C",
         "frobenius": "as K_C (Frobenius norm of K_xd - K_C)", "frobenius_start": "as frobenius",
         "position": "m", "target": "m", "tracking_error": "m", "orientation_error": "rad",
@@ -177,7 +195,8 @@ def _add_csc(p: argparse.ArgumentParser):
     q0.add_argument("--q0", metavar="RAD,...", help="start posture, rad; m for prismatic joints (locked joints: their locked values)")
     q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees (prismatic joints: m)")
     p.add_argument("--beta", type=float, default=1.0,
-                   help="null-step multiplier: adaptive = beta x |dq_P| (S1-22); constant = beta rad per step")
+                   help="null-step multiplier: adaptive = beta x |dq_P| (S1-22); constant = a null step of length beta "
+                        "per step (rad; the norm takes m for prismatic joints)")
     p.add_argument("--step", choices=["adaptive", "constant"], default="adaptive", help="null-space step rule")
     p.add_argument("--task", choices=["xy", "xyz", "full"], default=None, help="task rows (default: from the size of --kxd)")
     p.add_argument("--kmin", type=float, default=1.0, help="actuator range: lowest joint stiffness, Nm/rad")
@@ -185,7 +204,10 @@ def _add_csc(p: argparse.ArgumentParser):
     p.add_argument("--newton", type=int, default=0, help="Newton corrections of the TCP inside each step")
     p.add_argument("--joint-limits", choices=["off", "priority", "sum"], default="off",
                    help="joint-limit avoidance as a secondary task (joints are always clamped to their limits)")
-    p.add_argument("--jl-gain", type=float, default=0.0, help="joint-limit avoidance gain")
+    p.add_argument("--jl-gain", type=float, default=None,
+                   help=f"joint-limit avoidance gain: priority = rad per step for a joint at its limit (before the "
+                        f"projection), sum = weight against the CSC gradient at a limit (default: {DEFAULT_JL_GAIN} with "
+                        "--joint-limits priority or sum)")
     p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)")
 
     def run(args) -> int:
@@ -208,8 +230,9 @@ def _add_csc(p: argparse.ArgumentParser):
             raise ValueError(f"--kmax ({args.kmax:g}) must be >= --kmin ({args.kmin:g})")
         if args.newton < 0:
             raise ValueError(f"--newton must be >= 0, got {args.newton}")
-        if not (math.isfinite(args.jl_gain) and args.jl_gain >= 0):
+        if args.jl_gain is not None and not (math.isfinite(args.jl_gain) and args.jl_gain >= 0):
             raise ValueError(f"--jl-gain must be finite and >= 0, got {args.jl_gain:g}")
+        jl_gain = args.jl_gain if args.jl_gain is not None else (DEFAULT_JL_GAIN if args.joint_limits != "off" else 0.0)
         out = check_out_file(args.out)
         robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
         K = parse_kxd(args.kxd, args.task)
@@ -223,7 +246,15 @@ def _add_csc(p: argparse.ArgumentParser):
         flag = "--q0" if args.q0 is not None else "--q0-deg"
         if q0.shape != (robot.n,):
             raise ValueError(f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}")
-        q0 = np.where(robot.free, q0, np.nan_to_num(robot.locked_values))
+        lv = robot.locked_values
+        for i in np.flatnonzero(~robot.free):  # the help: locked joints take their locked values
+            given = q0[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(q0[i])
+            want = lv[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(lv[i])
+            if not abs(given - want) <= (1e-9 if args.q0 is not None else 1e-3):
+                unit = "m" if robot.prismatic[i] else ("rad" if args.q0 is not None else "deg")
+                raise ValueError(f"{flag} gives joint {robot.joint_names[i]!r} {given:.10g} {unit}, but it is locked at "
+                                 f"{want:.10g} {unit}: give the locked value there (or change --lock)")
+        q0 = np.where(robot.free, q0, np.nan_to_num(lv))
         d = 2 if task == "xy" else 3
         if args.hold is not None:
             x = _numbers(args.hold, "--hold")
@@ -249,24 +280,23 @@ def _add_csc(p: argparse.ArgumentParser):
             _warn_ignored_z(robot, q0, points[..., 2], "--hold" if args.hold is not None else "--path")
             points = points[..., :2]
         settings = dict(task=task, step=args.step, kmin=args.kmin, kmax=args.kmax, newton=args.newton,
-                        joint_limits=args.joint_limits, jl_gain=args.jl_gain)
+                        joint_limits=args.joint_limits, jl_gain=jl_gain)
+        notes = []
         if args.hold is not None and args.step == "adaptive":
-            print("jaxstiff: warning: --hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero "
-                  "while the target stands still, so the arm will not move to lower u; use --step constant "
-                  "(beta = rad per step, e.g. --beta 2e-3)", file=sys.stderr)
+            notes.append("--hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero while the "
+                         "target stands still, so the arm will not move to lower u; use --step constant (beta = rad per "
+                         "step, e.g. --beta 2e-3)")
+        if args.joint_limits != "off" and jl_gain == 0:
+            notes.append(f"--joint-limits {args.joint_limits} with --jl-gain 0 does nothing (the avoidance is scaled by the gain)")
+        if args.joint_limits == "off" and args.jl_gain:
+            notes.append("--jl-gain is unused with --joint-limits off")
         t0 = time.perf_counter()
         B, T = points.shape[:2]
         L = segment_steps(B, T)
-        if L >= T:
-            print(f"csc: {B} rollout(s) x {T} steps in one compiled run (compiling, then running; no progress in "
-                  "between, and Ctrl-C takes effect when it ends) ...", file=sys.stderr, flush=True)
-        else:
-            print(f"csc: {B} rollout(s) x {T} steps in segments of {L} steps (compiling, then a line per segment; "
-                  "Ctrl-C keeps the finished segments) ...", file=sys.stderr, flush=True)
         interrupted = None
         try:
             res = csc.csc_rollout_segments(robot, points, K, q0, args.beta, segment_steps=L,
-                                           progress=_StepProgress(B, T) if L < T else None, **settings)
+                                           progress=_StepProgress(B, T, L, notes), **settings)
         except csc.CSCInterrupted as e:
             res, interrupted = e.result, e
         except KeyboardInterrupt:
@@ -288,10 +318,11 @@ def _add_csc(p: argparse.ArgumentParser):
             "kxd": args.kxd,
             "K_xd": K.tolist(),
             "q0": q0.tolist(),
+            "q0_arg": {flag: args.q0 if args.q0 is not None else args.q0_deg},
             "beta": args.beta,
             "nu0": 1e-2,
             "damping": 0.1,
-            "null_eps": "1e-9 * |K_xd|_F",
+            "null_eps": "1e-9 * |K_xd|_F + 1e-77 (tiny^(1/4), float64)",
             **{k: (v if not (isinstance(v, float) and math.isinf(v)) else str(v)) for k, v in settings.items()},
             "status_bits": {str(k): v for k, v in csc._STATUS_NAMES.items()},
             "units": _units(robot, task),

@@ -136,6 +136,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import inspect
 import math
 from typing import Any, NamedTuple
 
@@ -1000,6 +1001,19 @@ def csc_rollout(
         ValueError: bad shapes, task, step, non-finite or out-of-limit inputs, negative beta,
             a non-symmetric or indefinite K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs).
     """
+    st, chunk, args, batch = _prepare_rollout(
+        robot, path, K_xd, q0, beta, task=task, step=step, kmin=kmin, kmax=kmax, nu0=nu0, damping=damping,
+        null_eps=null_eps, newton=newton, joint_limits=joint_limits, jl_gain=jl_gain, kxd_varying=kxd_varying,
+        hold_orientation=hold_orientation, remat=remat, chunk=chunk)
+    res = _rollout_batch(robot, st, chunk, *args)
+    return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), res)
+
+
+def _prepare_rollout(robot, path, K_xd, q0, beta, *, task, step, kmin, kmax, nu0, damping, null_eps, newton, joint_limits,
+                     jl_gain, kxd_varying, hold_orientation, remat, chunk):
+    """Every check of :func:`csc_rollout` and its inputs flattened to one batch axis: ``(static
+    settings, chunk, arrays for _rollout_batch, batch shape)``. No compilation: the command line
+    calls it to report bad input before it announces the run."""
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a jaxstiff.Robot, got {type(robot).__name__}")
     if step not in ("adaptive", "constant"):
@@ -1105,9 +1119,8 @@ def csc_rollout(
     rb = None if R_hold is None else jnp.broadcast_to(R_hold, batch + (3, 3)).reshape((B, 3, 3))
 
     st = _Static(task=task, step=step, newton=int(newton), joint_limits=joint_limits, remat=bool(remat), varying=bool(kxd_varying))
-    res = _rollout_batch(robot, st, chunk, tb, kb, qb, bb, scalars["kmin"], scalars["kmax"], scalars["nu0"],
-                         scalars["damping"], eb, scalars["jl_gain"], rb)
-    return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), res)
+    args = (tb, kb, qb, bb, scalars["kmin"], scalars["kmax"], scalars["nu0"], scalars["damping"], eb, scalars["jl_gain"], rb)
+    return st, chunk, args, batch
 
 
 def _validate(robot, targets, K_xd, q0, beta, scalars, null_eps) -> None:
@@ -1178,6 +1191,11 @@ class CSCInterrupted(KeyboardInterrupt):
 _START_FIELDS = ("u_start", "frobenius_start")  # per rollout, no step axis
 
 
+def _rollout_defaults() -> dict:
+    """csc_rollout's keyword arguments and their defaults."""
+    return {k: p.default for k, p in inspect.signature(csc_rollout).parameters.items() if p.kind is p.KEYWORD_ONLY}
+
+
 def _step_axis(name: str, ndim: int) -> int:
     """Axis of the steps in a CSCResult field with ``ndim`` dimensions: (*B, T, m, m), (*B, T, n) or (*B, T)."""
     return ndim - (3 if name == "K_C" else 2 if name in ("q", "kj", "position", "target") else 1)
@@ -1206,7 +1224,8 @@ def csc_rollout_segments(robot: Robot, path, K_xd, q0, beta, *, segment_steps: i
     Args:
         robot, path, K_xd, q0, beta: as :func:`csc_rollout` (``K_xd`` constant or along the path).
         segment_steps: steps per segment (>= 1).
-        progress: optional ``progress(steps_done, steps_total)``, called after every segment.
+        progress: optional ``progress(steps_done, steps_total)``: once with 0 when the inputs have
+            been checked (before the first segment compiles and runs), then after every segment.
         **kwargs: the other keywords of :func:`csc_rollout` (not ``hold_orientation``).
 
     Returns:
@@ -1223,32 +1242,31 @@ def csc_rollout_segments(robot: Robot, path, K_xd, q0, beta, *, segment_steps: i
         raise ValueError(f"segment_steps must be a positive integer, got {segment_steps!r}")
     if "hold_orientation" in kwargs:
         raise ValueError("csc_rollout_segments holds q0's orientation itself; hold_orientation is not accepted")
+    varying = kwargs.pop("kxd_varying", None)
+    # the whole path and every setting are checked before the first segment runs (a bad value
+    # in a late waypoint must not surface after the work of the first segments)
+    st = _prepare_rollout(robot, path, K_xd, q0, beta, **{**_rollout_defaults(), **kwargs, "kxd_varying": varying})[0]
     pts = np.asarray(_path_points(path))
-    if pts.ndim < 2:
-        raise ValueError(f"path points must have shape (..., T, 2 or 3), got {tuple(pts.shape)}")
     T = pts.shape[-2]
     L = int(min(segment_steps, T))
     K = np.asarray(K_xd)
-    varying = kwargs.pop("kxd_varying", None)
-    if varying is None:
-        varying = K.ndim >= 3 and K.shape[-3] == T
-    q = np.asarray(q0, dtype=float) if not hasattr(q0, "dtype") else np.asarray(q0)
-    task = kwargs.get("task") or _M_TO_TASK.get(K.shape[-1])
+    q = np.asarray(q0)
     R_hold = None
-    if task == "full" and q.shape[-1:] == (robot.n,):
-        q_locked = np.where(robot.free, q, np.nan_to_num(robot.locked_values))
-        R_hold = np.asarray(robot.fk(q_locked))[..., :3, :3]
+    if st.task == "full":  # every segment holds q0's orientation
+        R_hold = np.asarray(robot.fk(np.where(robot.free, q, np.nan_to_num(robot.locked_values))))[..., :3, :3]
 
     def seg(a, x, axis):  # rows a ... a + L - 1 of axis `axis`, padded with the last row
         idx = np.minimum(np.arange(a, a + L), T - 1)
         return np.take(x, idx, axis=axis)
 
+    if progress is not None:
+        progress(0, T)
     parts, done = [], 0
     try:
         while done < T:
             keep = min(L, T - done)
-            Kseg = seg(done, K, K.ndim - 3) if varying else K
-            r = csc_rollout(robot, seg(done, pts, pts.ndim - 2), Kseg, q, beta, kxd_varying=bool(varying),
+            Kseg = seg(done, K, K.ndim - 3) if st.varying else K
+            r = csc_rollout(robot, seg(done, pts, pts.ndim - 2), Kseg, q, beta, kxd_varying=st.varying,
                             hold_orientation=R_hold, **kwargs)
             r = jax.tree_util.tree_map(np.asarray, r)
             if keep < L:  # the padded last segment: drop the rows past the path's end

@@ -792,7 +792,7 @@ def test_segments_equal_one_rollout_planar_line(seg):
     seen = []
     parts = csc.csc_rollout_segments(robot, path, K, q0, beta, segment_steps=seg, progress=lambda d, t: seen.append((d, t)))
     _fields_close(parts, whole)
-    assert seen[-1] == (50, 50) and len(seen) == -(-50 // seg)
+    assert seen[0] == (0, 50) and seen[-1] == (50, 50) and len(seen) == 1 + -(-50 // seg)  # (0: inputs checked)
 
 
 def test_segments_hold_the_first_orientation_in_task_full():
@@ -840,7 +840,7 @@ def test_segments_interrupted_keep_the_finished_rows(hold):
 
         def progress(done, total):
             calls.append(done)
-            if len(calls) == n:
+            if len(calls) == n + 1:  # (the first call, with 0, says the inputs were checked)
                 raise KeyboardInterrupt
 
         return progress
@@ -851,6 +851,13 @@ def test_segments_interrupted_keep_the_finished_rows(hold):
     _fields_close(e.value.result, hold, rows=600)
     with pytest.raises(ValueError, match="segment_steps"):
         csc.csc_rollout_segments(PLANAR, path, K_SEED, Q_SEED, 2e-3, segment_steps=0)
+    # a bad late waypoint is found before any segment runs (not after the first ones' work)
+    bad = path.copy()
+    bad[900, 0] = np.nan
+    seen = []
+    with pytest.raises(ValueError, match="path contains NaN"):
+        csc.csc_rollout_segments(PLANAR, bad, K_SEED, Q_SEED, 2e-3, segment_steps=300, progress=lambda d, t: seen.append(d))
+    assert seen == []
 
 
 def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(tmp_path, capsys, monkeypatch, hold):
@@ -895,3 +902,44 @@ def test_cli_checks_numeric_flags_before_warning(tmp_path, capsys):
                    "--kmin", "0", "--out", str(tmp_path / "r.npz")])
     err = capsys.readouterr().err
     assert rc == 2 and "--kmin must be" in err and "warning" not in err, err
+
+
+def test_cli_locked_joint_q0_must_be_the_locked_value(tmp_path, capsys):
+    """The help says locked joints take their locked values in --q0: another value is an error
+    naming the joint (it was silently replaced); the raw --q0 text is kept in meta."""
+    base = ["csc", "--robot", "kuka_lwr4", "--lock", "lwr_a7=0.2", "--hold", "0.5,0.1,0.6", "--kxd", "3000,1000,2000",
+            "--steps", "2"]
+    out = tmp_path / "r.npz"
+    assert cli_main(base + ["--q0", "0.3,0.5,0,-1.2,0,0.6,0.9", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--q0 gives joint 'lwr_a7' 0.9 rad, but it is locked at 0.2 rad" in err and not out.exists(), err
+    assert cli_main(base + ["--q0-deg", "10,20,0,-60,0,30,20", "--out", str(out)]) == 2
+    assert "locked at 11.4591559 deg" in capsys.readouterr().err
+    assert cli_main(base + ["--q0-deg", "10,20,0,-60,0,30,11.4592", "--out", str(out)]) == 0
+    with np.load(out) as f:
+        meta = json.loads(str(f["meta"]))
+        assert meta["q0_arg"] == {"--q0-deg": "10,20,0,-60,0,30,11.4592"} and meta["q0"][6] == 0.2
+        assert np.all(f["q"][0, :, 6] == 0.2)
+
+
+def test_cli_joint_limit_avoidance_has_a_gain_by_default(tmp_path, capsys):
+    """--joint-limits priority without --jl-gain used gain 0, i.e. did nothing: it now takes the
+    documented default (recorded in meta) and moves the arm differently from --joint-limits off;
+    an explicit --jl-gain 0 gets a warning."""
+    x = np.asarray(jaxstiff.Robot.from_urdf("planar_4r").fk(np.array([0.4, 0.8, -0.6, 0.9])))[:2, 3]
+    base = ["csc", "--robot", "planar_4r", "--hold", f"{float(x[0])!r},{float(x[1])!r}", "--kxd", "3000,1000@30", "--q0", "0.4,0.8,-0.6,0.9",
+            "--step", "constant", "--beta", "5e-3", "--steps", "50"]
+    runs = {}
+    for extra in ([], ["--joint-limits", "priority"], ["--joint-limits", "priority", "--jl-gain", "0"]):
+        out = tmp_path / f"r{len(runs)}.npz"
+        assert cli_main(base + extra + ["--out", str(out)]) == 0
+        runs[tuple(extra)] = (np.load(out)["q"], json.loads(str(np.load(out)["meta"])), capsys.readouterr().err)
+    q_off, meta_off, _ = runs[()]
+    q_pr, meta_pr, err_pr = runs[("--joint-limits", "priority")]
+    q_0, _, err_0 = runs[("--joint-limits", "priority", "--jl-gain", "0")]
+    from jaxstiff._cli_csc import DEFAULT_JL_GAIN
+
+    assert meta_off["jl_gain"] == 0.0 and meta_pr["jl_gain"] == DEFAULT_JL_GAIN > 0
+    assert np.abs(q_pr - q_off).max() > 1e-6 and "does nothing" not in err_pr
+    np.testing.assert_array_equal(q_0, q_off)
+    assert "--joint-limits priority with --jl-gain 0 does nothing" in err_0
