@@ -52,11 +52,16 @@ Choices this module makes where the seed is silent (SPEC section 6 lets us choos
   redundant degree of freedom. ``joint_limits="sum"`` instead adds it to the CSC gradient (a
   weighted sum, projected into the path task's null space only), which trades some ``u`` for
   distance from the limits. Independently of both, every free joint is clamped to its limits
-  after each step (status :data:`STATUS_JOINT_LIMIT`). Known limit of the saturation rule (in
-  the rollout's step): all joints that the unconstrained step pushes past a limit are frozen
-  together for that step, not one at a time; from a start with joints at their limits, where
-  lowering u needs one of them to move back inward, the arm can stall (status 2 + 8 on every
-  step). Start inside the limits, or use ``joint_limits="priority"`` to keep the arm off them.
+  after each step (status :data:`STATUS_JOINT_LIMIT`). Saturation inside a step: the joints that
+  the step would push past a limit go exactly to it and are frozen, and the other joints solve
+  the step again; a joint that this re-solve pushes out is frozen in turn (up to three rounds),
+  so the tracking step is not cut by the final clamp. Known limit: a frozen joint is not released
+  within the step, i.e. this is not a full active set. From a start with joints at their limits,
+  where lowering u needs one of them to move back inward, the arm can stall (status 2 + 8 on
+  every step); and where the combined step pushes a joint outward but the path needs it to move
+  inward, the TCP can fall behind the path by millimetres for some steps (the tracking error says
+  so; ``newton`` corrections do not release the joint either). Start inside the limits, or use
+  ``joint_limits="priority"`` to keep the arm off them.
 * **Locked joints** never move: their Jacobian columns are zeroed for motion and their entries of
   ``q0`` are replaced by the locked values. They keep their springs: ``u``, the realised joint
   stiffness and ``K_C`` use the full Jacobian.
@@ -811,24 +816,38 @@ def _rollout_one(robot: Robot, st: _Static, axis_name: str, targets, K_xd, q0, b
             dq1, null1, nu, damped, small1 = solve(q, J, g, dx, free)
         # Saturation: joints that the step would push past a limit go exactly to the limit and
         # are frozen; the remaining free joints re-solve the same linearised step for the rest.
+        # The re-solved step can push further joints past a limit (the frozen ones' share of the
+        # task moves to them): those are frozen too and the step solved again, up to
+        # _SATURATION_ROUNDS times, so that the final clamp does not throw away part of the
+        # primary (tracking) step.
+        def saturate(k, dq_prev, null_prev, small_prev, dq_sat, mask):
+            q1 = q + dq_prev
+            over = (mask > 0) & ((q1 < lower) | (q1 > upper))
+            any_over = jnp.any(over)
+            dq_sat = dq_sat + jnp.where(over, jnp.clip(q1, lower, upper) - q, 0.0)
+            mask_new = mask * (1.0 - over.astype(dtype))
+
+            def resolve(_):
+                with jax.named_scope("csc_resolve"):
+                    dq2, null2, _, _, small2 = solve(q, J, g, dx - _mv(J, dq_sat), mask_new)
+                dq2 = dq2 + dq_sat
+                if k + 1 < _SATURATION_ROUNDS:
+                    dq2, null2, small2, mask2 = saturate(k + 1, dq2, null2, small2, dq_sat, mask_new)
+                else:
+                    mask2 = mask_new
+                return (jnp.where(any_over, dq2, dq_prev), jnp.where(any_over, null2, null_prev),
+                        jnp.where(any_over, small2, small_prev), jnp.where(any_over, mask2, mask))
+
+            # Rare (a limit reached): re-solve only when some rollout of the vmapped chunk needs it.
+            # The predicate is reduced over the batch axis, so it stays a branch under vmap.
+            # The branch is rematerialised on its own: a cond's linearisation returns the residuals of
+            # both branches, and the branch not taken fills them with zeros (28 copies per step).
+            need = jax.lax.pmax(any_over.astype(jnp.int32), axis_name) > 0
+            return jax.lax.cond(need, jax.checkpoint(resolve), lambda _: (dq_prev, null_prev, small_prev, mask), None)
+
         q1 = q + dq1
-        over = free_b & ((q1 < lower) | (q1 > upper))
-        any_over = jnp.any(over)
-        dq_sat = jnp.where(over, jnp.clip(q1, lower, upper) - q, 0.0)
-        mask2 = free * (1.0 - over.astype(dtype))
-
-        def resolve(_):
-            with jax.named_scope("csc_resolve"):
-                dq2, null2, _, _, small2 = solve(q, J, g, dx - _mv(J, dq_sat), mask2)
-            return (jnp.where(any_over, dq2 + dq_sat, dq1), jnp.where(any_over, null2, null1),
-                    jnp.where(any_over, small2, small1))
-
-        # Rare (a limit reached): re-solve only when some rollout of the vmapped chunk needs it.
-        # The predicate is reduced over the batch axis, so it stays a branch under vmap.
-        # The branch is rematerialised on its own: a cond's linearisation returns the residuals of
-        # both branches, and the branch not taken fills them with zeros (28 copies per step).
-        need = jax.lax.pmax(any_over.astype(jnp.int32), axis_name) > 0
-        dq, null, small = jax.lax.cond(need, jax.checkpoint(resolve), lambda _: (dq1, null1, small1), None)
+        any_over = jnp.any(free_b & ((q1 < lower) | (q1 > upper)))
+        dq, null, small, mask2 = saturate(0, dq1, null1, small1, jnp.zeros_like(q), free)
         q_new = q + dq
         for _ in range(st.newton):
             pn, Jn, _, Rn = kin(q_new)
@@ -916,6 +935,9 @@ def _rollout_batch_impl(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, n
 
 
 _BATCH_AXIS = "jaxstiff_csc_rollouts"
+#: re-solves of a step after joints were frozen at their limits (each round freezes the joints the
+#: previous solve pushed past a limit); later violators are clamped by the final clip
+_SATURATION_ROUNDS = 3
 
 
 # ------------------------------------------------------------------------ public entry point
