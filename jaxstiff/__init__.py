@@ -3,6 +3,12 @@
 The public names are re-exported here explicitly; see DESIGN.md for the contract.
 """
 
+# first, before JAX is imported: a Ctrl-C while the `jaxstiff` command starts up is remembered,
+# not lost (see jaxstiff._early_signals; nothing changes when imported as a library)
+from ._early_signals import record_early_signals as _record_early_signals
+
+_record_early_signals()
+
 from .criteria import f1 as f1
 from .criteria import f2 as f2
 from .criteria import frobenius as frobenius

@@ -113,7 +113,9 @@ def interrupt_handlers() -> Iterator[None]:
     waypoints, before a result file is written) raises it again. Outside the main thread (where
     handlers cannot be installed) the block runs with the process's handlers unchanged.
     """
-    _PENDING["signal"] = None
+    from ._early_signals import early_signal
+
+    _PENDING["signal"] = early_signal()  # (one received while the command was starting up)
     if threading.current_thread() is not threading.main_thread():
         yield
         return

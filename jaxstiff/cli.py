@@ -16,7 +16,7 @@ import tempfile
 import warnings
 from typing import Callable
 
-from ._io import interrupt_exit_code, interrupt_handlers, interrupt_pending
+from ._io import interrupt_exit_code, interrupt_handlers, interrupt_pending, raise_if_interrupted
 
 COMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int], str]] = {}
 
@@ -203,6 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with warnings.catch_warnings(), interrupt_handlers():
             warnings.showwarning = _show_warning
+            raise_if_interrupted()  # a Ctrl-C while the command was starting up: stop before any work
             rc = int(args._run(args) or 0)
         sig = interrupt_pending()
         if sig is not None and rc == 0:  # swallowed inside JAX and not seen at a checkpoint: the work had finished

@@ -3,6 +3,8 @@ units, every bad input of the acceptance list -> one-line error, exit 2, no outp
 
 import os
 import re
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -292,3 +294,25 @@ def test_library_interrupt_carries_the_finished_part():
     res = info.value.result
     assert list(res.status[0, 2:]) == [R.NOT_RUN] and R.is_usable(res.status[0, :2]).all()
     assert res.meta["interrupted"] is True and np.all(np.isfinite(res.alpha_deg))
+
+
+def test_a_signal_while_the_command_starts_up_stops_it():
+    """Ctrl-C in the second the command spends importing JAX used to land in JAX's GC callback,
+    be printed and dropped, and the command ran to the end with exit 0. Started as the command
+    (argv[0] 'jaxstiff'), the package's import now remembers the signal and the command stops
+    before any work with exit 130; imported as a library, the handlers are left alone."""
+    code = (
+        "import os, signal, sys\n"
+        "sys.argv[0] = 'jaxstiff'\n"
+        "import jaxstiff\n"
+        "os.kill(os.getpid(), signal.SIGINT)  # during the start-up: remembered, not raised\n"
+        "from jaxstiff.cli import main\n"
+        "sys.exit(main(['robot', '--robot', 'planar_3r']))\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 130 and "interrupted (SIGINT)" in res.stderr, (res.returncode, res.stderr)
+    assert "planar_3r" not in res.stdout  # no work was done
+    lib = ("import signal, jaxstiff\n"
+           "assert signal.getsignal(signal.SIGINT) is signal.default_int_handler\n"
+           "assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL\n")
+    assert subprocess.run([sys.executable, "-c", lib], capture_output=True, timeout=120).returncode == 0
