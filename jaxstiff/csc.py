@@ -58,10 +58,12 @@ Choices this module makes where the seed is silent (SPEC section 6 lets us choos
   so the tracking step is not cut by the final clamp. Known limit: a frozen joint is not released
   within the step, i.e. this is not a full active set. From a start with joints at their limits,
   where lowering u needs one of them to move back inward, the arm can stall (status 2 + 8 on
-  every step); and where the combined step pushes a joint outward but the path needs it to move
-  inward, the TCP can fall behind the path by millimetres for some steps (the tracking error says
-  so; ``newton`` corrections do not release the joint either). Start inside the limits, or use
-  ``joint_limits="priority"`` to keep the arm off them.
+  every step); and where the path, with the frozen joints held at their limits, leaves the reach
+  of the other joints, the TCP falls behind it (millimetres for some steps; the tracking error
+  says so): each step is linear, and to first order the other joints can still follow, so
+  nothing tells the frozen joint to move back inward (an active set on the linear step, tried,
+  does not see it either). Start inside the limits, or use ``joint_limits="priority"`` to keep
+  the arm off them.
 * **Locked joints** never move: their Jacobian columns are zeroed for motion and their entries of
   ``q0`` are replaced by the locked values. They keep their springs: ``u``, the realised joint
   stiffness and ``K_C`` use the full Jacobian.
