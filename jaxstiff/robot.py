@@ -320,11 +320,15 @@ def _check_locked(joint_names, lower, upper, locked) -> tuple[float | None, ...]
 def _tcp_matrix(tcp) -> np.ndarray:
     if tcp is None:
         return np.eye(4)
-    T = np.asarray(tcp, dtype=float) if not isinstance(tcp, str) else None
+    try:
+        T = np.asarray(tcp, dtype=float) if not isinstance(tcp, str) else None
+    except (TypeError, ValueError):
+        T = None
+    shown = np.asarray(tcp).tolist() if isinstance(tcp, np.ndarray) else tcp  # (one line, not numpy's repr)
     if T is None or T.shape not in ((3,), (4, 4)):
-        raise ValueError(f"tcp must be a 3-vector (m) or a 4x4 transform, got {tcp!r}")
+        raise ValueError(f"tcp must be a 3-vector (m) or a 4x4 transform, got {shown!r}")
     if not np.all(np.isfinite(T)):
-        raise ValueError(f"tcp contains NaN or Inf: {tcp!r}")
+        raise ValueError(f"tcp contains NaN or Inf: {shown!r}")
     if T.shape == (3,):
         M = np.eye(4)
         M[:3, 3] = T

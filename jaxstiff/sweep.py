@@ -4,7 +4,11 @@
 config (:mod:`jaxstiff.sweep_config`: every problem is reported before any work starts), opens the
 store in ``out`` (:mod:`jaxstiff.sweep_store`), computes every chunk that is not finished yet, and
 assembles the results table (one row per trajectory x setting, Parquet), ``summary.md`` and heat
-maps (:mod:`jaxstiff.sweep_report`).
+maps (:mod:`jaxstiff.sweep_report`). The table's columns: ``row_id, chunk, group, path,
+path_index, P``, one per axis of the kind (:data:`jaxstiff.sweep_config.AXES`), ``q0_ik_error_m``
+(the start posture's IK error, NaN where it is not an IK solution), the metrics
+(:data:`jaxstiff.sweep_metrics.METRICS`), and ``result_file, result_index`` (where the row's
+per-waypoint arrays are).
 
 Batching. A chunk is a run of rows of one group (rows that share the static settings and the
 number of waypoints, so one compiled kernel serves the whole group):

@@ -47,7 +47,10 @@ Layout of a config (every table but ``[robot]`` and ``[[paths]]`` is optional)::
     heatmaps = [["ratio", "dq_deg"]]   # axis pairs of the heat maps ("path" too; default: up to 6 pairs of varying axes)
 
 Ranges: ``{start, stop, num}`` is ``numpy.linspace(start, stop, num)``; ``{start, stop, step}``
-runs from start by step up to stop inclusive (within 1e-9 of a step).
+runs from start by step up to stop inclusive (within 1e-9 of a step). Values that differ from a
+short decimal by a few units in the last place (the round-off of ``start + i * step``:
+1.2000000000000002) are stored as that decimal (1.2); an integer axis refuses a range whose
+values are not integers.
 
 Axes of kind ``"shape"`` (see :data:`AXES`): criterion, task, solver, starts, ratio, c, dq_deg, dk,
 kmin, kmax, first_rate_limit, first_starts, q0, q0_seed. Axes of kind ``"csc"``: task, step, kmin, kmax,
@@ -112,6 +115,25 @@ _REPORT_KEYS = ("heatmaps", "metrics")
 _DEFAULT_CHUNK = {"shape": 16, "csc": 64}
 _MAX_ROWS = 10_000_000
 
+
+
+def _short_float(x: float) -> float:
+    """``x``, or the shortest decimal of at most 12 significant digits within 8 units in the last
+    place of it (range round-off: 1.2000000000000002 -> 1.2; 1/3 stays 1/3)."""
+    for digits in range(1, 13):
+        y = float(f"{x:.{digits}g}")
+        if abs(y - x) <= 8 * np.spacing(abs(x)):
+            return y
+    return x
+
+def hashed_config(normalised: dict) -> dict:
+    """The part of a normalised config (``plan.config``) that the plan hash sees: not where the
+    files lie (``robot.urdf_file``, the paths' ``file``; their sha256 and data count), not the
+    report section (it does not change results)."""
+    hashed = {k: v for k, v in normalised.items() if k != "report"}
+    hashed["robot"] = {k: v for k, v in normalised.get("robot", {}).items() if k != "urdf_file"}
+    hashed["paths"] = [{k: v for k, v in p.items() if k != "file"} for p in normalised.get("paths", [])]
+    return hashed
 
 class SweepConfigError(ValueError):
     """A bad sweep config. ``key`` is the offending key (``"axes.ratio"``), ``str(err)`` says why."""
@@ -539,8 +561,12 @@ class _Parser:
                 raise self.err(key, f"range has {count} values; that is too many")
             vals = start + step * np.arange(count)
         if integer:
+            if not np.allclose(vals, np.round(vals), rtol=0, atol=1e-9):
+                shown = ", ".join(f"{x:g}" for x in vals[:6]) + (", ..." if len(vals) > 6 else "")
+                raise self.err(key, f"an integer axis: this range gives values that are not integers ({shown}); "
+                                    "give {start, stop, step} or a list")
             return [int(round(x)) for x in vals]
-        return [float(x) for x in vals]
+        return [_short_float(float(x)) for x in vals]
 
     # ------------------------------------------------------------------ plan
     def plan(self) -> SweepPlan:
@@ -639,9 +665,7 @@ class _Parser:
         }
         # the hash sees the files' contents (sha256), not where they lie: a moved or copied sweep
         # folder (or a symlinked one) resumes; the report section does not change results
-        hashed = {k: v for k, v in normalised.items() if k != "report"}
-        hashed["robot"] = {k: v for k, v in robot_spec.items() if k != "urdf_file"}
-        hashed["paths"] = [{k: v for k, v in p.items() if k != "file"} for p in normalised["paths"]]
+        hashed = hashed_config(normalised)
         h = hashlib.sha256()
         h.update(json.dumps(hashed, sort_keys=True, default=_json_default).encode())
         h.update(repr(dataclasses.astuple(dataclasses.replace(robot, source=""))).encode())
@@ -702,7 +726,8 @@ class _Parser:
         try:
             robot = Robot.from_urdf(urdf, locked=locked, tcp=None if tcp is None else np.asarray(tcp), **links)
         except (ValueError, FileNotFoundError) as exc:
-            key = "robot.locked" if locked and "lock" in str(exc).lower() else "robot"
+            key = ("robot.locked" if locked and "lock" in str(exc).lower()
+                   else "robot.tcp" if tcp is not None and str(exc).startswith("tcp") else "robot")
             raise self.err(key, str(exc)) from None
         spec = {k: tbl[k] for k in tbl}
         spec.update({"urdf_file": os.path.abspath(urdf), "urdf_sha256": file_sha256(urdf)})

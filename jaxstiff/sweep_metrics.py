@@ -26,8 +26,8 @@ __all__ = ["METRICS", "shape_row_metrics", "csc_row_metrics"]
 METRICS: dict[str, dict[str, str]] = {
     "shape": {
         "share_both": "share of waypoints that are usable, aligned (alpha < tol) and reach the ratio",
-        "share_ratio": "share of usable waypoints reaching the ratio (f1: rho >= (1 - tol) r; else |rho - r| / r < tol)",
-        "share_alpha": "share of usable waypoints with alpha < alpha_tol_deg",
+        "share_ratio": "share of waypoints that are usable and reach the ratio (f1: rho >= (1 - tol) r; else |rho - r| / r < tol)",
+        "share_alpha": "share of waypoints that are usable and have alpha < alpha_tol_deg",
         "share_usable": "share of waypoints with status 0-2 (feasible)",
         "share_solved": "share of waypoints with status 0",
         "share_unreachable": "share of waypoints with status 3 (unreachable)",

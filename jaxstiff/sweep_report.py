@@ -119,9 +119,10 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
     md.append(_md_table(["axis", "values", "meaning"],
                         [[k, ", ".join(_fmt(x) if not isinstance(x, list) else str(x) for x in v), AXES[plan.kind][k].doc]
                          for k, v in plan.axes.items()]))
-    md += ["", "## Overall (mean over all rows)", ""]
-    md.append(_md_table(["metric", "mean", "min", "max", "meaning"],
-                        [[m, float(df[m].mean()), float(df[m].min()), float(df[m].max()), METRICS[plan.kind][m]] for m in all_metrics]))
+    md += ["", "## Overall (over the rows with a value: a metric of no usable waypoint is NaN)", ""]
+    md.append(_md_table(["metric", "rows", "mean", "min", "max", "meaning"],
+                        [[m, f"{int(df[m].notna().sum())} of {len(df)}", float(df[m].mean()), float(df[m].min()),
+                          float(df[m].max()), METRICS[plan.kind][m]] for m in all_metrics]))
     for ax in varying:
         g = df.groupby(ax, sort=True)[metrics].mean()
         md += ["", f"## By {_label(plan, ax)}", ""]

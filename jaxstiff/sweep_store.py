@@ -31,13 +31,13 @@ import glob
 import json
 import os
 import socket
-from typing import Any, Iterable
+from typing import Iterable
 
 
 from ._io import atomic_write, atomic_write_text
 from ._io import json_default as _json_default
 
-from .sweep_config import AXES, SweepPlan
+from .sweep_config import AXES, SweepPlan, hashed_config
 
 __all__ = ["SweepStore", "read_table", "atomic_write_text", "FORMAT"]
 
@@ -149,7 +149,8 @@ class SweepStore:
             except (OSError, json.JSONDecodeError) as exc:
                 raise ValueError(f"{plan_file}: unreadable ({exc}); this folder is not a usable sweep store") from None
             if old.get("plan_hash") != plan.plan_hash:
-                diff = _config_diff(old.get("config", {}), plan.config)
+                # (only what the hash sees: a moved file is no change)
+                diff = _config_diff(hashed_config(old.get("config", {})), hashed_config(plan.config))
                 if diff and set(diff.split(", ")) <= {"sweep.name", "sweep.description"}:
                     was = old.get("config", {}).get("sweep", {})
                     raise ValueError(
@@ -163,8 +164,8 @@ class SweepStore:
                     f"--out {self.out} holds a different sweep ({old.get('name')!r}, plan {str(old.get('plan_hash'))[:12]}); "
                     f"changed: {diff or 'robot or path data'}. Use a new --out for a changed config"
                 )
-            if not resume:
-                n = len(self._scan_done())
+            n = len(self._scan_done())
+            if not resume and n:  # (none done, e.g. a run stopped while it set the store up: nothing to lose)
                 raise ValueError(
                     f"--out {self.out} already holds this sweep ({n} of {len(plan.chunks)} chunks done); "
                     "pass --resume to continue it, or choose another --out"
@@ -296,8 +297,8 @@ class SweepStore:
         from .sweep_metrics import METRICS
 
         k = self.plan.kind
-        return (["row_id", "chunk", "group", "path", "path_index", "P"] + list(AXES[k]) + list(METRICS[k])
-                + ["result_file", "result_index"])
+        return (["row_id", "chunk", "group", "path", "path_index", "P"] + list(AXES[k]) + ["q0_ik_error_m"]
+                + list(METRICS[k]) + ["result_file", "result_index"])
 
     def rows(self) -> list[dict]:
         """All finished rows, sorted by row_id."""
@@ -349,6 +350,7 @@ def table_frame(rows: list[dict], cols: list[str], kind: str):
             df[name] = df[name].astype(str)
     for c in ("row_id", "chunk", "group", "path_index", "P", "result_index"):
         df[c] = df[c].astype("int64")
+    df["q0_ik_error_m"] = df["q0_ik_error_m"].astype("float64")  # (NaN where the start posture is no IK solution)
     return df
 
 

@@ -120,6 +120,11 @@ def test_shape_table_rows_and_settings(shape_run):
     assert list(zip(df["ratio"], df["dk"], df["path"])) == want
     assert set(df["criterion"]) == {"f2"} and set(df["task"]) == {"xy"}
     assert not any(c.endswith("time_s") or c == "wall_s" for c in df.columns)
+    # the start posture's IK error is a column (the docs and the IK warning name it; it was only in
+    # the chunk files): here the IK reaches the first waypoint, so it is below the IK tolerance
+    from jaxstiff.sweep import IK_TOL_M
+
+    assert df["q0_ik_error_m"].dtype == np.float64 and np.all(df["q0_ik_error_m"] < IK_TOL_M)
 
 
 def test_shape_rows_verified_from_files_alone(shape_run):
@@ -207,8 +212,28 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
     with pytest.raises(ValueError, match=r"already holds this sweep \(2 of 2 chunks done\); pass --resume"):
         SweepStore(shape_run.out, plan)
     other = parse_config({**SHAPE_CFG, "axes": {**SHAPE_CFG["axes"], "ratio": [2.0, 4.0]}})
-    with pytest.raises(ValueError, match=r"holds a different sweep .*changed: axes.ratio"):
+    with pytest.raises(ValueError, match=r"holds a different sweep .*changed: axes.ratio\. Use"):  # (only it)
         SweepStore(shape_run.out, other, resume=True)
+    # the refusal names only what the plan hash sees: another URDF content, not another folder
+    import jaxstiff
+
+    urdf_text = open(jaxstiff.robot_path("planar_3r"), encoding="utf-8").read()
+    plans = []
+    for sub, text in (("a", urdf_text), ("b", urdf_text.replace('upper="3.14159', 'upper="3.0', 1))):
+        (tmp_path / sub).mkdir()
+        (tmp_path / sub / "arm.urdf").write_text(text, encoding="utf-8")
+        plans.append(parse_config({**SHAPE_CFG, "robot": {"urdf": "arm.urdf"}}, base_dir=tmp_path / sub))
+    assert text != urdf_text
+    with SweepStore(tmp_path / "urdf_store", plans[0]):
+        pass
+    with pytest.raises(ValueError, match=r"changed: robot\.urdf_sha256\. Use"):
+        SweepStore(tmp_path / "urdf_store", plans[1], resume=True)
+    # a store set up but with no chunk done (a run stopped while it started): run again without --resume
+    empty = tmp_path / "empty"
+    with SweepStore(empty, plan):
+        pass
+    with SweepStore(empty, plan) as st:
+        assert st.done == {}
     # a renamed config file renames the sweep (its label only): the error says how to continue
     renamed = parse_config({**SHAPE_CFG, "sweep": {**SHAPE_CFG["sweep"], "name": "renamed"}})
     with pytest.raises(ValueError, match=r"holds this sweep under another label \(sweep.name '.+', now 'renamed'.*set name = \".+\" in \[sweep\] to continue"):

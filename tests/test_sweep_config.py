@@ -116,6 +116,11 @@ CATALOGUE = [
     ("task beyond the robot's joints", lambda t: _set(base(), "axes.task", ["xy", "full"]), "axes.task", ["'planar_3r'", "only 3 joint"]),
     ("csc task the robot cannot control", lambda t: _set(csc_base(), "axes.task", "xyz"), "axes.task", ["vz", "zero at every posture"]),
     ("csc task full", lambda t: _set(csc_base(), "axes.task", "full"), "axes.task", ["unknown value 'full'", "xy, xyz"]),
+    ("integer range that is not integers", lambda t: _set(base(), "axes.first_starts", {"start": 1, "stop": 4, "num": 3}),
+     "axes.first_starts", ["not integers (1, 2.5, 4)"]),
+    ("infinite tcp entry", lambda t: _set(base(), "robot.tcp", [[1.0, 0.0, 0.0, math.inf], [0.0, 1.0, 0.0, 0.0],
+                                                                  [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]),
+     "robot.tcp", ["NaN or Inf: [[1.0, 0.0, 0.0, inf], [0.0, 1.0, 0.0, 0.0]"]),
 ]
 
 
@@ -212,6 +217,17 @@ def test_repeated_path_names_get_free_suffixes():
 def test_step_range_is_inclusive():
     plan = parse_config(_set(base(), "axes.ratio", {"start": 2.0, "stop": 3.0, "step": 0.25}))
     assert plan.axes["ratio"] == [2.0, 2.25, 2.5, 2.75, 3.0]
+
+
+def test_range_values_are_the_decimals_meant():
+    """1.1 + 0.1 is 1.2000000000000002 in floating point: a table filtered on ratio == 1.2
+    found nothing, and the last value lay above stop. Values within round-off of a short decimal
+    are that decimal; others (linspace's thirds) stay as numpy gives them."""
+    plan = parse_config(_set(base(), "axes.ratio", {"start": 1.1, "stop": 1.7, "step": 0.1}))
+    assert plan.axes["ratio"] == [1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.7]
+    assert 1.1 + 0.1 != 1.2  # (the round-off that was stored)
+    plan = parse_config(_set(base(), "axes.ratio", {"start": 2.0, "stop": 3.0, "num": 4}))
+    assert plan.axes["ratio"] == np.linspace(2.0, 3.0, 4).tolist() and plan.axes["ratio"][1] != 2.333333333333
 
 
 def test_groups_share_static_settings_and_chunks_stay_inside_groups():
