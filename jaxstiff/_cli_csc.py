@@ -47,8 +47,8 @@ from .cli import TIP_LINK_HELP, check_out_file, command, parse_locks
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
-#: rollout-steps per segment of a long run (about 0.5-1 s for a batch of a 7-joint arm on a CPU core, 3-5 s for one rollout): a
-#: progress line after each, and an interrupt keeps the finished segments
+#: rollout-steps per segment of a long run (on a CPU core about 0.5-1 s for a batch of a 7-joint
+#: arm, 3-5 s for one rollout): a progress line after each, and an interrupt keeps the finished ones
 SEGMENT_WORK = 500_000
 MIN_SEGMENT = 10
 DEFAULT_JL_GAIN = 0.3  #: --jl-gain when --joint-limits is priority or sum (as experiments/csc_lwr_path.py)
