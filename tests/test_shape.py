@@ -460,14 +460,23 @@ def test_meta_tcp_is_the_offset_given(tmp_path):
 @pytest.mark.parametrize("solver", ["slsqp", "pgd"])
 def test_one_waypoint_with_its_direction(solver):
     """A single waypoint is a path when its direction is given (no tangent needed): the ellipsoid
-    is shaped there, checked from the posture with the numpy FK and eigen-decomposition."""
-    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
-    d = np.array([0.0, 0.6, 0.8])
-    res = jaxstiff.shape(robot, jaxstiff.Path(np.array([[0.6, 0.0, 0.3]]), d[None]), "f2", 4.0, solver=solver)
+    is shaped there, checked from the posture with the numpy FK and eigen-decomposition (the LWR,
+    task full, with SLSQP; the planar 3R, task xy, with the batch solver, whose compilation is
+    then short)."""
+    if solver == "slsqp":
+        robot, task, x, d = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0}), "full", [0.6, 0.0, 0.3], [0.0, 0.6, 0.8]
+    else:
+        robot, task, x, d = jaxstiff.Robot.from_urdf("planar_3r"), "xy", [1.5, 0.5, 0.0], [0.6, 0.8, 0.0]
+    d = np.asarray(d)
+    res = jaxstiff.shape(robot, jaxstiff.Path(np.array([x]), d[None]), "f2", 4.0, task=task, solver=solver)
     assert res.status.shape == (1, 1) and R.is_usable(res.status).all()
     q, kj = res.q[0, 0], res.kj[0, 0]
-    assert np.linalg.norm(numpy_fk(robot, q)[:3, 3] - [0.6, 0.0, 0.3]) < 1e-9
-    J = np.asarray(robot.jacobian(q))  # task full: K_T is the top-left 3x3 of the 6x6 K_C (S0-4)
-    w, V = np.linalg.eigh(np.linalg.inv(J @ np.diag(1.0 / kj) @ J.T)[:3, :3])
+    assert np.linalg.norm(numpy_fk(robot, q)[:3, 3] - x) < 1e-9
+    J = np.asarray(robot.jacobian(q))
+    if task == "full":  # K_T is the top-left 3x3 of the 6x6 K_C (S0-4)
+        K = np.linalg.inv(J @ np.diag(1.0 / kj) @ J.T)[:3, :3]
+    else:
+        K = np.linalg.inv(J[:2] @ np.diag(1.0 / kj) @ J[:2].T)
+    w, V = np.linalg.eigh(K)
     assert abs(w[-1] / w[-2] - 4.0) < 0.08
-    assert math.degrees(math.acos(min(1.0, abs(V[:, -1] @ d)))) < 1.0
+    assert math.degrees(math.acos(min(1.0, abs(V[:, -1] @ d[: len(w)])))) < 1.0
