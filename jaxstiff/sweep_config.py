@@ -88,6 +88,7 @@ import itertools
 import json
 import math
 import os
+import warnings
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -955,13 +956,18 @@ class _Parser:
             for s in axes["solver"]:
                 if s in ("slsqp", "slsqp-fd") and any(k > 1 for k in axes["starts"]):
                     raise self.err("axes.starts", f"solver {s!r} is single-start; starts must be 0 or 1 (or sweep multi-start solvers separately)")
-        from .stiffness import check_task_feasible
+        from .stiffness import TASK_ROWS, check_task_feasible
 
         for task in axes["task"]:
             try:
                 check_task_feasible(robot, task, motion=kind == "csc")
             except ValueError as e:
                 raise self.err("axes.task", f"robot {robot.name!r}: {e}") from None
+            m = len(TASK_ROWS[task])
+            if kind == "csc" and robot.n_free <= m:  # allowed (tracking only), but the sweep's point is lost
+                warnings.warn(f"{self.source or 'config'}: axes.task {task!r}: robot {robot.name!r} has {robot.n_free} free "
+                              f"joints for {m} task rows: no null space, so the arm only tracks the path, and beta and the "
+                              "step rule do not change its motion", stacklevel=2)
         if len(axes["q0_seed"]) > 1 and "random" not in axes["q0"]:
             raise self.err("axes.q0_seed", f"{len(axes['q0_seed'])} seeds, but axes.q0 has no \"random\" family: "
                                            "the seed only draws random postures, so every seed would repeat the same rows")

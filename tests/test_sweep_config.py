@@ -353,3 +353,16 @@ def test_csc_sweep_reads_a_csv_path_that_holds_still(tmp_path):
     assert t.directions.shape == (4, 3) and np.all(np.isfinite(t.directions))
     with pytest.raises(ValueError, match=r"paths\[0\]\.file.*zero-length segment at waypoint 1 \(line 3\)"):
         parse_config(_set(base(), "paths", [{"file": str(f)}]))
+
+
+def test_csc_sweep_without_a_null_space_warns():
+    """A csc sweep on an arm with as many free joints as task rows is allowed (CSC then only
+    tracks), but its beta axis changes nothing: the plan says so. With a spare joint, no warning."""
+    import warnings
+
+    two_free = _set(csc_base(), "robot.locked", {"joint_3": 0.0})
+    with pytest.warns(UserWarning, match=r"axes.task 'xy': robot 'planar_3r' has 2 free joints for 2 task rows: no null space"):
+        parse_config(two_free)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse_config(csc_base())
