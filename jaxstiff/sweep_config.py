@@ -117,7 +117,6 @@ _DEFAULT_CHUNK = {"shape": 16, "csc": 64}
 _MAX_ROWS = 10_000_000
 
 
-
 def _short_float(x: float) -> float:
     """``x``, or the shortest decimal of at most 12 significant digits within 8 units in the last
     place of it (range round-off: 1.2000000000000002 -> 1.2; 1/3 stays 1/3)."""
@@ -127,6 +126,7 @@ def _short_float(x: float) -> float:
             return y
     return x
 
+
 def hashed_config(normalised: dict) -> dict:
     """The part of a normalised config (``plan.config``) that the plan hash sees: not where the
     files lie (``robot.urdf_file``, the paths' ``file``; their sha256 and data count), not the
@@ -135,6 +135,7 @@ def hashed_config(normalised: dict) -> dict:
     hashed["robot"] = {k: v for k, v in normalised.get("robot", {}).items() if k != "urdf_file"}
     hashed["paths"] = [{k: v for k, v in p.items() if k != "file"} for p in normalised.get("paths", [])]
     return hashed
+
 
 class SweepConfigError(ValueError):
     """A bad sweep config. ``key`` is the offending key (``"axes.ratio"``), ``str(err)`` says why."""

@@ -164,8 +164,10 @@ class SweepStore:
                     f"--out {self.out} holds a different sweep ({old.get('name')!r}, plan {str(old.get('plan_hash'))[:12]}); "
                     f"changed: {diff or 'robot or path data'}. Use a new --out for a changed config"
                 )
-            n = len(self._scan_done())
-            if not resume and n:  # (none done, e.g. a run stopped while it set the store up: nothing to lose)
+            # without --resume only a store with no chunk done (a run stopped while it set the store
+            # up: nothing to lose) runs again; the chunks are scanned once more below either way
+            n = 0 if resume else len(self._scan_done())
+            if n:
                 raise ValueError(
                     f"--out {self.out} already holds this sweep ({n} of {len(plan.chunks)} chunks done); "
                     "pass --resume to continue it, or choose another --out"
