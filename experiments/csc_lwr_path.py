@@ -48,7 +48,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-shape", action="store_true", help="skip the comparison with jaxstiff.shape")
     args = ap.parse_args(argv)
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
     import jax
@@ -57,7 +57,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff._io import atomic_write_text
+    from jaxstiff.runtime.io import atomic_write_text
     from jaxstiff.ik import ik_position
     from jaxstiff.paths import default_path
 

@@ -32,7 +32,7 @@ def main(argv=None) -> int:
     ap.add_argument("--beta", type=float, default=2e-3, help="constant null step, rad")
     args = ap.parse_args(argv)
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
     import jax
@@ -40,7 +40,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff._io import atomic_write_text
+    from jaxstiff.runtime.io import atomic_write_text
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)

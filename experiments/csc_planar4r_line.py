@@ -30,7 +30,7 @@ def main(argv=None) -> int:
     ap.add_argument("--steps", type=int, default=500, help="time steps (waypoints on the line)")
     args = ap.parse_args(argv)
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
     import jax
@@ -38,7 +38,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff._io import atomic_write_text
+    from jaxstiff.runtime.io import atomic_write_text
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)

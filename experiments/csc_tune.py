@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     ap.add_argument("--lr", type=float, default=0.05, help="Adam step size")
     args = ap.parse_args(argv)
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
     import jax
@@ -53,8 +53,8 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff._io import atomic_write_text
-    from jaxstiff.csc import project_to_target
+    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.csc.rollout import project_to_target
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)

@@ -29,7 +29,7 @@ def summary_rows(res, verification):
     """The summary table of the experiment as (metric, value) rows."""
     import numpy as np
 
-    from jaxstiff import results as R
+    from jaxstiff.results import files as R
 
     s = R.summary(res)
     r = float(res.meta["ratio"])
@@ -62,7 +62,7 @@ def run(criterion: str, tag: str, title: str, argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="only the first 20 waypoints of the default path")
     args = ap.parse_args(argv)
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
@@ -70,8 +70,8 @@ def run(criterion: str, tag: str, title: str, argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff import results as R
-    from jaxstiff._io import atomic_write_text
+    from jaxstiff.results import files as R
+    from jaxstiff.runtime.io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})

@@ -42,7 +42,7 @@ def main(argv=None) -> int:
     N = args.paths if args.paths is not None else (2 if args.quick else 100)
 
     import jaxstiff
-    from jaxstiff import results as R
+    from jaxstiff.results import files as R
     from jaxstiff.ik import ik_position
     from jaxstiff.shaping import SOLVERS, register_solver
     from jaxstiff.solvers import trajectory

@@ -1,14 +1,15 @@
 """jaxstiff: stiffness-ellipsoid shaping and Configuration-based Stiffness Control in JAX.
 
-The public names are re-exported here explicitly; see DESIGN.md for the contract.
+The public names are re-exported here explicitly; see DESIGN.md for the contract and the layers.
 """
 
 # first, before JAX is imported: a Ctrl-C while the `jaxstiff` command starts up is remembered,
-# not lost (see jaxstiff._early_signals; nothing changes when imported as a library)
-from ._early_signals import record_early_signals as _record_early_signals
+# not lost (see jaxstiff.runtime.early_signals; nothing changes when imported as a library)
+from .runtime.early_signals import record_early_signals as _record_early_signals
 
 _record_early_signals()
 
+# the former module paths (jaxstiff.ellipsoid, ...) are loaded before the names that shadow them
 from .criteria import f1 as f1
 from .criteria import f2 as f2
 from .criteria import frobenius as frobenius
@@ -31,12 +32,11 @@ from .results import ShapeResult as ShapeResult
 from .robot import Robot as Robot
 from .robot import robot_path as robot_path
 from .robot import shipped_robots as shipped_robots
+from .runtime.version import __version__ as __version__
+from .shaping import shape as shape
 from .stiffness import cartesian_stiffness as cartesian_stiffness
 from .stiffness import cms_factor as cms_factor
 from .stiffness import cms_scale as cms_scale
 from .stiffness import compliance_condition as compliance_condition
 from .stiffness import joint_stiffness as joint_stiffness
 from .stiffness import translational_stiffness as translational_stiffness
-from .shaping import shape as shape
-
-__version__ = "0.1.0"

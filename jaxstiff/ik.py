@@ -24,8 +24,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .kinematics import position_and_jacobian
-from .robot import JOINT_REVOLUTE, Robot
+from jaxstiff.model.kinematics import position_and_jacobian
+from jaxstiff.model.robot import JOINT_REVOLUTE, Robot
 
 __all__ = ["ik_position", "nominal_posture", "NOMINAL_OFFSET_DEG"]
 

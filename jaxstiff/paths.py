@@ -36,7 +36,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ._io import atomic_write_text
+from jaxstiff.runtime.io import atomic_write_text
 
 __all__ = [
     "Path",

@@ -25,7 +25,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ._io import atomic_write
+from jaxstiff.runtime.io import atomic_write
 
 __all__ = [
     "pyplot",
@@ -304,8 +304,8 @@ def figure_u_frobenius(steps, u, frobenius, labels: Sequence[str], file, *, xlab
 
 def _stiffness_axes(robot, q, kj_scaled, task="full"):
     """Eigenvalues (descending, N/m) and eigenvectors (columns) of K_T at each waypoint, (P, 3), (P, 3, 3)."""
-    from .kinematics import jacobian
-    from .stiffness import translational_stiffness
+    from jaxstiff.model.kinematics import jacobian
+    from jaxstiff.stiffness.core import translational_stiffness
 
     J = jacobian(robot, np.asarray(q))
     K = np.asarray(translational_stiffness(J, np.asarray(kj_scaled), task=task))

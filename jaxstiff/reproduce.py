@@ -320,7 +320,7 @@ def _environment() -> list[str]:
     import numpy as np
     import scipy
 
-    from . import __version__
+    from jaxstiff.runtime.version import __version__
 
     try:
         devices = ", ".join(sorted({d.platform for d in jax.devices()})) + f" x{jax.device_count()}"
@@ -368,7 +368,7 @@ def run_reproduce(
         FileNotFoundError: no experiments folder (not a source checkout).
         ValueError: ``only`` matches no experiment.
     """
-    from .sweep_store import atomic_write_text
+    from jaxstiff.sweep.store import atomic_write_text
 
     if log is None:
         log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
@@ -456,7 +456,7 @@ _STATUS = ".reproduce.json"
 def _save_status(r: ExperimentRun) -> None:
     import json
 
-    from .sweep_store import atomic_write_text
+    from jaxstiff.sweep.store import atomic_write_text
 
     atomic_write_text(os.path.join(r.out, _STATUS), json.dumps(dataclasses.asdict(r), indent=1))
 

@@ -46,8 +46,6 @@ from __future__ import annotations
 import datetime
 import math
 import os
-import platform
-import sys
 import time
 import warnings
 from typing import Any, Callable, Mapping
@@ -55,14 +53,15 @@ from typing import Any, Callable, Mapping
 import jax
 import numpy as np
 
-from . import results as R
-from .criteria import CRITERIA, get_criterion
-from .ik import ik_position, nominal_posture, NOMINAL_OFFSET_DEG
-from .paths import DEFAULT_PATH_SPEC, Path
-from ._io import deferred_interrupts
-from .robot import Robot
-from .solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report, content_seed
-from .stiffness import check_task_feasible, task_rows
+from jaxstiff.results import files as R
+from jaxstiff.stiffness.criteria import CRITERIA, get_criterion
+from jaxstiff.ik import ik_position, nominal_posture, NOMINAL_OFFSET_DEG
+from jaxstiff.paths import DEFAULT_PATH_SPEC, Path
+from jaxstiff.runtime.io import deferred_interrupts
+from jaxstiff.model.robot import Robot
+from jaxstiff.settings.robot import robot_meta, versions
+from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, compiled_report, content_seed
+from jaxstiff.stiffness.core import check_task_feasible, task_rows
 
 __all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "ShapeInterrupted", "SolverInterrupted",
            "prefer_sync_cpu_dispatch", "first_start_rng"]
@@ -209,17 +208,17 @@ def _greedy_solver(kind: str):
             raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={req.starts}")
         prob = req.problem
         if kind == "slsqp":
-            from .solvers.slsqp import greedy_path, make_slsqp_solver
+            from jaxstiff.solvers.slsqp import greedy_path, make_slsqp_solver
 
             solver = make_slsqp_solver(prob, req.options)
             extra = {}
         else:
-            from .solvers.slsqp_fd import make_fd_solver, numpy_objective, numpy_pos_and_jac
-            from .solvers.slsqp import greedy_path
+            from jaxstiff.solvers.slsqp_fd import make_fd_solver, numpy_objective, numpy_pos_and_jac
+            from jaxstiff.solvers.slsqp import greedy_path
 
             solver = make_fd_solver(prob, req.options)
             extra = {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)}
-        from .solvers.slsqp import CODE_MEANING, PathInterrupted, not_run_outcomes
+        from jaxstiff.solvers.slsqp import CODE_MEANING, PathInterrupted, not_run_outcomes
 
         per_path = []
         ratios = req.ratios
@@ -378,48 +377,8 @@ def _check_q0(robot: Robot, q0: np.ndarray) -> None:
                 raise ValueError(f"q0[{i}] = {q[i]:.6g} but joint {robot.joint_names[i]!r} is locked at {lv[i]:.6g}")
 
 
-def _robot_meta(robot: Robot) -> dict[str, Any]:
-    src = robot.source
-    meta: dict[str, Any] = {
-        "name": robot.name,
-        "urdf": os.path.abspath(src) if src else "",
-        "sha256": R.file_sha256(src) if src and os.path.isfile(src) else "",
-        "base_link": robot.base_link,
-        "tip_link": robot.tip_link,
-        "locked": {nm: v for nm, v in zip(robot.joint_names, robot.locked) if v is not None},
-        "joint_names": list(robot.joint_names),
-        "lower": robot.lower.tolist(),
-        "upper": robot.upper.tolist(),
-        "tip_transform": robot.tip_matrix.tolist(),
-    }
-    tcp = None
-    if src and os.path.isfile(src):
-        try:
-            bare = Robot.from_urdf(src, base_link=robot.base_link or None, tip_link=robot.tip_link or None)
-            tcp = np.linalg.solve(bare.tip_matrix, robot.tip_matrix)
-            tcp[np.abs(tcp) < 1e-15] = 0.0
-            # 15 significant digits: the solve's round-off goes (0.09999999999999996 -> 0.1, as given)
-            tcp = np.array([[float(f"{x:.15g}") for x in row] for row in tcp])
-            tcp[3] = [0.0, 0.0, 0.0, 1.0]
-        except (ValueError, FileNotFoundError):
-            tcp = None
-    meta["tcp"] = None if tcp is None else tcp.tolist()
-    return meta
 
 
-def _versions() -> dict[str, str]:
-    import scipy
-
-    from . import __version__
-
-    return {
-        "jaxstiff": __version__,
-        "jax": jax.__version__,
-        "numpy": np.__version__,
-        "scipy": scipy.__version__,
-        "python": sys.version.split()[0],
-        "platform": platform.platform(),
-    }
 
 
 # ---------------------------------------------------------------------- shape
@@ -512,7 +471,7 @@ def shape(
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a jaxstiff.Robot or a URDF path, got {type(robot).__name__}")
     if path is None:
-        from .paths import default_path
+        from jaxstiff.paths import default_path
 
         path = default_path()
     if isinstance(path, (list, tuple)) and path and all(isinstance(p, Path) for p in path):
@@ -647,7 +606,7 @@ def shape(
     meta: dict[str, Any] = {
         "format": "jaxstiff.shape/1",
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-        "robot": _robot_meta(robot),
+        "robot": robot_meta(robot),
         "criterion": crit_name,
         "criterion_custom": not (isinstance(criterion, str) and criterion in CRITERIA),
         "ratio": ratio if isinstance(ratio, float) else ratio.tolist(),
@@ -684,7 +643,7 @@ def shape(
         "status_codes": R.STATUS_NAMES,
         "timing_s": {"setup": t_solve - t_start, "solve": t_solved - t_solve, "compile": arrays.get("compile_s"),
                      "total": time.perf_counter() - t_start},
-        "versions": _versions(),
+        "versions": versions(),
         "jax_cpu_async_dispatch": _cpu_async_dispatch(),
         "units": {"q": "rad", "kj": "Nm/rad", "position": "m", "alpha_deg": "deg", "stiffness": "N/m"},
         "interrupted": interrupted,
@@ -723,7 +682,7 @@ def _solver_defaults(solver: str) -> dict[str, Any]:
 
     The hybrid is pgd followed by an SLSQP polish, so its options are both sets plus its own two.
     The trajectory solver's own options are here; those of its warm start go to ``warm_options``."""
-    from .solvers import hybrid, pgd, slsqp, trajectory
+    from jaxstiff.solvers import hybrid, pgd, slsqp, trajectory
 
     if solver in ("slsqp", "slsqp-fd"):
         return dict(slsqp.DEFAULT_OPTIONS)
@@ -763,7 +722,7 @@ def _check_options(solver: str, options: Mapping[str, Any] | None) -> None:
         return
     if not isinstance(options, Mapping):
         raise ValueError(f"options must be a dict of solver options, got {type(options).__name__}")
-    from .solvers import hybrid, pgd, slsqp, trajectory
+    from jaxstiff.solvers import hybrid, pgd, slsqp, trajectory
 
     warm = options.get("warm", "pgd")
     if solver == "trajectory" and warm not in trajectory.WARM_STARTS:

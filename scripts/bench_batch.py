@@ -41,7 +41,7 @@ def random_reachable_paths(robot, B: int, P: int, seed: int = 0, span: float = 0
     """
     import jax
 
-    from jaxstiff.kinematics import fk
+    from jaxstiff.model.kinematics import fk
 
     rng = np.random.default_rng(seed)
     n = robot.n
@@ -81,7 +81,7 @@ def main(argv=None) -> int:
     import jaxstiff
     from jaxstiff.solvers import pgd
     from jaxstiff.solvers.problem import Limits, WaypointProblem
-    from jaxstiff.criteria import get_criterion
+    from jaxstiff.stiffness.criteria import get_criterion
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     n = robot.n

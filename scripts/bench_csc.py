@@ -48,7 +48,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     import jaxstiff
-    from jaxstiff._xla import kernel_compiler_options
+    from jaxstiff.runtime.xla import kernel_compiler_options
     from jaxstiff.ik import ik_position
     from jaxstiff.paths import default_path
 

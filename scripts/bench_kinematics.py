@@ -203,7 +203,7 @@ def main(argv=None) -> int:
     if not dtypes or any(d not in ("float32", "float64") for d in dtypes):
         ap.error(f"--dtypes: choose from float32, float64, got {args.dtypes!r}")
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()  # float64 available; float32 inputs stay float32 (the kernel keeps the dtype)
     import numpy as np

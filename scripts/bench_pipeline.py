@@ -55,7 +55,7 @@ def main(argv=None) -> int:
     import jax
     import jax.numpy as jnp
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     if not args.float32:
         enable_x64()
@@ -90,11 +90,11 @@ def main(argv=None) -> int:
         def ellip(q, kj, d):
             (K,) = stiff(q, kj, d)
             w, V = eig_fn(K)
-            return w, V, ell._safe_ratio(w[..., 0], w[..., 1]), jnp.prod(w, -1)
+            return w, V, ell.safe_ratio(w[..., 0], w[..., 1]), jnp.prod(w, -1)
 
         def crit(q, kj, d):
             w, V, rho, vol = ellip(q, kj, d)
-            alpha = ell._alpha_rad(V[..., :, 0], d) * (180.0 / np.pi)
+            alpha = ell.alpha_rad(V[..., :, 0], d) * (180.0 / np.pi)
             return ((1.0 + alpha) * (1.0 + jnp.abs(r - rho)),)
 
         def grad(q, kj, d):

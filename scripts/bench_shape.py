@@ -51,7 +51,7 @@ def main(argv=None) -> int:
                     help="keep JAX's asynchronous CPU dispatch (default: inline, see prefer_sync_cpu_dispatch)")
     args = ap.parse_args(argv)
 
-    from jaxstiff._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
@@ -61,7 +61,7 @@ def main(argv=None) -> int:
     import scipy
 
     import jaxstiff
-    from jaxstiff import results as R
+    from jaxstiff.results import files as R
     from jaxstiff.shaping import DEFAULTS
     from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, compiled
     from jaxstiff.solvers.slsqp import make_slsqp_solver

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff import results as R
+from jaxstiff.results import files as R
 from helpers import numpy_fk
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff import results as R
+from jaxstiff.results import files as R
 from jaxstiff.cli import main
 from helpers import numpy_fk
 
@@ -193,7 +193,7 @@ def test_sigterm_during_the_save_still_writes_the_complete_file(tmp_path, small_
 
 
 def test_atomic_write_removes_its_temporary_file_on_an_interrupt(tmp_path):
-    from jaxstiff._io import atomic_write
+    from jaxstiff.runtime.io import atomic_write
 
     def half_then_ctrl_c(fh):
         fh.write(b"partial")

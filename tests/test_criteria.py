@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 
 import jaxstiff
 from helpers import assert_close, central_diff
-from jaxstiff.criteria import CRITERIA, alpha_and_ratio
+from jaxstiff.stiffness.criteria import CRITERIA, alpha_and_ratio
 
 RNG = np.random.default_rng(99)
 N = 64

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff import csc
+from jaxstiff.csc import rollout as csc
 from jaxstiff.cli import main as cli_main
 from helpers import assert_close, central_diff, numpy_fk
 
@@ -716,7 +716,7 @@ def test_cli_errors_are_one_line(tmp_path, capsys, argv, match):
 
 def test_cli_takes_negative_comma_lists_as_values(tmp_path):
     """`--hold -1.2,0.9` (argparse alone takes '-1.2,0.9' for an unknown option and refuses)."""
-    from jaxstiff.cli import _join_negative_values
+    from jaxstiff.cli.common import join_negative_values as _join_negative_values
 
     assert _join_negative_values(["csc", "--hold", "-1.2,0.9", "--beta", "-1", "--q0", ".5,1", "-x"]) == [
         "csc", "--hold=-1.2,0.9", "--beta=-1", "--q0", ".5,1", "-x"]
@@ -869,7 +869,7 @@ def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(t
     """A run longer than one segment prints a progress line per segment; an interrupt after the
     second writes the finished steps (meta: interrupted, steps) and exits 130. The rows equal the
     library's uninterrupted rollout."""
-    from jaxstiff import _cli_csc
+    from jaxstiff.cli import csc as _cli_csc
 
     monkeypatch.setattr(_cli_csc, "SEGMENT_WORK", 300)
     argv = ["csc", "--robot", "planar_3r", "--hold", f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}", "--kxd", "3000,1000@30",
@@ -942,7 +942,7 @@ def test_cli_joint_limit_avoidance_has_a_gain_by_default(tmp_path, capsys):
     q_off, meta_off, _ = runs[()]
     q_pr, meta_pr, err_pr = runs[("--joint-limits", "priority")]
     q_0, _, err_0 = runs[("--joint-limits", "priority", "--jl-gain", "0")]
-    from jaxstiff._cli_csc import DEFAULT_JL_GAIN
+    from jaxstiff.cli.csc import DEFAULT_JL_GAIN
 
     assert meta_off["jl_gain"] == 0.0 and meta_pr["jl_gain"] == DEFAULT_JL_GAIN > 0
     assert np.abs(q_pr - q_off).max() > 1e-6 and "does nothing" not in err_pr

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 import jaxstiff
 from helpers import assert_close, central_diff
-from jaxstiff.ellipsoid import _alpha_rad, eigh_descending
+from jaxstiff.stiffness.ellipsoid import alpha_rad, eigh_descending
 
 RNG = np.random.default_rng(1234)
 N = 64  # one batch size throughout: each new shape compiles anew
@@ -148,8 +148,8 @@ def test_orientation_error_vs_acos_and_sign_invariance(m):
     # sign of the eigenvector
     _, V = eigh_descending(jnp.asarray(K))
     v1 = V[..., :, 0]
-    a1 = np.degrees(np.asarray(_alpha_rad(v1, jnp.asarray(d))))
-    a2 = np.degrees(np.asarray(_alpha_rad(-v1, jnp.asarray(d))))
+    a1 = np.degrees(np.asarray(alpha_rad(v1, jnp.asarray(d))))
+    a2 = np.degrees(np.asarray(alpha_rad(-v1, jnp.asarray(d))))
     assert_close(a1, a2, atol=1e-12)
     assert_close(a1, a, atol=1e-12)
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jaxstiff import results as R
+from jaxstiff.results import files as R
 from test_pgd import OPTS, STARTS, check_file, planar_paths, run
 
 
@@ -40,7 +40,7 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
     the hybrid's own chain (pgd's chain differs): the hybrid reports it unreachable with a state
     inside its box, so the rate limits hold at every waypoint (the file check tests them all)."""
     import jaxstiff
-    from jaxstiff.criteria import get_criterion
+    from jaxstiff.stiffness.criteria import get_criterion
     from jaxstiff.solvers import hybrid
     from jaxstiff.solvers.problem import Limits, WaypointProblem
     from test_pgd import PLANAR

@@ -182,7 +182,7 @@ def test_separate_and_fused_calls_agree():
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_cos_sin_polynomial_is_accurate_and_has_exact_derivative(dtype):
     """The kernel's own cos/sin (used for CPU batches) vs numpy in extended precision: <= 2 ulp."""
-    from jaxstiff.kinematics import cos_sin
+    from jaxstiff.model.kinematics import cos_sin
 
     rng = np.random.default_rng(11)
     x = np.concatenate(
@@ -212,10 +212,10 @@ def test_cos_sin_polynomial_is_accurate_and_has_exact_derivative(dtype):
 @pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
 def test_large_batches_match_numpy_and_autodiff(dtype):
     """Batches of >= 64 take the polynomial cos/sin path on the CPU: same answers, same dtype."""
-    from jaxstiff.kinematics import _POLY_MIN_BATCH
+    from jaxstiff.model.kinematics import POLY_MIN_BATCH
 
     robot = get_robot("branched")
-    q64 = random_q(robot, (2, 3 * _POLY_MIN_BATCH), seed=12)
+    q64 = random_q(robot, (2, 3 * POLY_MIN_BATCH), seed=12)
     q = jnp.asarray(q64, dtype=dtype)
     T, J = jaxstiff.fk_and_jacobian(robot, q)
     assert T.dtype == dtype and J.dtype == dtype
@@ -523,7 +523,7 @@ def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
     want = np.flip(np.cumsum(np.flip(x, -1), -1), -1) if reverse else np.cumsum(x, -1)
     if exclusive:
         want = want - x
-    f = jax.jit(lambda a: jaxstiff.kinematics._running_sum(a, reverse=reverse, exclusive=exclusive))
+    f = jax.jit(lambda a: jaxstiff.kinematics.running_sum(a, reverse=reverse, exclusive=exclusive))
     assert_close(f(jnp.asarray(x)), want, rtol=1e-14, atol=1e-14, what="running sum")
     k = np.arange(n)
     L = (k[None, :] >= k[:, None]) if reverse else (k[None, :] <= k[:, None])  # out_i = sum_k L_ik x_k

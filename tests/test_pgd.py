@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff import results as R
+from jaxstiff.results import files as R
 from jaxstiff.solvers import pgd
 from helpers import numpy_fk
 
@@ -148,7 +148,7 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
     log(rho / r) (f2) or min(log(rho / r), 0) (f1); rho from numpy's eigenvalues."""
     import jax
 
-    from jaxstiff.criteria import get_criterion
+    from jaxstiff.stiffness.criteria import get_criterion
     from jaxstiff.solvers.problem import WaypointProblem
 
     robot = jaxstiff.Robot.from_urdf(robot_name)
@@ -189,7 +189,7 @@ def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
     at random postures and stiffnesses (f1 with the ratio row active and inactive, f2)."""
     import jax
 
-    from jaxstiff.criteria import get_criterion
+    from jaxstiff.stiffness.criteria import get_criterion
     from jaxstiff.solvers.problem import WaypointProblem
 
     robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)

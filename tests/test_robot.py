@@ -216,7 +216,7 @@ def test_prismatic_joints_get_lengths_not_degrees():
     """A prismatic joint's value is a length: the nominal posture puts it at mid-range (not
     mid-range + 30 deg read as 0.52 m, which the clip sent to its limit), `csc --q0-deg` leaves its
     entry in metres, and `shape --dq-m` sets its rate limit apart from --dq-deg."""
-    from jaxstiff._cli_shape import _rate_limits
+    from jaxstiff.cli.shape import _rate_limits
     from jaxstiff.ik import nominal_posture
 
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 import jaxstiff
 from helpers import assert_close, central_diff
-from jaxstiff.stiffness import TASK_ROWS, compliance, compliance_condition, cms_scale
+from jaxstiff.stiffness.core import TASK_ROWS, compliance, compliance_condition, cms_scale
 
 RNG = np.random.default_rng(42)
 N = 64  # batch size used throughout (each new shape compiles anew)
@@ -379,10 +379,10 @@ def test_property_spd_finite_and_exact_when_regular(data):
 def test_fusion_boundary_is_an_identity_for_every_transformation():
     """The CPU fusion boundary (a primitive of its own) is the identity in value, under vmap
     (nested too), and for derivatives: forward, reverse, reverse over vmap, second order."""
-    from jaxstiff.stiffness import _fusion_boundary
+    from jaxstiff.stiffness.core import fusion_boundary
 
     def f(x):
-        y = _fusion_boundary({"a": jnp.sin(x) * x, "b": x[..., :2] ** 3})
+        y = fusion_boundary({"a": jnp.sin(x) * x, "b": x[..., :2] ** 3})
         return jnp.sum(y["a"] ** 2) + jnp.sum(jnp.cos(y["b"]))
 
     def ref(x):
@@ -398,9 +398,9 @@ def test_fusion_boundary_is_an_identity_for_every_transformation():
         lambda g: jax.jit(jax.vmap(jax.vmap(jax.jacrev(jax.grad(g))))),
     ):
         np.testing.assert_allclose(make(f)(x), make(ref)(x), rtol=1e-13, atol=1e-13)
-    assert _fusion_boundary({}) == {}
+    assert fusion_boundary({}) == {}
     empty = jnp.zeros((0, 3))
-    assert _fusion_boundary(empty) is empty
+    assert fusion_boundary(empty) is empty
 
 
 @pytest.mark.skipif(jax.default_backend() != "cpu", reason="the boundary is a conditional on CPU only")
@@ -430,7 +430,7 @@ def test_task_check_samples_each_joint_inside_its_own_range(tmp_path):
     """An elbow whose range [3.3, 3.8] rad lies beyond pi: clipping it to [-pi, pi] sampled only the
     folded (singular) elbow and refused a controllable 'xyz' task. numpy (independent): the
     position Jacobian has 3 singular values well above 0 inside the range."""
-    from jaxstiff.stiffness import check_task_feasible
+    from jaxstiff.stiffness.core import check_task_feasible
 
     f = tmp_path / "elbow.urdf"
     f.write_text(_ELBOW_BEYOND_PI)
@@ -447,7 +447,7 @@ def test_locked_joints_keep_their_springs_in_the_task_check():
     'full' is defined (numpy: the full 6 x 7 Jacobian has rank 6 with a finite condition number),
     while a CSC rollout, whose free joints must follow all six rows, is refused. Before, the shape
     check counted only free joints and refused the stiffness as undefined."""
-    from jaxstiff.stiffness import check_task_feasible
+    from jaxstiff.stiffness.core import check_task_feasible
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.2})
     q = np.where(robot.free, np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0]), robot.locked_values)

@@ -20,10 +20,10 @@ import pandas as pd
 import pytest
 
 import jaxstiff
-from jaxstiff.results import ShapeResult, _np_jacobian_rows, _np_translational_stiffness, is_usable, verify
-from jaxstiff.sweep import run_sweep
-from jaxstiff.sweep_config import kxd_matrix, parse_config
-from jaxstiff.sweep_store import SweepStore, read_table
+from jaxstiff.results.files import ShapeResult, _np_jacobian_rows, _np_translational_stiffness, is_usable, verify
+from jaxstiff.sweep.run import run_sweep
+from jaxstiff.sweep.config import kxd_matrix, parse_config
+from jaxstiff.sweep.store import SweepStore, read_table
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -122,7 +122,7 @@ def test_shape_table_rows_and_settings(shape_run):
     assert not any(c.endswith("time_s") or c == "wall_s" for c in df.columns)
     # the start posture's IK error is a column (the docs and the IK warning name it; it was only in
     # the chunk files): here the IK reaches the first waypoint, so it is below the IK tolerance
-    from jaxstiff.sweep import IK_TOL_M
+    from jaxstiff.sweep.run import IK_TOL_M
 
     assert df["q0_ik_error_m"].dtype == np.float64 and np.all(df["q0_ik_error_m"] < IK_TOL_M)
 
@@ -256,7 +256,7 @@ def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch)
     is the row's q0_ik_error_m (a failed IK was used silently before, its rows then "unreachable")."""
     import jaxstiff.ik as ik
     from jaxstiff.ik import nominal_posture
-    from jaxstiff.sweep import IK_RETRIES, IK_TOL_M, _Q0_CACHE, _start_posture
+    from jaxstiff.sweep.run import IK_RETRIES, IK_TOL_M, _Q0_CACHE, _start_posture
 
     far = {**SHAPE_CFG, "paths": [{"generator": "point", "point": [5.0, 0.0, 0.0], "n": 3, "name": "far"}],
            "axes": {"task": "xy", "q0": ["ik", "random", "nominal"]}}
@@ -443,7 +443,7 @@ def test_heatmap_of_an_all_nan_metric_is_written_without_warnings(tmp_path):
     the CLI) no longer appear."""
     import warnings
 
-    from jaxstiff.sweep_report import heatmap
+    from jaxstiff.sweep.report import heatmap
 
     plan = parse_config(SHAPE_CFG)
     df = pd.DataFrame({"ratio": [2.0, 2.0, 3.0, 3.0], "dk": [5.0, 10.0, 5.0, 10.0], "max_alpha_deg": [np.nan] * 4})

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from jaxstiff import paths as P
-from jaxstiff.sweep_config import AXES, SweepConfigError, kxd_matrix, load_config, parse_config
+from jaxstiff.sweep.config import AXES, SweepConfigError, kxd_matrix, load_config, parse_config
 
 
 def base() -> dict:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from jaxstiff import results as R
+from jaxstiff.results import files as R
 from jaxstiff.solvers import pgd
 from test_pgd import OPTS, check_file, planar_paths, run
 

@@ -7,5 +7,5 @@
 Solvers are chosen by name in :func:`jaxstiff.shape` (registry :data:`jaxstiff.shaping.SOLVERS`).
 """
 
-from .problem import Limits as Limits
-from .problem import WaypointProblem as WaypointProblem
+from jaxstiff.solvers.problem import Limits as Limits
+from jaxstiff.solvers.problem import WaypointProblem as WaypointProblem

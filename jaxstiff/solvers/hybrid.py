@@ -44,9 +44,9 @@ import time
 
 import numpy as np
 
-from .. import results as R
-from .problem import Limits, WaypointProblem, clip_to_box, compiled, jax_pos_and_jac
-from . import pgd as _pgd
+from jaxstiff.results import files as R
+from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, compiled, jax_pos_and_jac
+from jaxstiff.solvers import pgd as _pgd
 
 __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 
@@ -57,7 +57,7 @@ DEFAULT_OPTIONS = {"polish_slsqp": "all", "chain": "greedy"}
 
 def check_options(options: dict | None) -> dict:
     """The hybrid's own options (:data:`DEFAULT_OPTIONS`) checked (ValueError naming the option)."""
-    from .problem import check_option_values
+    from jaxstiff.solvers.problem import check_option_values
 
     opts = {k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}
     return check_option_values("hybrid", opts, choices={"polish_slsqp": ("all", "unusable"), "chain": ("greedy", "pgd")})
@@ -88,7 +88,7 @@ def polish(
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
     """
-    from .slsqp import SolverOutput, _judge, make_slsqp_solver
+    from jaxstiff.solvers.slsqp import SolverOutput, _judge, make_slsqp_solver
 
     opts = dict(options or {})
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
@@ -230,7 +230,7 @@ def run_request(req) -> dict[str, np.ndarray]:
     base.pop("criterion", None)
     out = polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
                  base, options=opts, pos_tol=req.pos_tol, first_starts=req.first_starts)
-    from .slsqp import CODE_MEANING
+    from jaxstiff.solvers.slsqp import CODE_MEANING
 
     out["code_meaning"] = (f"{CODE_MEANING}, where the polish's answer was taken; else the index of pgd's "
                            "winning start (the file does not tell the two apart)")

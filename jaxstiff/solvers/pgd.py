@@ -81,12 +81,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import results as R
-from .._xla import kernel_compiler_options
-from ..criteria import f1 as _f1, f2 as _f2
-from ..kinematics import jacobian_tangent, position_and_jacobian
-from ..stiffness import _fusion_boundary, _inverse_primal, compliance, task_rows, translational_stiffness
-from .problem import POS_TOL, Limits, WaypointProblem, check_option_values, content_seed, rate_bounds
+from jaxstiff.results import files as R
+from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff.stiffness.criteria import f1 as _f1, f2 as _f2
+from jaxstiff.model.kinematics import jacobian_tangent, position_and_jacobian
+from jaxstiff.stiffness.core import fusion_boundary, damped_inverse_primal, compliance, task_rows, translational_stiffness
+from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, check_option_values, content_seed, rate_bounds
 
 __all__ = ["DEFAULT_OPTIONS", "solve_batch", "make_kernel"]
 
@@ -286,7 +286,7 @@ class _Ops:
         w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
         m = Js.shape[0]
         t = 3 if m == 6 else m
-        Kc = _inverse_primal(compliance(Js, kj, self.pr.task), False)  # the damped inverse, all of it (no AD through it here)
+        Kc = damped_inverse_primal(compliance(Js, kj, self.pr.task), False)  # the damped inverse, all of it (no AD through it here)
         P = Kc[:, :t]  # (m, t)
         K = Kc[:t, :t]
         G = jnp.sum(P[:, :, None] * Js[:, None, :], axis=0)  # (t, n)
@@ -369,7 +369,7 @@ def _spd_solve(A, b):
     x: list = [None] * k
     for r in reversed(range(k)):
         x[r] = (y[r] - sum((L[(i, r)] * x[i] for i in range(r + 1, k)), start=jnp.zeros((), A.dtype))) * inv[r]
-    return jnp.stack(_fusion_boundary(x))
+    return jnp.stack(fusion_boundary(x))
 
 
 def _complement_basis(d):
@@ -721,7 +721,7 @@ def solve_batch(
                 float(c), float(pos_tol), _pad(extra[sl], C),
             )
             if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
-                from .._sharding import shard_rows
+                from jaxstiff.runtime.sharding import shard_rows
 
                 placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
                 args = tuple(placed.get(i, a) for i, a in enumerate(args))

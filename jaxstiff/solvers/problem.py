@@ -51,10 +51,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..criteria import alpha_and_ratio
-from ..kinematics import position_and_jacobian
-from ..robot import Robot
-from ..stiffness import task_rows, translational_stiffness
+from jaxstiff.stiffness.criteria import alpha_and_ratio
+from jaxstiff.model.kinematics import position_and_jacobian
+from jaxstiff.model.robot import Robot
+from jaxstiff.stiffness.core import task_rows, translational_stiffness
 
 __all__ = [
     "WaypointProblem",

@@ -25,19 +25,8 @@ from typing import Callable, Sequence
 import jax.numpy as jnp
 import numpy as np
 
-from .. import results as R
-from .problem import (
-    POS_TOL,
-    BOUND_TOL,
-    Limits,
-    WaypointProblem,
-    clip_to_box,
-    compiled,
-    compiled_position,
-    compiled_scaled,
-    jax_pos_and_jac,
-    newton_project,
-)
+from jaxstiff.results import files as R
+from jaxstiff.solvers.problem import POS_TOL, BOUND_TOL, Limits, WaypointProblem, clip_to_box, compiled, compiled_position, compiled_scaled, jax_pos_and_jac, newton_project
 
 __all__ = ["WaypointOutcome", "SolverOutput", "PathInterrupted", "greedy_path", "make_slsqp_solver", "solve_path",
            "DEFAULT_OPTIONS"]

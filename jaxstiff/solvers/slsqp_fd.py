@@ -21,8 +21,8 @@ import math
 
 import numpy as np
 
-from .problem import WaypointProblem
-from .slsqp import SolverOutput, check_options
+from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers.slsqp import SolverOutput, check_options
 
 __all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain"]
 

@@ -36,10 +36,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import results as R
-from .._xla import kernel_compiler_options
-from .problem import POS_TOL, Limits, WaypointProblem
-from . import pgd as _pgd
+from jaxstiff.results import files as R
+from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem
+from jaxstiff.solvers import pgd as _pgd
 
 __all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]
 
@@ -61,7 +61,7 @@ DEFAULT_OPTIONS: dict[str, Any] = {
 def check_options(options: dict | None) -> dict:
     """The trajectory solver's own options (:data:`DEFAULT_OPTIONS`) checked and normalised
     (ValueError naming the option); those of its warm start are checked by that solver."""
-    from .problem import check_option_values
+    from jaxstiff.solvers.problem import check_option_values
 
     opts = {k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}
     return check_option_values(
@@ -238,15 +238,15 @@ def run_request(req) -> dict[str, np.ndarray]:
     opts = dict(req.options or {})
     warm_kind = opts.get("warm", DEFAULT_OPTIONS["warm"])
     if warm_kind == "pgd":
-        from . import pgd
+        from jaxstiff.solvers import pgd
 
         warm = pgd.run_request(req)
     elif warm_kind == "hybrid":
-        from . import hybrid
+        from jaxstiff.solvers import hybrid
 
         warm = hybrid.run_request(req)
     elif warm_kind == "slsqp":
-        from ..shaping import SOLVERS, SolverInterrupted
+        from jaxstiff.shaping import SOLVERS, SolverInterrupted
 
         try:
             warm = SOLVERS["slsqp"](req)

@@ -1,4 +1,4 @@
-"""URDF -> Robot. Safe XML parsing (no entities, no network, no DTD), yourdfpy for the elements.
+"""URDF -> chain data (the fields of :class:`jaxstiff.model.chain.Chain`). Safe XML parsing (no entities, no network, no DTD), yourdfpy for the elements.
 
 A URDF is untrusted input: the XML is parsed with entity resolution, DTD loading and network
 access switched off, and any document that declares a DOCTYPE with entities is refused before
@@ -15,14 +15,8 @@ from typing import Mapping
 
 import numpy as np
 
-from .robot import (
-    JOINT_PRISMATIC,
-    JOINT_REVOLUTE,
-    Robot,
-    _check_locked,
-    _mat_to_tuple,
-    _tcp_matrix,
-)
+from jaxstiff.model.chain import JOINT_PRISMATIC, JOINT_REVOLUTE, check_locked, mat_to_tuple, snap, tcp_matrix
+from jaxstiff.model.shipped import robot_path, shipped_robots
 
 _MOVABLE = {"revolute": JOINT_REVOLUTE, "continuous": JOINT_REVOLUTE, "prismatic": JOINT_PRISMATIC}
 _KNOWN = set(_MOVABLE) | {"fixed", "floating", "planar"}
@@ -95,13 +89,11 @@ def _check_joint_xml(path: str, elem) -> None:
                     raise ValueError(f"{path}: joint {name!r} limit {attr} must be a finite number, got {limit.get(attr)!r}")
 
 
-def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, float] | None = None, tcp=None) -> Robot:
+def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, float] | None = None, tcp=None) -> dict:
     import yourdfpy
 
     path = os.fspath(path)
     if not os.path.exists(path) and os.sep not in path and not path.endswith(".urdf"):
-        from .robot import robot_path, shipped_robots
-
         try:
             path = robot_path(path)  # a shipped robot's name
         except FileNotFoundError:
@@ -244,7 +236,7 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
                 )
         names.append(j.name)
         types.append(_MOVABLE[j.type])
-        origins.append(_mat_to_tuple(pending @ T))
+        origins.append(mat_to_tuple(pending @ T))
         axes.append(tuple(float(a) for a in axis))
         lower.append(lo)
         upper.append(hi)
@@ -252,18 +244,16 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
     if not names:
         raise ValueError(f"{path}: the chain {base_link!r} -> {tip_link!r} has no actuated joint")
 
-    tip = pending @ _tcp_matrix(tcp)
-    from .robot import _snap
-
-    axes = [tuple(_snap(a) for a in ax) for ax in axes]
-    lock_values = _check_locked(tuple(names), lower, upper, locked)
-    return Robot(
+    tip = pending @ tcp_matrix(tcp)
+    axes = [tuple(snap(a) for a in ax) for ax in axes]
+    lock_values = check_locked(tuple(names), lower, upper, locked)
+    return dict(
         name=model.name or os.path.basename(path),
         joint_names=tuple(names),
         joint_types=tuple(types),
         origins=tuple(origins),
         axes=tuple(axes),
-        tip=_mat_to_tuple(tip),
+        tip=mat_to_tuple(tip),
         lower_limits=tuple(lower),
         upper_limits=tuple(upper),
         locked=lock_values,

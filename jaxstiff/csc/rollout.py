@@ -151,21 +151,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._xla import kernel_compiler_options
-from .criteria import _offdiag_of, _safe_sqrt, offdiag
-from .kinematics import (
-    _POLY_MIN_BATCH,
-    _cross_cols,
-    _fk_and_jacobian,
-    _position_and_jacobian,
-    _running_sum,
-    _tangent_from_sums,
-    _tangent_sums,
-    jacobian_tangent,
-    position_and_jacobian,
-)
-from .robot import Robot
-from .stiffness import TASK_ROWS, _broadcast_batch, _mm, cartesian_stiffness, check_task_feasible
+from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff._numerics.batch import broadcast_batch
+from jaxstiff._numerics.linalg import mm
+from jaxstiff._numerics.safe import safe_sqrt
+from jaxstiff.stiffness.criteria import offdiag, offdiag_of
+from jaxstiff.model.kinematics import POLY_MIN_BATCH, cross_cols, fk_and_jacobian_raw, position_and_jacobian_raw, running_sum, tangent_from_sums, tangent_sums, jacobian_tangent, position_and_jacobian
+from jaxstiff.model.robot import Robot
+from jaxstiff.stiffness.core import TASK_ROWS, cartesian_stiffness, check_task_feasible
 
 __all__ = [
     "CSCResult",
@@ -268,7 +261,7 @@ def _mtv(A: jax.Array, x: jax.Array) -> jax.Array:
 
 def _safe_norm(x: jax.Array) -> jax.Array:
     """Euclidean norm over the last axis with a finite gradient at 0 (double ``where``)."""
-    return _safe_sqrt(jnp.sum(x * x, axis=-1))
+    return safe_sqrt(jnp.sum(x * x, axis=-1))
 
 
 def _det_cofactors(A: jax.Array):
@@ -329,7 +322,7 @@ def _spd_inverse(A: jax.Array) -> jax.Array:
 def _spd_inverse_jvp(primals, tangents):
     (A,), (dA,) = primals, tangents
     Ai = _spd_inverse_primal(A)
-    return Ai, -_mm(_mm(Ai, dA), Ai)
+    return Ai, -mm(mm(Ai, dA), Ai)
 
 
 def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]):
@@ -375,16 +368,16 @@ def _offdiag_forward(J6, K_xd, rows):
     KJ = _mtv_cols(K_xd, J)  # (m, n)
     Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K J (n, n)
     n = Kq.shape[-1]
-    u = _offdiag_of(Kq)  # offdiag(J, K_xd) from the same J^T K J
+    u = offdiag_of(Kq)  # offdiag(J, K_xd) from the same J^T K J
     M = Kq * (1.0 - jnp.eye(n, dtype=Kq.dtype))
     pos = u > 0
     inv_u = jnp.where(pos, 1.0 / jnp.where(pos, u, 1.0), 0.0)
     G = jnp.sum(KJ[..., :, :, None] * M[..., None, :, :], axis=-2) * inv_u[..., None, None]  # (m, n)
     G6 = jnp.concatenate([G, jnp.zeros_like(J6[..., m:, :])], axis=-2)
     Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
-    a = _cross_cols(Jv, Gv) + _cross_cols(Jw, Gw)  # (3, n): term of joint i
-    suffix = _running_sum(a, reverse=True, exclusive=True)  # sum over i > k
-    prefix = _running_sum(_cross_cols(Gv, Jw))  # sum over i <= k
+    a = cross_cols(Jv, Gv) + cross_cols(Jw, Gw)  # (3, n): term of joint i
+    suffix = running_sum(a, reverse=True, exclusive=True)  # sum over i > k
+    prefix = running_sum(cross_cols(Gv, Jw))  # sum over i <= k
     g = jnp.sum(Jw * suffix, axis=-2) + jnp.sum(Jv * prefix, axis=-2)
     return u, g, (J6, K_xd, KJ, Kq, M, inv_u, G6, prefix, suffix)
 
@@ -399,10 +392,10 @@ def _offdiag_vjp_bwd(rows, res, cts):
     # g = <G6, dJ6/dq_k>: bilinear in (J6, G6). Its cotangent reaches J6 through both factors of
     # the contraction (Om, V: jacobian_tangent's sums along gb) and G6 as T6 = dJ6[gb], the
     # directional derivative of J6 along gb (jacobian_tangent(J6, gb)[1]).
-    Om, V = _tangent_sums(J6, gb)  # sum over k < i of gb_k w_k, over k >= i of gb_k v_k
-    T6 = _tangent_from_sums(J6, Om, V)
-    Jvb = _cross_cols(Gv, Om) + gb[..., None, :] * prefix
-    Jwb = _cross_cols(V, Gv) + _cross_cols(Gw, Om) + gb[..., None, :] * suffix
+    Om, V = tangent_sums(J6, gb)  # sum over k < i of gb_k w_k, over k >= i of gb_k v_k
+    T6 = tangent_from_sums(J6, Om, V)
+    Jvb = cross_cols(Gv, Om) + gb[..., None, :] * prefix
+    Jwb = cross_cols(V, Gv) + cross_cols(Gw, Om) + gb[..., None, :] * suffix
     # G = du/dJ, so the cotangent T of G gives the Hessian-vector product d<G, T>/d(J, K), plus
     # ub du/d(J, K). With W = P^T T (n, n), Wo its off-diagonal, c = ub - s <G, T>:
     #   J_b = s (K (T + c J) M + P (Wo + Wo^T))                  (K symmetric)
@@ -452,7 +445,7 @@ def _pos_jac(robot: Robot, poly: bool, q: jax.Array):
     rollout never differentiates the kinematics kernel's internals: the backward pass of a step
     costs a few cross products instead of a reverse sweep through the chain.
     """
-    return _position_and_jacobian(robot, q, poly=poly)
+    return position_and_jacobian_raw(robot, q, poly=poly)
 
 
 @_pos_jac.defjvp
@@ -466,7 +459,7 @@ def _pos_jac_jvp(robot, poly, primals, tangents):
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
 def _pose_jac(robot: Robot, poly: bool, q: jax.Array):
     """``(p (3,), R (3, 3), J6 (6, n))`` from ``fk_and_jacobian`` with a closed-form JVP."""
-    T, J6 = _fk_and_jacobian(robot, q, poly=poly)
+    T, J6 = fk_and_jacobian_raw(robot, q, poly=poly)
     return T[..., :3, 3], T[..., :3, :3], J6
 
 
@@ -475,7 +468,7 @@ def _pose_jac_jvp(robot, poly, primals, tangents):
     (q,), (qd,) = primals, tangents
     p, R, J6 = _pose_jac(robot, poly, q)
     dp, dJ6, om = jacobian_tangent(J6, qd)
-    dR = _cross_cols(jnp.broadcast_to(om[..., :, None], R.shape), R)  # omega x each column of R
+    dR = cross_cols(jnp.broadcast_to(om[..., :, None], R.shape), R)  # omega x each column of R
     return (p, R, J6), (dp, dR, dJ6)
 
 
@@ -640,7 +633,7 @@ def _projections_vjp(res, cts):
     else:
         det_grad = jax.vjp(jnp.linalg.det, A0)[1](det_b)[0]
     A0_b = A_b + det_grad + (scale_b / m)[..., None, None] * jnp.eye(m, dtype=A0.dtype)
-    J_b = J_b + _mm(A0_b + jnp.swapaxes(A0_b, -1, -2), Jf)
+    J_b = J_b + mm(A0_b + jnp.swapaxes(A0_b, -1, -2), Jf)
     return J_b, dx_b, tuple(vs_b), nu0_b, damping_b
 
 
@@ -672,7 +665,7 @@ def _realised_stiffness(J: jax.Array, kj: jax.Array, K_xd: jax.Array, task: str)
 def _realised_forward(J, kj, K_xd, task):
     K_C = cartesian_stiffness(J, kj, task)
     E = K_xd - K_C
-    frob = _safe_sqrt(jnp.sum(E * E, axis=(-2, -1)))  # as criteria.frobenius
+    frob = safe_sqrt(jnp.sum(E * E, axis=(-2, -1)))  # as criteria.frobenius
     floor = jnp.sqrt(jnp.finfo(J.dtype).tiny)  # compliance's floor of kj (stiffness._joint_stiffness_array)
     return K_C, frob, (J, jnp.maximum(kj, floor), kj > floor, K_C, E, frob > 0, frob)
 
@@ -684,7 +677,7 @@ def _realised_vjp(task, res, cts):
     E_b = (jnp.where(pos, f_b / jnp.where(pos, frob, 1.0), 0.0))[..., None, None] * E
     S = KC_b - E_b
     S = 0.5 * (S + jnp.swapaxes(S, -1, -2))
-    CbJ = -_mm(_mm(K_C, S), _mm(K_C, J))  # C_b J, C_b = -K_C S K_C (symmetric)
+    CbJ = -mm(mm(K_C, S), mm(K_C, J))  # C_b J, C_b = -K_C S K_C (symmetric)
     inv_kj = 1.0 / kj
     J_b = 2.0 * CbJ * inv_kj[..., None, :]
     kj_b = jnp.where(kj_free, -jnp.sum(J * CbJ, axis=-2) * inv_kj * inv_kj, 0.0)
@@ -920,7 +913,7 @@ def _rollout_batch_impl(robot, st, chunk, targets, K_xd, q0, beta, kmin, kmax, n
     B = q0.shape[0]
     # one rollout's kinematics sees a single posture under vmap: choose its cos/sin by the batch
     per_call = B if chunk is None else min(B, chunk)
-    st = dataclasses.replace(st, poly=jax.default_backend() == "cpu" and per_call >= _POLY_MIN_BATCH)
+    st = dataclasses.replace(st, poly=jax.default_backend() == "cpu" and per_call >= POLY_MIN_BATCH)
     batched = jax.vmap(one, axis_name=_BATCH_AXIS)
     xs = (targets, K_xd, q0, beta, null_eps, R_hold)
     if chunk is None or B <= chunk:
@@ -1103,7 +1096,7 @@ def _prepare_rollout(robot, path, K_xd, q0, beta, *, task, step, kmin, kmax, nu0
         scalars[name] = a
     if null_eps is None:
         rel = 1e-9 if jnp.finfo(dtype).bits >= 64 else 1e-5
-        knorm = _safe_sqrt(jnp.sum(K_xd * K_xd, axis=(-2, -1)))  # finite gradient at K_xd = 0
+        knorm = safe_sqrt(jnp.sum(K_xd * K_xd, axis=(-2, -1)))  # finite gradient at K_xd = 0
         # floor tiny^(1/4) (1e-77 in float64): 1 / null_eps^2, which a tangent of the null step
         # carries, stays finite for K_xd = 0 (tiny itself made it inf, and inf * 0 = NaN)
         null_eps_a = rel * (knorm if not kxd_varying else jnp.max(knorm, axis=-1)) + jnp.finfo(dtype).tiny ** 0.25
@@ -1132,7 +1125,7 @@ def _prepare_rollout(robot, path, K_xd, q0, beta, *, task, step, kmin, kmax, nu0
     batches = [("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch)]
     if R_hold is not None:
         batches.append(("hold_orientation", R_hold.shape[:-2]))
-    batch = _broadcast_batch(*batches)
+    batch = broadcast_batch(*batches)
     B = math.prod(batch)
     k_tail = K_xd.shape[-3:] if kxd_varying else K_xd.shape[-2:]
     tb = jnp.broadcast_to(targets, batch + targets.shape[-2:]).reshape((B,) + targets.shape[-2:])
@@ -1260,7 +1253,7 @@ def csc_rollout_segments(robot: Robot, path, K_xd, q0, beta, *, segment_steps: i
             finished rows (``.result``). One before the first segment ends is raised as is.
         ValueError: as :func:`csc_rollout`, or a bad ``segment_steps``.
     """
-    from ._io import raise_if_interrupted
+    from jaxstiff.runtime.io import raise_if_interrupted
 
     if isinstance(segment_steps, bool) or not isinstance(segment_steps, (int, np.integer)) or segment_steps < 1:
         raise ValueError(f"segment_steps must be a positive integer, got {segment_steps!r}")

@@ -72,15 +72,14 @@ Example:
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import os
 from typing import Any
 
 import numpy as np
 
-from ._io import atomic_write
-from ._io import json_default as _json_default
+from jaxstiff.runtime.io import atomic_write, file_sha256
+from jaxstiff.runtime.io import json_default as _json_default
 
 __all__ = [
     "ShapeResult",
@@ -128,13 +127,6 @@ def is_usable(status) -> np.ndarray:
     return np.isin(np.asarray(status), USABLE)
 
 
-def file_sha256(path: str | os.PathLike) -> str:
-    """Hex sha256 of a file (the robot URDF recorded in ``meta``)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 16), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -356,7 +348,7 @@ def robot_from_meta(meta: dict[str, Any], urdf: str | os.PathLike | None = None,
         urdf: use this URDF file instead of the recorded path (e.g. on another machine).
         check_sha: refuse a URDF whose sha256 differs from the recorded one.
     """
-    from .robot import Robot
+    from jaxstiff.model.robot import Robot
 
     rmeta = meta["robot"]
     path = os.fspath(urdf) if urdf is not None else rmeta["urdf"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .cli import command
+from jaxstiff.cli.common import command
 
 
 @command("reproduce", "run the experiments (seed figures 2-6, CSC, the quick sweep) and write one report")
@@ -24,7 +24,7 @@ def _add_reproduce(p: argparse.ArgumentParser):
                    help="run every experiment script, not only the seed reproductions (fig*, csc*)")
 
     def run(args) -> int:
-        from .reproduce import run_reproduce
+        from jaxstiff.reproduce import run_reproduce
 
         import os
 

@@ -67,11 +67,11 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ._io import json_default as _json_default
+from jaxstiff.runtime.io import json_default as _json_default
 
-from .sweep_config import SweepPlan, kxd_matrix, load_config, parse_config
-from .sweep_metrics import csc_row_metrics, shape_row_metrics
-from .sweep_store import SweepStore, read_table
+from jaxstiff.sweep.config import SweepPlan, kxd_matrix, load_config, parse_config
+from jaxstiff.sweep.metrics import csc_row_metrics, shape_row_metrics
+from jaxstiff.sweep.store import SweepStore, read_table
 
 __all__ = [
     "run_sweep",
@@ -118,7 +118,7 @@ IK_RETRIES = 8
 
 def _start_posture(plan: SweepPlan, row_id: int) -> tuple[np.ndarray, float]:
     """``(q0, IK distance to the first waypoint in m, NaN without IK)`` of a row (:func:`start_posture`)."""
-    from .ik import ik_position, nominal_posture
+    from jaxstiff.ik import ik_position, nominal_posture
 
     st = plan.row_settings(row_id)
     traj = plan.row_trajectory(row_id)
@@ -167,7 +167,7 @@ def _start_posture(plan: SweepPlan, row_id: int) -> tuple[np.ndarray, float]:
 # ---------------------------------------------------------------------------- device sharding
 def shard_batch(arrays: Mapping[str, np.ndarray], size: int | None = None) -> tuple[dict[str, Any], int]:
     """Pad arrays along axis 0 and shard them across all local JAX devices (see :mod:`jaxstiff._sharding`)."""
-    from ._sharding import shard_rows
+    from jaxstiff.runtime.sharding import shard_rows
 
     return shard_rows(arrays, size)
 
@@ -197,7 +197,7 @@ def compute_chunk(plan: SweepPlan, chunk_id: int, progress: Callable[[int], None
         the settings, q0_ik_error_m, the metrics, result_file, result_index), ``arrays`` (``(name, data)``),
         ``wall_s``, ``worker``, ``devices``.
     """
-    from ._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
     t0 = time.perf_counter()
@@ -217,8 +217,8 @@ def _base_row(plan: SweepPlan, chunk, r: int) -> dict:
 
 
 def _shape_chunk(plan: SweepPlan, chunk, progress):
-    from .paths import Path
-    from .shaping import options_for_solver, shape
+    from jaxstiff.paths import Path
+    from jaxstiff.shaping import options_for_solver, shape
 
     calls: dict[str, list[int]] = {}
     for r in chunk.rows:
@@ -263,8 +263,8 @@ def _shape_chunk(plan: SweepPlan, chunk, progress):
 
 
 def _csc_chunk(plan: SweepPlan, chunk, progress):
-    from .csc import csc_rollout
-    from .shaping import _robot_meta, _versions
+    from jaxstiff.csc.rollout import csc_rollout
+    from jaxstiff.settings.robot import robot_meta as _robot_meta, versions as _versions
 
     rids = list(chunk.rows)
     g = plan.groups[chunk.group]
@@ -565,7 +565,7 @@ def run_sweep(
             ``out``, an unknown backend or Ray missing.
         KeyboardInterrupt: after Ctrl-C; every finished chunk is on disk, resume with ``resume=True``.
     """
-    from ._x64 import enable_x64
+    from jaxstiff.runtime.x64 import enable_x64
 
     if backend not in BACKENDS:
         raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
@@ -621,7 +621,7 @@ def run_sweep(
         prog.close()
         table_file = store.assemble()
         if report:
-            from .sweep_report import write_report
+            from jaxstiff.sweep.report import write_report
 
             write_report(plan, store.out, manifest=store.manifest)
         log(f"wrote {table_file} ({plan.n_rows} rows)")

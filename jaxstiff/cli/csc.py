@@ -40,10 +40,10 @@ import time
 
 import numpy as np
 
-from ._io import deferred_interrupts, interrupt_pending
-from ._io import json_default as _json_default
+from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending
+from jaxstiff.runtime.io import json_default as _json_default
 
-from .cli import TIP_LINK_HELP, check_out_file, command, parse_locks
+from jaxstiff.cli.common import TIP_LINK_HELP, check_out_file, command, parse_locks
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
@@ -211,13 +211,13 @@ def _add_csc(p: argparse.ArgumentParser):
     p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)")
 
     def run(args) -> int:
-        from ._x64 import enable_x64
+        from jaxstiff.runtime.x64 import enable_x64
 
         enable_x64()
-        from . import csc
-        from .results import atomic_save_npz
-        from .robot import Robot
-        from .shaping import _robot_meta, _versions
+        from jaxstiff.csc import rollout as csc
+        from jaxstiff.results.files import atomic_save_npz
+        from jaxstiff.model.robot import Robot
+        from jaxstiff.settings.robot import robot_meta as _robot_meta, versions as _versions
 
         if args.steps < 1:
             raise ValueError(f"--steps must be >= 1, got {args.steps}")
@@ -263,7 +263,7 @@ def _add_csc(p: argparse.ArgumentParser):
             points = np.tile(np.asarray(x), (1, args.steps, 1))
             sources = [f"hold {x}"]
         else:
-            from .paths import read_csv
+            from jaxstiff.paths import read_csv
 
             pts = []
             for f in args.path:

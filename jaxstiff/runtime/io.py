@@ -9,6 +9,7 @@ The command line turns SIGTERM into the same ``KeyboardInterrupt`` as Ctrl-C
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import signal
 import sys
@@ -113,7 +114,7 @@ def interrupt_handlers() -> Iterator[None]:
     waypoints, before a result file is written) raises it again. Outside the main thread (where
     handlers cannot be installed) the block runs with the process's handlers unchanged.
     """
-    from ._early_signals import early_signal
+    from jaxstiff.runtime.early_signals import early_signal
 
     _PENDING["signal"] = early_signal()  # (one received while the command was starting up)
     if threading.current_thread() is not threading.main_thread():
@@ -146,3 +147,12 @@ def raise_if_interrupted() -> None:
     """Raise ``KeyboardInterrupt`` if an interrupt arrived (and was perhaps swallowed) earlier."""
     if _PENDING["signal"] is not None:
         raise KeyboardInterrupt
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """Hex sha256 of a file (the robot URDF recorded in ``meta``)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 16), b""):
+            h.update(chunk)
+    return h.hexdigest()

@@ -12,8 +12,8 @@ import os
 import sys
 import time
 
-from ._io import deferred_interrupts, interrupt_pending, raise_if_interrupted
-from .cli import TIP_LINK_HELP, check_out_file, command, parse_locks
+from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending, raise_if_interrupted
+from jaxstiff.cli.common import TIP_LINK_HELP, check_out_file, command, parse_locks
 
 _DEFAULT_LOCK = {"kuka_lwr4": {"lwr_a7": 0.0}}
 
@@ -85,7 +85,7 @@ def summary_table(res) -> str:
     """Per path: waypoints, statuses, share with alpha < 1 deg, share with the ratio met, errors, time."""
     import numpy as np
 
-    from .results import SOLVED, is_usable
+    from jaxstiff.results.files import SOLVED, is_usable
 
     r = float(res.meta["ratio"])
     crit = res.meta["criterion"]
@@ -123,7 +123,7 @@ def _rate_limits(robot, dq_deg: float, dq_m: float | None):
 
 @command("shape", "shape the stiffness ellipsoid along TCP paths (seed 000): per-waypoint SLSQP -> .npz")
 def _add_shape(p: argparse.ArgumentParser):
-    from .shaping import DEFAULTS
+    from jaxstiff.shaping import DEFAULTS
 
     p.epilog = ("Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
                 "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
@@ -186,11 +186,11 @@ def _add_shape(p: argparse.ArgumentParser):
     def run(args) -> int:
         import numpy as np
 
-        from . import results as R
-        from ._x64 import enable_x64
-        from .paths import Path, default_path
-        from .robot import Robot, robot_path
-        from .shaping import ShapeInterrupted, prefer_sync_cpu_dispatch, shape
+        from jaxstiff.results import files as R
+        from jaxstiff.runtime.x64 import enable_x64
+        from jaxstiff.paths import Path, default_path
+        from jaxstiff.model.robot import Robot, robot_path
+        from jaxstiff.shaping import ShapeInterrupted, prefer_sync_cpu_dispatch, shape
 
         # ---- validate everything before any work, so bad input never leaves a file
         out = check_out_file(args.out)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._io import interrupt_exit_code
-from .cli import command
+from jaxstiff.runtime.io import interrupt_exit_code
+from jaxstiff.cli.common import command
 
 _EPILOG = """\
 The config names the robot, the paths and the parameter axes (see jaxstiff/sweep_config.py or
@@ -33,8 +33,8 @@ def _add_sweep(p: argparse.ArgumentParser):
                    help="do not use the persistent XLA compilation cache ($JAXSTIFF_CACHE_DIR, ~/.cache/jaxstiff/xla)")
 
     def run(args) -> int:
-        from .sweep import run_sweep
-        from .sweep_config import load_config
+        from jaxstiff.sweep.run import run_sweep
+        from jaxstiff.sweep.config import load_config
 
         plan = load_config(args.config)
         if args.dry_run:

@@ -61,8 +61,10 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.extend.core import Primitive as _Primitive
-from jax.interpreters import ad, batching, mlir
+
+from jaxstiff._numerics.batch import broadcast_batch, check_square, known_floats
+from jaxstiff._numerics.eig import eigh_descending, eigh_descending_primal
+from jaxstiff._numerics.linalg import fusion_boundary, mm
 
 __all__ = [
     "TASK_ROWS",
@@ -107,7 +109,7 @@ def _task_rank_report(robot, task: str, motion: bool = False) -> str | None:
     # Structural rank: sample postures within the limits (continuous joints in [-pi, pi]); a task
     # whose Jacobian rows lose rank at every sample (a planar chain asked for z, an axis parallel
     # to another ...) is not a singular posture but a wrong task for this robot.
-    from .kinematics import jacobian
+    from jaxstiff.model.kinematics import jacobian
 
     rng = np.random.default_rng(0)
     lo, hi = robot.lower, robot.upper  # a joint's own range; one turn where it is open
@@ -173,35 +175,17 @@ def _select(J: jax.Array, task: str) -> jax.Array:
     return J[..., list(rows), :]
 
 
-def _broadcast_batch(*named_shapes) -> tuple[int, ...]:
-    """The broadcast of the leading (batch) axes, or a ValueError naming the arguments."""
-    try:
-        return jnp.broadcast_shapes(*(s for _, s in named_shapes))
-    except ValueError:
-        raise ValueError("batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)) from None
 
 
 def _joint_stiffness_array(kj, J: jax.Array) -> jax.Array:
     kj = jnp.asarray(kj, dtype=J.dtype)
     if kj.ndim < 1 or kj.shape[-1] != J.shape[-1]:
         raise ValueError(f"kj must have shape (..., {J.shape[-1]}) to match J {tuple(J.shape)}, got {tuple(kj.shape)}")
-    _broadcast_batch(("J", J.shape[:-2]), ("kj", kj.shape[:-1]))
+    broadcast_batch(("J", J.shape[:-2]), ("kj", kj.shape[:-1]))
     # kj > 0 is required; a clamp keeps a zero/negative kj from producing Inf/NaN inside a batch.
     return jnp.maximum(kj, jnp.sqrt(jnp.finfo(J.dtype).tiny))
 
 
-def _known_floats(x, what: str | None = None):
-    """The values of ``x`` as a float numpy array where they are known here, else None: inside a
-    trace (jit, grad, vmap), and for non-numbers unless ``what`` names the argument (then a
-    ValueError says it must be numbers). For value checks that a traced call cannot make."""
-    if isinstance(x, jax.core.Tracer):
-        return None
-    try:
-        return np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        if what is None:
-            return None  # the function's own checks say so
-        raise ValueError(f"{what} must be a number or an array of numbers, got {type(x).__name__}") from None
 
 
 def _positive_kj(fn):
@@ -212,7 +196,7 @@ def _positive_kj(fn):
 
     @functools.wraps(fn)
     def checked(J, kj, task: str = "full"):
-        a = _known_floats(kj)
+        a = known_floats(kj)
         if a is not None and np.any(a <= 0):
             idx = tuple(int(i) for i in np.argwhere(a <= 0)[0])
             raise ValueError(f"kj must be > 0 (Nm/rad; N/m for prismatic joints), got kj{list(idx)} = {a[idx]:g}")
@@ -241,7 +225,7 @@ def compliance(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
     kj = _joint_stiffness_array(kj, Js)
     # J usually arrives as the stacked output of the unrolled kinematics kernel; without a fusion
     # boundary XLA fuses that kernel into the reductions below and re-evaluates it per entry.
-    Js = _fusion_boundary(Js)
+    Js = fusion_boundary(Js)
     m = Js.shape[-2]
     w = jax.lax.rsqrt(kj)  # C = (J diag(kj)^-1/2)(J diag(kj)^-1/2)^T: exactly symmetric
     rows = [Js[..., a, :] * w for a in range(m)]
@@ -262,61 +246,19 @@ def _g(S: Sym, i: int, j: int):
     return S[(i, j)] if i <= j else S[(j, i)]
 
 
-def _fusion_boundary(tree):
-    """Identity that XLA cannot fuse across, also under ``vmap`` and for derivatives.
-
-    Stacking the entries of an unrolled closed form into one array lets XLA's CPU backend fuse
-    the whole computation into a single loop over the *output* elements, which re-evaluates the
-    shared arithmetic for every one of them (30-80x slower for the 6x6 case); an
-    ``optimization_barrier`` is removed before fusion on CPU. A conditional is a fusion boundary:
-    the entries are computed in one multi-output loop, then stacked. The predicate
-    ``isnan(x) | (x == x)`` is true for every x, but not provably so to the compiler (identical
-    branches would be folded).
-
-    A plain ``lax.cond`` does not survive ``vmap`` (its predicate becomes batched and the cond a
-    ``select``, which fuses again: a batch of 400 3x3 stiffnesses took 11 us per point instead of
-    1.2), nor does its boundary reach the tangents and cotangents. So the boundary is a linear
-    primitive of its own: on CPU it lowers to the conditional with the predicate taken from the
-    first element of the (batched) operand; it batches to itself, and its JVP and transpose are
-    itself. On other platforms it lowers to the identity.
-    """
-    leaves, treedef = jax.tree_util.tree_flatten(tree)
-    if not leaves or any(jnp.size(leaf) == 0 for leaf in leaves):
-        return tree
-    return jax.tree_util.tree_unflatten(treedef, _boundary_p.bind(*[jnp.asarray(v) for v in leaves]))
 
 
-def _cond_identity(*xs):
-    x = xs[0].ravel()[0]
-    return jax.lax.cond(jnp.isnan(x) | (x == x), lambda *a: list(a), lambda *a: [jnp.zeros_like(v) for v in a], *xs)
 
 
-def _boundary_jvp(primals, tangents):
-    tangents = [ad.instantiate_zeros(t) for t in tangents]
-    return _boundary_p.bind(*primals), _boundary_p.bind(*tangents)
 
 
-def _boundary_transpose(cts, *args):
-    cts = [ad.instantiate_zeros(ct) if type(ct) is ad.Zero else ct for ct in cts]
-    return _boundary_p.bind(*cts)
 
 
-_boundary_p = _Primitive("jaxstiff_fusion_boundary")
-_boundary_p.multiple_results = True
-_boundary_p.def_impl(lambda *xs: list(xs))
-_boundary_p.def_abstract_eval(lambda *avals: list(avals))
-# The conditional only on CPU, where the problem was measured; on a GPU a conditional costs a
-# round trip of its predicate to the host per call, so there it is a plain identity (not measured).
-mlir.register_lowering(_boundary_p, mlir.lower_fun(lambda *xs: list(xs), multiple_results=True))
-mlir.register_lowering(_boundary_p, mlir.lower_fun(_cond_identity, multiple_results=True), platform="cpu")
-batching.primitive_batchers[_boundary_p] = lambda args, dims: (_boundary_p.bind(*args), dims)
-ad.primitive_jvps[_boundary_p] = _boundary_jvp
-ad.primitive_transposes[_boundary_p] = _boundary_transpose
 
 
 def _to_array(S: Sym, m: int, boundary: bool = True) -> jax.Array:
     if boundary:
-        S = _fusion_boundary(S)
+        S = fusion_boundary(S)
     return jnp.stack([jnp.stack([_g(S, i, j) for j in range(m)], axis=-1) for i in range(m)], axis=-2)
 
 
@@ -397,12 +339,9 @@ def _stiffness_entries(S: Sym, m: int, translational_only: bool = False) -> tupl
     return {(a, b): _g(Kp, pos[a], pos[b]) for a in range(m) for b in range(a, m)}, m
 
 
-def _mm(A: jax.Array, B: jax.Array) -> jax.Array:
-    """Small batched matrix product as a broadcast sum (fuses on CPU; dot_general on tiny batches does not)."""
-    return jnp.sum(A[..., :, :, None] * B[..., None, :, :], axis=-2)
 
 
-def _inverse_primal(C: jax.Array, translational_only: bool) -> jax.Array:
+def damped_inverse_primal(C: jax.Array, translational_only: bool) -> jax.Array:
     m = C.shape[-1]
     S = {(i, j): C[..., i, j] for i in range(m) for j in range(i, m)}
     return _to_array(*_stiffness_entries(S, m, translational_only))
@@ -418,18 +357,18 @@ def _damped_inverse(C: jax.Array, translational_only: bool = False) -> jax.Array
     mode than differentiating through the unrolled factorisation (whose entry-wise slices
     transpose into pads of whole arrays).
     """
-    return _inverse_primal(C, translational_only)
+    return damped_inverse_primal(C, translational_only)
 
 
 @_damped_inverse.defjvp
 def _damped_inverse_jvp(translational_only, primals, tangents):
     (C,), (dC,) = primals, tangents
-    K = _inverse_primal(C, False)
+    K = damped_inverse_primal(C, False)
     dC = 0.5 * (dC + jnp.swapaxes(dC, -1, -2))
     if translational_only:
         P = K[..., :, :3]
-        return K[..., :3, :3], -_mm(_mm(jnp.swapaxes(P, -1, -2), dC), P)
-    return K, -_mm(_mm(K, dC), K)
+        return K[..., :3, :3], -mm(mm(jnp.swapaxes(P, -1, -2), dC), P)
+    return K, -mm(mm(K, dC), K)
 
 
 @_positive_kj
@@ -452,9 +391,7 @@ def compliance_condition(J: jax.Array, kj: jax.Array, task: str = "full") -> jax
         S[(row, row)] = S[(row, row)] + e
     C = _to_array(S, m)
     if m in (2, 3):
-        from .ellipsoid import _eigh_desc_primal
-
-        w = _eigh_desc_primal(C)[0][..., ::-1]
+        w = eigh_descending_primal(C)[0][..., ::-1]
     else:
         w = jnp.linalg.eigvalsh(C)
     return w[..., -1] / jnp.maximum(w[..., 0], jnp.finfo(C.dtype).tiny)
@@ -548,7 +485,7 @@ def joint_stiffness(
 @functools.partial(jax.jit, static_argnums=(0, 1))
 def _cct_term(robot: Any, rows: tuple[int, ...], q: jax.Array, F: jax.Array) -> jax.Array:
     """``K_G[..., :, i] = d(J_s(q)^T F)/dq_i`` by forward-mode autodiff of the analytic Jacobian."""
-    from .kinematics import jacobian
+    from jaxstiff.model.kinematics import jacobian
 
     n, m = q.shape[-1], F.shape[-1]
 
@@ -581,11 +518,9 @@ def cms_factor(K: jax.Array, target_volume: float | None = None, target_major: f
     Returns:
         k (...,) > 0; the scaled joint stiffnesses are ``k * kj`` (:func:`cms_scale`).
     """
-    from .ellipsoid import _check_square, eigh_descending
-
     if (target_volume is None) == (target_major is None):
         raise ValueError("give exactly one of target_volume= or target_major=")
-    K = _check_square(K)
+    K = check_square(K)
     m = K.shape[-1]
     w = eigh_descending(K)[0]
     if target_major is not None:

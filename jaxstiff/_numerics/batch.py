@@ -1,0 +1,40 @@
+"""Batch-shape and argument checks shared by the stiffness, ellipsoid, criteria and CSC modules."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+__all__ = ["broadcast_batch", "known_floats", "check_square"]
+
+
+def broadcast_batch(*named_shapes) -> tuple[int, ...]:
+    """The broadcast of the leading (batch) axes, or a ValueError naming the arguments."""
+    try:
+        return jnp.broadcast_shapes(*(s for _, s in named_shapes))
+    except ValueError:
+        raise ValueError("batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)) from None
+
+
+def known_floats(x, what: str | None = None):
+    """The values of ``x`` as a float numpy array where they are known here, else None: inside a
+    trace (jit, grad, vmap), and for non-numbers unless ``what`` names the argument (then a
+    ValueError says it must be numbers). For value checks that a traced call cannot make."""
+    if isinstance(x, jax.core.Tracer):
+        return None
+    try:
+        return np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        if what is None:
+            return None  # the function's own checks say so
+        raise ValueError(f"{what} must be a number or an array of numbers, got {type(x).__name__}") from None
+
+
+def check_square(K, name: str = "K") -> jax.Array:
+    K = jnp.asarray(K)
+    if K.ndim < 2 or K.shape[-1] != K.shape[-2] or K.shape[-1] not in (2, 3):
+        raise ValueError(f"{name} must have shape (..., 2, 2) or (..., 3, 3), got {tuple(K.shape)}")
+    if not jnp.issubdtype(K.dtype, jnp.floating):
+        raise ValueError(f"{name} must have a floating dtype, got {K.dtype}")
+    return K

@@ -1,0 +1,11 @@
+"""The ``jaxstiff`` command line (entry point :func:`main`); one module a subcommand."""
+
+from .common import COMMANDS as COMMANDS
+from .common import TIP_LINK_HELP as TIP_LINK_HELP
+from .common import check_out_file as check_out_file
+from .common import command as command
+from .common import parse_locks as parse_locks
+from .main import build_parser as build_parser
+from .main import main as main
+
+__all__ = ["COMMANDS", "TIP_LINK_HELP", "build_parser", "check_out_file", "command", "main", "parse_locks"]

@@ -1,0 +1,98 @@
+"""What the commands share: the subcommand registry, flag parsers, the result-file check.
+
+Subcommands register themselves in :data:`COMMANDS` as ``name -> (add_arguments, run)``; each
+``run(args)`` returns an exit code. Errors a user can fix (bad files, bad values) are printed as
+one line ``jaxstiff: error: ...`` with exit code 2, never as a traceback (:func:`jaxstiff.cli.main`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import tempfile
+from typing import Callable
+
+COMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int], str]] = {}
+
+
+def command(name: str, help: str):
+    """Decorator pair: ``@command(name, help)`` on a function ``add(parser)`` returning ``run``."""
+
+    def deco(add: Callable[[argparse.ArgumentParser], Callable[[argparse.Namespace], int]]):
+        COMMANDS[name] = (add, None, help)  # run is bound when the parser is built
+        return add
+
+    return deco
+
+
+def parse_floats(text: str, what: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip() != ""]
+    except ValueError:
+        raise ValueError(f"{what}: expected comma-separated numbers, got {text!r}") from None
+
+
+def parse_locks(items: list[str] | None) -> dict[str, float]:
+    """``["JOINT=RAD", ...]`` -> dict (``["none"]``: no joint locked, {}); raises ValueError naming a
+    malformed item."""
+    out: dict[str, float] = {}
+    if items and [x.strip().lower() for x in items] == ["none"]:
+        return out
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"--lock expects JOINT=RAD, got {item!r}")
+        if name in out:
+            raise ValueError(f"--lock: joint {name!r} is given twice ({name}={out[name]:g} and {item})")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise ValueError(f"--lock {item!r}: {value!r} is not a number (radians)") from None
+    return out
+
+
+#: --tip-link's help, shared by the commands that read a chain (Robot.from_urdf's rule)
+TIP_LINK_HELP = "last link of the chain (default: the leaf reached through the most actuated joints; an error if several tie)"
+
+
+def check_out_file(out: str, flag: str = "--out") -> str:
+    """The result file of a command, checked before any work: a file name (``.npz`` added when
+    missing) in an existing, writable folder, and not an existing folder. Returns the absolute path."""
+    if out.strip() and os.path.isdir(out):  # checked before ".npz" is added: the folder itself was meant
+        raise ValueError(f"{flag}: {os.path.abspath(out)} is a folder; give a file name inside it, like "
+                         f"{os.path.join(out, 'result.npz')}")
+    name = out if out.endswith(".npz") else out + ".npz"
+    if not out.strip() or os.path.basename(name) == ".npz" or out.endswith(("/", os.sep)):
+        raise ValueError(f"{flag}: expected a file name like result.npz, got {out!r}")
+    path = os.path.abspath(name)
+    if os.path.isdir(path):
+        raise ValueError(f"{flag}: {path} is a folder; give a file name inside it, like {os.path.join(out, 'result.npz')}")
+    folder = os.path.dirname(path)
+    if not os.path.isdir(folder):
+        raise FileNotFoundError(f"{flag}: folder does not exist: {folder}")
+    # a real probe, not os.access (which says yes to root on a read-only mount): create and remove
+    # a temporary file where the result will go, so the work does not start for nothing
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".probe-", dir=folder)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise ValueError(f"{flag}: cannot write into folder {folder}: {e.strerror or e}") from None
+    return path
+
+
+_NEGATIVE_VALUE = re.compile(r"^-\.?\d")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """``--hold -0.5,0.2`` as ``--hold=-0.5,0.2``: argparse takes a token that starts with '-' and
+    is not a plain number (a comma list is not) for an option and refuses the value. No option
+    name starts with a digit, so such a token after a long option is always its value."""
+    out: list[str] = []
+    for tok in argv:
+        if out and out[-1].startswith("--") and "=" not in out[-1] and _NEGATIVE_VALUE.match(tok):
+            out[-1] = f"{out[-1]}={tok}"
+        else:
+            out.append(tok)
+    return out

@@ -1,0 +1,278 @@
+"""Chain data: the static, hashable description of a serial chain and the helpers that build it.
+
+Every number of the chain is kept as a Python float inside tuples, so a :class:`Chain` is hashable
+and ``jax.jit`` compiles one kernel per chain: the geometry becomes compile-time constants, which
+lets the kinematics kernel skip every multiplication by a structural zero or one. The kinematics
+(:mod:`jaxstiff.model.kinematics`) reads a Chain; :class:`jaxstiff.model.robot.Robot` is a Chain
+that also reads URDF files and has FK/Jacobian methods.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from typing import Mapping, Sequence
+
+import numpy as np
+
+__all__ = ["Chain", "JointType", "JOINT_REVOLUTE", "JOINT_PRISMATIC", "snap", "mat_to_tuple", "tuple_to_mat",
+           "tcp_matrix", "check_locked", "check_q"]
+
+
+class JointType(enum.IntEnum):
+    """Joint type codes, as stored in :attr:`Chain.joint_types` (plain ints in the tuple)."""
+
+    REVOLUTE = 0  #: revolute and continuous joints (values in rad, stiffness in Nm/rad)
+    PRISMATIC = 1  #: prismatic joints (values in m, stiffness in N/m)
+
+
+JOINT_REVOLUTE = int(JointType.REVOLUTE)  #: joint type code of revolute and continuous joints
+JOINT_PRISMATIC = int(JointType.PRISMATIC)  #: joint type code of prismatic joints
+
+_SNAP = 1e-14  # |x| below this in a constant rotation/axis entry is a structural zero
+
+
+def snap(x: float) -> float:
+    """Snap round-off around 0 and +-1 (e.g. cos(pi/2) = 6e-17) to the exact value."""
+    for exact in (0.0, 1.0, -1.0):
+        if abs(x - exact) < _SNAP:
+            return exact
+    return float(x)
+
+
+def mat_to_tuple(T: np.ndarray) -> tuple[tuple[float, ...], ...]:
+    """4x4 homogeneous transform -> (R rows..., p) tuple of 3 rows of 4 floats (last row implied)."""
+    return tuple(tuple(snap(v) for v in T[i, :4]) for i in range(3))
+
+
+def tuple_to_mat(t: tuple[tuple[float, ...], ...]) -> np.ndarray:
+    T = np.eye(4)
+    T[:3, :4] = np.asarray(t, dtype=float)
+    return T
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Chain:
+    """A serial chain with n actuated joints, static and hashable.
+
+    Attributes:
+        name: robot name from the URDF.
+        joint_names: the n actuated (revolute, continuous, prismatic) joints, base to tip.
+        joint_types: per joint, :data:`JOINT_REVOLUTE` or :data:`JOINT_PRISMATIC`.
+        origins: per joint, the constant transform from the previous joint's moving frame
+            (or the base link) to this joint's frame, fixed joints folded in; each as 3 rows
+            of 4 floats ``(R | p)``.
+        axes: per joint, the unit joint axis in the joint frame.
+        tip: constant transform from the last joint's moving frame to the TCP (fixed joints
+            after the last actuated joint, then the ``tcp`` offset).
+        lower, upper: joint limits (rad or m); ``-inf``/``inf`` for continuous joints.
+        locked: per joint, the locked value or ``None`` for a free joint.
+        base_link, tip_link: the links the chain runs between.
+        source: the file the robot was read from ("" if built in code).
+    """
+
+    name: str
+    joint_names: tuple[str, ...]
+    joint_types: tuple[int, ...]
+    origins: tuple[tuple[tuple[float, ...], ...], ...]
+    axes: tuple[tuple[float, float, float], ...]
+    tip: tuple[tuple[float, ...], ...]
+    lower_limits: tuple[float, ...]
+    upper_limits: tuple[float, ...]
+    locked: tuple[float | None, ...]
+    base_link: str = ""
+    tip_link: str = ""
+    source: str = ""
+
+    # ------------------------------------------------------------------ identity
+    # jit hashes its static arguments on every call; hashing ~100 nested floats costs ~4 us, as
+    # much as a whole single-configuration FK call, so the hash is computed once and cached. The
+    # cache is never pickled (string hashes differ between processes).
+    def _key(self) -> tuple:
+        return tuple(getattr(self, f.name) for f in dataclasses.fields(self))
+
+    def __eq__(self, other) -> bool:
+        if self is other:
+            return True
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = hash(self._key())
+            object.__setattr__(self, "_hash", h)
+        return h
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state.pop("_hash", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def n(self) -> int:
+        """Number of actuated joints (locked ones included)."""
+        return len(self.joint_names)
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower joint limits, shape (n,)."""
+        return np.asarray(self.lower_limits, dtype=float)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper joint limits, shape (n,)."""
+        return np.asarray(self.upper_limits, dtype=float)
+
+    @property
+    def free(self) -> np.ndarray:
+        """Boolean mask (n,): True where the joint is free (not locked)."""
+        return np.asarray([v is None for v in self.locked], dtype=bool)
+
+    @property
+    def prismatic(self) -> np.ndarray:
+        """Boolean mask (n,): True where the joint is prismatic (its values are lengths, m)."""
+        return np.asarray(self.joint_types) == JOINT_PRISMATIC
+
+    @property
+    def n_free(self) -> int:
+        """Number of free joints."""
+        return int(self.free.sum())
+
+    @property
+    def locked_values(self) -> np.ndarray:
+        """Locked value per joint, NaN for free joints, shape (n,)."""
+        return np.asarray([np.nan if v is None else v for v in self.locked], dtype=float)
+
+    def origin_matrix(self, i: int) -> np.ndarray:
+        """Constant 4x4 transform into joint ``i``'s frame (fixed joints folded in)."""
+        return tuple_to_mat(self.origins[i])
+
+    @property
+    def tip_matrix(self) -> np.ndarray:
+        """Constant 4x4 transform from the last joint frame to the TCP."""
+        return tuple_to_mat(self.tip)
+
+    def with_locked(self, locked: Mapping[str, float] | None) -> "Chain":
+        """A copy with a new set of locked joints (``None`` or ``{}`` frees all)."""
+        values = check_locked(self.joint_names, self.lower_limits, self.upper_limits, locked)
+        return dataclasses.replace(self, locked=values)
+
+    def with_tcp(self, tcp: Sequence[float] | np.ndarray | None) -> "Chain":
+        """A copy with an extra tool offset appended after the current TCP."""
+        T = self.tip_matrix @ tcp_matrix(tcp)
+        return dataclasses.replace(self, tip=mat_to_tuple(T))
+
+    def check_q(self, q, name: str = "q"):
+        """Validate a joint array at the Python boundary: floating dtype, last axis n, finite.
+
+        Returns the array as a JAX/numpy array unchanged in dtype. Raises ValueError naming the problem.
+        """
+        return check_q(self, q, name)
+
+    def describe(self) -> str:
+        """A human-readable table of the chain: joints, types, axes, limits, locks."""
+        lines = [
+            f"robot {self.name!r}: {self.n} actuated joints ({self.n_free} free), "
+            f"chain {self.base_link!r} -> {self.tip_link!r}",
+            f"{'#':>2} {'joint':<20} {'type':<10} {'axis':<22} {'lower':>12} {'upper':>12}  lock",
+        ]
+        for i, name in enumerate(self.joint_names):
+            revolute = self.joint_types[i] == JOINT_REVOLUTE
+            lo, hi = self.lower_limits[i], self.upper_limits[i]
+            kind = "prismatic" if not revolute else "continuous" if math.isinf(lo) and math.isinf(hi) else "revolute"
+            unit = "deg" if revolute else "m"
+            if revolute:
+                lo, hi = math.degrees(lo), math.degrees(hi)
+            axis = "(" + ", ".join(f"{a:+.3f}" for a in self.axes[i]) + ")"
+            lock = "" if self.locked[i] is None else f"locked at {self.locked[i]:g} {'rad' if revolute else 'm'}"
+            lines.append(
+                f"{i:>2} {name:<20} {kind:<10} {axis:<22} {lo:>8.2f} {unit:<3} {hi:>8.2f} {unit:<3}  {lock}".rstrip()
+            )
+        tip = self.tip_matrix[:3, 3]
+        lines.append(f"TCP offset after the last joint frame: ({tip[0]:.4f}, {tip[1]:.4f}, {tip[2]:.4f}) m")
+        return "\n".join(lines)
+
+
+def check_locked(joint_names, lower, upper, locked) -> tuple[float | None, ...]:
+    """Per joint, the locked value (checked: a known joint, finite, within its limits) or None."""
+    values: list[float | None] = [None] * len(joint_names)
+    if not locked:
+        return tuple(values)
+    if not isinstance(locked, Mapping):
+        raise ValueError(f"locked must be a mapping {{joint_name: value}}, got {type(locked).__name__}")
+    for name, value in locked.items():
+        if name not in joint_names:
+            raise ValueError(
+                f"cannot lock unknown joint {name!r}; actuated joints of the chain: {', '.join(joint_names)}"
+            )
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"locked value of joint {name!r} must be a number, got {value!r}") from None
+        i = joint_names.index(name)
+        if not math.isfinite(v):
+            raise ValueError(f"locked value of joint {name!r} must be finite, got {v}")
+        if v < lower[i] or v > upper[i]:
+            raise ValueError(
+                f"locked value {v:g} of joint {name!r} is outside its limits [{lower[i]:g}, {upper[i]:g}]"
+            )
+        values[i] = v
+    return tuple(values)
+
+
+def tcp_matrix(tcp) -> np.ndarray:
+    """A tool offset as a 4x4 transform: None (identity), a 3-vector (m) or a 4x4 transform (checked)."""
+    if tcp is None:
+        return np.eye(4)
+    try:
+        T = np.asarray(tcp, dtype=float) if not isinstance(tcp, str) else None
+    except (TypeError, ValueError):
+        T = None
+    shown = np.asarray(tcp).tolist() if isinstance(tcp, np.ndarray) else tcp  # (one line, not numpy's repr)
+    if T is None or T.shape not in ((3,), (4, 4)):
+        raise ValueError(f"tcp must be a 3-vector (m) or a 4x4 transform, got {shown!r}")
+    if not np.all(np.isfinite(T)):
+        raise ValueError(f"tcp contains NaN or Inf: {shown!r}")
+    if T.shape == (3,):
+        M = np.eye(4)
+        M[:3, 3] = T
+        return M
+    R = T[:3, :3]
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-9) or not np.allclose(T[3], [0, 0, 0, 1]):
+        raise ValueError("tcp 4x4 transform must have an orthonormal rotation block and last row (0, 0, 0, 1)")
+    return T
+
+
+def check_q(robot: Chain, q, name: str = "q"):
+    """Validate a joint array at the Python boundary (see :meth:`Chain.check_q`)."""
+    import jax
+    import jax.numpy as jnp
+
+    if isinstance(q, (list, tuple)):
+        q = np.asarray(q, dtype=float)
+    if not hasattr(q, "dtype") or not hasattr(q, "shape"):
+        raise ValueError(f"{name} must be an array of shape (..., {robot.n}), got {type(q).__name__}")
+    if not jnp.issubdtype(q.dtype, jnp.floating):
+        raise ValueError(
+            f"{name} must have a floating dtype (float32 or float64), got {q.dtype}; "
+            f"convert with q.astype(float)"
+        )
+    if q.ndim == 0 or q.shape[-1] != robot.n:
+        raise ValueError(
+            f"{name} must have shape (..., {robot.n}) for robot {robot.name!r} "
+            f"({robot.n} actuated joints), got shape {tuple(q.shape)}"
+        )
+    if not isinstance(q, jax.core.Tracer):
+        a = np.asarray(q)
+        if not np.all(np.isfinite(a)):
+            idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
+            raise ValueError(f"{name} contains NaN or Inf: {name}{list(idx)} = {a[idx]} "
+                             f"(joint {robot.joint_names[idx[-1]]!r} of robot {robot.name!r})")
+    return q

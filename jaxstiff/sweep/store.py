@@ -1,0 +1,395 @@
+"""The on-disk store of a sweep: atomic chunk files, a manifest, a lock, and the assembled table.
+
+Layout of ``--out DIR``::
+
+    DIR/config.toml              the config as given (empty for a dict config)
+    DIR/plan.json                plan hash, kind, name, rows, groups, chunks (what "resume" checks)
+    DIR/arrays/chunk-000012-0.npz  per-waypoint arrays of chunk 12, one file per batched call
+                                 (shape: the ShapeResult file format; csc: the CSCResult arrays)
+    DIR/chunks/chunk-000012.json the rows of chunk 12 (settings + metrics): the commit point
+    DIR/manifest.json            finished chunks with wall time, worker and run; the runs
+    DIR/results.parquet          the table, one row per (trajectory x setting), sorted by row_id
+    DIR/timing.csv               wall time per chunk (kept out of the table: timing is not a result)
+    DIR/summary.md, DIR/plots/   the report
+    DIR/.lock                    held (flock) while a sweep writes here
+
+Crash safety: every file is written to a temporary file in the same folder and renamed onto its
+name (``os.replace``, atomic on POSIX), so a reader never sees a partial file. A chunk's arrays are
+written first and its rows file last, so a rows file on disk means the chunk is complete; the
+manifest is rewritten after it and is reconciled with the rows files on resume (a kill between the
+two loses nothing). Temporary files left by a kill are removed when the store is opened again.
+
+The table is assembled from the rows files sorted by ``row_id``; it holds no timing, so an
+interrupted and resumed sweep gives the same table as an uninterrupted one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import glob
+import json
+import os
+import socket
+from typing import Iterable
+
+
+from jaxstiff.runtime.io import atomic_write, atomic_write_text
+from jaxstiff.runtime.io import json_default as _json_default
+
+from jaxstiff.sweep.config import AXES, SweepPlan, hashed_config
+
+__all__ = ["SweepStore", "read_table", "atomic_write_text", "FORMAT"]
+
+FORMAT = "jaxstiff.sweep/1"
+
+
+def _json(obj) -> str:
+    return json.dumps(obj, indent=1, sort_keys=True, default=_json_default)
+
+
+def _now() -> str:
+    return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="milliseconds")
+
+
+class SweepStore:
+    """Open (create or resume) the store of a plan in ``out``.
+
+    Args:
+        out: the folder.
+        plan: the validated plan.
+        resume: continue a sweep already in ``out`` (same plan); without it an existing sweep
+            in ``out`` is an error.
+
+    Raises:
+        ValueError: ``out`` holds another sweep (different config), holds this sweep and
+            ``resume`` is False, is a non-empty folder without a sweep, or another process is
+            writing to it.
+    """
+
+    def __init__(self, out: str | os.PathLike, plan: SweepPlan, resume: bool = False):
+        self.out = os.path.abspath(os.fspath(out))
+        self.plan = plan
+        if os.path.exists(self.out) and not os.path.isdir(self.out):
+            raise ValueError(f"--out {self.out}: exists and is not a folder")
+        # a folder that is not a sweep store is refused before anything (even the lock) is written into it
+        self._check_foreign()
+        created = not os.path.exists(self.out)
+        os.makedirs(self.out, exist_ok=True)
+        self._lock_fh = None
+        try:
+            self._lock()
+            self._open(resume)
+        except BaseException:
+            self.close()
+            if created:  # refused or interrupted before the store existed: leave nothing behind
+                with contextlib.suppress(OSError):
+                    os.unlink(self.path(".lock"))
+                with contextlib.suppress(OSError):
+                    os.rmdir(self.out)
+            raise
+
+    def _check_foreign(self) -> None:
+        if not os.path.isdir(self.out) or os.path.isfile(self.path("plan.json")):
+            return
+        others = [f for f in os.listdir(self.out) if f not in (".lock",)]
+        if others:
+            raise ValueError(f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder")
+
+    # ------------------------------------------------------------------ paths
+    def path(self, *parts: str) -> str:
+        return os.path.join(self.out, *parts)
+
+    def rows_file(self, chunk_id: int) -> str:
+        return self.path("chunks", f"chunk-{chunk_id:06d}.json")
+
+    def array_name(self, chunk_id: int, k: int) -> str:
+        return f"arrays/chunk-{chunk_id:06d}-{k}.npz"
+
+    # ------------------------------------------------------------------ open / lock
+    def _lock(self) -> None:
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - not POSIX: no lock
+            return
+        fh = open(self.path(".lock"), "a+", encoding="utf-8")
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.seek(0)
+            who = fh.read().strip()
+            fh.close()
+            raise ValueError(f"another jaxstiff sweep is writing to {self.out} ({who or 'unknown process'}); wait for it or choose another --out") from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()} on {socket.gethostname()} since {_now()}\n")
+        fh.flush()
+        self._lock_fh = fh
+
+    def close(self) -> None:
+        """Release the lock (also released by the OS if the process dies)."""
+        if self._lock_fh is not None:
+            with contextlib.suppress(OSError):
+                self._lock_fh.close()
+            self._lock_fh = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _open(self, resume: bool) -> None:
+        plan = self.plan
+        plan_file = self.path("plan.json")
+        if os.path.isfile(plan_file):
+            try:
+                with open(plan_file, encoding="utf-8") as fh:
+                    old = json.load(fh)
+            except (OSError, json.JSONDecodeError) as exc:
+                raise ValueError(f"{plan_file}: unreadable ({exc}); this folder is not a usable sweep store") from None
+            if old.get("plan_hash") != plan.plan_hash:
+                # (only what the hash sees: a moved file is no change)
+                diff = _config_diff(hashed_config(old.get("config", {})), hashed_config(plan.config))
+                if diff and set(diff.split(", ")) <= {"sweep.name", "sweep.description"}:
+                    was = old.get("config", {}).get("sweep", {})
+                    raise ValueError(
+                        f"--out {self.out} holds this sweep under another label (sweep.name {was.get('name')!r}, now "
+                        f"{plan.name!r}; the name defaults to the config's file name, so a renamed file changes it): "
+                        f"set name = {json.dumps(was.get('name'))}"
+                        + (f" and description = {json.dumps(was.get('description', ''))}" if "sweep.description" in diff else "")
+                        + " in [sweep] to continue it, or use a new --out"
+                    )
+                raise ValueError(
+                    f"--out {self.out} holds a different sweep ({old.get('name')!r}, plan {str(old.get('plan_hash'))[:12]}); "
+                    f"changed: {diff or 'robot or path data'}. Use a new --out for a changed config"
+                )
+            # without --resume only a store with no chunk done (a run stopped while it set the store
+            # up: nothing to lose) runs again; the chunks are scanned once more below either way
+            n = 0 if resume else len(self._scan_done())
+            if n:
+                raise ValueError(
+                    f"--out {self.out} already holds this sweep ({n} of {len(plan.chunks)} chunks done); "
+                    "pass --resume to continue it, or choose another --out"
+                )
+        else:
+            self._check_foreign()  # again under the lock: another process may have written meanwhile
+            for sub in ("chunks", "arrays"):
+                os.makedirs(self.path(sub), exist_ok=True)
+            if plan.config_text:
+                atomic_write_text(self.path("config.toml"), plan.config_text)
+            atomic_write_text(plan_file, _json(self._plan_record()))
+        for sub in ("chunks", "arrays"):
+            os.makedirs(self.path(sub), exist_ok=True)
+        self._clean_temporaries()
+        self.done: dict[int, dict] = self._scan_done()
+        self.manifest = self._load_manifest()
+        self.run_index = len(self.manifest["runs"])
+        self.manifest["runs"].append({"run": self.run_index, "started": _now(), "host": socket.gethostname(),
+                                      "pid": os.getpid(), "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"),
+                                      "skipped": sorted(self.done), "computed": []})
+        self._write_manifest()
+
+    def _plan_record(self) -> dict:
+        p = self.plan
+        return {
+            "format": FORMAT,
+            "plan_hash": p.plan_hash,
+            "name": p.name,
+            "kind": p.kind,
+            "n_rows": p.n_rows,
+            "n_chunks": len(p.chunks),
+            "groups": list(p.groups),
+            "chunks": [{"id": c.id, "group": c.group, "rows": [c.rows[0], c.rows[-1]], "n": len(c.rows)} for c in p.chunks],
+            "config": p.config,
+            "source": os.path.abspath(p.source) if p.source else "",
+            "created": _now(),
+        }
+
+    def _clean_temporaries(self) -> None:
+        for folder in (self.out, self.path("chunks"), self.path("arrays"), self.path("plots")):
+            for f in glob.glob(os.path.join(folder, ".tmp-*")):
+                with contextlib.suppress(OSError):
+                    os.unlink(f)
+
+    def _scan_done(self) -> dict[int, dict]:
+        """Finished chunks: every rows file that parses and belongs to this plan."""
+        done = {}
+        for f in sorted(glob.glob(self.path("chunks", "chunk-*.json"))):
+            try:
+                with open(f, encoding="utf-8") as fh:
+                    rec = json.load(fh)
+            except (OSError, json.JSONDecodeError) as exc:
+                raise ValueError(f"{f}: unreadable chunk file ({exc}); delete it to recompute that chunk") from None
+            cid = rec.get("chunk")
+            if rec.get("plan_hash") != self.plan.plan_hash or not isinstance(cid, int) or not 0 <= cid < len(self.plan.chunks):
+                raise ValueError(f"{f}: belongs to another sweep; delete it or use a new --out")
+            want = list(self.plan.chunks[cid].rows)
+            if [r["row_id"] for r in rec.get("rows", [])] != want:
+                raise ValueError(f"{f}: its rows do not match chunk {cid} of the plan; delete it to recompute")
+            done[cid] = rec
+        return done
+
+    def _load_manifest(self) -> dict:
+        f = self.path("manifest.json")
+        man = {"format": FORMAT, "plan_hash": self.plan.plan_hash, "chunks": {}, "runs": []}
+        if os.path.isfile(f):
+            try:
+                with open(f, encoding="utf-8") as fh:
+                    old = json.load(fh)
+                if old.get("plan_hash") == self.plan.plan_hash:
+                    man.update({"chunks": old.get("chunks", {}), "runs": old.get("runs", [])})
+            except (OSError, json.JSONDecodeError):
+                pass  # rebuilt from the rows files below
+        # the rows files are the truth: drop entries without one, add those missing
+        man["chunks"] = {k: v for k, v in man["chunks"].items() if int(k) in self.done}
+        for cid, rec in self.done.items():
+            man["chunks"].setdefault(str(cid), {"wall_s": rec.get("wall_s"), "finished": rec.get("finished"),
+                                                "worker": rec.get("worker"), "devices": rec.get("devices"), "run": None})
+        return man
+
+    def _write_manifest(self) -> None:
+        self.manifest["n_chunks"] = len(self.plan.chunks)
+        self.manifest["n_done"] = len(self.done)
+        atomic_write_text(self.path("manifest.json"), _json(self.manifest))
+
+    # ------------------------------------------------------------------ commit
+    def commit(self, payload: dict) -> None:
+        """Write one finished chunk: its array files, then its rows file, then the manifest.
+
+        Args:
+            payload: from :func:`jaxstiff.sweep.compute_chunk`: ``chunk``, ``rows`` (list of
+                dicts), ``arrays`` (list of ``(relative name, data)``: a
+                :class:`~jaxstiff.results.ShapeResult` or a dict of arrays), ``wall_s``,
+                ``worker``, ``devices``.
+        """
+        from jaxstiff.results.files import ShapeResult, atomic_save_npz
+
+        cid = int(payload["chunk"])
+        for name, data in payload["arrays"]:
+            if isinstance(data, ShapeResult):
+                data.save(self.path(name))
+            else:
+                atomic_save_npz(self.path(name), data)
+        rec = {
+            "format": FORMAT,
+            "plan_hash": self.plan.plan_hash,
+            "chunk": cid,
+            "group": self.plan.chunks[cid].group,
+            "rows": payload["rows"],
+            "wall_s": payload["wall_s"],
+            "finished": _now(),
+            "worker": payload.get("worker", ""),
+            "devices": payload.get("devices", 1),
+        }
+        atomic_write_text(self.rows_file(cid), _json(rec))
+        self.done[cid] = rec
+        self.manifest["chunks"][str(cid)] = {"wall_s": rec["wall_s"], "finished": rec["finished"], "worker": rec["worker"],
+                                             "devices": rec["devices"], "run": self.run_index}
+        self.manifest["runs"][-1]["computed"].append(cid)
+        self._write_manifest()
+
+    def finish_run(self, status: str) -> None:
+        self.manifest["runs"][-1]["ended"] = _now()
+        self.manifest["runs"][-1]["status"] = status
+        self._write_manifest()
+
+    # ------------------------------------------------------------------ assembly
+    def columns(self) -> list[str]:
+        from jaxstiff.sweep.metrics import METRICS
+
+        k = self.plan.kind
+        return (["row_id", "chunk", "group", "path", "path_index", "P"] + list(AXES[k]) + ["q0_ik_error_m"]
+                + list(METRICS[k]) + ["result_file", "result_index"])
+
+    def rows(self) -> list[dict]:
+        """All finished rows, sorted by row_id."""
+        out = [r for rec in self.done.values() for r in rec["rows"]]
+        out.sort(key=lambda r: r["row_id"])
+        return out
+
+    def assemble(self) -> str:
+        """Write ``results.parquet`` (or ``results.csv`` without pyarrow) and ``timing.csv``; return the table file.
+
+        Raises:
+            ValueError: chunks are missing (the sweep is not finished).
+        """
+        missing = [c.id for c in self.plan.chunks if c.id not in self.done]
+        if missing:
+            raise ValueError(f"{len(missing)} chunks are not finished yet (first: {missing[0]}); run again with --resume")
+        rows = self.rows()
+        cols = self.columns()
+        timing = ["chunk,rows,wall_s,devices,worker,finished"]
+        for cid in sorted(self.done):
+            rec = self.done[cid]
+            timing.append(f"{cid},{len(rec['rows'])},{rec['wall_s']!r},{rec.get('devices', 1)},{rec.get('worker', '')},{rec['finished']}")
+        atomic_write_text(self.path("timing.csv"), "\n".join(timing) + "\n")
+        try:
+            import pandas as pd
+            import pyarrow  # noqa: F401
+        except ImportError:
+            f = self.path("results.csv")
+            atomic_write_text(f, _rows_csv(rows, cols))
+            return f
+        df = table_frame(rows, cols, self.plan.kind)
+        f = self.path("results.parquet")
+        return atomic_write(f, lambda fh: df.to_parquet(fh, index=False), binary=True)
+
+
+def table_frame(rows: list[dict], cols: list[str], kind: str):
+    """The results table as a pandas DataFrame with fixed column order and dtypes."""
+    import pandas as pd
+
+    df = pd.DataFrame.from_records(rows, columns=cols)
+    for name, spec in AXES[kind].items():
+        if spec.type == "float":
+            df[name] = df[name].astype("float64")
+        elif spec.type == "int":
+            df[name] = df[name].astype("int64")
+        elif spec.type == "bool":
+            df[name] = df[name].astype(bool)
+        else:
+            df[name] = df[name].astype(str)
+    for c in ("row_id", "chunk", "group", "path_index", "P", "result_index"):
+        df[c] = df[c].astype("int64")
+    df["q0_ik_error_m"] = df["q0_ik_error_m"].astype("float64")  # (NaN where the start posture is no IK solution)
+    return df
+
+
+def _rows_csv(rows: Iterable[dict], cols: list[str]) -> str:
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(cols)
+    for r in rows:
+        w.writerow([repr(r[c]) if isinstance(r[c], float) else r[c] for c in cols])
+    return buf.getvalue()
+
+
+def read_table(out: str | os.PathLike):
+    """The results table of a finished sweep folder as a pandas DataFrame (Parquet, else CSV)."""
+    import pandas as pd
+
+    out = os.fspath(out)
+    pq = os.path.join(out, "results.parquet")
+    if os.path.isfile(pq):
+        return pd.read_parquet(pq)
+    csvf = os.path.join(out, "results.csv")
+    if os.path.isfile(csvf):
+        return pd.read_csv(csvf)
+    raise FileNotFoundError(f"no results table in {out} (the sweep has not finished; run it again with --resume)")
+
+
+def _config_diff(old: dict, new: dict, prefix: str = "") -> str:
+    keys = []
+    for k in sorted(set(old) | set(new)):
+        a, b = old.get(k), new.get(k)
+        if isinstance(a, dict) and isinstance(b, dict):
+            sub = _config_diff(a, b, f"{prefix}{k}.")
+            if sub:
+                keys.append(sub)
+        elif json.dumps(a, sort_keys=True, default=str) != json.dumps(b, sort_keys=True, default=str):
+            keys.append(f"{prefix}{k}")
+    return ", ".join(keys)
