@@ -96,3 +96,36 @@ def join_negative_values(argv: list[str]) -> list[str]:
         else:
             out.append(tok)
     return out
+
+
+def add_robot_flags(p: argparse.ArgumentParser) -> None:
+    """The robot flags every command takes, with :class:`~jaxstiff.settings.RobotSpec`'s defaults:
+    ``--robot --base-link --tip-link --lock JOINT=VALUE ... --tcp x,y,z[,roll,pitch,yaw]``."""
+    from jaxstiff.settings.robot import DEFAULT_LOCKS, DEFAULT_ROBOT
+
+    shipped = "; ".join(f"{r}: {', '.join(f'{j}={v:g}' for j, v in lk.items())}" for r, lk in DEFAULT_LOCKS.items())
+    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"URDF file or shipped robot name (default: {DEFAULT_ROBOT})")
+    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
+    p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
+    p.add_argument("--lock", action="append", metavar="JOINT=VALUE",
+                   help=f"lock a joint at a value, rad (m for a prismatic joint); repeatable. Default: the shipped "
+                        f"robot's locks ({shipped}; seed 000), none for other URDFs; '--lock none' frees every joint")
+    p.add_argument("--tcp", default=None, metavar="X,Y,Z[,ROLL,PITCH,YAW]",
+                   help="tool offset after the tip link, in the tip frame: m, and rad for the URDF-style "
+                        "roll-pitch-yaw rotation (default: none)")
+
+
+def robot_spec_from_args(args: argparse.Namespace):
+    """The :class:`~jaxstiff.settings.RobotSpec` of the robot flags (errors name the flag)."""
+    from jaxstiff.settings.robot import RobotSpec
+
+    locked = None if not args.lock else parse_locks(args.lock)
+    tcp = None
+    if args.tcp is not None:
+        tcp = tuple(parse_floats(args.tcp, "--tcp"))
+        if len(tcp) not in (3, 6):
+            raise ValueError(f"--tcp expects 3 values x,y,z (m) or 6 values x,y,z,roll,pitch,yaw (m, rad), got {args.tcp!r}")
+    try:
+        return RobotSpec(urdf=args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=locked, tcp=tcp)
+    except ValueError as e:
+        raise ValueError(str(e).replace("robot.tcp", "--tcp").replace("robot.locked", "--lock")) from None

@@ -1,0 +1,65 @@
+"""ShapeSettings: the settings of stiffness-ellipsoid shaping (seed 000), defaults written once.
+
+``shape()``, ``jaxstiff shape`` and a sweep's ``[shape]`` axes read their defaults here. Units
+are those of the API: joint rate limits in rad per waypoint (``dq``; m for prismatic joints);
+the command line's ``--dq-deg`` and the sweep's ``dq_deg`` are degrees and are converted by
+:meth:`ShapeSettings.dq_from_deg`. Every result file records the settings it ran with, with
+their units (``meta["settings"]``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+from jaxstiff.settings.base import Settings, at_least, non_negative, positive, setting
+
+__all__ = ["ShapeSettings", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG"]
+
+CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
+TASKS = ("full", "xyz", "xy")  #: task rows of the stiffness (SPEC section 2)
+SOLVER_NAMES = ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory")  #: the shipped solvers
+DEFAULT_DQ_DEG = 2.0  #: joint rate limit, degrees per waypoint (the seed leaves it open)
+
+
+def _ratio(v: object) -> str | None:
+    return None if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 1 else \
+        "must be a finite number > 1 (lambda1 / lambda2)"
+
+
+@dataclasses.dataclass(frozen=True)
+class ShapeSettings(Settings):
+    """Settings of :func:`jaxstiff.shape` that the seed leaves open (defaults in the README).
+
+    The scalar form is validated here; ``ratio``, ``dq`` and ``dk`` may also be given per path or
+    per joint to :func:`jaxstiff.shape`, which checks those arrays itself.
+    """
+
+    section = "shape"
+
+    criterion: str = setting("f2", doc="shaping criterion: f1 (ratio at least r) or f2 (ratio exactly r)")
+    ratio: float = setting(5.0, doc="wanted axis ratio r = lambda1 / lambda2", check=_ratio)
+    task: str = setting("full", choices=TASKS, doc="task rows of K_T: full = top-left 3x3 of the 6x6 K_C")
+    solver: str = setting("slsqp", doc="solver (slsqp, slsqp-fd, pgd, hybrid, trajectory, or a registered one)")
+    starts: int | None = setting(None, doc="starts per waypoint (None: the solver's default; SLSQP: 1)")
+    dq: float = setting(math.radians(DEFAULT_DQ_DEG), unit="rad per waypoint (m for prismatic joints)",
+                        doc="joint rate limit (S0-11, S0-12)", check=non_negative)
+    dk: float = setting(5.0, unit="Nm/rad per waypoint (N/m for prismatic joints)",
+                        doc="joint stiffness rate limit (S0-13, S0-14)", check=non_negative)
+    kmin: float = setting(1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive)
+    kmax: float = setting(100.0, unit="Nm/rad", doc="highest joint stiffness", check=positive)
+    c: float = setting(0.01, doc="offset c of f1 (S0-9)", check=non_negative)
+    first_rate_limit: bool = setting(False, doc="apply the rate limits between (q0, kj0) and waypoint 0")
+    first_starts: int = setting(8, doc="IK start postures tried at the first waypoint", check=at_least(1))
+    cms_mean_axis: float = setting(1000.0, unit="N/m", doc="CMS: the common geometric-mean axis of every waypoint",
+                                   check=positive)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if self.kmin >= self.kmax:
+            raise ValueError(f"shape.kmin ({self.kmin:g}) must be below shape.kmax ({self.kmax:g}) (Nm/rad)")
+
+    @staticmethod
+    def dq_from_deg(dq_deg: float) -> float:
+        """``--dq-deg`` / the sweep's ``dq_deg`` (degrees per waypoint) as the API's ``dq`` (rad)."""
+        return math.radians(dq_deg)
