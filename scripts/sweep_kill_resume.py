@@ -50,8 +50,8 @@ def _rows_files(out: str) -> dict[str, str]:
     return res
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     ap.add_argument("config", nargs="?", default=os.path.join(REPO, "experiments", "sweeps", "resume1000.toml"))
     ap.add_argument("--kill-at", type=float, default=0.5, help="fraction of chunks committed before the SIGKILL")
     ap.add_argument("--work", default=None, help="work folder (default: a temporary one, removed)")

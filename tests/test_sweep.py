@@ -20,9 +20,9 @@ import pandas as pd
 import pytest
 
 import jaxstiff
-from jaxstiff.results.files import ShapeResult, _np_jacobian_rows, _np_translational_stiffness, is_usable, verify
-from jaxstiff.sweep.run import run_sweep
+from jaxstiff.results.files import ShapeResult, is_usable, np_jacobian_rows, np_translational_stiffness, verify
 from jaxstiff.sweep.config import kxd_matrix, parse_config
+from jaxstiff.sweep.run import run_sweep
 from jaxstiff.sweep.store import SweepStore, read_table
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -117,7 +117,7 @@ def test_shape_table_rows_and_settings(shape_run):
     assert df["row_id"].tolist() == list(range(8))
     # setting-major order: (ratio, dk) product x 2 paths
     want = [(r, k, p) for r in (2.0, 3.0) for k in (5.0, 10.0) for p in ("arc(radius=1.5)", "arc(radius=2)")]
-    assert list(zip(df["ratio"], df["dk"], df["path"])) == want
+    assert list(zip(df["ratio"], df["dk"], df["path"], strict=True)) == want
     assert set(df["criterion"]) == {"f2"} and set(df["task"]) == {"xy"}
     assert not any(c.endswith("time_s") or c == "wall_s" for c in df.columns)
     # the start posture's IK error is a column (the docs and the IK warning name it; it was only in
@@ -138,7 +138,7 @@ def test_shape_rows_verified_from_files_alone(shape_run):
         assert chk["max_pos_error"] <= 1e-6 and chk["max_bound_violation"] <= 1e-9 and chk["max_rate_violation"] <= 1e-9
         b = row.result_index
         assert full.meta["ratio"] == row.ratio and full.meta["limits"]["dk"][0] == row.dk
-        K = np.stack([_np_translational_stiffness(robot, full.q[b, p], full.kj[b, p], "xy") for p in range(full.P)])
+        K = np.stack([np_translational_stiffness(robot, full.q[b, p], full.kj[b, p], "xy") for p in range(full.P)])
         w, V = np.linalg.eigh(K)
         rho = w[:, -1] / w[:, -2]
         d = full.direction[b, :, :2]
@@ -256,19 +256,19 @@ def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch)
     is the row's q0_ik_error_m (a failed IK was used silently before, its rows then "unreachable")."""
     import jaxstiff.ik as ik
     from jaxstiff.ik import nominal_posture
-    from jaxstiff.sweep.run import IK_RETRIES, IK_TOL_M, _Q0_CACHE, _start_posture
+    from jaxstiff.sweep.run import IK_RETRIES, IK_TOL_M, Q0_CACHE, start_posture_and_error
 
     far = {**SHAPE_CFG, "paths": [{"generator": "point", "point": [5.0, 0.0, 0.0], "n": 3, "name": "far"}],
            "axes": {"task": "xy", "q0": ["ik", "random", "nominal"]}}
     plan = parse_config(far)
-    _Q0_CACHE.clear()
+    Q0_CACHE.clear()
     for r, fam in enumerate(("ik", "random")):
         assert plan.row_settings(r)["q0"] == fam
         with pytest.warns(UserWarning, match=rf"path 'far' \(q0 = '{fam}'.*ends 2(\.\d+)? m from its first waypoint after {1 + IK_RETRIES} tries"):
-            q, err = _start_posture(plan, r)
+            q, err = start_posture_and_error(plan, r)
         # planar 3R with unit links reaches 3 m at most: the IK stops ~2 m short, at the limits
         assert 1.9 < err < 2.1 and np.all(q >= plan.robot.lower - 1e-12) and np.all(q <= plan.robot.upper + 1e-12)
-    q, err = _start_posture(plan, 2)
+    q, err = start_posture_and_error(plan, 2)
     assert math.isnan(err) and np.allclose(q, nominal_posture(plan.robot))
 
     # a first IK that fails and a retry that succeeds: the retry's posture is used
@@ -281,11 +281,11 @@ def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch)
         return (np.zeros(3), 0.5) if len(calls) == 1 else (good, 0.1 * IK_TOL_M)
 
     monkeypatch.setattr(ik, "ik_position", fake_ik)
-    _Q0_CACHE.clear()
-    q, err = _start_posture(near, 0)
+    Q0_CACHE.clear()
+    q, err = start_posture_and_error(near, 0)
     assert len(calls) == 2 and calls[0] is None and calls[1] is not None  # nominal first, then a drawn start
     assert np.array_equal(q, good) and err == 0.1 * IK_TOL_M
-    _Q0_CACHE.clear()
+    Q0_CACHE.clear()
 
 
 # ---------------------------------------------------------------------------- csc sweeps
@@ -300,7 +300,7 @@ def test_csc_table_against_numpy(csc_run):
         assert int(z["row_id"][i]) == row.row_id
         K = kxd_matrix("xy", 3000.0, 3.0, row.kxd_angle_deg)
         np.testing.assert_allclose(z["K_xd"][i], K, rtol=1e-15)
-        J = _np_jacobian_rows(robot, z["q"][i, -1])[:2]
+        J = np_jacobian_rows(robot, z["q"][i, -1])[:2]
         Kq = J.T @ K @ J
         u = math.sqrt(sum(Kq[a, b] ** 2 for a in range(3) for b in range(a + 1, 3)))
         assert row.u_end == pytest.approx(u, rel=1e-9)
@@ -360,6 +360,7 @@ def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
         if chunks.is_dir() and len([f for f in os.listdir(chunks) if f.startswith("chunk-")]) >= 2:
             break
         time.sleep(0.05)
+    assert proc.stderr is not None
     assert proc.poll() is None, "the sweep ended before it could be killed: " + proc.stderr.read().decode()[-2000:]
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)

@@ -176,12 +176,12 @@ def test_rows_are_the_product_of_axes_times_paths():
     assert plan.n_rows == len(combos) * 2 == 24
     for r, (s_idx, p_idx) in enumerate(plan.rows):
         assert r == s_idx * 2 + p_idx
-        assert plan.settings[s_idx] == dict(zip(names, combos[s_idx]))
+        assert plan.settings[s_idx] == dict(zip(names, combos[s_idx], strict=True))
 
 
 def test_generator_lists_make_one_path_per_value():
     plan = parse_config(base())
-    for t, radius in zip(plan.trajectories, (1.5, 2.0)):
+    for t, radius in zip(plan.trajectories, (1.5, 2.0), strict=True):
         ref = P.arc([0.0, 0.0, 0.0], radius, 10.0, 14.0, n=3)
         np.testing.assert_allclose(t.points, ref.points, atol=1e-15)
         np.testing.assert_allclose(t.directions, ref.directions, atol=1e-15)
@@ -194,7 +194,7 @@ def test_zip_pairs_generator_lists():
                      "n": 3, "zip": True}]
     plan = parse_config(cfg)
     assert len(plan.trajectories) == 2
-    for t, x in zip(plan.trajectories, (1.5, 1.6)):
+    for t, x in zip(plan.trajectories, (1.5, 1.6), strict=True):
         np.testing.assert_allclose(t.points, P.line([x, 0.0, 0.0], [x, 0.1, 0.0], n=3).points, atol=1e-15)
     cfg["paths"][0]["zip"] = False
     assert len(parse_config(cfg).trajectories) == 4  # every combination
@@ -366,3 +366,72 @@ def test_csc_sweep_without_a_null_space_warns():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         parse_config(csc_base())
+
+
+# ---------------------------------------------------------------------------- defaults from the settings spine
+def test_sweep_defaults_are_the_settings_defaults():
+    """Every axis that mirrors a setting has the settings' default (one default everywhere,
+    issue 20); the conversions the table needs are the documented ones: dq_deg in degrees,
+    starts None -> 0, csc task None -> "xyz" (the sweep's K_xd is 3x3 unless task = xy)."""
+    from jaxstiff.settings import CSCSettings, ShapeSettings
+
+    shape, csc = ShapeSettings(), CSCSettings()
+    want_shape = {"criterion": shape.criterion, "task": shape.task, "solver": shape.solver,
+                  "starts": 0 if shape.starts is None else shape.starts, "ratio": shape.ratio, "c": shape.c,
+                  "dq_deg": math.degrees(shape.dq), "dk": shape.dk, "kmin": shape.kmin, "kmax": shape.kmax,
+                  "first_rate_limit": shape.first_rate_limit, "first_starts": shape.first_starts}
+    want_csc = {"task": "xyz" if csc.task is None else csc.task, "step": csc.step, "kmin": csc.kmin, "kmax": csc.kmax,
+                "newton": csc.newton, "joint_limits": csc.joint_limits, "jl_gain": csc.jl_gain, "beta": csc.beta}
+    for kind, want in (("shape", want_shape), ("csc", want_csc)):
+        mirrored = {k for k, s in AXES[kind].items() if s.setting}
+        assert mirrored == set(want), kind  # every axis with a settings twin is checked here
+        for k, v in want.items():
+            assert AXES[kind][k].default == pytest.approx(v, rel=1e-15) if isinstance(v, float) else AXES[kind][k].default == v, k
+    assert AXES["shape"]["dq_deg"].default == 2.0  # exactly, as the table column shows it
+    assert csc.beta == 1.0 and AXES["csc"]["beta"].default == 1.0  # (the sweep's own default was 0.5)
+
+
+def test_csc_jl_gain_follows_the_settings_rule():
+    """jl_gain not given: 0.3 with joint-limit avoidance on, else 0 (CSCSettings.resolved_jl_gain),
+    per row when the joint_limits axis mixes both; a given gain is used as given."""
+    plan = parse_config(csc_base())
+    assert plan.axes["jl_gain"] == [0.0] and plan.axes["beta"] == [0.001, 0.002]
+    plan = parse_config(_set(csc_base(), "axes.joint_limits", "priority"))
+    assert plan.axes["jl_gain"] == [0.3]
+    plan = parse_config(_set(csc_base(), "axes.joint_limits", ["off", "sum"]))
+    assert plan.axes["jl_gain"] == [None]
+    assert {(s["joint_limits"], s["jl_gain"]) for s in plan.settings} == {("off", 0.0), ("sum", 0.3)}
+    assert {(g["joint_limits"], g["jl_gain"]) for g in plan.groups} == {("off", 0.0), ("sum", 0.3)}
+    plan = parse_config(_set(_set(csc_base(), "axes.joint_limits", "sum"), "axes.jl_gain", 0.1))
+    assert plan.axes["jl_gain"] == [0.1]
+    assert parse_config(_set(csc_base(), "axes.beta", _DELETE)).axes["beta"] == [1.0]
+
+
+def test_shipped_robot_gets_the_commands_default_lock():
+    """[robot] goes through RobotSpec: kuka_lwr4 without 'locked' has lwr_a7 locked at 0, as in
+    every command (the sweep left it free before); locked = {} frees it; the spec records it."""
+    from jaxstiff.settings import DEFAULT_LOCKS, RobotSpec
+
+    cfg = {"robot": {"name": "kuka_lwr4"}, "paths": [{"generator": "default", "n": 4}]}
+    plan = parse_config(cfg)
+    want = RobotSpec(urdf="kuka_lwr4").build()
+    assert plan.robot.n_free == want.n_free == 6
+    assert dict(zip(plan.robot.joint_names, plan.robot.locked, strict=True))["lwr_a7"] == DEFAULT_LOCKS["kuka_lwr4"]["lwr_a7"]
+    assert plan.robot_spec["locked"] == {"lwr_a7": 0.0} and plan.robot_spec["locked_by_default"] is True
+    free = parse_config(_set(cfg, "robot.locked", {}))
+    assert free.robot.n_free == 7 and "locked_by_default" not in free.robot_spec
+    assert free.plan_hash != plan.plan_hash
+
+
+def test_robot_tcp_takes_three_or_six_values():
+    """tcp = [x, y, z] (m) or [x, y, z, roll, pitch, yaw] (m, rad; RobotSpec's), or a 4x4 transform."""
+    from jaxstiff.settings.robot import tcp_transform
+
+    six = [0.1, 0.0, 0.0, 0.0, 0.0, math.pi / 2]
+    plan = parse_config(_set(base(), "robot.tcp", six))
+    bare = parse_config(base()).robot
+    np.testing.assert_allclose(plan.robot.tip_matrix, bare.tip_matrix @ tcp_transform(six), atol=1e-15)
+    three = parse_config(_set(base(), "robot.tcp", [0.1, 0.0, 0.0])).robot
+    np.testing.assert_allclose(three.tip_matrix, bare.tip_matrix @ tcp_transform([0.1, 0.0, 0.0]), atol=1e-15)
+    with pytest.raises(SweepConfigError, match=r"robot.tcp: expected 3 numbers .* 6 numbers .*got \[0.1, 0.0\]"):
+        parse_config(_set(base(), "robot.tcp", [0.1, 0.0]))

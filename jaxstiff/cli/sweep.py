@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 
-from jaxstiff.runtime.io import interrupt_exit_code
 from jaxstiff.cli.common import command
+from jaxstiff.runtime.io import interrupt_exit_code
 
 _EPILOG = """\
-The config names the robot, the paths and the parameter axes (see jaxstiff/sweep_config.py or
+The config names the robot, the paths and the parameter axes (see jaxstiff/sweep/config.py, docs/notes/sweep.md or
 experiments/sweeps/quick.toml). Every finished chunk is written atomically into DIR; after Ctrl-C
 or a kill, run the same command with --resume to compute only what is missing. The results table
 is DIR/results.parquet (one row per path x setting), with DIR/summary.md and DIR/plots/.
@@ -17,7 +18,7 @@ is DIR/results.parquet (one row per path x setting), with DIR/summary.md and DIR
 
 
 @command("sweep", "run a parameter sweep from a TOML config (resumable; local or Ray)")
-def _add_sweep(p: argparse.ArgumentParser):
+def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int]:
     p.epilog = _EPILOG
     p.add_argument("config", metavar="CONFIG.toml", help="sweep config (TOML)")
     p.add_argument("--out", required=True, metavar="DIR", help="result folder (new/empty, or this sweep's with --resume)")
@@ -32,9 +33,9 @@ def _add_sweep(p: argparse.ArgumentParser):
     p.add_argument("--no-compile-cache", action="store_true",
                    help="do not use the persistent XLA compilation cache ($JAXSTIFF_CACHE_DIR, ~/.cache/jaxstiff/xla)")
 
-    def run(args) -> int:
-        from jaxstiff.sweep.run import run_sweep
-        from jaxstiff.sweep.config import load_config
+    def run(args: argparse.Namespace) -> int:
+        # (looked up on the package at call time: tests replace jaxstiff.sweep.run_sweep)
+        from jaxstiff.sweep import load_config, run_sweep
 
         plan = load_config(args.config)
         if args.dry_run:

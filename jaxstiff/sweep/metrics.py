@@ -16,6 +16,8 @@ Nothing here depends on timing: the results table holds no wall times (they go t
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -57,7 +59,7 @@ METRICS: dict[str, dict[str, str]] = {
 }
 
 
-def _nanstat(fn, a: np.ndarray) -> float:
+def _nanstat(fn: Callable[[np.ndarray], Any], a: np.ndarray) -> float:
     return float(fn(a)) if a.size else math.nan
 
 
@@ -76,7 +78,7 @@ def shape_row_metrics(
     ratio_rel_tol: float,
 ) -> dict[str, float]:
     """Metrics of one shaped path from its per-waypoint arrays (each (P,)). See the module docstring."""
-    from jaxstiff.results.files import UNREACHABLE, SOLVED, is_usable
+    from jaxstiff.results.files import SOLVED, UNREACHABLE, is_usable
 
     usable = is_usable(status)
     a_ok = alpha_deg < alpha_tol_deg

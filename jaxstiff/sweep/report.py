@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 import os
+from typing import Any
 
 import numpy as np
 
+from jaxstiff.runtime.io import atomic_write
 from jaxstiff.sweep.config import AXES, SweepPlan
 from jaxstiff.sweep.metrics import METRICS
-from jaxstiff.runtime.io import atomic_write
 from jaxstiff.sweep.store import atomic_write_text, read_table
 
 __all__ = ["write_report", "heatmap"]
@@ -30,7 +31,7 @@ def _label(plan: SweepPlan, axis: str) -> str:
     return f"{axis} ({spec.unit})" if spec.unit else axis
 
 
-def _fmt(x) -> str:
+def _fmt(x: object) -> str:
     if isinstance(x, (float, np.floating)):
         if not math.isfinite(x):
             return str(x)
@@ -38,7 +39,7 @@ def _fmt(x) -> str:
     return str(x)
 
 
-def heatmap(df, plan: SweepPlan, x: str, y: str, metric: str, file: str) -> str:
+def heatmap(df: Any, plan: SweepPlan, x: str, y: str, metric: str, file: str) -> str:
     """Write one heat map: mean of ``metric`` over (x, y), every other axis and path averaged.
 
     Returns the file written (PNG, atomically).
@@ -126,14 +127,14 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
     for ax in varying:
         g = df.groupby(ax, sort=True)[metrics].mean()
         md += ["", f"## By {_label(plan, ax)}", ""]
-        md.append(_md_table([ax] + [f"mean {m}" for m in metrics], [[i] + [float(v) for v in r] for i, r in zip(g.index, g.values)]))
+        md.append(_md_table([ax] + [f"mean {m}" for m in metrics], [[i] + [float(v) for v in r] for i, r in zip(g.index, g.values, strict=True)]))
     if varying:
         key = metrics[0]
         cols = varying
         g = df.groupby(cols, sort=True)[metrics].mean().sort_values(key, ascending=False).head(5)
         md += ["", f"## Best settings by mean {key}", ""]
         idx = [list(i) if isinstance(i, tuple) else [i] for i in g.index]
-        md.append(_md_table(cols + [f"mean {m}" for m in metrics], [i + [float(v) for v in r] for i, r in zip(idx, g.values)]))
+        md.append(_md_table(cols + [f"mean {m}" for m in metrics], [i + [float(v) for v in r] for i, r in zip(idx, g.values, strict=True)]))
     if plan.heatmaps:
         md += ["", "## Heat maps", ""]
         for x, y in plan.heatmaps:

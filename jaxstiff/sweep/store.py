@@ -11,7 +11,7 @@ Layout of ``--out DIR``::
     DIR/results.parquet          the table, one row per (trajectory x setting), sorted by row_id
     DIR/timing.csv               wall time per chunk (kept out of the table: timing is not a result)
     DIR/summary.md, DIR/plots/   the report
-    DIR/.lock                    held (flock) while a sweep writes here
+    DIR/.lock                    held (filelock) while a sweep writes here; DIR/.lock.owner says who
 
 Crash safety: every file is written to a temporary file in the same folder and renamed onto its
 name (``os.replace``, atomic on POSIX), so a reader never sees a partial file. A chunk's arrays are
@@ -31,20 +31,22 @@ import glob
 import json
 import os
 import socket
-from typing import Iterable
-
+from collections.abc import Iterable
+from typing import Any
 
 from jaxstiff.runtime.io import atomic_write, atomic_write_text
 from jaxstiff.runtime.io import json_default as _json_default
-
-from jaxstiff.sweep.config import AXES, SweepPlan, hashed_config
+from jaxstiff.sweep.axes import AXES
+from jaxstiff.sweep.plan import SweepPlan, hashed_config
 
 __all__ = ["SweepStore", "read_table", "atomic_write_text", "FORMAT"]
 
 FORMAT = "jaxstiff.sweep/1"
+LOCK_FILE = ".lock"  #: held while a sweep writes into the folder
+OWNER_FILE = ".lock.owner"  #: who holds it (pid, host, since when), for the refusal message
 
 
-def _json(obj) -> str:
+def _json(obj: Any) -> str:
     return json.dumps(obj, indent=1, sort_keys=True, default=_json_default)
 
 
@@ -76,15 +78,16 @@ class SweepStore:
         self._check_foreign()
         created = not os.path.exists(self.out)
         os.makedirs(self.out, exist_ok=True)
-        self._lock_fh = None
+        self._lock_obj: Any = None
         try:
             self._lock()
             self._open(resume)
         except BaseException:
             self.close()
             if created:  # refused or interrupted before the store existed: leave nothing behind
-                with contextlib.suppress(OSError):
-                    os.unlink(self.path(".lock"))
+                for f in (LOCK_FILE, OWNER_FILE):
+                    with contextlib.suppress(OSError):
+                        os.unlink(self.path(f))
                 with contextlib.suppress(OSError):
                     os.rmdir(self.out)
             raise
@@ -92,7 +95,7 @@ class SweepStore:
     def _check_foreign(self) -> None:
         if not os.path.isdir(self.out) or os.path.isfile(self.path("plan.json")):
             return
-        others = [f for f in os.listdir(self.out) if f not in (".lock",)]
+        others = [f for f in os.listdir(self.out) if f not in (LOCK_FILE, OWNER_FILE)]
         if others:
             raise ValueError(f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder")
 
@@ -108,35 +111,34 @@ class SweepStore:
 
     # ------------------------------------------------------------------ open / lock
     def _lock(self) -> None:
+        """Hold ``.lock`` (filelock: flock on POSIX, msvcrt on Windows) and say who holds it in ``.lock.owner``."""
+        from filelock import FileLock, Timeout
+
+        lock = FileLock(self.path(LOCK_FILE), timeout=0)
         try:
-            import fcntl
-        except ImportError:  # pragma: no cover - not POSIX: no lock
-            return
-        fh = open(self.path(".lock"), "a+", encoding="utf-8")
-        try:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.seek(0)
-            who = fh.read().strip()
-            fh.close()
-            raise ValueError(f"another jaxstiff sweep is writing to {self.out} ({who or 'unknown process'}); wait for it or choose another --out") from None
-        fh.seek(0)
-        fh.truncate()
-        fh.write(f"pid {os.getpid()} on {socket.gethostname()} since {_now()}\n")
-        fh.flush()
-        self._lock_fh = fh
+            lock.acquire()
+        except Timeout:
+            try:
+                with open(self.path(OWNER_FILE), encoding="utf-8") as fh:
+                    who = fh.read().strip()
+            except OSError:
+                who = ""
+            raise ValueError(f"another jaxstiff sweep is writing to {self.out} ({who or 'unknown process'}); "
+                             "wait for it or choose another --out") from None
+        self._lock_obj = lock
+        atomic_write_text(self.path(OWNER_FILE), f"pid {os.getpid()} on {socket.gethostname()} since {_now()}\n")
 
     def close(self) -> None:
         """Release the lock (also released by the OS if the process dies)."""
-        if self._lock_fh is not None:
+        if self._lock_obj is not None:
             with contextlib.suppress(OSError):
-                self._lock_fh.close()
-            self._lock_fh = None
+                self._lock_obj.release()
+            self._lock_obj = None
 
-    def __enter__(self):
+    def __enter__(self) -> SweepStore:
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     def _open(self, resume: bool) -> None:
@@ -325,7 +327,7 @@ class SweepStore:
             timing.append(f"{cid},{len(rec['rows'])},{rec['wall_s']!r},{rec.get('devices', 1)},{rec.get('worker', '')},{rec['finished']}")
         atomic_write_text(self.path("timing.csv"), "\n".join(timing) + "\n")
         try:
-            import pandas as pd
+            import pandas as pd  # noqa: F401  (used by table_frame)
             import pyarrow  # noqa: F401
         except ImportError:
             f = self.path("results.csv")
@@ -336,7 +338,7 @@ class SweepStore:
         return atomic_write(f, lambda fh: df.to_parquet(fh, index=False), binary=True)
 
 
-def table_frame(rows: list[dict], cols: list[str], kind: str):
+def table_frame(rows: list[dict], cols: list[str], kind: str) -> Any:
     """The results table as a pandas DataFrame with fixed column order and dtypes."""
     import pandas as pd
 
@@ -368,7 +370,7 @@ def _rows_csv(rows: Iterable[dict], cols: list[str]) -> str:
     return buf.getvalue()
 
 
-def read_table(out: str | os.PathLike):
+def read_table(out: str | os.PathLike) -> Any:
     """The results table of a finished sweep folder as a pandas DataFrame (Parquet, else CSV)."""
     import pandas as pd
 

@@ -1,0 +1,354 @@
+"""The parameter axes of a sweep: their specifications (defaults from the settings spine), their
+values (a value, a list, or a range), and the checks that need the robot and the paths.
+
+Defaults are not written here: every axis that mirrors a setting takes its default from
+:class:`~jaxstiff.settings.ShapeSettings` or :class:`~jaxstiff.settings.CSCSettings`, so a sweep
+row at its defaults is the problem ``shape()`` / ``csc_rollout()`` / the commands solve. Where the
+sweep's column needs another form, the conversion is fixed and documented on the axis:
+
+* ``dq_deg`` = ``degrees(ShapeSettings.dq)`` (the table is in degrees per waypoint);
+* ``starts`` = 0 for ``ShapeSettings.starts = None`` (the solver's default; an integer column);
+* csc ``task``: ``CSCSettings.task = None`` means "from the size of K_xd"; a sweep's K_xd
+  (:func:`kxd_matrix`) is 3x3 unless the task is ``"xy"``, so None resolves to ``"xyz"``;
+* csc ``jl_gain``: None (the settings' rule: 0.3 with ``joint_limits`` on, else 0) is resolved per
+  row (:func:`resolve_jl_gain`); the table holds the gain that applied.
+
+The axes that exist only in sweeps (``kxd_major``, ``kxd_ratio``, ``kxd_angle_deg``, ``q0``,
+``q0_seed``) keep their own defaults here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import warnings
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+from pydantic import create_model
+
+from jaxstiff.settings.csc import CSC_TASKS, JOINT_LIMIT_MODES, STEP_RULES, CSCSettings
+from jaxstiff.settings.shape import TASKS, ShapeSettings
+from jaxstiff.sweep.schema import SweepConfigError, Table, number, range_values, suggest, typename, validate
+
+__all__ = ["AxisSpec", "AXES", "kxd_matrix", "axes_table", "axis_values", "q0_values", "resolve_jl_gain",
+           "cross_checks", "CSC_SWEEP_TASK", "Q0_FAMILIES"]
+
+Q0_FAMILIES = ("ik", "nominal", "random")
+CSC_SWEEP_TASK = "xyz"  #: CSCSettings.task = None resolved for a sweep's 3x3 K_xd (see the module docstring)
+
+
+@dataclasses.dataclass(frozen=True)
+class AxisSpec:
+    """One parameter axis of a sweep kind.
+
+    Attributes:
+        name: the key under ``[axes]`` and the column of the results table.
+        type: ``"float"``, ``"int"``, ``"str"``, ``"bool"`` or ``"q0"``.
+        default: the value when the axis is not given (None for csc ``jl_gain``: the settings' rule).
+        static: part of the group key (changes a compiled shape or the solver structure).
+        unit: unit of the values ("" if none).
+        doc: one line for ``--help`` and the report.
+        choices: allowed strings (``"str"`` axes), or a function returning them (registries).
+        check: ``check(value) -> problem text or None`` for numbers.
+        setting: the settings field the default comes from (``"ShapeSettings.dq"``), "" if none.
+    """
+
+    name: str
+    type: str
+    default: Any
+    static: bool = False
+    unit: str = ""
+    doc: str = ""
+    choices: Sequence[str] | Callable[[], Sequence[str]] | None = None
+    check: Callable[[Any], str | None] | None = None
+    setting: str = ""
+
+    def allowed(self) -> list[str] | None:
+        """The allowed strings, or None (any value of the type)."""
+        if self.choices is None:
+            return None
+        return list(self.choices() if callable(self.choices) else self.choices)
+
+
+def _gt(x0: float, what: str = "") -> Callable[[Any], str | None]:
+    return lambda v: None if v > x0 else f"must be > {x0:g}{what}, got {v!r}"
+
+
+def _ge(x0: float, what: str = "") -> Callable[[Any], str | None]:
+    return lambda v: None if v >= x0 else f"must be >= {x0:g}{what}, got {v!r}"
+
+
+def _finite(v: Any) -> str | None:
+    return None if math.isfinite(v) else f"must be finite, got {v!r}"
+
+
+def _both(a: Callable[[Any], str | None], b: Callable[[Any], str | None]) -> Callable[[Any], str | None]:
+    return lambda v: a(v) or b(v)
+
+
+def _criteria() -> list[str]:
+    from jaxstiff.stiffness.criteria import CRITERIA
+
+    return sorted(CRITERIA)
+
+
+def _solvers() -> list[str]:
+    from jaxstiff.solvers.base import SOLVERS
+
+    return sorted(SOLVERS)
+
+
+def _q0_specs() -> tuple[AxisSpec, AxisSpec]:
+    return (AxisSpec("q0", "q0", "ik", doc='start posture: "ik", "nominal", "random" or [q_1..q_n] rad'),
+            AxisSpec("q0_seed", "int", 0, check=_ge(0), doc='seed index of q0 = "random" postures'))
+
+
+def _shape_axes() -> dict[str, AxisSpec]:
+    d = ShapeSettings()
+    S = "ShapeSettings."
+    specs = (
+        AxisSpec("criterion", "str", d.criterion, static=True, choices=_criteria, setting=S + "criterion",
+                 doc="shaping criterion (S0-9 f1, S0-15 f2)"),
+        AxisSpec("task", "str", d.task, static=True, choices=TASKS, setting=S + "task", doc="task rows of K_T (SPEC 2)"),
+        AxisSpec("solver", "str", d.solver, static=True, choices=_solvers, setting=S + "solver", doc="solver of jaxstiff.shape"),
+        AxisSpec("starts", "int", d.starts or 0, static=True, check=_ge(0), setting=S + "starts (None -> 0)",
+                 doc="starts per waypoint (0: the solver's default; SLSQP: 1)"),
+        AxisSpec("ratio", "float", d.ratio, check=_gt(1.0, " (lambda1 / lambda2)"), setting=S + "ratio", doc="wanted axis ratio r"),
+        AxisSpec("c", "float", d.c, check=_ge(0.0), setting=S + "c", doc="offset c of f1 (S0-9)"),
+        AxisSpec("dq_deg", "float", float(f"{math.degrees(d.dq):.12g}"), unit="deg per waypoint", check=_ge(0.0),
+                 setting=S + "dq (rad -> deg)",
+                 doc="joint rate limit (S0-11, S0-12); a prismatic joint gets the same number in m (3 deg -> 0.0524 m)"),
+        AxisSpec("dk", "float", d.dk, unit="Nm/rad per waypoint", check=_ge(0.0), setting=S + "dk", doc="stiffness rate limit (S0-13, S0-14)"),
+        AxisSpec("kmin", "float", d.kmin, unit="Nm/rad", check=_gt(0.0), setting=S + "kmin", doc="lower stiffness bound"),
+        AxisSpec("kmax", "float", d.kmax, unit="Nm/rad", check=_gt(0.0), setting=S + "kmax", doc="upper stiffness bound"),
+        AxisSpec("first_rate_limit", "bool", d.first_rate_limit, setting=S + "first_rate_limit",
+                 doc="apply the rate limits between (q0, kj0) and waypoint 0"),
+        AxisSpec("first_starts", "int", d.first_starts, check=_ge(1), setting=S + "first_starts",
+                 doc="IK start postures tried at the first waypoint (no rate limit)"),
+        *_q0_specs(),
+    )
+    return {a.name: a for a in specs}
+
+
+def _csc_axes() -> dict[str, AxisSpec]:
+    d = CSCSettings()
+    C = "CSCSettings."
+    specs = (
+        AxisSpec("task", "str", d.task or CSC_SWEEP_TASK, static=True, choices=tuple(t for t in CSC_TASKS if t != "full"),
+                 setting=C + "task (None -> xyz: the sweep's K_xd is 3x3)", doc="task rows (K_xd is 2x2 or 3x3)"),
+        AxisSpec("step", "str", d.step, static=True, choices=STEP_RULES, setting=C + "step", doc="null-step rule (S1-22 or constant)"),
+        AxisSpec("kmin", "float", d.kmin, static=True, unit="Nm/rad", check=_gt(0.0), setting=C + "kmin", doc="actuator range, lower"),
+        AxisSpec("kmax", "float", d.kmax, static=True, unit="Nm/rad", check=_gt(0.0), setting=C + "kmax",
+                 doc="actuator range, upper (inf: open)"),
+        AxisSpec("newton", "int", d.newton, static=True, check=_ge(0), setting=C + "newton", doc="Newton corrections per step"),
+        AxisSpec("joint_limits", "str", d.joint_limits, static=True, choices=JOINT_LIMIT_MODES, setting=C + "joint_limits",
+                 doc="joint-limit secondary task"),
+        AxisSpec("jl_gain", "float", d.jl_gain, static=True, check=_ge(0.0), setting=C + "jl_gain",
+                 doc="joint-limit gain (default: 0.3 with joint_limits on, else 0)"),
+        AxisSpec("beta", "float", d.beta, check=_both(_ge(0.0), _finite), setting=C + "beta", doc="null-step multiplier beta (S1-22)"),
+        AxisSpec("kxd_major", "float", 3000.0, unit="N/m", check=_both(_gt(0.0), _finite), doc="K_xd major axis"),
+        AxisSpec("kxd_ratio", "float", 3.0, check=_both(_ge(1.0), _finite), doc="K_xd major / minor axis"),
+        AxisSpec("kxd_angle_deg", "float", 30.0, unit="deg", check=_finite, doc="K_xd major axis angle about base z"),
+        *_q0_specs(),
+    )
+    return {a.name: a for a in specs}
+
+
+#: The axes of each sweep kind, in the order rows are enumerated (:func:`itertools.product`).
+AXES: dict[str, dict[str, AxisSpec]] = {"shape": _shape_axes(), "csc": _csc_axes()}
+
+
+def kxd_matrix(task: str, major: float, ratio: float, angle_deg: float) -> np.ndarray:
+    """Desired Cartesian stiffness of a CSC sweep row, N/m.
+
+    ``"xy"``: ``R(theta) diag(major, major / ratio) R(theta)^T`` (2x2), the form of seed 001's
+    planar example (R(30 deg) diag(3000, 1000) R(30 deg)^T). ``"xyz"``: ``R_z(theta) diag(major,
+    major / ratio, major / ratio) R_z(theta)^T`` (3x3): the major axis in the horizontal plane at
+    angle theta from base x.
+    """
+    t = math.radians(angle_deg)
+    c, s = math.cos(t), math.sin(t)
+    if task == "xy":
+        R = np.array([[c, -s], [s, c]])
+        D = np.diag([major, major / ratio])
+    else:
+        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        D = np.diag([major, major / ratio, major / ratio])
+    K = R @ D @ R.T
+    return 0.5 * (K + K.T)
+
+
+# ---------------------------------------------------------------------------- [axes]
+class _AxesBase(Table):
+    kind: ClassVar[str] = "shape"
+
+    @classmethod
+    def unknown_key(cls, key: str) -> str:
+        specs, other = AXES[cls.kind], "csc" if cls.kind == "shape" else "shape"
+        hint = f" (it is an axis of kind {other!r}; set sweep.kind)" if key in AXES[other] else ""
+        return f"unknown axis for kind {cls.kind!r}{suggest(key, list(specs))}{hint}; axes: {', '.join(specs)}"
+
+
+def _axes_model(kind: str) -> type[_AxesBase]:
+    fields: dict[str, Any] = {name: (Any, None) for name in AXES[kind]}
+    model = create_model(f"{kind.capitalize()}Axes", __base__=_AxesBase, **fields)
+    model.kind = kind
+    return model
+
+
+_AXES_MODELS = {k: _axes_model(k) for k in AXES}
+
+
+def axes_table(raw: Any, kind: str, robot: Any, source: str = "") -> dict[str, list]:
+    """``[axes]`` as ``{axis: [values]}`` for every axis of ``kind`` (defaults filled in, in :data:`AXES` order)."""
+    given = validate(_AXES_MODELS[kind], raw, "axes", source).model_dump(exclude_unset=True)
+    out: dict[str, list] = {}
+    for name, spec in AXES[kind].items():
+        key = f"axes.{name}"
+        vals = axis_values(given.get(name, spec.default), spec, key, robot, source)
+        seen = set()
+        for v in vals:
+            h = json.dumps(v)
+            if h in seen:
+                raise SweepConfigError(key, f"duplicate value {v!r} (each value once)", source)
+            seen.add(h)
+        out[name] = vals
+    if kind == "csc" and out["jl_gain"] == [None]:
+        gains = {resolve_jl_gain(j, None) for j in out["joint_limits"]}
+        if len(gains) == 1:  # one gain applies to every row (the table and the plan hash show it)
+            out["jl_gain"] = [gains.pop()]
+    return out
+
+
+def resolve_jl_gain(joint_limits: str, jl_gain: float | None) -> float:
+    """The joint-limit gain that applies (:attr:`CSCSettings.resolved_jl_gain`)."""
+    return CSCSettings(joint_limits=joint_limits, jl_gain=jl_gain).resolved_jl_gain
+
+
+def _one_value(v: Any, spec: AxisSpec, key: str, source: str) -> Any:
+    if spec.type in ("float", "int"):
+        try:
+            x = number(v, key, integer=spec.type == "int", source=source)
+        except SweepConfigError:
+            want = "an integer" if spec.type == "int" else "a number"
+            raise SweepConfigError(key, f"expected {want} or a list/range of them, got {typename(v)} {v!r}", source) from None
+        text = spec.check(x) if spec.check else None
+        if not text and not math.isfinite(x) and not (spec.name == "kmax" and math.isinf(spec.default)):
+            text = f"must be finite, got {v!r}"  # (only the csc actuator range may be open: kmax = inf)
+        if text:
+            raise SweepConfigError(key, text, source)
+        return x
+    if spec.type == "bool":
+        if not isinstance(v, bool):
+            raise SweepConfigError(key, f"expected true or false, got {typename(v)} {v!r}", source)
+        return v
+    if not isinstance(v, str):
+        raise SweepConfigError(key, f"expected a string or a list of strings, got {typename(v)} {v!r}", source)
+    allowed = spec.allowed()
+    if allowed is not None and v not in allowed:
+        raise SweepConfigError(key, f"unknown value {v!r}{suggest(v, allowed)}; choose one of {', '.join(allowed)}", source)
+    return v
+
+
+def axis_values(raw: Any, spec: AxisSpec, key: str, robot: Any, source: str = "") -> list:
+    """The values of one axis: a value, a list of values, or a range table (numbers only)."""
+    if spec.type == "q0":
+        return q0_values(raw, key, robot, source)
+    if raw is None and spec.default is None:
+        return [None]  # (csc jl_gain: the settings' rule, resolved per row)
+    if isinstance(raw, Mapping):
+        if spec.type not in ("float", "int"):
+            raise SweepConfigError(key, f"a range table only works for numbers; {spec.name} takes {spec.type} values", source)
+        vals = range_values(dict(raw), key, spec.type == "int", source)
+    elif isinstance(raw, list):
+        if not raw:
+            raise SweepConfigError(key, "empty axis: give at least one value", source)
+        vals = list(raw)
+    else:
+        vals = [raw]
+    return [_one_value(v, spec, key, source) for v in vals]
+
+
+def _posture(v: list, i: int, key: str, robot: Any, source: str) -> list[float]:
+    q = [float(number(x, f"{key}[{i}][{j}]", source=source)) for j, x in enumerate(v)]
+    if len(q) != robot.n:
+        raise SweepConfigError(key, f"posture {i} has {len(q)} values; robot {robot.name!r} has {robot.n} joints "
+                                    f"({', '.join(robot.joint_names)})", source)
+    lo, hi = robot.lower, robot.upper
+    for j, x in enumerate(q):
+        if not (lo[j] <= x <= hi[j]):
+            raise SweepConfigError(key, f"posture {i}: q[{j}] = {x:g} rad is outside the limits [{lo[j]:g}, {hi[j]:g}] "
+                                        f"of joint {robot.joint_names[j]!r}", source)
+        if robot.locked[j] is not None and abs(x - robot.locked[j]) > 1e-12:
+            raise SweepConfigError(key, f"posture {i}: joint {robot.joint_names[j]!r} is locked at {robot.locked[j]:g} rad, "
+                                        f"got {x:g}", source)
+    return q
+
+
+def q0_values(raw: Any, key: str, robot: Any, source: str = "") -> list:
+    """The q0 axis: families (``"ik"``, ``"nominal"``, ``"random"``) and postures ``[q_1..q_n]`` (rad)."""
+    if isinstance(raw, str):
+        items = [raw]
+    elif isinstance(raw, list):
+        if not raw:
+            raise SweepConfigError(key, "empty axis: give at least one value", source)
+        if all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in raw):
+            raise SweepConfigError(key, "a posture must be written inside a list: q0 = [[q_1, ..., q_n]] (rad)", source)
+        items = raw
+    else:
+        raise SweepConfigError(key, f'expected "ik", "nominal", "random" or a list of postures, got {typename(raw)} {raw!r}', source)
+    out: list = []
+    for i, v in enumerate(items):
+        if isinstance(v, str):
+            if v not in Q0_FAMILIES:
+                raise SweepConfigError(key, f"unknown q0 family {v!r}{suggest(v, Q0_FAMILIES)}; choose ik, nominal, random "
+                                            "or a posture", source)
+            out.append(v)
+        elif isinstance(v, list):
+            out.append(_posture(v, i, key, robot, source))
+        else:
+            raise SweepConfigError(key, f"item {i}: expected a string or a posture list, got {typename(v)} {v!r}", source)
+    return out
+
+
+# ---------------------------------------------------------------------------- checks across axes
+def _check_tasks(kind: str, axes: Mapping[str, list], robot: Any, source: str) -> None:
+    from jaxstiff.stiffness.core import TASK_ROWS, check_task_feasible
+
+    for task in axes["task"]:
+        try:
+            check_task_feasible(robot, task, motion=kind == "csc")
+        except ValueError as e:
+            raise SweepConfigError("axes.task", f"robot {robot.name!r}: {e}", source) from None
+        m = len(TASK_ROWS[task])
+        if kind == "csc" and robot.n_free <= m:  # allowed (tracking only), but the sweep's point is lost
+            warnings.warn(f"{source or 'config'}: axes.task {task!r}: robot {robot.name!r} has {robot.n_free} free "
+                          f"joints for {m} task rows: no null space, so the arm only tracks the path, and beta and the "
+                          "step rule do not change its motion", stacklevel=3)
+
+
+def cross_checks(kind: str, axes: Mapping[str, list], trajectories: Sequence[Any], robot: Any, source: str = "") -> None:
+    """Checks that need several axes, the robot or the paths (kmin < kmax, single-start solvers,
+    feasible tasks, random seeds, planar directions)."""
+    for lo in axes["kmin"]:
+        for hi in axes["kmax"]:
+            if not lo < hi:
+                raise SweepConfigError("axes.kmin", f"kmin = {lo:g} is not below kmax = {hi:g} (axes.kmax); every "
+                                                    "combination needs 0 < kmin < kmax", source)
+    if kind == "shape":
+        for s in axes["solver"]:
+            if s in ("slsqp", "slsqp-fd") and any(k > 1 for k in axes["starts"]):
+                raise SweepConfigError("axes.starts", f"solver {s!r} is single-start; starts must be 0 or 1 (or sweep "
+                                                      "multi-start solvers separately)", source)
+    _check_tasks(kind, axes, robot, source)
+    if len(axes["q0_seed"]) > 1 and "random" not in axes["q0"]:
+        raise SweepConfigError("axes.q0_seed", f"{len(axes['q0_seed'])} seeds, but axes.q0 has no \"random\" family: "
+                                               "the seed only draws random postures, so every seed would repeat the same rows", source)
+    if kind == "shape" and "xy" in axes["task"]:
+        for t in trajectories:
+            if np.any(np.abs(t.directions[:, 2]) > 1e-9):
+                raise SweepConfigError("axes.task", f"task 'xy' needs directions in the xy plane (dz = 0); path {t.name!r} "
+                                                    "has dz != 0", source)

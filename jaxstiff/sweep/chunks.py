@@ -1,0 +1,190 @@
+"""Computing one chunk of a sweep: its rows' settings, start postures, the batched solve, metrics.
+
+* kind ``"shape"``: the chunk's rows with the same numeric setting form one call of
+  :func:`jaxstiff.shape` over a batch of paths (leading axis B), with per-path start postures;
+  its per-waypoint arrays go to one result file (:meth:`~jaxstiff.results.ShapeResult.save`).
+* kind ``"csc"``: the whole chunk is one call of :func:`jaxstiff.csc_rollout`: paths, K_xd, beta and
+  q0 differ per row along one batch axis, padded to the chunk size (one compilation for every
+  chunk of a group) and sharded across all local JAX devices (:func:`shard_batch`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import socket
+import time
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from jaxstiff.runtime.io import json_default
+from jaxstiff.sweep.axes import kxd_matrix
+from jaxstiff.sweep.metrics import csc_row_metrics, shape_row_metrics
+from jaxstiff.sweep.plan import Chunk, SweepPlan
+from jaxstiff.sweep.starts import start_posture_and_error
+
+__all__ = ["compute_chunk", "shard_batch", "table_settings"]
+
+
+def shard_batch(arrays: Mapping[str, np.ndarray], size: int | None = None) -> tuple[dict[str, Any], int]:
+    """Pad arrays along axis 0 and shard them across all local JAX devices (see :mod:`jaxstiff.runtime.sharding`)."""
+    from jaxstiff.runtime.sharding import shard_rows
+
+    return shard_rows(arrays, size)
+
+
+def table_settings(st: dict) -> dict:
+    """A row's settings as table cells (a given posture q0 as its JSON text)."""
+    out = dict(st)
+    if isinstance(out.get("q0"), list):
+        out["q0"] = json.dumps(out["q0"])
+    return out
+
+
+def _worker() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def compute_chunk(plan: SweepPlan, chunk_id: int, progress: Callable[[float], None] | None = None) -> dict:
+    """Compute one chunk; returns the payload :meth:`SweepStore.commit` writes.
+
+    Args:
+        plan: the validated plan.
+        chunk_id: which chunk.
+        progress: ``progress(units)`` with units = waypoints (rollout steps) finished.
+
+    Returns:
+        dict with ``chunk``, ``rows`` (one dict per row: row_id, chunk, group, path, path_index, P,
+        the settings, q0_ik_error_m, the metrics, result_file, result_index), ``arrays`` (``(name, data)``),
+        ``wall_s``, ``worker``, ``devices``.
+    """
+    from jaxstiff.runtime.x64 import enable_x64
+
+    enable_x64()
+    t0 = time.perf_counter()
+    chunk = plan.chunks[chunk_id]
+    if plan.kind == "shape":
+        rows, arrays, devices = _shape_chunk(plan, chunk, progress)
+    else:
+        rows, arrays, devices = _csc_chunk(plan, chunk, progress)
+    return {"chunk": chunk.id, "rows": rows, "arrays": arrays, "wall_s": time.perf_counter() - t0,
+            "worker": _worker(), "devices": devices}
+
+
+def _base_row(plan: SweepPlan, chunk: Chunk, r: int) -> dict:
+    traj = plan.row_trajectory(r)
+    return {"row_id": r, "chunk": chunk.id, "group": chunk.group, "path": traj.name, "path_index": traj.index,
+            "P": traj.P, **table_settings(plan.row_settings(r))}
+
+
+def _shape_call(plan: SweepPlan, chunk: Chunk, k: int, rids: list[int], progress: Callable[[float], None] | None) -> tuple:
+    """One batched ``shape()`` call over the paths of rows ``rids`` (one setting): ``(name, result, starts)``."""
+    from jaxstiff.paths import Path
+    from jaxstiff.shaping import shape
+    from jaxstiff.solvers.base import options_for_solver
+
+    st = plan.row_settings(rids[0])
+    trajs = [plan.row_trajectory(r) for r in rids]
+    path = Path(np.stack([t.points for t in trajs]), np.stack([t.directions for t in trajs]),
+                name=";".join(t.name for t in trajs))
+    starts = [start_posture_and_error(plan, r) for r in rids]
+    q0 = np.stack([q for q, _ in starts])
+    tick = None if progress is None else (lambda b, p: progress(1))
+    name = f"arrays/chunk-{chunk.id:06d}-{k}.npz"
+    res = shape(
+        plan.robot, path, st["criterion"], st["ratio"], task=st["task"], solver=st["solver"],
+        starts=st["starts"] or None, q0=q0, dq=math.radians(st["dq_deg"]), dk=st["dk"], kmin=st["kmin"],
+        kmax=st["kmax"], c=st["c"], first_rate_limit=st["first_rate_limit"], first_starts=st["first_starts"],
+        options=options_for_solver(st["solver"], plan.options) or None, progress=tick,
+        meta_extra={"sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id,
+                              "row_ids": list(rids), "paths": [t.name for t in trajs],
+                              "q0": [table_settings(plan.row_settings(r))["q0"] for r in rids],
+                              "q0_ik_error_m": [None if math.isnan(e) else e for _, e in starts]}},
+    )
+    return name, res, starts
+
+
+def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] | None) -> tuple[list, list, int]:
+    import jax
+
+    calls: dict[str, list[int]] = {}
+    for r in chunk.rows:
+        st = plan.row_settings(r)
+        key = json.dumps({k: v for k, v in st.items() if k not in ("q0", "q0_seed")}, sort_keys=True)
+        calls.setdefault(key, []).append(r)
+    rows, arrays = [], []
+    for k, rids in enumerate(calls.values()):
+        st = plan.row_settings(rids[0])
+        name, res, starts = _shape_call(plan, chunk, k, rids, progress)
+        arrays.append((name, res))
+        for b, r in enumerate(rids):
+            row = _base_row(plan, chunk, r)
+            row["q0_ik_error_m"] = starts[b][1]
+            row.update(shape_row_metrics(
+                res.status[b], res.alpha_deg[b], res.ratio[b], res.criterion[b], res.pos_error[b], res.cms[b],
+                res.nfev[b], criterion=st["criterion"], ratio_target=st["ratio"],
+                alpha_tol_deg=plan.alpha_tol_deg, ratio_rel_tol=plan.ratio_rel_tol))
+            row.update(result_file=name, result_index=b)
+            rows.append(row)
+    # batched JAX solvers (pgd, hybrid, ...) shard their batch over the local devices; SLSQP is a host loop
+    devices = 1 if plan.settings[plan.rows[chunk.rows[0]][0]]["solver"] in ("slsqp", "slsqp-fd") else jax.local_device_count()
+    return rows, arrays, devices
+
+
+def _csc_meta(plan: SweepPlan, chunk: Chunk, g: dict, rids: list[int], sts: list[dict], trajs: list) -> dict:
+    from jaxstiff.settings.robot import robot_meta, versions
+
+    return {
+        "format": "jaxstiff.sweep.csc/1",
+        "sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id},
+        "robot": robot_meta(plan.robot),
+        "static": {k: v for k, v in g.items() if k != "id"},
+        "rows": [table_settings(s) | {"row_id": r, "path": t.name} for r, s, t in zip(rids, sts, trajs, strict=True)],
+        "units": {"q": "rad", "u": "Nm/rad", "frobenius": "N/m", "tracking_error": "m", "K_xd": "N/m"},
+        "versions": versions(),
+    }
+
+
+def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] | None) -> tuple[list, list, int]:
+    from jaxstiff.csc.rollout import csc_rollout
+
+    rids = list(chunk.rows)
+    g = plan.groups[chunk.group]
+    task = g["task"]
+    sts = [plan.row_settings(r) for r in rids]
+    trajs = [plan.row_trajectory(r) for r in rids]
+    starts = [start_posture_and_error(plan, r) for r in rids]
+    inputs = {
+        "targets": np.stack([t.points for t in trajs]),
+        "K_xd": np.stack([kxd_matrix(task, s["kxd_major"], s["kxd_ratio"], s["kxd_angle_deg"]) for s in sts]),
+        "q0": np.stack([q for q, _ in starts]),
+        "beta": np.array([s["beta"] for s in sts], dtype=float),
+    }
+    chunk_size = int(plan.config["sweep"]["chunk_size"])
+    sharded, _nd = shard_batch(inputs, size=min(chunk_size, max(len(c.rows) for c in plan.chunks)))
+    res = csc_rollout(
+        plan.robot, sharded["targets"], sharded["K_xd"], sharded["q0"], sharded["beta"], task=task,
+        step=g["step"], kmin=g["kmin"], kmax=g["kmax"], newton=int(g["newton"]), joint_limits=g["joint_limits"],
+        jl_gain=g["jl_gain"], kxd_varying=False,
+    )
+    devices = len(res.q.sharding.device_set)
+    out = {k: np.asarray(v)[:len(rids)] for k, v in res.as_dict().items()}
+    if progress is not None:
+        progress(sum(t.P for t in trajs))
+    name = f"arrays/chunk-{chunk.id:06d}-0.npz"
+    data = {k: (v.astype(np.int64) if k == "status" else v.astype(np.float64)) for k, v in out.items()}
+    data.update(row_id=np.asarray(rids, dtype=np.int64), K_xd=inputs["K_xd"], q0=inputs["q0"], beta=inputs["beta"],
+                joint_names=np.asarray(plan.robot.joint_names, dtype=str),
+                meta=np.asarray(json.dumps(_csc_meta(plan, chunk, g, rids, sts, trajs), sort_keys=True, default=json_default)))
+    rows = []
+    for i, r in enumerate(rids):
+        row = _base_row(plan, chunk, r)
+        row["q0_ik_error_m"] = starts[i][1]
+        row.update(csc_row_metrics(out["u"][i], out["frobenius"][i], out["tracking_error"][i], out["status"][i],
+                                   out["u_start"][i], out["frobenius_start"][i]))
+        row.update(result_file=name, result_index=i)
+        rows.append(row)
+    return rows, [(name, data)], devices
