@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import numpy_fk
 
 import jaxstiff
 from jaxstiff.results import files as R
 from jaxstiff.solvers import pgd
-from helpers import numpy_fk
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
 # small, fixed settings shared by the pgd/hybrid/trajectory tests: one compilation
@@ -148,19 +148,19 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
     log(rho / r) (f2) or min(log(rho / r), 0) (f1); rho from numpy's eigenvalues."""
     import jax
 
-    from jaxstiff.stiffness.criteria import get_criterion
     from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.stiffness.criteria import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name)
     rng = np.random.default_rng(4)
     with jax.enable_x64(True):
         for kind in ("f1", "f2"):
-            ops = pgd._Ops(WaypointProblem(robot, task, get_criterion(kind)))
+            ops = pgd.WaypointOps(WaypointProblem(robot, task, get_criterion(kind)))
             for _ in range(3):
                 q = rng.uniform(robot.lower * 0.8, robot.upper * 0.8)
                 kj = np.exp(rng.uniform(0.0, np.log(100.0), robot.n))
                 x = np.r_[q[list(ops.pr.free_idx)], kj]
-                K = R._np_translational_stiffness(robot, q, kj, task)
+                K = R.np_translational_stiffness(robot, q, kj, task)
                 m = K.shape[0]
                 w, V = np.linalg.eigh(K)
                 tgt = numpy_fk(robot, q)[:3, 3] + 0.01
@@ -189,14 +189,14 @@ def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
     at random postures and stiffnesses (f1 with the ratio row active and inactive, f2)."""
     import jax
 
-    from jaxstiff.stiffness.criteria import get_criterion
     from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.stiffness.criteria import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)
     rng = np.random.default_rng(11)
     with jax.enable_x64(True):
         for kind, r in (("f1", 1.5), ("f1", 40.0), ("f2", 5.0)):
-            ops = pgd._Ops(WaypointProblem(robot, task, get_criterion(kind)))
+            ops = pgd.WaypointOps(WaypointProblem(robot, task, get_criterion(kind)))
             for _ in range(4):
                 q = rng.uniform(robot.lower * 0.8, robot.upper * 0.8)
                 kj = np.exp(rng.uniform(0.0, np.log(100.0), robot.n))
@@ -226,9 +226,9 @@ def test_unrolled_spd_solve_against_numpy():
             M = rng.normal(size=(16, k, k + 2))
             A = M @ np.swapaxes(M, -1, -2) + 1e-3 * np.eye(k)
             b = rng.normal(size=(16, k))
-            x = jax.vmap(pgd._spd_solve)(jax.numpy.asarray(A), jax.numpy.asarray(b))
+            x = jax.vmap(pgd.spd_solve)(jax.numpy.asarray(A), jax.numpy.asarray(b))
             np.testing.assert_allclose(x, np.linalg.solve(A, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)
-        assert np.all(np.isfinite(pgd._spd_solve(jax.numpy.zeros((3, 3)), jax.numpy.zeros(3))))
+        assert np.all(np.isfinite(pgd.spd_solve(jax.numpy.zeros((3, 3)), jax.numpy.zeros(3))))
 
 
 def test_solver_code_is_the_winning_start_and_meta_says_so(batch3):

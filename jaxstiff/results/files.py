@@ -78,10 +78,25 @@ from typing import Any
 
 import numpy as np
 
+from jaxstiff.results.status import (
+    CLIPPED,
+    NONFINITE,
+    NOT_CONVERGED,
+    NOT_RUN,
+    SOLVED,
+    STATUS_NAMES,
+    UNREACHABLE,
+    USABLE,
+    ShapeStatus,
+    is_usable,
+)
 from jaxstiff.runtime.io import atomic_write, file_sha256
 from jaxstiff.runtime.io import json_default as _json_default
 
 __all__ = [
+    "ShapeStatus",
+    "np_translational_stiffness",
+    "np_jacobian_rows",
     "ShapeResult",
     "SOLVED",
     "NOT_CONVERGED",
@@ -99,32 +114,11 @@ __all__ = [
     "atomic_save_npz",
 ]
 
-SOLVED = 0
-NOT_CONVERGED = 1
-CLIPPED = 2
-UNREACHABLE = 3
-NONFINITE = 4
-NOT_RUN = 5
-STATUS_NAMES = {
-    SOLVED: "solved",
-    NOT_CONVERGED: "not converged (feasible)",
-    CLIPPED: "clipped and re-projected (feasible)",
-    UNREACHABLE: "unreachable",
-    NONFINITE: "non-finite",
-    NOT_RUN: "not run (interrupted)",
-}
-USABLE = (SOLVED, NOT_CONVERGED, CLIPPED)  #: codes whose point is feasible and used as the next reference
-
 _ARRAYS_BPN = ("q", "kj", "kj_scaled")
 _ARRAYS_BP3 = ("target", "direction", "position")
 _ARRAYS_BP = ("cms", "pos_error", "alpha_deg", "ratio", "criterion", "status", "solver_code", "nit", "nfev", "time_s")
 _ARRAYS_BN = ("q0", "kj0")
 _INT_KEYS = ("status", "solver_code", "nit", "nfev")
-
-
-def is_usable(status) -> np.ndarray:
-    """Boolean array: True where the status code marks a feasible, usable point (0, 1, 2)."""
-    return np.isin(np.asarray(status), USABLE)
 
 
 
@@ -205,7 +199,7 @@ class ShapeResult:
         return atomic_save_npz(file, arrays)
 
     @staticmethod
-    def load(file: str | os.PathLike) -> "ShapeResult":
+    def load(file: str | os.PathLike) -> ShapeResult:
         """Read a result file written by :meth:`save` (no pickles).
 
         Raises:
@@ -431,7 +425,7 @@ def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
             dkv = np.abs(kj[rate] - Kr[rate]) - prm["dk"][b]
             out["max_rate_violation"] = max(out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0])))
         # reported stiffness quantities, recomputed in numpy
-        K = np.stack([_np_translational_stiffness(robot, q[p], kj[p], task) for p in range(res.P)])
+        K = np.stack([np_translational_stiffness(robot, q[p], kj[p], task) for p in range(res.P)])
         alpha, rho = _np_alpha_ratio(K, res.direction[b])
         out["max_alpha_mismatch"] = max(out["max_alpha_mismatch"], float(np.abs(alpha - res.alpha_deg[b]).max()))
         out["max_ratio_mismatch"] = max(out["max_ratio_mismatch"], float((np.abs(rho - res.ratio[b]) / rho).max()))
@@ -444,7 +438,7 @@ def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
     return out
 
 
-def _np_jacobian_rows(robot, q: np.ndarray) -> np.ndarray:
+def np_jacobian_rows(robot, q: np.ndarray) -> np.ndarray:
     """Geometric Jacobian (6, n) in numpy from 4x4 products (independent of the kernel)."""
     T = np.eye(4)
     zs, ps, kinds = [], [], []
@@ -472,8 +466,8 @@ def _np_jacobian_rows(robot, q: np.ndarray) -> np.ndarray:
     return J
 
 
-def _np_translational_stiffness(robot, q, kj, task) -> np.ndarray:
-    J = _np_jacobian_rows(robot, q)
+def np_translational_stiffness(robot, q, kj, task) -> np.ndarray:
+    J = np_jacobian_rows(robot, q)
     rows = {"xy": [0, 1], "xyz": [0, 1, 2], "full": list(range(6))}[task]
     Js = J[rows]
     C = Js @ np.diag(1.0 / kj) @ Js.T
@@ -508,3 +502,8 @@ def _np_cms(K: np.ndarray, cms_meta: dict[str, Any]) -> np.ndarray:
         return float(cms_meta["target_major"]) / w[..., -1]
     m = K.shape[-1]
     return (float(cms_meta["target_volume"]) / np.prod(w, axis=-1)) ** (1.0 / m)
+
+
+# former private names, still used by tests/test_sweep.py (use the public ones)
+_np_translational_stiffness = np_translational_stiffness
+_np_jacobian_rows = np_jacobian_rows

@@ -4,7 +4,7 @@
 * :mod:`.slsqp`    seed 000's greedy per-waypoint SLSQP with exact JAX derivatives (``"slsqp"``);
 * :mod:`.slsqp_fd` the seed's own way, numpy + finite differences, the speed baseline (``"slsqp-fd"``).
 
-Solvers are chosen by name in :func:`jaxstiff.shape` (registry :data:`jaxstiff.shaping.SOLVERS`).
+Solvers are chosen by name in :func:`jaxstiff.shape` (registry :data:`jaxstiff.solvers.base.SOLVERS`).
 """
 
 from jaxstiff.solvers.problem import Limits as Limits

@@ -41,26 +41,27 @@ Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``chain``; ``polish_sl
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
 from jaxstiff.results import files as R
+from jaxstiff.settings.solvers import HybridOptions
+from jaxstiff.solvers import pgd
 from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, compiled, jax_pos_and_jac
-from jaxstiff.solvers import pgd as _pgd
 
 __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 
-#: The hybrid's own options (besides pgd's and SLSQP's): ``polish_slsqp`` "all" (every waypoint)
-#: or "unusable" (only where pgd found no usable point); ``chain`` "greedy" or "pgd" (module docstring).
-DEFAULT_OPTIONS = {"polish_slsqp": "all", "chain": "greedy"}
+#: The hybrid's own options (besides pgd's and SLSQP's), from :class:`~jaxstiff.settings.solvers.HybridOptions`:
+#: ``polish_slsqp`` "all" (every waypoint) or "unusable" (only where pgd found no usable point);
+#: ``chain`` "greedy" or "pgd" (module docstring).
+DEFAULT_OPTIONS = HybridOptions.defaults()
 
 
-def check_options(options: dict | None) -> dict:
+def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     """The hybrid's own options (:data:`DEFAULT_OPTIONS`) checked (ValueError naming the option)."""
-    from jaxstiff.solvers.problem import check_option_values
-
-    opts = {k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}
-    return check_option_values("hybrid", opts, choices={"polish_slsqp": ("all", "unusable"), "chain": ("greedy", "pgd")})
+    return HybridOptions.check_values(HybridOptions.own(options))
 
 
 def polish(
@@ -88,7 +89,7 @@ def polish(
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
     """
-    from jaxstiff.solvers.slsqp import SolverOutput, _judge, make_slsqp_solver
+    from jaxstiff.solvers.slsqp import SolverOutput, judge, make_slsqp_solver
 
     opts = dict(options or {})
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
@@ -152,7 +153,7 @@ def polish(
                         sol = solver(x_start.copy(), lb, ub, params, maxiter=None if rate else solver.options["first_maxiter"])
                     except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
                         sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
-                    x, status, err = _judge(problem, sol, x_start, lb, ub, targets[b, p], params, pj, objective, pos_tol)
+                    x, status, err = judge(problem, sol, x_start, lb, ub, targets[b, p], params, pj, objective, pos_tol)
                     if status in R.USABLE:
                         f_new = objective(x, params)
                         if f_new < f_best:
@@ -202,7 +203,7 @@ def polish(
         if chain == "greedy":
             # The greedy chain takes any better point per waypoint, which can undo pgd's
             # trajectory-level choice (a rollout may accept a worse first waypoint to keep room
-            # later; measured: f1, one path of 100, total 0.71 -> 940). Where the greedy path ends
+            # later; docs/notes/solvers.md). Where the greedy path ends
             # worse than pgd's in total, the path is polished again inside pgd's corridor
             # (chain "pgd": per waypoint never above pgd), and the better of the two is kept.
             k_g, k_b = path_key(out, b), path_key(base, b)
@@ -220,10 +221,10 @@ def polish(
 
 
 def run_request(req) -> dict[str, np.ndarray]:
-    """Adapter for :data:`jaxstiff.shaping.SOLVERS` (``solver="hybrid"``)."""
+    """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="hybrid"``)."""
     opts = dict(req.options or {})
-    pg_opts = {k: v for k, v in opts.items() if k in _pgd.DEFAULT_OPTIONS}
-    base = _pgd.solve_batch(
+    pg_opts = {k: v for k, v in opts.items() if k in pgd.DEFAULT_OPTIONS}
+    base = pgd.solve_batch(
         req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
         starts=req.starts, options=pg_opts, pos_tol=req.pos_tol, first_starts=req.first_starts,
     )

@@ -18,29 +18,41 @@ be reached keeps its status and the run goes on from the last usable state.
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
-from typing import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
 
 import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.results import files as R
-from jaxstiff.solvers.problem import POS_TOL, BOUND_TOL, Limits, WaypointProblem, clip_to_box, compiled, compiled_position, compiled_scaled, jax_pos_and_jac, newton_project
+from jaxstiff.settings.solvers import SLSQPOptions
+from jaxstiff.solvers.base import SolveRequest, SolverInterrupted, outcomes_to_arrays
+from jaxstiff.solvers.problem import (
+    BOUND_TOL,
+    POS_TOL,
+    Limits,
+    WaypointProblem,
+    clip_to_box,
+    compiled,
+    compiled_position,
+    compiled_scaled,
+    jax_pos_and_jac,
+    newton_project,
+)
 
 __all__ = ["WaypointOutcome", "SolverOutput", "PathInterrupted", "greedy_path", "make_slsqp_solver", "solve_path",
-           "DEFAULT_OPTIONS"]
+           "DEFAULT_OPTIONS", "run_request", "run_greedy", "check_single_start", "judge"]
 
-#: SLSQP settings used unless overridden (``shape(..., options=...)``): ``maxiter`` iterations per
-#: waypoint (``first_maxiter`` for a first waypoint that is not rate-limited: a long way from the
-#: start posture), ``ftol`` SLSQP's accuracy goal (objective change and constraint violation;
-#: 1e-8 gives alpha to ~1e-6 deg on the default path), and the scaling SLSQP sees: stiffness in
-#: units of ``kj_scale`` Nm/rad (so q in rad and kj are both of order 1: 2.5x as many first
-#: waypoints aligned as unscaled), the criterion times ``f_scale`` (fewer line-search steps).
-#: ``driver``: ``"lean"`` calls scipy's SLSQP routine (the same compiled Kraft algorithm that
-#: ``minimize(method="SLSQP")`` runs) from a minimal loop, ``"scipy"`` goes through
-#: ``scipy.optimize.minimize``; see :func:`_slsqp_lean`.
-DEFAULT_OPTIONS = {"maxiter": 200, "first_maxiter": 1000, "ftol": 1e-8, "kj_scale": 100.0, "f_scale": 0.1, "driver": "lean"}
+#: SLSQP settings used unless overridden (``shape(..., options=...)``), from
+#: :class:`~jaxstiff.settings.solvers.SLSQPOptions`: ``maxiter`` iterations per waypoint
+#: (``first_maxiter`` for a first waypoint that is not rate-limited: a long way from the start
+#: posture), ``ftol`` SLSQP's accuracy goal (objective change and constraint violation), and the
+#: scaling SLSQP sees: stiffness in units of ``kj_scale`` Nm/rad (so q in rad and kj are both of
+#: order 1), the criterion times ``f_scale``. ``driver``: ``"lean"`` calls scipy's SLSQP routine
+#: (the same compiled Kraft algorithm that ``minimize(method="SLSQP")`` runs) from a minimal loop,
+#: ``"scipy"`` goes through ``scipy.optimize.minimize``; see :func:`_slsqp_lean`.
+DEFAULT_OPTIONS = SLSQPOptions.defaults()
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
 
@@ -96,25 +108,9 @@ def not_run_outcomes(problem, done: list, P: int, q0: np.ndarray, kj0: np.ndarra
 WaypointSolver = Callable[..., SolverOutput]
 
 
-def check_options(options: dict | None) -> dict:
+def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     """:data:`DEFAULT_OPTIONS` updated by ``options``, values checked (ValueError naming the option)."""
-    opts = {**DEFAULT_OPTIONS, **(options or {})}
-    for k in ("maxiter", "first_maxiter"):
-        v = opts[k]
-        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) and not (isinstance(v, float) and v.is_integer()) or v < 1:
-            raise ValueError(f"SLSQP option {k!r} must be an integer >= 1, got {v!r}")
-        opts[k] = int(v)
-    for k in ("ftol", "kj_scale", "f_scale"):
-        try:
-            v = float(opts[k])
-        except (TypeError, ValueError):
-            v = float("nan")
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"SLSQP option {k!r} must be a finite number > 0, got {opts[k]!r}")
-        opts[k] = v
-    if opts["driver"] not in ("lean", "scipy"):
-        raise ValueError(f"SLSQP option 'driver' must be 'lean' or 'scipy', got {opts['driver']!r}")
-    return opts
+    return SLSQPOptions.check_values({**DEFAULT_OPTIONS, **(options or {})})
 
 
 def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> WaypointSolver:
@@ -277,7 +273,7 @@ def _lean_driver_works() -> bool:
     return ok
 
 
-def _judge(
+def judge(
     problem: WaypointProblem,
     sol: SolverOutput,
     x_start: np.ndarray,
@@ -430,7 +426,7 @@ def greedy_path(
                 except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
                     sol = SolverOutput(xs.copy(), -1, False, 0, 0)
                 nit, nfev = nit + sol.nit, nfev + sol.nfev
-                x, status, err = _judge(problem, sol, xs, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
+                x, status, err = judge(problem, sol, xs, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
                 if status == R.NONFINITE:
                     x = x_start
                 f = objective(x, params) if status in R.USABLE else np.inf
@@ -458,3 +454,50 @@ def solve_path(problem, targets, directions, q0, kj0, limits, ratio, c, options=
         problem, targets, directions, q0, kj0, limits, ratio, c, solver, progress=progress,
         first_maxiter=solver.options["first_maxiter"],
     )
+
+
+# ---------------------------------------------------------------------- SOLVERS adapters
+def check_single_start(req: SolveRequest, kind: str) -> None:
+    """A per-waypoint SLSQP solver is single-start: ``req.starts`` must be None or 1."""
+    if req.starts not in (None, 1):
+        raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={req.starts}")
+
+
+def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """Greedy SLSQP (``solver``, with :func:`greedy_path`'s keyword arguments ``extra``) over every
+    path of ``req``, in the :data:`~jaxstiff.solvers.base.SOLVERS` dict format; raises
+    :class:`~jaxstiff.solvers.base.SolverInterrupted` with the finished part on an interrupt."""
+    prob = req.problem
+
+    per_path = []
+    ratios = req.ratios
+    B, P = req.targets.shape[:2]
+    interrupted = False
+    for b in range(B):
+        prog = None if req.progress is None else (lambda p, b=b: req.progress(b, p))
+        try:
+            per_path.append(
+                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits.for_path(b),
+                            float(ratios[b]), req.c, solver, pos_tol=req.pos_tol, progress=prog,
+                            first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
+            )
+        except PathInterrupted as e:
+            per_path.append(e.done)
+            interrupted = True
+            break
+    # paths (or their ends) not reached before an interrupt: NOT_RUN at the reference state
+    per_path += [[] for _ in range(B - len(per_path))]
+    per_path = [not_run_outcomes(prob, d, P, req.q0[b], req.kj0[b]) for b, d in enumerate(per_path)]
+    out = outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
+    out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
+    out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
+    out["code_meaning"] = CODE_MEANING
+    if interrupted:
+        raise SolverInterrupted(out)
+    return out
+
+
+def run_request(req: SolveRequest) -> dict[str, np.ndarray]:
+    """Adapter for :data:`~jaxstiff.solvers.base.SOLVERS` (``solver="slsqp"``)."""
+    check_single_start(req, "slsqp")
+    return run_greedy(req, make_slsqp_solver(req.problem, req.options), {})

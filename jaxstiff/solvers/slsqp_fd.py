@@ -21,10 +21,11 @@ import math
 
 import numpy as np
 
+from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.solvers.slsqp import SolverOutput, check_options
+from jaxstiff.solvers.slsqp import SolverOutput, check_options, check_single_start, run_greedy
 
-__all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain"]
+__all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain", "run_request"]
 
 
 class NumpyChain:
@@ -163,3 +164,12 @@ def make_fd_solver(problem: WaypointProblem, options: dict | None = None):
 
     solve.options = opts  # type: ignore[attr-defined]
     return solve
+
+
+def run_request(req: SolveRequest) -> dict[str, np.ndarray]:
+    """Adapter for :data:`~jaxstiff.solvers.base.SOLVERS` (``solver="slsqp-fd"``): greedy SLSQP with
+    numpy derivatives by finite differences."""
+    check_single_start(req, "slsqp-fd")
+    prob = req.problem
+    solver = make_fd_solver(prob, req.options)
+    return run_greedy(req, solver, {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)})

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import functools
 import time
+from collections.abc import Mapping
 from typing import Any
 
 import jax
@@ -38,43 +39,26 @@ import numpy as np
 
 from jaxstiff.results import files as R
 from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
+from jaxstiff.settings.solvers import TrajectoryOptions
+from jaxstiff.solvers.pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
 from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem
-from jaxstiff.solvers import pgd as _pgd
 
 __all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]
 
-WARM_STARTS = ("pgd", "hybrid", "slsqp")  #: the greedy solvers option ``warm`` may name
-
-DEFAULT_OPTIONS: dict[str, Any] = {
-    "warm": "pgd",  # greedy warm start: "pgd" | "hybrid" | "slsqp"
-    "traj_iters": 240,  # Adam steps over the whole trajectory (all blocks)
-    "blocks": 4,  # feasibility pass + best-so-far after each block; penalty weight grows per block
-    "traj_step0": 0.3,  # first step, fraction of the rate limit
-    "traj_step1": 0.003,  # last step, fraction of the rate limit
-    "mu0": 10.0,  # first penalty weight; x10 per block
-    "newton": 2,
-    "polish": 8,
-    "chunk": 64,
-}
+#: The trajectory solver's own options, from :class:`~jaxstiff.settings.solvers.TrajectoryOptions`.
+DEFAULT_OPTIONS: dict[str, Any] = TrajectoryOptions.defaults()
 
 
-def check_options(options: dict | None) -> dict:
+def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     """The trajectory solver's own options (:data:`DEFAULT_OPTIONS`) checked and normalised
     (ValueError naming the option); those of its warm start are checked by that solver."""
-    from jaxstiff.solvers.problem import check_option_values
-
-    opts = {k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}
-    return check_option_values(
-        "trajectory", opts,
-        int_min={"traj_iters": 1, "blocks": 1, "newton": 0, "polish": 0, "chunk": 1},
-        positive=("traj_step0", "traj_step1", "mu0"),
-        choices={"warm": WARM_STARTS},
-    )
+    return TrajectoryOptions.check_values(TrajectoryOptions.own(options))
 
 
 def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
-    ops = _pgd._Ops(problem)
-    nf, nx = ops.nf, ops.nx
+    ops = WaypointOps(problem)
+    nf = ops.nf
     T, nb = int(opts["traj_iters"]), int(opts["blocks"])
     per = max(T // nb, 1)
     s0, s1 = float(opts["traj_step0"]), float(opts["traj_step1"])
@@ -88,8 +72,8 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
             x, tgt, d = inp
             rate = (~at_start) | first_rate
             lb, ub = ops.box(xref, rate, dq_f, dk, kmin, kmax)
-            xo, fv, err, usable, finite = _pgd._finish(ops, x, lb, ub, tgt, d, r, c, pos_tol, npol)
-            xo = jnp.where(finite, xo, _pgd._clip(xref, lb, ub))
+            xo, fv, err, usable, finite = finish(ops, x, lb, ub, tgt, d, r, c, pos_tol, npol)
+            xo = jnp.where(finite, xo, clip_box(xref, lb, ub))
             st = jnp.where(usable, R.SOLVED, jnp.where(finite, R.UNREACHABLE, R.NONFINITE))
             return (jnp.where(usable, xo, xref), at_start & ~usable), (xo, fv, err, st)
 
@@ -126,7 +110,6 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
 
             return jax.vmap(one)(X, U)
 
-        b1, b2 = 0.9, 0.999
         Xb, Fb, Eb, STb, scb = feasible_pass(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol)
 
         def block(i, carry):
@@ -136,14 +119,11 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
             def it(_, c2):
                 X, m1, m2, t = c2
                 g = g_total(X, mu)
-                gy = jnp.where(jnp.isfinite(g), g, 0.0) * scale
-                m1 = b1 * m1 + (1 - b1) * gy
-                m2 = b2 * m2 + (1 - b2) * gy * gy
                 tt = t + 1.0
-                u = (m1 / (1 - b1**tt)) / (jnp.sqrt(m2 / (1 - b2**tt)) + 1e-12)
+                u, m1, m2 = adam_direction(g, scale, m1, m2, tt)
                 u = project(X, u)
                 eta = s0 * decay**t
-                Xn = _pgd._clip(X - eta * scale * u, lb_all, ub_all)
+                Xn = clip_box(X - eta * scale * u, lb_all, ub_all)
                 Xn = jax.vmap(lambda x, tg: ops.newton(x, tg, lb_all, ub_all, nn))(Xn, targets)
                 Xn = jnp.where(jnp.all(jnp.isfinite(Xn)), Xn, X)
                 return Xn, m1, m2, tt
@@ -211,7 +191,7 @@ def refine_batch(
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, free]
     out = {k: np.array(v, copy=True) for k, v in warm.items() if isinstance(v, np.ndarray)}
-    pad = _pgd._pad
+    pad = pad_rows
     with jax.enable_x64(True):
         for s in range(0, B, C):
             e = min(s + C, B)
@@ -234,7 +214,7 @@ def refine_batch(
 
 
 def run_request(req) -> dict[str, np.ndarray]:
-    """Adapter for :data:`jaxstiff.shaping.SOLVERS` (``solver="trajectory"``)."""
+    """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="trajectory"``)."""
     opts = dict(req.options or {})
     warm_kind = opts.get("warm", DEFAULT_OPTIONS["warm"])
     if warm_kind == "pgd":
@@ -246,7 +226,7 @@ def run_request(req) -> dict[str, np.ndarray]:
 
         warm = hybrid.run_request(req)
     elif warm_kind == "slsqp":
-        from jaxstiff.shaping import SOLVERS, SolverInterrupted
+        from jaxstiff.solvers.base import SOLVERS, SolverInterrupted
 
         try:
             warm = SOLVERS["slsqp"](req)

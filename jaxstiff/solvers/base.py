@@ -1,0 +1,229 @@
+"""The solver registry: :class:`SolveRequest`, :data:`SOLVERS`, :func:`register_solver`, and the
+checks and meta record of the shipped solvers' options.
+
+The shipped solvers (``slsqp``, ``slsqp-fd``, ``pgd``, ``hybrid``, ``trajectory``) are registered
+here by name and imported on first use, so ``import jaxstiff`` loads none of them.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from jaxstiff.settings.solvers import (
+    OPTIONS_OF,
+    WARM_STARTS,
+    HybridOptions,
+    PGDOptions,
+    SLSQPOptions,
+    TrajectoryOptions,
+)
+
+__all__ = ["SolveRequest", "SOLVERS", "SolverInterrupted", "register_solver", "outcomes_to_arrays",
+           "solver_defaults", "solver_option_names", "options_for_solver", "check_options", "first_starts_use",
+           "options_meta"]
+
+
+# ---------------------------------------------------------------------- solver registry
+class SolveRequest:
+    """Everything a registered solver gets: the problem, the paths, the start states, the limits.
+
+    Attributes:
+        problem: :class:`~jaxstiff.solvers.problem.WaypointProblem`.
+        targets, directions: (B, P, 3).
+        q0, kj0: (B, n) start states.
+        limits: :class:`~jaxstiff.solvers.problem.Limits`; ``dq``/``dk`` are (n,) (the same for
+            every path) or (B, n) (per path): take path b's with ``limits.for_path(b)``.
+        ratio: the wanted axis ratio, a float (every path) or a (B,) array (per path);
+            :attr:`ratios` is always (B,).
+        c: f1's offset (a float, every path).
+        starts: number of starts (multi-start solvers).
+        options: solver options (dict).
+        pos_tol: m, position tolerance of a usable waypoint.
+        progress: ``progress(b, p)`` after each waypoint, or None.
+    """
+
+    def __init__(self, **kw: Any):
+        self.__dict__.update(kw)
+
+    @property
+    def ratios(self) -> np.ndarray:
+        """(B,) the wanted axis ratio of every path."""
+        return np.broadcast_to(np.asarray(self.ratio, float), (self.targets.shape[0],)).copy()
+
+
+#: A solver maps a :class:`SolveRequest` to a dict of arrays: ``q``, ``kj`` (B,P,n), ``status``,
+#: ``pos_error``, ``solver_code``, ``nit``, ``nfev``, ``time_s`` (B,P), and optionally ``compile_s``
+#: (float, compilation time kept out of ``time_s``). Every point with a usable
+#: status (0-2) must satisfy the box of its reference state exactly and the position within
+#: ``pos_tol``; the reported quantities are recomputed by :func:`shape`.
+SOLVERS: dict[str, Callable[[SolveRequest], dict[str, np.ndarray]]] = {}
+
+
+class SolverInterrupted(KeyboardInterrupt):
+    """Raised by a solver interrupted (Ctrl-C, or SIGTERM under the command line) after some
+    waypoints were finished: ``arrays`` is its full result dict, the waypoints not reached with
+    status NOT_RUN (5) at their reference state. Solvers that cannot keep partial work let the
+    plain ``KeyboardInterrupt`` through."""
+
+    def __init__(self, arrays: dict[str, Any]):
+        super().__init__()
+        self.arrays = arrays
+
+
+
+def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, np.ndarray]]) -> None:
+    """Make a solver available as ``shape(..., solver=name)`` and ``jaxstiff shape --solver name``."""
+    if not callable(fn):
+        raise ValueError(f"solver {name!r} must be callable")
+    SOLVERS[name] = fn
+
+
+def outcomes_to_arrays(per_path: Sequence[Sequence[Any]], n_free: int, q0: np.ndarray, free_idx: Sequence[int]) -> dict[str, np.ndarray]:
+    """Per-waypoint outcomes (``x``, ``status``, ``code``, ``nit``, ``nfev``, ``pos_error``, ``time_s``;
+    ``per_path[b][p]``) as the :data:`SOLVERS` dict: ``q``, ``kj`` (B, P, n) and (B, P) arrays; locked
+    joints keep ``q0`` (B, n)."""
+    B, P = len(per_path), len(per_path[0])
+    n = q0.shape[-1]
+    q = np.repeat(q0[:, None, :], P, axis=1).astype(float)
+    kj = np.zeros((B, P, n))
+    out = {k: np.zeros((B, P), dtype=dt) for k, dt in
+           (("status", np.int64), ("solver_code", np.int64), ("nit", np.int64), ("nfev", np.int64),
+            ("pos_error", float), ("time_s", float))}
+    fi = list(free_idx)
+    for b, outs in enumerate(per_path):
+        for p, o in enumerate(outs):
+            q[b, p, fi] = o.x[:n_free]
+            kj[b, p] = o.x[n_free:]
+            out["status"][b, p] = o.status
+            out["solver_code"][b, p] = o.code
+            out["nit"][b, p] = o.nit
+            out["nfev"][b, p] = o.nfev
+            out["pos_error"][b, p] = o.pos_error
+            out["time_s"][b, p] = o.time_s
+    out["q"], out["kj"] = q, kj
+    return out
+
+
+def _lazy_solver(module: str, attr: str = "run_request") -> Callable[[SolveRequest], dict[str, np.ndarray]]:
+    """The solver ``jaxstiff.solvers.<module>.<attr>``, imported on first use."""
+
+    def run(req: SolveRequest) -> dict[str, np.ndarray]:
+        return getattr(importlib.import_module(f"jaxstiff.solvers.{module}"), attr)(req)
+
+    run.__name__ = f"{module}.{attr}"
+    return run
+
+
+register_solver("slsqp", _lazy_solver("slsqp"))  # greedy per-waypoint SLSQP, JAX derivatives (solvers/slsqp.py)
+register_solver("slsqp-fd", _lazy_solver("slsqp_fd"))  # the same, numpy + finite differences
+register_solver("pgd", _lazy_solver("pgd"))  # multi-start projected gradient, batched (solvers/pgd)
+register_solver("hybrid", _lazy_solver("hybrid"))  # pgd + SLSQP polish (solvers/hybrid.py)
+register_solver("trajectory", _lazy_solver("trajectory"))  # whole-trajectory optimisation (solvers/trajectory.py)
+
+
+# ---------------------------------------------------------------------- solver options
+def solver_defaults(solver: str) -> dict[str, Any]:
+    """The default options of a shipped solver, as it applies them ({} for a user-registered one).
+
+    The hybrid is pgd followed by an SLSQP polish, so its options are both sets plus its own two.
+    The trajectory solver's own options are here; those of its warm start go to ``warm_options``.
+    The defaults are those of :mod:`jaxstiff.settings.solvers`."""
+    out: dict[str, Any] = {}
+    for cls in OPTIONS_OF.get(solver, ()):
+        out.update(cls.defaults())
+    return out
+
+
+def solver_option_names(solver: str, warm: str = "pgd") -> set[str] | None:
+    """The option names a shipped solver reads (the trajectory solver's include those of its warm
+    start ``warm``); None for a user-registered solver (its options are not checked)."""
+    if solver not in ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory"):
+        return None
+    known = set(solver_defaults(solver))
+    if solver == "trajectory":
+        known |= set(solver_defaults(warm))
+    return known
+
+
+def options_for_solver(solver: str, options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The entries of ``options`` that ``solver`` reads (all of them for a user-registered solver):
+    a sweep over several solvers shares one options table."""
+    opts = dict(options or {})
+    known = solver_option_names(solver, opts.get("warm", "pgd"))
+    return opts if known is None else {k: v for k, v in opts.items() if k in known}
+
+
+def check_options(solver: str, options: Mapping[str, Any] | None) -> None:
+    """Unknown option names of a shipped solver are an error (a typo would otherwise be ignored),
+    and so are bad values, before any work (a hybrid would otherwise meet a bad SLSQP option only
+    after its pgd stage). A user-registered solver checks its own options."""
+    if not options:
+        return
+    if not isinstance(options, Mapping):
+        raise ValueError(f"options must be a dict of solver options, got {type(options).__name__}")
+    warm = options.get("warm", "pgd")
+    if solver == "trajectory" and warm not in WARM_STARTS:
+        raise ValueError(f"option warm must be one of {', '.join(map(repr, WARM_STARTS))}, got {warm!r}")
+    known = solver_option_names(solver, warm)
+    if known is None:
+        return
+    unknown = sorted(str(k) for k in options if k not in known)
+    if unknown:
+        import difflib
+
+        hints = [f"{k!r} (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, known, n=1)) else repr(k) for k in unknown]
+        raise ValueError(f"unknown option(s) for solver {solver!r}: {', '.join(hints)}; known: {', '.join(sorted(known))}")
+    greedy = warm if solver == "trajectory" else solver  # the part that runs pgd and/or SLSQP
+    # values: the trajectory solver's own, then those of the part that runs pgd and/or SLSQP
+    classes = OPTIONS_OF[greedy] + ((TrajectoryOptions,) if solver == "trajectory" else ())
+    for cls in (TrajectoryOptions, HybridOptions, PGDOptions, SLSQPOptions):
+        if cls in classes:
+            cls.check_values(cls.own(options))
+
+
+def first_starts_use(solver: str, opts_meta: dict[str, Any], n_first: int, first_rate_limit: bool) -> str:
+    """What the solver does with the first waypoint's start postures (meta ``first_starts.use``):
+    SLSQP solves from each of them, pgd makes them some of its own (more) random starts."""
+    if first_rate_limit:
+        return "first waypoint rate-limited: solved from q0 alone"
+    greedy = solver
+    popts = opts_meta["options"]
+    if solver == "trajectory":
+        popts = opts_meta["warm_options"]
+        greedy = str(opts_meta["options"].get("warm", "pgd"))
+    if greedy in ("pgd", "hybrid"):
+        S = int(opts_meta["starts"])
+        S1 = max(S, int(popts["starts_first"])) if popts.get("mode") == "best" else S
+        return (f"{min(n_first, S1)} of the {S1} first-waypoint starts of pgd (q0 first; the rest random "
+                "postures, options starts/starts_first)")
+    if greedy in ("slsqp", "slsqp-fd"):
+        return "SLSQP solves the first waypoint from each (q0 first); the best is kept"
+    return "passed to the solver as SolveRequest.first_starts"
+
+
+def options_meta(solver: str, starts: int | None, options: Mapping[str, Any] | None) -> dict[str, Any]:
+    """meta's ``starts`` and ``options`` (and ``warm_options`` for the trajectory solver): the
+    values the solver ran with, defaults filled in, so that a result file says how it was made."""
+    given = dict(options or {})
+    own = solver_defaults(solver)
+    opts = {**own, **given}
+    out: dict[str, Any] = {"options": opts}
+    warm = None
+    if solver == "trajectory":
+        warm = str(opts.get("warm", "pgd"))
+        wdef = solver_defaults(warm)
+        out["options"] = opts = {**own, **{k: v for k, v in given.items() if k in own}}
+        out["warm_options"] = {**wdef, **{k: v for k, v in given.items() if k in wdef}}
+    multi = solver in ("pgd", "hybrid") or warm in ("pgd", "hybrid")
+    if not multi:
+        out["starts"] = 1
+    else:
+        target = out["warm_options"] if solver == "trajectory" else opts
+        if starts is not None:
+            target["starts"] = int(starts)
+        out["starts"] = int(target["starts"])
+    return out

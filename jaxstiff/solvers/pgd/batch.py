@@ -1,0 +1,191 @@
+"""pgd over many paths: options, one compiled kernel per problem and settings, chunks of paths
+padded to the chunk size, and the :data:`~jaxstiff.solvers.base.SOLVERS` adapter."""
+
+from __future__ import annotations
+
+import functools
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import jax
+import numpy as np
+
+from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff.settings.solvers import PGDOptions
+from jaxstiff.solvers.base import SolveRequest
+from jaxstiff.solvers.pgd.kernel import make_kernel
+from jaxstiff.solvers.pgd.ops import lm_kind
+from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, content_seed
+
+__all__ = ["DEFAULT_OPTIONS", "check_options", "compiled_kernel", "pad_rows", "solve_batch", "CODE_MEANING",
+           "run_request"]
+
+#: Settings (``shape(..., solver="pgd", starts=S, options=...)``), from
+#: :class:`~jaxstiff.settings.solvers.PGDOptions` (what each one does is documented there).
+DEFAULT_OPTIONS: dict[str, Any] = PGDOptions.defaults()
+
+#: options of the other shipped solvers that may share an options dict with pgd's
+_SHARED = frozenset({"maxiter", "ftol", "kj_scale", "f_scale", "polish_slsqp", "traj_iters", "traj_step0", "traj_step1",
+                     "warm", "blocks", "mu0", "chain"})
+
+
+def check_options(options: Mapping[str, Any] | None, starts: int | None = None) -> dict[str, Any]:
+    """:data:`DEFAULT_OPTIONS` updated by ``options`` (and ``starts``), values checked (ValueError)."""
+    opts = {**DEFAULT_OPTIONS, **(options or {})}
+    if starts is not None:
+        opts["starts"] = int(starts)
+    unknown = set(opts) - set(DEFAULT_OPTIONS) - _SHARED
+    if unknown:
+        raise ValueError(f"unknown pgd option(s) {sorted(unknown)}; known: {sorted(DEFAULT_OPTIONS)}")
+    return PGDOptions.check_values(opts)
+
+
+@functools.lru_cache(maxsize=32)
+def compiled_kernel(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
+    """:func:`make_kernel` vmapped over paths and jitted, cached per problem, settings (sorted
+    ``(name, value)`` pairs) and first-waypoint rate limit."""
+    opts = dict(opts_items)
+    traj = make_kernel(problem, opts, first_rate)
+    # per path: targets, directions, start state, key, rate limits (dq_f, dk) and ratio
+    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None, 0))
+    return jax.jit(batched, compiler_options=kernel_compiler_options())
+
+
+def pad_rows(a: np.ndarray, C: int) -> np.ndarray:
+    """``a`` (m, ...) padded to C rows by repeating its last row (m <= C)."""
+    if a.shape[0] == C:
+        return a
+    reps = np.repeat(a[-1:], C - a.shape[0], axis=0)
+    return np.concatenate([a, reps], axis=0)
+
+
+def solve_batch(
+    problem: WaypointProblem,
+    targets: np.ndarray,
+    directions: np.ndarray,
+    q0: np.ndarray,
+    kj0: np.ndarray,
+    limits: Limits,
+    ratio,
+    c: float,
+    *,
+    starts: int | None = None,
+    options: dict | None = None,
+    pos_tol: float = POS_TOL,
+    return_timing: bool = False,
+    first_starts=None,
+) -> dict[str, np.ndarray]:
+    """Shape B paths with multi-start projected gradient (the solver behind ``solver="pgd"``).
+
+    Args:
+        problem: the waypoint problem (robot, task, criterion).
+        targets, directions: (B, P, 3), m and unit vectors, base frame.
+        q0, kj0: (B, n) start states (rad; Nm/rad).
+        limits: rate limits and stiffness range (S0-11 ... S0-14); ``dq``/``dk`` (n,) or (B, n)
+            (one row per path).
+        ratio: wanted axis ratio r, a number or (B,) (one per path: a parameter sweep in one call).
+        c: f1's offset.
+        starts: S (default ``options["starts"]``).
+        options: see :data:`DEFAULT_OPTIONS`.
+        pos_tol: m, position error of a usable waypoint.
+        return_timing: also return ``compile_s`` and ``run_s`` (first chunk's compile apart).
+        first_starts: per path, a list of start states ``(q (n,), kj (n,))`` for the first waypoint
+            (e.g. :func:`jaxstiff.shaping.first_start_postures`, greedy SLSQP's IK postures); they
+            replace random first-waypoint starts 1..E (at most ``starts_first - 1`` of them).
+
+    Returns:
+        dict with ``q``, ``kj`` (B,P,n), ``status``, ``pos_error``, ``solver_code``, ``nit``,
+        ``nfev``, ``time_s``, ``criterion`` (B,P) in the :data:`jaxstiff.solvers.base.SOLVERS` format.
+    """
+    opts = check_options(options, starts)
+    targets = np.asarray(targets, float)
+    directions = np.asarray(directions, float)
+    B, P = targets.shape[:2]
+    nf = problem.n_free
+    r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
+    x0 = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
+    # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
+    # simplified away), so a lone path would differ from the same path in a batch in the last bits;
+    # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
+    C = max(min(int(opts["chunk"]), B), 2)
+    key_items = tuple(sorted((k, v) for k, v in opts.items() if k in DEFAULT_OPTIONS and k not in ("chunk", "seed")))
+    fn = compiled_kernel(problem, key_items, bool(limits.first_rate_limit))
+    dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
+    dq_f = dq_all[:, list(problem.free_idx)]
+    base = jax.random.PRNGKey(int(opts["seed"]))
+    # each path's key from the seed and the path's own data, never from its index: a path's result
+    # does not depend on its position in the batch or on the chunk size
+    E = min(len(fs) for fs in first_starts) if first_starts else 0
+    extra = np.zeros((B, E, problem.nx))
+    for b in range(B if E else 0):
+        extra[b] = [problem.x_of(np.asarray(qs, float), np.asarray(ks, float)) for qs, ks in first_starts[b][:E]]
+    path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
+    X = np.zeros((B, P, problem.nx))
+    out = {k: np.zeros((B, P), dt) for k, dt in (("status", np.int64), ("solver_code", np.int64), ("pos_error", float), ("criterion", float), ("time_s", float))}
+    compile_s, run_s = 0.0, 0.0
+    with jax.enable_x64(True):
+        for s in range(0, B, C):
+            e = min(s + C, B)
+            sl = slice(s, e)
+            keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(pad_rows(path_data[sl], C))
+            args = (
+                pad_rows(targets[sl], C), pad_rows(directions[sl], C), pad_rows(x0[sl], C), keys,
+                pad_rows(dq_f[sl], C), pad_rows(dk[sl], C), float(limits.kmin), float(limits.kmax), pad_rows(r_arr[sl], C),
+                float(c), float(pos_tol), pad_rows(extra[sl], C),
+            )
+            if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
+                from jaxstiff.runtime.sharding import shard_rows
+
+                placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
+                args = tuple(placed.get(i, a) for i, a in enumerate(args))
+            t0 = time.perf_counter()
+            if s == 0:
+                lowered = fn.lower(*args)
+                comp = lowered.compile()
+                compile_s = time.perf_counter() - t0
+                t0 = time.perf_counter()
+                res = comp(*args)
+            else:
+                res = fn(*args)
+            res = jax.tree_util.tree_map(np.asarray, res)
+            dt = time.perf_counter() - t0
+            run_s += dt
+            m = e - s
+            X[sl] = res["x"][:m]
+            out["status"][sl] = res["status"][:m]
+            out["solver_code"][sl] = res["start"][:m]
+            out["pos_error"][sl] = res["err"][:m]
+            out["criterion"][sl] = res["f"][:m]
+            out["time_s"][sl] = dt / ((e - s) * P)  # the chunk's wall time over its real waypoints (padding rows excluded)
+    q = np.repeat(np.asarray(q0, float)[:, None, :], P, axis=1)
+    q[..., list(problem.free_idx)] = X[..., :nf]
+    out["q"], out["kj"] = q, X[..., nf:].copy()
+    S = int(opts["starts"])
+    S1 = max(S, int(opts["starts_first"])) if opts["mode"] == "best" else S
+    lm = lm_kind(problem) is not None
+    # fixed iteration counts per start (gradient/LM steps), first waypoint apart
+    it = int(opts["iters_lm"]) + int(opts["lm_iters"]) if lm else int(opts["iters"])
+    it1 = int(opts["iters_first"]) + (int(opts["lm_iters_first"]) if lm else 0)
+    out["nit"] = np.full((B, P), it, np.int64)
+    out["nit"][:, 0] = it1
+    out["nfev"] = np.full((B, P), S * (it + 1), np.int64)
+    out["nfev"][:, 0] = S1 * (it1 + 1)
+    if return_timing:
+        out["compile_s"], out["run_s"] = compile_s, run_s
+    return out
+
+
+#: meaning of the result file's ``solver_code`` for this solver (meta ``solver_code_meaning``)
+CODE_MEANING = "index of the start that won (-1 = none); no convergence flag (fixed iterations)"
+
+
+def run_request(req: SolveRequest) -> dict[str, np.ndarray]:
+    """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="pgd"``)."""
+    res = solve_batch(
+        req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
+        starts=req.starts, options=req.options, pos_tol=req.pos_tol, first_starts=req.first_starts,
+    )
+    res.pop("criterion", None)
+    res["code_meaning"] = CODE_MEANING
+    return res

@@ -1,0 +1,314 @@
+"""The traceable pieces of one pgd waypoint problem on the decision vector ``x = [q_free, kj]``:
+the rate-limited box, Newton corrections onto the path, the Levenberg-Marquardt stage on the f1/f2
+residuals, the shape surrogate, and the small linear algebra and step rules they share
+(:func:`spd_solve`, :func:`clip_box`, :func:`box_scales`, :func:`adam_direction`).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxstiff.model.kinematics import jacobian_tangent, position_and_jacobian
+from jaxstiff.solvers.problem import WaypointProblem, rate_bounds
+from jaxstiff.stiffness.core import (
+    compliance,
+    damped_inverse_primal,
+    fusion_boundary,
+    task_rows,
+    translational_stiffness,
+)
+from jaxstiff.stiffness.criteria import f1 as _f1
+from jaxstiff.stiffness.criteria import f2 as _f2
+
+__all__ = ["WaypointOps", "spd_solve", "complement_basis", "lm_kind", "clip_box", "box_scales", "adam_direction",
+           "ADAM_B1", "ADAM_B2", "ADAM_EPS"]
+
+
+class WaypointOps:
+    """Traceable pieces of one waypoint problem on the decision vector x = [q_free, kj]."""
+
+    def __init__(self, problem: WaypointProblem):
+        self.pr = problem
+        robot = problem.robot
+        self.nf, self.n, self.nx = problem.n_free, problem.n, problem.nx
+        free = list(problem.free_idx)
+        self.free = np.asarray(free, dtype=int)
+        self.rows = problem.pos_rows
+        self.qlo = np.asarray(robot.lower, float)[free]
+        self.qhi = np.asarray(robot.upper, float)[free]
+
+    def box(self, xref, rate, dq_f, dk, kmin, kmax):
+        """Rate-limited box (lb, ub) (nx,) around xref; ``rate`` a traced bool."""
+        dt = xref.dtype
+        qlo, qhi = jnp.asarray(self.qlo, dt), jnp.asarray(self.qhi, dt)
+        klo = jnp.full((self.n,), kmin, dt)
+        khi = jnp.full((self.n,), kmax, dt)
+        rlq, ruq = rate_bounds(xref[: self.nf], dq_f, jnp)
+        rlk, ruk = rate_bounds(xref[self.nf :], dk, jnp)
+        lbq = jnp.where(rate, jnp.maximum(qlo, rlq), qlo)
+        ubq = jnp.where(rate, jnp.minimum(qhi, ruq), qhi)
+        lbk = jnp.where(rate, jnp.maximum(klo, rlk), klo)
+        ubk = jnp.where(rate, jnp.minimum(khi, ruk), khi)
+        return jnp.concatenate([lbq, lbk]), jnp.concatenate([ubq, ubk])
+
+    def pos_jac(self, x):
+        q = self.pr.q_of(x)
+        p, J = position_and_jacobian(self.pr.robot, q, self.rows)
+        return p, J[:, self.free]
+
+    def f(self, x, d, r, c):
+        return self.pr.objective(self.pr.q_of(x), self.pr.kj_of(x), d, r, c)
+
+    def newton(self, x, target, lb, ub, steps: int):
+        """``steps`` box-respecting minimum-norm Gauss-Newton corrections of the joint part."""
+        if steps == 0 or self.nf == 0:
+            return x
+        rows = jnp.asarray(self.rows)
+        k = len(self.rows)
+
+        def body(_, carry):
+            x, active = carry
+            p, J = self.pos_jac(x)
+            e = target[rows] - p[rows]
+            Ja = jnp.where(active[None, :], 0.0, J)
+            JJt = Ja @ Ja.T
+            mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
+            step = Ja.T @ spd_solve(JJt + mu * jnp.eye(k, dtype=x.dtype), e)
+            step = jnp.where(jnp.all(jnp.isfinite(step)), step, 0.0)
+            raw = x[: self.nf] + step
+            new = jnp.minimum(jnp.maximum(raw, lb[: self.nf]), ub[: self.nf])
+            active = active | (new != raw)
+            return x.at[: self.nf].set(new), active
+
+        x, _ = jax.lax.fori_loop(0, steps, body, (x, jnp.zeros(self.nf, bool)))
+        return x
+
+    def surrogate(self, x, d, r, c):
+        """Smooth shape surrogate: ``|K/|K| - D/|D||_F^2`` with ``D = r d d^T + (I - d d^T)``.
+
+        Zero iff K is a multiple of D (major axis along d, ratio r, minor axes equal); no
+        eigen-decomposition, so no kinks or eigenvalue-ordering jumps: it pulls a poor start
+        into the basin of the criterion's minimum before the criterion itself is optimised.
+        """
+        K = self.pr.stiffness(self.pr.q_of(x), self.pr.kj_of(x))
+        m = K.shape[-1]
+        dd = d[:m] / jnp.linalg.norm(d[:m])
+        D = (r - 1.0) * jnp.outer(dd, dd) + jnp.eye(m, dtype=K.dtype)
+        Kn = K / jnp.sqrt(jnp.sum(K * K))
+        Dn = D / jnp.sqrt(jnp.sum(D * D))
+        return jnp.sum((Kn - Dn) ** 2)
+
+    def pos_err(self, x, target):
+        p, _ = self.pos_jac(x)
+        return jnp.linalg.norm(p - target)
+
+    # ------------------------------------------------------------ Levenberg-Marquardt stage
+    def lm_residual(self, x, target, d, r, kind: str, wpos, walign):
+        """Residuals whose zeros are exactly the criterion's minimum set, position rows first.
+
+        With ``Kn = K / (tr K / m)``, ``d`` unit and ``E`` an orthonormal basis of d's complement:
+
+        * alignment ``a = (Kn d - (d^T Kn d) d) / (d^T Kn d)`` (m entries): zero iff d is an
+          eigenvector of K; ``|a| ~ sin(alpha) (1 - 1/rho)`` near the optimum;
+        * ratio ``b = log(d^T Kn d) - log(lambda_max(E^T Kn E)) - log(r)``: once d is an
+          eigenvector, ``d^T K d / lambda_max(E^T K E)`` is the axis ratio rho (d the major axis
+          iff it is >= 1), so b = 0 iff rho = r (f2); for f1 (rho >= r) ``b = min(b, 0)``.
+
+        No eigen-decomposition of K: lambda_max of the 2x2 ``E^T Kn E`` is a closed form with a
+        smoothed square root, so the residuals are smooth everywhere (spheres included).
+        """
+        q = self.pr.q_of(x)
+        p, J6 = position_and_jacobian(self.pr.robot, q)
+        return self._residual_of(p, J6, self.pr.kj_of(x), target, d, r, kind, wpos, walign)
+
+    def _residual_of(self, p, J6, kj, target, d, r, kind: str, wpos, walign):
+        """:meth:`lm_residual` from the TCP position, the full Jacobian and the joint stiffnesses."""
+        K = translational_stiffness(J6[..., list(task_rows(self.pr.task)), :], kj, task=self.pr.task)
+        return jnp.concatenate([self._pos_rows(p, target, wpos), self._shape_rows(K, d, r, kind, walign)])
+
+    def _pos_rows(self, p, target, wpos):
+        rows = jnp.asarray(list(self.rows))
+        return wpos * (p[rows] - target[rows])
+
+    @staticmethod
+    def _shape_rows(K, d, r, kind: str, walign):
+        m = K.shape[-1]
+        dd = d[:m] / jnp.maximum(jnp.linalg.norm(d[:m]), 1e-300)
+        Kn = K / jnp.maximum(jnp.trace(K) / m, 1e-300)
+        Kd = Kn @ dd
+        dKd = jnp.maximum(dd @ Kd, 1e-12)
+        a = (Kd - dKd * dd) / dKd
+        E = complement_basis(dd)
+        M = E.T @ Kn @ E
+        if m == 3:
+            h = 0.5 * (M[0, 0] - M[1, 1])
+            lam2 = 0.5 * (M[0, 0] + M[1, 1]) + jnp.sqrt(h * h + M[0, 1] ** 2 + 1e-24)
+        else:
+            lam2 = M[0, 0]
+        b = jnp.log(dKd) - jnp.log(jnp.maximum(lam2, 1e-12)) - jnp.log(r)
+        if kind == "f1":
+            b = jnp.minimum(b, 0.0)
+        return jnp.concatenate([walign * a, b[None]])
+
+    def lm_residual_and_jacobian(self, x, target, d, r, kind: str, wpos, walign):
+        """:meth:`lm_residual` (nr,) and its Jacobian (nr, nx), without differentiating the chain.
+
+        The kinematics are evaluated once and their derivative along each free joint is the closed
+        form :func:`jaxstiff.kinematics.jacobian_tangent` (from J alone). The stiffness derivatives
+        are closed forms too: with ``C = J_s W J_s^T`` (``W = diag(1/kj)``), its (damped) inverse
+        ``K_C``, ``P`` the translational columns of ``K_C`` (``K_T`` their top block; ``dK_C = -K_C
+        dC K_C``), ``G = P^T J_s`` and ``H_j = P^T dJ_s/dq_j``:
+        ``dK_T/dq_j = -(H_j W G^T + G W H_j^T)`` and ``dK_T/dkj_i = g_i g_i^T / kj_i^2`` (g_i the
+        column i of G), the damping held fixed as in :func:`jaxstiff.stiffness.translational_stiffness`.
+        Only the tiny map ``K_T -> shape rows`` is differentiated by JAX. Several times cheaper
+        than ``jax.jacrev`` of :meth:`lm_residual` through the chain.
+        """
+        q, kj = self.pr.q_of(x), self.pr.kj_of(x)
+        p, J6 = position_and_jacobian(self.pr.robot, q)
+        n = self.n
+        dt = x.dtype
+        dp, dJ6, _ = jacobian_tangent(J6, jnp.eye(n, dtype=dt)[self.free])  # (nf, 3), (nf, 6, n)
+        rows_t = list(task_rows(self.pr.task))
+        Js, dJs = J6[rows_t, :], dJ6[:, rows_t, :]  # (m, n), (nf, m, n)
+        w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
+        m = Js.shape[0]
+        t = 3 if m == 6 else m
+        Kc = damped_inverse_primal(compliance(Js, kj, self.pr.task), False)  # the damped inverse, all of it (no AD through it here)
+        P = Kc[:, :t]  # (m, t)
+        K = Kc[:t, :t]
+        G = jnp.sum(P[:, :, None] * Js[:, None, :], axis=0)  # (t, n)
+        H = jnp.sum(P[None, :, :, None] * dJs[:, :, None, :], axis=1)  # (nf, t, n)
+        HWG = jnp.sum(H[:, :, None, :] * (G * w)[None, None, :, :], axis=-1)  # (nf, t, t)
+        dKq = -(HWG + jnp.swapaxes(HWG, -1, -2))
+        gw = G * w  # (t, n)
+        dKk = gw.T[:, :, None] * gw.T[:, None, :]  # (n, t, t)
+        dK = jnp.concatenate([dKq, dKk])  # (nx, t, t)
+        shape = lambda K: self._shape_rows(K, d, r, kind, walign)  # noqa: E731
+        e_shape, dshape = jax.vmap(lambda T: jax.jvp(shape, (K,), (T,)))(dK)
+        ep = self._pos_rows(p, target, wpos)
+        rows_p = list(self.rows)
+        Jp = jnp.concatenate([wpos * dp[:, rows_p], jnp.zeros((n, len(rows_p)), dt)])  # (nx, k)
+        e = jnp.concatenate([ep, e_shape[0]])
+        return e, jnp.concatenate([Jp, dshape], axis=1).T
+
+    def lm(self, x, lb, ub, target, d, r, kind: str, iters: int, wpos: float, walign: float, s):
+        """``iters`` box-constrained Levenberg-Marquardt steps on :meth:`lm_residual`.
+
+        Minimum-norm steps in box-scaled coordinates (``s``: per-coordinate box width): the system
+        is underdetermined (3 + m + 1 residuals, nf + n unknowns), so from a start near the
+        minimum set the iteration converges to a nearby zero. Coordinates at a bound whose step
+        points outward are removed and the step recomputed (one active-set pass); the step is
+        then clipped into the box. A step is kept only if it lowers the residual norm (damping
+        divided by 3), else the damping is multiplied by 4.
+        """
+        ev = lambda z: self.lm_residual_and_jacobian(z, target, d, r, kind, wpos, walign)  # noqa: E731
+        nr = len(self.rows) + (3 if self.pr.m == 3 else 2) + 1
+        eye = jnp.eye(nr, dtype=x.dtype)
+
+        def solve(Jy, e, lam):
+            A = Jy @ Jy.T
+            mu = lam * jnp.maximum(jnp.trace(A) / nr, 1e-300)
+            return -Jy.T @ spd_solve(A + mu * eye, e)
+
+        def scaled(J):
+            Jy = J * s[None, :]
+            return jnp.where(jnp.isfinite(Jy), Jy, 0.0)
+
+        def body(_, carry):
+            x, lam, e, Jy = carry
+            dy = solve(Jy, e, lam)
+            out = ((x <= lb) & (dy < 0)) | ((x >= ub) & (dy > 0)) | (s <= 0)
+            dy = solve(jnp.where(out[None, :], 0.0, Jy), e, lam)
+            dy = jnp.where(out, 0.0, dy)
+            xn = clip_box(x + s * dy, lb, ub)
+            en, Jn = ev(xn)
+            ok = jnp.all(jnp.isfinite(en)) & jnp.all(jnp.isfinite(xn)) & (en @ en < e @ e)
+            return (
+                jnp.where(ok, xn, x),
+                jnp.where(ok, jnp.maximum(lam / 3.0, 1e-9), jnp.minimum(lam * 4.0, 1e6)),
+                jnp.where(ok, en, e),
+                jnp.where(ok, scaled(Jn), Jy),
+            )
+
+        e0, J0 = ev(x)
+        e0 = jnp.where(jnp.isfinite(e0), e0, 1e6)
+        x, _, _, _ = jax.lax.fori_loop(0, iters, body, (x, jnp.asarray(1e-3, x.dtype), e0, scaled(J0)))
+        return x
+
+
+def spd_solve(A: jax.Array, b: jax.Array) -> jax.Array:
+    """``A^-1 b`` for a small symmetric positive definite A (k, k) by an unrolled Cholesky
+    factorisation: under vmap this is elementwise arithmetic over the batch (no LAPACK call;
+    timing in docs/notes/solvers.md). A non-positive pivot is floored at the dtype's tiny."""
+    k = A.shape[-1]
+    tiny = jnp.finfo(A.dtype).tiny
+    L: dict = {}
+    inv = []
+    for j in range(k):
+        s = A[j, j] - sum((L[(j, i)] * L[(j, i)] for i in range(j)), start=jnp.zeros((), A.dtype))
+        L[(j, j)] = jnp.sqrt(jnp.maximum(s, tiny))
+        inv.append(1.0 / L[(j, j)])
+        for r in range(j + 1, k):
+            L[(r, j)] = (A[r, j] - sum((L[(r, i)] * L[(j, i)] for i in range(j)), start=jnp.zeros((), A.dtype))) * inv[j]
+    y = []
+    for r in range(k):
+        y.append((b[r] - sum((L[(r, i)] * y[i] for i in range(r)), start=jnp.zeros((), A.dtype))) * inv[r])
+    x: list = [None] * k
+    for r in reversed(range(k)):
+        x[r] = (y[r] - sum((L[(i, r)] * x[i] for i in range(r + 1, k)), start=jnp.zeros((), A.dtype))) * inv[r]
+    return jnp.stack(fusion_boundary(x))
+
+
+def complement_basis(d: jax.Array) -> jax.Array:
+    """Orthonormal basis (m, m-1) of the plane (m = 3) or line (m = 2) orthogonal to unit d."""
+    m = d.shape[0]
+    if m == 2:
+        return jnp.stack([-d[1], d[0]])[:, None]
+    # helper axis: the coordinate axis least aligned with d (never parallel to it)
+    k = jnp.argmin(jnp.abs(d))
+    h = jnp.zeros(3, d.dtype).at[k].set(1.0)
+    e1 = h - (h @ d) * d
+    e1 = e1 / jnp.linalg.norm(e1)
+    e2 = jnp.cross(d, e1)
+    return jnp.stack([e1, e2], axis=1)
+
+
+def lm_kind(problem: WaypointProblem) -> str | None:
+    """``"f1"``/``"f2"`` where the LM stage applies (the built-in criteria), else None."""
+    return "f2" if problem.criterion is _f2 else ("f1" if problem.criterion is _f1 else None)
+
+
+def clip_box(x: jax.Array, lb: jax.Array, ub: jax.Array) -> jax.Array:
+    """``x`` clipped into the box ``[lb, ub]`` (elementwise)."""
+    return jnp.minimum(jnp.maximum(x, lb), ub)
+
+
+def box_scales(lb: jax.Array, ub: jax.Array, nf: int, kspan: float | jax.Array) -> jax.Array:
+    """Per-coordinate step scale: the box width, capped (unbounded / continuous joints: pi rad)."""
+    w = ub - lb
+    cap = jnp.concatenate([jnp.full((nf,), jnp.pi, lb.dtype), jnp.full((lb.shape[0] - nf,), kspan, lb.dtype)])
+    w = jnp.where(jnp.isfinite(w), jnp.minimum(w, cap), cap)
+    return jnp.maximum(w, 0.0)
+
+
+#: Adam's moment decay rates and the floor of its denominator (both pgd and the trajectory solver)
+ADAM_B1, ADAM_B2, ADAM_EPS = 0.9, 0.999, 1e-12
+
+
+def adam_direction(g: jax.Array, scale: jax.Array, m1: jax.Array, m2: jax.Array,
+                   tt: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """One Adam update of the scaled gradient: ``(u, m1, m2)``.
+
+    ``gy = g * scale`` (non-finite gradient entries count as 0), ``m1 = b1 m1 + (1 - b1) gy``,
+    ``m2 = b2 m2 + (1 - b2) gy^2``, ``u = (m1 / (1 - b1^tt)) / (sqrt(m2 / (1 - b2^tt)) + eps)``
+    with ``tt`` the 1-based step number (a float of x's dtype). Any shape, elementwise; ``u`` is
+    the step direction in scaled variables (the caller multiplies by its step size and ``scale``).
+    """
+    b1, b2 = ADAM_B1, ADAM_B2
+    gy = jnp.where(jnp.isfinite(g), g, 0.0) * scale
+    m1 = b1 * m1 + (1 - b1) * gy
+    m2 = b2 * m2 + (1 - b2) * gy * gy
+    u = (m1 / (1 - b1**tt)) / (jnp.sqrt(m2 / (1 - b2**tt)) + ADAM_EPS)
+    return u, m1, m2

@@ -1,0 +1,200 @@
+"""The waypoint problem's static part, :class:`WaypointProblem` (robot, task, criterion), and its
+pure, traceable building blocks (SPEC section 5, S0-10; :mod:`jaxstiff.solvers.problem`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxstiff.model.kinematics import position_and_jacobian
+from jaxstiff.model.robot import Robot
+from jaxstiff.stiffness.core import task_rows, translational_stiffness
+from jaxstiff.stiffness.criteria import alpha_and_ratio
+
+__all__ = ["WaypointProblem"]
+
+
+def _accepts_c(fn: Callable) -> bool:
+    try:
+        sig = inspect.signature(fn)
+    except (TypeError, ValueError):
+        return False
+    params = sig.parameters
+    return "c" in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
+
+
+@dataclasses.dataclass(frozen=True)
+class WaypointProblem:
+    """The waypoint problem's static part: robot (with its locked joints), task and criterion.
+
+    Hashable; use it as a static argument of ``jax.jit`` or as a cache key.
+
+    Args:
+        robot: the chain; its locked joints are held at their values.
+        task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, S0-6/7), ``"xyz"`` or ``"xy"``.
+        criterion: ``crit(K, d, r[, c]) -> scalar`` (jaxstiff.f1, jaxstiff.f2 or your own).
+    """
+
+    robot: Robot
+    task: str
+    criterion: Callable
+
+    def __post_init__(self):
+        task_rows(self.task)  # validates the task name
+        if not callable(self.criterion):
+            raise ValueError(f"criterion must be callable, got {self.criterion!r}")
+
+    # ------------------------------------------------------------------ layout
+    @property
+    def n(self) -> int:
+        """Actuated joints (locked included)."""
+        return self.robot.n
+
+    @property
+    def free_idx(self) -> tuple[int, ...]:
+        """Indices of the free joints in q."""
+        return tuple(i for i, v in enumerate(self.robot.locked) if v is None)
+
+    @property
+    def n_free(self) -> int:
+        return len(self.free_idx)
+
+    @property
+    def nx(self) -> int:
+        """Length of the decision vector ``x = [q_free, kj]``."""
+        return self.n_free + self.n
+
+    @property
+    def pos_rows(self) -> tuple[int, ...]:
+        """Position rows of the equality constraint: (0, 1) for task "xy", else (0, 1, 2)."""
+        return (0, 1) if self.task == "xy" else (0, 1, 2)
+
+    @property
+    def m(self) -> int:
+        """Dimension of K_T: 2 for "xy", else 3."""
+        return 2 if self.task == "xy" else 3
+
+    def q_of(self, x: jax.Array) -> jax.Array:
+        """Full joint vector (..., n) from ``x`` (..., nx): free entries from x, locked ones constant."""
+        cols = []
+        k = 0
+        for v in self.robot.locked:
+            if v is None:
+                cols.append(x[..., k])
+                k += 1
+            else:
+                cols.append(jnp.full(x.shape[:-1], v, dtype=x.dtype))
+        return jnp.stack(cols, axis=-1)
+
+    def kj_of(self, x: jax.Array) -> jax.Array:
+        """Joint stiffnesses (..., n) from ``x`` (..., nx)."""
+        return x[..., self.n_free :]
+
+    def x_of(self, q, kj):
+        """Decision vector (..., nx) from ``q`` (..., n) and ``kj`` (..., n); works on numpy and JAX."""
+        xp = jnp if isinstance(q, jax.Array) or isinstance(kj, jax.Array) else np
+        q = xp.asarray(q)
+        return xp.concatenate([q[..., list(self.free_idx)], xp.asarray(kj)], axis=-1)
+
+    # ------------------------------------------------------------------ pure building blocks
+    def stiffness(self, q: jax.Array, kj: jax.Array) -> jax.Array:
+        """Translational stiffness ``K_T`` (..., m, m), N/m, at (q, kj) (S0-4, S0-6).
+
+        """
+        _, J = position_and_jacobian(self.robot, q, task_rows(self.task))
+        return translational_stiffness(J, kj, task=self.task)
+
+    def objective(self, q: jax.Array, kj: jax.Array, d: jax.Array, r, c) -> jax.Array:
+        """Criterion value ``f(K_T(q, kj), d, r[, c])`` (...,). ``d`` (..., 3): only its first m entries are used."""
+        K = self.stiffness(q, kj)
+        dd = jnp.asarray(d, dtype=K.dtype)[..., : self.m]
+        if _accepts_c(self.criterion):
+            return self.criterion(K, dd, r, c=c)
+        return self.criterion(K, dd, r)
+
+    def position(self, q: jax.Array) -> jax.Array:
+        """TCP position (..., 3), m, base frame."""
+        p, _ = position_and_jacobian(self.robot, q, (0, 1, 2))
+        return p
+
+    def residual(self, q: jax.Array, target: jax.Array) -> jax.Array:
+        """Equality constraint ``position(q)[rows] - target[rows]`` (..., len(rows)), m."""
+        p = self.position(q)
+        rows = list(self.pos_rows)
+        return p[..., rows] - jnp.asarray(target, dtype=p.dtype)[..., rows]
+
+    def report(self, q: jax.Array, kj: jax.Array, d: jax.Array, r, c):
+        """``(position (...,3), K_T (...,m,m), alpha_deg (...,), ratio (...,), criterion (...,))``."""
+        p, J = position_and_jacobian(self.robot, q, task_rows(self.task))
+        K = translational_stiffness(J, kj, task=self.task)
+        dd = jnp.asarray(d, dtype=K.dtype)[..., : self.m]
+        alpha, rho = alpha_and_ratio(K, dd)
+        if _accepts_c(self.criterion):
+            f = self.criterion(K, dd, r, c=c)
+        else:
+            f = self.criterion(K, dd, r)
+        return p, K, alpha, rho, f
+
+    # ------------------------------------------------------------------ flat x/params interface
+    # params = [target (3), d (3), r, c]
+    def objective_x(self, x: jax.Array, params: jax.Array) -> jax.Array:
+        """Objective as a function of the decision vector and the flat parameter vector."""
+        return self.objective(self.q_of(x), self.kj_of(x), params[3:6], params[6], params[7])
+
+    def residual_x(self, x: jax.Array, params: jax.Array) -> jax.Array:
+        return self.residual(self.q_of(x), params[0:3])
+
+    def fused(self, x: jax.Array, params: jax.Array) -> jax.Array:
+        """``[f, df/dx (nx), c (k), dc/dx (k*nx, row-major)]`` in one flat array, k = len(pos_rows).
+
+        One kernel call per point SLSQP asks about. The constraint Jacobian is the analytic one:
+        the free columns of the task rows of the geometric Jacobian, zeros for the stiffness
+        columns. Split it with :meth:`unpack`.
+        """
+        f, g = jax.value_and_grad(self.objective_x)(x, params)
+        q = self.q_of(x)
+        rows = self.pos_rows
+        p, Jp = position_and_jacobian(self.robot, q, rows)
+        c = p[jnp.asarray(rows)] - params[jnp.asarray(rows)]
+        Jq = Jp[:, jnp.asarray(self.free_idx)] if self.n_free else jnp.zeros((len(rows), 0), x.dtype)
+        A = jnp.concatenate([Jq, jnp.zeros((len(rows), self.n), dtype=x.dtype)], axis=1)
+        return jnp.concatenate([f[None], g, c, A.ravel()])
+
+    def fused_scaled(self, y: jax.Array, params: jax.Array, scale: jax.Array) -> jax.Array:
+        """:meth:`fused` in scaled variables, as a solver sees them: ``x = y * scale[:nx]``, the
+        objective times ``scale[nx]``; returns ``[f s_f, df/dy (nx), c (k), dc/dy (k*nx)]``.
+
+        Scaling inside the kernel keeps the solver's Python side to array views (no numpy
+        arithmetic per evaluation).
+        """
+        sx, sf = scale[: self.nx], scale[self.nx]
+        out = self.fused(y * sx, params)
+        nx, k = self.nx, len(self.pos_rows)
+        f, g, c, A = out[0], out[1 : 1 + nx], out[1 + nx : 1 + nx + k], out[1 + nx + k :].reshape(k, nx)
+        return jnp.concatenate([(f * sf)[None], g * sx * sf, c, (A * sx[None, :]).ravel()])
+
+    def unpack(self, out: np.ndarray):
+        """Split :meth:`fused`'s output into ``(f, grad (nx,), c (k,), A (k, nx))``."""
+        nx, k = self.nx, len(self.pos_rows)
+        return out[0], out[1 : 1 + nx], out[1 + nx : 1 + nx + k], out[1 + nx + k :].reshape(k, nx)
+
+    def report_x(self, x: jax.Array, params: jax.Array) -> jax.Array:
+        """``[position (3), K_T (m*m), alpha_deg, ratio, criterion]`` at one point, flat."""
+        p, K, alpha, rho, f = self.report(self.q_of(x), self.kj_of(x), params[3:6], params[6], params[7])
+        return jnp.concatenate([p, K.ravel(), alpha[None], rho[None], f[None]])
+
+    def unpack_report(self, out: np.ndarray):
+        """``(position (3,), K_T (m, m), alpha_deg, ratio, criterion)`` from :meth:`report_x`'s output."""
+        m = self.m
+        return out[:3], out[3 : 3 + m * m].reshape(m, m), out[3 + m * m], out[4 + m * m], out[5 + m * m]
+
+    @staticmethod
+    def params(target, direction, r: float, c: float) -> np.ndarray:
+        """The flat float64 parameter vector ``[target (3), d (3), r, c]``."""
+        return np.concatenate([np.asarray(target, float), np.asarray(direction, float), [float(r), float(c)]])
+
