@@ -2,6 +2,7 @@
 
 The public names are re-exported here explicitly; see DESIGN.md for the contract and the layers.
 """
+# ruff: noqa: E402  (the early-signal recorder must run before anything imports JAX)
 
 # first, before JAX is imported: a Ctrl-C while the `jaxstiff` command starts up is remembered,
 # not lost (see jaxstiff.runtime.early_signals; nothing changes when imported as a library)
@@ -33,6 +34,8 @@ from .robot import Robot as Robot
 from .robot import robot_path as robot_path
 from .robot import shipped_robots as shipped_robots
 from .runtime.version import __version__ as __version__
+from .settings import RobotSpec as RobotSpec
+from .settings import ShapeSettings as ShapeSettings
 from .shaping import shape as shape
 from .stiffness import cartesian_stiffness as cartesian_stiffness
 from .stiffness import cms_factor as cms_factor

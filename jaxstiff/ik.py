@@ -97,6 +97,6 @@ def ik_position(
     if target.shape != (3,) or not np.all(np.isfinite(target)):
         raise ValueError(f"IK target must be 3 finite numbers (m), got {target!r}")
     q0 = nominal_posture(robot) if q_start is None else np.asarray(q_start, dtype=float)
-    dtype = jnp.float64 if jax.config.jax_enable_x64 else jnp.float32
+    dtype = jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
     q, err = _ik(robot, jnp.asarray(target, dtype), jnp.asarray(q0, dtype), int(iters), (0, 1) if planar else (0, 1, 2))
     return np.asarray(q, dtype=float), float(err)

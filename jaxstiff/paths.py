@@ -32,7 +32,7 @@ import io
 import math
 import os
 import re
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -160,13 +160,13 @@ class Path:
         """Number of paths (1 for an unbatched Path)."""
         return int(self.points.shape[0]) if self.batched else 1
 
-    def as_batch(self) -> "Path":
+    def as_batch(self) -> Path:
         """This path with a leading batch axis (B, P, 3) (a batched Path is returned as is)."""
         if self.batched:
             return self
         return Path(self.points[None], self.directions[None], name=self.name)
 
-    def __getitem__(self, b: int) -> "Path":
+    def __getitem__(self, b: int) -> Path:
         """Path ``b`` of a batch."""
         if not self.batched:
             raise IndexError("an unbatched Path has no batch index")
@@ -176,7 +176,7 @@ class Path:
         return self.B
 
     @staticmethod
-    def stack(paths: Sequence["Path"]) -> "Path":
+    def stack(paths: Sequence[Path]) -> Path:
         """Stack unbatched paths with the same P into one batch (B, P, 3)."""
         if not paths:
             raise ValueError("no paths to stack")
@@ -197,7 +197,7 @@ class Path:
 
     # ------------------------------------------------------------------ CSV
     @staticmethod
-    def from_csv(file: str | os.PathLike) -> "Path":
+    def from_csv(file: str | os.PathLike) -> Path:
         """Read a path from a CSV file with header ``x,y,z[,dx,dy,dz]`` (metres, base frame).
 
         Raises:
@@ -224,7 +224,7 @@ class Path:
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(["x", "y", "z", "dx", "dy", "dz"] if directions else ["x", "y", "z"])
-        for p, d in zip(self.points, self.directions):
+        for p, d in zip(self.points, self.directions, strict=True):
             vals = list(p) + (list(d) if directions else [])
             w.writerow([repr(float(v)) for v in vals])
         atomic_write_text(os.fspath(file), buf.getvalue())
@@ -442,7 +442,7 @@ def read_csv(file: str | os.PathLike) -> tuple[np.ndarray, np.ndarray | None, li
         if len(cells) != ncol:
             raise ValueError(f"{file}:{line_no}: expected {ncol} values ({','.join(header)}), got {len(cells)}")
         row = []
-        for col, cell in zip(header, cells):
+        for col, cell in zip(header, cells, strict=True):
             if not _NUMBER.fullmatch(cell.strip()):
                 raise ValueError(f"{file}:{line_no}: column {col}: {cell.strip()!r} is not a number")
             v = float(cell)

@@ -8,11 +8,11 @@ import sys
 
 import numpy as np
 import pytest
+from helpers import numpy_fk
 
 import jaxstiff
-from jaxstiff.results import files as R
 from jaxstiff.cli import main
-from helpers import numpy_fk
+from jaxstiff.results import files as R
 
 
 @pytest.fixture
@@ -75,7 +75,7 @@ def test_unreachable_waypoints_warn_on_stderr_and_the_file_is_complete(tmp_path,
 def test_help_has_units(capsys):
     with pytest.raises(SystemExit):
         main(["shape", "--help"])
-    text = capsys.readouterr().out
+    text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
     for needle in ("degrees per waypoint", "Nm/rad per waypoint", "metres", "--lock", "--first-rate-limit", "rad"):
         assert needle in text, needle
 
@@ -148,13 +148,28 @@ def test_ctrl_c_leaves_no_file(tmp_path, small_csv, capsys, monkeypatch):
     assert shaping.SOLVERS["slsqp"] is not real
 
 
-@pytest.mark.parametrize("command", ["shape", "csc", "sweep", "reproduce"])
+@pytest.mark.parametrize("command", ["robot", "shape", "csc", "sweep", "reproduce"])
 def test_help_states_each_default_once_and_never_none(command, capsys):
     with pytest.raises(SystemExit):
         main([command, "--help"])
     text = " ".join(capsys.readouterr().out.split())  # argparse wraps lines
     assert "(default: None)" not in text
     assert not re.search(r"\(default: [^)]*\) \(default:", text), text  # stated in words, then by argparse
+
+
+def _swallowed_sigint():
+    """A SIGINT that is only remembered, not raised (as when JAX swallows the KeyboardInterrupt in a
+    callback): delivered inside deferred_interrupts, the command's handler records it."""
+    import signal
+
+    from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending
+
+    with deferred_interrupts():
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(100):  # the handler runs at the next bytecode boundary of the main thread
+            if interrupt_pending() is not None:
+                break
+    assert interrupt_pending() == signal.SIGINT
 
 
 def _main_thread_only():
@@ -208,9 +223,6 @@ def test_an_interrupt_swallowed_inside_jax_stops_the_run_at_the_next_waypoint(tm
     """Python delivers Ctrl-C wherever the main thread is; inside JAX's garbage-collection callback
     it is printed and dropped, and the run went on to write its file and exit 0. The handler
     remembers the signal, and the next waypoint raises it again."""
-    import signal
-
-    import jaxstiff._io as io
     import jaxstiff.shaping as shaping
 
     _main_thread_only()
@@ -218,7 +230,7 @@ def test_an_interrupt_swallowed_inside_jax_stops_the_run_at_the_next_waypoint(tm
 
     def solver(req):
         req.progress(0, 0)
-        io._PENDING["signal"] = signal.SIGINT  # as after a KeyboardInterrupt lost in a callback
+        _swallowed_sigint()  # as after a KeyboardInterrupt lost in a callback
         calls.append("before")
         req.progress(0, 1)
         calls.append("after")  # never reached
@@ -248,18 +260,16 @@ def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, mon
     """Ctrl-C during a two-path SLSQP run, after 5 of 6 waypoints: the file is written with the 5
     finished ones (they verify from the file alone, rate limits included) and the last as
     NOT_RUN (5) at its reference state; exit 130, and stderr says what was kept."""
-    import signal
+    import jaxstiff.cli.shape as cs
 
-    import jaxstiff._cli_shape as cs
-    import jaxstiff._io as io
-
-    real = cs._Progress.__call__
+    _main_thread_only()
+    real = cs.WaypointProgress.__call__
 
     def tick(self, b, p):
         real(self, b, p)
         if self.done == 4:
-            io._PENDING["signal"] = signal.SIGINT  # raised at the next waypoint's tick
-    monkeypatch.setattr(cs._Progress, "__call__", tick)
+            _swallowed_sigint()  # raised at the next waypoint's tick
+    monkeypatch.setattr(cs.WaypointProgress, "__call__", tick)
     out = tmp_path / "part.npz"
     rc = main(["shape", "--path", str(small_csv), "--path", str(small_csv), "--out", str(out), "--quiet",
                "--first-starts", "1"])

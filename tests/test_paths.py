@@ -6,11 +6,11 @@ import os
 
 import numpy as np
 import pytest
+from helpers import assert_close, numpy_fk
 
 import jaxstiff
 from jaxstiff import paths
 from jaxstiff.paths import Path
-from helpers import assert_close, numpy_fk
 
 
 def test_default_direction_is_unit_tangent_of_a_circle():
@@ -164,8 +164,9 @@ def test_default_path_geometry_and_reachability():
     turn = np.degrees(np.arccos(np.clip(np.sum(p.directions[1:] * p.directions[:-1], axis=1), -1, 1)))
     assert turn.max() < 5.0
 
-    from jaxstiff.ik import ik_position
     import jax
+
+    from jaxstiff.ik import ik_position
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     with jax.enable_x64(True):
@@ -218,7 +219,7 @@ def test_read_csv_gives_the_rows_without_geometry_checks(tmp_path):
     one = tmp_path / "one.csv"
     one.write_text("x,y,z,dx,dy,dz\n1,2,3,0,0,1\n")
     pts, dirs, lines = paths.read_csv(one)
-    assert pts.shape == (1, 3) and dirs.tolist() == [[0.0, 0.0, 1.0]] and lines == [2]
+    assert pts.shape == (1, 3) and dirs is not None and dirs.tolist() == [[0.0, 0.0, 1.0]] and lines == [2]
 
 
 def test_csv_with_empty_trailing_columns_reads_like_one_without(tmp_path):

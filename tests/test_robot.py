@@ -3,8 +3,8 @@
 
 from __future__ import annotations
 
-import math
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -13,10 +13,10 @@ import sys
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import assert_close
 
 import jaxstiff
 from jaxstiff.cli import main
-from helpers import assert_close
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BRANCHED = os.path.join(HERE, "data", "branched_tree.urdf")
@@ -216,7 +216,7 @@ def test_prismatic_joints_get_lengths_not_degrees():
     """A prismatic joint's value is a length: the nominal posture puts it at mid-range (not
     mid-range + 30 deg read as 0.52 m, which the clip sent to its limit), `csc --q0-deg` leaves its
     entry in metres, and `shape --dq-m` sets its rate limit apart from --dq-deg."""
-    from jaxstiff.cli.shape import _rate_limits
+    from jaxstiff.cli.shape import rate_limits
     from jaxstiff.ik import nominal_posture
 
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
@@ -228,9 +228,9 @@ def test_prismatic_joints_get_lengths_not_degrees():
     assert q[1] == pytest.approx(0.5 * (lo[1] + hi[1]), abs=1e-15)
     fin = np.isfinite(lo) & np.isfinite(hi) & ~pris
     np.testing.assert_allclose(q[fin], np.clip(0.5 * (lo[fin] + hi[fin]) + np.deg2rad(30.0), lo[fin], hi[fin]), atol=1e-15)
-    np.testing.assert_array_equal(_rate_limits(robot, 2.0, None), np.full(4, np.deg2rad(2.0)))
-    np.testing.assert_array_equal(_rate_limits(robot, 2.0, 0.01), [np.deg2rad(2.0), 0.01, np.deg2rad(2.0), np.deg2rad(2.0)])
-    assert _rate_limits(jaxstiff.Robot.from_urdf("planar_3r"), 2.0, 0.01) == np.deg2rad(2.0)  # no prismatic joint
+    np.testing.assert_array_equal(rate_limits(robot, 2.0, None), np.full(4, np.deg2rad(2.0)))
+    np.testing.assert_array_equal(rate_limits(robot, 2.0, 0.01), [np.deg2rad(2.0), 0.01, np.deg2rad(2.0), np.deg2rad(2.0)])
+    assert rate_limits(jaxstiff.Robot.from_urdf("planar_3r"), 2.0, 0.01) == np.deg2rad(2.0)  # no prismatic joint
 
 
 def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):

@@ -5,18 +5,19 @@ the waypoint problem against finite differences and against the numpy baseline; 
 import hashlib
 import json
 import math
-import warnings
 import re
+import warnings
+from typing import Any
 
 import jax
 import numpy as np
 import pytest
+from helpers import assert_close, numpy_fk
 
 import jaxstiff
 from jaxstiff import paths
 from jaxstiff.results import files as R
 from jaxstiff.solvers.problem import WaypointProblem, compiled
-from helpers import assert_close, numpy_fk
 
 LOCK = {"lwr_a7": 0.0}
 
@@ -368,7 +369,7 @@ def test_full_task_with_locked_joints_keeps_their_springs(tmp_path):
     ],
 )
 def test_bad_input_is_a_clear_value_error(lwr, kwargs, match):
-    kw = dict(criterion="f2", ratio=5.0)
+    kw: dict[str, Any] = dict(criterion="f2", ratio=5.0)
     kw.update(kwargs)
     crit, ratio = kw.pop("criterion"), kw.pop("ratio")
     with pytest.raises(ValueError, match=match):
@@ -403,7 +404,7 @@ def test_lean_driver_equals_scipy_minimize(lwr, f2_file):
         assert lean.driver == "lean" and ref.driver == "scipy.optimize.minimize"
         for p in (1, 2):
             lb, ub = lim.box(prob, res.q[0, p - 1], res.kj[0, p - 1], True)
-            x0 = clip_to_box(prob.x_of(res.q[0, p - 1], res.kj[0, p - 1]), lb, ub)
+            x0 = clip_to_box(np.asarray(prob.x_of(res.q[0, p - 1], res.kj[0, p - 1])), lb, ub)
             prm = prob.params(res.target[0, p], res.direction[0, p], 5.0, 0.01)
             a, b = lean(x0, lb, ub, prm), ref(x0, lb, ub, prm)
             np.testing.assert_array_equal(a.x, b.x)
@@ -440,7 +441,7 @@ def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane(lwr):
 def test_meta_tcp_is_the_offset_given(tmp_path):
     """meta.robot.tcp is recovered from the URDF's bare tip by a solve; on a chain with rpy origins
     its round-off (0.09999999999999996 for 0.1) is not passed on: the offset reads as given."""
-    from jaxstiff.settings.robot import robot_meta as _robot_meta
+    from jaxstiff.settings.robot import robot_meta
 
     urdf = tmp_path / "r.urdf"
     urdf.write_text(
@@ -451,10 +452,10 @@ def test_meta_tcp_is_the_offset_given(tmp_path):
         '<axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'
         '<joint name="f" type="fixed"><parent link="l2"/><child link="t"/><origin xyz="0.3 0.01 0.02" rpy="0.77 -1.23 2.01"/>'
         '</joint></robot>')
-    assert _robot_meta(jaxstiff.Robot.from_urdf(str(urdf)))["tcp"] == np.eye(4).tolist()
+    assert robot_meta(jaxstiff.Robot.from_urdf(str(urdf)))["tcp"] == np.eye(4).tolist()
     want = np.eye(4)
     want[:3, 3] = [0.05, -0.02, 0.1]
-    assert _robot_meta(jaxstiff.Robot.from_urdf(str(urdf), tcp=[0.05, -0.02, 0.1]))["tcp"] == want.tolist()
+    assert robot_meta(jaxstiff.Robot.from_urdf(str(urdf), tcp=[0.05, -0.02, 0.1]))["tcp"] == want.tolist()
 
 
 @pytest.mark.parametrize("solver", ["slsqp", "pgd"])

@@ -3,9 +3,9 @@
 import jax
 import jax.numpy as jnp
 import numpy as np
+from helpers import assert_close, numpy_fk
 
 import jaxstiff
-from helpers import assert_close, numpy_fk
 
 
 def planar_3r_closed_form(q):

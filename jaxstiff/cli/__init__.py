@@ -2,10 +2,13 @@
 
 from .common import COMMANDS as COMMANDS
 from .common import TIP_LINK_HELP as TIP_LINK_HELP
+from .common import add_robot_flags as add_robot_flags
 from .common import check_out_file as check_out_file
 from .common import command as command
 from .common import parse_locks as parse_locks
+from .common import robot_spec_from_args as robot_spec_from_args
 from .main import build_parser as build_parser
 from .main import main as main
 
-__all__ = ["COMMANDS", "TIP_LINK_HELP", "build_parser", "check_out_file", "command", "main", "parse_locks"]
+__all__ = ["COMMANDS", "TIP_LINK_HELP", "add_robot_flags", "build_parser", "check_out_file", "command", "main",
+           "parse_locks", "robot_spec_from_args"]

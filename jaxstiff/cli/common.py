@@ -11,15 +11,21 @@ import argparse
 import os
 import re
 import tempfile
-from typing import Callable
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
-COMMANDS: dict[str, tuple[Callable[[argparse.ArgumentParser], None], Callable[[argparse.Namespace], int], str]] = {}
+if TYPE_CHECKING:
+    from jaxstiff.settings.robot import RobotSpec
+
+#: ``add(parser)`` adds a command's flags and returns its ``run(args) -> exit status``
+AddCommand = Callable[[argparse.ArgumentParser], Callable[[argparse.Namespace], int]]
+COMMANDS: dict[str, tuple[AddCommand, None, str]] = {}
 
 
-def command(name: str, help: str):
+def command(name: str, help: str) -> Callable[[AddCommand], AddCommand]:
     """Decorator pair: ``@command(name, help)`` on a function ``add(parser)`` returning ``run``."""
 
-    def deco(add: Callable[[argparse.ArgumentParser], Callable[[argparse.Namespace], int]]):
+    def deco(add: AddCommand) -> AddCommand:
         COMMANDS[name] = (add, None, help)  # run is bound when the parser is built
         return add
 
@@ -115,7 +121,15 @@ def add_robot_flags(p: argparse.ArgumentParser) -> None:
                         "roll-pitch-yaw rotation (default: none)")
 
 
-def robot_spec_from_args(args: argparse.Namespace):
+def setting_help(cls: Any, name: str, unit: str | None = None, extra: str = "") -> str:
+    """A flag's help from a settings field: ``"<doc>, <unit><extra>"`` (``unit`` overrides the
+    field's, e.g. degrees for ``--dq-deg``), so the command line and the API say the same."""
+    info = {i.name: i for i in cls.fields_info()}[name]
+    u = info.unit if unit is None else unit
+    return f"{info.doc}{', ' + u if u else ''}{extra}"
+
+
+def robot_spec_from_args(args: argparse.Namespace) -> RobotSpec:
     """The :class:`~jaxstiff.settings.RobotSpec` of the robot flags (errors name the flag)."""
     from jaxstiff.settings.robot import RobotSpec
 

@@ -24,9 +24,9 @@ def _add_reproduce(p: argparse.ArgumentParser):
                    help="run every experiment script, not only the seed reproductions (fig*, csc*)")
 
     def run(args) -> int:
-        from jaxstiff.reproduce import run_reproduce
-
         import os
+
+        from jaxstiff.reproduce import run_reproduce
 
         if os.path.exists(args.out) and not os.path.isdir(args.out):
             raise ValueError(f"--out: {args.out} is a file; the report needs a folder (made if missing)")

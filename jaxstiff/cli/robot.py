@@ -1,29 +1,30 @@
-"""``jaxstiff robot``: print a robot's chain, limits, and FK/Jacobian at a posture."""
+"""``jaxstiff robot``: print a robot's chain, limits, and FK/Jacobian at a posture.
+
+The robot flags are every command's (:func:`~jaxstiff.cli.common.add_robot_flags`): the shipped
+kuka_lwr4 has its 7th joint locked at 0 here too, as in ``jaxstiff shape`` (``--lock none`` frees it).
+"""
 
 from __future__ import annotations
 
 import argparse
 import warnings
+from typing import Any
 
-from .common import TIP_LINK_HELP, command, parse_floats, parse_locks
+from .common import add_robot_flags, command, parse_floats, robot_spec_from_args
 
 
 @command("robot", "print a robot's chain, limits, and FK/Jacobian at a posture")
-def _add_robot(p: argparse.ArgumentParser):
-    p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name (default: kuka_lwr4)")
-    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
-    p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
-    p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable)")
+def _add_robot(p: argparse.ArgumentParser) -> Any:
+    add_robot_flags(p)
     p.add_argument("--q", default=None, help="posture, comma-separated rad (m for prismatic joints; default: the nominal posture, mid-range + 30 deg per revolute joint, mid-range for a prismatic one)")
 
-    def run(args) -> int:
+    def run(args: argparse.Namespace) -> int:
         import numpy as np
 
-        from ..model.robot import Robot
         from ..runtime.x64 import enable_x64
 
         enable_x64()
-        robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
+        robot = robot_spec_from_args(args).build()
         if args.q is None:
             from ..ik import nominal_posture
 

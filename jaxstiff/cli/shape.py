@@ -1,7 +1,9 @@
 """``jaxstiff shape``: stiffness-ellipsoid shaping along TCP paths, result file ``.npz`` (seed 000).
 
 With no arguments it runs the shipped default: the KUKA LWR 4 with its 7th joint locked at 0 (as
-in seed 000), the shipped default path, criterion f2 with ratio 5, written to ``shape.npz``.
+in seed 000), the shipped default path, criterion f2 with ratio 5, written to ``shape.npz``. The
+flags' defaults, units and help come from :class:`~jaxstiff.settings.ShapeSettings` and the robot
+flags from :func:`~jaxstiff.cli.common.add_robot_flags`, like every command's.
 """
 
 from __future__ import annotations
@@ -10,25 +12,41 @@ import argparse
 import math
 import os
 import sys
-import time
+from typing import TYPE_CHECKING, Any
 
+from jaxstiff.cli.common import add_robot_flags, check_out_file, command, robot_spec_from_args, setting_help
 from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending, raise_if_interrupted
-from jaxstiff.cli.common import TIP_LINK_HELP, check_out_file, command, parse_locks
+from jaxstiff.runtime.progress import Progress, progress
+from jaxstiff.settings.shape import TASKS, ShapeSettings
 
-_DEFAULT_LOCK = {"kuka_lwr4": {"lwr_a7": 0.0}}
+if TYPE_CHECKING:
+    import numpy as np
+
+    from jaxstiff.model.robot import Robot
+    from jaxstiff.paths import Path
+    from jaxstiff.results.files import ShapeResult
+
+__all__ = ["summary_table", "rate_limits", "WaypointProgress", "add_shape_flags", "run_shape"]
+
+_S = ShapeSettings()
+EPILOG = ("Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
+          "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
+          "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
+          "file is written with the waypoints finished so far (the others have status 5, not run; meta "
+          "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written; after the "
+          "last waypoint the complete file is still written.")
 
 
-def _num(text, flag: str, cast=float):
+def _num(text: Any, flag: str, cast: Any = float) -> Any:
     if text is None:
         return None
     try:
-        v = cast(text)
+        return cast(text)
     except (TypeError, ValueError):
         raise ValueError(f"{flag}: expected a number, got {text!r}") from None
-    return v
 
 
-def _nums(text, flag: str) -> list[float] | None:
+def _nums(text: str | None, flag: str) -> list[float] | None:
     if text is None:
         return None
     out = []
@@ -45,43 +63,22 @@ def _nums(text, flag: str) -> list[float] | None:
     return out
 
 
-class _Progress:
-    """A progress bar with ETA on stderr (redrawn in place on a terminal, a line every 5 s otherwise)."""
+class WaypointProgress:
+    """``shape(progress=...)``'s callback for the command: a checkpoint for interrupts (a Ctrl-C
+    that JAX swallowed stops the run at the next waypoint) and a :class:`~jaxstiff.runtime.progress.Progress`
+    tick (``done`` counts the waypoints finished)."""
 
-    def __init__(self, total: int, enabled: bool):
-        self.total, self.enabled = total, enabled
+    def __init__(self, bar: Progress):
+        self.bar = bar
         self.done = 0
-        self.t0 = time.perf_counter()
-        self.t1 = self.t0
-        self.last = 0.0
-        self.tty = sys.stderr.isatty()
 
     def __call__(self, b: int, p: int) -> None:
-        raise_if_interrupted()  # a Ctrl-C that JAX swallowed stops the run at the next waypoint
+        raise_if_interrupted()
         self.done += 1
-        now = time.perf_counter()
-        if self.done == 1:
-            self.t1 = now  # the rate leaves out the first waypoint: compilation and its start postures
-        if not self.enabled:
-            return
-        if self.done < self.total and now - self.last < (0.2 if self.tty else 5.0):
-            return
-        self.last = now
-        el = now - self.t0
-        rate = (self.done - 1) / (now - self.t1) if self.done > 1 and now > self.t1 else 0.0
-        eta = f"{(self.total - self.done) / rate:6.1f} s" if rate > 0 else "   ..."
-        width = 30
-        fill = int(width * self.done / max(self.total, 1))
-        msg = (f"shape [{'#' * fill}{'.' * (width - fill)}] {self.done}/{self.total} waypoints "
-               f"(path {b})  {el:6.1f} s  ETA {eta}")  # 0-based, as the result file and the warnings
-        if self.tty:
-            sys.stderr.write("\r" + msg + ("\n" if self.done >= self.total else ""))
-        else:
-            sys.stderr.write(msg + "\n")
-        sys.stderr.flush()
+        self.bar.update(1, note=f"path {b}")  # 0-based, as the result file and the warnings
 
 
-def summary_table(res) -> str:
+def summary_table(res: ShapeResult) -> str:
     """Per path: waypoints, statuses, share with alpha < 1 deg, share with the ratio met, errors, time."""
     import numpy as np
 
@@ -109,7 +106,7 @@ def summary_table(res) -> str:
     return "\n".join(lines)
 
 
-def _rate_limits(robot, dq_deg: float, dq_m: float | None):
+def rate_limits(robot: Robot, dq_deg: float, dq_m: float | None) -> float | np.ndarray:
     """Per-joint rate limit (n,): revolute joints from --dq-deg (rad), prismatic ones from --dq-m
     (m; default the same number as the revolute joints' radians), a scalar when all are revolute."""
     import numpy as np
@@ -121,32 +118,17 @@ def _rate_limits(robot, dq_deg: float, dq_m: float | None):
     return np.where(prismatic, dq if dq_m is None else dq_m, dq)
 
 
-@command("shape", "shape the stiffness ellipsoid along TCP paths (seed 000): per-waypoint SLSQP -> .npz")
-def _add_shape(p: argparse.ArgumentParser):
-    from jaxstiff.shaping import DEFAULTS
-
-    p.epilog = ("Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
-                "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
-                "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
-                "file is written with the waypoints finished so far (the others have status 5, not run; meta "
-                "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written; after the "
-                "last waypoint the complete file is still written.")
-    p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
-    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
-    p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
-    p.add_argument("--lock", action="append", metavar="JOINT=RAD",
-                   help="lock a joint at a value, rad (repeatable). Default for the shipped kuka_lwr4: "
-                        "lwr_a7=0 (seed 000); '--lock none' frees every joint")
-    p.add_argument("--tcp", default=None, metavar="X,Y,Z", help="tool offset after the tip link, m, in the tip frame (default: none)")
+# ---------------------------------------------------------------------- flags
+def _add_problem_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--path", action="append", metavar="CSV",
                    help="path file with header x,y,z[,dx,dy,dz], metres in the base frame (repeatable: several "
                         "paths with the same number of waypoints, one result file; messages number them from "
                         "0, in the order given, as the file's first axis). Default: the shipped "
                         "default path (jaxstiff.paths.default_path)")
-    p.add_argument("--criterion", default="f2", help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
-    p.add_argument("--ratio", default="5", metavar="R", help="wanted axis ratio lambda1/lambda2, > 1")
+    p.add_argument("--criterion", default=_S.criterion, help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
+    p.add_argument("--ratio", default=_S.ratio, metavar="R", help=setting_help(ShapeSettings, "ratio", extra=", > 1"))
     p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)")
-    p.add_argument("--task", default="full", choices=["full", "xyz", "xy"],
+    p.add_argument("--task", default=_S.task, choices=list(TASKS),
                    help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2")
     p.add_argument("--q0", default=None, metavar="RAD,...",
                    help="start posture, one value per joint (rad; m for prismatic joints; locked joints at their values); "
@@ -154,154 +136,193 @@ def _add_shape(p: argparse.ArgumentParser):
     p.add_argument("--kj0", default=None, metavar="V|V,...",
                    help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
                         "(default: mid-range (kmin+kmax)/2)")
-    p.add_argument("--dq-deg", default=str(DEFAULTS["dq_deg"]), metavar="D",
-                   help="joint rate limit, degrees per waypoint (inf = none)")
+
+
+def _add_limit_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--dq-deg", default=math.degrees(_S.dq), metavar="D",
+                   help=setting_help(ShapeSettings, "dq", unit="degrees per waypoint", extra=" (inf = none)"))
     p.add_argument("--dq-m", default=None, metavar="M",
                    help="rate limit of prismatic joints, m per waypoint (inf = none; default: the value of "
                         "--dq-deg in radians read as metres, 2 -> 0.0349 m)")
-    p.add_argument("--dk", default=str(DEFAULTS["dk"]), metavar="K",
-                   help="joint-stiffness rate limit, Nm/rad per waypoint (inf = none)")
-    p.add_argument("--kmin", default=str(DEFAULTS["kmin"]), metavar="A", help="lowest joint stiffness, Nm/rad, > 0")
-    p.add_argument("--kmax", default=str(DEFAULTS["kmax"]), metavar="B", help="highest joint stiffness, Nm/rad, > kmin")
-    p.add_argument("--c", default=str(DEFAULTS["c"]), metavar="C", help="f1's offset c (S0-9), deg")
-    p.add_argument("--solver", default="slsqp",
-                   help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
-                        "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
-                        "trajectory after a greedy warm start), or another registered solver")
-    p.add_argument("--starts", default=None, metavar="S", help="starts per waypoint, multi-start solvers only (default: the solver's own)")
+    p.add_argument("--dk", default=_S.dk, metavar="K", help=setting_help(ShapeSettings, "dk", extra=" (inf = none)"))
+    p.add_argument("--kmin", default=_S.kmin, metavar="A", help=setting_help(ShapeSettings, "kmin", extra=", > 0"))
+    p.add_argument("--kmax", default=_S.kmax, metavar="B", help=setting_help(ShapeSettings, "kmax", extra=", > kmin"))
+    p.add_argument("--c", default=_S.c, metavar="C", help=setting_help(ShapeSettings, "c"))
     p.add_argument("--first-rate-limit", dest="first_rate_limit", action="store_true",
                    help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
                         "first waypoint may use the full joint and stiffness ranges)")
     p.add_argument("--no-first-rate-limit", dest="first_rate_limit", action="store_false",
                    help="the default: do not rate-limit the first waypoint")
-    p.set_defaults(first_rate_limit=DEFAULTS["first_rate_limit"])
-    p.add_argument("--first-starts", default=str(DEFAULTS["first_starts"]), metavar="N",
+    p.set_defaults(first_rate_limit=_S.first_rate_limit)
+    p.add_argument("--first-starts", default=_S.first_starts, metavar="N",
                    help="start postures for the first (not rate-limited) waypoint")
     p.add_argument("--cms-volume", default=None, metavar="V",
-                   help="CMS target: product of the ellipsoid axes, (N/m)^3 (default: 1000^3, "
-                        "i.e. a geometric-mean axis of 1000 N/m)")
+                   help=f"CMS target: product of the ellipsoid axes, (N/m)^3 (default: {_S.cms_mean_axis:g}^3, "
+                        f"i.e. a geometric-mean axis of {_S.cms_mean_axis:g} N/m)")
     p.add_argument("--cms-major", default=None, metavar="N_PER_M", help="CMS target: major axis lambda1, N/m, instead of the volume")
+
+
+def _add_solver_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--solver", default=_S.solver,
+                   help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
+                        "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
+                        "trajectory after a greedy warm start), or another registered solver")
+    p.add_argument("--starts", default=_S.starts, metavar="S",
+                   help="starts per waypoint, multi-start solvers only (default: the solver's own)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary table")
 
-    def run(args) -> int:
-        import numpy as np
 
-        from jaxstiff.results import files as R
-        from jaxstiff.runtime.x64 import enable_x64
-        from jaxstiff.paths import Path, default_path
-        from jaxstiff.model.robot import Robot, robot_path
-        from jaxstiff.shaping import ShapeInterrupted, prefer_sync_cpu_dispatch, shape
+def add_shape_flags(p: argparse.ArgumentParser) -> None:
+    """Every flag of ``jaxstiff shape`` (the robot flags are every command's)."""
+    p.epilog = EPILOG
+    add_robot_flags(p)
+    _add_problem_flags(p)
+    _add_limit_flags(p)
+    _add_solver_flags(p)
 
-        # ---- validate everything before any work, so bad input never leaves a file
-        out = check_out_file(args.out)
-        ratio = _num(args.ratio, "--ratio")
-        dq_deg = _num(args.dq_deg, "--dq-deg")
-        dk = _num(args.dk, "--dk")
-        kmin, kmax = _num(args.kmin, "--kmin"), _num(args.kmax, "--kmax")
-        c = _num(args.c, "--c")
-        starts = _num(args.starts, "--starts", int)
-        first_starts = _num(args.first_starts, "--first-starts", int)
-        cms_volume, cms_major = _num(args.cms_volume, "--cms-volume"), _num(args.cms_major, "--cms-major")
-        if dq_deg is not None and (math.isnan(dq_deg) or dq_deg < 0):
-            raise ValueError(f"--dq-deg must be >= 0 (degrees per waypoint), got {args.dq_deg}")
-        dq_m = None if args.dq_m is None else _num(args.dq_m, "--dq-m")
-        if dq_m is not None and (math.isnan(dq_m) or dq_m < 0):
-            raise ValueError(f"--dq-m must be >= 0 (m per waypoint), got {args.dq_m}")
-        if dk is not None and (math.isnan(dk) or dk < 0):
-            raise ValueError(f"--dk must be >= 0 (Nm/rad per waypoint), got {args.dk}")
 
-        if args.lock:  # ("--lock none": {}, which also drops the default lock below)
-            locks: dict[str, float] = parse_locks(args.lock)
-        else:  # the seed's lock for the shipped LWR, nothing for other robots
-            locks = {}
-            try:
-                src = args.robot if os.path.isfile(args.robot) else robot_path(args.robot)
-            except FileNotFoundError:  # neither a file nor a shipped name: Robot.from_urdf says which
-                src = None
-            for name, lock in _DEFAULT_LOCK.items():
-                if src is not None and os.path.samefile(src, robot_path(name)):
-                    locks = dict(lock)
-        tcp = _nums(args.tcp, "--tcp")
-        robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=locks or None, tcp=tcp)
+# ---------------------------------------------------------------------- run
+def _read_numbers(args: argparse.Namespace) -> dict[str, Any]:
+    """The numeric flags, checked (errors name the flag)."""
+    v = {"ratio": _num(args.ratio, "--ratio"), "dq_deg": _num(args.dq_deg, "--dq-deg"), "dk": _num(args.dk, "--dk"),
+         "kmin": _num(args.kmin, "--kmin"), "kmax": _num(args.kmax, "--kmax"), "c": _num(args.c, "--c"),
+         "starts": _num(args.starts, "--starts", int), "first_starts": _num(args.first_starts, "--first-starts", int),
+         "cms_volume": _num(args.cms_volume, "--cms-volume"), "cms_major": _num(args.cms_major, "--cms-major"),
+         "dq_m": _num(args.dq_m, "--dq-m")}
+    for key, flag, unit in (("dq_deg", "--dq-deg", "degrees"), ("dq_m", "--dq-m", "m"), ("dk", "--dk", "Nm/rad")):
+        x = v[key]
+        if x is not None and (math.isnan(x) or x < 0):
+            raise ValueError(f"{flag} must be >= 0 ({unit} per waypoint), got {getattr(args, key)}")
+    return v
 
-        if args.path:
-            paths = [Path.from_csv(f) for f in args.path]
-            Ps = sorted({pp.P for pp in paths})
-            if len(Ps) > 1:
-                raise ValueError(
-                    f"--path: all paths of one run need the same number of waypoints, got {Ps}; run them separately"
-                )
-            path = paths[0] if len(paths) == 1 else Path.stack(paths)
-            path_files = [os.path.abspath(f) for f in args.path]
-        else:
-            path = default_path()
-            path_files = ["(shipped default path)"]
 
-        q0 = _nums(args.q0, "--q0")
-        if q0 is not None and len(q0) != robot.n:
-            raise ValueError(f"--q0 needs {robot.n} values (one per joint of {robot.name!r}: {', '.join(robot.joint_names)}), got {len(q0)}")
-        kj0 = _nums(args.kj0, "--kj0")
-        if kj0 is not None and len(kj0) not in (1, robot.n):
-            raise ValueError(f"--kj0 needs 1 or {robot.n} values, got {len(kj0)}")
-        if kj0 is not None and len(kj0) == 1:
-            kj0 = kj0[0]
+def _read_paths(files: list[str] | None) -> tuple[Path, list[str]]:
+    """The --path files as one batch (equal lengths), and their names for meta; default path."""
+    from jaxstiff.paths import Path, default_path
 
-        enable_x64()
-        prefer_sync_cpu_dispatch()  # per-waypoint SLSQP is latency-bound: see its docstring
-        B = path.B
-        progress = _Progress(B * path.P, enabled=not args.quiet)
-        if args.solver in ("pgd", "trajectory", "hybrid") and not args.quiet:
-            print(f"shape: solver {args.solver} solves all {B} path(s) x {path.P} waypoints as one batch (compiling, "
-                  "then solving; no per-waypoint progress until then, and Ctrl-C takes effect when it ends) ...",
-                  file=sys.stderr, flush=True)
-        try:
-            res = shape(
-                robot, path, args.criterion, ratio, task=args.task, solver=args.solver, starts=starts,
-                q0=None if q0 is None else np.asarray(q0), kj0=kj0,
-                dq=_rate_limits(robot, dq_deg, dq_m), dk=dk, kmin=kmin, kmax=kmax, c=c,
-                first_rate_limit=args.first_rate_limit, first_starts=first_starts,
-                cms_volume=cms_volume, cms_major=cms_major, progress=progress,
-                meta_extra={"path_files": path_files, "cli": {k: v for k, v in vars(args).items() if not k.startswith("_")}},
-            )
-        except ShapeInterrupted as e:  # keep what was finished, then stop as interrupted
-            st = e.result.status
-            if np.all(st == R.NOT_RUN):
-                print("\njaxstiff: nothing was written (no waypoint was finished)", file=sys.stderr)
-                raise
-            with deferred_interrupts():
-                written = e.result.save(out)
-            print(f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
-                  f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)", file=sys.stderr)
+    if not files:
+        return default_path(), ["(shipped default path)"]
+    paths = [Path.from_csv(f) for f in files]
+    Ps = sorted({pp.P for pp in paths})
+    if len(Ps) > 1:
+        raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {Ps}; run them separately")
+    return (paths[0] if len(paths) == 1 else Path.stack(paths)), [os.path.abspath(f) for f in files]
+
+
+def _read_start_states(args: argparse.Namespace, robot: Robot) -> tuple[list[float] | None, Any]:
+    """--q0 (n values) and --kj0 (1 or n values)."""
+    q0 = _nums(args.q0, "--q0")
+    if q0 is not None and len(q0) != robot.n:
+        raise ValueError(f"--q0 needs {robot.n} values (one per joint of {robot.name!r}: {', '.join(robot.joint_names)}), got {len(q0)}")
+    kj0 = _nums(args.kj0, "--kj0")
+    if kj0 is not None and len(kj0) not in (1, robot.n):
+        raise ValueError(f"--kj0 needs 1 or {robot.n} values, got {len(kj0)}")
+    return q0, (kj0[0] if kj0 is not None and len(kj0) == 1 else kj0)
+
+
+def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], total: int) -> tuple[ShapeResult, str]:
+    """Run :func:`jaxstiff.shape` with a progress bar; an interrupt keeps what was finished (SLSQP)."""
+    import numpy as np
+
+    from jaxstiff.results import files as R
+    from jaxstiff.shaping import ShapeInterrupted, shape
+
+    if args.solver in ("pgd", "trajectory", "hybrid") and not args.quiet:
+        print(f"shape: solver {args.solver} solves all {kw['path'].B} path(s) x {kw['path'].P} waypoints as one batch "
+              "(compiling, then solving; no per-waypoint progress until then, and Ctrl-C takes effect when it ends) ...",
+              file=sys.stderr, flush=True)
+    try:
+        with progress(total, "shape", "waypoints", enabled=not args.quiet) as bar:
+            res = shape(progress=WaypointProgress(bar), **kw)
+    except ShapeInterrupted as e:  # keep what was finished, then stop as interrupted
+        st = e.result.status
+        if np.all(st == R.NOT_RUN):
+            print("\njaxstiff: nothing was written (no waypoint was finished)", file=sys.stderr)
             raise
-        except KeyboardInterrupt:
-            why = ("it solves all paths together" if args.solver not in ("slsqp", "slsqp-fd")
-                   else "the interrupt came before the first waypoint was finished, or after the last, while the "
-                        "result was assembled")
-            print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
-            raise
-        with deferred_interrupts():  # the work is done: an interrupt now still gets the file
-            written = res.save(out)
-        if interrupt_pending() is not None:
-            print(f"\njaxstiff: interrupted after the last waypoint: wrote the complete result {written}", file=sys.stderr)
-            raise KeyboardInterrupt
-        if not args.quiet:
-            print(summary_table(res))
-            print(f"wrote {written}  ({B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")
-        usable = R.is_usable(res.status)
-        if not usable.all():  # the file is still complete: every waypoint has its status
-            worst = int(np.argmin(usable.sum(axis=1)))
-            far = float(np.max(res.pos_error[~usable]))
-            # the first waypoint has no rate limit (unless --first-rate-limit): if it was reached
-            # and later ones were not, the limits per waypoint are the likelier cause
-            after_first = bool(np.all(usable[:, 0])) and not args.first_rate_limit
-            hint = ("the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
-                    "tight for the waypoint spacing, or the path leaves the robot's reach" if after_first
-                    else "check the path's units and the robot's reach")
-            print(f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
-                  f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
-                  f"{hint} (status codes: see jaxstiff.results)", file=sys.stderr)
-            if not usable.any():
-                return 3  # the file is written, but holds no usable waypoint
+        with deferred_interrupts():
+            written = e.result.save(out)
+        print(f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
+              f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)", file=sys.stderr)
+        raise
+    except KeyboardInterrupt:
+        why = ("it solves all paths together" if args.solver not in ("slsqp", "slsqp-fd")
+               else "the interrupt came before the first waypoint was finished, or after the last, while the "
+                    "result was assembled")
+        print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
+        raise
+    with deferred_interrupts():  # the work is done: an interrupt now still gets the file
+        written = res.save(out)
+    if interrupt_pending() is not None:
+        print(f"\njaxstiff: interrupted after the last waypoint: wrote the complete result {written}", file=sys.stderr)
+        raise KeyboardInterrupt
+    return res, written
+
+
+def _report(args: argparse.Namespace, res: ShapeResult, written: str) -> int:
+    """The summary table, and a warning (exit 3 when nothing is usable) for unusable waypoints."""
+    import numpy as np
+
+    from jaxstiff.results import files as R
+
+    if not args.quiet:
+        print(summary_table(res))
+        print(f"wrote {written}  ({res.B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")
+    usable = R.is_usable(res.status)
+    if usable.all():
         return 0
+    worst = int(np.argmin(usable.sum(axis=1)))
+    far = float(np.max(res.pos_error[~usable]))
+    # the first waypoint has no rate limit (unless --first-rate-limit): if it was reached and later
+    # ones were not, the limits per waypoint are the likelier cause
+    after_first = bool(np.all(usable[:, 0])) and not args.first_rate_limit
+    hint = ("the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
+            "tight for the waypoint spacing, or the path leaves the robot's reach" if after_first
+            else "check the path's units and the robot's reach")
+    print(f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
+          f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
+          f"{hint} (status codes: see jaxstiff.results)", file=sys.stderr)
+    return 0 if usable.any() else 3  # 3: the file is written, but holds no usable waypoint
 
-    return run
+
+def run_shape(args: argparse.Namespace) -> int:
+    """``jaxstiff shape``: check everything before any work (bad input never leaves a file), solve,
+    save, report. Returns the exit status (see the epilog)."""
+    import numpy as np
+
+    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.shaping import prefer_sync_cpu_dispatch
+
+    out = check_out_file(args.out)
+    v = _read_numbers(args)
+    spec = robot_spec_from_args(args)
+    robot = spec.build()
+    path, path_files = _read_paths(args.path)
+    q0, kj0 = _read_start_states(args, robot)
+    enable_x64()
+    prefer_sync_cpu_dispatch()  # per-waypoint SLSQP is latency-bound: see its docstring
+    kw = dict(robot=robot, path=path, criterion=args.criterion, ratio=v["ratio"], task=args.task, solver=args.solver,
+              starts=v["starts"], q0=None if q0 is None else np.asarray(q0), kj0=kj0,
+              dq=rate_limits(robot, v["dq_deg"], v["dq_m"]), dk=v["dk"], kmin=v["kmin"], kmax=v["kmax"], c=v["c"],
+              first_rate_limit=args.first_rate_limit, first_starts=v["first_starts"], cms_volume=v["cms_volume"],
+              cms_major=v["cms_major"],
+              meta_extra={"path_files": path_files, "robot_spec": spec.meta(),
+                          "cli": cli_record(args)})
+    res, written = _solve_and_save(args, out, kw, path.B * path.P)
+    return _report(args, res, written)
+
+
+@command("shape", "shape the stiffness ellipsoid along TCP paths (seed 000): per-waypoint SLSQP -> .npz")
+def _add_shape(p: argparse.ArgumentParser) -> Any:
+    add_shape_flags(p)
+    return run_shape
+
+
+def cli_record(args: argparse.Namespace) -> dict:
+    """``meta["cli"]``: the flags as the command line gave them. Numbers are text, as typed (a default
+    as ``str(value)``, e.g. ``"2.0"``), so a file says what was asked, not what it was parsed into."""
+    out = {}
+    for k, val in vars(args).items():
+        if k.startswith("_"):
+            continue
+        out[k] = str(val) if isinstance(val, (int, float)) and not isinstance(val, bool) else val
+    return out

@@ -2,7 +2,7 @@
 validation for the API, the command line and the sweep config (see :mod:`.base`)."""
 
 from .base import Settings as Settings
+from .csc import CSCSettings as CSCSettings
 from .robot import DEFAULT_LOCKS as DEFAULT_LOCKS
 from .robot import RobotSpec as RobotSpec
-from .csc import CSCSettings as CSCSettings
 from .shape import ShapeSettings as ShapeSettings

@@ -1,8 +1,8 @@
 """CSCSettings: the settings of Configuration-based Stiffness Control (seed 001), defaults written once.
 
 ``csc_rollout()``, ``jaxstiff csc`` and a sweep's ``[csc]`` axes read their defaults here.
-Seed 001 fixes the update rule (S1-20 ... S1-23) but not these numbers; every one is this
-project's choice (SPEC section 6; the ``jaxstiff.csc`` docstrings say why).
+Seed 001 fixes the update rule (S1-13 ... S1-22) but not these numbers; every one is this
+project's choice (SPEC section 6; the :mod:`jaxstiff.csc` docstrings say why).
 """
 
 from __future__ import annotations
@@ -10,40 +10,85 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from jaxstiff.settings.base import Settings, non_negative, positive, setting
+from jaxstiff.settings.base import Settings, setting
 
-__all__ = ["CSCSettings", "CSC_TASKS", "STEP_RULES", "JOINT_LIMIT_MODES", "DEFAULT_JL_GAIN"]
+__all__ = ["CSCSettings", "CSC_TASKS", "STEP_RULES", "JOINT_LIMIT_MODES", "DEFAULT_JL_GAIN", "TASK_BY_SIZE"]
 
 CSC_TASKS = ("xy", "xyz", "full")  #: task rows; None = from the size of K_xd
+TASK_BY_SIZE = {2: "xy", 3: "xyz", 6: "full"}  #: the task of a K_xd of size m x m (task None)
 STEP_RULES = ("adaptive", "constant")  #: S1-22 (beta x |dq_P|) or a constant null-step length
 JOINT_LIMIT_MODES = ("off", "priority", "sum")
 DEFAULT_JL_GAIN = 0.3  #: the joint-limit gain used when avoidance is on and no gain is given
 
 
+def _is_real(v: object) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and not math.isnan(v)
+
+
+def _finite_non_negative(v: object) -> str | None:
+    return None if _is_real(v) and math.isfinite(v) and v >= 0 else "must be a finite number >= 0"  # type: ignore[arg-type]
+
+
+def _positive(v: object) -> str | None:
+    return None if _is_real(v) and v > 0 else "must be a number > 0"  # type: ignore[operator]
+
+
+def _isotropy_threshold(v: object) -> str | None:
+    return None if _is_real(v) and 0 <= v < 1 else "must be a number in [0, 1) (the isotropy is in [0, 1])"  # type: ignore[operator]
+
+
 def _optional_positive(v: object) -> str | None:
-    return None if v is None else positive(v)
+    return None if v is None else (None if _is_real(v) and math.isfinite(v) and v > 0  # type: ignore[arg-type]
+                                   else "must be a finite number > 0 (or None: from K_xd and the dtype)")
+
+
+def _optional_gain(v: object) -> str | None:
+    return None if v is None else _finite_non_negative(v)
+
+
+def _count(v: object) -> str | None:
+    return None if isinstance(v, int) and not isinstance(v, bool) and v >= 0 else "must be an integer >= 0"
 
 
 @dataclasses.dataclass(frozen=True)
 class CSCSettings(Settings):
-    """Settings of :func:`jaxstiff.csc_rollout` besides the robot, path, K_xd, q0 and beta."""
+    """Settings of :func:`jaxstiff.csc_rollout` besides the robot, path, K_xd and q0.
+
+    ``beta`` is also :func:`~jaxstiff.csc_rollout`'s fifth argument (default: this one). A None
+    ``task`` follows from the size of K_xd (:data:`TASK_BY_SIZE`); a None ``null_eps`` is
+    ``1e-9 |K_xd|_F`` (1e-5 in float32) plus tiny^(1/4); a None ``jl_gain`` is
+    :data:`DEFAULT_JL_GAIN` with ``joint_limits`` priority or sum, else 0 (:attr:`resolved_jl_gain`).
+    """
 
     section = "csc"
 
-    task: str | None = setting(None, choices=(None, *CSC_TASKS), doc="task rows (None: from the size of K_xd)")
-    step: str = setting("adaptive", choices=STEP_RULES, doc="null-space step rule")
-    beta: float = setting(1.0, unit="1 (adaptive) or rad per step (constant)",
-                          doc="null-step multiplier (S1-22); constant rule: the null-step length", check=non_negative)
-    kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=positive)
+    task: str | None = setting(None, choices=(None, *CSC_TASKS), doc="task rows (default: from the size of K_xd: 2 xy, 3 xyz, 6 full)")
+    step: str = setting("adaptive", choices=STEP_RULES,
+                        doc="null-space step rule: adaptive = beta x |dq_P| (S1-22), constant = a null step of length beta")
+    beta: float = setting(1.0, unit="1 (adaptive) or rad per step (constant; m for prismatic joints)",
+                          doc="null-step multiplier (S1-22); constant rule: the null-step length", check=_finite_non_negative)
+    kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive)
     kmax: float = setting(math.inf, unit="Nm/rad", doc="actuator range: highest joint stiffness (inf: open)",
-                          check=positive)
-    nu0: float = setting(1e-2, doc="damping threshold of the least-squares inverse (S1-21's nu0)", check=positive)
-    damping: float = setting(0.1, doc="damping factor of the least-squares inverse", check=non_negative)
-    null_eps: float | None = setting(None, doc="null-step floor (None: from the dtype)", check=_optional_positive)
-    newton: int = setting(0, doc="Newton corrections of the TCP inside each step", check=non_negative)
-    joint_limits: str = setting("off", choices=JOINT_LIMIT_MODES, doc="joint-limit avoidance as a secondary task")
-    jl_gain: float | None = setting(None, doc=f"joint-limit gain (None: {DEFAULT_JL_GAIN} with avoidance on, else 0)",
-                                    check=lambda v: None if v is None else non_negative(v))
+                          check=_positive)
+    nu0: float = setting(1e-2, unit="1", doc="isotropy threshold: damping below nu0^(m/2) (S1-16's damped inverse)",
+                         check=_isotropy_threshold)
+    damping: float = setting(0.1, unit="1", doc="relative damping lam / sqrt(tr(J J^T)/m) at a singularity",
+                             check=_finite_non_negative)
+    null_eps: float | None = setting(None, unit="Nm/rad^2", doc="floor of |dq_N| (default: 1e-9 |K_xd|_F, from the dtype)",
+                                     check=_optional_positive)
+    newton: int = setting(0, doc="Newton corrections of the TCP inside each step", check=_count)
+    joint_limits: str = setting("off", choices=JOINT_LIMIT_MODES,
+                                doc="joint-limit avoidance as a secondary task (joints are always clamped to their limits)")
+    jl_gain: float | None = setting(
+        None, unit="rad per step (priority) or 1 (sum)",
+        doc=f"joint-limit avoidance gain: priority = rad per step for a joint at its limit (before the projection), "
+            f"sum = weight against the CSC gradient at a limit (default: {DEFAULT_JL_GAIN} with joint_limits priority "
+            f"or sum, else 0)", check=_optional_gain)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not self.kmax >= self.kmin:
+            raise ValueError(f"csc.kmax ({self.kmax:g}) must be >= csc.kmin ({self.kmin:g}) (Nm/rad)")
 
     @property
     def resolved_jl_gain(self) -> float:

@@ -156,7 +156,7 @@ def robot_meta(robot: Robot) -> dict[str, Any]:
         "sha256": file_sha256(src) if src and os.path.isfile(src) else "",
         "base_link": robot.base_link,
         "tip_link": robot.tip_link,
-        "locked": {nm: v for nm, v in zip(robot.joint_names, robot.locked) if v is not None},
+        "locked": {nm: v for nm, v in zip(robot.joint_names, robot.locked, strict=True) if v is not None},
         "joint_names": list(robot.joint_names),
         "lower": robot.lower.tolist(),
         "upper": robot.upper.tolist(),

@@ -5,16 +5,23 @@ are those of the API: joint rate limits in rad per waypoint (``dq``; m for prism
 the command line's ``--dq-deg`` and the sweep's ``dq_deg`` are degrees and are converted by
 :meth:`ShapeSettings.dq_from_deg`. Every result file records the settings it ran with, with
 their units (``meta["settings"]``).
+
+``ratio``, ``dq`` and ``dk`` may also be given per path (and per joint) to :func:`jaxstiff.shape`;
+:func:`ratio_per_path` and :func:`limit_per_joint` check those arrays, naming the path and joint
+of a bad value.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
+
+import numpy as np
 
 from jaxstiff.settings.base import Settings, at_least, non_negative, positive, setting
 
-__all__ = ["ShapeSettings", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG"]
+__all__ = ["ShapeSettings", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG", "ratio_per_path", "limit_per_joint"]
 
 CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
 TASKS = ("full", "xyz", "xy")  #: task rows of the stiffness (SPEC section 2)
@@ -48,7 +55,7 @@ class ShapeSettings(Settings):
                         doc="joint stiffness rate limit (S0-13, S0-14)", check=non_negative)
     kmin: float = setting(1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive)
     kmax: float = setting(100.0, unit="Nm/rad", doc="highest joint stiffness", check=positive)
-    c: float = setting(0.01, doc="offset c of f1 (S0-9)", check=non_negative)
+    c: float = setting(0.01, unit="deg", doc="offset c of f1 (S0-9)", check=non_negative)
     first_rate_limit: bool = setting(False, doc="apply the rate limits between (q0, kj0) and waypoint 0")
     first_starts: int = setting(8, doc="IK start postures tried at the first waypoint", check=at_least(1))
     cms_mean_axis: float = setting(1000.0, unit="N/m", doc="CMS: the common geometric-mean axis of every waypoint",
@@ -63,3 +70,50 @@ class ShapeSettings(Settings):
     def dq_from_deg(dq_deg: float) -> float:
         """``--dq-deg`` / the sweep's ``dq_deg`` (degrees per waypoint) as the API's ``dq`` (rad)."""
         return math.radians(dq_deg)
+
+
+def limit_per_joint(value: Any, n: int, what: str, unit: str, B: int = 1) -> np.ndarray:
+    """A rate limit: a number or (n,) -> (n,), the same for every path; (B, n) -> one row per path
+    ((n,) again if all rows are equal). Errors name the path (row) and joint of a bad value."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a number, {n} numbers or ({B}, {n}) numbers ({unit})") from None
+    if a.ndim == 0:
+        a = np.full(n, float(a))
+    if a.shape != (n,) and a.shape != (B, n):
+        raise ValueError(f"{what} must be a number, {n} numbers (one per joint) or shape ({B}, {n}) "
+                         f"(one row per path) ({unit}), got shape {a.shape}")
+    bad_nan = np.argwhere(np.isnan(a))
+    bad_neg = np.argwhere(a < 0)
+    for bad, why in ((bad_nan, "is NaN"), (bad_neg, f"must be >= 0 ({unit}; inf = no limit)")):
+        if bad.size:
+            idx = tuple(int(i) for i in bad[0])
+            where = f"path {idx[0]}, joint {idx[1]}" if a.ndim == 2 else f"joint {idx[0]}"
+            raise ValueError(f"{what} {why}: {where} has {a[idx]}")
+    if a.ndim == 2 and np.all(a == a[:1]):
+        a = a[0].copy()
+    return a
+
+
+def ratio_per_path(value: Any, B: int) -> float | np.ndarray:
+    """The wanted axis ratio: a number (every path) or (B,) (one per path; a number again if all
+    are equal). Each must be finite and > 1; errors name the path of a bad value."""
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"ratio must be a number or {B} numbers (one per path), got {value!r}") from None
+    if a.ndim == 0:
+        r = float(a)
+        if not (math.isfinite(r) and r > 1.0):
+            raise ValueError(f"ratio must be finite and > 1 (lambda1 / lambda2), got {r}")
+        return r
+    if a.shape != (B,):
+        raise ValueError(f"ratio must be a number or {B} numbers (one per path of the batch of {B}), got shape {a.shape}")
+    bad = np.flatnonzero(~(np.isfinite(a) & (a > 1.0)))
+    if bad.size:
+        b = int(bad[0])
+        raise ValueError(f"ratio must be finite and > 1 (lambda1 / lambda2) for every path, got {a[b]} for path {b}")
+    if np.all(a == a[0]):
+        return float(a[0])
+    return a.copy()

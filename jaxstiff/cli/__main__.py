@@ -1,0 +1,7 @@
+"""``python -m jaxstiff.cli``: the ``jaxstiff`` command."""
+
+import sys
+
+from jaxstiff.cli.main import main
+
+sys.exit(main())
