@@ -23,6 +23,7 @@ import functools
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import JOINT_REVOLUTE, Robot
@@ -47,7 +48,10 @@ def nominal_posture(robot: Robot) -> np.ndarray:
 
 
 @functools.partial(jax.jit, static_argnums=(0, 3, 4))
-def _ik(robot: Robot, target: jax.Array, q_start: jax.Array, iters: int, rows: tuple[int, ...]):
+def _ik(
+    robot: Robot, target: jax.Array, q_start: jax.Array, iters: int, rows: tuple[int, ...]
+) -> tuple[jax.Array, jax.Array]:
+    """The jitted DLS/Gauss-Newton iteration: ``(q (n,), position error (m) over ``rows``)``; see :func:`ik_position`."""
     free = np.asarray(robot.free)
     lo = jnp.asarray(np.where(free, robot.lower, -np.inf), dtype=q_start.dtype)
     hi = jnp.asarray(np.where(free, robot.upper, np.inf), dtype=q_start.dtype)
@@ -55,7 +59,7 @@ def _ik(robot: Robot, target: jax.Array, q_start: jax.Array, iters: int, rows: t
     rows_a = jnp.asarray(rows)
     k = len(rows)
 
-    def step(i, q):
+    def step(i: jax.Array, q: jax.Array) -> jax.Array:
         p, J = position_and_jacobian(robot, q, rows)
         e = target[rows_a] - p[rows_a]
         J = J * mask[None, :]
@@ -74,8 +78,8 @@ def _ik(robot: Robot, target: jax.Array, q_start: jax.Array, iters: int, rows: t
 
 def ik_position(
     robot: Robot,
-    target,
-    q_start=None,
+    target: ArrayLike,
+    q_start: ArrayLike | None = None,
     iters: int = 150,
     planar: bool = False,
 ) -> tuple[np.ndarray, float]:
@@ -93,10 +97,10 @@ def ik_position(
         over the matched rows. The caller decides what error is acceptable (unreachable targets
         return the closest posture found, not an exception).
     """
-    target = np.asarray(target, dtype=float)
-    if target.shape != (3,) or not np.all(np.isfinite(target)):
-        raise ValueError(f"IK target must be 3 finite numbers (m), got {target!r}")
+    tgt = np.asarray(target, dtype=float)
+    if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
+        raise ValueError(f"IK target must be 3 finite numbers (m), got {tgt!r}")
     q0 = nominal_posture(robot) if q_start is None else np.asarray(q_start, dtype=float)
     dtype = jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
-    q, err = _ik(robot, jnp.asarray(target, dtype), jnp.asarray(q0, dtype), int(iters), (0, 1) if planar else (0, 1, 2))
+    q, err = _ik(robot, jnp.asarray(tgt, dtype), jnp.asarray(q0, dtype), int(iters), (0, 1) if planar else (0, 1, 2))
     return np.asarray(q, dtype=float), float(err)

@@ -1,0 +1,57 @@
+"""TCP paths: waypoints and desired ellipsoid directions (SPEC section 5), CSV files, generators.
+
+A :class:`Path` holds ``P >= 2`` waypoints ``x_p`` (metres, in the robot's base frame; one is
+enough when its direction is given) and one desired direction ``d_p`` per waypoint (unit
+vectors). Seed 000 aligns the stiffness ellipsoid with the direction of motion, so the default
+direction is the unit tangent of the path:
+``(x_{p+1} - x_{p-1}) / |...|`` inside, one-sided differences at the two ends. For equally spaced
+points on a circle the central difference is exactly the tangent. The generators pass their
+analytic tangents instead.
+
+A batch of ``B`` paths with the same number of waypoints is one Path with ``points`` (B, P, 3).
+
+CSV format (DESIGN.md): a header ``x,y,z`` and optionally ``dx,dy,dz``, one waypoint a row,
+metres in the base frame; ``#`` starts a comment line.
+
+The shipped default, :func:`default_path`: a half-sine bump in the LWR's xy plane; see its
+docstring for its geometry.
+
+Modules: :mod:`.core` (:class:`Path`, :func:`tangents`), :mod:`.csv_io` (reading and writing the
+CSV text), :mod:`.generators` (line, arc, circle, half_sine, spline), :mod:`.default` (the shipped
+default path). Every public name is importable from ``jaxstiff.paths``.
+
+Example:
+    >>> import numpy as np
+    >>> from jaxstiff.paths import Path, arc
+    >>> p = Path(np.array([[0.5, 0.0, 0.4], [0.5, 0.1, 0.4], [0.5, 0.2, 0.4]]))
+    >>> p.directions[0].tolist()
+    [0.0, 1.0, 0.0]
+"""
+
+from __future__ import annotations
+
+from .core import ZERO_SEGMENT_M as ZERO_SEGMENT_M
+from .core import Path as Path
+from .core import tangents as tangents
+from .csv_io import format_csv as format_csv
+from .csv_io import read_csv as read_csv
+from .default import DEFAULT_PATH_SPEC as DEFAULT_PATH_SPEC
+from .default import default_path as default_path
+from .generators import arc as arc
+from .generators import circle as circle
+from .generators import half_sine as half_sine
+from .generators import line as line
+from .generators import spline as spline
+
+__all__ = [
+    "Path",
+    "read_csv",
+    "tangents",
+    "line",
+    "arc",
+    "circle",
+    "half_sine",
+    "spline",
+    "default_path",
+    "DEFAULT_PATH_SPEC",
+]

@@ -1,0 +1,153 @@
+"""Path generators: line, arc, circle, half_sine, spline.
+
+Every generator returns a :class:`~jaxstiff.paths.Path` of ``n`` waypoints (metres, robot base
+frame) with the curve's analytic unit tangent as the desired direction.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .core import ZERO_SEGMENT_M, Path
+
+__all__ = ["line", "arc", "circle", "half_sine", "spline"]
+
+
+def _vec3(v: ArrayLike, what: str) -> np.ndarray:
+    a = np.asarray(v, dtype=float)
+    if a.shape != (3,) or not np.all(np.isfinite(a)):
+        raise ValueError(f"{what} must be 3 finite numbers (m), got {v!r}")
+    return a
+
+
+def _check_n(n: int) -> int:
+    n = int(n)
+    if n < 2:
+        raise ValueError(f"a path needs at least 2 waypoints, got n = {n}")
+    return n
+
+
+def _plane_basis(normal: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An orthonormal right-handed basis ``(e1, e2, n)`` with ``n`` the unit plane normal; ``e1`` is
+    the base x axis projected into the plane (the y axis when the normal is near x)."""
+    nz = _vec3(normal, "normal")
+    if np.linalg.norm(nz) <= 1e-12:
+        raise ValueError("normal must be non-zero")
+    nz = nz / np.linalg.norm(nz)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(nz[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = ref - nz * (ref @ nz)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(nz, e1)
+    return e1, e2, nz
+
+
+def line(start: ArrayLike, end: ArrayLike, n: int = 20) -> Path:
+    """``n`` equally spaced waypoints on the segment ``start -> end`` ((3,) each, m); direction = the segment."""
+    a, b = _vec3(start, "start"), _vec3(end, "end")
+    n = _check_n(n)
+    if np.linalg.norm(b - a) <= ZERO_SEGMENT_M:
+        raise ValueError("line: start and end coincide")
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    pts = a + s * (b - a)
+    d = np.broadcast_to((b - a) / np.linalg.norm(b - a), pts.shape)
+    return Path(pts, d, name="line")
+
+
+def arc(
+    center: ArrayLike,
+    radius: float,
+    start_deg: float,
+    end_deg: float,
+    n: int = 30,
+    normal: ArrayLike = (0.0, 0.0, 1.0),
+) -> Path:
+    """``n`` waypoints on a circular arc, equally spaced in angle; direction = analytic tangent.
+
+    ``x(th) = center + radius (cos(th) e1 + sin(th) e2)`` with ``(e1, e2)`` an in-plane basis.
+
+    Args:
+        center: (3,) m.
+        radius: m, > 0.
+        start_deg, end_deg: angles (degrees) measured in the plane normal to ``normal``, from its
+            first in-plane axis (the base x axis for the default normal +z); the arc runs from
+            start to end (either sense).
+        n: waypoints.
+        normal: (3,) plane normal (default +z: an arc in a horizontal xy plane).
+    """
+    c = _vec3(center, "center")
+    if not radius > 0:
+        raise ValueError(f"arc radius must be > 0 (m), got {radius}")
+    n = _check_n(n)
+    if start_deg == end_deg:
+        raise ValueError("arc: start and end angles coincide")
+    e1, e2, _ = _plane_basis(normal)
+    th = np.deg2rad(np.linspace(start_deg, end_deg, n))
+    pts = c + radius * (np.cos(th)[:, None] * e1 + np.sin(th)[:, None] * e2)
+    sense = 1.0 if end_deg > start_deg else -1.0
+    d = sense * (-np.sin(th)[:, None] * e1 + np.cos(th)[:, None] * e2)
+    return Path(pts, d, name="arc")
+
+
+def circle(center: ArrayLike, radius: float, n: int = 60, normal: ArrayLike = (0.0, 0.0, 1.0)) -> Path:
+    """A full circle (``center`` (3,) m, ``radius`` m), ``n`` waypoints, the first point not repeated at the end."""
+    n = _check_n(n)
+    p = arc(center, radius, 0.0, 360.0 * (n - 1) / n if n > 1 else 0.0, n, normal)
+    return Path(p.points, p.directions, name="circle")
+
+
+def half_sine(
+    start: ArrayLike,
+    end: ArrayLike,
+    amplitude: float,
+    n: int = 60,
+    periods: float = 1.0,
+    normal: ArrayLike = (0.0, 0.0, 1.0),
+) -> Path:
+    """A sine bump along ``start -> end`` ((3,) each, m): lateral offset ``amplitude * sin(pi * periods * s)`` (m).
+
+    The offset is in the plane normal to ``normal`` (default +z: in the horizontal plane),
+    perpendicular to the chord (towards ``normal x chord``); ``s`` runs 0..1 in ``n`` equal steps.
+    ``periods = 1`` is a half sine (one bump), ``2`` an S-curve. Direction = analytic tangent.
+    """
+    a, b = _vec3(start, "start"), _vec3(end, "end")
+    n = _check_n(n)
+    chord = b - a
+    L = np.linalg.norm(chord)
+    if L <= ZERO_SEGMENT_M:
+        raise ValueError("half_sine: start and end coincide")
+    nrm = _vec3(normal, "normal")
+    lateral = np.cross(nrm, chord)
+    if np.linalg.norm(lateral) <= 1e-12:
+        raise ValueError("half_sine: the chord is parallel to the plane normal")
+    lateral /= np.linalg.norm(lateral)
+    s = np.linspace(0.0, 1.0, n)
+    w = math.pi * periods
+    pts = a + s[:, None] * chord + (amplitude * np.sin(w * s))[:, None] * lateral
+    d = chord[None, :] + (amplitude * w * np.cos(w * s))[:, None] * lateral
+    return Path(pts, d, name="half_sine")
+
+
+def spline(points: ArrayLike, n: int = 60) -> Path:
+    """A cubic spline through the given points (K, 3) m, K >= 2, resampled at ``n`` waypoints.
+
+    Chord-length parametrisation, natural end conditions (scipy ``CubicSpline``; not-a-knot for
+    K = 2); waypoints equally spaced in the parameter; direction = the spline's analytic tangent.
+    """
+    from scipy.interpolate import CubicSpline
+
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] < 2:
+        raise ValueError(f"spline needs control points of shape (K >= 2, 3), got {pts.shape}")
+    if not np.all(np.isfinite(pts)):
+        raise ValueError("spline control points contain NaN or Inf")
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    if np.any(seg <= ZERO_SEGMENT_M):
+        raise ValueError("spline: two consecutive control points coincide")
+    n = _check_n(n)
+    u = np.r_[0.0, np.cumsum(seg)]
+    cs = CubicSpline(u, pts, axis=0, bc_type="natural" if pts.shape[0] > 2 else "not-a-knot")
+    s = np.linspace(0.0, u[-1], n)
+    return Path(cs(s), cs(s, 1), name="spline")
