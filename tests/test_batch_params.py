@@ -13,10 +13,10 @@ import json
 
 import numpy as np
 import pytest
+from helpers import numpy_fk
 
 import jaxstiff
 from jaxstiff.results import files as R
-from helpers import numpy_fk
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
 PGD_OPTS = {"starts": 2, "iters": 5, "iters_first": 10, "starts_first": 2, "chunk": 8}
@@ -217,7 +217,7 @@ def test_first_waypoint_start_postures_belong_to_the_path():
     (ab, b, ba) = seen
     assert len(ab[1]) == 2  # first_starts=3: q0 and 2 more
     for starts in (b[0], ba[0]):
-        for (qs, ks), (qr, kr) in zip(starts, ab[1]):
+        for (qs, ks), (qr, kr) in zip(starts, ab[1], strict=True):
             np.testing.assert_array_equal(qs, qr)
             np.testing.assert_array_equal(ks, kr)
     assert not np.array_equal(ab[0][0][0], ab[1][0][0])  # different paths: different postures

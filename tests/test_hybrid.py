@@ -4,9 +4,9 @@ as greedy SLSQP (an independent solver of the same problem), exactly feasible (n
 from __future__ import annotations
 
 import numpy as np
+from test_pgd import OPTS, check_file, planar_paths, run
 
 from jaxstiff.results import files as R
-from test_pgd import OPTS, STARTS, check_file, planar_paths, run
 
 
 def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
@@ -39,11 +39,12 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
     """A waypoint no solver can reach, where pgd's stored (unusable) state lies outside the box of
     the hybrid's own chain (pgd's chain differs): the hybrid reports it unreachable with a state
     inside its box, so the rate limits hold at every waypoint (the file check tests them all)."""
+    from test_pgd import PLANAR
+
     import jaxstiff
-    from jaxstiff.stiffness.criteria import get_criterion
     from jaxstiff.solvers import hybrid
     from jaxstiff.solvers.problem import Limits, WaypointProblem
-    from test_pgd import PLANAR
+    from jaxstiff.stiffness.criteria import get_criterion
 
     path, q0 = planar_paths(1, 4, seed=1)
     pts = path.points.copy()

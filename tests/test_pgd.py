@@ -206,7 +206,7 @@ def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
                 args = (tgt, d, r, kind, 1e3, 100.0)
                 e, jac = ops.lm_residual_and_jacobian(x, *args)
                 e_ref = ops.lm_residual(x, *args)
-                jac_ref = jax.jacfwd(lambda z: ops.lm_residual(z, *args))(x)
+                jac_ref = jax.jacfwd(lambda z, ops=ops, args=args: ops.lm_residual(z, *args))(x)
                 assert jac.shape == jac_ref.shape == (e.shape[0], x.shape[0])
                 np.testing.assert_allclose(e, e_ref, rtol=1e-9, atol=1e-9)
                 # per row, relative to the row's largest entry (the rows differ by orders of magnitude)

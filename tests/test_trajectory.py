@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import numpy as np
+from test_pgd import OPTS, check_file, planar_paths, run
 
 from jaxstiff.results import files as R
 from jaxstiff.solvers import pgd
-from test_pgd import OPTS, check_file, planar_paths, run
 
 TOPTS = {**OPTS, "traj_iters": 16, "blocks": 2, "chunk": 2}
 

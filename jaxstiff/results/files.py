@@ -74,10 +74,19 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from jaxstiff.results.numpy_check import (
+    np_alpha_ratio,
+    np_cms,
+    np_criterion,
+    np_fk_position,
+    np_jacobian_rows,
+    np_translational_stiffness,
+    robot_from_meta,
+)
 from jaxstiff.results.status import (
     CLIPPED,
     NONFINITE,
@@ -92,6 +101,9 @@ from jaxstiff.results.status import (
 )
 from jaxstiff.runtime.io import atomic_write, file_sha256
 from jaxstiff.runtime.io import json_default as _json_default
+
+if TYPE_CHECKING:
+    from jaxstiff.model.robot import Robot
 
 __all__ = [
     "ShapeStatus",
@@ -112,6 +124,8 @@ __all__ = [
     "path_parameters",
     "file_sha256",
     "atomic_save_npz",
+    "robot_from_meta",
+    "reference_states",
 ]
 
 _ARRAYS_BPN = ("q", "kj", "kj_scaled")
@@ -170,7 +184,7 @@ class ShapeResult:
 
     def __post_init__(self):
         B, P, n = np.shape(self.q)
-        want = {k: (B, P, n) for k in _ARRAYS_BPN}
+        want: dict[str, tuple[int, ...]] = {k: (B, P, n) for k in _ARRAYS_BPN}
         want.update({k: (B, P, 3) for k in _ARRAYS_BP3})
         want.update({k: (B, P) for k in _ARRAYS_BP})
         want.update({k: (B, n) for k in _ARRAYS_BN})
@@ -245,7 +259,8 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
     file = os.fspath(file)
     if not file.endswith(".npz"):
         file = file + ".npz"
-    return atomic_write(file, lambda fh: np.savez(fh, **arrays), binary=True)
+    # numpy's stub lets **arrays bind savez's allow_pickle (bool); no result key has that name
+    return atomic_write(file, lambda fh: np.savez(fh, **arrays), binary=True)  # pyright: ignore[reportArgumentType]
 
 
 # ---------------------------------------------------------------------- per-path parameters
@@ -285,7 +300,8 @@ def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float =
     * ``max_pos_error`` (m), ``median_time_s`` and ``mean_time_s`` per waypoint, ``total_time_s``.
     """
     r_raw = res.meta.get("ratio", np.nan)
-    r_b = np.broadcast_to(np.asarray(r_raw if r_raw is not None else np.nan, float), (res.B,))
+    r_raw = np.nan if r_raw is None else r_raw
+    r_b = np.broadcast_to(np.asarray(r_raw, float), (res.B,))
     r = r_b[:, None]  # one target per path
     crit = str(res.meta.get("criterion", ""))
     a_ok = res.alpha_deg < alpha_tol_deg
@@ -316,47 +332,6 @@ def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float =
 
 
 # ---------------------------------------------------------------------- verification
-def _np_fk_position(robot, q: np.ndarray) -> np.ndarray:
-    """TCP positions (N, 3) by plain 4x4 products in numpy (independent of the JAX kernel)."""
-    out = np.empty((q.shape[0], 3))
-    for idx, qq in enumerate(q):
-        T = np.eye(4)
-        for i in range(robot.n):
-            T = T @ robot.origin_matrix(i)
-            M = np.eye(4)
-            a = np.asarray(robot.axes[i], float)
-            if robot.joint_types[i] == 1:
-                M[:3, 3] = a * qq[i]
-            else:
-                K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-                M[:3, :3] = np.eye(3) + np.sin(qq[i]) * K + (1 - np.cos(qq[i])) * (K @ K)
-            T = T @ M
-        out[idx] = (T @ robot.tip_matrix)[:3, 3]
-    return out
-
-
-def robot_from_meta(meta: dict[str, Any], urdf: str | os.PathLike | None = None, check_sha: bool = True):
-    """Rebuild the robot of a result from its ``meta`` (URDF path, links, locked joints, tcp).
-
-    Args:
-        urdf: use this URDF file instead of the recorded path (e.g. on another machine).
-        check_sha: refuse a URDF whose sha256 differs from the recorded one.
-    """
-    from jaxstiff.model.robot import Robot
-
-    rmeta = meta["robot"]
-    path = os.fspath(urdf) if urdf is not None else rmeta["urdf"]
-    if check_sha and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
-        raise ValueError(f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...)")
-    return Robot.from_urdf(
-        path,
-        base_link=rmeta.get("base_link") or None,
-        tip_link=rmeta.get("tip_link") or None,
-        locked=rmeta.get("locked") or None,
-        tcp=np.asarray(rmeta["tcp"]) if rmeta.get("tcp") is not None else None,
-    )
-
-
 def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per waypoint of path b: the reference state (q_ref (P,n), kj_ref (P,n)) its box refers to,
     and whether rate limits apply (P,) bool (False only before the first usable waypoint when the
@@ -374,7 +349,7 @@ def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, 
     return np.asarray(Q), np.asarray(KJ), np.asarray(RATE)
 
 
-def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
+def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike | None = None) -> dict[str, float]:
     """Re-check a result with numpy only (no JAX): FK, bounds, rate limits, reported values.
 
     Uses the robot rebuilt from ``meta`` (or the one given), a plain numpy FK, and a numpy
@@ -409,7 +384,7 @@ def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
     lmask = ~np.isnan(locked)
     for b in range(res.B):
         q, kj = res.q[b], res.kj[b]
-        pos = _np_fk_position(robot, q)
+        pos = np_fk_position(robot, q)
         usable = is_usable(res.status[b])
         err = np.linalg.norm(pos - res.target[b], axis=-1)
         if usable.any():
@@ -426,82 +401,16 @@ def verify(res: ShapeResult, robot=None, urdf=None) -> dict[str, float]:
             out["max_rate_violation"] = max(out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0])))
         # reported stiffness quantities, recomputed in numpy
         K = np.stack([np_translational_stiffness(robot, q[p], kj[p], task) for p in range(res.P)])
-        alpha, rho = _np_alpha_ratio(K, res.direction[b])
+        alpha, rho = np_alpha_ratio(K, res.direction[b])
         out["max_alpha_mismatch"] = max(out["max_alpha_mismatch"], float(np.abs(alpha - res.alpha_deg[b]).max()))
         out["max_ratio_mismatch"] = max(out["max_ratio_mismatch"], float((np.abs(rho - res.ratio[b]) / rho).max()))
         crit = res.meta["criterion"]
         if crit in ("f1", "f2"):
-            f = _np_criterion(crit, alpha, rho, float(prm["ratio"][b]), c)
+            f = np_criterion(crit, alpha, rho, float(prm["ratio"][b]), c)
             out["max_criterion_mismatch"] = max(out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max()))
-        cms_ref = _np_cms(K, res.meta["cms"])
+        cms_ref = np_cms(K, res.meta["cms"])
         out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))
     return out
-
-
-def np_jacobian_rows(robot, q: np.ndarray) -> np.ndarray:
-    """Geometric Jacobian (6, n) in numpy from 4x4 products (independent of the kernel)."""
-    T = np.eye(4)
-    zs, ps, kinds = [], [], []
-    for i in range(robot.n):
-        T = T @ robot.origin_matrix(i)
-        a = np.asarray(robot.axes[i], float)
-        zs.append(T[:3, :3] @ a)
-        ps.append(T[:3, 3].copy())
-        kinds.append(robot.joint_types[i])
-        M = np.eye(4)
-        if robot.joint_types[i] == 1:
-            M[:3, 3] = a * q[i]
-        else:
-            K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-            M[:3, :3] = np.eye(3) + np.sin(q[i]) * K + (1 - np.cos(q[i])) * (K @ K)
-        T = T @ M
-    p_tcp = (T @ robot.tip_matrix)[:3, 3]
-    J = np.zeros((6, robot.n))
-    for i in range(robot.n):
-        if kinds[i] == 1:
-            J[:3, i] = zs[i]
-        else:
-            J[:3, i] = np.cross(zs[i], p_tcp - ps[i])
-            J[3:, i] = zs[i]
-    return J
-
-
-def np_translational_stiffness(robot, q, kj, task) -> np.ndarray:
-    J = np_jacobian_rows(robot, q)
-    rows = {"xy": [0, 1], "xyz": [0, 1, 2], "full": list(range(6))}[task]
-    Js = J[rows]
-    C = Js @ np.diag(1.0 / kj) @ Js.T
-    K = np.linalg.inv(C)
-    if task == "full":
-        K = K[:3, :3]
-    return 0.5 * (K + K.T)
-
-
-def _np_alpha_ratio(K: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    w, V = np.linalg.eigh(K)
-    m = K.shape[-1]
-    v1 = V[..., :, -1]
-    dd = d[..., :m] / np.linalg.norm(d[..., :m], axis=-1, keepdims=True)
-    cosang = np.abs(np.sum(v1 * dd, axis=-1))
-    if m == 2:
-        sinang = np.abs(v1[..., 0] * dd[..., 1] - v1[..., 1] * dd[..., 0])
-    else:
-        sinang = np.linalg.norm(np.cross(v1, dd), axis=-1)
-    return np.degrees(np.arctan2(sinang, cosang)), w[..., -1] / w[..., -2]
-
-
-def _np_criterion(name: str, alpha, rho, r, c):
-    if name == "f1":
-        return (np.abs(alpha) + c) / (np.minimum(rho, r) / r)
-    return (1.0 + np.abs(alpha)) * (1.0 + np.abs(r - rho))
-
-
-def _np_cms(K: np.ndarray, cms_meta: dict[str, Any]) -> np.ndarray:
-    w = np.linalg.eigvalsh(K)
-    if cms_meta.get("target_major") is not None:
-        return float(cms_meta["target_major"]) / w[..., -1]
-    m = K.shape[-1]
-    return (float(cms_meta["target_volume"]) / np.prod(w, axis=-1)) ** (1.0 / m)
 
 
 # former private names, still used by tests/test_sweep.py (use the public ones)

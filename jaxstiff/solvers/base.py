@@ -21,6 +21,7 @@ from jaxstiff.settings.solvers import (
     SLSQPOptions,
     TrajectoryOptions,
 )
+from jaxstiff.solvers.problem import Limits, WaypointProblem
 
 __all__ = ["SolveRequest", "SOLVERS", "SolverInterrupted", "register_solver", "outcomes_to_arrays",
            "solver_defaults", "solver_option_names", "options_for_solver", "check_options", "first_starts_use",
@@ -44,7 +45,22 @@ class SolveRequest:
         options: solver options (dict).
         pos_tol: m, position tolerance of a usable waypoint.
         progress: ``progress(b, p)`` after each waypoint, or None.
+        first_starts: per path, the first waypoint's extra start states ``(q (n,), kj (n,))``.
     """
+
+    problem: WaypointProblem
+    targets: np.ndarray
+    directions: np.ndarray
+    q0: np.ndarray
+    kj0: np.ndarray
+    limits: Limits
+    ratio: float | np.ndarray
+    c: float
+    starts: int | None
+    options: dict[str, Any] | None
+    pos_tol: float
+    progress: Callable[[int, int], None] | None
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]]
 
     def __init__(self, **kw: Any):
         self.__dict__.update(kw)
@@ -60,7 +76,7 @@ class SolveRequest:
 #: (float, compilation time kept out of ``time_s``). Every point with a usable
 #: status (0-2) must satisfy the box of its reference state exactly and the position within
 #: ``pos_tol``; the reported quantities are recomputed by :func:`shape`.
-SOLVERS: dict[str, Callable[[SolveRequest], dict[str, np.ndarray]]] = {}
+SOLVERS: dict[str, Callable[[SolveRequest], dict[str, Any]]] = {}
 
 
 class SolverInterrupted(KeyboardInterrupt):
@@ -75,14 +91,14 @@ class SolverInterrupted(KeyboardInterrupt):
 
 
 
-def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, np.ndarray]]) -> None:
+def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, Any]]) -> None:
     """Make a solver available as ``shape(..., solver=name)`` and ``jaxstiff shape --solver name``."""
     if not callable(fn):
         raise ValueError(f"solver {name!r} must be callable")
     SOLVERS[name] = fn
 
 
-def outcomes_to_arrays(per_path: Sequence[Sequence[Any]], n_free: int, q0: np.ndarray, free_idx: Sequence[int]) -> dict[str, np.ndarray]:
+def outcomes_to_arrays(per_path: Sequence[Sequence[Any]], n_free: int, q0: np.ndarray, free_idx: Sequence[int]) -> dict[str, Any]:
     """Per-waypoint outcomes (``x``, ``status``, ``code``, ``nit``, ``nfev``, ``pos_error``, ``time_s``;
     ``per_path[b][p]``) as the :data:`SOLVERS` dict: ``q``, ``kj`` (B, P, n) and (B, P) arrays; locked
     joints keep ``q0`` (B, n)."""
@@ -90,7 +106,7 @@ def outcomes_to_arrays(per_path: Sequence[Sequence[Any]], n_free: int, q0: np.nd
     n = q0.shape[-1]
     q = np.repeat(q0[:, None, :], P, axis=1).astype(float)
     kj = np.zeros((B, P, n))
-    out = {k: np.zeros((B, P), dtype=dt) for k, dt in
+    out: dict[str, np.ndarray] = {k: np.zeros((B, P), dtype=dt) for k, dt in
            (("status", np.int64), ("solver_code", np.int64), ("nit", np.int64), ("nfev", np.int64),
             ("pos_error", float), ("time_s", float))}
     fi = list(free_idx)
@@ -108,10 +124,10 @@ def outcomes_to_arrays(per_path: Sequence[Sequence[Any]], n_free: int, q0: np.nd
     return out
 
 
-def _lazy_solver(module: str, attr: str = "run_request") -> Callable[[SolveRequest], dict[str, np.ndarray]]:
+def _lazy_solver(module: str, attr: str = "run_request") -> Callable[[SolveRequest], dict[str, Any]]:
     """The solver ``jaxstiff.solvers.<module>.<attr>``, imported on first use."""
 
-    def run(req: SolveRequest) -> dict[str, np.ndarray]:
+    def run(req: SolveRequest) -> dict[str, Any]:
         return getattr(importlib.import_module(f"jaxstiff.solvers.{module}"), attr)(req)
 
     run.__name__ = f"{module}.{attr}"

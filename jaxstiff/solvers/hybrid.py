@@ -40,8 +40,9 @@ Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``chain``; ``polish_sl
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -49,7 +50,16 @@ import numpy as np
 from jaxstiff.results import files as R
 from jaxstiff.settings.solvers import HybridOptions
 from jaxstiff.solvers import pgd
-from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, compiled, jax_pos_and_jac
+from jaxstiff.solvers.base import SolveRequest
+from jaxstiff.solvers.greedy import (
+    Objective,
+    PosAndJac,
+    SolverOutput,
+    WaypointSolver,
+    judge,
+    kernel_objective,
+)
+from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, jax_pos_and_jac
 
 __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 
@@ -58,10 +68,39 @@ __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 #: ``chain`` "greedy" or "pgd" (module docstring).
 DEFAULT_OPTIONS = HybridOptions.defaults()
 
+#: one SLSQP answer taken for a waypoint: ``(x, status, pos_error, solver output)``
+_Answer = tuple[np.ndarray, int, float, SolverOutput]
+
 
 def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     """The hybrid's own options (:data:`DEFAULT_OPTIONS`) checked (ValueError naming the option)."""
     return HybridOptions.check_values(HybridOptions.own(options))
+
+
+@dataclasses.dataclass(frozen=True)
+class _Polish:
+    """What the polish of every path shares: the batch (B paths, P waypoints), pgd's result
+    ``base``, the SLSQP solver and the problem's kernels."""
+
+    problem: WaypointProblem
+    targets: np.ndarray  # (B, P, 3), m
+    directions: np.ndarray  # (B, P, 3), unit
+    q0: np.ndarray  # (B, n)
+    kj0: np.ndarray  # (B, n)
+    limits: Limits
+    ratios: np.ndarray  # (B,)
+    c: float
+    base: dict[str, np.ndarray]
+    mode: str  # option polish_slsqp
+    solver: WaypointSolver
+    pos_and_jac: PosAndJac
+    objective: Objective
+    pos_tol: float
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None
+
+    def params(self, b: int, p: int) -> np.ndarray:
+        """The flat parameter vector of waypoint p of path b."""
+        return WaypointProblem.params(self.targets[b, p], self.directions[b, p], self.ratios[b], self.c)
 
 
 def polish(
@@ -71,156 +110,212 @@ def polish(
     q0: np.ndarray,
     kj0: np.ndarray,
     limits: Limits,
-    ratio: float,
+    ratio: float | np.ndarray,
     c: float,
     base: dict[str, np.ndarray],
-    options: dict | None = None,
+    options: Mapping[str, Any] | None = None,
     pos_tol: float = 1e-9,
-    first_starts=None,
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None = None,
 ) -> dict[str, np.ndarray]:
     """SLSQP polish of a feasible batch solution ``base`` (the SOLVERS dict format, e.g. pgd's).
 
     ``ratio``: a number or (B,); ``limits.dq``/``dk``: (n,) or (B, n) (per path).
     ``first_starts``: per path, the extra start states ``(q, kj)`` greedy SLSQP tries at a first
-    waypoint without rate limit (:func:`jaxstiff.solvers.slsqp.greedy_path`); with the greedy
+    waypoint without rate limit (:func:`jaxstiff.solvers.greedy.greedy_path`); with the greedy
     chain SLSQP runs from them there too, so the hybrid's first waypoint is never worse than
     greedy SLSQP's.
 
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
     """
-    from jaxstiff.solvers.slsqp import SolverOutput, judge, make_slsqp_solver
+    from jaxstiff.solvers.slsqp import make_slsqp_solver
 
     opts = dict(options or {})
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
-    mode, chain = own["polish_slsqp"], own["chain"]
     sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
     solver = make_slsqp_solver(problem, sl_opts)
-    fused = compiled(problem)
-    pj = jax_pos_and_jac(problem)
-
-    def objective(x, params):
-        return float(np.asarray(fused(x, params))[0])
-
-    free = list(problem.free_idx)
-    nf = problem.n_free
-    B, P = targets.shape[:2]
+    B = targets.shape[0]
+    ctx = _Polish(problem, targets, directions, q0, kj0, limits, np.broadcast_to(np.asarray(ratio, float), (B,)), c,
+                  base, own["polish_slsqp"], solver, jax_pos_and_jac(problem), kernel_objective(problem), pos_tol,
+                  first_starts)
     out = {k: np.array(v, copy=True) for k, v in base.items() if isinstance(v, np.ndarray)}
-    r_arr = np.broadcast_to(np.asarray(ratio, float), (B,))
-    all_limits = limits
-
-    def polish_path(b: int, chain: str, dst: dict) -> None:
-        limits = all_limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
-        dx = np.r_[np.asarray(limits.dq, float)[free], np.asarray(limits.dk, float)]
-        Xb = problem.x_of(base["q"][b], base["kj"][b])
-        usable_b = R.is_usable(base["status"][b])
-        nxt = np.full(P, -1)
-        last = -1
-        for p in range(P - 1, -1, -1):
-            nxt[p] = last
-            if usable_b[p]:
-                last = p
-        q_ref, kj_ref = np.asarray(q0[b], float).copy(), np.asarray(kj0[b], float).copy()
-        at_start = True
-        for p in range(P):
-            t0 = time.perf_counter()
-            rate = limits.first_rate_limit or not at_start
-            lb, ub = limits.box(problem, q_ref, kj_ref, rate)
-            if chain == "pgd" and nxt[p] >= 0:
-                xn = Xb[nxt[p]]
-                lb, ub = np.maximum(lb, xn - dx), np.minimum(ub, xn + dx)
-            params = WaypointProblem.params(targets[b, p], directions[b, p], r_arr[b], c)
-            have = bool(usable_b[p])
-            if chain == "greedy" and have:
-                # pgd's point is a candidate only where it is inside this waypoint's box
-                have = bool(np.all(Xb[p] >= lb - 1e-12) and np.all(Xb[p] <= ub + 1e-12))
-            if have and np.all(lb <= ub):
-                # pgd's point is inside this box up to rounding of the box arithmetic: clip exactly
-                Xb[p] = clip_to_box(Xb[p], lb, ub)
-                dst["q"][b, p, free] = Xb[p][:nf]
-                dst["kj"][b, p] = Xb[p][nf:]
-            take = None
-            if np.all(lb <= ub) and (mode == "all" or not have):
-                starts = [Xb[p]] if usable_b[p] else []
-                if chain == "greedy" or not have:
-                    starts.append(problem.x_of(q_ref, kj_ref))  # the seed's own start
-                    if chain == "greedy" and not rate and first_starts is not None:
-                        starts += [problem.x_of(qs, ks) for qs, ks in first_starts[b]]  # greedy SLSQP's others
-                f_best = objective(Xb[p], params) if have else np.inf
-                for xs in starts:
-                    x_start = clip_to_box(xs, lb, ub)
-                    try:
-                        sol = solver(x_start.copy(), lb, ub, params, maxiter=None if rate else solver.options["first_maxiter"])
-                    except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
-                        sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
-                    x, status, err = judge(problem, sol, x_start, lb, ub, targets[b, p], params, pj, objective, pos_tol)
-                    if status in R.USABLE:
-                        f_new = objective(x, params)
-                        if f_new < f_best:
-                            take, f_best = (x, status, err, sol), f_new
-            if take is not None:
-                x, status, err, sol = take
-                dst["q"][b, p, free] = x[:nf]
-                dst["kj"][b, p] = x[nf:]
-                dst["status"][b, p] = status
-                dst["pos_error"][b, p] = err
-                dst["solver_code"][b, p] = sol.code
-                dst["nit"][b, p] += sol.nit
-                dst["nfev"][b, p] += sol.nfev
-                usable_now = True
-            elif chain == "greedy" and usable_b[p] and not have:
-                # pgd's point left the box of the new chain and no SLSQP answer was usable
-                dst["q"][b, p, free] = clip_to_box(Xb[p], lb, ub)[:nf]
-                dst["kj"][b, p] = clip_to_box(Xb[p], lb, ub)[nf:]
-                dst["status"][b, p] = R.UNREACHABLE
-                usable_now = False
-            else:
-                usable_now = have
-                if not have and np.all(lb <= ub):
-                    # an unusable waypoint still reports a state inside its own box (bounds and rate
-                    # limits hold at every waypoint): pgd's point, from pgd's chain, may be outside
-                    # the box of the hybrid's chain
-                    xc = clip_to_box(Xb[p], lb, ub)
-                    dst["q"][b, p, free] = xc[:nf]
-                    dst["kj"][b, p] = xc[nf:]
-            dst["time_s"][b, p] += time.perf_counter() - t0
-            if usable_now:
-                q_ref = dst["q"][b, p].copy()
-                kj_ref = dst["kj"][b, p].copy()
-                at_start = False
-
-    def path_key(d: dict, b: int) -> tuple[int, float]:
-        """(unusable waypoints, total criterion of the usable ones) of path b in result d."""
-        u = R.is_usable(d["status"][b])
-        tot = 0.0
-        for p in np.flatnonzero(u):
-            x = problem.x_of(d["q"][b, p], d["kj"][b, p])
-            tot += objective(x, WaypointProblem.params(targets[b, p], directions[b, p], r_arr[b], c))
-        return int((~u).sum()), tot
-
     for b in range(B):
-        polish_path(b, chain, out)
-        if chain == "greedy":
-            # The greedy chain takes any better point per waypoint, which can undo pgd's
-            # trajectory-level choice (a rollout may accept a worse first waypoint to keep room
-            # later; docs/notes/solvers.md). Where the greedy path ends
-            # worse than pgd's in total, the path is polished again inside pgd's corridor
-            # (chain "pgd": per waypoint never above pgd), and the better of the two is kept.
-            k_g, k_b = path_key(out, b), path_key(base, b)
-            if k_g[0] > k_b[0] or (k_g[0] == k_b[0] and k_g[1] > k_b[1] * (1 + 1e-9) + 1e-12):
-                greedy = {k: out[k][b].copy() for k in out}
-                for k in out:
-                    out[k][b] = base[k][b]
-                polish_path(b, "pgd", out)
-                t_both = greedy["time_s"] + out["time_s"][b] - 2 * base["time_s"][b]  # polish times
-                if not path_key(out, b) < k_g:
-                    for k in out:
-                        out[k][b] = greedy[k]
-                out["time_s"][b] = base["time_s"][b] + t_both  # both polishes were paid for
+        if own["chain"] == "greedy":
+            _polish_greedy_path(ctx, b, out)
+        else:
+            _polish_path(ctx, b, "pgd", out)
     return out
 
 
-def run_request(req) -> dict[str, np.ndarray]:
+def _next_usable(usable: np.ndarray) -> np.ndarray:
+    """(P,) index of the next usable waypoint after each waypoint (-1: none)."""
+    nxt = np.full(usable.shape[0], -1)
+    last = -1
+    for p in range(usable.shape[0] - 1, -1, -1):
+        nxt[p] = last
+        if usable[p]:
+            last = p
+    return nxt
+
+
+def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -> None:
+    """Polish path b along ``chain`` ("greedy" or "pgd", module docstring), writing into ``dst``."""
+    problem = ctx.problem
+    limits = ctx.limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
+    dx = np.r_[np.asarray(limits.dq, float)[list(problem.free_idx)], np.asarray(limits.dk, float)]
+    Xb = problem.x_of(ctx.base["q"][b], ctx.base["kj"][b])
+    usable_b = R.is_usable(ctx.base["status"][b])
+    nxt = _next_usable(usable_b)
+    q_ref, kj_ref = np.asarray(ctx.q0[b], float).copy(), np.asarray(ctx.kj0[b], float).copy()
+    at_start = True
+    for p in range(ctx.targets.shape[1]):
+        t0 = time.perf_counter()
+        rate = limits.first_rate_limit or not at_start
+        lb, ub = limits.box(problem, q_ref, kj_ref, rate)
+        if chain == "pgd" and nxt[p] >= 0:
+            xn = Xb[nxt[p]]
+            lb, ub = np.maximum(lb, xn - dx), np.minimum(ub, xn + dx)
+        usable_now = _polish_waypoint(ctx, b, p, chain, dst, Xb, bool(usable_b[p]), lb, ub, rate, q_ref, kj_ref)
+        dst["time_s"][b, p] += time.perf_counter() - t0
+        if usable_now:
+            q_ref = dst["q"][b, p].copy()
+            kj_ref = dst["kj"][b, p].copy()
+            at_start = False
+
+
+def _polish_waypoint(
+    ctx: _Polish,
+    b: int,
+    p: int,
+    chain: str,
+    dst: dict[str, np.ndarray],
+    Xb: np.ndarray,
+    pgd_usable: bool,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    rate: bool,
+    q_ref: np.ndarray,
+    kj_ref: np.ndarray,
+) -> bool:
+    """Waypoint p of path b inside its box ``[lb, ub]``: pgd's point ``Xb[p]`` (clipped exactly
+    into the box, in place) where it is admissible, replaced by a better usable SLSQP answer;
+    written into ``dst``. Returns whether the waypoint is usable."""
+    nf = ctx.problem.n_free
+    free = list(ctx.problem.free_idx)
+    have = pgd_usable
+    if chain == "greedy" and have:
+        # pgd's point is a candidate only where it is inside this waypoint's box
+        have = bool(np.all(Xb[p] >= lb - 1e-12) and np.all(Xb[p] <= ub + 1e-12))
+    if have and np.all(lb <= ub):
+        # pgd's point is inside this box up to rounding of the box arithmetic: clip exactly
+        Xb[p] = clip_to_box(Xb[p], lb, ub)
+        dst["q"][b, p, free] = Xb[p][:nf]
+        dst["kj"][b, p] = Xb[p][nf:]
+    take = None
+    if np.all(lb <= ub) and (ctx.mode == "all" or not have):
+        take = _best_slsqp(ctx, b, p, chain, Xb[p], pgd_usable, have, lb, ub, rate, q_ref, kj_ref)
+    if take is not None:
+        x, status, err, sol = take
+        dst["q"][b, p, free] = x[:nf]
+        dst["kj"][b, p] = x[nf:]
+        dst["status"][b, p] = status
+        dst["pos_error"][b, p] = err
+        dst["solver_code"][b, p] = sol.code
+        dst["nit"][b, p] += sol.nit
+        dst["nfev"][b, p] += sol.nfev
+        return True
+    if chain == "greedy" and pgd_usable and not have:
+        # pgd's point left the box of the new chain and no SLSQP answer was usable
+        dst["q"][b, p, free] = clip_to_box(Xb[p], lb, ub)[:nf]
+        dst["kj"][b, p] = clip_to_box(Xb[p], lb, ub)[nf:]
+        dst["status"][b, p] = R.UNREACHABLE
+        return False
+    if not have and np.all(lb <= ub):
+        # an unusable waypoint still reports a state inside its own box (bounds and rate
+        # limits hold at every waypoint): pgd's point, from pgd's chain, may be outside
+        # the box of the hybrid's chain
+        xc = clip_to_box(Xb[p], lb, ub)
+        dst["q"][b, p, free] = xc[:nf]
+        dst["kj"][b, p] = xc[nf:]
+    return have
+
+
+def _best_slsqp(
+    ctx: _Polish,
+    b: int,
+    p: int,
+    chain: str,
+    x_pgd: np.ndarray,
+    pgd_usable: bool,
+    have: bool,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    rate: bool,
+    q_ref: np.ndarray,
+    kj_ref: np.ndarray,
+) -> _Answer | None:
+    """SLSQP from pgd's point (where pgd's waypoint was usable), from the reference state (the
+    seed's own start; greedy chain, or where pgd's point is not admissible) and, at a first
+    waypoint without rate limit, from greedy SLSQP's other starts: the usable answer with the
+    lowest criterion if it is below pgd's (``have``: pgd's point is admissible), else None."""
+    problem = ctx.problem
+    params = ctx.params(b, p)
+    starts = [x_pgd] if pgd_usable else []
+    if chain == "greedy" or not have:
+        starts.append(problem.x_of(q_ref, kj_ref))  # the seed's own start
+        if chain == "greedy" and not rate and ctx.first_starts is not None:
+            starts += [problem.x_of(qs, ks) for qs, ks in ctx.first_starts[b]]  # greedy SLSQP's others
+    f_best = ctx.objective(x_pgd, params) if have else np.inf
+    take = None
+    for xs in starts:
+        x_start = clip_to_box(xs, lb, ub)
+        try:
+            sol = ctx.solver(x_start.copy(), lb, ub, params, maxiter=None if rate else ctx.solver.options["first_maxiter"])
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+            sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
+        x, status, err = judge(problem, sol, x_start, lb, ub, ctx.targets[b, p], params, ctx.pos_and_jac, ctx.objective,
+                               ctx.pos_tol)
+        if status in R.USABLE:
+            f_new = ctx.objective(x, params)
+            if f_new < f_best:
+                take, f_best = (x, status, err, sol), f_new
+    return take
+
+
+def _path_key(ctx: _Polish, d: Mapping[str, np.ndarray], b: int) -> tuple[int, float]:
+    """(unusable waypoints, total criterion of the usable ones) of path b in result d."""
+    u = R.is_usable(d["status"][b])
+    tot = 0.0
+    for p in np.flatnonzero(u):
+        x = ctx.problem.x_of(d["q"][b, p], d["kj"][b, p])
+        tot += ctx.objective(x, ctx.params(b, int(p)))
+    return int((~u).sum()), tot
+
+
+def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> None:
+    """Path b with the greedy chain, and again with the "pgd" chain where that ends worse than pgd.
+
+    The greedy chain takes any better point per waypoint, which can undo pgd's trajectory-level
+    choice (a rollout may accept a worse first waypoint to keep room later; docs/notes/solvers.md).
+    Where the greedy path ends worse than pgd's in total, the path is polished again inside pgd's
+    corridor (chain "pgd": per waypoint never above pgd), and the better of the two is kept.
+    """
+    base = ctx.base
+    _polish_path(ctx, b, "greedy", out)
+    k_g, k_b = _path_key(ctx, out, b), _path_key(ctx, base, b)
+    if k_g[0] > k_b[0] or (k_g[0] == k_b[0] and k_g[1] > k_b[1] * (1 + 1e-9) + 1e-12):
+        greedy = {k: out[k][b].copy() for k in out}
+        for k in out:
+            out[k][b] = base[k][b]
+        _polish_path(ctx, b, "pgd", out)
+        t_both = greedy["time_s"] + out["time_s"][b] - 2 * base["time_s"][b]  # polish times
+        if not _path_key(ctx, out, b) < k_g:
+            for k in out:
+                out[k][b] = greedy[k]
+        out["time_s"][b] = base["time_s"][b] + t_both  # both polishes were paid for
+
+
+def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="hybrid"``)."""
     opts = dict(req.options or {})
     pg_opts = {k: v for k, v in opts.items() if k in pgd.DEFAULT_OPTIONS}
@@ -229,8 +324,8 @@ def run_request(req) -> dict[str, np.ndarray]:
         starts=req.starts, options=pg_opts, pos_tol=req.pos_tol, first_starts=req.first_starts,
     )
     base.pop("criterion", None)
-    out = polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-                 base, options=opts, pos_tol=req.pos_tol, first_starts=req.first_starts)
+    out: dict[str, Any] = polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio,
+                                 req.c, base, options=opts, pos_tol=req.pos_tol, first_starts=req.first_starts)
     from jaxstiff.solvers.slsqp import CODE_MEANING
 
     out["code_meaning"] = (f"{CODE_MEANING}, where the polish's answer was taken; else the index of pgd's "

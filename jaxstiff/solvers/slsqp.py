@@ -11,38 +11,41 @@ After SLSQP the answer is made exactly feasible and judged (status codes of
 inside the box if needed, then checked (position error, box, finiteness). A waypoint that cannot
 be reached keeps its status and the run goes on from the last usable state.
 
-:func:`greedy_path` is the chaining loop, shared with the finite-difference baseline
-(:mod:`jaxstiff.solvers.slsqp_fd`) and reusable by any per-waypoint solver.
+:func:`~jaxstiff.solvers.greedy.greedy_path` is the chaining loop (:mod:`jaxstiff.solvers.greedy`,
+re-exported here), shared with the finite-difference baseline (:mod:`jaxstiff.solvers.slsqp_fd`)
+and reusable by any per-waypoint solver.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
-from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, cast
 
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.results import files as R
 from jaxstiff.settings.solvers import SLSQPOptions
-from jaxstiff.solvers.base import SolveRequest, SolverInterrupted, outcomes_to_arrays
-from jaxstiff.solvers.problem import (
-    BOUND_TOL,
-    POS_TOL,
-    Limits,
-    WaypointProblem,
-    clip_to_box,
-    compiled,
-    compiled_position,
-    compiled_scaled,
-    jax_pos_and_jac,
-    newton_project,
-)
+from jaxstiff.solvers.base import SolveRequest
+
+# re-exported: the greedy chaining lived here (jaxstiff.solvers.slsqp.X keeps working)
+from jaxstiff.solvers.greedy import CODE_MEANING as CODE_MEANING
+from jaxstiff.solvers.greedy import REPAIR_POS as REPAIR_POS
+from jaxstiff.solvers.greedy import TIE_RTOL as TIE_RTOL
+from jaxstiff.solvers.greedy import PathInterrupted as PathInterrupted
+from jaxstiff.solvers.greedy import SolverOutput as SolverOutput
+from jaxstiff.solvers.greedy import WaypointOutcome as WaypointOutcome
+from jaxstiff.solvers.greedy import WaypointSolver as WaypointSolver
+from jaxstiff.solvers.greedy import check_single_start as check_single_start
+from jaxstiff.solvers.greedy import greedy_path as greedy_path
+from jaxstiff.solvers.greedy import judge as judge
+from jaxstiff.solvers.greedy import not_run_outcomes as not_run_outcomes
+from jaxstiff.solvers.greedy import run_greedy as run_greedy
+from jaxstiff.solvers.problem import Limits, WaypointProblem, compiled_position, compiled_scaled
 
 __all__ = ["WaypointOutcome", "SolverOutput", "PathInterrupted", "greedy_path", "make_slsqp_solver", "solve_path",
-           "DEFAULT_OPTIONS", "run_request", "run_greedy", "check_single_start", "judge"]
+           "DEFAULT_OPTIONS", "run_request", "run_greedy", "check_single_start", "judge", "not_run_outcomes",
+           "CODE_MEANING", "WaypointSolver", "REPAIR_POS", "TIE_RTOL"]
 
 #: SLSQP settings used unless overridden (``shape(..., options=...)``), from
 #: :class:`~jaxstiff.settings.solvers.SLSQPOptions`: ``maxiter`` iterations per waypoint
@@ -54,66 +57,13 @@ __all__ = ["WaypointOutcome", "SolverOutput", "PathInterrupted", "greedy_path", 
 #: ``"scipy"`` goes through ``scipy.optimize.minimize``; see :func:`_slsqp_lean`.
 DEFAULT_OPTIONS = SLSQPOptions.defaults()
 
-REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
-
-
-@dataclasses.dataclass
-class SolverOutput:
-    """What a per-waypoint solver returns: its point and its own bookkeeping."""
-
-    x: np.ndarray
-    code: int  # the solver's own exit code (SLSQP mode); -1 = exception
-    converged: bool
-    nit: int
-    nfev: int
-
-
-@dataclasses.dataclass
-class WaypointOutcome:
-    """Final, checked state of one waypoint."""
-
-    x: np.ndarray
-    status: int
-    pos_error: float
-    code: int
-    nit: int
-    nfev: int
-    time_s: float
-
-
-#: meaning of the result file's ``solver_code`` for the SLSQP solvers (meta ``solver_code_meaning``)
-CODE_MEANING = "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise), -1 = exception"
-
-
-class PathInterrupted(KeyboardInterrupt):
-    """A ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM under the command line) during
-    :func:`greedy_path`, carrying the outcomes of the waypoints finished before it (``done``)."""
-
-    def __init__(self, done: list):
-        super().__init__()
-        self.done = done
-
-
-def not_run_outcomes(problem, done: list, P: int, q0: np.ndarray, kj0: np.ndarray) -> list:
-    """``done`` completed to P waypoints with status NOT_RUN: each holds the reference state (the
-    last usable waypoint's x, else the start state), so bounds and rate limits still hold."""
-    x_ref = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
-    for o in done:
-        if o.status in R.USABLE:
-            x_ref = o.x
-    return list(done) + [WaypointOutcome(x_ref.copy(), R.NOT_RUN, 0.0, -1, 0, 0, 0.0) for _ in range(P - len(done))]
-
-
-#: ``solver(x0, lb, ub, params, maxiter=None) -> SolverOutput``
-WaypointSolver = Callable[..., SolverOutput]
-
 
 def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     """:data:`DEFAULT_OPTIONS` updated by ``options``, values checked (ValueError naming the option)."""
     return SLSQPOptions.check_values({**DEFAULT_OPTIONS, **(options or {})})
 
 
-def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> WaypointSolver:
+def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> WaypointSolver:
     """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX derivatives."""
     from scipy.optimize import Bounds, minimize
 
@@ -140,12 +90,13 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
 
     lean = opts["driver"] == "lean" and _lean_driver_works()
 
-    def solve(x0, lb, ub, params, maxiter=None) -> SolverOutput:
-        last = [b"", None]
+    def solve(x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray,
+              maxiter: int | None = None) -> SolverOutput:
+        last: list[Any] = [b"", None]
         count = [0]
         params_dev = jnp.asarray(params)  # on the device once per waypoint, not once per call
 
-        def ev(y):
+        def ev(y: np.ndarray) -> np.ndarray:
             key = y.tobytes()
             if key != last[0]:
                 last[0] = key
@@ -155,14 +106,14 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
 
         iters = int(maxiter or opts["maxiter"])
         if lean:
-            def fgca(y):
+            def fgca(y: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
                 out = ev(y)
                 return out[sl_f], out[sl_g], out[sl_c], out[sl_a].reshape(k, nx)
 
             y, mode, nit = _slsqp_lean(fgca, x0 / scale, lb / scale, ub / scale, k, iters, float(opts["ftol"]))
             return SolverOutput(y * scale, mode, mode == 0, nit, count[0])
 
-        def fun(y):
+        def fun(y: np.ndarray) -> tuple[Any, np.ndarray]:
             out = ev(y)
             return out[sl_f], out[sl_g]
 
@@ -181,11 +132,19 @@ def make_slsqp_solver(problem: WaypointProblem, options: dict | None = None) -> 
     solve.options = opts  # type: ignore[attr-defined]
     solve.compile_s = compile_s  # type: ignore[attr-defined]
     solve.driver = "lean" if lean else "scipy.optimize.minimize"  # type: ignore[attr-defined]
-    return solve
+    return cast(WaypointSolver, solve)  # a function with its options attached
 
 
 # ---------------------------------------------------------------------- lean SLSQP driver
-def _slsqp_lean(fgca, x0, xl, xu, meq, maxiter, acc):
+def _slsqp_lean(
+    fgca: Callable[[np.ndarray], tuple[Any, np.ndarray, np.ndarray, np.ndarray]],
+    x0: np.ndarray,
+    xl: np.ndarray,
+    xu: np.ndarray,
+    meq: int,
+    maxiter: int,
+    acc: float,
+) -> tuple[np.ndarray, int, int]:
     """SLSQP with equality constraints only and finite bounds: scipy's own compiled routine
     (``scipy.optimize._slsqplib.slsqp``, the C port of Kraft's code in scipy >= 1.16), driven by
     the same reverse-communication loop as ``scipy.optimize.minimize(method="SLSQP")`` but without
@@ -251,7 +210,7 @@ def _lean_driver_works() -> bool:
         n = 5
         w = np.arange(1.0, n + 1)
 
-        def fgca(x):
+        def fgca(x: np.ndarray) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
             f = float(np.sum(w * (x - 0.3) ** 4) + x[0] * x[1])
             g = 4 * w * (x - 0.3) ** 3
             g[0] += x[1]
@@ -262,7 +221,9 @@ def _lean_driver_works() -> bool:
             return f, g, c, A
 
         x0, lo, hi = np.full(n, 0.9), np.full(n, -1.0), np.full(n, 1.0)
-        ref = minimize(lambda x: fgca(x)[:2], x0, jac=True, bounds=Bounds(lo, hi), method="SLSQP",
+        # scipy's stubs type Bounds' lb/ub as float; arrays are what its documentation describes
+        ref = minimize(lambda x: fgca(x)[:2], x0, jac=True, bounds=Bounds(lo, hi),  # pyright: ignore[reportArgumentType]
+                       method="SLSQP",
                        constraints=[{"type": "eq", "fun": lambda x: fgca(x)[2], "jac": lambda x: fgca(x)[3]}],
                        options={"maxiter": 100, "ftol": 1e-10})
         x, mode, nit = _slsqp_lean(fgca, x0, lo, hi, 2, 100, 1e-10)
@@ -273,84 +234,7 @@ def _lean_driver_works() -> bool:
     return ok
 
 
-def judge(
-    problem: WaypointProblem,
-    sol: SolverOutput,
-    x_start: np.ndarray,
-    lb: np.ndarray,
-    ub: np.ndarray,
-    target: np.ndarray,
-    params: np.ndarray,
-    pos_and_jac,
-    objective: Callable[[np.ndarray, np.ndarray], float],
-    pos_tol: float,
-) -> tuple[np.ndarray, int, float]:
-    """Make the solver's answer exactly feasible if possible and give it its status code."""
-    nf = problem.n_free
-    locked = np.nan_to_num(problem.robot.locked_values)
-    free = list(problem.free_idx)
-    rows = list(problem.pos_rows)
-
-    def pos_err(x):
-        q = locked.copy()
-        q[free] = x[:nf]
-        p, _ = pos_and_jac(q)
-        e_rows = float(np.linalg.norm(p[rows] - target[rows]))
-        return float(np.linalg.norm(p - target)), e_rows
-
-    x = np.asarray(sol.x, float)
-    nonfinite = not np.all(np.isfinite(x))
-    if nonfinite:
-        x = clip_to_box(x_start, lb, ub)
-    excursion = float(np.max(np.r_[lb - x, x - ub, 0.0]))
-    x = clip_to_box(x, lb, ub)
-    err3, err_rows = pos_err(x)
-    repaired = False
-    if not np.isfinite(err_rows) or err_rows > 1e-13:
-        x_new = newton_project(problem, x, target, lb, ub, pos_and_jac)
-        e3_new, er_new = pos_err(x_new)
-        if np.isfinite(er_new) and (not np.isfinite(err_rows) or er_new < err_rows):
-            repaired = err_rows > REPAIR_POS
-            x, err3, err_rows = x_new, e3_new, er_new
-    f = objective(x, params) if np.all(np.isfinite(x)) else float("nan")
-    if nonfinite or not np.isfinite(f) or not np.isfinite(err3):
-        return x, R.NONFINITE, err3
-    if err3 > pos_tol:
-        return x, R.UNREACHABLE, err3
-    if excursion > BOUND_TOL or repaired:
-        return x, R.CLIPPED, err3
-    return x, (R.SOLVED if sol.converged else R.NOT_CONVERGED), err3
-
-
-TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count as equally good
-
-
-def _pick(problem: WaypointProblem, cands):
-    """The best of several answers for one waypoint: usable first, then the lowest criterion; among
-    usable answers whose criterion is within :data:`TIE_RTOL` of the best (f2 and f1 have whole
-    sets of optimal postures), the one farthest from the joint limits (smallest normalised margin
-    of the free joints), so the next waypoints have room before a limit binds."""
-    usable = [c for c in cands if c[1] in R.USABLE]
-    if not usable:
-        return min(cands, key=lambda c: c[2])
-    fbest = min(c[4] for c in usable)
-    ties = [c for c in usable if c[4] <= fbest + TIE_RTOL * max(abs(fbest), 1e-12)]
-    lo, hi = problem.robot.lower, problem.robot.upper
-    free = list(problem.free_idx)
-    nf = problem.n_free
-    span = (hi - lo)[free]
-    finite = np.isfinite(span)  # a continuous joint has no limit to keep away from
-    span = np.where(finite, span, 1.0)
-
-    def margin(c):
-        qf = c[0][:nf]
-        m = np.where(finite, np.minimum(qf - np.where(finite, lo[free], 0.0), np.where(finite, hi[free], 0.0) - qf) / span, np.inf)
-        return float(np.min(m)) if nf else 0.0
-
-    return max(ties, key=margin)
-
-
-def greedy_path(
+def solve_path(
     problem: WaypointProblem,
     targets: np.ndarray,
     directions: np.ndarray,
@@ -359,95 +243,9 @@ def greedy_path(
     limits: Limits,
     ratio: float,
     c: float,
-    solver: WaypointSolver,
-    pos_and_jac=None,
-    objective: Callable[[np.ndarray, np.ndarray], float] | None = None,
-    pos_tol: float = POS_TOL,
+    options: Mapping[str, Any] | None = None,
     progress: Callable[[int], None] | None = None,
-    first_starts: Sequence[tuple[np.ndarray, np.ndarray]] = (),
-    first_maxiter: int | None = None,
 ) -> list[WaypointOutcome]:
-    """Solve the waypoints of one path one after the other (seed 000's greedy scheme).
-
-    Waypoint p's box is built around the reference state: the last usable waypoint's
-    (q, kj), or the start state ``(q0, kj0)`` before the first usable waypoint (with the rate
-    limits only if ``limits.first_rate_limit``). The solver starts from the reference state
-    clipped into the box.
-
-    Args:
-        problem: the waypoint problem.
-        targets, directions: (P, 3).
-        q0, kj0: (n,) start state.
-        limits: stiffness range and rate limits.
-        ratio, c: criterion parameters.
-        solver: ``(x0, lb, ub, params) -> SolverOutput``.
-        pos_and_jac: ``q -> (position (3,), J[rows][:, free])`` for the repair and the check;
-            default: the JAX kernel.
-        objective: ``(x, params) -> f`` for the final check; default: the JAX kernel.
-        pos_tol: position tolerance (m) of a usable waypoint.
-        progress: called with the waypoint index after each waypoint.
-        first_starts: extra start states ``(q (n,), kj (n,))`` for the first waypoint when it is
-            not rate-limited: the solver runs from the reference state and from each of these,
-            and the usable answer with the lowest criterion is kept (a multi-start against the
-            non-convexity of the first, unconstrained waypoint); ties (within 0.1%) go to the
-            posture farthest from the joint limits (:func:`_pick`).
-        first_maxiter: iteration limit for that first, not rate-limited waypoint (None: the
-            solver's default).
-
-    Returns:
-        One :class:`WaypointOutcome` per waypoint.
-    """
-    if pos_and_jac is None:
-        pos_and_jac = jax_pos_and_jac(problem)
-    if objective is None:
-        fused = compiled(problem)
-
-        def objective(x, params):
-            return float(np.asarray(fused(x, params))[0])
-
-    q_ref, kj_ref = np.asarray(q0, float), np.asarray(kj0, float)
-    at_start = True
-    out: list[WaypointOutcome] = []
-    try:
-        for p in range(targets.shape[0]):
-            t0 = time.perf_counter()
-            rate = limits.first_rate_limit or not at_start
-            lb, ub = limits.box(problem, q_ref, kj_ref, rate)
-            x_start = clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)
-            params = WaypointProblem.params(targets[p], directions[p], ratio, c)
-            starts = [x_start]
-            if not rate:
-                starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
-            cands = []
-            nit = nfev = 0
-            for xs in starts:
-                try:
-                    sol = solver(xs.copy(), lb, ub, params, maxiter=None if rate else first_maxiter)
-                except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
-                    sol = SolverOutput(xs.copy(), -1, False, 0, 0)
-                nit, nfev = nit + sol.nit, nfev + sol.nfev
-                x, status, err = judge(problem, sol, xs, lb, ub, targets[p], params, pos_and_jac, objective, pos_tol)
-                if status == R.NONFINITE:
-                    x = x_start
-                f = objective(x, params) if status in R.USABLE else np.inf
-                cands.append((x, status, err, sol.code, f))
-            x, status, err, code, _ = _pick(problem, cands)
-            out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
-            if status in R.USABLE:
-                q_ref = q_ref.copy()
-                q_ref[list(problem.free_idx)] = x[: problem.n_free]
-                kj_ref = x[problem.n_free :].copy()
-                at_start = False
-            if progress is not None:
-                progress(p)
-    except KeyboardInterrupt:
-        # the waypoints in `out` are finished and consistent (each is appended whole); the caller
-        # may keep them (shape marks the rest NOT_RUN)
-        raise PathInterrupted(out) from None
-    return out
-
-
-def solve_path(problem, targets, directions, q0, kj0, limits, ratio, c, options=None, progress=None):
     """Greedy SLSQP with JAX derivatives along one path; see :func:`greedy_path`."""
     solver = make_slsqp_solver(problem, options)
     return greedy_path(
@@ -456,48 +254,7 @@ def solve_path(problem, targets, directions, q0, kj0, limits, ratio, c, options=
     )
 
 
-# ---------------------------------------------------------------------- SOLVERS adapters
-def check_single_start(req: SolveRequest, kind: str) -> None:
-    """A per-waypoint SLSQP solver is single-start: ``req.starts`` must be None or 1."""
-    if req.starts not in (None, 1):
-        raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={req.starts}")
-
-
-def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, Any]) -> dict[str, np.ndarray]:
-    """Greedy SLSQP (``solver``, with :func:`greedy_path`'s keyword arguments ``extra``) over every
-    path of ``req``, in the :data:`~jaxstiff.solvers.base.SOLVERS` dict format; raises
-    :class:`~jaxstiff.solvers.base.SolverInterrupted` with the finished part on an interrupt."""
-    prob = req.problem
-
-    per_path = []
-    ratios = req.ratios
-    B, P = req.targets.shape[:2]
-    interrupted = False
-    for b in range(B):
-        prog = None if req.progress is None else (lambda p, b=b: req.progress(b, p))
-        try:
-            per_path.append(
-                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits.for_path(b),
-                            float(ratios[b]), req.c, solver, pos_tol=req.pos_tol, progress=prog,
-                            first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
-            )
-        except PathInterrupted as e:
-            per_path.append(e.done)
-            interrupted = True
-            break
-    # paths (or their ends) not reached before an interrupt: NOT_RUN at the reference state
-    per_path += [[] for _ in range(B - len(per_path))]
-    per_path = [not_run_outcomes(prob, d, P, req.q0[b], req.kj0[b]) for b, d in enumerate(per_path)]
-    out = outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
-    out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
-    out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
-    out["code_meaning"] = CODE_MEANING
-    if interrupted:
-        raise SolverInterrupted(out)
-    return out
-
-
-def run_request(req: SolveRequest) -> dict[str, np.ndarray]:
+def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers.base.SOLVERS` (``solver="slsqp"``)."""
     check_single_start(req, "slsqp")
     return run_greedy(req, make_slsqp_solver(req.problem, req.options), {})

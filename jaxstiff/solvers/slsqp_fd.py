@@ -10,7 +10,7 @@ by forward differences (scipy's default step, ``sqrt(machine eps)``).
 It exists as the baseline that the JAX solver's speed-up is measured against
 (``scripts/bench_shape.py``), and as an independent cross-check of the problem definition. The
 greedy chaining, the bounds and the final checks are the same as the JAX solver's
-(:func:`jaxstiff.solvers.slsqp.greedy_path`), run with the numpy kinematics here.
+(:func:`jaxstiff.solvers.greedy.greedy_path`), run with the numpy kinematics here.
 
 Only the built-in criteria f1 and f2 are available (a custom criterion is a JAX function).
 """
@@ -18,12 +18,16 @@ Only the built-in criteria f1 and f2 are available (a custom criterion is a JAX 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
+from typing import Any, cast
 
 import numpy as np
 
+from jaxstiff.model.robot import Robot
 from jaxstiff.solvers.base import SolveRequest
+from jaxstiff.solvers.greedy import Objective, PosAndJac, SolverOutput, WaypointSolver, check_single_start, run_greedy
 from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.solvers.slsqp import SolverOutput, check_options, check_single_start, run_greedy
+from jaxstiff.solvers.slsqp import check_options
 
 __all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain", "run_request"]
 
@@ -31,7 +35,7 @@ __all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain
 class NumpyChain:
     """Forward kinematics and the geometric Jacobian of a Robot in plain numpy (one posture)."""
 
-    def __init__(self, robot):
+    def __init__(self, robot: Robot):
         self.n = robot.n
         self.origins = [robot.origin_matrix(i) for i in range(robot.n)]
         self.axes = [np.asarray(a, float) for a in robot.axes]
@@ -73,12 +77,12 @@ class NumpyChain:
         return p, J
 
 
-def _split(problem: WaypointProblem):
+def _split(problem: WaypointProblem) -> tuple[Callable[[np.ndarray], np.ndarray], int]:
     free = list(problem.free_idx)
     nf = problem.n_free
     base = np.nan_to_num(problem.robot.locked_values)
 
-    def q_of(x):
+    def q_of(x: np.ndarray) -> np.ndarray:
         q = base.copy()
         q[free] = x[:nf]
         return q
@@ -86,7 +90,7 @@ def _split(problem: WaypointProblem):
     return q_of, nf
 
 
-def numpy_objective(problem: WaypointProblem):
+def numpy_objective(problem: WaypointProblem) -> Objective:
     """``(x, params) -> f`` in numpy: K_T (S0-4, S0-6), eigen-decomposition (S0-8), f1/f2."""
     name = getattr(problem.criterion, "__name__", "")
     if name not in ("f1", "f2"):
@@ -96,7 +100,7 @@ def numpy_objective(problem: WaypointProblem):
     rows = {"xy": [0, 1], "xyz": [0, 1, 2], "full": list(range(6))}[problem.task]
     m = problem.m
 
-    def objective(x, params):
+    def objective(x: np.ndarray, params: np.ndarray) -> float:
         q, kj = q_of(x), x[nf:]
         _, J = chain.position_and_jacobian(q)
         Js = J[rows]
@@ -116,20 +120,20 @@ def numpy_objective(problem: WaypointProblem):
     return objective
 
 
-def numpy_pos_and_jac(problem: WaypointProblem):
+def numpy_pos_and_jac(problem: WaypointProblem) -> PosAndJac:
     """``q (n,) -> (position (3,), J[rows][:, free])`` in numpy (for the repair and the checks)."""
     chain = NumpyChain(problem.robot)
     free = list(problem.free_idx)
     rows = list(problem.pos_rows)
 
-    def pos_and_jac(q):
+    def pos_and_jac(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         p, J = chain.position_and_jacobian(q)
         return p, J[np.ix_(rows, free)]
 
     return pos_and_jac
 
 
-def make_fd_solver(problem: WaypointProblem, options: dict | None = None):
+def make_fd_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> WaypointSolver:
     """Per-waypoint SLSQP ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, finite differences.
 
     Same options and the same variable/objective scaling as the JAX solver
@@ -146,14 +150,15 @@ def make_fd_solver(problem: WaypointProblem, options: dict | None = None):
     scale = np.r_[np.ones(problem.n_free), np.full(problem.n, float(opts["kj_scale"]))]
     fscale = float(opts["f_scale"])
 
-    def solve(x0, lb, ub, params, maxiter=None) -> SolverOutput:
+    def solve(x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray,
+              maxiter: int | None = None) -> SolverOutput:
         count = [0]
 
-        def fun(y):
+        def fun(y: np.ndarray) -> float:
             count[0] += 1
             return objective(y * scale, params) * fscale
 
-        def con(y):
+        def con(y: np.ndarray) -> np.ndarray:
             return chain.position(q_of(y * scale))[rows] - params[0:3][rows]
 
         res = minimize(
@@ -163,10 +168,10 @@ def make_fd_solver(problem: WaypointProblem, options: dict | None = None):
         return SolverOutput(np.asarray(res.x, float) * scale, int(res.status), int(res.status) == 0, int(res.nit), count[0])
 
     solve.options = opts  # type: ignore[attr-defined]
-    return solve
+    return cast(WaypointSolver, solve)  # a function with its options attached
 
 
-def run_request(req: SolveRequest) -> dict[str, np.ndarray]:
+def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers.base.SOLVERS` (``solver="slsqp-fd"``): greedy SLSQP with
     numpy derivatives by finite differences."""
     check_single_start(req, "slsqp-fd")

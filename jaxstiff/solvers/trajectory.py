@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import jax
@@ -41,6 +41,7 @@ from jaxstiff.results import files as R
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
 from jaxstiff.settings.solvers import TrajectoryOptions
+from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
 from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem
 
@@ -56,15 +57,11 @@ def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     return TrajectoryOptions.check_values(TrajectoryOptions.own(options))
 
 
-def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
-    ops = WaypointOps(problem)
-    nf = ops.nf
-    T, nb = int(opts["traj_iters"]), int(opts["blocks"])
-    per = max(T // nb, 1)
-    s0, s1 = float(opts["traj_step0"]), float(opts["traj_step1"])
-    decay = (s1 / s0) ** (1.0 / max(per * nb - 1, 1))
-    nn, npol = int(opts["newton"]), int(opts["polish"])
-    mu0 = float(opts["mu0"])
+def make_feasible_pass(ops: WaypointOps, first_rate: bool, npol: int) -> Callable[..., tuple[jax.Array, ...]]:
+    """The sequential feasibility pass ``(X (P, nx), targets, dirs, x0, dq_f, dk, kmin, kmax, r, c,
+    pos_tol) -> (X, f, err, status, score)``: ``lax.scan`` along the path, x_p clipped into the rate
+    box around the previous usable waypoint, box-respecting Newton polish (``npol`` steps) and the
+    status check; score = unusable waypoints * 1e12 + total criterion (lower is better)."""
 
     def feasible_pass(X, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):
         def step(carry, inp):
@@ -82,6 +79,40 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
         tot = jnp.sum(jnp.where(ST == R.SOLVED, F, 0.0))
         return Xo, F, E, ST, bad * 1e12 + jnp.where(jnp.isfinite(tot), tot, 1e11)
 
+    return feasible_pass
+
+
+def null_space_step(ops: WaypointOps, scale: jax.Array, X: jax.Array, U: jax.Array) -> jax.Array:
+    """Each waypoint's step ``U[p]`` (in variables scaled by ``scale``) with its joint part
+    projected onto the null space of the waypoint's position Jacobian (P, nx)."""
+    nf = ops.nf
+
+    def one(x, u):
+        _, J = ops.pos_jac(x)
+        Jy = J * scale[None, :nf]
+        k = Jy.shape[0]
+        JJt = Jy @ Jy.T
+        mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
+        lam = jnp.linalg.solve(JJt + mu * jnp.eye(k, dtype=x.dtype), Jy @ u[:nf])
+        return u.at[:nf].set(u[:nf] - Jy.T @ lam)
+
+    return jax.vmap(one)(X, U)
+
+
+def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) -> Callable[..., dict[str, jax.Array]]:
+    """One path's refinement ``(Xw (P, nx), targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol) -> dict``
+    (traceable, vmappable over paths): steps 2 and 3 of the module docstring."""
+    ops = WaypointOps(problem)
+    nf = ops.nf
+    T, nb = int(opts["traj_iters"]), int(opts["blocks"])
+    per = max(T // nb, 1)
+    s0, s1 = float(opts["traj_step0"]), float(opts["traj_step1"])
+    decay = (s1 / s0) ** (1.0 / max(per * nb - 1, 1))
+    nn, npol = int(opts["newton"]), int(opts["polish"])
+    mu0 = float(opts["mu0"])
+
+    feasible_pass = make_feasible_pass(ops, first_rate, npol)
+
     def traj(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):
         P = targets.shape[0]
         dx = jnp.concatenate([dq_f, dk])
@@ -98,17 +129,8 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
 
         g_total = jax.grad(total)
 
-        def project(X, U):
-            def one(x, u):
-                _, J = ops.pos_jac(x)
-                Jy = J * scale[None, :nf]
-                k = Jy.shape[0]
-                JJt = Jy @ Jy.T
-                mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
-                lam = jnp.linalg.solve(JJt + mu * jnp.eye(k, dtype=x.dtype), Jy @ u[:nf])
-                return u.at[:nf].set(u[:nf] - Jy.T @ lam)
-
-            return jax.vmap(one)(X, U)
+        def project(X: jax.Array, U: jax.Array) -> jax.Array:
+            return null_space_step(ops, scale, X, U)
 
         Xb, Fb, Eb, STb, scb = feasible_pass(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol)
 
@@ -144,7 +166,7 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
 
 
 @functools.lru_cache(maxsize=16)
-def _compiled(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
+def _compiled(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
     traj = _kernel(problem, dict(opts_items), first_rate)
     # per path: warm start, targets, directions, start state, rate limits (dq_f, dk) and ratio
     return jax.jit(jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None)), compiler_options=kernel_compiler_options())
@@ -157,12 +179,12 @@ def refine_batch(
     q0: np.ndarray,
     kj0: np.ndarray,
     limits: Limits,
-    ratio,
+    ratio: float | np.ndarray,
     c: float,
-    warm: dict[str, np.ndarray],
-    options: dict | None = None,
+    warm: Mapping[str, Any],
+    options: Mapping[str, Any] | None = None,
     pos_tol: float = POS_TOL,
-) -> dict[str, np.ndarray]:
+) -> dict[str, Any]:
     """Trajectory-level refinement of a feasible batch solution ``warm`` (SOLVERS dict format).
 
     Args:
@@ -190,7 +212,7 @@ def refine_batch(
     fn = _compiled(problem, items, bool(limits.first_rate_limit))
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, free]
-    out = {k: np.array(v, copy=True) for k, v in warm.items() if isinstance(v, np.ndarray)}
+    out: dict[str, Any] = {k: np.array(v, copy=True) for k, v in warm.items() if isinstance(v, np.ndarray)}
     pad = pad_rows
     with jax.enable_x64(True):
         for s in range(0, B, C):
@@ -213,7 +235,7 @@ def refine_batch(
     return out
 
 
-def run_request(req) -> dict[str, np.ndarray]:
+def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="trajectory"``)."""
     opts = dict(req.options or {})
     warm_kind = opts.get("warm", DEFAULT_OPTIONS["warm"])

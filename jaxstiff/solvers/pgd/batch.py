@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import jax
@@ -19,7 +19,7 @@ from jaxstiff.solvers.pgd.ops import lm_kind
 from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, content_seed
 
 __all__ = ["DEFAULT_OPTIONS", "check_options", "compiled_kernel", "pad_rows", "solve_batch", "CODE_MEANING",
-           "run_request"]
+           "run_request", "first_start_rows", "iteration_counts"]
 
 #: Settings (``shape(..., solver="pgd", starts=S, options=...)``), from
 #: :class:`~jaxstiff.settings.solvers.PGDOptions` (what each one does is documented there).
@@ -42,7 +42,7 @@ def check_options(options: Mapping[str, Any] | None, starts: int | None = None) 
 
 
 @functools.lru_cache(maxsize=32)
-def compiled_kernel(problem: WaypointProblem, opts_items: tuple, first_rate: bool):
+def compiled_kernel(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
     """:func:`make_kernel` vmapped over paths and jitted, cached per problem, settings (sorted
     ``(name, value)`` pairs) and first-waypoint rate limit."""
     opts = dict(opts_items)
@@ -67,15 +67,15 @@ def solve_batch(
     q0: np.ndarray,
     kj0: np.ndarray,
     limits: Limits,
-    ratio,
+    ratio: float | np.ndarray,
     c: float,
     *,
     starts: int | None = None,
-    options: dict | None = None,
+    options: Mapping[str, Any] | None = None,
     pos_tol: float = POS_TOL,
     return_timing: bool = False,
-    first_starts=None,
-) -> dict[str, np.ndarray]:
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None = None,
+) -> dict[str, Any]:
     """Shape B paths with multi-start projected gradient (the solver behind ``solver="pgd"``).
 
     Args:
@@ -104,7 +104,7 @@ def solve_batch(
     B, P = targets.shape[:2]
     nf = problem.n_free
     r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
-    x0 = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
+    x0 = np.asarray(problem.x_of(np.asarray(q0, float), np.asarray(kj0, float)))
     # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
     # simplified away), so a lone path would differ from the same path in a batch in the last bits;
     # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
@@ -113,16 +113,51 @@ def solve_batch(
     fn = compiled_kernel(problem, key_items, bool(limits.first_rate_limit))
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, list(problem.free_idx)]
-    base = jax.random.PRNGKey(int(opts["seed"]))
+    extra = first_start_rows(problem, first_starts, B)
     # each path's key from the seed and the path's own data, never from its index: a path's result
     # does not depend on its position in the batch or on the chunk size
-    E = min(len(fs) for fs in first_starts) if first_starts else 0
+    path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
+    per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
+    shared = (float(limits.kmin), float(limits.kmax), float(c), float(pos_tol))
+    X, out, compile_s, run_s = _run_chunks(fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), C)
+    q = np.repeat(np.asarray(q0, float)[:, None, :], P, axis=1)
+    q[..., list(problem.free_idx)] = X[..., :nf]
+    out["q"], out["kj"] = q, X[..., nf:].copy()
+    out["nit"], out["nfev"] = iteration_counts(problem, opts, B, P)
+    if return_timing:
+        out["compile_s"], out["run_s"] = compile_s, run_s
+    return out
+
+
+def first_start_rows(
+    problem: WaypointProblem, first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None, B: int
+) -> np.ndarray:
+    """(B, E, nx) the first waypoint's given start states as decision vectors, E the fewest any
+    path has (0 without ``first_starts``)."""
+    if not first_starts:
+        return np.zeros((B, 0, problem.nx))
+    E = min(len(fs) for fs in first_starts)
     extra = np.zeros((B, E, problem.nx))
     for b in range(B if E else 0):
         extra[b] = [problem.x_of(np.asarray(qs, float), np.asarray(ks, float)) for qs, ks in first_starts[b][:E]]
-    path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
-    X = np.zeros((B, P, problem.nx))
-    out = {k: np.zeros((B, P), dt) for k, dt in (("status", np.int64), ("solver_code", np.int64), ("pos_error", float), ("criterion", float), ("time_s", float))}
+    return extra
+
+
+def _run_chunks(
+    fn: Any, per_path: tuple[np.ndarray, ...], shared: tuple[float, float, float, float], base: jax.Array, C: int
+) -> tuple[np.ndarray, dict[str, Any], float, float]:
+    """The compiled kernel ``fn`` over the paths in chunks of C rows (the last one padded).
+
+    ``per_path``: ``(targets, directions, x0, path_data, dq_f, dk, ratio, extra)``, B rows each;
+    ``shared``: ``(kmin, kmax, c, pos_tol)``; ``base``: the seed's key, folded with each path's
+    data. Returns ``X`` (B, P, nx), the (B, P) outputs ``status``, ``solver_code``, ``pos_error``,
+    ``criterion``, ``time_s``, and the first chunk's compile time and the run time (s).
+    """
+    targets, directions, x0, path_data, dq_f, dk, r_arr, extra = per_path
+    kmin, kmax, c, pos_tol = shared
+    B, P = targets.shape[:2]
+    X = np.zeros((B, P, x0.shape[-1]))
+    out: dict[str, Any] = {k: np.zeros((B, P), dt) for k, dt in (("status", np.int64), ("solver_code", np.int64), ("pos_error", float), ("criterion", float), ("time_s", float))}
     compile_s, run_s = 0.0, 0.0
     with jax.enable_x64(True):
         for s in range(0, B, C):
@@ -131,14 +166,14 @@ def solve_batch(
             keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(pad_rows(path_data[sl], C))
             args = (
                 pad_rows(targets[sl], C), pad_rows(directions[sl], C), pad_rows(x0[sl], C), keys,
-                pad_rows(dq_f[sl], C), pad_rows(dk[sl], C), float(limits.kmin), float(limits.kmax), pad_rows(r_arr[sl], C),
-                float(c), float(pos_tol), pad_rows(extra[sl], C),
+                pad_rows(dq_f[sl], C), pad_rows(dk[sl], C), kmin, kmax, pad_rows(r_arr[sl], C),
+                c, pos_tol, pad_rows(extra[sl], C),
             )
             if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
                 from jaxstiff.runtime.sharding import shard_rows
 
-                placed, _ = shard_rows({i: args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
-                args = tuple(placed.get(i, a) for i, a in enumerate(args))
+                placed, _ = shard_rows({str(i): args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
+                args = tuple(placed.get(str(i), a) for i, a in enumerate(args))
             t0 = time.perf_counter()
             if s == 0:
                 lowered = fn.lower(*args)
@@ -158,29 +193,29 @@ def solve_batch(
             out["pos_error"][sl] = res["err"][:m]
             out["criterion"][sl] = res["f"][:m]
             out["time_s"][sl] = dt / ((e - s) * P)  # the chunk's wall time over its real waypoints (padding rows excluded)
-    q = np.repeat(np.asarray(q0, float)[:, None, :], P, axis=1)
-    q[..., list(problem.free_idx)] = X[..., :nf]
-    out["q"], out["kj"] = q, X[..., nf:].copy()
+    return X, out, compile_s, run_s
+
+
+def iteration_counts(problem: WaypointProblem, opts: Mapping[str, Any], B: int, P: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(nit, nfev)`` (B, P): the fixed iteration counts per start (gradient/LM steps) and the
+    gradient evaluations over all starts, the first waypoint apart."""
     S = int(opts["starts"])
     S1 = max(S, int(opts["starts_first"])) if opts["mode"] == "best" else S
     lm = lm_kind(problem) is not None
-    # fixed iteration counts per start (gradient/LM steps), first waypoint apart
     it = int(opts["iters_lm"]) + int(opts["lm_iters"]) if lm else int(opts["iters"])
     it1 = int(opts["iters_first"]) + (int(opts["lm_iters_first"]) if lm else 0)
-    out["nit"] = np.full((B, P), it, np.int64)
-    out["nit"][:, 0] = it1
-    out["nfev"] = np.full((B, P), S * (it + 1), np.int64)
-    out["nfev"][:, 0] = S1 * (it1 + 1)
-    if return_timing:
-        out["compile_s"], out["run_s"] = compile_s, run_s
-    return out
+    nit = np.full((B, P), it, np.int64)
+    nit[:, 0] = it1
+    nfev = np.full((B, P), S * (it + 1), np.int64)
+    nfev[:, 0] = S1 * (it1 + 1)
+    return nit, nfev
 
 
 #: meaning of the result file's ``solver_code`` for this solver (meta ``solver_code_meaning``)
 CODE_MEANING = "index of the start that won (-1 = none); no convergence flag (fixed iterations)"
 
 
-def run_request(req: SolveRequest) -> dict[str, np.ndarray]:
+def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="pgd"``)."""
     res = solve_batch(
         req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,

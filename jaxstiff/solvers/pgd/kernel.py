@@ -3,6 +3,7 @@ waypoints, the "rollout" and "best" modes (:mod:`jaxstiff.solvers.pgd`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import jax
@@ -14,66 +15,91 @@ from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
 from jaxstiff.solvers.pgd.stages import finish, optimise
 from jaxstiff.solvers.problem import WaypointProblem
 
-__all__ = ["make_kernel"]
+__all__ = ["make_kernel", "PGDKernel"]
+
+#: per waypoint: ``(x, criterion, position error, status, winning start)``
+Waypoint = tuple[jax.Array, jax.Array, jax.Array, jax.Array, jax.Array]
 
 
-def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
+def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) -> Callable[..., dict[str, jax.Array]]:
     """The per-trajectory function ``(targets (P,3), dirs (P,3), x0 (nx,), key, dq_f, dk, kmin,
     kmax, r, c, pos_tol, extra (E, nx)) -> dict`` (traceable, vmappable over trajectories);
-    ``extra``: given first-waypoint start states (E may be 0)."""
-    ops = WaypointOps(problem)
-    S = int(opts["starts"])
-    mode = opts["mode"]
-    spread, pspread = float(opts["spread"]), float(opts["posture_spread"])
-    polish = int(opts["polish"])
-    nf, nx = ops.nf, ops.nx
+    ``extra``: given first-waypoint start states (E may be 0). :meth:`PGDKernel.traj`."""
+    return PGDKernel(problem, opts, first_rate).traj
 
-    def starts_at(key, xref, lb, ub, rate, kmin, kmax, S=S):
+
+class PGDKernel:
+    """The pieces of one pgd trajectory (settings fixed at construction, everything else traced):
+    :meth:`starts_at` (start points), :meth:`one_start` (one start's optimisation), :meth:`pick`
+    (the kept start), :meth:`first` (the first waypoint), :meth:`step` (one later waypoint, a
+    ``lax.scan`` step) and :meth:`traj` (the whole trajectory)."""
+
+    def __init__(self, problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
+        self.ops = ops = WaypointOps(problem)
+        self.opts = opts
+        self.first_rate = first_rate
+        self.S = int(opts["starts"])
+        self.mode = opts["mode"]
+        self.spread, self.pspread = float(opts["spread"]), float(opts["posture_spread"])
+        self.polish = int(opts["polish"])
+        self.nf, self.nx = ops.nf, ops.nx
+        self.kind = lm_kind(problem)
+        self.lm_it = int(opts["lm_iters_first"]), int(opts["lm_iters"])
+        self.wpos, self.walign = float(opts["lm_wpos"]), float(opts["lm_walign"])
+        self.vstart = jax.vmap(self.one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0))
+        self.S1 = max(self.S, int(opts["starts_first"])) if self.mode == "best" else self.S
+        self.vfirst = jax.vmap(lambda *a: self.one_start(*a, first=True),
+                               in_axes=(0, None, None, None, None, None, None, None, None, None))
+        self.tie = float(opts["tie_tol"])
+
+    def starts_at(self, key: jax.Array, xref: jax.Array, lb: jax.Array, ub: jax.Array, rate: jax.Array,
+                  kmin: jax.Array, kmax: jax.Array, S: int | None = None) -> jax.Array:
         """(S, nx) start points in the box: start 0 the reference, others random around it."""
+        S = self.S if S is None else S
+        nf, nx = self.nf, self.nx
         u = jax.random.uniform(key, (S, nx), xref.dtype, -1.0, 1.0)
         half = 0.5 * box_scales(lb, ub, nf, kmax - kmin)
-        near = xref[None, :] + u * (spread * half)[None, :]
+        near = xref[None, :] + u * (self.spread * half)[None, :]
         # first waypoint without rate limit: distinct postures (large joint moves) and stiffnesses
         # drawn log-uniformly over the range: the criterion only sees stiffness ratios, and the
         # minima often have several joints near kmin, which uniform draws almost never visit
         lo = jnp.log(jnp.maximum(lb[nf:], 1e-6 * kmax))
         hi = jnp.log(jnp.maximum(ub[nf:], 1e-6 * kmax))
         kfar = jnp.exp(lo[None, :] + 0.5 * (u[:, nf:] + 1.0) * (hi - lo)[None, :])
-        far = jnp.concatenate([xref[None, :nf] + u[:, :nf] * pspread, kfar], axis=1)
+        far = jnp.concatenate([xref[None, :nf] + u[:, :nf] * self.pspread, kfar], axis=1)
         xs = jnp.where(rate, near, far)
         xs = xs.at[0].set(xref)
         return clip_box(xs, lb[None, :], ub[None, :])
 
-    kind = lm_kind(problem)
-    lm_it = int(opts["lm_iters_first"]), int(opts["lm_iters"])
-    wpos, walign = float(opts["lm_wpos"]), float(opts["lm_walign"])
-
-    def one_start(x0, lb, ub, tgt, d, r, c, kspan, pos_tol, rate, first=False):
+    def one_start(self, x0: jax.Array, lb: jax.Array, ub: jax.Array, tgt: jax.Array, d: jax.Array, r: jax.Array,
+                  c: jax.Array, kspan: jax.Array, pos_tol: jax.Array, rate: jax.Array, first: bool = False):
+        """One start's optimisation (:func:`~jaxstiff.solvers.pgd.stages.optimise`) and verdict
+        (:func:`~jaxstiff.solvers.pgd.stages.finish`): ``(x, f, err, usable, finite)``."""
+        ops, nf = self.ops, self.nf
         x0 = ops.newton(x0, tgt, lb, ub, 8)
-        nlm = lm_it[0] if first else lm_it[1]
-        lm = None
+        nlm = self.lm_it[0] if first else self.lm_it[1]
+        lm: Callable[[jax.Array], jax.Array] | None = None
+        kind = self.kind
         if kind is not None and nlm > 0:
-            def lm(x):
-                x = ops.lm(x, lb, ub, tgt, d, r, kind, nlm, wpos, walign, box_scales(lb, ub, nf, kspan))
+            def lm_stage(x: jax.Array) -> jax.Array:
+                x = ops.lm(x, lb, ub, tgt, d, r, kind, nlm, self.wpos, self.walign, box_scales(lb, ub, nf, kspan))
                 return ops.newton(x, tgt, lb, ub, 3)
-        xb = optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, opts, first, lm=lm)
-        return finish(ops, xb, lb, ub, tgt, d, r, c, pos_tol, polish)
 
-    vstart = jax.vmap(one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0))
-    S1 = max(S, int(opts["starts_first"])) if mode == "best" else S
-    vfirst = jax.vmap(lambda *a: one_start(*a, first=True), in_axes=(0, None, None, None, None, None, None, None, None, None))
+            lm = lm_stage
+        xb = optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, self.opts, first, lm=lm)
+        return finish(ops, xb, lb, ub, tgt, d, r, c, pos_tol, self.polish)
 
-    qlo, qhi = ops.qlo, ops.qhi
-    tie = float(opts["tie_tol"])
-
-    def pick(x, fv, err, usable, finite, kmin, kmax):
+    def pick(self, x: jax.Array, fv: jax.Array, err: jax.Array, usable: jax.Array, finite: jax.Array,
+             kmin: jax.Array, kmax: jax.Array) -> jax.Array:
         """Index of the kept start: among the usable ones within ``tie_tol`` (relative) of the best
         criterion, the one farthest from the joint and stiffness limits (normalised; stiffness in
         log scale), so that later waypoints have room to follow the path. None usable: the
         finite one closest to the path."""
+        ops, nf = self.ops, self.nf
+        qlo, qhi = ops.qlo, ops.qhi
         sc = jnp.where(usable, fv, jnp.inf)
         fb = jnp.min(sc)
-        near = usable & (sc <= fb + tie * jnp.maximum(jnp.abs(fb), 1.0))
+        near = usable & (sc <= fb + self.tie * jnp.maximum(jnp.abs(fb), 1.0))
         dt = x.dtype
         lo = jnp.concatenate([jnp.asarray(np.where(np.isfinite(qlo), qlo, -np.pi), dt), jnp.full((ops.n,), jnp.log(kmin))])
         hi = jnp.concatenate([jnp.asarray(np.where(np.isfinite(qhi), qhi, np.pi), dt), jnp.full((ops.n,), jnp.log(kmax))])
@@ -82,61 +108,75 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
         i_near = jnp.argmax(jnp.where(near, room, -jnp.inf))
         return jnp.where(jnp.any(usable), i_near, jnp.argmin(jnp.where(finite, err, jnp.inf)))
 
-    def traj(targets, dirs, x0, key, dq_f, dk, kmin, kmax, r, c, pos_tol, extra):
-        kspan = kmax - kmin
+    def step(self, carry: tuple[jax.Array, jax.Array], inp: tuple[jax.Array, jax.Array, jax.Array],
+             lims: tuple[jax.Array, ...]) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
+        """One waypoint after the first (a ``lax.scan`` step): carry ``(xref (S, nx), at_start (S,))``,
+        input ``(target, direction, key)``, ``lims = (dq_f, dk, kmin, kmax, r, c, kspan, pos_tol)``."""
+        ops, S = self.ops, self.S
+        dq_f, dk, kmin, kmax, r, c, kspan, pos_tol = lims
+        xref, at_start = carry  # (S, nx), (S,)
+        tgt, d, kk = inp
+        rate = (~at_start) | self.first_rate
+        lb, ub = jax.vmap(lambda xr, rt: ops.box(xr, rt, dq_f, dk, kmin, kmax))(xref, rate)
+        if self.mode == "best":
+            xs = self.starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
+        else:
+            # rollouts: one start each, from its own state; before the first usable waypoint
+            # rollout s takes the s-th distinct posture (all refs still equal x0 there)
+            xs0 = self.starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
+            xs = jnp.where(at_start[:, None], xs0, jax.vmap(clip_box)(xref, lb, ub))
+        x, fv, err, usable, finite = self.vstart(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate)
+        if self.mode == "best":
+            i = self.pick(x, fv, err, usable, finite, kmin, kmax)
+            xw, fw, ew, uw, finw = x[i], fv[i], err[i], usable[i], finite[i]
+            newref = jnp.where(uw, xw, xref[0])
+            carry = (jnp.broadcast_to(newref, xref.shape), jnp.broadcast_to(at_start[0] & ~uw, at_start.shape))
+            status = jnp.where(uw, R.SOLVED, jnp.where(finw, R.UNREACHABLE, R.NONFINITE))
+            xw = jnp.where(finw, xw, clip_box(xref[0], lb[0], ub[0]))
+            return carry, (xw, fw, ew, status, jnp.where(jnp.any(usable), i, -1))
+        newref = jnp.where(usable[:, None], x, xref)
+        carry = (newref, at_start & ~usable)
+        status = jnp.where(usable, R.SOLVED, jnp.where(finite, R.UNREACHABLE, R.NONFINITE))
+        xo = jnp.where(finite[:, None], x, jax.vmap(clip_box)(xref, lb, ub))
+        return carry, (xo, fv, err, status, jnp.arange(S))
 
-        def step(carry, inp):
-            xref, at_start = carry  # (S, nx), (S,)
-            tgt, d, kk = inp
-            rate = (~at_start) | first_rate
-            lb, ub = jax.vmap(lambda xr, rt: ops.box(xr, rt, dq_f, dk, kmin, kmax))(xref, rate)
-            if mode == "best":
-                xs = starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
-            else:
-                # rollouts: one start each, from its own state; before the first usable waypoint
-                # rollout s takes the s-th distinct posture (all refs still equal x0 there)
-                xs0 = starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
-                xs = jnp.where(at_start[:, None], xs0, jax.vmap(clip_box)(xref, lb, ub))
-            x, fv, err, usable, finite = vstart(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate)
-            if mode == "best":
-                i = pick(x, fv, err, usable, finite, kmin, kmax)
-                xw, fw, ew, uw, finw = x[i], fv[i], err[i], usable[i], finite[i]
-                newref = jnp.where(uw, xw, xref[0])
-                carry = (jnp.broadcast_to(newref, xref.shape), jnp.broadcast_to(at_start[0] & ~uw, at_start.shape))
-                status = jnp.where(uw, R.SOLVED, jnp.where(finw, R.UNREACHABLE, R.NONFINITE))
-                xw = jnp.where(finw, xw, clip_box(xref[0], lb[0], ub[0]))
-                out = (xw, fw, ew, status, jnp.where(jnp.any(usable), i, -1))
-            else:
-                newref = jnp.where(usable[:, None], x, xref)
-                carry = (newref, at_start & ~usable)
-                status = jnp.where(usable, R.SOLVED, jnp.where(finite, R.UNREACHABLE, R.NONFINITE))
-                xo = jnp.where(finite[:, None], x, jax.vmap(clip_box)(xref, lb, ub))
-                out = (xo, fv, err, status, jnp.arange(S))
-            return carry, out
-
-        P = targets.shape[0]
-        keys = jax.random.split(key, P + 1)
-        # first waypoint apart: more starts and iterations (its box is usually the whole range)
-        rate0 = jnp.asarray(first_rate)
+    def first(self, key: jax.Array, x0: jax.Array, extra: jax.Array, tgt: jax.Array, d: jax.Array,
+              lims: tuple[jax.Array, ...]) -> tuple[Waypoint, tuple[jax.Array, jax.Array]]:
+        """The first waypoint, apart: more starts and iterations (its box is usually the whole
+        range); given start states ``extra`` (greedy SLSQP's IK postures) replace random starts
+        1..E. Returns its outputs and the scan's initial carry."""
+        ops, S, nx = self.ops, self.S, self.nx
+        dq_f, dk, kmin, kmax, r, c, kspan, pos_tol = lims
+        rate0 = jnp.asarray(self.first_rate)
         lb0, ub0 = ops.box(x0, rate0, dq_f, dk, kmin, kmax)
-        xs0 = starts_at(keys[P], x0, lb0, ub0, rate0, kmin, kmax, S=S1)
-        # given start states (greedy SLSQP's IK postures) replace random starts 1..E
-        E = min(extra.shape[0], S1 - 1)
+        xs0 = self.starts_at(key, x0, lb0, ub0, rate0, kmin, kmax, S=self.S1)
+        E = min(extra.shape[0], self.S1 - 1)
         if E > 0:
             xs0 = xs0.at[1 : 1 + E].set(clip_box(extra[:E], lb0[None, :], ub0[None, :]))
-        x1, f1, e1, u1, fin1 = vfirst(xs0, lb0, ub0, targets[0], dirs[0], r, c, kspan, pos_tol, rate0)
+        x1, f1, e1, u1, fin1 = self.vfirst(xs0, lb0, ub0, tgt, d, r, c, kspan, pos_tol, rate0)
         st1 = jnp.where(u1, R.SOLVED, jnp.where(fin1, R.UNREACHABLE, R.NONFINITE))
         x1 = jnp.where(fin1[:, None], x1, clip_box(x0, lb0, ub0)[None, :])
-        if mode == "best":
-            i1 = pick(x1, f1, e1, u1, fin1, kmin, kmax)
+        if self.mode == "best":
+            i1 = self.pick(x1, f1, e1, u1, fin1, kmin, kmax)
             first = (x1[i1], f1[i1], e1[i1], st1[i1], jnp.where(jnp.any(u1), i1, -1))
             carry0 = (jnp.broadcast_to(jnp.where(u1[i1], x1[i1], x0), (S, nx)), jnp.broadcast_to(~u1[i1], (S,)))
         else:
             first = (x1, f1, e1, st1, jnp.arange(S))
             carry0 = (jnp.where(u1[:, None], x1, x0[None, :]), ~u1)
-        _, rest = jax.lax.scan(step, carry0, (targets[1:], dirs[1:], keys[1:P]))
-        X, F, E, ST, WIN = (jnp.concatenate([a[None], b], axis=0) for a, b in zip(first, rest))
-        if mode == "rollout":
+        return first, carry0
+
+    def traj(self, targets: jax.Array, dirs: jax.Array, x0: jax.Array, key: jax.Array, dq_f: jax.Array,
+             dk: jax.Array, kmin: jax.Array, kmax: jax.Array, r: jax.Array, c: jax.Array, pos_tol: jax.Array,
+             extra: jax.Array) -> dict[str, jax.Array]:
+        """One trajectory (see :func:`make_kernel`): ``x`` (P, nx), ``f``, ``err``, ``status``,
+        ``start`` (P,)."""
+        lims = (dq_f, dk, kmin, kmax, r, c, kmax - kmin, pos_tol)
+        P = targets.shape[0]
+        keys = jax.random.split(key, P + 1)
+        first, carry0 = self.first(keys[P], x0, extra, targets[0], dirs[0], lims)
+        _, rest = jax.lax.scan(lambda cr, inp: self.step(cr, inp, lims), carry0, (targets[1:], dirs[1:], keys[1:P]))
+        X, F, E, ST, WIN = (jnp.concatenate([a[None], b], axis=0) for a, b in zip(first, rest, strict=True))
+        if self.mode == "rollout":
             # X (P, S, nx): keep the trajectory with fewest unusable waypoints, then lowest sum f
             bad = jnp.sum(ST != R.SOLVED, axis=0)
             tot = jnp.sum(jnp.where(ST == R.SOLVED, F, 0.0), axis=0)
@@ -145,5 +185,3 @@ def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
             X, F, E, ST = X[:, i], F[:, i], E[:, i], ST[:, i]
             WIN = jnp.full((P,), i)
         return {"x": X, "f": F, "err": E, "status": ST, "start": WIN}
-
-    return traj

@@ -29,6 +29,9 @@ description (robot, task, criterion) so that one compilation serves every waypoi
 
 Units: metres, radians, Nm/rad; the criterion's alpha is in degrees (seed 000).
 
+Modules: :mod:`.waypoint` (:class:`WaypointProblem`), :mod:`.compiled` (the jitted, cached kernels),
+:mod:`.box` (bounds, :class:`Limits`, projection, checks); every name is importable from here.
+
 Example:
     >>> import jaxstiff
     >>> from jaxstiff.solvers.problem import WaypointProblem
@@ -72,4 +75,6 @@ __all__ = [
     "POS_TOL",
     "BOUND_TOL",
     "content_seed",
+    "Limits",
+    "rate_bounds",
 ]

@@ -17,7 +17,7 @@ __all__ = ["compiled", "compiled_evaluate", "compiled_report", "compiled_scaled"
 
 
 @functools.lru_cache(maxsize=64)
-def compiled_scaled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray, np.ndarray], jax.Array]:
+def compiled_scaled(problem: WaypointProblem) -> Callable[..., jax.Array]:
     """The jitted ``fused_scaled(y, params, scale)`` of a problem, compiled once per problem and dtype."""
     return jax.jit(problem.fused_scaled)
 

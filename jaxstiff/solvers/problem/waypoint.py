@@ -6,10 +6,12 @@ from __future__ import annotations
 import dataclasses
 import inspect
 from collections.abc import Callable
+from typing import overload
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import Robot
@@ -95,7 +97,14 @@ class WaypointProblem:
         """Joint stiffnesses (..., n) from ``x`` (..., nx)."""
         return x[..., self.n_free :]
 
-    def x_of(self, q, kj):
+    @overload
+    def x_of(self, q: jax.Array, kj: ArrayLike) -> jax.Array: ...
+    @overload
+    def x_of(self, q: ArrayLike, kj: jax.Array) -> jax.Array: ...
+    @overload
+    def x_of(self, q: ArrayLike, kj: ArrayLike) -> np.ndarray: ...
+
+    def x_of(self, q: ArrayLike, kj: ArrayLike) -> np.ndarray | jax.Array:
         """Decision vector (..., nx) from ``q`` (..., n) and ``kj`` (..., n); works on numpy and JAX."""
         xp = jnp if isinstance(q, jax.Array) or isinstance(kj, jax.Array) else np
         q = xp.asarray(q)

@@ -1,0 +1,344 @@
+"""Seed 000's greedy chaining, shared by the per-waypoint solvers: waypoint after waypoint, each
+solved from the last usable state inside its rate-limited box, the answer made exactly feasible
+and judged (status codes of :mod:`jaxstiff.results`).
+
+* :func:`greedy_path` one path, any per-waypoint solver ``(x0, lb, ub, params, maxiter=None) ->
+  SolverOutput`` (SLSQP with JAX derivatives in :mod:`.slsqp`, with finite differences in
+  :mod:`.slsqp_fd`);
+* :func:`judge` the verdict on one solver answer: clip into the box, Newton projection back onto
+  the path inside the box if needed, then the checks (position error, box, finiteness);
+* :func:`run_greedy` every path of a :class:`~jaxstiff.solvers.base.SolveRequest` in the
+  :data:`~jaxstiff.solvers.base.SOLVERS` format, the waypoints not reached before an interrupt
+  marked NOT_RUN (:func:`not_run_outcomes`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Protocol
+
+import numpy as np
+
+from jaxstiff.results import files as R
+from jaxstiff.solvers.base import SolveRequest, SolverInterrupted, outcomes_to_arrays
+from jaxstiff.solvers.problem import (
+    BOUND_TOL,
+    POS_TOL,
+    Limits,
+    WaypointProblem,
+    clip_to_box,
+    compiled,
+    jax_pos_and_jac,
+    newton_project,
+)
+
+__all__ = ["SolverOutput", "WaypointOutcome", "PathInterrupted", "WaypointSolver", "PosAndJac", "Objective",
+           "CODE_MEANING", "REPAIR_POS", "TIE_RTOL", "not_run_outcomes", "kernel_objective", "judge", "greedy_path",
+           "check_single_start", "run_greedy"]
+
+REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
+TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count as equally good
+
+#: meaning of the result file's ``solver_code`` for the SLSQP solvers (meta ``solver_code_meaning``)
+CODE_MEANING = "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise), -1 = exception"
+
+#: ``q (n,) -> (position (3,), J[rows][:, free] (k, n_free))``
+PosAndJac = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+#: ``(x (nx,), params (8,)) -> criterion``
+Objective = Callable[[np.ndarray, np.ndarray], float]
+
+
+@dataclasses.dataclass
+class SolverOutput:
+    """What a per-waypoint solver returns: its point and its own bookkeeping."""
+
+    x: np.ndarray
+    code: int  # the solver's own exit code (SLSQP mode); -1 = exception
+    converged: bool
+    nit: int
+    nfev: int
+
+
+@dataclasses.dataclass
+class WaypointOutcome:
+    """Final, checked state of one waypoint."""
+
+    x: np.ndarray
+    status: int
+    pos_error: float
+    code: int
+    nit: int
+    nfev: int
+    time_s: float
+
+
+class WaypointSolver(Protocol):
+    """A per-waypoint solver ``solver(x0, lb, ub, params, maxiter=None) -> SolverOutput`` (all (nx,)
+    but params (8,); ``maxiter`` None: its own default) carrying its checked ``options``."""
+
+    options: dict[str, Any]
+
+    def __call__(self, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray,
+                 maxiter: int | None = None) -> SolverOutput: ...
+
+#: one judged answer for a waypoint: ``(x, status, pos_error, solver code, criterion)``
+Candidate = tuple[np.ndarray, int, float, int, float]
+
+
+class PathInterrupted(KeyboardInterrupt):
+    """A ``KeyboardInterrupt`` (Ctrl-C, or SIGTERM under the command line) during
+    :func:`greedy_path`, carrying the outcomes of the waypoints finished before it (``done``)."""
+
+    def __init__(self, done: list[WaypointOutcome]):
+        super().__init__()
+        self.done = done
+
+
+def not_run_outcomes(
+    problem: WaypointProblem, done: Sequence[WaypointOutcome], P: int, q0: np.ndarray, kj0: np.ndarray
+) -> list[WaypointOutcome]:
+    """``done`` completed to P waypoints with status NOT_RUN: each holds the reference state (the
+    last usable waypoint's x, else the start state), so bounds and rate limits still hold."""
+    x_ref = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
+    for o in done:
+        if o.status in R.USABLE:
+            x_ref = o.x
+    return list(done) + [WaypointOutcome(x_ref.copy(), R.NOT_RUN, 0.0, -1, 0, 0, 0.0) for _ in range(P - len(done))]
+
+
+def kernel_objective(problem: WaypointProblem) -> Objective:
+    """``(x, params) -> f`` (a Python float) on the problem's jitted kernel (:func:`compiled`)."""
+    fused = compiled(problem)
+
+    def objective(x: np.ndarray, params: np.ndarray) -> float:
+        return float(np.asarray(fused(x, params))[0])
+
+    return objective
+
+
+def judge(
+    problem: WaypointProblem,
+    sol: SolverOutput,
+    x_start: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    target: np.ndarray,
+    params: np.ndarray,
+    pos_and_jac: PosAndJac,
+    objective: Objective,
+    pos_tol: float,
+) -> tuple[np.ndarray, int, float]:
+    """Make the solver's answer exactly feasible if possible and give it its status code."""
+    nf = problem.n_free
+    locked = np.nan_to_num(problem.robot.locked_values)
+    free = list(problem.free_idx)
+    rows = list(problem.pos_rows)
+
+    def pos_err(x: np.ndarray) -> tuple[float, float]:
+        q = locked.copy()
+        q[free] = x[:nf]
+        p, _ = pos_and_jac(q)
+        e_rows = float(np.linalg.norm(p[rows] - target[rows]))
+        return float(np.linalg.norm(p - target)), e_rows
+
+    x = np.asarray(sol.x, float)
+    nonfinite = not np.all(np.isfinite(x))
+    if nonfinite:
+        x = clip_to_box(x_start, lb, ub)
+    excursion = float(np.max(np.r_[lb - x, x - ub, 0.0]))
+    x = clip_to_box(x, lb, ub)
+    err3, err_rows = pos_err(x)
+    repaired = False
+    if not np.isfinite(err_rows) or err_rows > 1e-13:
+        x_new = newton_project(problem, x, target, lb, ub, pos_and_jac)
+        e3_new, er_new = pos_err(x_new)
+        if np.isfinite(er_new) and (not np.isfinite(err_rows) or er_new < err_rows):
+            repaired = err_rows > REPAIR_POS
+            x, err3, err_rows = x_new, e3_new, er_new
+    f = objective(x, params) if np.all(np.isfinite(x)) else float("nan")
+    if nonfinite or not np.isfinite(f) or not np.isfinite(err3):
+        return x, R.NONFINITE, err3
+    if err3 > pos_tol:
+        return x, R.UNREACHABLE, err3
+    if excursion > BOUND_TOL or repaired:
+        return x, R.CLIPPED, err3
+    return x, (R.SOLVED if sol.converged else R.NOT_CONVERGED), err3
+
+
+def _pick(problem: WaypointProblem, cands: Sequence[Candidate]) -> Candidate:
+    """The best of several answers for one waypoint: usable first, then the lowest criterion; among
+    usable answers whose criterion is within :data:`TIE_RTOL` of the best (f2 and f1 have whole
+    sets of optimal postures), the one farthest from the joint limits (smallest normalised margin
+    of the free joints), so the next waypoints have room before a limit binds."""
+    usable = [c for c in cands if c[1] in R.USABLE]
+    if not usable:
+        return min(cands, key=lambda c: c[2])
+    fbest = min(c[4] for c in usable)
+    ties = [c for c in usable if c[4] <= fbest + TIE_RTOL * max(abs(fbest), 1e-12)]
+    lo, hi = problem.robot.lower, problem.robot.upper
+    free = list(problem.free_idx)
+    nf = problem.n_free
+    span = (hi - lo)[free]
+    finite = np.isfinite(span)  # a continuous joint has no limit to keep away from
+    span = np.where(finite, span, 1.0)
+
+    def margin(c: Candidate) -> float:
+        qf = c[0][:nf]
+        m = np.where(finite, np.minimum(qf - np.where(finite, lo[free], 0.0), np.where(finite, hi[free], 0.0) - qf) / span, np.inf)
+        return float(np.min(m)) if nf else 0.0
+
+    return max(ties, key=margin)
+
+
+def _solve_starts(
+    problem: WaypointProblem,
+    solver: WaypointSolver,
+    starts: Sequence[np.ndarray],
+    lb: np.ndarray,
+    ub: np.ndarray,
+    target: np.ndarray,
+    params: np.ndarray,
+    pos_and_jac: PosAndJac,
+    objective: Objective,
+    pos_tol: float,
+    maxiter: int | None,
+) -> tuple[list[Candidate], int, int]:
+    """One waypoint solved from each start (``starts[0]``: the reference state clipped into the
+    box), each answer judged: the candidates and the iterations and evaluations of all solves."""
+    cands: list[Candidate] = []
+    nit = nfev = 0
+    for xs in starts:
+        try:
+            sol = solver(xs.copy(), lb, ub, params, maxiter=maxiter)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+            sol = SolverOutput(xs.copy(), -1, False, 0, 0)
+        nit, nfev = nit + sol.nit, nfev + sol.nfev
+        x, status, err = judge(problem, sol, xs, lb, ub, target, params, pos_and_jac, objective, pos_tol)
+        if status == R.NONFINITE:
+            x = starts[0]
+        f = objective(x, params) if status in R.USABLE else np.inf
+        cands.append((x, status, err, sol.code, f))
+    return cands, nit, nfev
+
+
+def greedy_path(
+    problem: WaypointProblem,
+    targets: np.ndarray,
+    directions: np.ndarray,
+    q0: np.ndarray,
+    kj0: np.ndarray,
+    limits: Limits,
+    ratio: float,
+    c: float,
+    solver: WaypointSolver,
+    pos_and_jac: PosAndJac | None = None,
+    objective: Objective | None = None,
+    pos_tol: float = POS_TOL,
+    progress: Callable[[int], None] | None = None,
+    first_starts: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    first_maxiter: int | None = None,
+) -> list[WaypointOutcome]:
+    """Solve the waypoints of one path one after the other (seed 000's greedy scheme).
+
+    Waypoint p's box is built around the reference state: the last usable waypoint's
+    (q, kj), or the start state ``(q0, kj0)`` before the first usable waypoint (with the rate
+    limits only if ``limits.first_rate_limit``). The solver starts from the reference state
+    clipped into the box.
+
+    Args:
+        problem: the waypoint problem.
+        targets, directions: (P, 3).
+        q0, kj0: (n,) start state.
+        limits: stiffness range and rate limits.
+        ratio, c: criterion parameters.
+        solver: ``(x0, lb, ub, params) -> SolverOutput``.
+        pos_and_jac: ``q -> (position (3,), J[rows][:, free])`` for the repair and the check;
+            default: the JAX kernel.
+        objective: ``(x, params) -> f`` for the final check; default: the JAX kernel.
+        pos_tol: position tolerance (m) of a usable waypoint.
+        progress: called with the waypoint index after each waypoint.
+        first_starts: extra start states ``(q (n,), kj (n,))`` for the first waypoint when it is
+            not rate-limited: the solver runs from the reference state and from each of these,
+            and the usable answer with the lowest criterion is kept (a multi-start against the
+            non-convexity of the first, unconstrained waypoint); ties (within 0.1%) go to the
+            posture farthest from the joint limits (:data:`TIE_RTOL`).
+        first_maxiter: iteration limit for that first, not rate-limited waypoint (None: the
+            solver's default).
+
+    Returns:
+        One :class:`WaypointOutcome` per waypoint.
+    """
+    pj = jax_pos_and_jac(problem) if pos_and_jac is None else pos_and_jac
+    fobj = kernel_objective(problem) if objective is None else objective
+    q_ref, kj_ref = np.asarray(q0, float), np.asarray(kj0, float)
+    at_start = True
+    out: list[WaypointOutcome] = []
+    try:
+        for p in range(targets.shape[0]):
+            t0 = time.perf_counter()
+            rate = limits.first_rate_limit or not at_start
+            lb, ub = limits.box(problem, q_ref, kj_ref, rate)
+            starts = [clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)]
+            if not rate:
+                starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
+            params = WaypointProblem.params(targets[p], directions[p], ratio, c)
+            cands, nit, nfev = _solve_starts(problem, solver, starts, lb, ub, targets[p], params, pj, fobj, pos_tol,
+                                             None if rate else first_maxiter)
+            x, status, err, code, _ = _pick(problem, cands)
+            out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
+            if status in R.USABLE:
+                q_ref = q_ref.copy()
+                q_ref[list(problem.free_idx)] = x[: problem.n_free]
+                kj_ref = x[problem.n_free :].copy()
+                at_start = False
+            if progress is not None:
+                progress(p)
+    except KeyboardInterrupt:
+        # the waypoints in `out` are finished and consistent (each is appended whole); the caller
+        # may keep them (shape marks the rest NOT_RUN)
+        raise PathInterrupted(out) from None
+    return out
+
+
+# ---------------------------------------------------------------------- SOLVERS adapters
+def check_single_start(req: SolveRequest, kind: str) -> None:
+    """A per-waypoint SLSQP solver is single-start: ``req.starts`` must be None or 1."""
+    if req.starts not in (None, 1):
+        raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={req.starts}")
+
+
+def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, Any]) -> dict[str, Any]:
+    """Greedy SLSQP (``solver``, with :func:`greedy_path`'s keyword arguments ``extra``) over every
+    path of ``req``, in the :data:`~jaxstiff.solvers.base.SOLVERS` dict format; raises
+    :class:`~jaxstiff.solvers.base.SolverInterrupted` with the finished part on an interrupt."""
+    prob = req.problem
+
+    per_path: list[list[WaypointOutcome]] = []
+    ratios = req.ratios
+    B, P = req.targets.shape[:2]
+    interrupted = False
+    progress = req.progress
+    for b in range(B):
+        prog = None if progress is None else (lambda p, b=b: progress(b, p))
+        try:
+            per_path.append(
+                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits.for_path(b),
+                            float(ratios[b]), req.c, solver, pos_tol=req.pos_tol, progress=prog,
+                            first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
+            )
+        except PathInterrupted as e:
+            per_path.append(e.done)
+            interrupted = True
+            break
+    # paths (or their ends) not reached before an interrupt: NOT_RUN at the reference state
+    per_path += [[] for _ in range(B - len(per_path))]
+    per_path = [not_run_outcomes(prob, d, P, req.q0[b], req.kj0[b]) for b, d in enumerate(per_path)]
+    out: dict[str, Any] = outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
+    out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
+    out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
+    out["code_meaning"] = CODE_MEANING
+    if interrupted:
+        raise SolverInterrupted(out)
+    return out
