@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     rows = [
         {"k": f"{k:g}", "lambda1_N_per_m": f"{a[0]:.4f}", "lambda2_N_per_m": f"{a[1]:.4f}", "ratio": f"{rho:.6f}",
          "major_axis_deg": f"{ang:.4f}", "area_lambda1_lambda2": f"{a[0] * a[1]:.2f}"}
-        for k, a, rho, ang in zip(ks, axes, ratio, angle)
+        for k, a, rho, ang in zip(ks, axes, ratio, angle, strict=True)
     ]
     print(f"Seed 000 Fig. 2 (CMS): planar 3R, q = {Q_DEG} deg, TCP = ({tcp[0]:.4f}, {tcp[1]:.4f}) m, k_j0 = {KJ0} Nm/rad, task xy")
     print("\n".join(plots.text_table(rows, width=20, sep="  ")))

@@ -96,7 +96,7 @@ def main(argv=None) -> int:
     cond = np.asarray(jaxstiff.compliance_condition(J, jnp.asarray(KJ), task="xy"))
 
     rows = []
-    for i, (phi, q) in enumerate(zip(phis, Q)):
+    for i, (phi, q) in enumerate(zip(phis, Q, strict=True)):
         rows.append({
             "posture": str(i + 1), "phi_deg": f"{math.degrees(phi):.2f}",
             "q1_deg": f"{math.degrees(q[0]):.2f}", "q2_deg": f"{math.degrees(q[1]):.2f}", "q3_deg": f"{math.degrees(q[2]):.2f}",

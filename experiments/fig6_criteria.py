@@ -83,7 +83,7 @@ def main(argv=None) -> int:
     Ks, ds = stiffness_with(np.array([a for a, _ in samples]), np.array([p for _, p in samples]))
     s1 = np.asarray(jaxstiff.f1(jnp.asarray(Ks), jnp.asarray(ds), r, c=c))
     s2 = np.asarray(jaxstiff.f2(jnp.asarray(Ks), jnp.asarray(ds), r))
-    rows = [{"alpha_deg": f"{a:g}", "rho": f"{p:g}", "f1": f"{v1:.6g}", "f2": f"{v2:.6g}"} for (a, p), v1, v2 in zip(samples, s1, s2)]
+    rows = [{"alpha_deg": f"{a:g}", "rho": f"{p:g}", "f1": f"{v1:.6g}", "f2": f"{v2:.6g}"} for (a, p), v1, v2 in zip(samples, s1, s2, strict=True)]
 
     print(f"Seed 000 Fig. 6: criteria on a {alpha.size} x {rho.size} grid, alpha in [-90, 90] deg, rho in [1.05, {args.rho_max:g}], r = {r:g}, c = {c:g}")
     print(f"f1: grid minimum {F1[i1]:.6g} (= c); on the whole line alpha = 0, rho >= r ({on_line.sum()} points) f1 = "

@@ -30,7 +30,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
+    """Run the study and write its tables and figure. One function (~110 lines) on purpose: an
+    experiment is a short script read top to bottom (STYLE.md), parse -> paths -> solvers -> table."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="2 random paths (unless --paths), fewer settings")
     ap.add_argument("--paths", type=int, default=None, help="random paths besides the default path")
@@ -41,12 +43,13 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     N = args.paths if args.paths is not None else (2 if args.quick else 100)
 
+    from bench_batch import random_reachable_paths
+
     import jaxstiff
-    from jaxstiff.results import files as R
     from jaxstiff.ik import ik_position
+    from jaxstiff.results import files as R
     from jaxstiff.shaping import SOLVERS, register_solver
     from jaxstiff.solvers import trajectory
-    from bench_batch import random_reachable_paths
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     dp = jaxstiff.default_path()

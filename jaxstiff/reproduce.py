@@ -35,23 +35,21 @@ links rewritten) or, without one, what it prints plus small CSV tables and ``*.j
 from __future__ import annotations
 
 import dataclasses
-import datetime
 import glob
 import os
-import platform
-import re
 import shutil
 import subprocess
 import sys
 import time
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
+
+from jaxstiff.reproduce_report import ExperimentRun, write_report
+from jaxstiff.runtime.io import atomic_write_text
 
 __all__ = ["find_experiments_dir", "discover", "run_reproduce", "ReproduceOutcome", "ExperimentRun"]
 
 #: Order of the report: seed 000 figures 2-6, then CSC, then the rest alphabetically.
 ORDER = ("fig2", "fig3", "fig4", "fig5", "fig6", "csc")
-_TABLE_MAX_ROWS = 40
-_JSON_MAX_ROWS = 60
 
 
 def find_experiments_dir(explicit: str | os.PathLike | None = None) -> str:
@@ -116,23 +114,6 @@ def discover(folder: str, everything: bool = True) -> list[str]:
 
 
 @dataclasses.dataclass
-class ExperimentRun:
-    """One experiment's run: ``name``, ``script``, ``out`` folder, exit ``code`` (None if it timed out), ``wall_s``."""
-
-    name: str
-    script: str
-    out: str
-    code: int | None
-    wall_s: float
-    log: str
-    cmd: str = ""
-
-    @property
-    def ok(self) -> bool:
-        return self.code == 0
-
-
-@dataclasses.dataclass
 class ReproduceOutcome:
     """What :func:`run_reproduce` did: the report file, the runs, the total wall time."""
 
@@ -171,170 +152,6 @@ def _run_one(script: str, out: str, quick: bool, timeout: float | None, repo: st
     return ExperimentRun(name, script, out, code, time.perf_counter() - t0, log_file, " ".join(shown))
 
 
-def _tail(file: str, n: int = 30) -> str:
-    try:
-        with open(file, encoding="utf-8", errors="replace") as fh:
-            return "".join(fh.readlines()[-n:])
-    except OSError:
-        return ""
-
-
-def _csv_table(file: str) -> str | None:
-    import csv
-
-    try:
-        with open(file, newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
-    except (OSError, UnicodeDecodeError, csv.Error):
-        return None
-    if not rows or len(rows) > _TABLE_MAX_ROWS + 1 or len(rows[0]) > 16:
-        return None
-    head = rows[0]
-    out = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
-    for r in rows[1:]:
-        cells = []
-        for c in r:
-            try:
-                v = float(c)
-                cells.append(f"{v:.4g}" if not c.strip().lstrip("-").isdigit() else c)
-            except ValueError:
-                cells.append(c.replace("|", "\\|"))
-        out.append("| " + " | ".join(cells) + " |")
-    return "\n".join(out)
-
-
-def _flatten(obj, prefix: str = "") -> list[tuple[str, object]]:
-    """Scalars (and short lists of numbers) of a JSON tree as ``(dotted.key, value)``."""
-    out: list[tuple[str, object]] = []
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            out += _flatten(v, f"{prefix}.{k}" if prefix else str(k))
-    elif isinstance(obj, list) and len(obj) <= 8 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in obj):
-        out.append((prefix, "[" + ", ".join(f"{x:.4g}" for x in obj) + "]"))
-    elif isinstance(obj, list):
-        for i, v in enumerate(obj[:8]):
-            out += _flatten(v, f"{prefix}[{i}]")
-    else:
-        out.append((prefix, obj))
-    return out
-
-
-def _json_table(file: str) -> str | None:
-    import json
-
-    try:
-        with open(file, encoding="utf-8") as fh:
-            data = json.load(fh)
-    except (OSError, UnicodeDecodeError, ValueError):
-        return None
-    items = _flatten(data)
-    if not items:
-        return None
-    lines = ["| key | value |", "|---|---|"]
-    for k, v in items[:_JSON_MAX_ROWS]:
-        if isinstance(v, float):
-            v = f"{v:.6g}"
-        lines.append(f"| {k} | {str(v).replace('|', chr(92) + '|')} |")
-    if len(items) > _JSON_MAX_ROWS:
-        lines.append(f"| ... | ({len(items) - _JSON_MAX_ROWS} more in {os.path.basename(file)}) |")
-    return "\n".join(lines)
-
-
-def _printed(log_file: str, n: int = 40) -> str:
-    """What the run printed (its log without the command line), last ``n`` lines."""
-    try:
-        with open(log_file, encoding="utf-8", errors="replace") as fh:
-            lines = fh.read().splitlines()
-    except OSError:
-        return ""
-    lines = [ln for ln in lines[1:] if ln.strip()]
-    if len(lines) > n:
-        lines = [f"... ({len(lines) - n} lines above in log.txt)"] + lines[-n:]
-    return "\n".join(lines)
-
-
-_IMG = re.compile(r"!\[([^\]]*)\]\(([^)\s]+)\)")
-
-
-_SKIP_TABLES = ("timing.csv", "results.csv")
-
-
-def _section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: str = "", log: str = "") -> list[str]:
-    """Markdown of one experiment's output folder; copies its PNGs to ``fig_dir``."""
-    md: list[str] = []
-    if note:
-        md += [note, ""]
-    summary = os.path.join(folder, "summary.md")
-    has_summary = os.path.isfile(summary)
-    # an experiment's own summary.md says what matters; otherwise show what it printed and its tables
-    printed = _printed(log) if log and not has_summary else ""
-    if printed:
-        md += ["What it printed:", "", "```text", printed, "```", ""]
-    os.makedirs(fig_dir, exist_ok=True)
-    pngs = sorted(glob.glob(os.path.join(folder, "**", "*.png"), recursive=True))
-    copied: dict[str, str] = {}
-    for p in pngs:
-        rel = os.path.relpath(p, folder)
-        dest = os.path.join(fig_dir, rel.replace(os.sep, "_"))
-        shutil.copyfile(p, dest)
-        copied[os.path.normpath(rel)] = os.path.relpath(dest, report_dir).replace(os.sep, "/")
-    shown = set()
-    if has_summary:
-        text = open(summary, encoding="utf-8", errors="replace").read()
-
-        def relink(m):
-            target = os.path.normpath(m.group(2))
-            if target in copied:
-                shown.add(target)
-                return f"![{m.group(1)}]({copied[target]})"
-            return m.group(0)
-
-        text = _IMG.sub(relink, text)
-        # the experiment's own headings go below the report's section heading: top level -> ###
-        levels = [len(h) for h in re.findall(r"^(#+)\s", text, flags=re.M)]
-        shift = 3 - min(levels) if levels else 0
-        text = re.sub(r"^(#+)(?=\s)", lambda m: "#" * max(1, min(6, len(m.group(1)) + shift)), text, flags=re.M)
-        md += [text.strip(), ""]
-    for csvf in sorted(glob.glob(os.path.join(folder, "*.csv"))) if not has_summary else []:
-        if os.path.basename(csvf) in _SKIP_TABLES:
-            continue
-        tbl = _csv_table(csvf)
-        if tbl:
-            md += [f"**{os.path.basename(csvf)}**", "", tbl, ""]
-    for jf in sorted(glob.glob(os.path.join(folder, "*.json"))) if not has_summary else []:
-        if os.path.basename(jf) in ("manifest.json", "plan.json"):
-            continue
-        tbl = _json_table(jf)
-        if tbl:
-            md += [f"<details><summary>{os.path.basename(jf)}</summary>", "", tbl, "", "</details>", ""]
-    for rel, link in copied.items():
-        if rel not in shown:
-            md += [f"![{run_name}: {rel}]({link})", ""]
-    if not pngs and len(md) <= 2:
-        md += ["(no figures or tables written)", ""]
-    return md
-
-
-def _environment() -> list[str]:
-    import jax
-    import numpy as np
-    import scipy
-
-    from jaxstiff.runtime.version import __version__
-
-    try:
-        devices = ", ".join(sorted({d.platform for d in jax.devices()})) + f" x{jax.device_count()}"
-    except RuntimeError:
-        devices = "?"
-    cpu = platform.processor() or platform.machine()
-    return [
-        f"- date: {datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')}",
-        f"- jaxstiff {__version__}, jax {jax.__version__}, numpy {np.__version__}, scipy {scipy.__version__}, "
-        f"python {sys.version.split()[0]}",
-        f"- machine: {platform.platform()}, {cpu}, {os.cpu_count()} CPUs; JAX devices: {devices}",
-    ]
-
-
 def run_reproduce(
     out: str | os.PathLike,
     *,
@@ -368,35 +185,60 @@ def run_reproduce(
         FileNotFoundError: no experiments folder (not a source checkout).
         ValueError: ``only`` matches no experiment.
     """
-    from jaxstiff.sweep.store import atomic_write_text
-
     if log is None:
         log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     exp_dir = find_experiments_dir(experiments_dir)
     repo = os.path.dirname(exp_dir)
+    scripts = _select_scripts(exp_dir, only, everything)
+    out = os.path.abspath(os.fspath(out))
+    runs_dir = os.path.join(out, "runs")
+    os.makedirs(runs_dir, exist_ok=True)
+    t0 = time.perf_counter()
+    sweep_cfg = os.path.join(exp_dir, "sweeps", "quick.toml")
+    with_sweep = sweep and os.path.isfile(sweep_cfg) and not only
+    if report_only:
+        runs = _earlier_runs(out, [os.path.basename(s)[:-3] for s in scripts] + (["sweep_quick"] if with_sweep else []), log)
+        wall = sum(r.wall_s for r in runs)
+    else:
+        runs = _run_experiments(scripts, runs_dir, quick, timeout, repo, log)
+        if with_sweep:
+            runs.append(_run_quick_sweep(sweep_cfg, runs_dir, timeout, repo, log))
+        wall = time.perf_counter() - t0
+    report = write_report(out, runs, wall, quick=quick, only=only, everything=everything)
+    log(f"wrote {report}")
+    return ReproduceOutcome(report=report, runs=runs, wall_s=wall)
+
+
+def _select_scripts(exp_dir: str, only: Sequence[str] | None, everything: bool) -> list[str]:
+    """The experiment scripts to run: the seed reproductions, all (``everything``), or those ``only`` names."""
     scripts = discover(exp_dir, everything=everything or bool(only))
     if only:
         scripts = [s for s in scripts if any(os.path.basename(s).startswith(o) for o in only)]
         if not scripts:
             raise ValueError(f"--only {' '.join(only)}: no experiment matches; experiments: "
                              + ", ".join(os.path.basename(s)[:-3] for s in discover(exp_dir)))
-    out = os.path.abspath(os.fspath(out))
-    runs_dir, figs_dir = os.path.join(out, "runs"), os.path.join(out, "figures")
-    os.makedirs(runs_dir, exist_ok=True)
-    t0 = time.perf_counter()
-    runs: list[ExperimentRun] = []
-    sweep_cfg = os.path.join(exp_dir, "sweeps", "quick.toml")
-    with_sweep = sweep and os.path.isfile(sweep_cfg) and not only
-    if report_only:
-        for name in [os.path.basename(s)[:-3] for s in scripts] + (["sweep_quick"] if with_sweep else []):
-            r = _load_status(os.path.join(runs_dir, name))
-            if r is None:
-                log(f"{name}: no earlier run in {runs_dir}; left out")
-            else:
-                runs.append(r)
-        if not runs:
-            raise ValueError(f"--report-only: no runs in {runs_dir}; run jaxstiff reproduce --out {out} first")
-        scripts = []
+    return scripts
+
+
+def _earlier_runs(out: str, names: list[str], log: Callable[[str], None]) -> list[ExperimentRun]:
+    """The runs ``names`` already in ``out/runs`` (``--report-only``); missing ones are logged and left out."""
+    runs_dir = os.path.join(out, "runs")
+    runs = []
+    for name in names:
+        r = _load_status(os.path.join(runs_dir, name))
+        if r is None:
+            log(f"{name}: no earlier run in {runs_dir}; left out")
+        else:
+            runs.append(r)
+    if not runs:
+        raise ValueError(f"--report-only: no runs in {runs_dir}; run jaxstiff reproduce --out {out} first")
+    return runs
+
+
+def _run_experiments(scripts: list[str], runs_dir: str, quick: bool, timeout: float | None, repo: str,
+                     log: Callable[[str], None]) -> list[ExperimentRun]:
+    """Run each script into a fresh ``runs_dir/NAME``, one after another."""
+    runs = []
     for i, s in enumerate(scripts):
         name = os.path.basename(s)[:-3]
         log(f"[{i + 1}/{len(scripts)}] {name} ...")
@@ -408,46 +250,20 @@ def run_reproduce(
         runs.append(r)
         log(f"[{i + 1}/{len(scripts)}] {name}: {'ok' if r.ok else 'FAILED' if r.code is not None else 'TIMED OUT'} "
             f"in {r.wall_s:.1f} s")
-    if with_sweep and not report_only:
-        log("sweep quick.toml ...")
-        dest = os.path.join(runs_dir, "sweep_quick")
-        if os.path.isdir(dest):
-            shutil.rmtree(dest)
-        r = _run_sweep(sweep_cfg, dest, timeout, repo)
-        _save_status(r)
-        runs.append(r)
-        log(f"sweep quick.toml: {'ok' if r.ok else 'FAILED'} in {r.wall_s:.1f} s")
-    wall = time.perf_counter() - t0 if not report_only else sum(r.wall_s for r in runs)
+    return runs
 
-    if os.path.isdir(figs_dir):
-        shutil.rmtree(figs_dir)
-    md = ["# jaxstiff: reproduction report", ""]
-    md += [
-        ("The experiments " + ", ".join(f"`{o}*`" for o in only) if only else
-         "Every experiment of the repository" if everything else "The reproductions of the seeds (fig*, csc*)")
-        + ", run by `jaxstiff reproduce" + (" --quick" if quick else "")
-        + (" --only " + " ".join(only) if only else "") + (" --all" if everything and not only else "")
-        + "` as its own process; each section shows what the experiment "
-        "wrote (its summary, tables and figures).", "",
-    ]
-    md += _environment()
-    md += [f"- total wall time: {wall:.0f} s", "", "| experiment | status | wall time (s) |", "|---|---|---|"]
-    for r in runs:
-        status = "ok" if r.ok else ("timed out" if r.code is None else f"FAILED (exit {r.code})")
-        md.append(f"| [{r.name}](#{r.name.replace('_', '-').lower()}) | {status} | {r.wall_s:.1f} |")
-    md.append("")
-    for r in runs:
-        md += [f"## {r.name}", ""]
-        what = r.cmd
-        if not r.ok:
-            md += [f"**{'timed out' if r.code is None else f'failed with exit code {r.code}'}**; end of its log:", "",
-                   "```", _tail(r.log).rstrip(), "```", ""]
-        md += _section(r.name, r.out, os.path.join(figs_dir, r.name), out, note=f"`{what}` ({r.wall_s:.1f} s)",
-                       log=r.log if r.ok else "")
-    report = os.path.join(out, "report.md")
-    atomic_write_text(report, "\n".join(md) + "\n")
-    log(f"wrote {report}")
-    return ReproduceOutcome(report=report, runs=runs, wall_s=wall)
+
+def _run_quick_sweep(sweep_cfg: str, runs_dir: str, timeout: float | None, repo: str,
+                     log: Callable[[str], None]) -> ExperimentRun:
+    """Run ``experiments/sweeps/quick.toml`` into a fresh ``runs_dir/sweep_quick``."""
+    log("sweep quick.toml ...")
+    dest = os.path.join(runs_dir, "sweep_quick")
+    if os.path.isdir(dest):
+        shutil.rmtree(dest)
+    r = _run_sweep(sweep_cfg, dest, timeout, repo)
+    _save_status(r)
+    log(f"sweep quick.toml: {'ok' if r.ok else 'FAILED'} in {r.wall_s:.1f} s")
+    return r
 
 
 _STATUS = ".reproduce.json"
@@ -455,8 +271,6 @@ _STATUS = ".reproduce.json"
 
 def _save_status(r: ExperimentRun) -> None:
     import json
-
-    from jaxstiff.sweep.store import atomic_write_text
 
     atomic_write_text(os.path.join(r.out, _STATUS), json.dumps(dataclasses.asdict(r), indent=1))
 

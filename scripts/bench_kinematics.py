@@ -113,8 +113,9 @@ def _versions() -> dict:
         "jaxstiff": jaxstiff.__version__,
     }
     try:
-        import torch
         from importlib.metadata import version
+
+        import torch
 
         v["torch"] = torch.__version__
         v["pytorch_kinematics"] = version("pytorch_kinematics")
@@ -190,7 +191,8 @@ def _write_json(path: str, payload: dict) -> None:
         raise
 
 
-def main(argv=None) -> int:
+def _parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[str]]:
+    """The command line and the list of dtype names it asks for."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", type=_sizes, default=list(DEFAULT_SIZES), help="comma-separated batch sizes")
     ap.add_argument("--dtypes", default="float32,float64", help="comma-separated: float32, float64")
@@ -202,6 +204,67 @@ def main(argv=None) -> int:
     dtypes = [d.strip() for d in args.dtypes.split(",") if d.strip()]
     if not dtypes or any(d not in ("float32", "float64") for d in dtypes):
         ap.error(f"--dtypes: choose from float32, float64, got {args.dtypes!r}")
+    return args, dtypes
+
+
+def _torch_chain(robot_file: str):
+    """pytorch-kinematics' serial chain of the LWR (torch on all cores), or None if it is not installed."""
+    try:
+        import pytorch_kinematics as pk
+        import torch
+    except ImportError:
+        print("pytorch-kinematics/torch not installed: jaxstiff only (pip install '.[ref]')", file=sys.stderr)
+        return None
+    torch.set_num_threads(os.cpu_count() or 1)
+    with open(robot_file) as fh:
+        return pk.build_serial_chain_from_urdf(fh.read(), "lwr_flange", "lwr_base")
+
+
+def _measure_cell(robot, pk_chain, q_np, dtype_name: str, args: argparse.Namespace) -> dict:
+    """One row: jaxstiff (and pytorch-kinematics if ``pk_chain``) at one batch size and dtype."""
+    import numpy as np
+
+    size = q_np.shape[0]
+    first, times, (T, J) = bench_jaxstiff(robot, q_np, dtype_name, args.min_time, args.max_repeats)
+    med = statistics.median(times)
+    row = {
+        "batch": size,
+        "dtype": dtype_name,
+        "jaxstiff_first_s": first,
+        "jaxstiff_run_median_s": med,
+        "jaxstiff_run_best_s": min(times),
+        "jaxstiff_repeats": len(times),
+        "jaxstiff_configs_per_s": size / med,
+        "torch_first_s": None,
+        "torch_run_median_s": None,
+        "torch_run_best_s": None,
+        "torch_repeats": 0,
+        "torch_configs_per_s": None,
+        "ratio": None,
+        "max_abs_diff": None,
+    }
+    if pk_chain is not None:
+        tfirst, ttimes, (Tt, Jt) = bench_torch(pk_chain, q_np, dtype_name, args.min_time, args.max_repeats)
+        tmed = statistics.median(ttimes)
+        k = min(size, 1000)
+        diff = max(
+            float(np.max(np.abs(np.asarray(T[:k], dtype=float) - Tt[:k].numpy()))),
+            float(np.max(np.abs(np.asarray(J[:k], dtype=float) - Jt[:k].numpy()))),
+        )
+        row.update(
+            torch_first_s=tfirst,
+            torch_run_median_s=tmed,
+            torch_run_best_s=min(ttimes),
+            torch_repeats=len(ttimes),
+            torch_configs_per_s=size / tmed,
+            ratio=(size / med) / (size / tmed),
+            max_abs_diff=diff,
+        )
+    return row
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, dtypes = _parse_args(argv)
 
     from jaxstiff.runtime.x64 import enable_x64
 
@@ -211,17 +274,7 @@ def main(argv=None) -> int:
     import jaxstiff
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
-    chain = None
-    if not args.no_torch:
-        try:
-            import pytorch_kinematics as pk
-            import torch
-        except ImportError:
-            print("pytorch-kinematics/torch not installed: jaxstiff only (pip install '.[ref]')", file=sys.stderr)
-        else:
-            torch.set_num_threads(os.cpu_count() or 1)
-            with open(jaxstiff.robot_path("kuka_lwr4")) as fh:
-                chain = pk.build_serial_chain_from_urdf(fh.read(), "lwr_flange", "lwr_base")
+    chain = None if args.no_torch else _torch_chain(jaxstiff.robot_path("kuka_lwr4"))
 
     dev = _device()
     print(
@@ -241,43 +294,7 @@ def main(argv=None) -> int:
             pk_chain = chain.to(dtype=getattr(torch, dtype_name))
         for size in args.sizes:
             q_np = rng.uniform(robot.lower, robot.upper, size=(size, robot.n))
-            first, times, (T, J) = bench_jaxstiff(robot, q_np, dtype_name, args.min_time, args.max_repeats)
-            med = statistics.median(times)
-            row = {
-                "batch": size,
-                "dtype": dtype_name,
-                "jaxstiff_first_s": first,
-                "jaxstiff_run_median_s": med,
-                "jaxstiff_run_best_s": min(times),
-                "jaxstiff_repeats": len(times),
-                "jaxstiff_configs_per_s": size / med,
-                "torch_first_s": None,
-                "torch_run_median_s": None,
-                "torch_run_best_s": None,
-                "torch_repeats": 0,
-                "torch_configs_per_s": None,
-                "ratio": None,
-                "max_abs_diff": None,
-            }
-            if pk_chain is not None:
-                tfirst, ttimes, (Tt, Jt) = bench_torch(pk_chain, q_np, dtype_name, args.min_time, args.max_repeats)
-                tmed = statistics.median(ttimes)
-                k = min(size, 1000)
-                diff = max(
-                    float(np.max(np.abs(np.asarray(T[:k], dtype=float) - Tt[:k].numpy()))),
-                    float(np.max(np.abs(np.asarray(J[:k], dtype=float) - Jt[:k].numpy()))),
-                )
-                row.update(
-                    torch_first_s=tfirst,
-                    torch_run_median_s=tmed,
-                    torch_run_best_s=min(ttimes),
-                    torch_repeats=len(ttimes),
-                    torch_configs_per_s=size / tmed,
-                    ratio=(size / med) / (size / tmed),
-                    max_abs_diff=diff,
-                )
-                del Tt, Jt
-            del T, J
+            row = _measure_cell(robot, pk_chain, q_np, dtype_name, args)
             rows.append(row)
             print(format_row(row), flush=True)
     if args.json:
@@ -296,7 +313,6 @@ def main(argv=None) -> int:
         )
         print(f"\nwrote {args.json}")
     return 0
-
 
 if __name__ == "__main__":
     sys.exit(main())

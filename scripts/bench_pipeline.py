@@ -50,7 +50,10 @@ def _parse(argv=None):
     return args
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
+    """Time the stages of the pipeline (and, with --compare-lapack, a LAPACK variant). Long (~160
+    lines) because the staged kernels are closures over the JAX modules imported after the x64
+    switch and over the batch; they are defined here, next to the timing loop that uses them."""
     args = _parse(argv)
     import jax
     import jax.numpy as jnp
@@ -59,11 +62,14 @@ def main(argv=None) -> int:
 
     if not args.float32:
         enable_x64()
-    import jaxstiff
     import importlib
 
-    # jaxstiff.ellipsoid is also the name of a function; fetch the modules themselves
-    ell = importlib.import_module("jaxstiff.ellipsoid")
+    import jaxstiff
+    from jaxstiff._numerics.eig import eigh_descending, gap_tol
+    from jaxstiff._numerics.safe import safe_ratio
+    from jaxstiff.stiffness.ellipsoid import alpha_rad
+
+    # jaxstiff.stiffness is also reached as a package attribute; fetch the module itself
     stiffness = importlib.import_module("jaxstiff.stiffness")
 
     dtype = jnp.float32 if args.float32 else jnp.float64
@@ -90,11 +96,11 @@ def main(argv=None) -> int:
         def ellip(q, kj, d):
             (K,) = stiff(q, kj, d)
             w, V = eig_fn(K)
-            return w, V, ell.safe_ratio(w[..., 0], w[..., 1]), jnp.prod(w, -1)
+            return w, V, safe_ratio(w[..., 0], w[..., 1]), jnp.prod(w, -1)
 
         def crit(q, kj, d):
             w, V, rho, vol = ellip(q, kj, d)
-            alpha = ell.alpha_rad(V[..., :, 0], d) * (180.0 / np.pi)
+            alpha = alpha_rad(V[..., :, 0], d) * (180.0 / np.pi)
             return ((1.0 + alpha) * (1.0 + jnp.abs(r - rho)),)
 
         def grad(q, kj, d):
@@ -107,7 +113,7 @@ def main(argv=None) -> int:
 
         return [("fk+J", fkJ), ("+stiffness", stiff), ("+ellipsoid", ellip), ("+f2", crit), ("+grad", grad)]
 
-    closed = make_stages(lambda J, kj: stiffness.translational_stiffness(J, kj, task), ell.eigh_descending)
+    closed = make_stages(lambda J, kj: stiffness.translational_stiffness(J, kj, task), eigh_descending)
 
     def lapack_K(J, kj):  # LAPACK inverse of the undamped compliance (fine at random postures)
         C = stiffness.compliance(J, kj, task)
@@ -130,7 +136,7 @@ def main(argv=None) -> int:
         A = jnp.swapaxes(V, -1, -2) @ dK @ V
         gap = w[..., None, :] - w[..., :, None]
         scale = jnp.max(jnp.abs(w), axis=-1)[..., None, None]
-        ok = jnp.abs(gap) > ell._gap_tol(K.dtype) * scale + jnp.finfo(K.dtype).tiny
+        ok = jnp.abs(gap) > gap_tol(K.dtype) * scale + jnp.finfo(K.dtype).tiny
         Finv = jnp.where(ok, 1.0 / jnp.where(ok, gap, 1.0), 0.0)
         return (w, V), (jnp.diagonal(A, axis1=-2, axis2=-1), V @ (Finv * A))
 

@@ -14,11 +14,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import assert_close, central_diff
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
-from helpers import assert_close, central_diff
 from jaxstiff.stiffness.criteria import CRITERIA, alpha_and_ratio
 
 RNG = np.random.default_rng(99)
@@ -154,7 +154,7 @@ def test_gradient_wrt_K_vs_finite_differences(m):
             d = rng.normal(size=m)
             r = 1.2 if name == "f1" else 5.0  # f1 with r below rho: away from the min(rho, r) kink
             g = np.asarray(_f1_f2_grad_K(jnp.asarray(K), jnp.asarray(d), r, jnp.asarray(w)))
-            f = lambda x: np.asarray(fn(jnp.asarray(0.5 * (x + x.reshape(m, m).T.ravel())).reshape(m, m), jnp.asarray(d), r))  # noqa: E731
+            f = lambda x: np.asarray(fn(jnp.asarray(0.5 * (x + x.reshape(m, m).T.ravel())).reshape(m, m), jnp.asarray(d), r))  # noqa: E731, B023  (called in this iteration)
             fd = central_diff(f, K.ravel(), h=1e-5).reshape(m, m)
             assert_close(0.5 * (g + g.T), fd, rtol=1e-5, atol=1e-7, what=name)
 
@@ -206,10 +206,10 @@ def test_gradient_wrt_q_and_kj_vs_finite_differences(rname, task):
             gq, gk = np.asarray(gq), np.asarray(gk)
 
             def f(qq, kk):
-                return np.asarray(vg(jnp.asarray(qq), jnp.asarray(kk), d, r, w)[0])
+                return np.asarray(vg(jnp.asarray(qq), jnp.asarray(kk), d, r, w)[0])  # noqa: B023  (called in this iteration)
 
-            fq = central_diff(lambda x: f(x, kj), q, h=1e-6)[0]
-            fk = central_diff(lambda x: f(q, x), kj, h=1e-5)[0]
+            fq = central_diff(lambda x: f(x, kj), q, h=1e-6)[0]  # noqa: B023  (called in this iteration)
+            fk = central_diff(lambda x: f(q, x), kj, h=1e-5)[0]  # noqa: B023  (called in this iteration)
             scale_q = np.abs(fq).max() + 1e-9
             scale_k = np.abs(fk).max() + 1e-12
             assert_close(gq / scale_q, fq / scale_q, rtol=0, atol=1e-5, what=f"d {name} / d q")
@@ -261,7 +261,7 @@ def test_kinks_give_finite_gradients():
     # rho = r exactly (f1's min and f2's |r - rho|) and alpha = 0 exactly (|alpha|)
     K, d = k_from_alpha_rho(np.array(0.0), np.array(5.0))
     for name in ("f1", "f2"):
-        g = jax.grad(lambda k: getattr(jaxstiff, name)(k, jnp.asarray(d), 5.0))(jnp.asarray(K))
+        g = jax.grad(lambda k: getattr(jaxstiff, name)(k, jnp.asarray(d), 5.0))(jnp.asarray(K))  # noqa: B023  (called in this iteration)
         assert bool(jnp.all(jnp.isfinite(g)))
 
 
@@ -370,7 +370,7 @@ def criterion_inputs(draw):
 def _both_with_grads(K, d, r):
     out = []
     for fn in (jaxstiff.f1, jaxstiff.f2):
-        v, g = jax.value_and_grad(lambda k: jnp.sum(fn(k, d, r)))(K)
+        v, g = jax.value_and_grad(lambda k: jnp.sum(fn(k, d, r)))(K)  # noqa: B023  (called in this iteration)
         out.append((fn(K, d, r), g))
     return out
 

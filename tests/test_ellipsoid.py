@@ -13,11 +13,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import assert_close, central_diff
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
-from helpers import assert_close, central_diff
 from jaxstiff.stiffness.ellipsoid import alpha_rad, eigh_descending
 
 RNG = np.random.default_rng(1234)
@@ -106,7 +106,7 @@ def test_ellipsoid_is_a_pytree():
     e = jax.jit(jaxstiff.ellipsoid)(K)
     e2 = jax.vmap(jaxstiff.ellipsoid)(K)
     assert isinstance(e, jaxstiff.Ellipsoid)
-    for a, b in zip(jax.tree_util.tree_leaves(e), jax.tree_util.tree_leaves(e2)):
+    for a, b in zip(jax.tree_util.tree_leaves(e), jax.tree_util.tree_leaves(e2), strict=True):
         assert_close(a, b, rtol=1e-14)
 
 

@@ -16,11 +16,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import assert_close, numpy_fk
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
-from helpers import assert_close, numpy_fk
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BRANCHED = os.path.join(HERE, "data", "branched_tree.urdf")
@@ -523,7 +523,9 @@ def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
     want = np.flip(np.cumsum(np.flip(x, -1), -1), -1) if reverse else np.cumsum(x, -1)
     if exclusive:
         want = want - x
-    f = jax.jit(lambda a: jaxstiff.kinematics.running_sum(a, reverse=reverse, exclusive=exclusive))
+    from jaxstiff.model.kinematics import running_sum
+
+    f = jax.jit(lambda a: running_sum(a, reverse=reverse, exclusive=exclusive))
     assert_close(f(jnp.asarray(x)), want, rtol=1e-14, atol=1e-14, what="running sum")
     k = np.arange(n)
     L = (k[None, :] >= k[:, None]) if reverse else (k[None, :] <= k[:, None])  # out_i = sum_k L_ik x_k

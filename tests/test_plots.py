@@ -157,7 +157,7 @@ def test_stiffness_axes_reassemble_the_stiffness():
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     q = np.deg2rad([[10.0, 30.0, 0.0, -60.0, 0.0, 40.0, 0.0], [0.0, 45.0, 10.0, -80.0, 5.0, 20.0, 0.0]])
     kj = np.array([[50.0, 60, 70, 80, 90, 100, 110], [10.0, 20, 30, 40, 50, 60, 70]])
-    lam, V = plots._stiffness_axes(robot, q, kj, "full")
+    lam, V = plots.stiffness_axes(robot, q, kj, "full")
     K = np.asarray(jaxstiff.translational_stiffness(jaxstiff.jacobian(robot, q), kj, task="full"))
     assert lam.shape == (2, 3) and V.shape == (2, 3, 3)
     assert np.all(np.diff(lam, axis=1) <= 0)  # descending

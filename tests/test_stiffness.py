@@ -15,12 +15,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import assert_close, central_diff
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
-from helpers import assert_close, central_diff
-from jaxstiff.stiffness.core import TASK_ROWS, compliance, compliance_condition, cms_scale
+from jaxstiff.stiffness.core import TASK_ROWS, cms_scale, compliance_condition
 
 RNG = np.random.default_rng(42)
 N = 64  # batch size used throughout (each new shape compiles anew)
@@ -204,7 +204,7 @@ def test_cct_term_vs_finite_differences_lwr():
         jaxstiff.joint_stiffness(J, jnp.asarray(Kx), task=task)
     )
     for b in range(2):
-        tau = lambda x: np.asarray(r.jacobian(jnp.asarray(x)))[rows].T @ F[b]  # noqa: E731
+        tau = lambda x: np.asarray(r.jacobian(jnp.asarray(x)))[rows].T @ F[b]  # noqa: E731, B023  (called in this iteration)
         assert_close(KG[b], central_diff(tau, q[b], h=1e-6), rtol=1e-7, atol=1e-7)
 
 

@@ -5,23 +5,25 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.core import Tracer
+from numpy.typing import ArrayLike
 
-__all__ = ["broadcast_batch", "known_floats", "check_square"]
+__all__ = ["broadcast_batch", "known_floats", "check_square", "is_traced"]
 
 
-def broadcast_batch(*named_shapes) -> tuple[int, ...]:
+def broadcast_batch(*named_shapes: tuple[str, tuple[int, ...]]) -> tuple[int, ...]:
     """The broadcast of the leading (batch) axes, or a ValueError naming the arguments."""
     try:
-        return jnp.broadcast_shapes(*(s for _, s in named_shapes))
+        return tuple(int(d) for d in jnp.broadcast_shapes(*(s for _, s in named_shapes)))
     except ValueError:
         raise ValueError("batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)) from None
 
 
-def known_floats(x, what: str | None = None):
+def known_floats(x: object, what: str | None = None) -> np.ndarray | None:
     """The values of ``x`` as a float numpy array where they are known here, else None: inside a
     trace (jit, grad, vmap), and for non-numbers unless ``what`` names the argument (then a
     ValueError says it must be numbers). For value checks that a traced call cannot make."""
-    if isinstance(x, jax.core.Tracer):
+    if isinstance(x, Tracer):
         return None
     try:
         return np.asarray(x, dtype=float)
@@ -31,10 +33,15 @@ def known_floats(x, what: str | None = None):
         raise ValueError(f"{what} must be a number or an array of numbers, got {type(x).__name__}") from None
 
 
-def check_square(K, name: str = "K") -> jax.Array:
+def check_square(K: ArrayLike, name: str = "K") -> jax.Array:
     K = jnp.asarray(K)
     if K.ndim < 2 or K.shape[-1] != K.shape[-2] or K.shape[-1] not in (2, 3):
         raise ValueError(f"{name} must have shape (..., 2, 2) or (..., 3, 3), got {tuple(K.shape)}")
     if not jnp.issubdtype(K.dtype, jnp.floating):
         raise ValueError(f"{name} must have a floating dtype, got {K.dtype}")
     return K
+
+
+def is_traced(x: object) -> bool:
+    """True inside a trace (jit, grad, vmap): the value of ``x`` is not known here."""
+    return isinstance(x, Tracer)

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 
 from jaxstiff._numerics.linalg import mm
 
-__all__ = ["eigh_descending", "eigh_descending_inline", "eigh_descending_primal", "JACOBI_SWEEPS"]
+__all__ = ["eigh_descending", "eigh_descending_inline", "eigh_descending_primal", "JACOBI_SWEEPS", "gap_tol"]
 
 _KEYS3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
@@ -22,7 +22,8 @@ _KEYS3 = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 JACOBI_SWEEPS = 4
 
 
-def _gap_tol(dtype) -> float:
+def gap_tol(dtype: jnp.dtype) -> float:
+    """Relative eigenvalue gap below which the JVP drops the coupling of two eigenvectors (1e-9 in float64, 1e-4 in float32)."""
     return 1e-9 if jnp.finfo(dtype).bits >= 64 else 1e-4
 
 
@@ -42,16 +43,16 @@ def _jacobi_rotation(app: jax.Array, aqq: jax.Array, apq: jax.Array):
     return t, c, t * c
 
 
-def _compare_swap(w, cols, i, j):
+def _compare_swap(w: list, cols: list, i: int, j: int) -> None:
     """Order eigenpairs i < j descending (elementwise over the batch)."""
     swap = w[j] > w[i]
     w[i], w[j] = jnp.where(swap, w[j], w[i]), jnp.where(swap, w[i], w[j])
     ci, cj = cols[i], cols[j]
-    cols[i] = [jnp.where(swap, b, a) for a, b in zip(ci, cj)]
-    cols[j] = [jnp.where(swap, a, b) for a, b in zip(ci, cj)]
+    cols[i] = [jnp.where(swap, b, a) for a, b in zip(ci, cj, strict=True)]
+    cols[j] = [jnp.where(swap, a, b) for a, b in zip(ci, cj, strict=True)]
 
 
-def _assemble(w, cols):
+def _assemble(w: list, cols: list) -> tuple[jax.Array, jax.Array]:
     m = len(w)
     W = jnp.stack(w, axis=-1)
     V = jnp.stack([jnp.stack([cols[i][k] for i in range(m)], axis=-1) for k in range(m)], axis=-2)
@@ -72,10 +73,10 @@ def _key(i: int, j: int) -> tuple[int, int]:
     return (i, j) if i <= j else (j, i)
 
 
-def _jacobi_sweep3(_, carry):
+def _jacobi_sweep3(_: int, carry: tuple) -> tuple:
     """One cyclic sweep (rotations (0,1), (0,2), (1,2)) over the upper triangle ``a`` and ``V``."""
     a, v = carry
-    A = dict(zip(_KEYS3, a))
+    A = dict(zip(_KEYS3, a, strict=True))
     V = [list(v[3 * k : 3 * k + 3]) for k in range(3)]  # V[k][i]: row k, column i
     for p, q in ((0, 1), (0, 2), (1, 2)):
         r = 3 - p - q
@@ -101,7 +102,7 @@ def _eig3(K: jax.Array, sweeps: int = JACOBI_SWEEPS):
     v = tuple(one if i == k else zero for k in range(3) for i in range(3))
     # a loop over sweeps (not unrolled): 4x faster to compile, and as fast or faster to run
     a, v = jax.lax.fori_loop(0, sweeps, _jacobi_sweep3, (a, v))
-    A = dict(zip(_KEYS3, a))
+    A = dict(zip(_KEYS3, a, strict=True))
     w = [A[0, 0], A[1, 1], A[2, 2]]
     cols = [[v[3 * k + i] for k in range(3)] for i in range(3)]
     _compare_swap(w, cols, 0, 1)
@@ -141,7 +142,7 @@ def eigh_descending_inline(K: jax.Array) -> tuple[jax.Array, jax.Array]:
 
 
 @eigh_descending_inline.defjvp
-def _eigh_descending_jvp(primals, tangents):
+def _eigh_descending_jvp(primals: tuple, tangents: tuple):
     (K,), (dK,) = primals, tangents
     w, V = eigh_descending_primal(K)
     dK = 0.5 * (dK + jnp.swapaxes(dK, -1, -2))
@@ -150,7 +151,7 @@ def _eigh_descending_jvp(primals, tangents):
     dw = jnp.diagonal(A, axis1=-2, axis2=-1)
     gap = w[..., None, :] - w[..., :, None]  # gap[i, j] = w_j - w_i
     scale = jnp.max(jnp.abs(w), axis=-1)[..., None, None]
-    ok = jnp.abs(gap) > _gap_tol(K.dtype) * scale + jnp.finfo(K.dtype).tiny
+    ok = jnp.abs(gap) > gap_tol(K.dtype) * scale + jnp.finfo(K.dtype).tiny
     Finv = jnp.where(ok, 1.0 / jnp.where(ok, gap, 1.0), 0.0)
     dV = mm(V, Finv * A)
     return (w, V), (dw, dV)

@@ -6,6 +6,8 @@ batched matrices does not); :func:`fusion_boundary` is an identity XLA cannot fu
 
 from __future__ import annotations
 
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 from jax.extend.core import Primitive as _Primitive
@@ -14,20 +16,19 @@ from jax.interpreters import ad, batching, mlir
 __all__ = ["mm", "fusion_boundary"]
 
 
-def fusion_boundary(tree):
+def fusion_boundary(tree: Any) -> Any:
     """Identity that XLA cannot fuse across, also under ``vmap`` and for derivatives.
 
     Stacking the entries of an unrolled closed form into one array lets XLA's CPU backend fuse
     the whole computation into a single loop over the *output* elements, which re-evaluates the
-    shared arithmetic for every one of them (30-80x slower for the 6x6 case); an
+    shared arithmetic for every one of them (measurements: docs/notes/model.md); an
     ``optimization_barrier`` is removed before fusion on CPU. A conditional is a fusion boundary:
     the entries are computed in one multi-output loop, then stacked. The predicate
     ``isnan(x) | (x == x)`` is true for every x, but not provably so to the compiler (identical
     branches would be folded).
 
     A plain ``lax.cond`` does not survive ``vmap`` (its predicate becomes batched and the cond a
-    ``select``, which fuses again: a batch of 400 3x3 stiffnesses took 11 us per point instead of
-    1.2), nor does its boundary reach the tangents and cotangents. So the boundary is a linear
+    ``select``, which fuses again), nor does its boundary reach the tangents and cotangents. So the boundary is a linear
     primitive of its own: on CPU it lowers to the conditional with the predicate taken from the
     first element of the (batched) operand; it batches to itself, and its JVP and transpose are
     itself. On other platforms it lowers to the identity.
@@ -38,17 +39,17 @@ def fusion_boundary(tree):
     return jax.tree_util.tree_unflatten(treedef, _boundary_p.bind(*[jnp.asarray(v) for v in leaves]))
 
 
-def _cond_identity(*xs):
+def _cond_identity(*xs: jax.Array) -> list[jax.Array]:
     x = xs[0].ravel()[0]
     return jax.lax.cond(jnp.isnan(x) | (x == x), lambda *a: list(a), lambda *a: [jnp.zeros_like(v) for v in a], *xs)
 
 
-def _boundary_jvp(primals, tangents):
+def _boundary_jvp(primals: list, tangents: list) -> tuple:
     tangents = [ad.instantiate_zeros(t) for t in tangents]
     return _boundary_p.bind(*primals), _boundary_p.bind(*tangents)
 
 
-def _boundary_transpose(cts, *args):
+def _boundary_transpose(cts: list, *args: Any) -> list:
     cts = [ad.instantiate_zeros(ct) if type(ct) is ad.Zero else ct for ct in cts]
     return _boundary_p.bind(*cts)
 

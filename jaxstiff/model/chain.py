@@ -12,9 +12,12 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
+
+from jaxstiff._numerics.batch import is_traced
 
 __all__ = ["Chain", "JointType", "JOINT_REVOLUTE", "JOINT_PRISMATIC", "snap", "mat_to_tuple", "tuple_to_mat",
            "tcp_matrix", "check_locked", "check_q"]
@@ -86,13 +89,13 @@ class Chain:
     source: str = ""
 
     # ------------------------------------------------------------------ identity
-    # jit hashes its static arguments on every call; hashing ~100 nested floats costs ~4 us, as
-    # much as a whole single-configuration FK call, so the hash is computed once and cached. The
+    # jit hashes its static arguments on every call, and hashing ~100 nested floats costs as much
+    # as a small FK call (docs/notes/model.md), so the hash is computed once and cached. The
     # cache is never pickled (string hashes differ between processes).
     def _key(self) -> tuple:
         return tuple(getattr(self, f.name) for f in dataclasses.fields(self))
 
-    def __eq__(self, other) -> bool:
+    def __eq__(self, other: Any) -> bool:
         if self is other:
             return True
         if other.__class__ is not self.__class__:
@@ -159,17 +162,17 @@ class Chain:
         """Constant 4x4 transform from the last joint frame to the TCP."""
         return tuple_to_mat(self.tip)
 
-    def with_locked(self, locked: Mapping[str, float] | None) -> "Chain":
+    def with_locked(self, locked: Mapping[str, float] | None) -> Chain:
         """A copy with a new set of locked joints (``None`` or ``{}`` frees all)."""
         values = check_locked(self.joint_names, self.lower_limits, self.upper_limits, locked)
         return dataclasses.replace(self, locked=values)
 
-    def with_tcp(self, tcp: Sequence[float] | np.ndarray | None) -> "Chain":
+    def with_tcp(self, tcp: Sequence[float] | np.ndarray | None) -> Chain:
         """A copy with an extra tool offset appended after the current TCP."""
         T = self.tip_matrix @ tcp_matrix(tcp)
         return dataclasses.replace(self, tip=mat_to_tuple(T))
 
-    def check_q(self, q, name: str = "q"):
+    def check_q(self, q: Any, name: str = "q") -> Any:
         """Validate a joint array at the Python boundary: floating dtype, last axis n, finite.
 
         Returns the array as a JAX/numpy array unchanged in dtype. Raises ValueError naming the problem.
@@ -200,7 +203,9 @@ class Chain:
         return "\n".join(lines)
 
 
-def check_locked(joint_names, lower, upper, locked) -> tuple[float | None, ...]:
+def check_locked(
+    joint_names: Sequence[str], lower: Sequence[float], upper: Sequence[float], locked: Mapping[str, float] | None
+) -> tuple[float | None, ...]:
     """Per joint, the locked value (checked: a known joint, finite, within its limits) or None."""
     values: list[float | None] = [None] * len(joint_names)
     if not locked:
@@ -227,7 +232,7 @@ def check_locked(joint_names, lower, upper, locked) -> tuple[float | None, ...]:
     return tuple(values)
 
 
-def tcp_matrix(tcp) -> np.ndarray:
+def tcp_matrix(tcp: Sequence[float] | np.ndarray | None) -> np.ndarray:
     """A tool offset as a 4x4 transform: None (identity), a 3-vector (m) or a 4x4 transform (checked)."""
     if tcp is None:
         return np.eye(4)
@@ -250,9 +255,8 @@ def tcp_matrix(tcp) -> np.ndarray:
     return T
 
 
-def check_q(robot: Chain, q, name: str = "q"):
+def check_q(robot: Chain, q: Any, name: str = "q") -> Any:
     """Validate a joint array at the Python boundary (see :meth:`Chain.check_q`)."""
-    import jax
     import jax.numpy as jnp
 
     if isinstance(q, (list, tuple)):
@@ -269,7 +273,7 @@ def check_q(robot: Chain, q, name: str = "q"):
             f"{name} must have shape (..., {robot.n}) for robot {robot.name!r} "
             f"({robot.n} actuated joints), got shape {tuple(q.shape)}"
         )
-    if not isinstance(q, jax.core.Tracer):
+    if not is_traced(q):
         a = np.asarray(q)
         if not np.all(np.isfinite(a)):
             idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])

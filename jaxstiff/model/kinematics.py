@@ -4,12 +4,10 @@ The chain is unrolled at trace time. Every entry of every rotation and translati
 its own array of the batch shape (structure of arrays), and the robot's constant geometry enters
 as Python floats: multiplications by structural zeros and ones (axis-aligned joint axes, identity
 origin rotations) are dropped while tracing, so XLA receives only the arithmetic the chain needs
-and fuses it into a few elementwise loops over the batch. That is what makes the kernel fast on a
-CPU, and it keeps the caller's dtype (float32 stays float32, float64 stays float64). For CPU
-batches the joint cosines and sines come from :func:`cos_sin`, one shared range reduction and two
-polynomials of plain multiply/add (within 2 ulp of libm): XLA vectorises and fuses them, where its
-own float64 sin/cos are scalar calls that loop fusion evaluates several times over; that halves
-the time of FK + Jacobian at batch 10^5.
+and fuses it into a few elementwise loops over the batch. The caller's dtype is kept (float32
+stays float32, float64 stays float64). For CPU batches the joint cosines and sines come from
+:func:`jaxstiff._numerics.trig.cos_sin` (one shared range reduction and two polynomials, within
+2 ulp of libm), which XLA vectorises and fuses (measurements: docs/notes/model.md).
 
 The Jacobian is the analytic geometric one, not autodiff of FK: for revolute joint i with world
 axis ``z_i`` through the point ``p_i``, column i is ``[z_i x (p_tcp - p_i); z_i]``; for a
@@ -26,22 +24,23 @@ Example:
 from __future__ import annotations
 
 import functools
-import math
-from typing import Union
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
 
-from jaxstiff.model.chain import JOINT_PRISMATIC
-from jaxstiff.model.chain import Chain
+from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
+from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
-__all__ = ["fk", "jacobian", "fk_and_jacobian", "position_and_jacobian", "jacobian_tangent"]
+__all__ = ["fk", "jacobian", "fk_and_jacobian", "position_and_jacobian", "jacobian_tangent", "cos_sin", "POLY_MIN_BATCH"]
 
-Scalar = Union[float, jax.Array]  # a Python float is a compile-time constant
+Scalar = float | jax.Array  # a Python float is a compile-time constant
+Vec3 = Sequence[Scalar]
+Mat3 = Sequence[Sequence[Scalar]]
 
 
 # ---------------------------------------------------------------- constant-aware scalar algebra
-def _is_const(a) -> bool:
+def _is_const(a: Scalar) -> bool:
     return isinstance(a, float)
 
 
@@ -73,20 +72,20 @@ def _sub(a: Scalar, b: Scalar) -> Scalar:
     return _add(a, _mul(-1.0, b))
 
 
-def _dot3(a, b) -> Scalar:
+def _dot3(a: Vec3, b: Vec3) -> Scalar:
     return _add(_add(_mul(a[0], b[0]), _mul(a[1], b[1])), _mul(a[2], b[2]))
 
 
-def _matmul3(A, B):
+def _matmul3(A: Mat3, B: Mat3) -> list[list[Scalar]]:
     """3x3 @ 3x3, both nested lists/tuples of scalars."""
     return [[_dot3(A[i], [B[0][j], B[1][j], B[2][j]]) for j in range(3)] for i in range(3)]
 
 
-def _matvec3(A, v):
+def _matvec3(A: Mat3, v: Vec3) -> list[Scalar]:
     return [_dot3(A[i], v) for i in range(3)]
 
 
-def _cross(a, b):
+def _cross(a: Vec3, b: Vec3) -> list[Scalar]:
     return [
         _sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
         _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
@@ -94,11 +93,11 @@ def _cross(a, b):
     ]
 
 
-def _axis_rotation(axis, c: jax.Array, s: jax.Array):
+def _axis_rotation(axis: Sequence[float], c: jax.Array, s: jax.Array) -> list[list[Scalar]]:
     """Rodrigues: R = c I + s [a]x + (1 - c) a a^T, with constant unit axis a."""
     ax, ay, az = axis
     omc = 1.0 - c
-    R = [[0.0] * 3 for _ in range(3)]
+    R: list[list[Scalar]] = [[0.0] * 3 for _ in range(3)]
     skew = [[0.0, -az, ay], [az, 0.0, -ax], [-ay, ax, 0.0]]
     a = (ax, ay, az)
     for i in range(3):
@@ -114,98 +113,18 @@ def _axis_rotation(axis, c: jax.Array, s: jax.Array):
     return R
 
 
-# ---------------------------------------------------------------- sine and cosine
-# pi/2 = P1 + P2 + P3 (Cody and Waite's split). P1 and P2 keep only the leading 33 (float64) or
-# 12 (float32) bits of their part, so k * P1 and k * P2 are exact for |k| < 2^20 (float64) or
-# 2^12 (float32), i.e. |x| < 1.6e6 rad or 6.4e3 rad; beyond that the reduced argument loses
-# about ulp(x), the conditioning of sin itself there. Values derived with mpmath at 60 digits.
-_PI_HALF = {
-    8: (float.fromhex("0x1.921fb544p+0"), float.fromhex("0x1.0b4611a6p-34"), float.fromhex("0x1.3198a2e037073p-69")),
-    4: (float.fromhex("0x1.92p+0"), float.fromhex("0x1.fb4p-12"), float.fromhex("0x1.4442d2p-24")),
-}
-# Taylor coefficients (-1)^i / (2i+1)! and (-1)^i / (2i)!, enough terms that the first one left
-# out is below 1e-19 (float64) or 1e-9 (float32) on |r| <= pi/4.
-_SIN_TERMS = {8: 9, 4: 5}  # through r^17 / r^9
-_COS_TERMS = {8: 9, 4: 6}  # through r^16 / r^10
-
-
-def _sincos_poly(x: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """(cos x, sin x) from one shared range reduction and two polynomials of plain mul/add."""
-    if x.dtype.itemsize < 4:  # float16/bfloat16: compute in float32
-        c, s = _sincos_poly(x.astype(jnp.float32))
-        return c.astype(x.dtype), s.astype(x.dtype)
-    size = 8 if x.dtype.itemsize >= 8 else 4
-    p1, p2, p3 = _PI_HALF[size]
-    k = jnp.round(x * (2.0 / math.pi))  # nearest multiple of pi/2
-    r = ((x - k * p1) - k * p2) - k * p3  # |r| <= pi/4 (+ rounding)
-    r2 = r * r
-    ps = (-1.0) ** (_SIN_TERMS[size] - 1) / math.factorial(2 * _SIN_TERMS[size] - 1)
-    for i in reversed(range(_SIN_TERMS[size] - 1)):
-        ps = ps * r2 + (-1.0) ** i / math.factorial(2 * i + 1)
-    pc = (-1.0) ** (_COS_TERMS[size] - 1) / math.factorial(2 * _COS_TERMS[size] - 2)
-    for i in reversed(range(_COS_TERMS[size] - 1)):
-        pc = pc * r2 + (-1.0) ** i / math.factorial(2 * i)
-    sin_r, cos_r = r * ps, pc
-    quadrant = k - 4.0 * jnp.floor(k * 0.25)  # k mod 4 in {0, 1, 2, 3}, exact in floating point
-    odd = (quadrant == 1.0) | (quadrant == 3.0)
-    sin_x = jnp.where(odd, cos_r, sin_r)
-    cos_x = jnp.where(odd, sin_r, cos_r)
-    sin_x = jnp.where(quadrant >= 2.0, -sin_x, sin_x)
-    cos_x = jnp.where((quadrant == 1.0) | (quadrant == 2.0), -cos_x, cos_x)
-    return cos_x, sin_x
-
-
-@jax.custom_jvp
-def cos_sin(x: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """``(cos x, sin x)`` elementwise, to within 1-2 ulp of libm, in the dtype of ``x``.
-
-    XLA's CPU sine/cosine are scalar calls in float64 that its loop fusion recomputes in several
-    fusions of the kinematics kernel; this version shares one range reduction between both and
-    is plain multiply/add, which XLA vectorises and fuses (2x faster FK + Jacobian on the CPU).
-    Its derivative is the exact ``(-sin x, cos x)``.
-
-    Args:
-        x: angles (rad), any shape, floating dtype.
-
-    Returns:
-        ``(cos x, sin x)``, each of the shape and dtype of ``x``.
-    """
-    return _sincos_poly(x)
-
-
-@cos_sin.defjvp
-def _cos_sin_jvp(primals, tangents):
-    (x,), (dx,) = primals, tangents
-    c, s = cos_sin(x)
-    return (c, s), (-s * dx, c * dx)
-
-
-# Below this many configurations per call, XLA's own sin/cos is faster on the CPU: there the
-# polynomial, duplicated by loop fusion into every output entry, is not amortised over a batch.
-POLY_MIN_BATCH = 64
-
-
-def _joint_cos_sin(q: jax.Array, poly: bool | None = None) -> tuple[jax.Array, jax.Array]:
-    """cos/sin of all joint values: :func:`cos_sin` if ``poly``, else XLA's sin and cos; ``poly=None``
-    chooses :func:`cos_sin` for CPU batches of at least ``POLY_MIN_BATCH`` configurations."""
-    if poly is None:
-        batch = q.size // max(q.shape[-1], 1)
-        poly = jax.default_backend() == "cpu" and batch >= POLY_MIN_BATCH
-    return cos_sin(q) if poly else (jnp.cos(q), jnp.sin(q))
-
-
 # ---------------------------------------------------------------- the kernel
 def _chain(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None = None):
     """Walk the chain. Returns (R_tcp 3x3, p_tcp 3, [(kind, z_i, p_i)]) as scalar entries.
 
     ``poly``: take the joint cosines and sines from :func:`cos_sin` (True) or XLA (False); None
-    decides from q's batch shape (:func:`_joint_cos_sin`). A caller inside ``vmap`` sees one
+    decides from q's batch shape (:func:`jaxstiff._numerics.trig.joint_cos_sin`). A caller inside ``vmap`` sees one
     configuration, so it passes the batch it knows.
     """
     R = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     p = [0.0, 0.0, 0.0]
     frames = []
-    cos_q, sin_q = _joint_cos_sin(q, poly)
+    cos_q, sin_q = joint_cos_sin(q, poly)
     for i in range(robot.n):
         org = robot.origins[i]
         R0 = [list(org[r][:3]) for r in range(3)]
@@ -234,17 +153,17 @@ def _chain(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None = 
 def _full(x: Scalar, like: jax.Array) -> jax.Array:
     if _is_const(x):
         return jnp.full(like.shape[:-1], x, dtype=like.dtype)
-    return x
+    return jnp.asarray(x)
 
 
-def _pose(R, p, q) -> jax.Array:
+def _pose(R: Mat3, p: Vec3, q: jax.Array) -> jax.Array:
     zero, one = _full(0.0, q), _full(1.0, q)
     rows = [[_full(R[i][j], q) for j in range(3)] + [_full(p[i], q)] for i in range(3)]
     rows.append([zero, zero, zero, one])
     return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
 
 
-def _jacobian_entries(p_tcp, frames):
+def _jacobian_entries(p_tcp: Vec3, frames: list) -> list[list[Scalar]]:
     cols = []
     for kind, z, p_i in frames:
         if kind == JOINT_PRISMATIC:
@@ -255,15 +174,15 @@ def _jacobian_entries(p_tcp, frames):
     return cols
 
 
-def _jacobian_array(cols, q, rows=range(6)) -> jax.Array:
+def _jacobian_array(cols: list[list[Scalar]], q: jax.Array, rows: Sequence[int] = range(6)) -> jax.Array:
     return jnp.stack(
         [jnp.stack([_full(cols[j][r], q) for j in range(len(cols))], axis=-1) for r in rows], axis=-2
     )
 
 
-def _check(robot: Chain, q) -> None:
+def _check(robot: Chain, q: jax.Array) -> None:
     if not isinstance(robot, Chain):
-        raise TypeError(f"expected a jaxstiff.Chain, got {type(robot).__name__}")
+        raise TypeError(f"expected a jaxstiff.Robot, got {type(robot).__name__}")
     if q.ndim == 0 or q.shape[-1] != robot.n:
         raise ValueError(f"q must have shape (..., {robot.n}) for robot {robot.name!r}, got {tuple(q.shape)}")
     if not jnp.issubdtype(q.dtype, jnp.floating):
@@ -316,7 +235,7 @@ def fk_and_jacobian(robot: Chain, q: jax.Array) -> tuple[jax.Array, jax.Array]:
     return fk_and_jacobian_raw(robot, q)
 
 
-def fk_and_jacobian_raw(robot: Chain, q: jax.Array, poly: bool | None = None):
+def fk_and_jacobian_raw(robot: Chain, q: jax.Array, poly: bool | None = None) -> tuple[jax.Array, jax.Array]:
     R, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
     return _pose(R, p, q), _jacobian_array(_jacobian_entries(p, frames), q)
 
@@ -335,7 +254,9 @@ def position_and_jacobian(robot: Chain, q: jax.Array, rows: tuple[int, ...] = (0
     return position_and_jacobian_raw(robot, q, rows)
 
 
-def position_and_jacobian_raw(robot: Chain, q: jax.Array, rows=(0, 1, 2, 3, 4, 5), poly: bool | None = None):
+def position_and_jacobian_raw(
+    robot: Chain, q: jax.Array, rows: Sequence[int] = (0, 1, 2, 3, 4, 5), poly: bool | None = None
+) -> tuple[jax.Array, jax.Array]:
     _, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
     return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)
@@ -382,10 +303,9 @@ def running_sum(x: jax.Array, reverse: bool = False, exclusive: bool = False) ->
     """Running sum over the last axis: ``sum_{k<=i}`` (``sum_{k>=i}`` if ``reverse``; ``<``, ``>``
     if ``exclusive``).
 
-    Unrolled over the columns for the short axes of a chain (n <= 32): ``jnp.cumsum`` lowers to a
-    reduce-window on CPU, a kernel of its own that XLA does not fuse with its producer or consumer
-    (~10 us for a 128 x 3 x 7 batch, and a CSC gradient step had eight of them); the unrolled sum
-    fuses into its neighbours.
+    Unrolled over the columns for the short axes of a chain (n <= 32), so that XLA fuses it with
+    its neighbours (``jnp.cumsum`` is a kernel of its own on the CPU: docs/notes/model.md); longer
+    axes use ``jnp.cumsum``.
     """
     n = x.shape[-1]
     if n > 32:

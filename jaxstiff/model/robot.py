@@ -18,9 +18,11 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
+import jax
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jaxstiff.model.chain import JOINT_PRISMATIC, JOINT_REVOLUTE, Chain, check_q
 from jaxstiff.model.kinematics import fk, fk_and_jacobian, jacobian
@@ -45,7 +47,7 @@ class Robot(Chain):
         tip_link: str | None = None,
         locked: Mapping[str, float] | None = None,
         tcp: Sequence[float] | np.ndarray | None = None,
-    ) -> "Robot":
+    ) -> Robot:
         """Read the serial chain between ``base_link`` and ``tip_link`` of a URDF.
 
         Args:
@@ -76,14 +78,14 @@ class Robot(Chain):
         return Robot(**parse_urdf_chain(path, base_link, tip_link, locked, tcp))
 
     # ------------------------------------------------------------------ kinematics
-    def fk(self, q):
+    def fk(self, q: ArrayLike) -> jax.Array:
         """TCP pose ``T_base_tcp`` (..., 4, 4) for joint values ``q`` (..., n). See :func:`jaxstiff.fk`."""
         return fk(self, check_q(self, q))
 
-    def jacobian(self, q):
+    def jacobian(self, q: ArrayLike) -> jax.Array:
         """Geometric Jacobian ``J_base`` (..., 6, n), rows [v; w]. See :func:`jaxstiff.jacobian`."""
         return jacobian(self, check_q(self, q))
 
-    def fk_and_jacobian(self, q):
+    def fk_and_jacobian(self, q: ArrayLike) -> tuple[jax.Array, jax.Array]:
         """Both in one pass: ``(T (..., 4, 4), J (..., 6, n))``."""
         return fk_and_jacobian(self, check_q(self, q))

@@ -7,11 +7,13 @@ anything expands (billion-laughs and external-entity files are rejected in micro
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import re
 import warnings
-from typing import Mapping
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -24,8 +26,8 @@ _DOCTYPE = re.compile(rb"<!DOCTYPE", re.IGNORECASE)
 _ENTITY = re.compile(rb"<!ENTITY", re.IGNORECASE)
 
 
-def _read_xml(path: str):
-    from lxml import etree
+def _read_xml(path: str) -> Any:
+    from lxml import etree  # pyright: ignore[reportAttributeAccessIssue]  (lxml ships no stubs for it)
 
     with open(path, "rb") as fh:
         data = fh.read()
@@ -47,14 +49,14 @@ def _read_xml(path: str):
     return root
 
 
-def _float_attr(path, where, text):
+def _float_attr(path: str, where: str, text: str) -> list[float]:
     try:
         return [float(v) for v in text.split()]
     except ValueError:
         raise ValueError(f"{path}: {where}: cannot read numbers from {text!r}") from None
 
 
-def _check_joint_xml(path: str, elem) -> None:
+def _check_joint_xml(path: str, elem: Any) -> None:
     """Checks yourdfpy does not make (it would raise AttributeError or silently accept NaN)."""
     name = elem.get("name")
     if not name:
@@ -89,9 +91,8 @@ def _check_joint_xml(path: str, elem) -> None:
                     raise ValueError(f"{path}: joint {name!r} limit {attr} must be a finite number, got {limit.get(attr)!r}")
 
 
-def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, float] | None = None, tcp=None) -> dict:
-    import yourdfpy
-
+def _resolve_path(path: str | os.PathLike) -> str:
+    """The URDF file to read: ``path`` itself, or the shipped robot of that name."""
     path = os.fspath(path)
     if not os.path.exists(path) and os.sep not in path and not path.endswith(".urdf"):
         try:
@@ -105,6 +106,12 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
         raise FileNotFoundError(f"URDF file not found: {path}")
     if not os.path.isfile(path):
         raise ValueError(f"{path} is not a file")
+    return path
+
+
+def _parse_model(path: str) -> Any:
+    """The checked XML of ``path`` read into a ``yourdfpy`` robot model."""
+    import yourdfpy
 
     root = _read_xml(path)
     for elem in root.findall("joint"):
@@ -117,10 +124,34 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
         # is only a label here: the file's name stands in for it (as Robot.name does below).
         root.set("name", os.path.splitext(os.path.basename(path))[0])
     try:
-        model = yourdfpy.URDF._parse_robot(root)
+        return yourdfpy.URDF._parse_robot(root)
     except Exception as exc:  # yourdfpy raises bare KeyError/AttributeError on odd files
         raise ValueError(f"{path}: cannot read the URDF: {type(exc).__name__}: {exc}") from None
 
+
+@dataclasses.dataclass(frozen=True)
+class _Tree:
+    """The URDF's link tree: link names in file order, each child link's joint, each link's child joints."""
+
+    links: list[str]
+    parent_joint: dict[str, Any]
+    children: dict[str, list[Any]]
+
+    def chain_to(self, base_link: str, tip: str) -> list[Any]:
+        """The joints from ``base_link`` down to ``tip`` (base first), or [] if ``tip`` is not below it."""
+        chain, link, seen = [], tip, set()
+        while link != base_link:
+            if link in seen or link not in self.parent_joint:
+                return []
+            seen.add(link)
+            j = self.parent_joint[link]
+            chain.append(j)
+            link = j.parent
+        return chain[::-1]
+
+
+def _link_tree(path: str, model: Any) -> _Tree:
+    """The link tree of ``model``; a ValueError for duplicate names, unknown links, or a link with two parents."""
     links = [l.name for l in model.links]
     if len(set(links)) != len(links):
         dup = sorted({l for l in links if links.count(l) > 1})
@@ -129,8 +160,8 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
     if len(joints) != len(model.joints):
         raise ValueError(f"{path}: duplicate joint names")
     link_set = set(links)
-    parent_joint: dict[str, object] = {}
-    children: dict[str, list] = {l: [] for l in links}
+    parent_joint: dict[str, Any] = {}
+    children: dict[str, list[Any]] = {l: [] for l in links}
     for j in model.joints:
         for which, link in (("parent", j.parent), ("child", j.child)):
             if link not in link_set:
@@ -139,123 +170,162 @@ def parse_urdf_chain(path, base_link=None, tip_link=None, locked: Mapping[str, f
             raise ValueError(f"{path}: link {j.child!r} is the child of two joints; a URDF must be a tree")
         parent_joint[j.child] = j
         children[j.parent].append(j)
+    return _Tree(links, parent_joint, children)
 
-    roots = [l for l in links if l not in parent_joint]
+
+def _pick_base(path: str, tree: _Tree, base_link: str | None) -> str:
+    """``base_link`` checked, or the tree's only root link."""
+    roots = [l for l in tree.links if l not in tree.parent_joint]
     if not roots:
         raise ValueError(f"{path}: the joints form a loop; no root link")
-
     if base_link is None:
         if len(roots) != 1:
             raise ValueError(f"{path}: several root links ({', '.join(roots)}); pass base_link")
-        base_link = roots[0]
-    elif base_link not in link_set:
-        raise ValueError(f"{path}: unknown base link {base_link!r}; links: {', '.join(links)}")
+        return roots[0]
+    if base_link not in tree.links:
+        raise ValueError(f"{path}: unknown base link {base_link!r}; links: {', '.join(tree.links)}")
+    return base_link
 
-    def chain_to(tip: str) -> list:
-        chain, link, seen = [], tip, set()
-        while link != base_link:
-            if link in seen or link not in parent_joint:
-                return []
-            seen.add(link)
-            j = parent_joint[link]
-            chain.append(j)
-            link = j.parent
-        return chain[::-1]
 
-    if tip_link is None:
-        # leaves below the base link, ranked by the number of actuated joints on their chain
-        below, stack = [], [base_link]
-        while stack:
-            link = stack.pop()
-            if not children[link]:
-                below.append(link)
-            stack.extend(j.child for j in children[link])
-        counts = {l: sum(j.type in _MOVABLE for j in chain_to(l)) for l in below}
-        best = max(counts.values()) if counts else 0
-        tips = sorted(l for l, c in counts.items() if c == best)
-        if best == 0:
-            raise ValueError(f"{path}: no actuated joint below base link {base_link!r}; nothing to move")
-        if len(tips) != 1:
-            raise ValueError(
-                f"{path}: the tip link is ambiguous below {base_link!r}: leaves {', '.join(tips) or '(none)'} "
-                f"each have {best} actuated joints; pass tip_link (command line: --tip-link)"
-            )
-        tip_link = tips[0]
-    elif tip_link not in link_set:
-        raise ValueError(f"{path}: unknown tip link {tip_link!r}; links: {', '.join(links)}")
+def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> str:
+    """``tip_link`` checked, or the one leaf below ``base_link`` reached through the most actuated joints."""
+    if tip_link is not None:
+        if tip_link not in tree.links:
+            raise ValueError(f"{path}: unknown tip link {tip_link!r}; links: {', '.join(tree.links)}")
+        return tip_link
+    # leaves below the base link, ranked by the number of actuated joints on their chain
+    below, stack = [], [base_link]
+    while stack:
+        link = stack.pop()
+        if not tree.children[link]:
+            below.append(link)
+        stack.extend(j.child for j in tree.children[link])
+    counts = {l: sum(j.type in _MOVABLE for j in tree.chain_to(base_link, l)) for l in below}
+    best = max(counts.values()) if counts else 0
+    tips = sorted(l for l, c in counts.items() if c == best)
+    if best == 0:
+        raise ValueError(f"{path}: no actuated joint below base link {base_link!r}; nothing to move")
+    if len(tips) != 1:
+        raise ValueError(
+            f"{path}: the tip link is ambiguous below {base_link!r}: leaves {', '.join(tips) or '(none)'} "
+            f"each have {best} actuated joints; pass tip_link (command line: --tip-link)"
+        )
+    return tips[0]
 
-    chain = chain_to(tip_link) if tip_link != base_link else []
+
+def _check_chain_joint(path: str, j: Any) -> None:
+    """Refuse a mimic, floating or planar joint on the chain."""
+    if j.mimic is not None:
+        raise ValueError(
+            f"{path}: joint {j.name!r} mimics joint {j.mimic.joint!r}; mimic joints in the chain "
+            f"are not supported (its value is tied to {j.mimic.joint!r}, so locking it does not help): "
+            f"choose a tip link above it (tip_link, command line: --tip-link)"
+        )
+    if j.type in ("floating", "planar"):
+        raise ValueError(f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported")
+
+
+def _unit_axis(path: str, j: Any) -> tuple[float, ...]:
+    """The joint's axis scaled to unit length (URDF default: x)."""
+    axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), dtype=float)
+    norm = float(np.linalg.norm(axis))
+    if not np.all(np.isfinite(axis)) or norm < 1e-12:
+        raise ValueError(f"{path}: joint {j.name!r} has a zero or non-finite axis {axis.tolist()}")
+    return tuple(float(a) for a in axis / norm)
+
+
+# The empty-range warning points at the caller of Robot.from_urdf: this frame, _chain_fields,
+# parse_urdf_chain, Robot.from_urdf, then its caller.
+_WARN_STACKLEVEL = 5
+
+
+def _limits(path: str, j: Any) -> tuple[float, float]:
+    """``(lower, upper)`` of an actuated joint (rad or m); continuous joints get ``(-inf, inf)``."""
+    if j.type == "continuous":
+        return -math.inf, math.inf
+    if j.limit is None:
+        raise ValueError(
+            f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one"
+            + (" (use type=\"continuous\" for an unlimited revolute joint)" if j.type == "revolute" else "")
+        )
+    # URDF spec (and urdfdom): a missing lower/upper attribute defaults to 0.
+    lo = 0.0 if j.limit.lower is None else float(j.limit.lower)
+    hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
+    if lo > hi:
+        raise ValueError(f"{path}: joint {j.name!r} has lower limit {lo:g} > upper limit {hi:g}")
+    if lo == hi:
+        missing = [a for a in ("lower", "upper") if getattr(j.limit, a) is None]
+        why = f" (<limit> omits {' and '.join(missing)}, which URDF defaults to 0)" if missing else ""
+        warnings.warn(
+            f"{path}: {j.type} joint {j.name!r} has an empty range [{lo:g}, {hi:g}]{why}; "
+            f"it cannot move within its limits (lock it, or give it real limits or type "
+            f"\"continuous\")",
+            UserWarning,
+            stacklevel=_WARN_STACKLEVEL,
+        )
+    return lo, hi
+
+
+def _chain_fields(path: str, chain: list[Any]) -> dict[str, Any]:
+    """Per-actuated-joint fields of the chain, fixed joints folded into the next origin (or the tip)."""
+    names, types, origins, axes, lower, upper = [], [], [], [], [], []
+    pending = np.eye(4)
+    for j in chain:
+        T = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+        _check_chain_joint(path, j)
+        if j.type == "fixed":
+            pending = pending @ T
+            continue
+        axis = _unit_axis(path, j)
+        lo, hi = _limits(path, j)
+        names.append(j.name)
+        types.append(_MOVABLE[j.type])
+        origins.append(mat_to_tuple(pending @ T))
+        axes.append(axis)
+        lower.append(lo)
+        upper.append(hi)
+        pending = np.eye(4)
+    return dict(names=names, types=types, origins=origins, axes=axes, lower=lower, upper=upper, after_tip=pending)
+
+
+def parse_urdf_chain(
+    path: str | os.PathLike,
+    base_link: str | None = None,
+    tip_link: str | None = None,
+    locked: Mapping[str, float] | None = None,
+    tcp: Sequence[float] | np.ndarray | None = None,
+) -> dict:
+    """The fields of a :class:`~jaxstiff.model.chain.Chain` for the chain ``base_link`` -> ``tip_link``
+    of the URDF ``path`` (a file, or a shipped robot's name). Arguments and errors: see
+    :meth:`jaxstiff.model.robot.Robot.from_urdf`."""
+    path = _resolve_path(path)
+    model = _parse_model(path)
+    tree = _link_tree(path, model)
+    base_link = _pick_base(path, tree, base_link)
+    tip_link = _pick_tip(path, tree, base_link, tip_link)
+    chain = tree.chain_to(base_link, tip_link) if tip_link != base_link else []
     if not chain:
         raise ValueError(
             f"{path}: no kinematic chain from base link {base_link!r} to tip link {tip_link!r} "
             f"(the tip must lie below the base in the URDF tree)"
         )
-
-    names, types, origins, axes, lower, upper = [], [], [], [], [], []
-    pending = np.eye(4)
-    for j in chain:
-        T = np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
-        if j.mimic is not None:
-            raise ValueError(
-                f"{path}: joint {j.name!r} mimics joint {j.mimic.joint!r}; mimic joints in the chain "
-                f"are not supported (its value is tied to {j.mimic.joint!r}, so locking it does not help): "
-                f"choose a tip link above it (tip_link, command line: --tip-link)"
-            )
-        if j.type in ("floating", "planar"):
-            raise ValueError(f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported")
-        if j.type == "fixed":
-            pending = pending @ T
-            continue
-        axis = np.asarray(j.axis if j.axis is not None else (1.0, 0.0, 0.0), dtype=float)
-        norm = float(np.linalg.norm(axis))
-        if not np.all(np.isfinite(axis)) or norm < 1e-12:
-            raise ValueError(f"{path}: joint {j.name!r} has a zero or non-finite axis {axis.tolist()}")
-        axis = axis / norm
-        if j.type == "continuous":
-            lo, hi = -math.inf, math.inf
-        else:
-            if j.limit is None:
-                raise ValueError(
-                    f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one"
-                    + (" (use type=\"continuous\" for an unlimited revolute joint)" if j.type == "revolute" else "")
-                )
-            # URDF spec (and urdfdom): a missing lower/upper attribute defaults to 0.
-            lo = 0.0 if j.limit.lower is None else float(j.limit.lower)
-            hi = 0.0 if j.limit.upper is None else float(j.limit.upper)
-            if lo > hi:
-                raise ValueError(f"{path}: joint {j.name!r} has lower limit {lo:g} > upper limit {hi:g}")
-            if lo == hi:
-                missing = [a for a in ("lower", "upper") if getattr(j.limit, a) is None]
-                why = f" (<limit> omits {' and '.join(missing)}, which URDF defaults to 0)" if missing else ""
-                warnings.warn(
-                    f"{path}: {j.type} joint {j.name!r} has an empty range [{lo:g}, {hi:g}]{why}; "
-                    f"it cannot move within its limits (lock it, or give it real limits or type "
-                    f"\"continuous\")",
-                    UserWarning,
-                    stacklevel=3,
-                )
-        names.append(j.name)
-        types.append(_MOVABLE[j.type])
-        origins.append(mat_to_tuple(pending @ T))
-        axes.append(tuple(float(a) for a in axis))
-        lower.append(lo)
-        upper.append(hi)
-        pending = np.eye(4)
+    f = _chain_fields(path, chain)
+    names = f["names"]
     if not names:
         raise ValueError(f"{path}: the chain {base_link!r} -> {tip_link!r} has no actuated joint")
 
-    tip = pending @ tcp_matrix(tcp)
-    axes = [tuple(snap(a) for a in ax) for ax in axes]
-    lock_values = check_locked(tuple(names), lower, upper, locked)
+    tip = f["after_tip"] @ tcp_matrix(tcp)
+    axes = [tuple(snap(a) for a in ax) for ax in f["axes"]]
+    lock_values = check_locked(tuple(names), f["lower"], f["upper"], locked)
     return dict(
         name=model.name or os.path.basename(path),
         joint_names=tuple(names),
-        joint_types=tuple(types),
-        origins=tuple(origins),
+        joint_types=tuple(f["types"]),
+        origins=tuple(f["origins"]),
         axes=tuple(axes),
         tip=mat_to_tuple(tip),
-        lower_limits=tuple(lower),
-        upper_limits=tuple(upper),
+        lower_limits=tuple(f["lower"]),
+        upper_limits=tuple(f["upper"]),
         locked=lock_values,
         base_link=base_link,
         tip_link=tip_link,

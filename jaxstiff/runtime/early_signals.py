@@ -25,10 +25,10 @@ def _started_as_command() -> bool:
     if sys.argv and os.path.basename(sys.argv[0]) in ("jaxstiff", "jaxstiff.exe"):
         return True
     argv = list(getattr(sys, "orig_argv", ()))
-    return any(a == "-m" and b == "jaxstiff" for a, b in zip(argv, argv[1:]))
+    return any(a == "-m" and b == "jaxstiff" for a, b in zip(argv, argv[1:], strict=False))
 
 
-def _remember(signum, frame):  # noqa: ARG001 - the signal module's handler signature
+def _remember(signum: int, frame: object):  # noqa: ARG001 - the signal module's handler signature
     _RECEIVED.append(signum)
 
 

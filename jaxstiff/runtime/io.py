@@ -15,7 +15,8 @@ import signal
 import sys
 import tempfile
 import threading
-from typing import IO, Callable, Iterator
+from collections.abc import Callable, Iterator
+from typing import IO, Any
 
 import numpy as np
 
@@ -41,7 +42,8 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
         raise FileNotFoundError(f"output folder does not exist: {folder}")
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(file)[1], dir=folder)
     try:
-        with os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": ""})) as fh:
+        fh_ctx = os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8", newline="")
+        with fh_ctx as fh:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
@@ -56,10 +58,13 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
 
 def atomic_write_text(file: str | os.PathLike, text: str) -> str:
     """Write ``text`` (UTF-8, newlines as given) to ``file`` atomically."""
-    return atomic_write(file, lambda fh: fh.write(text))
+    def write(fh: IO) -> None:
+        fh.write(text)
+
+    return atomic_write(file, write)
 
 
-def json_default(o):
+def json_default(o: object) -> object:
     """``json.dumps(default=...)`` for numpy arrays and scalars."""
     if isinstance(o, np.ndarray):
         return o.tolist()
@@ -73,18 +78,18 @@ _PENDING: dict[str, int | None] = {"signal": None}
 _DEFER = {"depth": 0}
 
 
-def _on_signal(signum, frame):  # noqa: ARG001 - the signal module's handler signature
+def _on_signal(signum: int, frame: object):  # noqa: ARG001 - the signal module's handler signature
     _PENDING["signal"] = signum
     if not _DEFER["depth"]:
         raise KeyboardInterrupt
 
 
-def _drop_interrupt_unraisable(hook):
+def _drop_interrupt_unraisable(hook: Callable) -> Callable:
     """An unraisable-exception hook that stays quiet about a KeyboardInterrupt (one raised by the
     handler inside a callback that cannot propagate it, e.g. JAX's garbage-collection callback):
     the signal is remembered and raised again at the next checkpoint."""
 
-    def quiet(unraisable):
+    def quiet(unraisable: Any) -> None:
         if not isinstance(unraisable.exc_value, KeyboardInterrupt):
             hook(unraisable)
 

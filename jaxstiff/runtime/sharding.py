@@ -15,7 +15,8 @@ Used by :mod:`jaxstiff.sweep` (CSC chunks); any batched solver can use :func:`sh
 
 from __future__ import annotations
 
-from typing import Any, Mapping
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 

@@ -3,9 +3,8 @@
 XLA:CPU (jaxlib 0.10) hands small fused reductions and elementwise loops to the YNNPACK library by
 default. jaxstiff's kernels are made of many tiny contractions over a batch axis (3x3 and 6x6
 products, cross products, unrolled factorisations), for which the library call costs more than
-XLA's own loops: measured on a 2-core CPU, 100 paths x 100 waypoints of the pgd kernel 10.6 s
-with YNNPACK fusions and 7.0 s without; 128 CSC rollouts x 1000 steps 0.26 -> 0.15 s forward.
-So jaxstiff compiles its own kernels with that fusion type switched off.
+XLA's own loops (measurements: docs/notes/model.md). So jaxstiff compiles its own kernels with
+that fusion type switched off.
 
 A computation the user jits around a jaxstiff call is compiled with the user's options (an inner
 ``jax.jit`` is inlined): pass :func:`kernel_compiler_options` to your own ``jax.jit(...,
@@ -25,7 +24,7 @@ __all__ = ["kernel_compiler_options"]
 _CPU = {"xla_cpu_experimental_ynn_fusion_type": ""}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _supported(backend: str) -> bool:
     if backend != "cpu" or os.environ.get("JAXSTIFF_XLA_DEFAULTS"):
         return False

@@ -40,11 +40,12 @@ from __future__ import annotations
 import functools
 import inspect
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 
 from jaxstiff._numerics.batch import broadcast_batch, check_square, known_floats
 from jaxstiff._numerics.eig import eigh_descending
@@ -86,7 +87,7 @@ def _alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
     return alpha, safe_ratio(w[..., 0], w[..., 1])
 
 
-def _check_ratio(r, K=None, d=None) -> None:
+def _check_ratio(r: ArrayLike, K: jax.Array | None = None, d: jax.Array | None = None) -> None:
     """A known ``r`` (a number or an array, not a value inside a trace) must be >= 1 everywhere
     and, with K and d given, broadcast against their batch axes."""
     a = known_floats(r, "ratio r")
@@ -96,36 +97,36 @@ def _check_ratio(r, K=None, d=None) -> None:
         bad = a if a.ndim == 0 else a[~(a >= 1.0)].flat[0]
         where = "" if a.ndim == 0 else f" at index {tuple(int(i) for i in np.argwhere(~(a >= 1.0))[0])}"
         raise ValueError(f"ratio r must be >= 1 (rho = lambda1 / lambda2 is >= 1), got {float(bad)}{where}")
-    if K is not None:
+    if K is not None and d is not None:
         broadcast_batch(("K", K.shape[:-2]), ("d", d.shape[:-1]), ("r", a.shape))
 
 
-def _check_offset(c) -> None:
+def _check_offset(c: ArrayLike) -> None:
     a = known_floats(c, "offset c")
     if a is not None and not np.all(a >= 0.0):
         raise ValueError(f"offset c must be >= 0 degrees (f1's minimum is at alpha = 0 only for c >= 0), got {c}")
 
 
-def _inputs(K, d):
+def _inputs(K: ArrayLike, d: ArrayLike) -> tuple[jax.Array, jax.Array]:
     K = check_square(K)
     return K, check_direction(K, d)
 
 
 @jax.jit
-def _f1(K, d, r, c):
+def _f1(K: jax.Array, d: jax.Array, r: ArrayLike, c: ArrayLike) -> jax.Array:
     alpha, rho = _alpha_and_ratio(K, d)
     r = jnp.asarray(r, dtype=alpha.dtype)
     return (alpha + c) * r / jnp.minimum(rho, r)
 
 
 @jax.jit
-def _f2(K, d, r):
+def _f2(K: jax.Array, d: jax.Array, r: ArrayLike) -> jax.Array:
     alpha, rho = _alpha_and_ratio(K, d)
     r = jnp.asarray(r, dtype=alpha.dtype)
     return (1.0 + alpha) * (1.0 + jnp.abs(r - rho))
 
 
-def f1(K: jax.Array, d: jax.Array, r, c: float = 0.01) -> jax.Array:
+def f1(K: jax.Array, d: jax.Array, r: ArrayLike, c: float = 0.01) -> jax.Array:
     """Seed 000 criterion f1 (S0-9): ``(|alpha| + c) / (min(rho, r) / r)``, alpha in degrees.
 
     Minimum set: alpha = 0 and any rho >= r, where f1 = c.
@@ -145,7 +146,7 @@ def f1(K: jax.Array, d: jax.Array, r, c: float = 0.01) -> jax.Array:
     return _f1(K, d, r, c)
 
 
-def f2(K: jax.Array, d: jax.Array, r, c: float = 0.0) -> jax.Array:
+def f2(K: jax.Array, d: jax.Array, r: ArrayLike, c: float = 0.0) -> jax.Array:
     """Seed 000 criterion f2 (S0-15): ``(1 + |alpha|) (1 + |r - rho|)``, alpha in degrees.
 
     Unique minimum f2 = 1 at alpha = 0, rho = r. ``c`` is accepted and ignored so that f1, f2 and
@@ -185,7 +186,7 @@ def frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
 
 
 @jax.jit
-def _frobenius(K, K_d):
+def _frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
     D = K_d - K
     return safe_sqrt(jnp.sum(D * D, axis=(-2, -1)))
 
@@ -216,7 +217,7 @@ def offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
 
 
 @jax.jit
-def _offdiag(J, K_xd):
+def _offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
     KJ = jnp.sum(K_xd[..., :, :, None] * J[..., None, :, :], axis=-2)  # K_xd J (..., m, n)
     Kq = jnp.sum(J[..., :, :, None] * KJ[..., :, None, :], axis=-3)  # J^T K_xd J (..., n, n)
     return offdiag_of(Kq)
@@ -257,7 +258,7 @@ def _normalise(fn: Callable) -> Criterion:
         pass
 
     @functools.wraps(fn)
-    def with_c(K, d, r, c=0.01):
+    def with_c(K: jax.Array, d: jax.Array, r: ArrayLike, c: float = 0.01) -> jax.Array:
         del c
         return fn(K, d, r)
 
@@ -287,7 +288,7 @@ def register_criterion(name: str, fn: Criterion, *, overwrite: bool = False) -> 
     CRITERIA[name] = _normalise(fn)
 
 
-def get_criterion(criterion) -> Criterion:
+def get_criterion(criterion: str | Criterion) -> Criterion:
     """Resolve a criterion name (``"f1"``, ``"f2"``, registered ones) or pass a callable through.
 
     The result is always callable as ``crit(K, d, r, c=c)``.

@@ -10,8 +10,8 @@ Eigen-decomposition. 2x2 and 3x3 matrices are decomposed by Jacobi rotations wri
 elementwise array arithmetic: one exact rotation for 2x2, four cyclic sweeps (12 rotations) for
 3x3, which converge to machine precision for every symmetric 3x3 matrix (Jacobi's method is
 quadratically convergent; the tests check 1e-13 against numpy on random, graded and nearly
-degenerate matrices). Over a batch this fuses into one loop and runs ~5x faster on a CPU than
-LAPACK's batched ``eigh``, with the same accuracy. Larger matrices use ``jnp.linalg.eigh``.
+degenerate matrices). Over a batch this fuses into one loop (faster on a CPU than LAPACK's
+batched ``eigh``, with the same accuracy: docs/notes/model.md). Larger matrices use ``jnp.linalg.eigh``.
 
 Gradient safety. The derivative of an eigenvector carries ``1 / (lambda_i - lambda_j)``, infinite
 where two axes coincide (a sphere ``lambda1 = lambda2``, or ``lambda2 = lambda3``).
@@ -41,8 +41,9 @@ import math
 import jax
 import jax.numpy as jnp
 import numpy as np
+from numpy.typing import ArrayLike
 
-from jaxstiff._numerics.batch import broadcast_batch, check_square
+from jaxstiff._numerics.batch import broadcast_batch, check_square, is_traced
 from jaxstiff._numerics.eig import JACOBI_SWEEPS, eigh_descending, eigh_descending_inline
 from jaxstiff._numerics.safe import safe_atan2, safe_norm, safe_ratio
 
@@ -132,7 +133,7 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
         ([4.0, 2.0], 2.0)
     """
     e = _ellipsoid(check_square(K))
-    if not isinstance(e.axes, jax.core.Tracer):  # concrete input: an indefinite K has no ellipsoid
+    if not is_traced(e.axes):  # concrete input: an indefinite K has no ellipsoid
         w = np.asarray(e.axes)
         # (a positive semi-definite K, e.g. rotated diag(3000, 1000, 0), has rounding-level negatives)
         neg = w[..., -1] < -max(1e-9, 100 * np.finfo(w.dtype).eps) * np.abs(w[..., 0])
@@ -178,7 +179,7 @@ def alpha_rad(v1: jax.Array, d: jax.Array) -> jax.Array:
     return safe_atan2(sin, cos)
 
 
-def check_direction(K: jax.Array, d) -> jax.Array:
+def check_direction(K: jax.Array, d: ArrayLike) -> jax.Array:
     d = jnp.asarray(d)
     if d.ndim < 1 or d.shape[-1] != K.shape[-1]:
         raise ValueError(f"d must have shape (..., {K.shape[-1]}) to match K {tuple(K.shape)}, got {tuple(d.shape)}")

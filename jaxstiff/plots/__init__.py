@@ -1,0 +1,43 @@
+"""Figures of the experiments: stiffness ellipses of planar arms (seed 000 Fig. 2 CMS, Fig. 3 CDS),
+the criteria landscape (Fig. 6), the seven-panel path figure (Fig. 4/5) and CSC's u / Frobenius
+curves; plus the small pieces every experiment script shares (its ``--out`` parser, summary tables).
+Modules: :mod:`.base` (matplotlib, PNG writer, geometry), :mod:`.planar` (Fig. 2, 3, 6, CSC curves),
+:mod:`.shape_path` (Fig. 4/5), :mod:`.tables`; every name is importable as ``jaxstiff.plots.X``.
+Matplotlib (Agg backend) is imported only inside these functions: the core library never imports
+this module, and importing it pulls in numpy only.
+
+Every figure function takes numbers computed by the library (stiffness matrices, criterion grids,
+results), draws them with labelled axes and units, and writes the PNG atomically (a temporary file
+in the same folder, then ``os.replace``), so a failed run never leaves a partial figure.
+
+Example:
+    >>> import numpy as np, jaxstiff
+    >>> from jaxstiff import plots
+    >>> pts = plots.ellipse_points(np.diag([5.0, 1.0]))  # (201, 2) N/m, semi-axes 5 along x, 1 along y
+    >>> float(pts[:, 0].max()), float(pts[:, 1].max())
+    (5.0, 1.0)
+"""
+
+from jaxstiff.plots.base import chain_points, draw_arm, ellipse_points, pyplot, save_figure, style_ellipse_panel
+from jaxstiff.plots.planar import figure_cds, figure_cms, figure_criteria, figure_u_frobenius
+from jaxstiff.plots.shape_path import figure_shape_path, stiffness_axes
+from jaxstiff.plots.tables import experiment_parser, markdown_table, save_table_csv, text_table
+
+__all__ = [
+    "pyplot",
+    "save_figure",
+    "ellipse_points",
+    "chain_points",
+    "draw_arm",
+    "style_ellipse_panel",
+    "stiffness_axes",
+    "figure_cms",
+    "figure_cds",
+    "figure_criteria",
+    "figure_u_frobenius",
+    "figure_shape_path",
+    "experiment_parser",
+    "markdown_table",
+    "text_table",
+    "save_table_csv",
+]

@@ -1,0 +1,126 @@
+"""Shared pieces of the figures: matplotlib on the Agg backend, the atomic PNG writer, ellipse and
+arm geometry (numpy) and the drawing of a planar arm and of an ellipse panel."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from jaxstiff.runtime.io import atomic_write
+
+if TYPE_CHECKING:
+    from jaxstiff.model.chain import Chain
+
+__all__ = ["pyplot", "save_figure", "ellipse_points", "chain_points", "draw_arm", "style_ellipse_panel"]
+
+
+def pyplot() -> Any:
+    """``matplotlib.pyplot`` on the non-interactive Agg backend (matplotlib is imported on the first call).
+
+    Example:
+        >>> plt = plots.pyplot()
+        >>> fig, ax = plt.subplots()
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig: Any, file: str | os.PathLike, dpi: int = 130, crop: bool = True) -> str:
+    """Write ``fig`` as PNG to ``file`` atomically, then close it.
+
+    The PNG goes to a temporary file in the target folder (created if missing) and is renamed onto
+    ``file`` only once complete (:func:`jaxstiff.runtime.io.atomic_write`): if drawing fails, no partial
+    or temporary file is left and an earlier ``file`` stays as it was. The figure is closed either way.
+
+    Args:
+        fig: a matplotlib Figure.
+        file: the PNG to write.
+        dpi: resolution, dots per inch (the PNG is ``figsize * dpi`` pixels when ``crop`` is False).
+        crop: crop to the drawn content (``bbox_inches="tight"``); False keeps the figure's size.
+
+    Returns:
+        ``file`` as a string.
+    """
+    file = os.fspath(file)
+    folder = os.path.dirname(os.path.abspath(file))
+    os.makedirs(folder, exist_ok=True)
+    extra = {"bbox_inches": "tight"} if crop else {}
+    try:
+        return atomic_write(file, lambda fh: fig.savefig(fh, dpi=dpi, format="png", **extra), binary=True)
+    finally:
+        pyplot().close(fig)
+
+
+def ellipse_points(K: ArrayLike, n: int = 201) -> np.ndarray:
+    """Boundary of the stiffness ellipse of a 2x2 K: semi-axes ``lambda_i`` along ``v_i`` (S0-8).
+
+    Args:
+        K: (2, 2) symmetric positive definite, N/m.
+        n: number of points.
+
+    Returns:
+        (n, 2) points in N/m, centred at 0 (closed: the last point equals the first).
+    """
+    K = np.asarray(K, dtype=float)
+    if K.shape != (2, 2):
+        raise ValueError(f"ellipse_points needs a 2x2 matrix, got shape {K.shape}")
+    w, V = np.linalg.eigh(0.5 * (K + K.T))
+    t = np.linspace(0.0, 2.0 * np.pi, n)
+    return ((V * w) @ np.stack([np.cos(t), np.sin(t)])).T  # sum_i lambda_i v_i (cos t | sin t)
+
+
+def chain_points(robot: Chain, q: ArrayLike) -> np.ndarray:
+    """Positions (n + 1, 3) of every joint origin and of the TCP in the base frame (numpy; for drawing)."""
+    q = np.asarray(q, dtype=float)
+    T = np.eye(4)
+    pts = []
+    for i in range(robot.n):
+        T = T @ robot.origin_matrix(i)
+        pts.append(T[:3, 3].copy())
+        M = np.eye(4)
+        axis = np.asarray(robot.axes[i], dtype=float)
+        if robot.joint_types[i] == 1:  # prismatic
+            M[:3, 3] = axis * q[i]
+        else:
+            a = axis / np.linalg.norm(axis)
+            S = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+            M[:3, :3] = np.eye(3) + np.sin(q[i]) * S + (1 - np.cos(q[i])) * S @ S
+        T = T @ M
+    pts.append((T @ robot.tip_matrix)[:3, 3])
+    return np.asarray(pts)
+
+
+def draw_arm(
+    ax: Any, robot: Chain, q: Sequence[float] | np.ndarray, color: Any, label: str | None = None, lw: float = 3.0,
+    annotate: bool = False, kj: Sequence[float] | np.ndarray | None = None,
+) -> np.ndarray:
+    """Draw a planar arm at posture ``q`` (rad) on ``ax`` in its xy plane (m); optionally label each
+    joint's angle and stiffness ``kj`` (Nm/rad). Returns the points of :func:`chain_points`."""
+    pts = chain_points(robot, q)
+    ax.plot(pts[:, 0], pts[:, 1], "-", color=color, lw=lw, label=label, solid_capstyle="round")
+    ax.plot(pts[:-1, 0], pts[:-1, 1], "o", color="white", mec=color, ms=7, mew=1.8)
+    ax.plot(pts[-1, 0], pts[-1, 1], "o", color="tab:blue", ms=7)
+    if annotate:
+        for i in range(robot.n):
+            txt = f"q{i + 1} = {np.degrees(q[i]):.2f}°"
+            if kj is not None:
+                txt += f"\nk_j{i + 1} = {kj[i]:g} Nm/rad"
+            ax.annotate(txt, pts[i, :2], xytext=(10, -30 if i else 6), textcoords="offset points", fontsize=8, color="tab:red")
+        ax.annotate("EE (TCP)", pts[-1, :2], xytext=(8, 6), textcoords="offset points", fontsize=8, color="tab:blue")
+    return pts
+
+
+def style_ellipse_panel(ax: Any, title: str) -> None:
+    """Axes in N/m at equal scale, grid, legend to the right: the ellipse panel of Fig. 2 and Fig. 3."""
+    ax.set(xlabel="stiffness along x (N/m)", ylabel="stiffness along y (N/m)", title=title)
+    ax.set_aspect("equal")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))

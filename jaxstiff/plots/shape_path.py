@@ -1,0 +1,188 @@
+"""Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result."""
+
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from jaxstiff.plots.base import pyplot, save_figure
+
+if TYPE_CHECKING:
+    from jaxstiff.model.chain import Chain
+    from jaxstiff.results.files import ShapeResult
+
+__all__ = ["stiffness_axes", "figure_shape_path"]
+
+
+def stiffness_axes(
+    robot: Chain, q: np.ndarray, kj_scaled: np.ndarray, task: str = "full"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Axes of the translational stiffness ellipsoid ``K_T`` (SPEC section 2) at each waypoint.
+
+    Args:
+        robot: the chain.
+        q: (P, n) joint values, rad.
+        kj_scaled: (P, n) joint stiffnesses (after CMS), Nm/rad.
+        task: ``"full"`` or ``"xyz"`` (a 3x3 ``K_T``).
+
+    Returns:
+        Eigenvalues (P, 3) in N/m, descending, and eigenvectors (P, 3, 3) as columns, base frame.
+    """
+    from jaxstiff.model.kinematics import jacobian
+    from jaxstiff.stiffness.core import translational_stiffness
+
+    J = jacobian(robot, np.asarray(q))
+    K = np.asarray(translational_stiffness(J, np.asarray(kj_scaled), task=task))
+    w, V = np.linalg.eigh(K)
+    return w[:, ::-1], V[:, :, ::-1]
+
+
+def _panel_joints(ax: Any, wp: np.ndarray, values: np.ndarray, res: ShapeResult, colors: Any, ylabel: str, title: str) -> None:
+    """(a)/(b): one curve a joint over the waypoints, legend below."""
+    for i in range(res.n):
+        ax.plot(wp, values[:, i], color=colors[i], label=str(res.joint_names[i]))
+    ax.set(xlabel="waypoint p", ylabel=ylabel, title=title)
+    ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    ax.grid(alpha=0.3)
+
+
+def _panel_criterion(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
+    """(c): the criterion's distance to its lowest possible value, log scale."""
+    crit = res.meta["criterion"]
+    fmin = {"f1": float(res.meta["c"]), "f2": 1.0}.get(crit)
+    if fmin is not None:  # distance to the criterion's lowest possible value, log scale
+        ax.plot(wp, np.maximum(res.criterion[b] - fmin, 1e-12), "k.-", label=f"{crit} - {fmin:g}")
+        ax.set(ylabel=f"{crit} - min {crit} (-)")
+    else:
+        ax.plot(wp, res.criterion[b], "k.-", label=crit)
+        ax.set(ylabel=f"{crit} (-)")
+    ax.set(xlabel="waypoint p", title=f"(c) criterion {crit} (its minimum is {fmin:g})" if fmin else f"(c) criterion {crit}")
+    ax.set_yscale("log")
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3, which="both")
+
+
+def _panel_alpha_ratio(ax: Any, wp: np.ndarray, res: ShapeResult, b: int, r: float) -> None:
+    """(d): orientation error alpha (deg, left axis) and axis ratio rho (right axis)."""
+    ax.plot(wp, res.alpha_deg[b], "C3.-", label="orientation error alpha")
+    ax.axhline(1.0, color="C3", ls=":", lw=1, label="1 deg")
+    ax.set(xlabel="waypoint p", ylabel="alpha (deg)", title="(d) orientation error and axis ratio")
+    ax.set_ylim(bottom=0, top=max(1.5, 1.1 * float(res.alpha_deg[b].max())))
+    ax2 = ax.twinx()
+    ax2.plot(wp, res.ratio[b], "C0.-", label="axis ratio rho = lambda1/lambda2")
+    ax2.axhline(r, color="C0", ls=":", lw=1, label=f"r = {r:g}")
+    ax2.set_ylabel("axis ratio rho (-)")
+    ax2.set_ylim(0, max(2 * r, 1.1 * float(res.ratio[b].max())))
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
+    ax.grid(alpha=0.3)
+
+
+def _panel_cms(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
+    """(e): the CMS factor k per waypoint."""
+    ax.plot(wp, res.cms[b], "C2.-")
+    ax.set(xlabel="waypoint p", ylabel="CMS factor k (-)",
+           title="(e) common-mode stiffness: kj_scaled = k kj (equal ellipsoid volume)")
+    ax.grid(alpha=0.3)
+
+
+def _panel_ellipsoids_3d(
+    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int
+) -> None:
+    """(f): the path (m) with the CMS-scaled 3-D ellipsoids every ``2 * every`` waypoints, equal axes."""
+    from matplotlib.ticker import MaxNLocator
+
+    pts = res.target[b]
+    P = res.P
+    ax.plot(*pts.T, "k-", lw=1.5, label="path")
+    u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
+    sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1)
+    idx3 = np.arange(0, P, 2 * every)
+    size = 0.5 * 2 * every * spacing  # display semi-major axis (m) of the stiffest ellipsoid
+    for k in idx3:
+        E = sphere * (unit[k] * size) @ V[k].T + pts[k]
+        ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.6, linewidth=0, shade=True)
+        ax.quiver(*pts[k], *(0.6 * size * res.direction[b, k]), color="C0", lw=1)
+    ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title="(f) path and 3-D stiffness ellipsoids (CMS-scaled)")
+    lo, hi = pts.min(0) - 1.1 * size, pts.max(0) + 1.1 * size
+    lo[2], hi[2] = min(lo[2], pts[:, 2].mean() - 0.05), max(hi[2], pts[:, 2].mean() + 0.05)
+    ax.set_xlim(lo[0], hi[0])
+    ax.set_ylim(lo[1], hi[1])
+    ax.set_zlim(lo[2], hi[2])
+    ax.set_box_aspect(tuple(hi - lo))  # equal scale on all three axes
+    ax.view_init(elev=45, azim=-30)
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(4))
+
+
+def _panel_projection_xy(
+    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int
+) -> None:
+    """(g): outlines of the ellipsoids projected on the xy plane every ``every`` waypoints, with
+    their major axes and the path tangent."""
+    pts = res.target[b]
+    idx = np.arange(0, res.P, every)
+    ax.plot(pts[:, 0], pts[:, 1], "k-", lw=1.5, label="path")
+    t = np.linspace(0, 2 * np.pi, 100)
+    size = 0.5 * every * spacing
+    semi = unit * size
+    for j, k in enumerate(idx):
+        M = (V[k] * semi[k])[:2]  # xy rows of the ellipsoid's axis matrix
+        w2, U = np.linalg.eigh(M @ M.T)  # outline of the projection: an ellipse
+        ell = (U * np.sqrt(np.maximum(w2, 0))) @ np.stack([np.cos(t), np.sin(t)])
+        ax.plot(pts[k, 0] + ell[0], pts[k, 1] + ell[1], color="C1", label="ellipsoid outline (xy)" if j == 0 else None)
+        a = V[k][:2, 0] * semi[k, 0]
+        ax.plot(pts[k, 0] + np.array([-a[0], a[0]]), pts[k, 1] + np.array([-a[1], a[1]]), "C3-", lw=1,
+                label="major axis" if j == 0 else None)
+        d = res.direction[b, k, :2] * semi[k, 0]
+        ax.plot(pts[k, 0] + np.array([-d[0], d[0]]), pts[k, 1] + np.array([-d[1], d[1]]), "C0:", lw=1,
+                label="path tangent" if j == 0 else None)
+    ax.set(xlabel="x (m)", ylabel="y (m)", title="(g) projection on the xy plane")
+    ax.set_aspect("equal")
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3)
+
+
+def figure_shape_path(
+    res: ShapeResult, robot: Chain, file: str | os.PathLike, title: str, every: int = 5, b: int = 0, dpi: int = 110
+) -> str:
+    """Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result.
+
+    (a) joint stiffness kj (Nm/rad), (b) joint positions (deg), (c) the criterion's distance to its
+    minimum (log scale), (d) orientation error alpha (deg) and axis ratio, (e) CMS factor, (f) the
+    path (m) with the CMS-scaled 3-D stiffness ellipsoids every ``2 * every`` waypoints, (g) their
+    outlines projected on the xy plane every ``every`` waypoints.
+
+    Args:
+        res: a :class:`jaxstiff.results.ShapeResult` of a task with a 3x3 K_T ("full" or "xyz").
+        robot: the robot it was computed for.
+        file: PNG to write (cropped to the drawing).
+        title: figure title.
+        every: waypoint spacing of the drawn ellipses.
+        b: which path of the batch.
+        dpi: resolution, dots per inch.
+    """
+    plt = pyplot()
+    wp = np.arange(res.P)
+    fig = plt.figure(figsize=(17, 14))
+    gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.45, wspace=0.9)
+    colors = plt.cm.tab10(np.arange(res.n))
+    _panel_joints(fig.add_subplot(gs[0, 0:2]), wp, res.kj[b], res, colors,
+                  "joint stiffness k_j (Nm/rad)", "(a) joint stiffness (before CMS)")
+    _panel_joints(fig.add_subplot(gs[0, 2:4]), wp, np.degrees(res.q[b]), res, colors,
+                  "joint position q (deg)", "(b) joint positions")
+    _panel_criterion(fig.add_subplot(gs[0, 4:6]), wp, res, b)
+    _panel_alpha_ratio(fig.add_subplot(gs[1, 0:3]), wp, res, b, float(res.meta["ratio"]))
+    _panel_cms(fig.add_subplot(gs[1, 3:6]), wp, res, b)
+
+    lam, V = stiffness_axes(robot, res.q[b], res.kj_scaled[b], res.meta["task"])
+    spacing = float(np.median(np.linalg.norm(np.diff(res.target[b], axis=0), axis=1)))
+    unit = lam / lam[:, :1].max()  # axes relative to the largest major axis on the path
+    _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:4], projection="3d"), res, b, unit, V, spacing, every)
+    _panel_projection_xy(fig.add_subplot(gs[2, 4:6]), res, b, unit, V, spacing, every)
+
+    fig.suptitle(title, fontsize=13)
+    return save_figure(fig, file, dpi=dpi)

@@ -1,0 +1,113 @@
+"""Task rows of the geometric Jacobian (SPEC section 2) and the check that a robot can control them.
+
+A task names the Cartesian rows of ``J`` (base frame, rows ``[vx, vy, vz, wx, wy, wz]``) that the
+stiffness is defined on: ``"xy"`` (vx, vy), ``"xyz"`` (vx, vy, vz), ``"full"`` (all six).
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import TYPE_CHECKING
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+if TYPE_CHECKING:
+    from jaxstiff.model.chain import Chain
+
+__all__ = ["TASK_ROWS", "task_rows", "check_task_feasible", "select_task_rows"]
+
+TASK_ROWS: dict[str, tuple[int, ...]] = {"xy": (0, 1), "xyz": (0, 1, 2), "full": (0, 1, 2, 3, 4, 5)}
+
+
+def task_rows(task: str) -> tuple[int, ...]:
+    """Jacobian rows of a task name; raises ValueError for an unknown task."""
+    try:
+        return TASK_ROWS[task]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASK_ROWS)}") from None
+
+
+_ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
+
+
+@functools.lru_cache(maxsize=64)
+def _task_rank_report(robot: Chain, task: str, motion: bool = False) -> str | None:
+    rows = task_rows(task)
+    m = len(rows)
+    # the stiffness K = (J diag(1/kj) J^T)^-1 has every joint's spring, locked ones included; the
+    # motion (a CSC rollout's primary task) has the free joints only
+    cols = robot.free if motion else np.ones(robot.n, dtype=bool)
+    k = int(cols.sum())
+    lost = "so the path cannot be followed along the missing {}" if motion else "so its stiffness along the missing {} is undefined"
+    if k < m:
+        have = f"only {k} free joint(s) move the TCP" if motion else f"the robot has only {k} joint(s)"
+        return (f"task {task!r} controls {m} Cartesian rows ({', '.join(_ROW_NAMES[r] for r in rows)}) but {have}, "
+                + lost.format("rows"))
+    # Structural rank: sample postures within the limits (continuous joints in [-pi, pi]); a task
+    # whose Jacobian rows lose rank at every sample (a planar chain asked for z, an axis parallel
+    # to another ...) is not a singular posture but a wrong task for this robot.
+    from jaxstiff.model.kinematics import jacobian
+
+    rng = np.random.default_rng(0)
+    lo, hi = robot.lower, robot.upper  # a joint's own range; one turn where it is open
+    lo_ok, hi_ok = np.isfinite(lo), np.isfinite(hi)
+    lo = np.where(lo_ok, lo, np.where(hi_ok, np.where(hi_ok, hi, 0.0) - 2 * np.pi, -np.pi))
+    hi = np.where(hi_ok, hi, lo + 2 * np.pi)
+    q = lo + (hi - lo) * rng.uniform(0.05, 0.95, size=(6, robot.n))
+    q = np.where(robot.free, q, np.nan_to_num(robot.locked_values))
+    with jax.ensure_compile_time_eval(), jax.enable_x64(True):
+        J = np.asarray(jacobian(robot, jnp.asarray(q, dtype=jnp.float64)))
+    Js = J[:, list(rows), :][:, :, cols]
+    s = np.linalg.svd(Js, compute_uv=False)
+    if np.any(s[:, -1] > 1e-9 * np.maximum(s[:, 0], 1e-300)):
+        return None
+    dead = [_ROW_NAMES[r] for i, r in enumerate(rows) if np.all(np.abs(Js[:, i, :]) < 1e-12)]
+    rank = int(np.max(np.sum(s > 1e-9 * s[:, :1], axis=1)))
+    which = "free joints' " if motion else ""
+    why = (f"row(s) {', '.join(dead)} of its {which}Jacobian are zero at every posture (a planar chain?)" if dead
+           else f"its {m} task rows have rank {rank} at every sampled posture")
+    return f"task {task!r} controls {m} Cartesian rows but {why}, " + lost.format("direction")
+
+
+def check_task_feasible(robot: Chain, task: str, *, motion: bool = False) -> None:
+    """Raise ValueError if ``robot`` cannot control the rows of ``task`` at any posture.
+
+    Two causes: fewer joints than task rows (a 3-joint arm with ``"full"``), and task rows that
+    lose rank at every posture (a planar chain with ``"xyz"``: its ``vz`` row is always zero).
+    Either makes the Cartesian stiffness infinite along a lost direction everywhere, not just
+    near a singular posture, so the result would only reflect the regularisation. Locked joints
+    count: they keep their springs (SPEC section 1), so a 7-joint arm with two joints locked has a
+    defined 6-row stiffness. With ``motion=True`` (a CSC rollout, whose primary task the free
+    joints follow) only the free joints count. The check samples six postures within the joint
+    limits once per (robot, task).
+    """
+    msg = _task_rank_report(robot, task, motion)
+    if msg is not None:
+        smaller = [t for t in ("xyz", "xy") if len(TASK_ROWS[t]) < len(TASK_ROWS[task])]
+        ok = [t for t in smaller if _task_rank_report(robot, t, motion) is None]
+        hint = (f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'the x and y rows only'})" if ok
+                else "task 'xy' needs a chain that moves in the base xy plane")
+        if motion and not robot.free.all():
+            hint += ", or unlock joints"
+        raise ValueError(f"{msg}; {hint}")
+
+
+
+
+def select_task_rows(J: jax.Array, task: str) -> jax.Array:
+    """The task rows (..., m, n) of a Jacobian (..., 6, n), or ``J`` itself if it has m rows already."""
+    rows = task_rows(task)
+    J = jnp.asarray(J)
+    if not jnp.issubdtype(J.dtype, jnp.floating):
+        raise ValueError(f"J must have a floating dtype, got {J.dtype}")
+    if J.ndim < 2:
+        raise ValueError(f"J must have shape (..., 6, n) or (..., {len(rows)}, n), got {tuple(J.shape)}")
+    if J.shape[-2] == len(rows):  # already the task rows
+        return J
+    if J.shape[-2] != 6:
+        raise ValueError(f"J must have 6 rows (or the {len(rows)} rows of task {task!r}), got shape {tuple(J.shape)}")
+    if rows == (0, 1, 2):
+        return J[..., :3, :]
+    return J[..., list(rows), :]
