@@ -44,3 +44,11 @@ def numpy_fk(robot, q):
             M[:3, :3] = _rot(robot.axes[i], q[i])
         T = T @ M
     return T @ robot.tip_matrix
+
+
+# folders, for tests in any sub-folder of tests/
+import pathlib as _pathlib
+
+TESTS_DIR = _pathlib.Path(__file__).resolve().parent  #: tests/
+DATA_DIR = TESTS_DIR / "data"  #: tests/data (URDFs made for tests)
+REPO_ROOT = TESTS_DIR.parent  #: the repository (experiments/, urdf/, pyproject.toml)

@@ -16,14 +16,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import assert_close, numpy_fk
+from helpers import DATA_DIR, assert_close, numpy_fk
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-BRANCHED = os.path.join(HERE, "data", "branched_tree.urdf")
+BRANCHED = str(DATA_DIR / "branched_tree.urdf")
 
 _ROBOTS: dict[str, jaxstiff.Robot] = {}
 

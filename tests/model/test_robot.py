@@ -13,13 +13,12 @@ import sys
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import assert_close
+from helpers import DATA_DIR, assert_close
 
 import jaxstiff
 from jaxstiff.cli import main
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-BRANCHED = os.path.join(HERE, "data", "branched_tree.urdf")
+BRANCHED = str(DATA_DIR / "branched_tree.urdf")
 
 # KUKA LWR 4 facts (issue 2 / data sheets): d1, d3, d5, flange d7 in m; limits in degrees.
 D1, D3, D5, D7 = 0.3105, 0.40, 0.39, 0.078

@@ -12,11 +12,11 @@ import re
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import DATA_DIR
 
 import jaxstiff
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-BRANCHED = os.path.join(HERE, "data", "branched_tree.urdf")
+BRANCHED = str(DATA_DIR / "branched_tree.urdf")
 
 LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
 

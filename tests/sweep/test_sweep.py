@@ -18,6 +18,7 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
+from helpers import REPO_ROOT
 
 import jaxstiff
 from jaxstiff.results.files import ShapeResult, is_usable, np_jacobian_rows, np_translational_stiffness, verify
@@ -25,7 +26,7 @@ from jaxstiff.sweep.config import kxd_matrix, parse_config
 from jaxstiff.sweep.run import run_sweep
 from jaxstiff.sweep.store import SweepStore, read_table
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REPO = str(REPO_ROOT)
 
 
 SHAPE_CFG = {

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import REPO_ROOT
 
 from jaxstiff import paths as P
 from jaxstiff.sweep.config import AXES, SweepConfigError, kxd_matrix, load_config, parse_config
@@ -333,7 +334,7 @@ def test_shipped_quick_sweep():
 
     from jaxstiff.paths import default_path
 
-    f = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "experiments", "sweeps", "quick.toml")
+    f = os.path.join(REPO_ROOT, "experiments", "sweeps", "quick.toml")
     plan = load_config(f)
     assert plan.n_rows >= 200
     assert plan.robot.name.lower().startswith("kuka") and plan.robot.n_free == 6
