@@ -6,8 +6,8 @@ Examples::
     jaxstiff csc --robot planar_3r --hold 1.50005,0 --kxd 3000,1000@30 --q0-deg 75,-74.74,-76.30 \\
                  --step constant --beta 2e-3 --steps 1000 --out hold.npz
 
-    # the LWR (7th joint locked) along a CSV path, task xyz, adaptive step
-    jaxstiff csc --robot kuka_lwr4 --lock lwr_a7=0 --path path.csv --kxd 3000,1000,2000@30 \\
+    # the LWR (its 7th joint locked at 0 by default, as in `jaxstiff shape`) along a CSV path, task xyz
+    jaxstiff csc --robot kuka_lwr4 --path path.csv --kxd 3000,1000,2000@30 \\
                  --q0 0.3,0.5,0,-1.2,0,0.6,0 --beta 1 --out lwr.npz
 
 ``--kxd`` (N/m): either the diagonal ``K1,...,Km`` optionally followed by ``@DEG``, meaning
@@ -21,7 +21,8 @@ paths (B = 1 for ``--hold`` or one ``--path``), T steps, n joints: the arrays of
 ``orientation_error``, ``kj (B,T,n)``, ``K_C (B,T,m,m)``, ``position (B,T,3)``, ``target (B,T,d)``,
 ``isotropy``, ``null_step``, ``status`` (bit mask, documented in meta), ``u_start (B,)``,
 ``frobenius_start (B,)``), plus ``joint_names (n,)``, ``q0 (n,)``, ``K_xd (m,m)`` and ``meta`` (JSON:
-every input and default, the robot's URDF path and sha256, versions). Written atomically.
+every input and default, ``settings`` (the CSCSettings values with their units), ``robot_spec``
+(the robot flags as RobotSpec), the robot's URDF path and sha256, units per array, versions). Written atomically.
 
 A run of more than :data:`SEGMENT_WORK` rollout-steps (paths x steps) runs as
 :func:`jaxstiff.csc.csc_rollout_segments`: segments of equal length (one compilation), a progress
@@ -35,15 +36,19 @@ import argparse
 import json
 import math
 import os
+import re
 import sys
 import time
+from typing import Any
 
 import numpy as np
 
+from jaxstiff.cli.common import add_robot_flags, check_out_file, command, robot_spec_from_args
+from jaxstiff.csc.segments import StepProgress
 from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending
 from jaxstiff.runtime.io import json_default as _json_default
-
-from jaxstiff.cli.common import TIP_LINK_HELP, check_out_file, command, parse_locks
+from jaxstiff.settings.csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
+from jaxstiff.settings.csc import CSCSettings
 
 _M_TASK = {2: "xy", 3: "xyz", 6: "full"}
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
@@ -51,49 +56,11 @@ TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last way
 #: arm, 3-5 s for one rollout): a progress line after each, and an interrupt keeps the finished ones
 SEGMENT_WORK = 500_000
 MIN_SEGMENT = 10
-DEFAULT_JL_GAIN = 0.3  #: --jl-gain when --joint-limits is priority or sum (as experiments/csc_lwr_path.py)
 
 
 def segment_steps(B: int, T: int) -> int:
     """Steps per segment for B rollouts of T steps (T itself for a short run: one compiled call)."""
     return int(min(T, max(MIN_SEGMENT, math.ceil(SEGMENT_WORK / max(B, 1)))))
-
-
-class _StepProgress:
-    """The run's lines on stderr: what runs how (once the inputs are checked), then for a segmented
-    run the progress after each segment (redrawn in place on a terminal, a line each otherwise)."""
-
-    def __init__(self, B: int, T: int, L: int, notes: list[str] = ()):
-        self.B, self.T, self.L, self.notes = B, T, L, list(notes)
-        self.t0 = time.perf_counter()
-        self.t1, self.first = None, 0
-        self.tty = sys.stderr.isatty()
-
-    def __call__(self, done: int, total: int) -> None:
-        now = time.perf_counter()
-        if done == 0:
-            for note in self.notes:  # warnings about the settings, once they are known to be valid
-                print(f"jaxstiff: warning: {note}", file=sys.stderr)
-            if self.L >= self.T:
-                msg = (f"csc: {self.B} rollout(s) x {self.T} steps in one compiled run (compiling, then running; no "
-                       "progress in between, and Ctrl-C takes effect when it ends) ...")
-            else:
-                msg = (f"csc: {self.B} rollout(s) x {self.T} steps in segments of {self.L} steps (compiling, then a line "
-                       "per segment; Ctrl-C keeps the finished segments) ...")
-            print(msg, file=sys.stderr, flush=True)
-            return
-        if self.L >= self.T:
-            return
-        if self.t1 is None:  # the rate leaves out the first segment (it includes the compilation)
-            self.t1, self.first = now, done
-        rate = (done - self.first) / (now - self.t1) if done > self.first and now > self.t1 else 0.0
-        eta = f"ETA {(total - done) / rate:.1f} s" if rate > 0 and done < total else ("done" if done >= total else "ETA ...")
-        msg = f"csc: {done}/{total} steps x {self.B} rollout(s) ({100 * done / total:.0f}%)  {now - self.t0:.1f} s  {eta}"
-        if self.tty:
-            sys.stderr.write("\r" + msg + ("\n" if done >= total else ""))
-        else:
-            sys.stderr.write(msg + "\n")
-        sys.stderr.flush()
 
 
 def _numbers(text: str, flag: str) -> list[float]:
@@ -139,7 +106,7 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
     return K
 
 
-def _warn_ignored_z(robot, q0, z, flag: str) -> None:
+def _warn_ignored_z(robot: Any, q0: np.ndarray, z: np.ndarray, flag: str) -> None:
     """Task "xy" tracks x and y only: say so when the targets' z is not the TCP's (> 1 mm apart)."""
     z_tcp = float(np.asarray(robot.fk(q0))[2, 3])
     dz = float(np.max(np.abs(z - z_tcp)))
@@ -148,42 +115,64 @@ def _warn_ignored_z(robot, q0, z, flag: str) -> None:
               f"start TCP's z = {z_tcp:.3g} m) is ignored", file=sys.stderr)
 
 
-def _units(robot, task: str) -> dict:
-    """Units of the result file's arrays (meta ``units``); per joint where prismatic joints differ."""
-    pris = robot.prismatic
-    per_joint = pris.any()
-    q = [("m" if p else "rad") for p in pris] if per_joint else "rad"
-    kj = [("N/m" if p else "Nm/rad") for p in pris] if per_joint else "Nm/rad"
-    return {
-        "q": q, "q0": q, "kj": kj,
-        "u": "Nm/rad" if not per_joint else ("norm of J^T K_xd J's off-diagonal entries: Nm/rad between revolute "
-                                             "joints, N/m between prismatic ones, N (= Nm/m) across"),
-        "u_start": "as u",
-        "K_C": "N/m" if task != "full" else "6x6 [[N/m, N/rad], [Nm/m, Nm/rad]]", "K_xd": "as K_C",
-        "frobenius": "as K_C (Frobenius norm of K_xd - K_C)", "frobenius_start": "as frobenius",
-        "position": "m", "target": "m", "tracking_error": "m", "orientation_error": "rad",
-        "isotropy": "1 (in [0, 1])", "null_step": "rad (m for prismatic joints)", "status": "bit mask (status_bits)",
-    }
+#: the settings flags of `jaxstiff csc`: CSCSettings field -> flag (defaults, units and help from the field)
+SETTING_FLAGS = {"beta": "--beta", "step": "--step", "task": "--task", "kmin": "--kmin", "kmax": "--kmax", "nu0": "--nu0",
+                 "damping": "--damping", "null_eps": "--null-eps", "newton": "--newton", "joint_limits": "--joint-limits",
+                 "jl_gain": "--jl-gain"}
+
+_EPILOG = (
+    "Result file (--out, .npz, numpy.load(..., allow_pickle=False)); B paths (1 for --hold), T steps, n joints, "
+    "m task rows, d target coordinates: q (B,T,n), u (B,T), frobenius (B,T), tracking_error (B,T), "
+    "orientation_error (B,T, rad), kj (B,T,n), K_C (B,T,m,m), position (B,T,3), target (B,T,d), isotropy (B,T), "
+    "null_step (B,T), status (B,T) bit mask, u_start (B,), frobenius_start (B,), joint_names (n,), q0 (n,), "
+    "K_xd (m,m), and meta (JSON: every input and default, settings with units, units per array, status bits, "
+    "versions). Row k is the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m "
+    "for prismatic joints), N/m, m. A long run (paths x steps over 5 x 10^5) runs in segments with a progress line "
+    "after each; Ctrl-C or SIGTERM then writes the steps finished so far (meta 'interrupted' true, 'steps' = rows "
+    "written, 'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 130 / 143 interrupted by "
+    "Ctrl-C / SIGTERM."
+)
+
+
+def add_setting_flags(p: argparse.ArgumentParser) -> None:
+    """One flag per :class:`CSCSettings` field (:data:`SETTING_FLAGS`), its default, unit and doc from the field."""
+    for info in CSCSettings.fields_info():
+        flag = SETTING_FLAGS[info.name]
+        kind: Any = int if info.name == "newton" else str if info.choices else float
+        choices = [c for c in info.choices if c is not None] if info.choices else None
+        unit = f" [{info.unit}]" if info.unit and info.unit != "1" else ""
+        shown = "" if info.default is None else f" (default: {info.default:g})" if isinstance(info.default, float) \
+            else f" (default: {info.default})"
+        help_text = info.doc + unit + shown
+        p.add_argument(flag, type=kind, choices=choices, default=info.default, help=help_text)
+
+
+def settings_from_args(args: argparse.Namespace) -> CSCSettings:
+    """The :class:`CSCSettings` of the flags; an error names the flag (``--kmin must be ...``)."""
+    try:
+        return CSCSettings(**{name: getattr(args, name) for name in SETTING_FLAGS})
+    except ValueError as e:
+        raise ValueError(_flag_message(str(e))) from None
+
+
+def _flag_message(msg: str) -> str:
+    """``csc.kmin (Nm/rad) must be ...`` -> ``--kmin must be ... (Nm/rad)``."""
+    units: list[str] = []
+
+    def flag(m: re.Match) -> str:
+        if m.group(2):
+            units.append(m.group(2))
+        name = str(m.group(1))
+        return SETTING_FLAGS.get(name, "--" + name.replace("_", "-"))
+
+    out = re.sub(r"csc\.(\w+)(?: \(([^)]*)\))?", flag, msg)
+    return out + (f" ({units[0]})" if units else "")
 
 
 @command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
 def _add_csc(p: argparse.ArgumentParser):
-    p.epilog = (
-        "Result file (--out, .npz, numpy.load(..., allow_pickle=False)); B paths (1 for --hold), T steps, n joints, "
-        "m task rows, d target coordinates: q (B,T,n), u (B,T), frobenius (B,T), tracking_error (B,T), "
-        "orientation_error (B,T), kj (B,T,n), K_C (B,T,m,m), position (B,T,3), target (B,T,d), isotropy (B,T), "
-        "null_step (B,T), status (B,T) bit mask, u_start (B,), frobenius_start (B,), joint_names (n,), q0 (n,), "
-        "K_xd (m,m), and meta (JSON: every input and default, units per array, status bits, versions). Row k is "
-        "the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m for prismatic "
-        "joints), N/m, m. A long run (paths x steps over 5 x 10^5) runs in segments with a progress line after each; "
-        "Ctrl-C or SIGTERM then writes the steps finished so far (meta 'interrupted' true, 'steps' = rows written, "
-        "'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 130 / 143 interrupted by "
-        "Ctrl-C / SIGTERM."
-    )
-    p.add_argument("--robot", default="kuka_lwr4", help="URDF file or shipped robot name")
-    p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
-    p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
-    p.add_argument("--lock", action="append", metavar="JOINT=RAD", help="lock a joint at a value (repeatable; 'none': every joint free)")
+    p.epilog = _EPILOG
+    add_robot_flags(p)
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--path", action="append", metavar="CSV",
                      help="path CSV (header x,y,z[,dx,dy,dz]; m, base frame; directions unused), one step per row (a repeated row holds still); repeat for a batch")
@@ -194,187 +183,218 @@ def _add_csc(p: argparse.ArgumentParser):
     q0 = p.add_mutually_exclusive_group(required=True)
     q0.add_argument("--q0", metavar="RAD,...", help="start posture, rad; m for prismatic joints (locked joints: their locked values)")
     q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees (prismatic joints: m)")
-    p.add_argument("--beta", type=float, default=1.0,
-                   help="null-step multiplier: adaptive = beta x |dq_P| (S1-22); constant = a null step of length beta "
-                        "per step (rad; the norm takes m for prismatic joints)")
-    p.add_argument("--step", choices=["adaptive", "constant"], default="adaptive", help="null-space step rule")
-    p.add_argument("--task", choices=["xy", "xyz", "full"], default=None, help="task rows (default: from the size of --kxd)")
-    p.add_argument("--kmin", type=float, default=1.0, help="actuator range: lowest joint stiffness, Nm/rad")
-    p.add_argument("--kmax", type=float, default=math.inf, help="actuator range: highest joint stiffness, Nm/rad")
-    p.add_argument("--newton", type=int, default=0, help="Newton corrections of the TCP inside each step")
-    p.add_argument("--joint-limits", choices=["off", "priority", "sum"], default="off",
-                   help="joint-limit avoidance as a secondary task (joints are always clamped to their limits)")
-    p.add_argument("--jl-gain", type=float, default=None,
-                   help=f"joint-limit avoidance gain: priority = rad per step for a joint at its limit (before the "
-                        f"projection), sum = weight against the CSC gradient at a limit (default: {DEFAULT_JL_GAIN} with "
-                        "--joint-limits priority or sum)")
+    add_setting_flags(p)
     p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)")
+    return run_csc
 
-    def run(args) -> int:
-        from jaxstiff.runtime.x64 import enable_x64
 
-        enable_x64()
-        from jaxstiff.csc import rollout as csc
-        from jaxstiff.results.files import atomic_save_npz
-        from jaxstiff.model.robot import Robot
-        from jaxstiff.settings.robot import robot_meta as _robot_meta, versions as _versions
+def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, str]:
+    """q0 (n,) in rad (m for prismatic joints) from --q0 or --q0-deg, locked joints checked; and the flag."""
+    if args.q0 is not None:
+        q0 = np.asarray(_numbers(args.q0, "--q0"))
+    else:
+        q0 = np.asarray(_numbers(args.q0_deg, "--q0-deg"), dtype=float)
+        if q0.shape == (robot.n,):  # degrees for revolute joints; a prismatic joint's value is a length
+            q0 = np.where(robot.prismatic, q0, np.deg2rad(q0))
+    flag = "--q0" if args.q0 is not None else "--q0-deg"
+    if q0.shape != (robot.n,):
+        raise ValueError(f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}")
+    lv = robot.locked_values
+    for i in np.flatnonzero(~robot.free):  # the help: locked joints take their locked values
+        given = q0[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(q0[i])
+        want = lv[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(lv[i])
+        if not abs(given - want) <= (1e-9 if args.q0 is not None else 1e-3):
+            unit = "m" if robot.prismatic[i] else ("rad" if args.q0 is not None else "deg")
+            raise ValueError(f"{flag} gives joint {robot.joint_names[i]!r} {given:.10g} {unit}, but it is locked at "
+                             f"{want:.10g} {unit}: give the locked value there (or change --lock)")
+    return np.where(robot.free, q0, np.nan_to_num(lv)), flag
 
-        if args.steps < 1:
-            raise ValueError(f"--steps must be >= 1, got {args.steps}")
-        # the numeric flags first (named as flags), before any work or warning
-        if not (math.isfinite(args.beta) and args.beta >= 0):
-            raise ValueError(f"--beta must be finite and >= 0, got {args.beta:g}")
-        if not (math.isfinite(args.kmin) and args.kmin > 0):
-            raise ValueError(f"--kmin must be finite and > 0 Nm/rad, got {args.kmin:g}")
-        if not args.kmax >= args.kmin:
-            raise ValueError(f"--kmax ({args.kmax:g}) must be >= --kmin ({args.kmin:g})")
-        if args.newton < 0:
-            raise ValueError(f"--newton must be >= 0, got {args.newton}")
-        if args.jl_gain is not None and not (math.isfinite(args.jl_gain) and args.jl_gain >= 0):
-            raise ValueError(f"--jl-gain must be finite and >= 0, got {args.jl_gain:g}")
-        jl_gain = args.jl_gain if args.jl_gain is not None else (DEFAULT_JL_GAIN if args.joint_limits != "off" else 0.0)
-        out = check_out_file(args.out)
-        robot = Robot.from_urdf(args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=parse_locks(args.lock))
-        K = parse_kxd(args.kxd, args.task)
-        task = args.task or _M_TASK[K.shape[0]]
-        if args.q0 is not None:
-            q0 = np.asarray(_numbers(args.q0, "--q0"))
-        else:
-            q0 = np.asarray(_numbers(args.q0_deg, "--q0-deg"), dtype=float)
-            if q0.shape == (robot.n,):  # degrees for revolute joints; a prismatic joint's value is a length
-                q0 = np.where(robot.prismatic, q0, np.deg2rad(q0))
-        flag = "--q0" if args.q0 is not None else "--q0-deg"
-        if q0.shape != (robot.n,):
-            raise ValueError(f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}")
-        lv = robot.locked_values
-        for i in np.flatnonzero(~robot.free):  # the help: locked joints take their locked values
-            given = q0[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(q0[i])
-            want = lv[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(lv[i])
-            if not abs(given - want) <= (1e-9 if args.q0 is not None else 1e-3):
-                unit = "m" if robot.prismatic[i] else ("rad" if args.q0 is not None else "deg")
-                raise ValueError(f"{flag} gives joint {robot.joint_names[i]!r} {given:.10g} {unit}, but it is locked at "
-                                 f"{want:.10g} {unit}: give the locked value there (or change --lock)")
-        q0 = np.where(robot.free, q0, np.nan_to_num(lv))
-        d = 2 if task == "xy" else 3
-        if args.hold is not None:
-            x = _numbers(args.hold, "--hold")
-            if len(x) not in (d, 3):
-                raise ValueError(f"--hold needs {d} coordinates (m) for task {task!r}, got {len(x)}")
-            points = np.tile(np.asarray(x), (1, args.steps, 1))
-            sources = [f"hold {x}"]
-        else:
-            from jaxstiff.paths import read_csv
 
-            pts = []
-            for f in args.path:
-                if not os.path.isfile(f):
-                    raise FileNotFoundError(f"--path: no such file: {f}")
-                # the points only: one step per row, repeated rows hold still, directions unused
-                pts.append(read_csv(f)[0])
-            lengths = {len(a) for a in pts}
-            if len(lengths) != 1:
-                raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {sorted(lengths)}")
-            points = np.stack(pts)
-            sources = [os.path.abspath(f) for f in args.path]
-        if task == "xy" and points.shape[-1] == 3:
-            _warn_ignored_z(robot, q0, points[..., 2], "--hold" if args.hold is not None else "--path")
-            points = points[..., :2]
-        settings = dict(task=task, step=args.step, kmin=args.kmin, kmax=args.kmax, newton=args.newton,
-                        joint_limits=args.joint_limits, jl_gain=jl_gain)
-        notes = []
-        if args.hold is not None and args.step == "adaptive":
-            notes.append("--hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero while the "
-                         "target stands still, so the arm will not move to lower u; use --step constant (beta = rad per "
-                         "step, e.g. --beta 2e-3)")
-        if args.joint_limits != "off" and jl_gain == 0:
-            notes.append(f"--joint-limits {args.joint_limits} with --jl-gain 0 does nothing (the avoidance is scaled by the gain)")
-        if args.joint_limits == "off" and args.jl_gain:
-            notes.append("--jl-gain is unused with --joint-limits off")
-        t0 = time.perf_counter()
-        B, T = points.shape[:2]
-        L = segment_steps(B, T)
-        interrupted = None
-        try:
-            res = csc.csc_rollout_segments(robot, points, K, q0, args.beta, segment_steps=L,
-                                           progress=_StepProgress(B, T, L, notes), **settings)
-        except csc.CSCInterrupted as e:
-            res, interrupted = e.result, e
-        except KeyboardInterrupt:
-            print("\njaxstiff: nothing was written (the interrupt came before the first "
-                  + ("segment" if L < T else "and only compiled run") + " was finished)", file=sys.stderr)
-            raise
-        T_done = res.q.shape[-2]
-        partial = T_done < T  # (an interrupt while the last segment was joined still has every step)
-        print(f"csc: {'interrupted' if partial else 'done'} in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) -> tuple[np.ndarray, list[str]]:
+    """The (B, T, d) targets of --hold or --path, and their sources for meta."""
+    d = 2 if task == "xy" else 3
+    if args.hold is not None:
+        x = _numbers(args.hold, "--hold")
+        if len(x) not in (d, 3):
+            raise ValueError(f"--hold needs {d} coordinates (m) for task {task!r}, got {len(x)}")
+        points = np.tile(np.asarray(x), (1, args.steps, 1))
+        sources = [f"hold {x}"]
+    else:
+        from jaxstiff.paths import read_csv
 
-        meta = {
-            "kind": "csc",
-            "robot": _robot_meta(robot),
-            "paths": sources,
-            "hold": args.hold,
-            "steps": int(T_done),
-            "steps_requested": int(T),
-            "interrupted": partial,
-            "kxd": args.kxd,
-            "K_xd": K.tolist(),
-            "q0": q0.tolist(),
-            "q0_arg": {flag: args.q0 if args.q0 is not None else args.q0_deg},
-            "beta": args.beta,
-            "nu0": 1e-2,
-            "damping": 0.1,
-            "null_eps": "1e-9 * |K_xd|_F + 1e-77 (tiny^(1/4), float64)",
-            **{k: (v if not (isinstance(v, float) and math.isinf(v)) else str(v)) for k, v in settings.items()},
-            "status_bits": {str(k): v for k, v in csc._STATUS_NAMES.items()},
-            "units": _units(robot, task),
-            "row_k": "posture after step k, measured against waypoint k",
-            "versions": _versions(),
-        }
-        with deferred_interrupts():  # the rollout is finished (or cut at a segment): an interrupt now still gets the file
-            arrays = {name: np.asarray(a) for name, a in res.as_dict().items()}
-            arrays["status"] = arrays["status"].astype(np.int64)
-            arrays["joint_names"] = np.asarray(robot.joint_names, dtype=str)
-            arrays["q0"] = q0
-            arrays["K_xd"] = K
-            arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
-            written = atomic_save_npz(out, arrays)
-        if partial:
-            print(f"\njaxstiff: interrupted: wrote {written} with the {T_done} of {T} steps finished before it "
-                  "(meta 'interrupted' is true, 'steps' says how many)", file=sys.stderr)
-            raise KeyboardInterrupt
-        if interrupted is not None or interrupt_pending() is not None:
-            print(f"\njaxstiff: interrupted after the last step: wrote the complete result {written}", file=sys.stderr)
-            raise KeyboardInterrupt
+        pts = []
+        for f in args.path:
+            if not os.path.isfile(f):
+                raise FileNotFoundError(f"--path: no such file: {f}")
+            # the points only: one step per row, repeated rows hold still, directions unused
+            pts.append(read_csv(f)[0])
+        lengths = {len(a) for a in pts}
+        if len(lengths) != 1:
+            raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {sorted(lengths)}")
+        points = np.stack(pts)
+        sources = [os.path.abspath(f) for f in args.path]
+    if task == "xy" and points.shape[-1] == 3:
+        _warn_ignored_z(robot, q0, points[..., 2], "--hold" if args.hold is not None else "--path")
+        points = points[..., :2]
+    return points, sources
 
-        np.set_printoptions(precision=4, suppress=True, linewidth=120)
-        print(f"CSC {robot.name!r}, task {task}, {args.step} step, beta {args.beta:g}, {T} steps x {B} path(s)")
-        print(f"K_xd (N/m):\n{K}")
-        for b in range(B):
-            u, fr, st = res.u[b], res.frobenius[b], res.status[b]
-            change = 100 * (1 - u[-1] / res.u_start[b]) if res.u_start[b] > 0 else 0.0
-            print(f"[{b}] u: {res.u_start[b]:.6g} -> {u[-1]:.6g} Nm/rad (min {u.min():.6g}, "
-                  f"{abs(change):.1f}% {'lower' if change >= 0 else 'higher'})")
-            print(f"[{b}] |K_xd - K_C|_F: {res.frobenius_start[b]:.6g} -> {fr[-1]:.6g} N/m")
-            print(f"[{b}] tracking error: max {res.tracking_error[b].max():.3g} m, last {res.tracking_error[b, -1]:.3g} m")
-            counts = {csc.describe_status(c): int(n) for c, n in zip(*np.unique(st, return_counts=True))}
-            print(f"[{b}] status: {counts}")
-            qf = np.where(robot.prismatic, res.q[b, -1], np.rad2deg(res.q[b, -1]))
-            unit = "deg; m for prismatic joints" if robot.prismatic.any() else "deg"
-            print(f"[{b}] final q ({unit}): {np.round(qf, 3).tolist()}")
-        print(f"wrote {written}")
-        last = res.tracking_error[:, -1]
-        off = np.flatnonzero(~(last <= TRACKING_WARN_M))  # (NaN included)
-        tcp0 = np.asarray(robot.fk(q0))[:d, 3] if off.size else None  # one start posture for every path
-        for b in off:
-            start = float(np.linalg.norm(tcp0 - points[b, 0]))
-            hint = (f"the start posture's TCP is {start:.3g} m from the first waypoint, and a CSC step is a "
-                    "linearisation: start on the path" if start > 10 * TRACKING_WARN_M else
-                    "the path may leave the workspace or the joint limits, or the null-space step is too large "
-                    "(try a smaller --beta)")
-            if int(res.status[b, 0]) & csc.STATUS_DAMPED and int(res.status[b, -1]) & csc.STATUS_DAMPED:
-                hint += ("; the arm started at and stayed in a (near) singular posture, where the damped step "
-                         "cannot move along the direction the Jacobian lost: start from a bent posture")
-            print(f"jaxstiff: warning: path {b} ends {last[b]:.3g} m from its last waypoint "
-                  f"(max {res.tracking_error[b].max():.3g} m): {hint}", file=sys.stderr)
-        return 0
 
-    return run
+def _notes(args: argparse.Namespace, settings: CSCSettings) -> list[str]:
+    """Warnings about the settings, printed once the inputs are known to be valid."""
+    notes = []
+    if args.hold is not None and settings.step == "adaptive":
+        notes.append("--hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero while the "
+                     "target stands still, so the arm will not move to lower u; use --step constant (beta = rad per "
+                     "step, e.g. --beta 2e-3)")
+    if settings.joint_limits != "off" and settings.resolved_jl_gain == 0:
+        notes.append(f"--joint-limits {settings.joint_limits} with --jl-gain 0 does nothing (the avoidance is scaled by the gain)")
+    if settings.joint_limits == "off" and settings.jl_gain:
+        notes.append("--jl-gain is unused with --joint-limits off")
+    return notes
+
+
+def _rollout(robot: Any, points: np.ndarray, K: np.ndarray, q0: np.ndarray, settings: CSCSettings,
+             notes: list[str]) -> tuple[Any, bool, float]:
+    """The rollout in segments (a progress line each); an interrupt keeps the finished ones.
+    Returns ``(result, interrupted, seconds)``."""
+    from jaxstiff.csc import CSCInterrupted, csc_rollout_segments
+
+    t0 = time.perf_counter()
+    B, T = points.shape[:2]
+    L = segment_steps(B, T)
+    interrupted = False
+    try:
+        res = csc_rollout_segments(robot, points, K, q0, settings.beta, segment_steps=L,
+                                   progress=StepProgress(B, T, L, notes), settings=settings)
+    except CSCInterrupted as e:
+        res, interrupted = e.result, True
+    except KeyboardInterrupt:
+        print("\njaxstiff: nothing was written (the interrupt came before the first "
+              + ("segment" if L < T else "and only compiled run") + " was finished)", file=sys.stderr)
+        raise
+    return res, interrupted, time.perf_counter() - t0
+
+
+def _meta(args: argparse.Namespace, spec: Any, robot: Any, settings: CSCSettings, K: np.ndarray, q0: np.ndarray,
+          flag: str, sources: list[str], T_done: int, T: int) -> dict[str, Any]:
+    """The result file's ``meta`` record (every input and default, units, versions)."""
+    from jaxstiff.csc import STATUS_NAMES
+    from jaxstiff.csc.result import array_units
+    from jaxstiff.settings.robot import robot_meta, versions
+
+    used = {k: settings.task if k == "task" else getattr(settings, k) for k in ("task", "step", "kmin", "kmax", "newton", "joint_limits")}
+    used["jl_gain"] = settings.resolved_jl_gain
+    return {
+        "kind": "csc",
+        "robot": robot_meta(robot),
+        "robot_spec": spec.meta(),
+        "settings": settings.replace(jl_gain=settings.resolved_jl_gain).meta(),
+        "paths": sources,
+        "hold": args.hold,
+        "steps": int(T_done),
+        "steps_requested": int(T),
+        "interrupted": T_done < T,
+        "kxd": args.kxd,
+        "K_xd": K.tolist(),
+        "q0": q0.tolist(),
+        "q0_arg": {flag: args.q0 if args.q0 is not None else args.q0_deg},
+        "beta": settings.beta,
+        "nu0": settings.nu0,
+        "damping": settings.damping,
+        "null_eps": "1e-9 * |K_xd|_F + 1e-77 (tiny^(1/4), float64)" if settings.null_eps is None else settings.null_eps,
+        **{k: (v if not (isinstance(v, float) and math.isinf(v)) else str(v)) for k, v in used.items()},
+        "status_bits": {str(k): v for k, v in STATUS_NAMES.items()},
+        "units": array_units(robot, settings.task or ""),
+        "row_k": "posture after step k, measured against waypoint k",
+        "versions": versions(),
+    }
+
+
+def _write(out: str, res: Any, robot: Any, q0: np.ndarray, K: np.ndarray, meta: dict[str, Any]) -> str:
+    """The result file, written atomically; an interrupt now still gets the file."""
+    from jaxstiff.results.files import atomic_save_npz
+
+    with deferred_interrupts():  # the rollout is finished (or cut at a segment)
+        arrays = {name: np.asarray(a) for name, a in res.as_dict().items()}
+        arrays["status"] = arrays["status"].astype(np.int64)
+        arrays["joint_names"] = np.asarray(robot.joint_names, dtype=str)
+        arrays["q0"] = q0
+        arrays["K_xd"] = K
+        arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
+        return atomic_save_npz(out, arrays)
+
+
+def _report(res: Any, robot: Any, settings: CSCSettings, K: np.ndarray, written: str) -> None:
+    """The summary on stdout: u, |K_xd - K_C|_F, tracking error, status counts, final posture per path."""
+    from jaxstiff.csc import describe_status
+
+    B, T = res.q.shape[0], res.q.shape[-2]
+    np.set_printoptions(precision=4, suppress=True, linewidth=120)
+    print(f"CSC {robot.name!r}, task {settings.task}, {settings.step} step, beta {settings.beta:g}, {T} steps x {B} path(s)")
+    print(f"K_xd (N/m):\n{K}")
+    for b in range(B):
+        u, fr, st = res.u[b], res.frobenius[b], res.status[b]
+        change = 100 * (1 - u[-1] / res.u_start[b]) if res.u_start[b] > 0 else 0.0
+        print(f"[{b}] u: {res.u_start[b]:.6g} -> {u[-1]:.6g} Nm/rad (min {u.min():.6g}, "
+              f"{abs(change):.1f}% {'lower' if change >= 0 else 'higher'})")
+        print(f"[{b}] |K_xd - K_C|_F: {res.frobenius_start[b]:.6g} -> {fr[-1]:.6g} N/m")
+        print(f"[{b}] tracking error: max {res.tracking_error[b].max():.3g} m, last {res.tracking_error[b, -1]:.3g} m")
+        counts = {describe_status(c): int(n) for c, n in zip(*np.unique(st, return_counts=True), strict=True)}
+        print(f"[{b}] status: {counts}")
+        qf = np.where(robot.prismatic, res.q[b, -1], np.rad2deg(res.q[b, -1]))
+        unit = "deg; m for prismatic joints" if robot.prismatic.any() else "deg"
+        print(f"[{b}] final q ({unit}): {np.round(qf, 3).tolist()}")
+    print(f"wrote {written}")
+
+
+def _warn_tracking(res: Any, robot: Any, q0: np.ndarray, points: np.ndarray) -> None:
+    """A warning on stderr per path that ends off its last waypoint, with the likely reason."""
+    from jaxstiff.csc import STATUS_DAMPED
+
+    last = res.tracking_error[:, -1]
+    off = np.flatnonzero(~(last <= TRACKING_WARN_M))  # (NaN included)
+    d = points.shape[-1]
+    tcp0 = np.asarray(robot.fk(q0))[:d, 3] if off.size else None  # one start posture for every path
+    for b in off:
+        start = float(np.linalg.norm(tcp0 - points[b, 0]))
+        hint = (f"the start posture's TCP is {start:.3g} m from the first waypoint, and a CSC step is a "
+                "linearisation: start on the path" if start > 10 * TRACKING_WARN_M else
+                "the path may leave the workspace or the joint limits, or the null-space step is too large "
+                "(try a smaller --beta)")
+        if int(res.status[b, 0]) & STATUS_DAMPED and int(res.status[b, -1]) & STATUS_DAMPED:
+            hint += ("; the arm started at and stayed in a (near) singular posture, where the damped step "
+                     "cannot move along the direction the Jacobian lost: start from a bent posture")
+        print(f"jaxstiff: warning: path {b} ends {last[b]:.3g} m from its last waypoint "
+              f"(max {res.tracking_error[b].max():.3g} m): {hint}", file=sys.stderr)
+
+
+def run_csc(args: argparse.Namespace) -> int:
+    """``jaxstiff csc``: check every flag, run the rollout, write the file, report (module docstring)."""
+    from jaxstiff.runtime.x64 import enable_x64
+
+    enable_x64()
+    if args.steps < 1:
+        raise ValueError(f"--steps must be >= 1, got {args.steps}")
+    settings = settings_from_args(args)  # the numeric flags first (named as flags), before any work or warning
+    out = check_out_file(args.out)
+    spec = robot_spec_from_args(args)
+    robot = spec.build()
+    K = parse_kxd(args.kxd, settings.task)
+    settings = settings.replace(task=settings.task or _M_TASK[K.shape[0]])
+    q0, flag = _start_posture(args, robot)
+    points, sources = _targets(args, robot, q0, settings.task or "")
+    res, interrupted, seconds = _rollout(robot, points, K, q0, settings, _notes(args, settings))
+    T, T_done = points.shape[1], res.q.shape[-2]
+    partial = T_done < T  # (an interrupt while the last segment was joined still has every step)
+    print(f"csc: {'interrupted' if partial else 'done'} in {seconds:.1f} s", file=sys.stderr)
+    written = _write(out, res, robot, q0, K, _meta(args, spec, robot, settings, K, q0, flag, sources, T_done, T))
+    if partial:
+        print(f"\njaxstiff: interrupted: wrote {written} with the {T_done} of {T} steps finished before it "
+              "(meta 'interrupted' is true, 'steps' says how many)", file=sys.stderr)
+        raise KeyboardInterrupt
+    if interrupted or interrupt_pending() is not None:
+        print(f"\njaxstiff: interrupted after the last step: wrote the complete result {written}", file=sys.stderr)
+        raise KeyboardInterrupt
+    _report(res, robot, settings, K, written)
+    _warn_tracking(res, robot, q0, points)
+    return 0

@@ -1,16 +1,24 @@
 """Null-space Configuration-based Stiffness Control (seed 001, SPEC section 6) as a differentiable
-rollout (``jaxstiff.csc.X`` keeps working for every public name of the former ``csc.py``)."""
+rollout (``jaxstiff.csc.X`` keeps working for every public name of the former ``csc.py``).
 
-from .rollout import CSCResult as CSCResult
+Modules: :mod:`.result` (CSCResult, status bits), :mod:`.algebra` (small dense algebra),
+:mod:`.offdiag` (u and its gradient, with their VJP), :mod:`.pose` (kinematics with closed-form
+JVPs, orientation error), :mod:`.projections` (damped J+ and I - J+ J), :mod:`.measures` (realised
+stiffness), :mod:`.step` (one step), :mod:`.inputs` (settings and checks), :mod:`.rollout`
+(csc_rollout), :mod:`.segments` (long runs), :mod:`.direction` (single-posture tools)."""
+
+from .direction import null_space_direction as null_space_direction
+from .direction import project_to_target as project_to_target
+from .offdiag import offdiag_gradient as offdiag_gradient
+from .result import STATUS_DAMPED as STATUS_DAMPED
+from .result import STATUS_JOINT_LIMIT as STATUS_JOINT_LIMIT
+from .result import STATUS_NAMES as STATUS_NAMES
+from .result import STATUS_NAN as STATUS_NAN
+from .result import STATUS_NULL_SMALL as STATUS_NULL_SMALL
+from .result import STATUS_OK as STATUS_OK
+from .result import CSCResult as CSCResult
+from .result import CSCStatus as CSCStatus
+from .result import describe_status as describe_status
 from .rollout import csc_rollout as csc_rollout
-from .rollout import csc_rollout_segments as csc_rollout_segments
-from .rollout import CSCInterrupted as CSCInterrupted
-from .rollout import null_space_direction as null_space_direction
-from .rollout import offdiag_gradient as offdiag_gradient
-from .rollout import project_to_target as project_to_target
-from .rollout import STATUS_OK as STATUS_OK
-from .rollout import STATUS_DAMPED as STATUS_DAMPED
-from .rollout import STATUS_JOINT_LIMIT as STATUS_JOINT_LIMIT
-from .rollout import STATUS_NAN as STATUS_NAN
-from .rollout import STATUS_NULL_SMALL as STATUS_NULL_SMALL
-from .rollout import describe_status as describe_status
+from .segments import CSCInterrupted as CSCInterrupted
+from .segments import csc_rollout_segments as csc_rollout_segments

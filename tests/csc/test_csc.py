@@ -18,13 +18,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import DATA_DIR, assert_close, central_diff, numpy_fk
 
 import jaxstiff
-from jaxstiff.csc import rollout as csc
+from jaxstiff import csc
 from jaxstiff.cli import main as cli_main
-from helpers import assert_close, central_diff, numpy_fk
+from jaxstiff.csc import algebra, measures, offdiag, pose, projections, result, rollout
 
-DATA = pathlib.Path(__file__).resolve().parent / "data"
+DATA = DATA_DIR
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
 Q_SEED = np.deg2rad([75.0, -74.74, -76.30])  # seed 000 Fig. 2, seed 001's start posture
@@ -143,8 +144,8 @@ def test_small_det_and_inverse_with_their_jvps_match_numpy(m):
     A = X @ np.swapaxes(X, -1, -2) + 0.5 * np.eye(m)
     dA = rng.normal(size=(4, m, m))
     dA = dA + np.swapaxes(dA, -1, -2)
-    det, ddet = jax.jvp(csc._det_small, (jnp.asarray(A),), (jnp.asarray(dA),))
-    inv, dinv = jax.jvp(csc._spd_inverse, (jnp.asarray(A),), (jnp.asarray(dA),))
+    det, ddet = jax.jvp(algebra.det_small, (jnp.asarray(A),), (jnp.asarray(dA),))
+    inv, dinv = jax.jvp(algebra.spd_inverse, (jnp.asarray(A),), (jnp.asarray(dA),))
     h = 1e-6
     assert_close(det, np.linalg.det(A), rtol=1e-12, atol=0, what="det")
     assert_close(inv, np.linalg.inv(A), rtol=1e-10, atol=1e-12, what="inverse")
@@ -153,7 +154,7 @@ def test_small_det_and_inverse_with_their_jvps_match_numpy(m):
     assert_close(ddet, fd_det, rtol=1e-6, atol=1e-8 * np.max(np.abs(fd_det)), what="d det")
     assert_close(dinv, fd_inv, rtol=1e-6, atol=1e-8 * np.max(np.abs(fd_inv)), what="d inverse")
     # reverse mode goes through the same rules (transposed): grad of a scalar of both
-    f = lambda a: jnp.sum(csc._spd_inverse(a) * dA) + csc._det_small(a).sum()
+    f = lambda a: jnp.sum(algebra.spd_inverse(a) * dA) + algebra.det_small(a).sum()
     g = np.asarray(jax.grad(f)(jnp.asarray(A)))
     fd = np.array([(float(f(jnp.asarray(A + h * E))) - float(f(jnp.asarray(A - h * E)))) / (2 * h)
                    for E in np.eye(m * m).reshape(m * m, m, m)[:, None].repeat(4, 1)]).reshape(m, m)
@@ -191,11 +192,11 @@ def test_offdiag_value_and_grad_derivatives_equal_autodiff(task):
         J6, K = jnp.asarray(J6), jnp.asarray(K)
         ub, gb = jnp.asarray(rng.normal()), jnp.asarray(rng.normal(size=n))
         dJ, dK = jnp.asarray(rng.normal(size=(6, n))), jnp.asarray(rng.normal(size=(m, m)))
-        plain = lambda a, b: csc._offdiag_forward(a, b, rows)[:2]  # noqa: E731
-        ours = lambda a, b: csc._offdiag_value_and_grad(a, b, rows)  # noqa: E731
+        plain = lambda a, b: offdiag.offdiag_forward(a, b, rows)[:2]  # noqa: E731
+        ours = lambda a, b: offdiag.offdiag_value_and_grad(a, b, rows)  # noqa: E731
         got_v, want_v = jax.vjp(ours, J6, K)[1]((ub, gb)), jax.vjp(plain, J6, K)[1]((ub, gb))
         got_t, want_t = jax.jvp(ours, (J6, K), (dJ, dK))[1], jax.jvp(plain, (J6, K), (dJ, dK))[1]
-        for a, b, what in zip((*got_v, *got_t), (*want_v, *want_t), ("J6 bar", "K bar", "du", "dg")):
+        for a, b, what in zip((*got_v, *got_t), (*want_v, *want_t), ("J6 bar", "K bar", "du", "dg"), strict=True):
             b = np.asarray(b)
             assert np.all(np.isfinite(np.asarray(a))), what
             assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + np.max(np.abs(b))), what=what)
@@ -203,9 +204,9 @@ def test_offdiag_value_and_grad_derivatives_equal_autodiff(task):
 
 def _plain_projections(Jf, dx, vs, nu0, damping):
     """The CSC step's projections written directly (autodiff reference for the hand-written VJP)."""
-    Ainv, nu, _ = csc._damped_inverse(Jf, nu0, damping)
-    pinv = lambda v: csc._mtv(Jf, csc._mv(Ainv, v))  # noqa: E731
-    return pinv(dx), tuple(v - pinv(csc._mv(Jf, v)) for v in vs), nu
+    Ainv, nu, _ = projections.damped_inverse(Jf, nu0, damping)
+    pinv = lambda v: algebra.mtv(Jf, algebra.mv(Ainv, v))  # noqa: E731
+    return pinv(dx), tuple(v - pinv(algebra.mv(Jf, v)) for v in vs), nu
 
 
 @pytest.mark.parametrize("m,n", [(2, 3), (3, 7), (6, 7)])
@@ -221,7 +222,7 @@ def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
         J[1] = J[0] * 0.999 + 1e-3 * rng.normal(size=n)
     args = (jnp.asarray(J), jnp.asarray(rng.normal(size=m)), (jnp.asarray(rng.normal(size=n)), jnp.asarray(rng.normal(size=n))),
             jnp.asarray(1e-2), jnp.asarray(0.1))
-    _, _, nu = jax.jit(csc._damped_projections)(*args)
+    _, _, nu = jax.jit(projections.damped_projections)(*args)
     assert (float(nu) < 1e-2 ** (m / 2)) == (case == "near_singular")  # the case is what it says
     w = [jnp.asarray(rng.normal(size=n)) for _ in range(3)]
 
@@ -231,16 +232,16 @@ def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
             return jnp.sum(w[0] * jnp.sin(dqP)) + jnp.sum(w[1] * p1) + jnp.sum(w[2] * p2 * p2) + 3.0 * nu
         return inner
 
-    for a, b in zip(jax.tree.leaves(jax.jit(csc._damped_projections)(*args)), jax.tree.leaves(jax.jit(_plain_projections)(*args))):
+    for a, b in zip(jax.tree.leaves(jax.jit(projections.damped_projections)(*args)), jax.tree.leaves(jax.jit(_plain_projections)(*args)), strict=True):
         assert_close(a, b, rtol=1e-13, atol=1e-13, what="values")
-    got = jax.jit(jax.grad(loss(csc._damped_projections), argnums=(0, 1, 2, 3, 4)))(*args)  # jitted: no op-by-op dispatch
+    got = jax.jit(jax.grad(loss(projections.damped_projections), argnums=(0, 1, 2, 3, 4)))(*args)  # jitted: no op-by-op dispatch
     want = jax.jit(jax.grad(loss(_plain_projections), argnums=(0, 1, 2, 3, 4)))(*args)
-    for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want)):
+    for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want), strict=True):
         assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="VJP")
     tangents = jax.tree.map(lambda x: jnp.asarray(rng.normal(size=np.shape(x))), args)
-    got_t = jax.jit(lambda a, t: jax.jvp(csc._damped_projections, a, t)[1])(args, tangents)
+    got_t = jax.jit(lambda a, t: jax.jvp(projections.damped_projections, a, t)[1])(args, tangents)
     want_t = jax.jit(lambda a, t: jax.jvp(_plain_projections, a, t)[1])(args, tangents)
-    for a, b in zip(jax.tree.leaves(got_t), jax.tree.leaves(want_t)):
+    for a, b in zip(jax.tree.leaves(got_t), jax.tree.leaves(want_t), strict=True):
         assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="JVP")
 
 
@@ -251,9 +252,9 @@ def test_damped_projections_of_a_zero_jacobian_are_finite():
     for m in (2, 3, 6):
         Jf = jnp.zeros((m, 4))
         dx, v = jnp.ones(m), jnp.arange(1.0, 5.0)
-        dqP, (Pv,), nu = jax.jit(csc._damped_projections)(Jf, dx, (v,), jnp.asarray(1e-2), jnp.asarray(0.1))
+        dqP, (Pv,), nu = jax.jit(projections.damped_projections)(Jf, dx, (v,), jnp.asarray(1e-2), jnp.asarray(0.1))
         assert np.all(np.asarray(dqP) == 0.0) and np.all(np.asarray(Pv) == np.asarray(v)) and float(nu) == 0.0
-        g = jax.jit(jax.grad(lambda J: jnp.sum(csc._damped_projections(J, dx, (v,), 1e-2, 0.1)[0] ** 2 + 1.0)))(Jf)
+        g = jax.jit(jax.grad(lambda J, dx=dx, v=v: jnp.sum(projections.damped_projections(J, dx, (v,), 1e-2, 0.1)[0] ** 2 + 1.0)))(Jf)
         assert np.all(np.isfinite(np.asarray(g)))
 
 
@@ -271,15 +272,15 @@ def test_realised_stiffness_vjp_and_jvp_equal_autodiff(task, m):
         KC = jaxstiff.cartesian_stiffness(J, kj, task)
         return KC, jaxstiff.frobenius(KC, K)
 
-    ours = lambda J, kj, K: csc._realised_stiffness(J, kj, K, task)  # noqa: E731
+    ours = lambda J, kj, K: measures.realised_stiffness(J, kj, K, task)  # noqa: E731
     W = jnp.asarray(rng.normal(size=(m, m)))
     loss = lambda f: lambda *a: (lambda o: jnp.sum(W * o[0]) + 2.5 * o[1])(f(*a))  # noqa: E731
     grads = [jax.jit(jax.grad(loss(f), argnums=(0, 1, 2)))(J, kj, K) for f in (ours, plain)]
-    for a, b in zip(*grads):
+    for a, b in zip(*grads, strict=True):
         assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="VJP")
     for tangents in [(J * 0.0 + 1.0, kj * 0.0, K * 0.0), (J * 0.0, jnp.asarray(rng.normal(size=n)), K * 0.0), (J * 0.0, kj * 0.0, W + W.T)]:
         tans = [jax.jit(lambda p, t, f=f: jax.jvp(f, p, t)[1])((J, kj, K), tangents) for f in (ours, plain)]
-        for a, b in zip(*tans):
+        for a, b in zip(*tans, strict=True):
             assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="JVP")
 
 
@@ -290,14 +291,14 @@ def test_kinematics_jvp_closed_form_equals_autodiff(poly):
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
     rng = np.random.default_rng(4)
     q, qd = jnp.asarray(rng.uniform(-2, 2, robot.n)), jnp.asarray(rng.normal(size=robot.n))
-    got = jax.jit(lambda x, xd: jax.jvp(lambda y: csc._pose_jac(robot, poly, y), (x,), (xd,))[1])(q, qd)
+    got = jax.jit(lambda x, xd: jax.jvp(lambda y: pose.pose_jac(robot, poly, y), (x,), (xd,))[1])(q, qd)
 
     def ref(x):
         T, J = jaxstiff.fk_and_jacobian(robot, x)
         return T[:3, 3], T[:3, :3], J
 
     want = jax.jit(lambda x, xd: jax.jvp(ref, (x,), (xd,))[1])(q, qd)  # jitted: no op-by-op dispatch
-    for a, b, name in zip(got, want, ("dp", "dR", "dJ")):
+    for a, b, name in zip(got, want, ("dp", "dR", "dJ"), strict=True):
         assert_close(a, b, rtol=1e-12, atol=1e-12, what=name)
 
 
@@ -506,7 +507,7 @@ def test_every_joint_saturating_moves_to_the_limits_without_nan():
     assert not np.any(status & csc.STATUS_NAN), status
     assert np.all(status[1:] & csc.STATUS_JOINT_LIMIT)
     q = np.asarray(r.q)
-    assert np.all((np.isclose(q[2:], lo) | np.isclose(q[2:], hi)))  # every joint sits at a limit
+    assert np.all(np.isclose(q[2:], lo) | np.isclose(q[2:], hi))  # every joint sits at a limit
     assert np.all(np.isfinite(np.asarray(jax.grad(loss)(jnp.asarray(Q_SEED)))))
 
 
@@ -555,9 +556,9 @@ def test_orientation_error_is_the_rotation_angle():
         a /= np.linalg.norm(a)
         S = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
         Rot = np.eye(3) + np.sin(th) * S + (1 - np.cos(th)) * S @ S
-        got = float(csc._orientation_angle(jnp.asarray(Rot @ Rd), jnp.asarray(Rd)))
+        got = float(pose.orientation_angle(jnp.asarray(Rot @ Rd), jnp.asarray(Rd)))
         assert abs(got - th) <= 1e-12 * max(1.0, th), (th, got)
-    g = jax.grad(lambda R: csc._orientation_angle(R, jnp.asarray(Rd)))(jnp.asarray(Rd))
+    g = jax.grad(lambda R: pose.orientation_angle(R, jnp.asarray(Rd)))(jnp.asarray(Rd))
     assert np.all(np.isfinite(np.asarray(g)))
 
 
@@ -571,7 +572,7 @@ def test_float32_stays_float32():
 
 
 def test_second_call_does_not_recompile(hold):
-    fn = csc._rollout_batch_jit(jax.default_backend(), True)  # the top-level (eager call) compilation
+    fn = rollout.rollout_batch_jit(jax.default_backend(), True)  # the top-level (eager call) compilation
     before = fn._cache_size()
     assert before >= 1  # the fixture's rollout was compiled by this function
     jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (1000, 1)), K_SEED, Q_SEED + 0.01, 1e-3, step="constant")
@@ -771,7 +772,7 @@ def _fields_close(a, b, rtol=1e-12, atol=1e-12, rows=None):
     for f in dataclasses.fields(jaxstiff.CSCResult):
         x, y = np.asarray(getattr(a, f.name)), np.asarray(getattr(b, f.name))
         if rows is not None and f.name not in ("u_start", "frobenius_start"):
-            axis = csc._step_axis(f.name, y.ndim)
+            axis = result.step_axis(f.name, y.ndim)
             y = np.take(y, np.arange(rows), axis=axis)
         assert x.shape == y.shape, (f.name, x.shape, y.shape)
         if f.name == "status":
@@ -882,13 +883,13 @@ def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(t
         assert_close(f["u"][0], hold.u, rtol=1e-12, what="segmented CLI u vs library")
         assert json.loads(str(f["meta"]))["interrupted"] is False
 
-    class Stop(_cli_csc._StepProgress):
+    class Stop(_cli_csc.StepProgress):
         def __call__(self, done, total):
             super().__call__(done, total)
             if done >= 600:
                 raise KeyboardInterrupt
 
-    monkeypatch.setattr(_cli_csc, "_StepProgress", Stop)
+    monkeypatch.setattr(_cli_csc, "StepProgress", Stop)
     part = tmp_path / "part.npz"
     assert cli_main(argv + ["--out", str(part)]) == 130
     err = capsys.readouterr().err
@@ -967,3 +968,130 @@ def test_saturation_keeps_tracking_when_the_resolve_pushes_another_joint_out():
     err = np.array([np.linalg.norm(numpy_fk(robot, qk)[:2, 3] - x0) for qk in q[300:]])
     assert err.max() < 1e-9, err.max()
     assert float(r.u[-1]) < float(r.u_start)
+
+
+# ---------------------------------------------------------------- settings, status bits, robot flags
+def _csc_flag_defaults() -> dict:
+    """The defaults of `jaxstiff csc`'s settings flags, parsed from a real command line."""
+    import argparse
+
+    from jaxstiff.cli.csc import SETTING_FLAGS, add_setting_flags
+
+    p = argparse.ArgumentParser()
+    add_setting_flags(p)
+    args = p.parse_args([])
+    return {name: getattr(args, name) for name in SETTING_FLAGS}
+
+
+def test_settings_defaults_are_the_api_and_cli_defaults():
+    """CSCSettings is the one source: its defaults are csc_rollout's effective defaults (jl_gain
+    resolved: 0 with joint limits off, DEFAULT_JL_GAIN with them on) and `jaxstiff csc`'s flag
+    defaults; csc_rollout's own keywords default to None ("from the settings")."""
+    import inspect
+
+    from jaxstiff.csc.inputs import rollout_settings
+    from jaxstiff.settings import CSCSettings
+    from jaxstiff.settings.csc import DEFAULT_JL_GAIN
+
+    defaults = CSCSettings.defaults()
+    assert rollout_settings() == {**defaults, "jl_gain": 0.0}
+    assert rollout_settings(joint_limits="priority")["jl_gain"] == DEFAULT_JL_GAIN == 0.3
+    assert rollout_settings(CSCSettings(joint_limits="sum"))["jl_gain"] == DEFAULT_JL_GAIN
+    assert rollout_settings(CSCSettings(kmin=2.0), kmin=3.0)["kmin"] == 3.0  # a keyword overrides the settings
+    assert _csc_flag_defaults() == defaults
+    params = inspect.signature(jaxstiff.csc_rollout).parameters
+    assert all(params[name].default is None for name in defaults)
+    # the effective default reaches the rollout: no keywords == every default given explicitly
+    path = np.tile(X_SEED, (5, 1))
+    a = jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED)
+    b = jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, 1.0, step="adaptive", kmin=1.0, kmax=np.inf, nu0=1e-2, damping=0.1,
+                             newton=0, joint_limits="off", jl_gain=0.0)
+    _fields_close(a, b, rtol=0, atol=0)
+
+
+def test_settings_object_and_its_checks():
+    """csc_rollout(settings=CSCSettings(...)) equals the keywords; bad settings name the field and unit."""
+    from jaxstiff.settings import CSCSettings
+
+    path = np.tile(X_SEED, (20, 1))
+    s = CSCSettings(step="constant", beta=2e-3)
+    _fields_close(jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, settings=s),
+                  jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant"), rtol=0, atol=0)
+    for kwargs, match in ((dict(kmin=0.0), r"csc\.kmin \(Nm/rad\) must be a number > 0"), (dict(nu0=1.0), r"csc\.nu0.*\[0, 1\)"),
+                          (dict(kmin=5.0, kmax=2.0), r"csc\.kmax \(2\) must be >= csc\.kmin \(5\)"), (dict(step="fast"), "csc.step"),
+                          (dict(newton=1.5), "csc.newton"), (dict(beta=math.inf), "csc.beta")):
+        with pytest.raises(ValueError, match=match):
+            CSCSettings(**kwargs)
+    with pytest.raises(ValueError, match="settings must be a jaxstiff.settings.CSCSettings"):
+        jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, settings={"beta": 1.0})
+
+
+def test_status_bits_are_an_int_flag_with_the_old_values():
+    assert issubclass(csc.CSCStatus, int)
+    assert (csc.STATUS_OK, csc.STATUS_DAMPED, csc.STATUS_JOINT_LIMIT, csc.STATUS_NAN, csc.STATUS_NULL_SMALL) == (0, 1, 2, 4, 8)
+    assert csc.STATUS_DAMPED is csc.CSCStatus.DAMPED and rollout.STATUS_NAN is csc.CSCStatus.NAN
+    assert csc.describe_status(csc.CSCStatus.DAMPED | csc.CSCStatus.NULL_SMALL) == "damped (near singular), null-space gradient below null_eps"
+    assert csc.describe_status(0) == "ok" and csc.STATUS_NAMES[4] == "NaN guard (step dropped)"
+
+
+def test_cli_meta_records_settings_with_units_and_robot_spec(tmp_path):
+    """meta["settings"]: every CSCSettings field with its value (jl_gain resolved) and units;
+    meta["robot_spec"]: the robot flags; the array units name rad for orientation_error (csc files
+    store radians where shape files store alpha_deg in degrees)."""
+    from jaxstiff.settings import CSCSettings
+
+    out = tmp_path / "r.npz"
+    assert cli_main(["csc", "--robot", "planar_3r", "--hold", "1.2,0.5", "--steps", "3", "--kxd", "3000,1000@30",
+                     "--q0-deg", "20,40,30", "--kmin", "2", "--joint-limits", "sum", "--out", str(out)]) == 0
+    with np.load(out) as f:
+        meta = json.loads(str(f["meta"]))
+    s = meta["settings"]
+    assert set(CSCSettings.field_names()) <= set(s)
+    assert s["kmin"] == 2.0 and s["kmax"] == "inf" and s["task"] == "xy" and s["jl_gain"] == 0.3 and s["joint_limits"] == "sum"
+    assert s["units"]["kmin"] == "Nm/rad" and s["units"]["kmax"] == "Nm/rad" and "rad per step" in s["units"]["beta"]
+    assert meta["kmin"] == 2.0 and meta["jl_gain"] == 0.3 and meta["nu0"] == 1e-2  # the former keys stay
+    assert meta["units"]["orientation_error"] == "rad"
+    assert meta["robot_spec"]["urdf"] == "planar_3r" and meta["robot_spec"]["locked"] == {}
+
+
+def test_cli_lwr_locks_its_seventh_joint_by_default(tmp_path, capsys):
+    """Without --lock, `jaxstiff csc` on the shipped kuka_lwr4 locks lwr_a7 = 0 as `jaxstiff shape`
+    does (RobotSpec's default); a --q0 with another value for lwr_a7 is the locked-joint error;
+    '--lock none' frees it."""
+    lwr = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    q = np.array([0.3, 0.5, 0.0, -1.2, 0.0, 0.6, 0.0])
+    hold = ",".join(repr(float(v)) for v in np.asarray(lwr.fk(q))[:3, 3])
+    base = ["csc", "--robot", "kuka_lwr4", "--hold", hold, "--kxd", "3000,1000,2000", "--steps", "2"]
+    out = tmp_path / "r.npz"
+    assert cli_main(base + ["--q0", "0.3,0.5,0,-1.2,0,0.6,0", "--out", str(out)]) == 0
+    with np.load(out) as f:
+        meta = json.loads(str(f["meta"]))
+        assert np.all(f["q"][0, :, 6] == 0.0)
+    assert meta["robot"]["locked"] == {"lwr_a7": 0.0} and meta["robot_spec"]["locked_by_default"] is True
+    capsys.readouterr()
+    assert cli_main(base + ["--q0", "0.3,0.5,0,-1.2,0,0.6,0.4", "--out", str(out)]) == 2
+    assert "--q0 gives joint 'lwr_a7' 0.4 rad, but it is locked at 0 rad" in capsys.readouterr().err
+    assert cli_main(base + ["--lock", "none", "--q0", "0.3,0.5,0,-1.2,0,0.6,0.4", "--out", str(out)]) == 0
+    with np.load(out) as f:
+        assert json.loads(str(f["meta"]))["robot"]["locked"] == {}
+
+
+def test_cli_tcp_flag_is_accepted_and_recorded(tmp_path):
+    """--tcp x,y,z,roll,pitch,yaw (the shared robot flags): the tool offset moves the TCP and is
+    recorded in meta (robot_spec.tcp as given, robot.tcp as the 4x4 transform)."""
+    out = tmp_path / "t.npz"
+    tcp = [0.0, 0.0, 0.1, 0.0, 0.0, 0.5]
+    from jaxstiff.settings.robot import tcp_transform
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r", tcp=tcp_transform(tcp))
+    q0 = np.deg2rad([20.0, 40.0, 30.0])
+    x = [float(v) for v in np.asarray(robot.fk(q0))[:2, 3]]
+    assert cli_main(["csc", "--robot", "planar_3r", "--tcp", ",".join(map(str, tcp)), "--hold", f"{x[0]!r},{x[1]!r}",
+                     "--kxd", "3000,1000@30", "--q0-deg", "20,40,30", "--steps", "3", "--out", str(out)]) == 0
+    with np.load(out) as f:
+        meta = json.loads(str(f["meta"]))
+        assert f["tracking_error"][0, 0] < 1e-9  # the TCP with the tool offset starts on the point
+    assert meta["robot_spec"]["tcp"] == tcp
+    assert np.allclose(np.asarray(meta["robot"]["tcp"])[:3, 3], [0.0, 0.0, 0.1])
+    assert cli_main(["csc", "--robot", "planar_3r", "--tcp", "1,2", "--hold", "1,1", "--kxd", "3000,1000", "--q0", "0,0,0",
+                     "--out", str(out)]) == 2
