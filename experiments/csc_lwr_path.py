@@ -57,9 +57,9 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff.runtime.io import atomic_write_text
     from jaxstiff.ik import ik_position
     from jaxstiff.paths import default_path
+    from jaxstiff.runtime.io import atomic_write_text
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)
@@ -125,7 +125,7 @@ def main(argv=None) -> int:
     # ---------------------------------------------------------------- figure: ellipses, top view
     fig, ax = plt.subplots(1, 2, figsize=(9, 7.5), constrained_layout=True)
     scale = 1.5e-5  # m of drawing per N/m
-    for a, b in zip(ax, (0, best)):
+    for a, b in zip(ax, (0, best), strict=True):
         a.plot(pts[:, 0], pts[:, 1], "r-", lw=1.5)
         for k in wp_index[::6]:
             e_d = pts[k, :2] + scale * plots.ellipse_points(K[k, :2, :2])
@@ -146,7 +146,7 @@ def main(argv=None) -> int:
 
     # ---------------------------------------------------------------- figure: joints (self-motion)
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5), sharey=True)
-    for a, b in zip(ax, (0, best)):
+    for a, b in zip(ax, (0, best), strict=True):
         qs = np.vstack([q0, res.q[b]])
         for i in range(6):
             a.plot(np.arange(T + 1), np.rad2deg(qs[:, i]), label=robot.joint_names[i])
@@ -159,7 +159,7 @@ def main(argv=None) -> int:
     plots.save_figure(fig, os.path.join(args.out, "joints.png"), dpi=120, crop=False)
 
     summary = {
-        "setup": {"robot": "kuka_lwr4, lwr_a7 locked at 0", "task": "xyz", "path": "default_path() refined x%d" % S,
+        "setup": {"robot": "kuka_lwr4, lwr_a7 locked at 0", "task": "xyz", "path": f"default_path() refined x{S}",
                   "steps": T, "K_xd": "R_t diag(3000, 1000, 1000) R_t^T along the tangent", "q0_deg": np.rad2deg(q0).tolist(),
                   "step": "adaptive", "newton": 1, "joint_limits": args.joint_limits, "jl_gain": args.jl_gain},
         "csc": {f"{beta:g}": {
@@ -167,13 +167,13 @@ def main(argv=None) -> int:
             "frobenius_mean": float(fr[b, 1:].mean()), "scale_free_error_mean": float(csc_rel[b].mean()),
             "alpha_mean_deg": float(csc_alpha[b].mean()), "rho_mean": float(csc_rho[b].mean()),
             "max_tracking_error_m": float(res.tracking_error[b].max()),
-            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True))},
+            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True), strict=True)},
         } for b, beta in enumerate(betas)},
         "csc_time_5_rollouts_s": round(t_csc, 4),
         "csc_time_first_call_incl_compile_s": round(t_first, 3),
     }
     print(f"{'beta':>5} {'u start':>9} {'u end':>9} {'|dK|_F mean':>12} {'scale-free err':>15} {'alpha [deg]':>12} {'rho':>6} {'track err [m]':>14}")
-    for b, beta in enumerate(betas):
+    for beta in betas:
         v = summary["csc"][f"{beta:g}"]
         print(f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['frobenius_mean']:12.1f} {v['scale_free_error_mean']:15.3f} "
               f"{v['alpha_mean_deg']:12.2f} {v['rho_mean']:6.2f} {v['max_tracking_error_m']:14.2e}")
@@ -204,7 +204,7 @@ def main(argv=None) -> int:
         x = np.arange(len(wp_index))
         for a, (vals, lab) in zip(ax, [((z_alpha, c_alpha, s_alpha), "alpha: major axis vs tangent [deg]"),
                                        ((z_rho, c_rho, s_rho), r"axis ratio $\rho = \lambda_1/\lambda_2$ (wanted 3)"),
-                                       ((z_rel, c_rel, s_rel), r"scale-free error $\min_k \|K_{xd} - k K\|_F / \|K_{xd}\|_F$")]):
+                                       ((z_rel, c_rel, s_rel), r"scale-free error $\min_k \|K_{xd} - k K\|_F / \|K_{xd}\|_F$")], strict=True):
             a.plot(x, vals[0], color="grey", label="CSC, beta = 0 (tracking only)")
             a.plot(x, vals[1], color="C0", label=f"CSC, beta = {betas[best]:g}")
             a.plot(x, vals[2], color="C2", label="shape: f2, r = 3 (SLSQP per waypoint)")

@@ -81,7 +81,7 @@ def main(argv=None) -> int:
 
     # ---------------------------------------------------------------- figure 2: ellipses
     fig, ax = plt.subplots(1, 2, figsize=(12, 5.5))
-    for a, (k, label) in zip(ax, [(None, "start"), (len(res.u) - 1, f"end (step {len(res.u)})")]):
+    for a, (k, label) in zip(ax, [(None, "start"), (len(res.u) - 1, f"end (step {len(res.u)})")], strict=True):
         if k is None:
             J = np.asarray(robot.jacobian(q0))[:2]
             kj = np.clip(np.diag(J.T @ K @ J), 1.0, None)
@@ -111,7 +111,7 @@ def main(argv=None) -> int:
         ax[0].plot(P[:, 0], P[:, 1], "-o", color=cmap(j / (len(idx) - 1)), ms=3, lw=1.5)
     ax[0].plot(*x0, "r*", ms=14, label="held TCP point", zorder=5)
     ax[0].set_aspect("equal")
-    ax[0].set(xlabel="x [m]", ylabel="y [m]", title="self-motion: postures every %d steps" % (idx[1] - idx[0]))
+    ax[0].set(xlabel="x [m]", ylabel="y [m]", title=f"self-motion: postures every {idx[1] - idx[0]} steps")
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0, len(qs) - 1))
     fig.colorbar(sm, ax=ax[0], label="time step k")
     ax[0].legend(loc="lower right")
@@ -154,7 +154,7 @@ def main(argv=None) -> int:
         "frobenius_min": float(fr.min()),
         "max_tcp_drift_m": float(res.tracking_error.max()),
         "q_end_deg": np.rad2deg(res.q[-1]).tolist(),
-        "status_counts": {jaxstiff.csc.describe_status(c): int(n) for c, n in zip(*np.unique(res.status, return_counts=True))},
+        "status_counts": {jaxstiff.csc.describe_status(c): int(n) for c, n in zip(*np.unique(res.status, return_counts=True), strict=True)},
         "adaptive_step_null_motion_rad": float(np.abs(np.asarray(adaptive.q) - q0).max()),
         "beta_sweep": {f"{b:g}": {"u_end": float(sweep.u[i, -1]), "max_drift_m": float(sweep.tracking_error[i].max())}
                        for i, b in enumerate(betas)},

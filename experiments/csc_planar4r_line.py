@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     best = int(np.argmin(u[:, -1]))
     fig, ax = plt.subplots(1, 2, figsize=(14, 7), constrained_layout=True)
     scale = 1.5e-4  # m per N/m for drawing the ellipses at the TCP
-    for a, b in zip(ax, (0, best)):
+    for a, b in zip(ax, (0, best), strict=True):
         qs = np.vstack([q0, res.q[b]])
         idx = np.linspace(0, T, 6).astype(int)
         cmap = plt.get_cmap("viridis")
@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     fig.legend(handles, ["TCP line", r"desired $K_{xd}$ at the TCP (1 mm of drawing = %.1f N/m)" % (1e-3 / scale),
                          r"realised $K_C$ (uni-articular springs, diag of $J^T K_{xd} J$)"], loc="lower center", ncol=3)
     sm = plt.cm.ScalarMappable(cmap=plt.get_cmap("viridis"), norm=plt.Normalize(0, T))
-    fig.colorbar(sm, ax=ax, label="time step k (arm drawn every %d steps)" % (T // 5), shrink=0.7)
+    fig.colorbar(sm, ax=ax, label=f"time step k (arm drawn every {T // 5} steps)", shrink=0.7)
     fig.suptitle("Planar 4R: self-motion along the line and the stiffness ellipses at the TCP")
     fig.get_layout_engine().set(rect=(0, 0.06, 1, 0.94))
     plots.save_figure(fig, os.path.join(args.out, "self_motion.png"), dpi=120, crop=False)
@@ -107,14 +107,14 @@ def main(argv=None) -> int:
             "u_start": float(u[b, 0]), "u_end": float(u[b, -1]), "u_mean": float(u[b].mean()),
             "frobenius_end": float(fr[b, -1]), "frobenius_mean": float(fr[b].mean()),
             "max_tracking_error_m": float(res.tracking_error[b].max()),
-            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True))},
+            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True), strict=True)},
         } for b, beta in enumerate(betas)},
         "time_first_call_s_incl_compile": round(t_first, 3),
         "time_5_rollouts_s": round(t_run, 4),
     }
     atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
     print(f"{'beta':>5} {'u start':>9} {'u end':>9} {'u mean':>9} {'|dK|_F end':>11} {'|dK|_F mean':>12} {'max track err [m]':>18}")
-    for b, beta in enumerate(betas):
+    for beta in betas:
         v = summary["per_beta"][f"{beta:g}"]
         print(f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['u_mean']:9.1f} {v['frobenius_end']:11.1f} "
               f"{v['frobenius_mean']:12.1f} {v['max_tracking_error_m']:18.2e}")

@@ -53,8 +53,8 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff.runtime.io import atomic_write_text
     from jaxstiff.csc.rollout import project_to_target
+    from jaxstiff.runtime.io import atomic_write_text
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)
@@ -100,7 +100,7 @@ def main(argv=None) -> int:
         m = jax.tree_util.tree_map(lambda a, b: 0.9 * a + 0.1 * b, m, g)
         v = jax.tree_util.tree_map(lambda a, b: 0.999 * a + 0.001 * b * b, v, g)
         params = jax.tree_util.tree_map(
-            lambda p, a, b: p - lr * (a / (1 - 0.9**it)) / (jnp.sqrt(b / (1 - 0.999**it)) + 1e-8), params, m, v)
+            lambda p, a, b: p - lr * (a / (1 - 0.9**it)) / (jnp.sqrt(b / (1 - 0.999**it)) + 1e-8), params, m, v)  # noqa: B023 (called in this iteration)
     t_opt = time.perf_counter() - t0
     final = float(loss(params))
     hist.append((final, float(jnp.exp(params[0])), np.asarray(params[1]).tolist()))

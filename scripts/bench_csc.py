@@ -48,9 +48,9 @@ def main(argv=None) -> int:
     import numpy as np
 
     import jaxstiff
-    from jaxstiff.runtime.xla import kernel_compiler_options
     from jaxstiff.ik import ik_position
     from jaxstiff.paths import default_path
+    from jaxstiff.runtime.xla import kernel_compiler_options
 
     dt = jnp.float64 if args.dtype == "float64" else jnp.float32
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})

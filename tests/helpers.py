@@ -3,6 +3,8 @@ and an independent numpy forward kinematics (homogeneous 4x4 products, nothing s
 
 from __future__ import annotations
 
+import pathlib
+
 import numpy as np
 
 
@@ -47,8 +49,6 @@ def numpy_fk(robot, q):
 
 
 # folders, for tests in any sub-folder of tests/
-import pathlib as _pathlib
-
-TESTS_DIR = _pathlib.Path(__file__).resolve().parent  #: tests/
+TESTS_DIR = pathlib.Path(__file__).resolve().parent  #: tests/
 DATA_DIR = TESTS_DIR / "data"  #: tests/data (URDFs made for tests)
 REPO_ROOT = TESTS_DIR.parent  #: the repository (experiments/, urdf/, pyproject.toml)
