@@ -92,12 +92,19 @@ def main(argv=None) -> int:
     betas = np.array([0.0, 2.0, 5.0, 10.0, 20.0])
 
     t0 = time.perf_counter()
-    res = jax.tree_util.tree_map(np.asarray, jaxstiff.csc_rollout(robot, pts, K, q0, betas, step="adaptive", newton=1,
-                                                                     joint_limits=args.joint_limits, jl_gain=args.jl_gain))
+    res = jax.tree_util.tree_map(
+        np.asarray,
+        jaxstiff.csc_rollout(
+            robot, pts, K, q0, betas, step="adaptive", newton=1, joint_limits=args.joint_limits, jl_gain=args.jl_gain
+        ),
+    )
     t_first = time.perf_counter() - t0
     t0 = time.perf_counter()
-    jax.block_until_ready(jaxstiff.csc_rollout(robot, pts, K, q0, betas, step="adaptive", newton=1,
-                                               joint_limits=args.joint_limits, jl_gain=args.jl_gain).q)
+    jax.block_until_ready(
+        jaxstiff.csc_rollout(
+            robot, pts, K, q0, betas, step="adaptive", newton=1, joint_limits=args.joint_limits, jl_gain=args.jl_gain
+        ).q
+    )
     t_csc = time.perf_counter() - t0
 
     def shape_metrics(KC, Kd, d):
@@ -118,9 +125,15 @@ def main(argv=None) -> int:
 
     # ---------------------------------------------------------------- figure: u and Frobenius
     labels = ["beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}" for beta in betas]
-    plots.figure_u_frobenius(np.arange(T + 1), u, fr, labels, os.path.join(args.out, "u_frobenius.png"),
-                             xlabel="time step k (about 1 mm of path per step)",
-                             suptitle="KUKA LWR 4 (A7 locked), default path, K_xd = 3000 N/m along the tangent, 1000 across; adaptive CSC")
+    plots.figure_u_frobenius(
+        np.arange(T + 1),
+        u,
+        fr,
+        labels,
+        os.path.join(args.out, "u_frobenius.png"),
+        xlabel="time step k (about 1 mm of path per step)",
+        suptitle="KUKA LWR 4 (A7 locked), default path, K_xd = 3000 N/m along the tangent, 1000 across; adaptive CSC",
+    )
 
     # ---------------------------------------------------------------- figure: ellipses, top view
     fig, ax = plt.subplots(1, 2, figsize=(9, 7.5), constrained_layout=True)
@@ -135,11 +148,22 @@ def main(argv=None) -> int:
         a.set_aspect("equal")
         a.grid(alpha=0.3)
         a.set(xlabel="x [m]", ylabel="y [m]")
-        a.set_title(("beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC")
-                    + f"\nmean scale-free error {csc_rel[b].mean():.3f}, mean alpha {csc_alpha[b].mean():.1f} deg", fontsize=10)
+        a.set_title(
+            ("beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC")
+            + f"\nmean scale-free error {csc_rel[b].mean():.3f}, mean alpha {csc_alpha[b].mean():.1f} deg",
+            fontsize=10,
+        )
     handles = [plt.Line2D([], [], color="r"), plt.Line2D([], [], color="k", ls="--"), plt.Line2D([], [], color="C3")]
-    fig.legend(handles, ["TCP path (z = 0.35 m)", r"desired $K_{xd}$, xy block (1 cm of drawing = %.0f N/m)" % (0.01 / scale),
-                         r"realised $K_C$, xy block"], loc="lower center", ncol=3)
+    fig.legend(
+        handles,
+        [
+            "TCP path (z = 0.35 m)",
+            r"desired $K_{xd}$, xy block (1 cm of drawing = %.0f N/m)" % (0.01 / scale),
+            r"realised $K_C$, xy block",
+        ],
+        loc="lower center",
+        ncol=3,
+    )
     fig.get_layout_engine().set(rect=(0, 0.07, 1, 0.93))
     fig.suptitle("LWR stiffness in the path plane: {K u : |u| = 1} of the 2x2 xy block, every 6th waypoint")
     plots.save_figure(fig, os.path.join(args.out, "ellipses_top.png"), dpi=120, crop=False)
@@ -150,33 +174,60 @@ def main(argv=None) -> int:
         qs = np.vstack([q0, res.q[b]])
         for i in range(6):
             a.plot(np.arange(T + 1), np.rad2deg(qs[:, i]), label=robot.joint_names[i])
-        a.set(xlabel="time step k", title="beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC")
+        a.set(
+            xlabel="time step k", title="beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC"
+        )
         a.grid(alpha=0.3)
     ax[0].set_ylabel("joint angle [deg] (A7 locked at 0)")
     ax[1].legend(fontsize=8, ncol=2)
-    fig.suptitle(f"LWR joint angles along the path; max tracking error {res.tracking_error[best].max():.1e} m (one Newton correction per step)")
+    fig.suptitle(
+        f"LWR joint angles along the path; max tracking error {res.tracking_error[best].max():.1e} m (one Newton correction per step)"
+    )
     fig.tight_layout()
     plots.save_figure(fig, os.path.join(args.out, "joints.png"), dpi=120, crop=False)
 
     summary = {
-        "setup": {"robot": "kuka_lwr4, lwr_a7 locked at 0", "task": "xyz", "path": f"default_path() refined x{S}",
-                  "steps": T, "K_xd": "R_t diag(3000, 1000, 1000) R_t^T along the tangent", "q0_deg": np.rad2deg(q0).tolist(),
-                  "step": "adaptive", "newton": 1, "joint_limits": args.joint_limits, "jl_gain": args.jl_gain},
-        "csc": {f"{beta:g}": {
-            "u_start": float(u[b, 0]), "u_end": float(u[b, -1]), "u_mean": float(u[b].mean()),
-            "frobenius_mean": float(fr[b, 1:].mean()), "scale_free_error_mean": float(csc_rel[b].mean()),
-            "alpha_mean_deg": float(csc_alpha[b].mean()), "rho_mean": float(csc_rho[b].mean()),
-            "max_tracking_error_m": float(res.tracking_error[b].max()),
-            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True), strict=True)},
-        } for b, beta in enumerate(betas)},
+        "setup": {
+            "robot": "kuka_lwr4, lwr_a7 locked at 0",
+            "task": "xyz",
+            "path": f"default_path() refined x{S}",
+            "steps": T,
+            "K_xd": "R_t diag(3000, 1000, 1000) R_t^T along the tangent",
+            "q0_deg": np.rad2deg(q0).tolist(),
+            "step": "adaptive",
+            "newton": 1,
+            "joint_limits": args.joint_limits,
+            "jl_gain": args.jl_gain,
+        },
+        "csc": {
+            f"{beta:g}": {
+                "u_start": float(u[b, 0]),
+                "u_end": float(u[b, -1]),
+                "u_mean": float(u[b].mean()),
+                "frobenius_mean": float(fr[b, 1:].mean()),
+                "scale_free_error_mean": float(csc_rel[b].mean()),
+                "alpha_mean_deg": float(csc_alpha[b].mean()),
+                "rho_mean": float(csc_rho[b].mean()),
+                "max_tracking_error_m": float(res.tracking_error[b].max()),
+                "status_counts": {
+                    jaxstiff.csc.describe_status(cd): int(n)
+                    for cd, n in zip(*np.unique(res.status[b], return_counts=True), strict=True)
+                },
+            }
+            for b, beta in enumerate(betas)
+        },
         "csc_time_5_rollouts_s": round(t_csc, 4),
         "csc_time_first_call_incl_compile_s": round(t_first, 3),
     }
-    print(f"{'beta':>5} {'u start':>9} {'u end':>9} {'|dK|_F mean':>12} {'scale-free err':>15} {'alpha [deg]':>12} {'rho':>6} {'track err [m]':>14}")
+    print(
+        f"{'beta':>5} {'u start':>9} {'u end':>9} {'|dK|_F mean':>12} {'scale-free err':>15} {'alpha [deg]':>12} {'rho':>6} {'track err [m]':>14}"
+    )
     for beta in betas:
         v = summary["csc"][f"{beta:g}"]
-        print(f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['frobenius_mean']:12.1f} {v['scale_free_error_mean']:15.3f} "
-              f"{v['alpha_mean_deg']:12.2f} {v['rho_mean']:6.2f} {v['max_tracking_error_m']:14.2e}")
+        print(
+            f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['frobenius_mean']:12.1f} {v['scale_free_error_mean']:15.3f} "
+            f"{v['alpha_mean_deg']:12.2f} {v['rho_mean']:6.2f} {v['max_tracking_error_m']:14.2e}"
+        )
     print(f"CSC: 5 rollouts x {T} steps in {t_csc:.3f} s after compilation")
 
     # ---------------------------------------------------------------- CSC vs the shaping solver
@@ -192,19 +243,37 @@ def main(argv=None) -> int:
         z_alpha, z_rho, z_rel = csc_alpha[0, wp_index], csc_rho[0, wp_index], csc_rel[0, wp_index]
         usable = np.isin(sres.status[0], (0, 1, 2))
         summary["comparison_at_the_60_waypoints"] = {
-            "shape_f2_r3": {"alpha_mean_deg": float(s_alpha.mean()), "rho_mean": float(s_rho.mean()),
-                            "scale_free_error_mean": float(s_rel.mean()), "time_s": round(t_shape, 2),
-                            "usable_waypoints": int(usable.sum()), "max_position_error_m": float(np.max(sres.pos_error[0]))},
-            f"csc_beta_{betas[best]:g}": {"alpha_mean_deg": float(c_alpha.mean()), "rho_mean": float(c_rho.mean()),
-                                          "scale_free_error_mean": float(c_rel.mean()), "time_s_5_rollouts": round(t_csc, 4)},
-            "csc_beta_0": {"alpha_mean_deg": float(z_alpha.mean()), "rho_mean": float(z_rho.mean()),
-                           "scale_free_error_mean": float(z_rel.mean())},
+            "shape_f2_r3": {
+                "alpha_mean_deg": float(s_alpha.mean()),
+                "rho_mean": float(s_rho.mean()),
+                "scale_free_error_mean": float(s_rel.mean()),
+                "time_s": round(t_shape, 2),
+                "usable_waypoints": int(usable.sum()),
+                "max_position_error_m": float(np.max(sres.pos_error[0])),
+            },
+            f"csc_beta_{betas[best]:g}": {
+                "alpha_mean_deg": float(c_alpha.mean()),
+                "rho_mean": float(c_rho.mean()),
+                "scale_free_error_mean": float(c_rel.mean()),
+                "time_s_5_rollouts": round(t_csc, 4),
+            },
+            "csc_beta_0": {
+                "alpha_mean_deg": float(z_alpha.mean()),
+                "rho_mean": float(z_rho.mean()),
+                "scale_free_error_mean": float(z_rel.mean()),
+            },
         }
         fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
         x = np.arange(len(wp_index))
-        for a, (vals, lab) in zip(ax, [((z_alpha, c_alpha, s_alpha), "alpha: major axis vs tangent [deg]"),
-                                       ((z_rho, c_rho, s_rho), r"axis ratio $\rho = \lambda_1/\lambda_2$ (wanted 3)"),
-                                       ((z_rel, c_rel, s_rel), r"scale-free error $\min_k \|K_{xd} - k K\|_F / \|K_{xd}\|_F$")], strict=True):
+        for a, (vals, lab) in zip(
+            ax,
+            [
+                ((z_alpha, c_alpha, s_alpha), "alpha: major axis vs tangent [deg]"),
+                ((z_rho, c_rho, s_rho), r"axis ratio $\rho = \lambda_1/\lambda_2$ (wanted 3)"),
+                ((z_rel, c_rel, s_rel), r"scale-free error $\min_k \|K_{xd} - k K\|_F / \|K_{xd}\|_F$"),
+            ],
+            strict=True,
+        ):
             a.plot(x, vals[0], color="grey", label="CSC, beta = 0 (tracking only)")
             a.plot(x, vals[1], color="C0", label=f"CSC, beta = {betas[best]:g}")
             a.plot(x, vals[2], color="C2", label="shape: f2, r = 3 (SLSQP per waypoint)")
@@ -220,7 +289,9 @@ def main(argv=None) -> int:
         print(f"{'method':>28} {'alpha mean [deg]':>17} {'rho mean':>9} {'scale-free err':>15} {'time [s]':>9}")
         for name, v in cmp.items():
             tt = v.get("time_s", v.get("time_s_5_rollouts", float("nan")))
-            print(f"{name:>28} {v['alpha_mean_deg']:17.2f} {v['rho_mean']:9.2f} {v['scale_free_error_mean']:15.3f} {tt:9.3f}")
+            print(
+                f"{name:>28} {v['alpha_mean_deg']:17.2f} {v['rho_mean']:9.2f} {v['scale_free_error_mean']:15.3f} {tt:9.3f}"
+            )
         closer = "shape" if s_rel.mean() < c_rel.mean() else "CSC"
         summary["closer_to_K_xd"] = closer
         print(f"closer to K_xd (scale-free error): {closer}")

@@ -68,11 +68,17 @@ def main(argv=None) -> int:
     ax[0].plot(steps, u, color="C0")
     ax[0].axhline(0.5 * u[0], color="grey", ls="--", lw=1, label="50 % of the start value")
     ax[0].annotate(f"start {u[0]:.0f}", (0, u[0]), textcoords="offset points", xytext=(10, -12))
-    ax[0].annotate(f"min {u[k_min]:.0f} (step {k_min})", (k_min, u[k_min]), textcoords="offset points", xytext=(-60, 12))
+    ax[0].annotate(
+        f"min {u[k_min]:.0f} (step {k_min})", (k_min, u[k_min]), textcoords="offset points", xytext=(-60, 12)
+    )
     ax[0].set(xlabel="time step k", ylabel="u(q)  [Nm/rad]", title="off-diagonal joint stiffness u (S1-19)")
     ax[0].legend()
     ax[1].plot(steps, fr, color="C1")
-    ax[1].set(xlabel="time step k", ylabel=r"$\|K_{xd} - K_C\|_F$  [N/m]", title="Frobenius error of the realised stiffness (S1-10)")
+    ax[1].set(
+        xlabel="time step k",
+        ylabel=r"$\|K_{xd} - K_C\|_F$  [N/m]",
+        title="Frobenius error of the realised stiffness (S1-10)",
+    )
     for a in ax:
         a.grid(alpha=0.3)
     fig.suptitle(f"Planar 3R holding ({x0[0]:.3f}, {x0[1]:.3f}) m, constant null step beta = {args.beta:g} rad")
@@ -93,8 +99,11 @@ def main(argv=None) -> int:
         a.plot(e_d[:, 0], e_d[:, 1], "k--", label=r"desired $K_{xd}$")
         a.plot(e_c[:, 0], e_c[:, 1], "C3", label=r"realised $K_C$ (diag of $J^T K_{xd} J$)")
         a.set_aspect("equal")
-        a.set(xlabel="x stiffness [N/m]", ylabel="y stiffness [N/m]",
-              title=f"{label}\nu = {uu:.0f} Nm/rad, " + r"$\|K_{xd} - K_C\|_F$" + f" = {ff:.0f} N/m")
+        a.set(
+            xlabel="x stiffness [N/m]",
+            ylabel="y stiffness [N/m]",
+            title=f"{label}\nu = {uu:.0f} Nm/rad, " + r"$\|K_{xd} - K_C\|_F$" + f" = {ff:.0f} N/m",
+        )
         a.grid(alpha=0.3)
         a.legend(loc="lower right", fontsize=8)
     fig.suptitle("Stiffness ellipses {K u : |u| = 1}: desired vs realised by uni-articular joint springs")
@@ -133,15 +142,27 @@ def main(argv=None) -> int:
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for b, beta in enumerate(betas):
         ax.plot(np.arange(1, args.steps + 1), sweep.u[b], label=f"beta = {beta:g} rad")
-    ax.set(xlabel="time step k", ylabel="u(q) [Nm/rad]", title="constant null step: the step length sets the speed (one vmap)")
+    ax.set(
+        xlabel="time step k",
+        ylabel="u(q) [Nm/rad]",
+        title="constant null step: the step length sets the speed (one vmap)",
+    )
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()
     plots.save_figure(fig, os.path.join(args.out, "beta_sweep.png"), dpi=120, crop=False)
 
     summary = {
-        "setup": {"robot": "planar_3r", "q0_deg": [75.0, -74.74, -76.30], "x_hold_m": x0.tolist(),
-                  "K_xd": K.tolist(), "task": "xy", "step": "constant", "beta_rad": args.beta, "steps": args.steps},
+        "setup": {
+            "robot": "planar_3r",
+            "q0_deg": [75.0, -74.74, -76.30],
+            "x_hold_m": x0.tolist(),
+            "K_xd": K.tolist(),
+            "task": "xy",
+            "step": "constant",
+            "beta_rad": args.beta,
+            "steps": args.steps,
+        },
         "u_start": float(u[0]),
         "u_end": float(u[-1]),
         "u_min": float(u[k_min]),
@@ -154,19 +175,30 @@ def main(argv=None) -> int:
         "frobenius_min": float(fr.min()),
         "max_tcp_drift_m": float(res.tracking_error.max()),
         "q_end_deg": np.rad2deg(res.q[-1]).tolist(),
-        "status_counts": {jaxstiff.csc.describe_status(c): int(n) for c, n in zip(*np.unique(res.status, return_counts=True), strict=True)},
+        "status_counts": {
+            jaxstiff.csc.describe_status(c): int(n)
+            for c, n in zip(*np.unique(res.status, return_counts=True), strict=True)
+        },
         "adaptive_step_null_motion_rad": float(np.abs(np.asarray(adaptive.q) - q0).max()),
-        "beta_sweep": {f"{b:g}": {"u_end": float(sweep.u[i, -1]), "max_drift_m": float(sweep.tracking_error[i].max())}
-                       for i, b in enumerate(betas)},
+        "beta_sweep": {
+            f"{b:g}": {"u_end": float(sweep.u[i, -1]), "max_drift_m": float(sweep.tracking_error[i].max())}
+            for i, b in enumerate(betas)
+        },
         "run_time_s_incl_compile": round(t_run, 3),
     }
     atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
-    print(f"u: {u[0]:.1f} -> {u[-1]:.1f} Nm/rad ({summary['u_drop_percent']:.1f} % lower; min {u[k_min]:.1f} at step {k_min}; "
-          f"halved at step {k_half})")
+    print(
+        f"u: {u[0]:.1f} -> {u[-1]:.1f} Nm/rad ({summary['u_drop_percent']:.1f} % lower; min {u[k_min]:.1f} at step {k_min}; "
+        f"halved at step {k_half})"
+    )
     print(f"Frobenius |K_xd - K_C|: {fr[0]:.1f} -> {fr[-1]:.1f} N/m (min {fr.min():.1f})")
-    print(f"max TCP drift over {args.steps} steps: {res.tracking_error.max():.2e} m; largest u increase per step: "
-          f"{summary['max_u_increase_per_step']:.3g} Nm/rad")
-    print(f"adaptive step while holding: null motion {summary['adaptive_step_null_motion_rad']:.1e} rad (zero, as the seed's rule gives)")
+    print(
+        f"max TCP drift over {args.steps} steps: {res.tracking_error.max():.2e} m; largest u increase per step: "
+        f"{summary['max_u_increase_per_step']:.3g} Nm/rad"
+    )
+    print(
+        f"adaptive step while holding: null motion {summary['adaptive_step_null_motion_rad']:.1e} rad (zero, as the seed's rule gives)"
+    )
     for b, v in summary["beta_sweep"].items():
         print(f"  beta {b:>7} rad: u_end {v['u_end']:8.1f}, max drift {v['max_drift_m']:.1e} m")
     print(f"figures and summary.json in {args.out}")

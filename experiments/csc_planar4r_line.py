@@ -64,9 +64,15 @@ def main(argv=None) -> int:
     fr = np.hstack([res.frobenius_start[:, None], res.frobenius])
 
     labels = ["beta = 0 (tracking only)" if beta == 0 else f"beta = {beta:g}" for beta in betas]
-    plots.figure_u_frobenius(k_axis, u, fr, labels, os.path.join(args.out, "u_frobenius.png"),
-                             xlabel="time step k (2 mm of path per step)",
-                             suptitle="Planar 4R following a 1 m line, adaptive null step (S1-22), 5 rollouts in one vmap")
+    plots.figure_u_frobenius(
+        k_axis,
+        u,
+        fr,
+        labels,
+        os.path.join(args.out, "u_frobenius.png"),
+        xlabel="time step k (2 mm of path per step)",
+        suptitle="Planar 4R following a 1 m line, adaptive null step (S1-22), 5 rollouts in one vmap",
+    )
 
     best = int(np.argmin(u[:, -1]))
     fig, ax = plt.subplots(1, 2, figsize=(14, 7), constrained_layout=True)
@@ -86,14 +92,30 @@ def main(argv=None) -> int:
                 a.plot(e_c[:, 0], e_c[:, 1], color="C3", lw=1.2)
         a.plot(path[:, 0], path[:, 1], "r-", lw=2)
         title = "beta = 0: tracking only" if betas[b] == 0 else f"beta = {betas[b]:g}: with CSC"
-        a.set_title(f"{title}\nu: {u[b, 0]:.0f} -> {u[b, -1]:.0f} Nm/rad, " + r"$\|K_{xd}-K_C\|_F$"
-                    + f": {fr[b, 0]:.0f} -> {fr[b, -1]:.0f} N/m", fontsize=10)
+        a.set_title(
+            f"{title}\nu: {u[b, 0]:.0f} -> {u[b, -1]:.0f} Nm/rad, "
+            + r"$\|K_{xd}-K_C\|_F$"
+            + f": {fr[b, 0]:.0f} -> {fr[b, -1]:.0f} N/m",
+            fontsize=10,
+        )
         a.set(xlabel="x [m]", ylabel="y [m]")
         a.set_aspect("equal")
         a.grid(alpha=0.3)
-    handles = [plt.Line2D([], [], color="r", lw=2), plt.Line2D([], [], color="k", ls="--"), plt.Line2D([], [], color="C3")]
-    fig.legend(handles, ["TCP line", r"desired $K_{xd}$ at the TCP (1 mm of drawing = %.1f N/m)" % (1e-3 / scale),
-                         r"realised $K_C$ (uni-articular springs, diag of $J^T K_{xd} J$)"], loc="lower center", ncol=3)
+    handles = [
+        plt.Line2D([], [], color="r", lw=2),
+        plt.Line2D([], [], color="k", ls="--"),
+        plt.Line2D([], [], color="C3"),
+    ]
+    fig.legend(
+        handles,
+        [
+            "TCP line",
+            r"desired $K_{xd}$ at the TCP (1 mm of drawing = %.1f N/m)" % (1e-3 / scale),
+            r"realised $K_C$ (uni-articular springs, diag of $J^T K_{xd} J$)",
+        ],
+        loc="lower center",
+        ncol=3,
+    )
     sm = plt.cm.ScalarMappable(cmap=plt.get_cmap("viridis"), norm=plt.Normalize(0, T))
     fig.colorbar(sm, ax=ax, label=f"time step k (arm drawn every {T // 5} steps)", shrink=0.7)
     fig.suptitle("Planar 4R: self-motion along the line and the stiffness ellipses at the TCP")
@@ -101,23 +123,44 @@ def main(argv=None) -> int:
     plots.save_figure(fig, os.path.join(args.out, "self_motion.png"), dpi=120, crop=False)
 
     summary = {
-        "setup": {"robot": "planar_4r", "q0_deg": np.rad2deg(q0).tolist(), "line_start_m": x0.tolist(),
-                  "line_end_m": path[-1].tolist(), "steps": T, "K_xd": K.tolist(), "task": "xy", "step": "adaptive"},
-        "per_beta": {f"{beta:g}": {
-            "u_start": float(u[b, 0]), "u_end": float(u[b, -1]), "u_mean": float(u[b].mean()),
-            "frobenius_end": float(fr[b, -1]), "frobenius_mean": float(fr[b].mean()),
-            "max_tracking_error_m": float(res.tracking_error[b].max()),
-            "status_counts": {jaxstiff.csc.describe_status(cd): int(n) for cd, n in zip(*np.unique(res.status[b], return_counts=True), strict=True)},
-        } for b, beta in enumerate(betas)},
+        "setup": {
+            "robot": "planar_4r",
+            "q0_deg": np.rad2deg(q0).tolist(),
+            "line_start_m": x0.tolist(),
+            "line_end_m": path[-1].tolist(),
+            "steps": T,
+            "K_xd": K.tolist(),
+            "task": "xy",
+            "step": "adaptive",
+        },
+        "per_beta": {
+            f"{beta:g}": {
+                "u_start": float(u[b, 0]),
+                "u_end": float(u[b, -1]),
+                "u_mean": float(u[b].mean()),
+                "frobenius_end": float(fr[b, -1]),
+                "frobenius_mean": float(fr[b].mean()),
+                "max_tracking_error_m": float(res.tracking_error[b].max()),
+                "status_counts": {
+                    jaxstiff.csc.describe_status(cd): int(n)
+                    for cd, n in zip(*np.unique(res.status[b], return_counts=True), strict=True)
+                },
+            }
+            for b, beta in enumerate(betas)
+        },
         "time_first_call_s_incl_compile": round(t_first, 3),
         "time_5_rollouts_s": round(t_run, 4),
     }
     atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
-    print(f"{'beta':>5} {'u start':>9} {'u end':>9} {'u mean':>9} {'|dK|_F end':>11} {'|dK|_F mean':>12} {'max track err [m]':>18}")
+    print(
+        f"{'beta':>5} {'u start':>9} {'u end':>9} {'u mean':>9} {'|dK|_F end':>11} {'|dK|_F mean':>12} {'max track err [m]':>18}"
+    )
     for beta in betas:
         v = summary["per_beta"][f"{beta:g}"]
-        print(f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['u_mean']:9.1f} {v['frobenius_end']:11.1f} "
-              f"{v['frobenius_mean']:12.1f} {v['max_tracking_error_m']:18.2e}")
+        print(
+            f"{beta:5g} {v['u_start']:9.1f} {v['u_end']:9.1f} {v['u_mean']:9.1f} {v['frobenius_end']:11.1f} "
+            f"{v['frobenius_mean']:12.1f} {v['max_tracking_error_m']:18.2e}"
+        )
     print(f"5 rollouts x {T} steps: {t_run * 1e3:.1f} ms after compilation; figures and summary.json in {args.out}")
     return 0
 

@@ -100,7 +100,11 @@ def main(argv=None) -> int:
         m = jax.tree_util.tree_map(lambda a, b: 0.9 * a + 0.1 * b, m, g)
         v = jax.tree_util.tree_map(lambda a, b: 0.999 * a + 0.001 * b * b, v, g)
         params = jax.tree_util.tree_map(
-            lambda p, a, b: p - lr * (a / (1 - 0.9**it)) / (jnp.sqrt(b / (1 - 0.999**it)) + 1e-8), params, m, v)  # noqa: B023 (called in this iteration)
+            lambda p, a, b, lr=lr, it=it: p - lr * (a / (1 - 0.9**it)) / (jnp.sqrt(b / (1 - 0.999**it)) + 1e-8),
+            params,
+            m,
+            v,
+        )
     t_opt = time.perf_counter() - t0
     final = float(loss(params))
     hist.append((final, float(jnp.exp(params[0])), np.asarray(params[1]).tolist()))
@@ -147,22 +151,36 @@ def main(argv=None) -> int:
     ax.plot(TT[:, 0], TT[:, 1], "w.-", ms=3, lw=1, label="Adam path (beta changing)")
     ax.plot(TT[0, 0], TT[0, 1], "wo", ms=7, label="start: q0 = q_ref")
     ax.plot(theta_opt[0], theta_opt[1], "r*", ms=14, label="tuned")
-    ax.set(xlabel=r"$\theta_1$ [rad] (null-space coordinate)", ylabel=r"$\theta_2$ [rad]",
-           title="loss over the start posture's self-motion manifold\n(21 x 21 batched rollouts)")
+    ax.set(
+        xlabel=r"$\theta_1$ [rad] (null-space coordinate)",
+        ylabel=r"$\theta_2$ [rad]",
+        title="loss over the start posture's self-motion manifold\n(21 x 21 batched rollouts)",
+    )
     ax.legend(loc="lower left", fontsize=8)
     fig.tight_layout()
     plots.save_figure(fig, os.path.join(args.out, "theta_landscape.png"), dpi=120, crop=False)
 
     runs = (before, after)
-    plots.figure_u_frobenius(np.arange(T + 1), [np.r_[r.u_start, r.u] for r in runs], [np.r_[r.frobenius_start, r.frobenius] for r in runs],
-                             ["before: beta = 1, q0 = q_ref", f"after: beta = {beta_opt:.2f}, tuned q0"],
-                             os.path.join(args.out, "before_after.png"), titles=("off-diagonal joint stiffness u", "Frobenius error of the realised stiffness"),
-                             figsize=(12, 4.3))
+    plots.figure_u_frobenius(
+        np.arange(T + 1),
+        [np.r_[r.u_start, r.u] for r in runs],
+        [np.r_[r.frobenius_start, r.frobenius] for r in runs],
+        ["before: beta = 1, q0 = q_ref", f"after: beta = {beta_opt:.2f}, tuned q0"],
+        os.path.join(args.out, "before_after.png"),
+        titles=("off-diagonal joint stiffness u", "Frobenius error of the realised stiffness"),
+        figsize=(12, 4.3),
+    )
 
     i_best = int(np.argmin(grid_theta))
     summary = {
-        "setup": {"robot": "planar_4r", "q_ref_deg": np.rad2deg(q_ref).tolist(), "steps": T, "K_xd": np.asarray(K).tolist(),
-                  "loss": "mean |K_xd - K_C|_F / |K_xd|_F + mean tracking error / 1 mm", "optimiser": f"Adam lr {args.lr}, {args.iters} iterations"},
+        "setup": {
+            "robot": "planar_4r",
+            "q_ref_deg": np.rad2deg(q_ref).tolist(),
+            "steps": T,
+            "K_xd": np.asarray(K).tolist(),
+            "loss": "mean |K_xd - K_C|_F / |K_xd|_F + mean tracking error / 1 mm",
+            "optimiser": f"Adam lr {args.lr}, {args.iters} iterations",
+        },
         "loss_start": float(L[0]),
         "loss_tuned": final,
         "beta_tuned": beta_opt,
@@ -179,11 +197,17 @@ def main(argv=None) -> int:
         "time_441_rollouts_s_incl_compile": round(t_grid, 2),
     }
     atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))
-    print(f"loss {L[0]:.4f} -> {final:.4f}; beta 1 -> {beta_opt:.3f}; theta (0, 0) -> ({theta_opt[0]:.3f}, {theta_opt[1]:.3f}) rad")
-    print(f"grid check: best over 21x21 theta at the tuned beta {summary['grid_theta_best_loss']:.4f} at {TH[i_best].round(3).tolist()}; "
-          f"best over 48 betas at the tuned theta {summary['grid_beta_best_loss']:.4f} at beta {summary['grid_beta_best']:.3f}")
-    print(f"mean |K_xd - K_C|_F: {summary['frobenius_mean_before']:.1f} -> {summary['frobenius_mean_after']:.1f} N/m; "
-          f"max tracking error after: {summary['max_tracking_error_after_m']:.1e} m")
+    print(
+        f"loss {L[0]:.4f} -> {final:.4f}; beta 1 -> {beta_opt:.3f}; theta (0, 0) -> ({theta_opt[0]:.3f}, {theta_opt[1]:.3f}) rad"
+    )
+    print(
+        f"grid check: best over 21x21 theta at the tuned beta {summary['grid_theta_best_loss']:.4f} at {TH[i_best].round(3).tolist()}; "
+        f"best over 48 betas at the tuned theta {summary['grid_beta_best_loss']:.4f} at beta {summary['grid_beta_best']:.3f}"
+    )
+    print(
+        f"mean |K_xd - K_C|_F: {summary['frobenius_mean_before']:.1f} -> {summary['frobenius_mean_after']:.1f} N/m; "
+        f"max tracking error after: {summary['max_tracking_error_after_m']:.1e} m"
+    )
     print(f"{args.iters} Adam iterations in {t_opt:.1f} s (incl. compilation); figures and summary.json in {args.out}")
     return 0
 

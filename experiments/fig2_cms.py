@@ -69,14 +69,24 @@ def main(argv=None) -> int:
     tcp = np.asarray(robot.fk(jnp.asarray(q)))[:2, 3]
 
     rows = [
-        {"k": f"{k:g}", "lambda1_N_per_m": f"{a[0]:.4f}", "lambda2_N_per_m": f"{a[1]:.4f}", "ratio": f"{rho:.6f}",
-         "major_axis_deg": f"{ang:.4f}", "area_lambda1_lambda2": f"{a[0] * a[1]:.2f}"}
+        {
+            "k": f"{k:g}",
+            "lambda1_N_per_m": f"{a[0]:.4f}",
+            "lambda2_N_per_m": f"{a[1]:.4f}",
+            "ratio": f"{rho:.6f}",
+            "major_axis_deg": f"{ang:.4f}",
+            "area_lambda1_lambda2": f"{a[0] * a[1]:.2f}",
+        }
         for k, a, rho, ang in zip(ks, axes, ratio, angle, strict=True)
     ]
-    print(f"Seed 000 Fig. 2 (CMS): planar 3R, q = {Q_DEG} deg, TCP = ({tcp[0]:.4f}, {tcp[1]:.4f}) m, k_j0 = {KJ0} Nm/rad, task xy")
+    print(
+        f"Seed 000 Fig. 2 (CMS): planar 3R, q = {Q_DEG} deg, TCP = ({tcp[0]:.4f}, {tcp[1]:.4f}) m, k_j0 = {KJ0} Nm/rad, task xy"
+    )
     print("\n".join(plots.text_table(rows, width=20, sep="  ")))
-    print(f"max |lambda_i(k) / (k lambda_i(1)) - 1| = {dev_axes:.2e};  max |rho(k) - rho(1)| = {dev_ratio:.2e};  "
-          f"max angle between major axes = {dev_angle:.2e} deg")
+    print(
+        f"max |lambda_i(k) / (k lambda_i(1)) - 1| = {dev_axes:.2e};  max |rho(k) - rho(1)| = {dev_ratio:.2e};  "
+        f"max angle between major axes = {dev_angle:.2e} deg"
+    )
 
     plots.save_table_csv(rows, os.path.join(args.out, "summary.csv"))
     md = [

@@ -30,9 +30,14 @@ def _parse(argv=None):
     from jaxstiff.plots import experiment_parser
 
     p = experiment_parser("fig3_cds", "Seed 000 Fig. 3: CDS of the planar 3R arm")
-    p.add_argument("--phi-deg", default=f"{sum(Q_FIG2_DEG):.2f},-40,0,40,80",
-                   help="tool angles q1+q2+q3 (deg), comma-separated; the first default is the Fig. 2 posture's")
-    p.add_argument("--elbow", choices=["up", "down"], default="up", help="elbow branch of the 2R sub-chain (up: q2 < 0)")
+    p.add_argument(
+        "--phi-deg",
+        default=f"{sum(Q_FIG2_DEG):.2f},-40,0,40,80",
+        help="tool angles q1+q2+q3 (deg), comma-separated; the first default is the Fig. 2 posture's",
+    )
+    p.add_argument(
+        "--elbow", choices=["up", "down"], default="up", help="elbow branch of the 2R sub-chain (up: q2 < 0)"
+    )
     args = p.parse_args(argv)
     try:
         args.phi = [math.radians(float(v)) for v in args.phi_deg.split(",") if v.strip()]
@@ -97,16 +102,29 @@ def main(argv=None) -> int:
 
     rows = []
     for i, (phi, q) in enumerate(zip(phis, Q, strict=True)):
-        rows.append({
-            "posture": str(i + 1), "phi_deg": f"{math.degrees(phi):.2f}",
-            "q1_deg": f"{math.degrees(q[0]):.2f}", "q2_deg": f"{math.degrees(q[1]):.2f}", "q3_deg": f"{math.degrees(q[2]):.2f}",
-            "tcp_error_m": f"{err[i]:.1e}", "lambda1_N_per_m": f"{axes[i, 0]:.3f}", "lambda2_N_per_m": f"{axes[i, 1]:.3f}",
-            "ratio": f"{ratio[i]:.4f}", "major_axis_deg": f"{angle[i]:.2f}", "compliance_cond": f"{cond[i]:.3g}",
-        })
-    print(f"Seed 000 Fig. 3 (CDS): planar 3R, TCP = ({target[0]:.4f}, {target[1]:.4f}) m, k_j = {KJ} Nm/rad, task xy, elbow {args.elbow}")
+        rows.append(
+            {
+                "posture": str(i + 1),
+                "phi_deg": f"{math.degrees(phi):.2f}",
+                "q1_deg": f"{math.degrees(q[0]):.2f}",
+                "q2_deg": f"{math.degrees(q[1]):.2f}",
+                "q3_deg": f"{math.degrees(q[2]):.2f}",
+                "tcp_error_m": f"{err[i]:.1e}",
+                "lambda1_N_per_m": f"{axes[i, 0]:.3f}",
+                "lambda2_N_per_m": f"{axes[i, 1]:.3f}",
+                "ratio": f"{ratio[i]:.4f}",
+                "major_axis_deg": f"{angle[i]:.2f}",
+                "compliance_cond": f"{cond[i]:.3g}",
+            }
+        )
+    print(
+        f"Seed 000 Fig. 3 (CDS): planar 3R, TCP = ({target[0]:.4f}, {target[1]:.4f}) m, k_j = {KJ} Nm/rad, task xy, elbow {args.elbow}"
+    )
     print("\n".join(plots.text_table(rows, width=16)))
-    print(f"across postures: ratio {ratio.min():.3f} ... {ratio.max():.3f}, major axis {angle.min():.1f} ... {angle.max():.1f} deg, "
-          f"max TCP error {err.max():.1e} m")
+    print(
+        f"across postures: ratio {ratio.min():.3f} ... {ratio.max():.3f}, major axis {angle.min():.1f} ... {angle.max():.1f} deg, "
+        f"max TCP error {err.max():.1e} m"
+    )
 
     plots.save_table_csv(rows, os.path.join(args.out, "summary.csv"))
     md = [

@@ -33,8 +33,11 @@ def summary_rows(res, verification):
 
     s = R.summary(res)
     r = float(res.meta["ratio"])
-    rlabel = f"share of waypoints with ratio >= {0.98 * r:g} (f1 asks for at least {r:g})" if res.meta["criterion"] == "f1" \
+    rlabel = (
+        f"share of waypoints with ratio >= {0.98 * r:g} (f1 asks for at least {r:g})"
+        if res.meta["criterion"] == "f1"
         else f"share of waypoints with |ratio - {r:g}| / {r:g} < 2%"
+    )
     st = np.bincount(res.status.ravel(), minlength=5)
     return [
         ("waypoints", f"{res.P}"),
@@ -44,7 +47,10 @@ def summary_rows(res, verification):
         ("median alpha (deg)", f"{s['median_alpha_deg']:.2e}"),
         ("max alpha (deg)", f"{float(res.alpha_deg.max()):.3g}"),
         ("ratio min / max", f"{float(res.ratio.min()):.3f} / {float(res.ratio.max()):.3f}"),
-        ("status counts (0 solved, 1 not converged, 2 clipped, 3 unreachable, 4 non-finite)", " ".join(str(int(x)) for x in st)),
+        (
+            "status counts (0 solved, 1 not converged, 2 clipped, 3 unreachable, 4 non-finite)",
+            " ".join(str(int(x)) for x in st),
+        ),
         ("max position error (m), numpy FK", f"{verification['max_pos_error']:.2e}"),
         ("max bound violation (joint limits, kmin/kmax)", f"{verification['max_bound_violation']:.2e}"),
         ("max rate violation (rad or Nm/rad beyond dq, dk)", f"{verification['max_rate_violation']:.2e}"),
@@ -86,7 +92,9 @@ def run(criterion: str, tag: str, title: str, argv=None) -> int:
     plots.figure_shape_path(res, robot, os.path.join(args.out, f"{tag}.png"), title)
 
     rows = summary_rows(res, ver) + [("wall time of the run incl. compilation (s)", f"{wall:.1f}")]
-    atomic_write_text(os.path.join(args.out, "summary.csv"), "metric,value\n" + "".join(f"\"{k}\",\"{v}\"\n" for k, v in rows))
+    atomic_write_text(
+        os.path.join(args.out, "summary.csv"), "metric,value\n" + "".join(f'"{k}","{v}"\n' for k, v in rows)
+    )
     lines = [f"## {title}", "", f"![{tag}]({tag}.png)", "", "| metric | value |", "| --- | --- |"]
     lines += [f"| {k} | {v} |" for k, v in rows]
     setup = " ".join(__doc__.split("Setup")[1].split("Panels")[0].split())

@@ -83,12 +83,21 @@ def main(argv=None) -> int:
     Ks, ds = stiffness_with(np.array([a for a, _ in samples]), np.array([p for _, p in samples]))
     s1 = np.asarray(jaxstiff.f1(jnp.asarray(Ks), jnp.asarray(ds), r, c=c))
     s2 = np.asarray(jaxstiff.f2(jnp.asarray(Ks), jnp.asarray(ds), r))
-    rows = [{"alpha_deg": f"{a:g}", "rho": f"{p:g}", "f1": f"{v1:.6g}", "f2": f"{v2:.6g}"} for (a, p), v1, v2 in zip(samples, s1, s2, strict=True)]
+    rows = [
+        {"alpha_deg": f"{a:g}", "rho": f"{p:g}", "f1": f"{v1:.6g}", "f2": f"{v2:.6g}"}
+        for (a, p), v1, v2 in zip(samples, s1, s2, strict=True)
+    ]
 
-    print(f"Seed 000 Fig. 6: criteria on a {alpha.size} x {rho.size} grid, alpha in [-90, 90] deg, rho in [1.05, {args.rho_max:g}], r = {r:g}, c = {c:g}")
-    print(f"f1: grid minimum {F1[i1]:.6g} (= c); on the whole line alpha = 0, rho >= r ({on_line.sum()} points) f1 = "
-          f"{f1_line.min():.6g} ... {f1_line.max():.6g}; off that line f1 >= {F1[~on_line].min():.6g}")
-    print(f"f2: grid minimum {F2[i2]:.6g} at alpha = {A[i2]:g} deg, rho = {P[i2]:g}; next smallest {np.partition(F2.ravel(), 1)[1]:.6g}")
+    print(
+        f"Seed 000 Fig. 6: criteria on a {alpha.size} x {rho.size} grid, alpha in [-90, 90] deg, rho in [1.05, {args.rho_max:g}], r = {r:g}, c = {c:g}"
+    )
+    print(
+        f"f1: grid minimum {F1[i1]:.6g} (= c); on the whole line alpha = 0, rho >= r ({on_line.sum()} points) f1 = "
+        f"{f1_line.min():.6g} ... {f1_line.max():.6g}; off that line f1 >= {F1[~on_line].min():.6g}"
+    )
+    print(
+        f"f2: grid minimum {F2[i2]:.6g} at alpha = {A[i2]:g} deg, rho = {P[i2]:g}; next smallest {np.partition(F2.ravel(), 1)[1]:.6g}"
+    )
     print(f"{'alpha_deg':>10s} {'rho':>6s} {'f1':>12s} {'f2':>12s}")
     for row in rows:
         print(f"{row['alpha_deg']:>10s} {row['rho']:>6s} {row['f1']:>12s} {row['f2']:>12s}")

@@ -56,19 +56,36 @@ def main(argv: list[str] | None = None) -> int:
     P = dp.P
     q_dp, _ = ik_position(robot, dp.points[0])
     q_dp = np.clip(q_dp, robot.lower, robot.upper)  # IK may land a rounding step outside a limit
-    pts, dirs, q_r = random_reachable_paths(robot, N, P, seed=0) if N else (np.zeros((0, P, 3)),) * 2 + (np.zeros((0, robot.n)),)
+    pts, dirs, q_r = (
+        random_reachable_paths(robot, N, P, seed=0) if N else (np.zeros((0, P, 3)),) * 2 + (np.zeros((0, robot.n)),)
+    )
     path = jaxstiff.Path(np.concatenate([dp.points[None], pts]), np.concatenate([dp.directions[None], dirs]))
     q0 = np.concatenate([q_dp[None], q_r])
     B = 1 + N
     cached: dict[str, dict] = {}
 
     def to_arrays(res):
-        return {k: np.array(getattr(res, k)) for k in ("q", "kj", "status", "pos_error", "solver_code", "nit", "nfev", "time_s")}
+        return {
+            k: np.array(getattr(res, k))
+            for k in ("q", "kj", "status", "pos_error", "solver_code", "nit", "nfev", "time_s")
+        }
 
     def traj_from(name):
         def run(req):
-            return trajectory.refine_batch(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits,
-                                           req.ratio, req.c, cached[name], options=req.options, pos_tol=req.pos_tol)
+            return trajectory.refine_batch(
+                req.problem,
+                req.targets,
+                req.directions,
+                req.q0,
+                req.kj0,
+                req.limits,
+                req.ratio,
+                req.c,
+                cached[name],
+                options=req.options,
+                pos_tol=req.pos_tol,
+            )
+
         return run
 
     out: dict = {"B": B, "P": P, "random_paths": N, "starts": args.starts, "results": {}}
@@ -92,7 +109,16 @@ def main(argv: list[str] | None = None) -> int:
         rows = {}
         for name, solver, starts, opts in settings:
             t0 = time.perf_counter()
-            res = jaxstiff.shape(robot, path, crit, 5.0, solver=solver, starts=starts, q0=q0, options=({**opts, "chunk": B} if solver != "slsqp" else opts or None))
+            res = jaxstiff.shape(
+                robot,
+                path,
+                crit,
+                5.0,
+                solver=solver,
+                starts=starts,
+                q0=q0,
+                options=({**opts, "chunk": B} if solver != "slsqp" else opts or None),
+            )
             dt = time.perf_counter() - t0
             cached[name] = to_arrays(res)
             v = R.verify(res, robot=robot)
@@ -100,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
             good = (res.alpha_deg < 1.0) & (res.ratio >= 4.9) & u
             rows[name] = {
                 "time_s": round(dt, 1),
-                "total_default": float(res.criterion[0][u[0]].sum()), "usable_default": float(u[0].mean()),
+                "total_default": float(res.criterion[0][u[0]].sum()),
+                "usable_default": float(u[0].mean()),
                 "total_random": float(res.criterion[1:][u[1:]].sum()) if N else None,
                 "usable_random": float(u[1:].mean()) if N else None,
                 "alpha<1&ratio>=4.9_default": float(good[0].mean()),
@@ -109,10 +136,13 @@ def main(argv: list[str] | None = None) -> int:
                 "criterion": res.criterion,
                 "usable": u,
             }
-            print(f"{crit} {name:<18} {dt:7.1f} s  total default {rows[name]['total_default']:.4f}  "
-                  f"random {rows[name]['total_random']}  usable {u.mean():.3f}  "
-                  f"a<1&r>=4.9 default {good[0].mean():.3f}  max pos err {v['max_pos_error']:.1e} "
-                  f"rate viol {v['max_rate_violation']:.1e}", flush=True)
+            print(
+                f"{crit} {name:<18} {dt:7.1f} s  total default {rows[name]['total_default']:.4f}  "
+                f"random {rows[name]['total_random']}  usable {u.mean():.3f}  "
+                f"a<1&r>=4.9 default {good[0].mean():.3f}  max pos err {v['max_pos_error']:.1e} "
+                f"rate viol {v['max_rate_violation']:.1e}",
+                flush=True,
+            )
         summ = {}
         if "slsqp" in rows and "hybrid" in rows:
             ref, hyb = rows["slsqp"], rows["hybrid"]
@@ -123,7 +153,8 @@ def main(argv: list[str] | None = None) -> int:
         if f"pgd_S{S}" in rows and "pgd_S1" in rows:
             summ["multi_vs_single_total_all"] = [
                 float(rows[f"pgd_S{S}"]["criterion"][rows[f"pgd_S{S}"]["usable"]].sum()),
-                float(rows["pgd_S1"]["criterion"][rows["pgd_S1"]["usable"]].sum())]
+                float(rows["pgd_S1"]["criterion"][rows["pgd_S1"]["usable"]].sum()),
+            ]
         print(crit, json.dumps(summ), flush=True)
         for r in rows.values():
             r.pop("criterion")

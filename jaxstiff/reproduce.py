@@ -73,10 +73,13 @@ def find_experiments_dir(explicit: str | os.PathLike | None = None) -> str:
         if os.path.isdir(path) and discover(path):
             return os.path.abspath(path)
         if explicit is not None and what == "--experiments":
-            raise FileNotFoundError(f"--experiments {path}: not a folder with experiment scripts (NAME.py taking --out)")
+            raise FileNotFoundError(
+                f"--experiments {path}: not a folder with experiment scripts (NAME.py taking --out)"
+            )
     raise FileNotFoundError(
         "jaxstiff reproduce runs the scripts in the experiments/ folder of a source checkout, which is not "
-        "part of the installed package; looked in: " + "; ".join(tried)
+        "part of the installed package; looked in: "
+        + "; ".join(tried)
         + ". Run it from a clone of the repository (pip install -e .), or pass --experiments DIR"
     )
 
@@ -197,7 +200,9 @@ def run_reproduce(
     sweep_cfg = os.path.join(exp_dir, "sweeps", "quick.toml")
     with_sweep = sweep and os.path.isfile(sweep_cfg) and not only
     if report_only:
-        runs = _earlier_runs(out, [os.path.basename(s)[:-3] for s in scripts] + (["sweep_quick"] if with_sweep else []), log)
+        runs = _earlier_runs(
+            out, [os.path.basename(s)[:-3] for s in scripts] + (["sweep_quick"] if with_sweep else []), log
+        )
         wall = sum(r.wall_s for r in runs)
     else:
         runs = _run_experiments(scripts, runs_dir, quick, timeout, repo, log)
@@ -215,8 +220,10 @@ def _select_scripts(exp_dir: str, only: Sequence[str] | None, everything: bool) 
     if only:
         scripts = [s for s in scripts if any(os.path.basename(s).startswith(o) for o in only)]
         if not scripts:
-            raise ValueError(f"--only {' '.join(only)}: no experiment matches; experiments: "
-                             + ", ".join(os.path.basename(s)[:-3] for s in discover(exp_dir)))
+            raise ValueError(
+                f"--only {' '.join(only)}: no experiment matches; experiments: "
+                + ", ".join(os.path.basename(s)[:-3] for s in discover(exp_dir))
+            )
     return scripts
 
 
@@ -235,8 +242,9 @@ def _earlier_runs(out: str, names: list[str], log: Callable[[str], None]) -> lis
     return runs
 
 
-def _run_experiments(scripts: list[str], runs_dir: str, quick: bool, timeout: float | None, repo: str,
-                     log: Callable[[str], None]) -> list[ExperimentRun]:
+def _run_experiments(
+    scripts: list[str], runs_dir: str, quick: bool, timeout: float | None, repo: str, log: Callable[[str], None]
+) -> list[ExperimentRun]:
     """Run each script into a fresh ``runs_dir/NAME``, one after another."""
     runs = []
     for i, s in enumerate(scripts):
@@ -248,13 +256,16 @@ def _run_experiments(scripts: list[str], runs_dir: str, quick: bool, timeout: fl
         r = _run_one(s, dest, quick, timeout, repo)
         _save_status(r)
         runs.append(r)
-        log(f"[{i + 1}/{len(scripts)}] {name}: {'ok' if r.ok else 'FAILED' if r.code is not None else 'TIMED OUT'} "
-            f"in {r.wall_s:.1f} s")
+        log(
+            f"[{i + 1}/{len(scripts)}] {name}: {'ok' if r.ok else 'FAILED' if r.code is not None else 'TIMED OUT'} "
+            f"in {r.wall_s:.1f} s"
+        )
     return runs
 
 
-def _run_quick_sweep(sweep_cfg: str, runs_dir: str, timeout: float | None, repo: str,
-                     log: Callable[[str], None]) -> ExperimentRun:
+def _run_quick_sweep(
+    sweep_cfg: str, runs_dir: str, timeout: float | None, repo: str, log: Callable[[str], None]
+) -> ExperimentRun:
     """Run ``experiments/sweeps/quick.toml`` into a fresh ``runs_dir/sweep_quick``."""
     log("sweep quick.toml ...")
     dest = os.path.join(runs_dir, "sweep_quick")
@@ -288,8 +299,16 @@ def _load_status(folder: str) -> ExperimentRun | None:
 def _run_sweep(config: str, out: str, timeout: float | None, repo: str) -> ExperimentRun:
     """The quick sweep as a subprocess too (same isolation as the experiments)."""
     os.makedirs(os.path.dirname(out), exist_ok=True)
-    cmd = [sys.executable, "-c", "import sys; from jaxstiff.cli import main; sys.exit(main())",
-           "sweep", config, "--out", out, "--no-progress"]
+    cmd = [
+        sys.executable,
+        "-c",
+        "import sys; from jaxstiff.cli import main; sys.exit(main())",
+        "sweep",
+        config,
+        "--out",
+        out,
+        "--no-progress",
+    ]
     env = dict(os.environ)
     env["PYTHONPATH"] = repo + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     log_file = out + ".log"
@@ -298,11 +317,20 @@ def _run_sweep(config: str, out: str, timeout: float | None, repo: str) -> Exper
         log.write("$ " + " ".join(cmd) + "\n")
         log.flush()
         try:
-            code: int | None = subprocess.run(cmd, cwd=repo, env=env, stdout=log, stderr=subprocess.STDOUT, timeout=timeout).returncode
+            code: int | None = subprocess.run(
+                cmd, cwd=repo, env=env, stdout=log, stderr=subprocess.STDOUT, timeout=timeout
+            ).returncode
         except subprocess.TimeoutExpired:
             code = None
     os.makedirs(out, exist_ok=True)
     shutil.move(log_file, os.path.join(out, "log.txt"))
     log_file = os.path.join(out, "log.txt")
-    return ExperimentRun("sweep_quick", config, out, code, time.perf_counter() - t0, log_file,
-                         f"jaxstiff sweep {os.path.relpath(config, repo)} --out DIR")
+    return ExperimentRun(
+        "sweep_quick",
+        config,
+        out,
+        code,
+        time.perf_counter() - t0,
+        log_file,
+        f"jaxstiff sweep {os.path.relpath(config, repo)} --out DIR",
+    )

@@ -76,7 +76,11 @@ def _flatten(obj: object, prefix: str = "") -> list[tuple[str, object]]:
     if isinstance(obj, dict):
         for k, v in obj.items():
             out += _flatten(v, f"{prefix}.{k}" if prefix else str(k))
-    elif isinstance(obj, list) and len(obj) <= 8 and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in obj):
+    elif (
+        isinstance(obj, list)
+        and len(obj) <= 8
+        and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in obj)
+    ):
         out.append((prefix, "[" + ", ".join(f"{x:.4g}" for x in obj) + "]"))
     elif isinstance(obj, list):
         for i, v in enumerate(obj[:8]):
@@ -208,13 +212,22 @@ def environment() -> list[str]:
 def _intro(quick: bool, only: Sequence[str] | None, everything: bool) -> list[str]:
     """The report's title and the sentence that says which experiments ran and how."""
     return [
-        "# jaxstiff: reproduction report", "",
-        ("The experiments " + ", ".join(f"`{o}*`" for o in only) if only else
-         "Every experiment of the repository" if everything else "The reproductions of the seeds (fig*, csc*)")
-        + ", run by `jaxstiff reproduce" + (" --quick" if quick else "")
-        + (" --only " + " ".join(only) if only else "") + (" --all" if everything and not only else "")
+        "# jaxstiff: reproduction report",
+        "",
+        (
+            "The experiments " + ", ".join(f"`{o}*`" for o in only)
+            if only
+            else "Every experiment of the repository"
+            if everything
+            else "The reproductions of the seeds (fig*, csc*)"
+        )
+        + ", run by `jaxstiff reproduce"
+        + (" --quick" if quick else "")
+        + (" --only " + " ".join(only) if only else "")
+        + (" --all" if everything and not only else "")
         + "` as its own process; each section shows what the experiment "
-        "wrote (its summary, tables and figures).", "",
+        "wrote (its summary, tables and figures).",
+        "",
     ]
 
 
@@ -243,10 +256,22 @@ def write_report(
         md += [f"## {r.name}", ""]
         what = r.cmd
         if not r.ok:
-            md += [f"**{'timed out' if r.code is None else f'failed with exit code {r.code}'}**; end of its log:", "",
-                   "```", _tail(r.log).rstrip(), "```", ""]
-        md += section(r.name, r.out, os.path.join(figs_dir, r.name), out, note=f"`{what}` ({r.wall_s:.1f} s)",
-                      log=r.log if r.ok else "")
+            md += [
+                f"**{'timed out' if r.code is None else f'failed with exit code {r.code}'}**; end of its log:",
+                "",
+                "```",
+                _tail(r.log).rstrip(),
+                "```",
+                "",
+            ]
+        md += section(
+            r.name,
+            r.out,
+            os.path.join(figs_dir, r.name),
+            out,
+            note=f"`{what}` ({r.wall_s:.1f} s)",
+            log=r.log if r.ok else "",
+        )
     report = os.path.join(out, "report.md")
     atomic_write_text(report, "\n".join(md) + "\n")
     return report

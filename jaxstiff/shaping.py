@@ -68,9 +68,21 @@ from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem
 from jaxstiff.stiffness.core import check_task_feasible, task_rows
 from jaxstiff.stiffness.criteria import get_criterion
 
-__all__ = ["shape", "SOLVERS", "register_solver", "DEFAULTS", "SolveRequest", "ShapeInterrupted", "SolverInterrupted",
-           "prefer_sync_cpu_dispatch", "first_start_rng", "first_start_postures", "check_inputs", "make_start_states",
-           "cpu_async_dispatch"]
+__all__ = [
+    "shape",
+    "SOLVERS",
+    "register_solver",
+    "DEFAULTS",
+    "SolveRequest",
+    "ShapeInterrupted",
+    "SolverInterrupted",
+    "prefer_sync_cpu_dispatch",
+    "first_start_rng",
+    "first_start_postures",
+    "check_inputs",
+    "make_start_states",
+    "cpu_async_dispatch",
+]
 
 _DEFAULT_SETTINGS = ShapeSettings()
 
@@ -132,7 +144,9 @@ class ShapeInterrupted(KeyboardInterrupt):
 
 
 # ---------------------------------------------------------------------- input checks
-def _robot_and_path(robot: Robot | RobotSpec | str | os.PathLike[str], path: Any) -> tuple[Robot, dict[str, Any] | None, Path]:
+def _robot_and_path(
+    robot: Robot | RobotSpec | str | os.PathLike[str], path: Any
+) -> tuple[Robot, dict[str, Any] | None, Path]:
     """The chain (and the RobotSpec's meta when one was given) and the paths as a batch (B, P, 3)."""
     spec = None
     if isinstance(robot, RobotSpec):
@@ -152,8 +166,9 @@ def _robot_and_path(robot: Robot | RobotSpec | str | os.PathLike[str], path: Any
     return robot, spec, path.as_batch()
 
 
-def _numbers(v: Mapping[str, Any], cms_volume: float | None, cms_major: float | None,
-             pos_tol: float, m: int) -> tuple[float, float, float]:
+def _numbers(
+    v: Mapping[str, Any], cms_volume: float | None, cms_major: float | None, pos_tol: float, m: int
+) -> tuple[float, float, float]:
     """kmin, kmax, c (checked) and the CMS targets and pos_tol (checked)."""
     try:
         kmin, kmax, c = float(v["kmin"]), float(v["kmax"]), float(v["c"])
@@ -190,9 +205,17 @@ def _same_value(a: np.ndarray) -> float | None:
     return float(a[0]) if a.ndim == 1 and a.size and np.all(a == a[0]) else None
 
 
-def check_inputs(robot: Robot, path: Path, values: Mapping[str, Any], base: ShapeSettings, *,
-                 cms_volume: float | None, cms_major: float | None, options: Mapping[str, Any] | None,
-                 pos_tol: float) -> ShapeInputs:
+def check_inputs(
+    robot: Robot,
+    path: Path,
+    values: Mapping[str, Any],
+    base: ShapeSettings,
+    *,
+    cms_volume: float | None,
+    cms_major: float | None,
+    options: Mapping[str, Any] | None,
+    pos_tol: float,
+) -> ShapeInputs:
     """Step 1: check every input before any work (errors name the value, path and joint) and
     resolve the defaults. ``values`` holds every :class:`ShapeSettings` field, per-path arrays
     allowed for ratio (B,), dq and dk ((n,) or (B, n)); ``base`` gives the settings recorded for
@@ -217,30 +240,71 @@ def check_inputs(robot: Robot, path: Path, values: Mapping[str, Any], base: Shap
         raise ValueError(f"first_starts must be >= 1, got {values['first_starts']}")
     if cms_volume is None and cms_major is None:
         cms_volume = float(values["cms_mean_axis"]) ** m
-    scalars = {"criterion": crit_name, "task": task, "solver": solver, "starts": values["starts"], "kmin": kmin,
-               "kmax": kmax, "c": c, "first_rate_limit": bool(values["first_rate_limit"]), "first_starts": n_first,
-               "cms_mean_axis": float(values["cms_mean_axis"])}
-    for key, one in (("ratio", ratio if isinstance(ratio, float) else None), ("dq", _same_value(dq)),
-                     ("dk", _same_value(dk))):
+    scalars = {
+        "criterion": crit_name,
+        "task": task,
+        "solver": solver,
+        "starts": values["starts"],
+        "kmin": kmin,
+        "kmax": kmax,
+        "c": c,
+        "first_rate_limit": bool(values["first_rate_limit"]),
+        "first_starts": n_first,
+        "cms_mean_axis": float(values["cms_mean_axis"]),
+    }
+    for key, one in (
+        ("ratio", ratio if isinstance(ratio, float) else None),
+        ("dq", _same_value(dq)),
+        ("dk", _same_value(dk)),
+    ):
         if one is not None:
             scalars[key] = one
     return ShapeInputs(
-        robot=robot, path=path, criterion=criterion, crit_name=crit_name, crit_fn=crit_fn, ratio=ratio, c=c,
-        task=task, solver=solver, starts=values["starts"], options=options, dq=dq, dk=dk, kmin=kmin, kmax=kmax,
-        first_rate_limit=bool(values["first_rate_limit"]), first_starts=n_first, cms_volume=cms_volume,
-        cms_major=cms_major, pos_tol=float(pos_tol), settings=base.replace(**scalars))
+        robot=robot,
+        path=path,
+        criterion=criterion,
+        crit_name=crit_name,
+        crit_fn=crit_fn,
+        ratio=ratio,
+        c=c,
+        task=task,
+        solver=solver,
+        starts=values["starts"],
+        options=options,
+        dq=dq,
+        dk=dk,
+        kmin=kmin,
+        kmax=kmax,
+        first_rate_limit=bool(values["first_rate_limit"]),
+        first_starts=n_first,
+        cms_volume=cms_volume,
+        cms_major=cms_major,
+        pos_tol=float(pos_tol),
+        settings=base.replace(**scalars),
+    )
 
 
-def _solve(inp: ShapeInputs, extra_starts: list, progress: Callable[[int, int], None] | None
-           ) -> tuple[WaypointProblem, SolveRequest, dict[str, Any], bool]:
+def _solve(
+    inp: ShapeInputs, extra_starts: list, progress: Callable[[int, int], None] | None
+) -> tuple[WaypointProblem, SolveRequest, dict[str, Any], bool]:
     """Step 3: run the solver; an interrupt after some waypoints keeps them (the rest NOT_RUN)."""
     with jax.enable_x64(True):
         problem = WaypointProblem(inp.robot, inp.task, inp.crit_fn)
         limits = Limits(dq=inp.dq, dk=inp.dk, kmin=inp.kmin, kmax=inp.kmax, first_rate_limit=inp.first_rate_limit)
         req = SolveRequest(
-            problem=problem, targets=inp.path.points, directions=inp.path.directions, q0=inp.q0, kj0=inp.kj0,
-            limits=limits, ratio=inp.ratio, c=inp.c, starts=inp.starts, options=dict(inp.options or {}),
-            pos_tol=inp.pos_tol, progress=progress, first_starts=extra_starts,
+            problem=problem,
+            targets=inp.path.points,
+            directions=inp.path.directions,
+            q0=inp.q0,
+            kj0=inp.kj0,
+            limits=limits,
+            ratio=inp.ratio,
+            c=inp.c,
+            starts=inp.starts,
+            options=dict(inp.options or {}),
+            pos_tol=inp.pos_tol,
+            progress=progress,
+            first_starts=extra_starts,
         )
         try:
             return problem, req, SOLVERS[inp.solver](req), False
@@ -342,13 +406,25 @@ def shape(
     base = settings if settings is not None else _DEFAULT_SETTINGS
     if not isinstance(base, ShapeSettings):
         raise ValueError(f"settings must be a jaxstiff.settings.ShapeSettings, got {type(base).__name__}")
-    given = {"criterion": criterion, "ratio": ratio, "task": task, "solver": solver, "starts": starts, "dq": dq,
-             "dk": dk, "kmin": kmin, "kmax": kmax, "c": c, "first_rate_limit": first_rate_limit,
-             "first_starts": first_starts}
+    given = {
+        "criterion": criterion,
+        "ratio": ratio,
+        "task": task,
+        "solver": solver,
+        "starts": starts,
+        "dq": dq,
+        "dk": dk,
+        "kmin": kmin,
+        "kmax": kmax,
+        "c": c,
+        "first_rate_limit": first_rate_limit,
+        "first_starts": first_starts,
+    }
     values = {**dataclass_values(base), **{k: v for k, v in given.items() if v is not None}}
     robot_, spec_meta, bpath = _robot_and_path(robot, path)
-    inp = check_inputs(robot_, bpath, values, base, cms_volume=cms_volume, cms_major=cms_major, options=options,
-                       pos_tol=pos_tol)
+    inp = check_inputs(
+        robot_, bpath, values, base, cms_volume=cms_volume, cms_major=cms_major, options=options, pos_tol=pos_tol
+    )
     inp.robot_spec = spec_meta
     extra_starts = make_start_states(inp, q0, kj0)
     t_solve = time.perf_counter()
@@ -359,8 +435,12 @@ def shape(
     warn_off_plane(rep.position, bpath, inp.task, stacklevel=3)
     opts_meta = _options_meta(inp.solver, inp.starts, options)
     use = _first_starts_use(inp.solver, opts_meta, inp.first_starts, inp.first_rate_limit)
-    timing = {"setup": t_solve - t_start, "solve": t_solved - t_solve, "compile": arrays.get("compile_s"),
-              "total": time.perf_counter() - t_start}
+    timing = {
+        "setup": t_solve - t_start,
+        "solve": t_solved - t_solve,
+        "compile": arrays.get("compile_s"),
+        "total": time.perf_counter() - t_start,
+    }
     meta = shape_meta(inp, arrays, opts_meta, use, timing, DEFAULTS, interrupted, cpu_async_dispatch())
     if meta_extra:
         meta.update(dict(meta_extra))

@@ -30,8 +30,21 @@ from jaxstiff.settings.shape import ShapeSettings
 from jaxstiff.solvers.problem import WaypointProblem, compiled_report, content_seed
 from jaxstiff.stiffness.criteria import CRITERIA
 
-__all__ = ["ShapeInputs", "Report", "first_start_rng", "first_start_postures", "make_start_states", "report_at_solution", "cms_factors", "warn_off_plane", "shape_meta",
-           "array_units", "assemble_result", "FIRST_STARTS_SEED", "FIRST_STARTS_SPREAD_DEG"]
+__all__ = [
+    "ShapeInputs",
+    "Report",
+    "first_start_rng",
+    "first_start_postures",
+    "make_start_states",
+    "report_at_solution",
+    "cms_factors",
+    "warn_off_plane",
+    "shape_meta",
+    "array_units",
+    "assemble_result",
+    "FIRST_STARTS_SEED",
+    "FIRST_STARTS_SPREAD_DEG",
+]
 
 FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures, mixed with each path's own data
 FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg
@@ -86,8 +99,16 @@ def first_start_rng(seed: int, target: np.ndarray, direction: np.ndarray, q0: np
     return np.random.default_rng(np.random.SeedSequence([int(seed), content_seed(target, direction, q0)]))
 
 
-def first_start_postures(robot: Robot, points: np.ndarray, directions: np.ndarray, q0: np.ndarray, kj0: np.ndarray,
-                         count: int, task: str = "full", seed: int = FIRST_STARTS_SEED) -> list[tuple[np.ndarray, np.ndarray]]:
+def first_start_postures(
+    robot: Robot,
+    points: np.ndarray,
+    directions: np.ndarray,
+    q0: np.ndarray,
+    kj0: np.ndarray,
+    count: int,
+    task: str = "full",
+    seed: int = FIRST_STARTS_SEED,
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """``count`` extra start states ``(q, kj0)`` for a path's first waypoint (no rate limit there).
 
     Each posture is the position IK of the first waypoint from the nominal posture perturbed by up
@@ -112,7 +133,9 @@ def _start_states(robot: Robot, value: Any, B: int, what: str) -> np.ndarray:
     if a.ndim == 1:
         a = np.broadcast_to(a, (B, a.shape[0]))
     if a.ndim != 2 or a.shape != (B, robot.n):
-        raise ValueError(f"{what} must have {robot.n} values (one per joint of {robot.name!r}) or shape ({B}, {robot.n}), got shape {np.shape(value)}")
+        raise ValueError(
+            f"{what} must have {robot.n} values (one per joint of {robot.name!r}) or shape ({B}, {robot.n}), got shape {np.shape(value)}"
+        )
     if not np.all(np.isfinite(a)):
         idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
         where = f"joint {robot.joint_names[idx[-1]]!r}" + (f" of path {idx[0]}" if B > 1 else "")
@@ -150,8 +173,10 @@ def make_start_states(inp: ShapeInputs, q0: Any, kj0: Any) -> list[list[tuple[np
         bad = np.argwhere((inp.kj0 < inp.kmin) | (inp.kj0 > inp.kmax))
         if bad.size:
             bb, i = bad[0]
-            raise ValueError(f"kj0[{i}] = {inp.kj0[bb, i]:.6g} Nm/rad for joint {robot.joint_names[i]!r} is outside "
-                             f"[kmin, kmax] = [{inp.kmin:g}, {inp.kmax:g}]")
+            raise ValueError(
+                f"kj0[{i}] = {inp.kj0[bb, i]:.6g} Nm/rad for joint {robot.joint_names[i]!r} is outside "
+                f"[kmin, kmax] = [{inp.kmin:g}, {inp.kmax:g}]"
+            )
     with jax.enable_x64(True):
         inp.q0_given = q0 is not None
         if q0 is not None:
@@ -164,9 +189,12 @@ def make_start_states(inp: ShapeInputs, q0: Any, kj0: Any) -> list[list[tuple[np
                 inp.ik_error.append(e)
         if inp.first_rate_limit:
             return [[] for _ in range(B)]
-        return [first_start_postures(robot, bpath.points[b], bpath.directions[b], inp.q0[b], inp.kj0[b],
-                                     inp.first_starts - 1, inp.task) for b in range(B)]
-
+        return [
+            first_start_postures(
+                robot, bpath.points[b], bpath.directions[b], inp.q0[b], inp.kj0[b], inp.first_starts - 1, inp.task
+            )
+            for b in range(B)
+        ]
 
 
 @dataclasses.dataclass
@@ -181,21 +209,26 @@ class Report:
     criterion: np.ndarray
 
 
-def report_at_solution(problem: WaypointProblem, inp: ShapeInputs, arrays: Mapping[str, np.ndarray],
-                       ratios: np.ndarray) -> Report:
+def report_at_solution(
+    problem: WaypointProblem, inp: ShapeInputs, arrays: Mapping[str, np.ndarray], ratios: np.ndarray
+) -> Report:
     """Recompute the reported quantities at every solver's final points (a compile and B x P small
     calls, seconds: the command line's Ctrl-C waits for them rather than lose the solve)."""
     B, P, m = inp.path.B, inp.path.P, inp.m
-    pos, K, alpha, rho, f = (np.zeros((B * P, 3)), np.zeros((B * P, m, m)), np.zeros(B * P), np.zeros(B * P),
-                             np.zeros(B * P))
+    pos, K, alpha, rho, f = (
+        np.zeros((B * P, 3)),
+        np.zeros((B * P, m, m)),
+        np.zeros(B * P),
+        np.zeros(B * P),
+        np.zeros(B * P),
+    )
     with jax.enable_x64(True), deferred_interrupts():
         report = compiled_report(problem)
         for i, (b, p) in enumerate(np.ndindex(B, P)):
             x = np.asarray(problem.x_of(arrays["q"][b, p], arrays["kj"][b, p]))
             prm = WaypointProblem.params(inp.path.points[b, p], inp.path.directions[b, p], float(ratios[b]), inp.c)
             pos[i], K[i], alpha[i], rho[i], f[i] = problem.unpack_report(np.asarray(report(x, prm)))
-    return Report(pos.reshape(B, P, 3), K.reshape(B, P, m, m), alpha.reshape(B, P), rho.reshape(B, P),
-                  f.reshape(B, P))
+    return Report(pos.reshape(B, P, 3), K.reshape(B, P, m, m), alpha.reshape(B, P), rho.reshape(B, P), f.reshape(B, P))
 
 
 def cms_factors(K: np.ndarray, inp: ShapeInputs) -> np.ndarray:
@@ -231,11 +264,27 @@ def array_units(robot: Robot) -> dict[str, str]:
     prismatic = bool(np.any(robot.prismatic))
     joint = "rad (m for prismatic joints)" if prismatic else "rad"
     kj = "Nm/rad (N/m for prismatic joints)" if prismatic else "Nm/rad"
-    return {"q": joint, "kj": kj, "position": "m", "alpha_deg": "deg",
-            "stiffness": "N/m", "kj_scaled": kj, "cms": "1", "target": "m", "direction": "1 (unit vector)",
-            "pos_error": "m", "ratio": "1 (lambda1 / lambda2)", "criterion": "f1: deg; f2: 1", "q0": joint,
-            "kj0": kj, "time_s": "s", "status": "code (status_codes)", "solver_code": "code (solver_code_meaning)",
-            "nit": "iterations", "nfev": "evaluations"}
+    return {
+        "q": joint,
+        "kj": kj,
+        "position": "m",
+        "alpha_deg": "deg",
+        "stiffness": "N/m",
+        "kj_scaled": kj,
+        "cms": "1",
+        "target": "m",
+        "direction": "1 (unit vector)",
+        "pos_error": "m",
+        "ratio": "1 (lambda1 / lambda2)",
+        "criterion": "f1: deg; f2: 1",
+        "q0": joint,
+        "kj0": kj,
+        "time_s": "s",
+        "status": "code (status_codes)",
+        "solver_code": "code (solver_code_meaning)",
+        "nit": "iterations",
+        "nfev": "evaluations",
+    }
 
 
 def _settings_meta(inp: ShapeInputs) -> dict[str, Any]:
@@ -249,9 +298,16 @@ def _settings_meta(inp: ShapeInputs) -> dict[str, Any]:
     return out
 
 
-def shape_meta(inp: ShapeInputs, arrays: Mapping[str, Any], opts_meta: dict[str, Any], first_starts_use: str,
-               timing: dict[str, Any], defaults: Mapping[str, Any], interrupted: bool,
-               async_dispatch: bool) -> dict[str, Any]:
+def shape_meta(
+    inp: ShapeInputs,
+    arrays: Mapping[str, Any],
+    opts_meta: dict[str, Any],
+    first_starts_use: str,
+    timing: dict[str, Any],
+    defaults: Mapping[str, Any],
+    interrupted: bool,
+    async_dispatch: bool,
+) -> dict[str, Any]:
     """The ``meta`` record of a result file: every input, the defaults, the solver's settings
     (``opts_meta``: :func:`jaxstiff.solvers.base.options_meta`; ``first_starts_use``: what the
     solver does with the first waypoint's starts), timing and versions, and ``settings`` and
@@ -271,24 +327,41 @@ def shape_meta(inp: ShapeInputs, arrays: Mapping[str, Any], opts_meta: dict[str,
         "solver_driver": arrays.get("driver"),
         "solver_code_meaning": arrays.get("code_meaning"),
         "pos_tol": float(inp.pos_tol),
-        "limits": {"dq": inp.dq.tolist(), "dk": inp.dk.tolist(), "kmin": inp.kmin, "kmax": inp.kmax,
-                   "first_rate_limit": bool(first_rate_limit), "dq_unit": "rad per waypoint",
-                   "dk_unit": "Nm/rad per waypoint"},
-        "per_path": [k for k, v in (("ratio", inp.ratio), ("dq", inp.dq), ("dk", inp.dk))
-                     if np.ndim(v) > (0 if k == "ratio" else 1)],
-        "first_starts": {"count": inp.first_starts if not first_rate_limit else 1, "seed": FIRST_STARTS_SEED,
-                         "use": first_starts_use,
-                         "spread_deg": FIRST_STARTS_SPREAD_DEG,
-                         "rng": "numpy default_rng(SeedSequence([seed, crc32 of the path's target, direction "
-                                "(P, 3) and q0 (n,) as float64 bytes]))"},
-        "q0_source": "given" if inp.q0_given else
-        f"ik_dls from nominal posture (mid-range, + {NOMINAL_OFFSET_DEG:g} deg for revolute joints)",
+        "limits": {
+            "dq": inp.dq.tolist(),
+            "dk": inp.dk.tolist(),
+            "kmin": inp.kmin,
+            "kmax": inp.kmax,
+            "first_rate_limit": bool(first_rate_limit),
+            "dq_unit": "rad per waypoint",
+            "dk_unit": "Nm/rad per waypoint",
+        },
+        "per_path": [
+            k
+            for k, v in (("ratio", inp.ratio), ("dq", inp.dq), ("dk", inp.dk))
+            if np.ndim(v) > (0 if k == "ratio" else 1)
+        ],
+        "first_starts": {
+            "count": inp.first_starts if not first_rate_limit else 1,
+            "seed": FIRST_STARTS_SEED,
+            "use": first_starts_use,
+            "spread_deg": FIRST_STARTS_SPREAD_DEG,
+            "rng": "numpy default_rng(SeedSequence([seed, crc32 of the path's target, direction "
+            "(P, 3) and q0 (n,) as float64 bytes]))",
+        },
+        "q0_source": "given"
+        if inp.q0_given
+        else f"ik_dls from nominal posture (mid-range, + {NOMINAL_OFFSET_DEG:g} deg for revolute joints)",
         "q_nominal": nominal_posture(inp.robot).tolist(),
         "ik_error_m": inp.ik_error,
         "kj0_source": "given" if inp.kj0_given else "mid-range (kmin + kmax) / 2",
         "cms": {"target_volume": inp.cms_volume, "target_major": inp.cms_major},
-        "path": {"name": bpath.name, "B": bpath.B, "P": bpath.P,
-                 "default_spec": DEFAULT_PATH_SPEC if bpath.name == "default" else None},
+        "path": {
+            "name": bpath.name,
+            "B": bpath.B,
+            "P": bpath.P,
+            "default_spec": DEFAULT_PATH_SPEC if bpath.name == "default" else None,
+        },
         "defaults": dict(defaults),
         "settings": _settings_meta(inp),
         "status_codes": R.STATUS_NAMES,
@@ -303,8 +376,9 @@ def shape_meta(inp: ShapeInputs, arrays: Mapping[str, Any], opts_meta: dict[str,
     return meta
 
 
-def assemble_result(inp: ShapeInputs, arrays: Mapping[str, np.ndarray], rep: Report, cms: np.ndarray,
-                    meta: dict[str, Any]) -> R.ShapeResult:
+def assemble_result(
+    inp: ShapeInputs, arrays: Mapping[str, np.ndarray], rep: Report, cms: np.ndarray, meta: dict[str, Any]
+) -> R.ShapeResult:
     """The :class:`~jaxstiff.ShapeResult` (B, P, ...) of the solver's arrays and the report."""
     if inp.q0 is None or inp.kj0 is None:
         raise ValueError("the start states are made first (make_start_states)")
@@ -330,4 +404,3 @@ def assemble_result(inp: ShapeInputs, arrays: Mapping[str, np.ndarray], rep: Rep
         time_s=arrays["time_s"],
         meta=meta,
     )
-

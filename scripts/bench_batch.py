@@ -70,7 +70,12 @@ def main(argv=None) -> int:
     ap.add_argument("--P", type=int, default=100, help="waypoints per trajectory")
     ap.add_argument("--starts", type=int, default=4, help="pgd starts per waypoint")
     ap.add_argument("--iters", type=int, default=None, help="pgd iterations per start and waypoint (default: pgd's)")
-    ap.add_argument("--chunk", type=int, default=100, help="trajectories per compiled call (100 was faster than 250 on a 2-core CPU: 353 vs 307 wp/s, one run each, before the LM speed-up)")
+    ap.add_argument(
+        "--chunk",
+        type=int,
+        default=100,
+        help="trajectories per compiled call (100 was faster than 250 on a 2-core CPU: 353 vs 307 wp/s, one run each, before the LM speed-up)",
+    )
     ap.add_argument("--seed-paths", type=int, default=3, help="trajectories also solved with slsqp-fd")
     ap.add_argument("--criterion", default="f2")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
@@ -97,41 +102,74 @@ def main(argv=None) -> int:
     from jaxstiff.shaping import DEFAULTS, first_start_postures
 
     t_ik = time.perf_counter()
-    fs = [first_start_postures(robot, pts[b], dirs[b], q0[b], kj0[b], DEFAULTS["first_starts"] - 1) for b in range(args.B)]
+    fs = [
+        first_start_postures(robot, pts[b], dirs[b], q0[b], kj0[b], DEFAULTS["first_starts"] - 1) for b in range(args.B)
+    ]
     t_ik = time.perf_counter() - t_ik
-    res = pgd.solve_batch(prob, pts, dirs, q0, kj0, limits, 5.0, 0.01, starts=args.starts, options=opts, return_timing=True,
-                          first_starts=fs)
+    res = pgd.solve_batch(
+        prob,
+        pts,
+        dirs,
+        q0,
+        kj0,
+        limits,
+        5.0,
+        0.01,
+        starts=args.starts,
+        options=opts,
+        return_timing=True,
+        first_starts=fs,
+    )
     nwp = args.B * args.P
     usable = np.isin(res["status"], (0, 1, 2))
     peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
-    print(f"pgd: B={args.B} P={args.P} compile {res['compile_s']:.1f} s, run {res['run_s']:.1f} s, "
-          f"{nwp / res['run_s']:.0f} waypoints/s, peak RSS {peak_mib:.0f} MiB, usable {usable.mean():.4f}", flush=True)
+    print(
+        f"pgd: B={args.B} P={args.P} compile {res['compile_s']:.1f} s, run {res['run_s']:.1f} s, "
+        f"{nwp / res['run_s']:.0f} waypoints/s, peak RSS {peak_mib:.0f} MiB, usable {usable.mean():.4f}",
+        flush=True,
+    )
     # seed method on the first few of the same trajectories
     k = min(args.seed_paths, args.B)
     t0 = time.perf_counter()
-    ref = jaxstiff.shape(robot, jaxstiff.Path(pts[:k], dirs[:k]), args.criterion, 5.0, solver="slsqp-fd",
-                         q0=q0[:k], kj0=kj0[:k])
+    ref = jaxstiff.shape(
+        robot, jaxstiff.Path(pts[:k], dirs[:k]), args.criterion, 5.0, solver="slsqp-fd", q0=q0[:k], kj0=kj0[:k]
+    )
     t_fd = time.perf_counter() - t0
     fd_wps = k * args.P / ref.meta["timing_s"]["solve"]
     pgd_wps = nwp / res["run_s"]
     f_pgd, f_fd = res["criterion"][:k], ref.criterion
     ok = np.isin(ref.status, (0, 1, 2)) & usable[:k]
     out = {
-        "B": args.B, "P": args.P, "waypoints": nwp, "criterion": args.criterion, "starts": args.starts,
-        "iters": args.iters or "default", "chunk": args.chunk, "devices": str(jax.devices()),
-        "compile_s": round(res["compile_s"], 2), "run_s": round(res["run_s"], 2), "first_start_ik_s": round(t_ik, 2),
-        "pgd_waypoints_per_s": round(pgd_wps, 1), "peak_rss_mib": round(peak_mib, 1),
-        "pgd_usable_fraction": float(usable.mean()), "pgd_mean_criterion_all": float(res["criterion"][usable].mean()),
+        "B": args.B,
+        "P": args.P,
+        "waypoints": nwp,
+        "criterion": args.criterion,
+        "starts": args.starts,
+        "iters": args.iters or "default",
+        "chunk": args.chunk,
+        "devices": str(jax.devices()),
+        "compile_s": round(res["compile_s"], 2),
+        "run_s": round(res["run_s"], 2),
+        "first_start_ik_s": round(t_ik, 2),
+        "pgd_waypoints_per_s": round(pgd_wps, 1),
+        "peak_rss_mib": round(peak_mib, 1),
+        "pgd_usable_fraction": float(usable.mean()),
+        "pgd_mean_criterion_all": float(res["criterion"][usable].mean()),
         "pgd_median_criterion_all": float(np.median(res["criterion"][usable])),
-        "slsqp_fd_paths": k, "slsqp_fd_solve_s": round(ref.meta["timing_s"]["solve"], 2), "slsqp_fd_total_s": round(t_fd, 2),
-        "slsqp_fd_waypoints_per_s": round(fd_wps, 2), "speedup_per_waypoint": round(pgd_wps / fd_wps, 1),
+        "slsqp_fd_paths": k,
+        "slsqp_fd_solve_s": round(ref.meta["timing_s"]["solve"], 2),
+        "slsqp_fd_total_s": round(t_fd, 2),
+        "slsqp_fd_waypoints_per_s": round(fd_wps, 2),
+        "speedup_per_waypoint": round(pgd_wps / fd_wps, 1),
         "same_paths_mean_criterion_pgd": float(f_pgd[ok].mean()) if ok.any() else None,
         "same_paths_mean_criterion_slsqp_fd": float(f_fd[ok].mean()) if ok.any() else None,
         "same_paths_frac_pgd_le_fd": float(np.mean(f_pgd[ok] <= f_fd[ok] + 1e-6)) if ok.any() else None,
         "slsqp_fd_usable_fraction": float(np.isin(ref.status, (0, 1, 2)).mean()),
-        "loadavg_before": [round(x, 2) for x in load0], "loadavg_after": [round(x, 2) for x in os.getloadavg()],
-        "cpu_count": os.cpu_count(), "platform": platform.platform(),
+        "loadavg_before": [round(x, 2) for x in load0],
+        "loadavg_after": [round(x, 2) for x in os.getloadavg()],
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
     }
     w = max(len(k_) for k_ in out)
     for k_, v in out.items():

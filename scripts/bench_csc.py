@@ -36,7 +36,9 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions (best is reported)")
     ap.add_argument("--no-remat", action="store_true", help="store the scan residuals instead of recomputing them")
     ap.add_argument("--chunk", type=int, default=128, help="rollouts per vmap chunk (csc_rollout chunk=)")
-    ap.add_argument("--xla-defaults", action="store_true", help="compile with XLA's defaults, not jaxstiff's kernel options")
+    ap.add_argument(
+        "--xla-defaults", action="store_true", help="compile with XLA's defaults, not jaxstiff's kernel options"
+    )
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
     args = ap.parse_args(argv)
 
@@ -56,7 +58,9 @@ def main(argv=None) -> int:
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     path = jnp.asarray(default_path(n=args.steps).points, dtype=dt)
     # IK from a bent-elbow guess (as experiments/csc_lwr_path.py): clear of the joint limits
-    q_ik, err = ik_position(robot, np.asarray(path[0], dtype=float), q_start=np.deg2rad([-30.0, 30.0, 0.0, 90.0, 0.0, -30.0, 0.0]))
+    q_ik, err = ik_position(
+        robot, np.asarray(path[0], dtype=float), q_start=np.deg2rad([-30.0, 30.0, 0.0, 90.0, 0.0, -30.0, 0.0])
+    )
     assert float(err) < 1e-6, f"IK of the first waypoint failed: {float(err)}"
     rng = np.random.default_rng(0)
     B = args.batch
@@ -136,9 +140,11 @@ def main(argv=None) -> int:
     print(json.dumps(res, indent=2))
     goal_fwd = res["forward_s"] < 10.0
     goal_grad = res["grad_over_forward"] < 3.0
-    print(f"goal forward < 10 s: {'met' if goal_fwd else 'NOT met'}; gradient (forward + gradient) < 3x forward: "
-          f"{'met' if goal_grad else 'NOT met'} ({res['grad_over_forward']}x; the backward part alone "
-          f"{res['backward_only_over_forward']}x)")
+    print(
+        f"goal forward < 10 s: {'met' if goal_fwd else 'NOT met'}; gradient (forward + gradient) < 3x forward: "
+        f"{'met' if goal_grad else 'NOT met'} ({res['grad_over_forward']}x; the backward part alone "
+        f"{res['backward_only_over_forward']}x)"
+    )
     if args.json:
         with open(args.json + ".tmp", "w") as f:
             json.dump(res, f, indent=2)

@@ -37,7 +37,12 @@ import numpy as np
 def _parse(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--batch", type=int, default=100_000, help="configurations per call (default 1e5)")
-    p.add_argument("--repeats", type=int, default=7, help="timed calls per stage; the fastest is reported (the machine may be shared)")
+    p.add_argument(
+        "--repeats",
+        type=int,
+        default=7,
+        help="timed calls per stage; the fastest is reported (the machine may be shared)",
+    )
     p.add_argument("--task", default="full", choices=["full", "xyz"], help="translational stiffness task")
     p.add_argument("--ratio", type=float, default=5.0, help="r of f2")
     p.add_argument("--float32", action="store_true", help="run in float32 instead of float64")
@@ -156,8 +161,16 @@ def main(argv: list[str] | None = None) -> int:
                 times.append(time.perf_counter() - t0)
                 cpu.append(time.process_time() - c0)
             t = float(np.min(times))
-            rows.append({"stage": name, "seconds": t, "median_s": float(np.median(times)), "cpu_seconds": float(np.min(cpu)),
-                         "compile_s": t_compile, "configs_per_s": args.batch / t})
+            rows.append(
+                {
+                    "stage": name,
+                    "seconds": t,
+                    "median_s": float(np.median(times)),
+                    "cpu_seconds": float(np.min(cpu)),
+                    "compile_s": t_compile,
+                    "configs_per_s": args.batch / t,
+                }
+            )
             outs[name] = timed(q, kj, d)
         prev = 0.0
         total = rows[-1]["seconds"]
@@ -166,7 +179,9 @@ def main(argv: list[str] | None = None) -> int:
             row["share"] = row["stage_s"] / total
             prev = row["seconds"]
         print(f"\n{label}: batch {args.batch}, {np.dtype(dtype).name}, task {task!r}, fastest of {args.repeats} calls")
-        print(f"{'stage':<12} {'cumul. s':>10} {'stage s':>10} {'share':>7} {'configs/s':>12} {'CPU s':>8} {'compile s':>10}")
+        print(
+            f"{'stage':<12} {'cumul. s':>10} {'stage s':>10} {'share':>7} {'configs/s':>12} {'CPU s':>8} {'compile s':>10}"
+        )
         for row in rows:
             print(
                 f"{row['stage']:<12} {row['seconds']:>10.4f} {row['stage_s']:>10.4f} {row['share']:>6.1%} "
@@ -191,7 +206,9 @@ def main(argv: list[str] | None = None) -> int:
         rel = np.abs(f_l - f_val) / np.maximum(np.abs(f_l), 1.0)
         # f2 is smooth only where the posture is well conditioned; report the median and 99th percentile
         results["f2_rel_diff_vs_lapack"] = {"median": float(np.median(rel)), "p99": float(np.quantile(rel, 0.99))}
-        print(f"f2 closed form vs LAPACK, relative difference: median {np.median(rel):.2e}, p99 {np.quantile(rel, 0.99):.2e}")
+        print(
+            f"f2 closed form vs LAPACK, relative difference: median {np.median(rel):.2e}, p99 {np.quantile(rel, 0.99):.2e}"
+        )
 
     results["meta"] = {
         "batch": args.batch,

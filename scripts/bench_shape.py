@@ -47,8 +47,11 @@ def main(argv=None) -> int:
     ap.add_argument("--ratio", type=float, default=5.0)
     ap.add_argument("--skip-runs", action="store_true", help="only measurement 1 (same waypoint problems)")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
-    ap.add_argument("--async-dispatch", action="store_true",
-                    help="keep JAX's asynchronous CPU dispatch (default: inline, see prefer_sync_cpu_dispatch)")
+    ap.add_argument(
+        "--async-dispatch",
+        action="store_true",
+        help="keep JAX's asynchronous CPU dispatch (default: inline, see prefer_sync_cpu_dispatch)",
+    )
     args = ap.parse_args(argv)
 
     from jaxstiff.runtime.x64 import enable_x64
@@ -170,22 +173,34 @@ def main(argv=None) -> int:
         "ratio": r,
         "P": P,
     }
-    print(f"bench_shape: default path, {P} waypoints, {args.criterion}, r = {r:g}; {env['device']}, "
-          f"{env['cores']} cores, load {load0[0]:.1f} -> {env['loadavg_end'][0]:.1f}; compile {compile_s:.1f} s (apart); "
-          f"JAX CPU dispatch {'inline' if sync else 'async'}")
+    print(
+        f"bench_shape: default path, {P} waypoints, {args.criterion}, r = {r:g}; {env['device']}, "
+        f"{env['cores']} cores, load {load0[0]:.1f} -> {env['loadavg_end'][0]:.1f}; compile {compile_s:.1f} s (apart); "
+        f"JAX CPU dispatch {'inline' if sync else 'async'}"
+    )
     print("\n1. same waypoint problems (waypoints 2..P, interleaved)")
     print(f"{'':34}{'slsqp (JAX)':>14}{'slsqp-fd (seed)':>18}")
-    print(f"{'median time per waypoint (ms)':34}{same['slsqp_ms_per_waypoint']:>14.2f}{same['fd_ms_per_waypoint']:>18.1f}")
-    print(f"{'  slsqp via scipy minimize (ms)':34}{same['slsqp_via_minimize_ms_per_waypoint']:>14.2f}"
-          f"{'':>18}  ({same['speedup_via_minimize']:.1f}x; same iterates, scipy's wrappers)")
-    print(f"{'median objective evals/waypoint':34}{same['slsqp_evals_per_waypoint']:>14.0f}{same['fd_evals_per_waypoint']:>18.0f}")
+    print(
+        f"{'median time per waypoint (ms)':34}{same['slsqp_ms_per_waypoint']:>14.2f}{same['fd_ms_per_waypoint']:>18.1f}"
+    )
+    print(
+        f"{'  slsqp via scipy minimize (ms)':34}{same['slsqp_via_minimize_ms_per_waypoint']:>14.2f}"
+        f"{'':>18}  ({same['speedup_via_minimize']:.1f}x; same iterates, scipy's wrappers)"
+    )
+    print(
+        f"{'median objective evals/waypoint':34}{same['slsqp_evals_per_waypoint']:>14.0f}{same['fd_evals_per_waypoint']:>18.0f}"
+    )
     print(f"{'median SLSQP iterations':34}{same['slsqp_iterations']:>14.0f}{same['fd_iterations']:>18.0f}")
     print(f"{'median criterion reached':34}{same['slsqp_median_criterion']:>14.8f}{same['fd_median_criterion']:>18.8f}")
     print(f"{'share converged (SLSQP mode 0)':34}{same['slsqp_converged']:>14.0%}{same['fd_converged']:>18.0%}")
-    print(f"speed-up: {same['speedup_of_medians']:.1f}x (ratio of medians), {same['speedup_median_per_waypoint']:.1f}x "
-          f"(median of per-waypoint ratios), {same['speedup_total_time']:.1f}x (total time)")
-    print(f"quality: FD's criterion >= slsqp's (-1e-9) on {same['share_fd_criterion_not_better']:.0%} of the problems; "
-          f"largest slsqp - FD gap {same['max_criterion_gap_slsqp_minus_fd']:.2e}")
+    print(
+        f"speed-up: {same['speedup_of_medians']:.1f}x (ratio of medians), {same['speedup_median_per_waypoint']:.1f}x "
+        f"(median of per-waypoint ratios), {same['speedup_total_time']:.1f}x (total time)"
+    )
+    print(
+        f"quality: FD's criterion >= slsqp's (-1e-9) on {same['share_fd_criterion_not_better']:.0%} of the problems; "
+        f"largest slsqp - FD gap {same['max_criterion_gap_slsqp_minus_fd']:.2e}"
+    )
     if runs:
         print("\n2. whole runs along the path (each solver its own trajectory; sequential, not interleaved)")
         print(f"{'':34}{'slsqp (JAX)':>14}{'slsqp-fd (seed)':>18}")
@@ -201,7 +216,9 @@ def main(argv=None) -> int:
             ("wall_s", "{:.1f}", "wall time incl. setup (s)"),
         ]:
             print(f"{label:34}{fmt.format(runs['slsqp'][key]):>14}{fmt.format(runs['slsqp-fd'][key]):>18}")
-        print(f"whole-run speed-up (medians): {runs['slsqp-fd']['median_ms_per_waypoint'] / runs['slsqp']['median_ms_per_waypoint']:.1f}x")
+        print(
+            f"whole-run speed-up (medians): {runs['slsqp-fd']['median_ms_per_waypoint'] / runs['slsqp']['median_ms_per_waypoint']:.1f}x"
+        )
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"env": env, "same_problems": same, "runs": runs}, fh, indent=2)

@@ -266,8 +266,10 @@ def scan_from(node: ast.ImportFrom, kind: str, ctx: Context, out: FileScan) -> N
     base = from_base(node, ctx)
     if base is None:
         if node.level and ctx.package is not None:  # more dots than the package is deep
-            out.unresolved.append(f"{ctx.importer}:{node.lineno} from {'.' * node.level}"
-                                  f"{node.module or ''} import ... (above the top package)")
+            out.unresolved.append(
+                f"{ctx.importer}:{node.lineno} from {'.' * node.level}"
+                f"{node.module or ''} import ... (above the top package)"
+            )
         return
     for alias in node.names:
         sub = f"{base}.{alias.name}"
@@ -279,8 +281,9 @@ def scan_from(node: ast.ImportFrom, kind: str, ctx: Context, out: FileScan) -> N
             if is_private(alias.name) and base != ctx.importer:
                 out.private.append(PrivateUse(ctx.importer, base, alias.name, node.lineno, "import"))
         else:
-            out.unresolved.append(f"{ctx.importer}:{node.lineno} from {'.' * node.level}"
-                                  f"{node.module or ''} import {alias.name}")
+            out.unresolved.append(
+                f"{ctx.importer}:{node.lineno} from {'.' * node.level}{node.module or ''} import {alias.name}"
+            )
 
 
 def scan_import(node: ast.Import, kind: str, ctx: Context, out: FileScan) -> None:
@@ -427,8 +430,9 @@ def describe_cycle(members: list[str], edges: Sequence[Edge], eager: list[list[s
 # ------------------------------------------------------------------------------- functions
 def is_staticmethod(node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
     """True when decorated with ``staticmethod`` (its first parameter is a real one)."""
-    names = [d.id if isinstance(d, ast.Name) else d.attr if isinstance(d, ast.Attribute) else ""
-             for d in node.decorator_list]
+    names = [
+        d.id if isinstance(d, ast.Name) else d.attr if isinstance(d, ast.Attribute) else "" for d in node.decorator_list
+    ]
     return "staticmethod" in names
 
 
@@ -457,8 +461,7 @@ class DefVisitor(ast.NodeVisitor):
         params = [*args.posonlyargs, *args.args, *args.kwonlyargs]
         params += [a for a in (args.vararg, args.kwarg) if a is not None]
         positional = [*args.posonlyargs, *args.args]
-        if self._in_class[-1] and positional and positional[0].arg in ("self", "cls") \
-                and not is_staticmethod(node):
+        if self._in_class[-1] and positional and positional[0].arg in ("self", "cls") and not is_staticmethod(node):
             params.remove(positional[0])
         qualname = ".".join([*self._names, node.name])
         lines = (node.end_lineno or node.lineno) - node.lineno + 1
@@ -517,10 +520,12 @@ def function_metrics(modules: dict[str, SourceFile]) -> dict[str, Any]:
         "long_functions": [asdict(f) for f in long],
         "long_function_count": len(long),
         "functions_at_least_earlier_threshold": sum(f.lines >= EARLIER_LONG_FUNCTION for f in infos),
-        "not_nested_at_least_earlier_threshold": sum(f.lines >= EARLIER_LONG_FUNCTION and not f.nested
-                                                     for f in infos),
-        "parameters": {"total": params, "annotated": annotated,
-                       "percent": round(100.0 * annotated / params, 1) if params else None},
+        "not_nested_at_least_earlier_threshold": sum(f.lines >= EARLIER_LONG_FUNCTION and not f.nested for f in infos),
+        "parameters": {
+            "total": params,
+            "annotated": annotated,
+            "percent": round(100.0 * annotated / params, 1) if params else None,
+        },
     }
 
 
@@ -585,8 +590,12 @@ def collect(package_dir: Path, tests_dir: Path | None) -> dict[str, Any]:
 def cycle_lines(report: dict[str, Any]) -> list[str]:
     """The table section for import cycles and the import edges behind them."""
     cycles = report["cycles"]
-    out = [(f"Import cycles (SCCs > 1; a package name stands for its __init__): {len(cycles)}   "
-            f"(import-time, module-level edges only: {report['eager_cycle_count']})")]
+    out = [
+        (
+            f"Import cycles (SCCs > 1; a package name stands for its __init__): {len(cycles)}   "
+            f"(import-time, module-level edges only: {report['eager_cycle_count']})"
+        )
+    ]
     for i, cyc in enumerate(cycles, 1):
         tag = "import-time" if cyc["eager"] else "closed only by deferred/TYPE_CHECKING imports"
         out.append(f"  {i}. [{len(cyc['members'])}] {' <-> '.join(cyc['members'])}  ({tag})")
@@ -612,13 +621,19 @@ def private_lines(title: str, section: dict[str, Any]) -> list[str]:
 
 def size_lines(report: dict[str, Any]) -> list[str]:
     """The table sections for long functions, long modules and annotated parameters."""
-    out = [(f"Functions longer than {LONG_FUNCTION} lines: {report['long_function_count']} "
+    out = [
+        (
+            f"Functions longer than {LONG_FUNCTION} lines: {report['long_function_count']} "
             f"(>= {EARLIER_LONG_FUNCTION} lines: {report['functions_at_least_earlier_threshold']}, "
             f"{report['not_nested_at_least_earlier_threshold']} of them not nested; "
-            f"{report['functions']} functions in all)")]
+            f"{report['functions']} functions in all)"
+        )
+    ]
     out += [f"  {f['lines']:5d}  {f['module']}:{f['line']} {f['qualname']}" for f in report["long_functions"]]
-    out.append(f"Modules longer than {LONG_MODULE} lines: {len(report['long_modules'])} "
-               f"(> {EARLIER_LONG_MODULE} lines: {report['modules_over_earlier_threshold']})")
+    out.append(
+        f"Modules longer than {LONG_MODULE} lines: {len(report['long_modules'])} "
+        f"(> {EARLIER_LONG_MODULE} lines: {report['modules_over_earlier_threshold']})"
+    )
     out += [f"  {m['lines']:5d}  {m['module']}" for m in report["long_modules"]]
     p = report["parameters"]
     percent = "n/a" if p["percent"] is None else f"{p['percent']}%"
@@ -628,8 +643,7 @@ def size_lines(report: dict[str, Any]) -> list[str]:
 
 def format_table(report: dict[str, Any]) -> str:
     """The whole report as plain text."""
-    out = [f"Package: {report['package']}",
-           f"Modules: {report['modules']}   Lines (physical): {report['total_lines']}"]
+    out = [f"Package: {report['package']}", f"Modules: {report['modules']}   Lines (physical): {report['total_lines']}"]
     if report["parse_errors"]:
         out.append(f"Files that do not parse (skipped): {len(report['parse_errors'])}")
         out += [f"  {e}" for e in report["parse_errors"]]
@@ -646,8 +660,9 @@ def check_failures(report: dict[str, Any]) -> list[str]:
     failures = [f"import cycle: {' <-> '.join(c['members'])}" for c in report["cycles"]]
     sections = [report["private_imports"], report.get("tests_private_imports", {"occurrences": []})]
     for section in sections:
-        failures += [f"private import: {u['importer']}:{u['line']} -> {u['module']}.{u['name']}"
-                     for u in section["occurrences"]]
+        failures += [
+            f"private import: {u['importer']}:{u['line']} -> {u['module']}.{u['name']}" for u in section["occurrences"]
+        ]
     return failures
 
 
@@ -658,8 +673,9 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--package", type=Path, default=default, help=f"package folder (default {default})")
     parser.add_argument("--tests", type=Path, default=None, help="tests folder: report its private imports")
     parser.add_argument("--json", action="store_true", help="print the metrics as JSON")
-    parser.add_argument("--check", action="store_true",
-                        help="exit 1 when there is an import cycle or a cross-module private import")
+    parser.add_argument(
+        "--check", action="store_true", help="exit 1 when there is an import cycle or a cross-module private import"
+    )
     return parser.parse_args(argv)
 
 

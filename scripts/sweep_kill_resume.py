@@ -90,8 +90,10 @@ def main(argv: list[str] | None = None) -> int:
     t_killed = time.perf_counter() - t0
     before = _rows_files(b)
     leftovers = [f for sub in ("arrays", "chunks") for f in os.listdir(os.path.join(b, sub)) if f.startswith(".tmp-")]
-    print(f"killed after {t_killed:.1f} s with {len(before)}/{n_chunks} chunks committed "
-          f"({len(leftovers)} temporary files left by the kill)")
+    print(
+        f"killed after {t_killed:.1f} s with {len(before)}/{n_chunks} chunks committed "
+        f"({len(leftovers)} temporary files left by the kill)"
+    )
 
     t0 = time.perf_counter()
     subprocess.run(_cmd(args.config, b, "--resume"), env=env, check=True, stdout=subprocess.DEVNULL)
@@ -116,14 +118,21 @@ def main(argv: list[str] | None = None) -> int:
         "finished_chunks_unchanged": all(after.get(f) == h for f, h in before.items()),
         "no_finished_chunk_recomputed": not recomputed,
         "resume_computed_exactly_the_missing": sorted(resumed["computed"]) == missing,
-        "no_temporary_files_after_resume": not any(f.startswith(".tmp-") for sub in ("arrays", "chunks")
-                                                   for f in os.listdir(os.path.join(b, sub))),
+        "no_temporary_files_after_resume": not any(
+            f.startswith(".tmp-") for sub in ("arrays", "chunks") for f in os.listdir(os.path.join(b, sub))
+        ),
     }
     numbers = {
-        "config": os.path.relpath(args.config, REPO), "rows": plan.n_rows, "chunks": n_chunks,
-        "uninterrupted_s": round(t_full, 2), "killed_after_s": round(t_killed, 2),
-        "chunks_committed_at_kill": len(before), "temporary_files_left_by_kill": len(leftovers), "resume_s": round(t_resume, 2),
-        "resume_computed_chunks": len(resumed["computed"]), "checks": checks,
+        "config": os.path.relpath(args.config, REPO),
+        "rows": plan.n_rows,
+        "chunks": n_chunks,
+        "uninterrupted_s": round(t_full, 2),
+        "killed_after_s": round(t_killed, 2),
+        "chunks_committed_at_kill": len(before),
+        "temporary_files_left_by_kill": len(leftovers),
+        "resume_s": round(t_resume, 2),
+        "resume_computed_chunks": len(resumed["computed"]),
+        "checks": checks,
         "machine": f"{platform.platform()}, {os.cpu_count()} CPUs",
     }
     print(f"resume: {t_resume:.1f} s, computed {len(resumed['computed'])} chunks (missing were {len(missing)})")

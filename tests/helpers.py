@@ -24,7 +24,10 @@ def central_diff(f, x, h=1e-6):
     for i in range(x.size):
         e = np.zeros_like(x)
         e[i] = h
-        out[:, i] = (np.atleast_1d(np.asarray(f(x + e), dtype=float)).ravel() - np.atleast_1d(np.asarray(f(x - e), dtype=float)).ravel()) / (2 * h)
+        out[:, i] = (
+            np.atleast_1d(np.asarray(f(x + e), dtype=float)).ravel()
+            - np.atleast_1d(np.asarray(f(x - e), dtype=float)).ravel()
+        ) / (2 * h)
     return out
 
 

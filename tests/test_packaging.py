@@ -19,7 +19,9 @@ def test_every_subpackage_is_listed_in_pyproject():
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
     on_disk = {".".join(p.parent.relative_to(ROOT).parts) for p in (ROOT / "jaxstiff").rglob("__init__.py")}
     assert on_disk - listed == set(), f"subpackages missing from pyproject.toml's packages: {sorted(on_disk - listed)}"
-    assert listed - on_disk == {"jaxstiff.urdf"}, f"listed but not in the tree: {sorted(listed - on_disk - {'jaxstiff.urdf'})}"
+    assert listed - on_disk == {"jaxstiff.urdf"}, (
+        f"listed but not in the tree: {sorted(listed - on_disk - {'jaxstiff.urdf'})}"
+    )
 
 
 def test_shipped_robots_are_package_data():

@@ -16,7 +16,9 @@ def broadcast_batch(*named_shapes: tuple[str, tuple[int, ...]]) -> tuple[int, ..
     try:
         return tuple(int(d) for d in jnp.broadcast_shapes(*(s for _, s in named_shapes)))
     except ValueError:
-        raise ValueError("batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)) from None
+        raise ValueError(
+            "batch axes do not broadcast: " + ", ".join(f"{n} {tuple(s)}" for n, s in named_shapes)
+        ) from None
 
 
 def known_floats(x: object, what: str | None = None) -> np.ndarray | None:

@@ -10,5 +10,14 @@ from .common import robot_spec_from_args as robot_spec_from_args
 from .main import build_parser as build_parser
 from .main import main as main
 
-__all__ = ["COMMANDS", "TIP_LINK_HELP", "add_robot_flags", "build_parser", "check_out_file", "command", "main",
-           "parse_locks", "robot_spec_from_args"]
+__all__ = [
+    "COMMANDS",
+    "TIP_LINK_HELP",
+    "add_robot_flags",
+    "build_parser",
+    "check_out_file",
+    "command",
+    "main",
+    "parse_locks",
+    "robot_spec_from_args",
+]

@@ -59,21 +59,27 @@ def parse_locks(items: list[str] | None) -> dict[str, float]:
 
 
 #: --tip-link's help, shared by the commands that read a chain (Robot.from_urdf's rule)
-TIP_LINK_HELP = "last link of the chain (default: the leaf reached through the most actuated joints; an error if several tie)"
+TIP_LINK_HELP = (
+    "last link of the chain (default: the leaf reached through the most actuated joints; an error if several tie)"
+)
 
 
 def check_out_file(out: str, flag: str = "--out") -> str:
     """The result file of a command, checked before any work: a file name (``.npz`` added when
     missing) in an existing, writable folder, and not an existing folder. Returns the absolute path."""
     if out.strip() and os.path.isdir(out):  # checked before ".npz" is added: the folder itself was meant
-        raise ValueError(f"{flag}: {os.path.abspath(out)} is a folder; give a file name inside it, like "
-                         f"{os.path.join(out, 'result.npz')}")
+        raise ValueError(
+            f"{flag}: {os.path.abspath(out)} is a folder; give a file name inside it, like "
+            f"{os.path.join(out, 'result.npz')}"
+        )
     name = out if out.endswith(".npz") else out + ".npz"
     if not out.strip() or os.path.basename(name) == ".npz" or out.endswith(("/", os.sep)):
         raise ValueError(f"{flag}: expected a file name like result.npz, got {out!r}")
     path = os.path.abspath(name)
     if os.path.isdir(path):
-        raise ValueError(f"{flag}: {path} is a folder; give a file name inside it, like {os.path.join(out, 'result.npz')}")
+        raise ValueError(
+            f"{flag}: {path} is a folder; give a file name inside it, like {os.path.join(out, 'result.npz')}"
+        )
     folder = os.path.dirname(path)
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"{flag}: folder does not exist: {folder}")
@@ -113,12 +119,20 @@ def add_robot_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"URDF file or shipped robot name (default: {DEFAULT_ROBOT})")
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
     p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
-    p.add_argument("--lock", action="append", metavar="JOINT=VALUE",
-                   help=f"lock a joint at a value, rad (m for a prismatic joint); repeatable. Default: the shipped "
-                        f"robot's locks ({shipped}; seed 000), none for other URDFs; '--lock none' frees every joint")
-    p.add_argument("--tcp", default=None, metavar="X,Y,Z[,ROLL,PITCH,YAW]",
-                   help="tool offset after the tip link, in the tip frame: m, and rad for the URDF-style "
-                        "roll-pitch-yaw rotation (default: none)")
+    p.add_argument(
+        "--lock",
+        action="append",
+        metavar="JOINT=VALUE",
+        help=f"lock a joint at a value, rad (m for a prismatic joint); repeatable. Default: the shipped "
+        f"robot's locks ({shipped}; seed 000), none for other URDFs; '--lock none' frees every joint",
+    )
+    p.add_argument(
+        "--tcp",
+        default=None,
+        metavar="X,Y,Z[,ROLL,PITCH,YAW]",
+        help="tool offset after the tip link, in the tip frame: m, and rad for the URDF-style "
+        "roll-pitch-yaw rotation (default: none)",
+    )
 
 
 def setting_help(cls: Any, name: str, unit: str | None = None, extra: str = "") -> str:
@@ -138,7 +152,9 @@ def robot_spec_from_args(args: argparse.Namespace) -> RobotSpec:
     if args.tcp is not None:
         tcp = tuple(parse_floats(args.tcp, "--tcp"))
         if len(tcp) not in (3, 6):
-            raise ValueError(f"--tcp expects 3 values x,y,z (m) or 6 values x,y,z,roll,pitch,yaw (m, rad), got {args.tcp!r}")
+            raise ValueError(
+                f"--tcp expects 3 values x,y,z (m) or 6 values x,y,z,roll,pitch,yaw (m, rad), got {args.tcp!r}"
+            )
     try:
         return RobotSpec(urdf=args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=locked, tcp=tcp)
     except ValueError as e:

@@ -83,7 +83,8 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
         if len(angle) != 1 or len(vals) not in (2, 3) or (want is not None and len(vals) != want):
             raise ValueError(
                 f"--kxd {text!r}: the K1,...,Km@DEG form needs m = 2 or 3 diagonal values"
-                + (f" (m = {want} for task {task!r})" if want else "") + " and one angle in degrees"
+                + (f" (m = {want} for task {task!r})" if want else "")
+                + " and one angle in degrees"
             )
         c, s = math.cos(math.radians(angle[0])), math.sin(math.radians(angle[0]))
         R = np.array([[c, -s], [s, c]]) if len(vals) == 2 else np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -98,7 +99,8 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
     else:
         raise ValueError(
             f"--kxd {text!r}: give m diagonal values K1,...,Km[@DEG] or m*m matrix entries, m = 2, 3 or 6"
-            + (f" (m = {want} for task {task!r})" if want else "") + f"; got {len(vals)} numbers"
+            + (f" (m = {want} for task {task!r})" if want else "")
+            + f"; got {len(vals)} numbers"
         )
     w = np.linalg.eigvalsh(0.5 * (K + K.T))
     if w[0] < -1e-9 * np.max(np.abs(w)):  # as csc_rollout: a zero stiffness along an axis is allowed
@@ -111,14 +113,27 @@ def _warn_ignored_z(robot: Any, q0: np.ndarray, z: np.ndarray, flag: str) -> Non
     z_tcp = float(np.asarray(robot.fk(q0))[2, 3])
     dz = float(np.max(np.abs(z - z_tcp)))
     if not dz <= TRACKING_WARN_M:
-        print(f"jaxstiff: warning: task 'xy' tracks x and y only: the z of {flag} (up to {dz:.3g} m from the "
-              f"start TCP's z = {z_tcp:.3g} m) is ignored", file=sys.stderr)
+        print(
+            f"jaxstiff: warning: task 'xy' tracks x and y only: the z of {flag} (up to {dz:.3g} m from the "
+            f"start TCP's z = {z_tcp:.3g} m) is ignored",
+            file=sys.stderr,
+        )
 
 
 #: the settings flags of `jaxstiff csc`: CSCSettings field -> flag (defaults, units and help from the field)
-SETTING_FLAGS = {"beta": "--beta", "step": "--step", "task": "--task", "kmin": "--kmin", "kmax": "--kmax", "nu0": "--nu0",
-                 "damping": "--damping", "null_eps": "--null-eps", "newton": "--newton", "joint_limits": "--joint-limits",
-                 "jl_gain": "--jl-gain"}
+SETTING_FLAGS = {
+    "beta": "--beta",
+    "step": "--step",
+    "task": "--task",
+    "kmin": "--kmin",
+    "kmax": "--kmax",
+    "nu0": "--nu0",
+    "damping": "--damping",
+    "null_eps": "--null-eps",
+    "newton": "--newton",
+    "joint_limits": "--joint-limits",
+    "jl_gain": "--jl-gain",
+}
 
 _EPILOG = (
     "Result file (--out, .npz, numpy.load(..., allow_pickle=False)); B paths (1 for --hold), T steps, n joints, "
@@ -141,8 +156,13 @@ def add_setting_flags(p: argparse.ArgumentParser) -> None:
         kind: Any = int if info.name == "newton" else str if info.choices else float
         choices = [c for c in info.choices if c is not None] if info.choices else None
         unit = f" [{info.unit}]" if info.unit and info.unit != "1" else ""
-        shown = "" if info.default is None else f" (default: {info.default:g})" if isinstance(info.default, float) \
+        shown = (
+            ""
+            if info.default is None
+            else f" (default: {info.default:g})"
+            if isinstance(info.default, float)
             else f" (default: {info.default})"
+        )
         help_text = info.doc + unit + shown
         p.add_argument(flag, type=kind, choices=choices, default=info.default, help=help_text)
 
@@ -174,14 +194,25 @@ def _add_csc(p: argparse.ArgumentParser):
     p.epilog = _EPILOG
     add_robot_flags(p)
     src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--path", action="append", metavar="CSV",
-                     help="path CSV (header x,y,z[,dx,dy,dz]; m, base frame; directions unused), one step per row (a repeated row holds still); repeat for a batch")
+    src.add_argument(
+        "--path",
+        action="append",
+        metavar="CSV",
+        help="path CSV (header x,y,z[,dx,dy,dz]; m, base frame; directions unused), one step per row (a repeated row holds still); repeat for a batch",
+    )
     src.add_argument("--hold", metavar="X,Y[,Z]", help="hold the TCP at this point (m) for --steps steps")
     p.add_argument("--steps", type=int, default=1000, help="steps with --hold")
-    p.add_argument("--kxd", required=True,
-                   help="desired Cartesian stiffness, N/m: 'K1,...,Km[@DEG]' (R_z(DEG) diag(K) R_z^T) or m*m entries")
+    p.add_argument(
+        "--kxd",
+        required=True,
+        help="desired Cartesian stiffness, N/m: 'K1,...,Km[@DEG]' (R_z(DEG) diag(K) R_z^T) or m*m entries",
+    )
     q0 = p.add_mutually_exclusive_group(required=True)
-    q0.add_argument("--q0", metavar="RAD,...", help="start posture, rad; m for prismatic joints (locked joints: their locked values)")
+    q0.add_argument(
+        "--q0",
+        metavar="RAD,...",
+        help="start posture, rad; m for prismatic joints (locked joints: their locked values)",
+    )
     q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees (prismatic joints: m)")
     add_setting_flags(p)
     p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)")
@@ -198,15 +229,19 @@ def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, st
             q0 = np.where(robot.prismatic, q0, np.deg2rad(q0))
     flag = "--q0" if args.q0 is not None else "--q0-deg"
     if q0.shape != (robot.n,):
-        raise ValueError(f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}")
+        raise ValueError(
+            f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}"
+        )
     lv = robot.locked_values
     for i in np.flatnonzero(~robot.free):  # the help: locked joints take their locked values
         given = q0[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(q0[i])
         want = lv[i] if args.q0 is not None or robot.prismatic[i] else np.rad2deg(lv[i])
         if not abs(given - want) <= (1e-9 if args.q0 is not None else 1e-3):
             unit = "m" if robot.prismatic[i] else ("rad" if args.q0 is not None else "deg")
-            raise ValueError(f"{flag} gives joint {robot.joint_names[i]!r} {given:.10g} {unit}, but it is locked at "
-                             f"{want:.10g} {unit}: give the locked value there (or change --lock)")
+            raise ValueError(
+                f"{flag} gives joint {robot.joint_names[i]!r} {given:.10g} {unit}, but it is locked at "
+                f"{want:.10g} {unit}: give the locked value there (or change --lock)"
+            )
     return np.where(robot.free, q0, np.nan_to_num(lv)), flag
 
 
@@ -243,18 +278,23 @@ def _notes(args: argparse.Namespace, settings: CSCSettings) -> list[str]:
     """Warnings about the settings, printed once the inputs are known to be valid."""
     notes = []
     if args.hold is not None and settings.step == "adaptive":
-        notes.append("--hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero while the "
-                     "target stands still, so the arm will not move to lower u; use --step constant (beta = rad per "
-                     "step, e.g. --beta 2e-3)")
+        notes.append(
+            "--hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero while the "
+            "target stands still, so the arm will not move to lower u; use --step constant (beta = rad per "
+            "step, e.g. --beta 2e-3)"
+        )
     if settings.joint_limits != "off" and settings.resolved_jl_gain == 0:
-        notes.append(f"--joint-limits {settings.joint_limits} with --jl-gain 0 does nothing (the avoidance is scaled by the gain)")
+        notes.append(
+            f"--joint-limits {settings.joint_limits} with --jl-gain 0 does nothing (the avoidance is scaled by the gain)"
+        )
     if settings.joint_limits == "off" and settings.jl_gain:
         notes.append("--jl-gain is unused with --joint-limits off")
     return notes
 
 
-def _rollout(robot: Any, points: np.ndarray, K: np.ndarray, q0: np.ndarray, settings: CSCSettings,
-             notes: list[str]) -> tuple[Any, bool, float]:
+def _rollout(
+    robot: Any, points: np.ndarray, K: np.ndarray, q0: np.ndarray, settings: CSCSettings, notes: list[str]
+) -> tuple[Any, bool, float]:
     """The rollout in segments (a progress line each); an interrupt keeps the finished ones.
     Returns ``(result, interrupted, seconds)``."""
     from jaxstiff.csc import CSCInterrupted, csc_rollout_segments
@@ -264,25 +304,50 @@ def _rollout(robot: Any, points: np.ndarray, K: np.ndarray, q0: np.ndarray, sett
     L = segment_steps(B, T)
     interrupted = False
     try:
-        res = csc_rollout_segments(robot, points, K, q0, settings.beta, segment_steps=L,
-                                   progress=StepProgress(B, T, L, notes), settings=settings)
+        res = csc_rollout_segments(
+            robot,
+            points,
+            K,
+            q0,
+            settings.beta,
+            segment_steps=L,
+            progress=StepProgress(B, T, L, notes),
+            settings=settings,
+        )
     except CSCInterrupted as e:
         res, interrupted = e.result, True
     except KeyboardInterrupt:
-        print("\njaxstiff: nothing was written (the interrupt came before the first "
-              + ("segment" if L < T else "and only compiled run") + " was finished)", file=sys.stderr)
+        print(
+            "\njaxstiff: nothing was written (the interrupt came before the first "
+            + ("segment" if L < T else "and only compiled run")
+            + " was finished)",
+            file=sys.stderr,
+        )
         raise
     return res, interrupted, time.perf_counter() - t0
 
 
-def _meta(args: argparse.Namespace, spec: Any, robot: Any, settings: CSCSettings, K: np.ndarray, q0: np.ndarray,
-          flag: str, sources: list[str], T_done: int, T: int) -> dict[str, Any]:
+def _meta(
+    args: argparse.Namespace,
+    spec: Any,
+    robot: Any,
+    settings: CSCSettings,
+    K: np.ndarray,
+    q0: np.ndarray,
+    flag: str,
+    sources: list[str],
+    T_done: int,
+    T: int,
+) -> dict[str, Any]:
     """The result file's ``meta`` record (every input and default, units, versions)."""
     from jaxstiff.csc import STATUS_NAMES
     from jaxstiff.csc.result import array_units
     from jaxstiff.settings.robot import robot_meta, versions
 
-    used = {k: settings.task if k == "task" else getattr(settings, k) for k in ("task", "step", "kmin", "kmax", "newton", "joint_limits")}
+    used = {
+        k: settings.task if k == "task" else getattr(settings, k)
+        for k in ("task", "step", "kmin", "kmax", "newton", "joint_limits")
+    }
     used["jl_gain"] = settings.resolved_jl_gain
     return {
         "kind": "csc",
@@ -330,13 +395,17 @@ def _report(res: Any, robot: Any, settings: CSCSettings, K: np.ndarray, written:
 
     B, T = res.q.shape[0], res.q.shape[-2]
     np.set_printoptions(precision=4, suppress=True, linewidth=120)
-    print(f"CSC {robot.name!r}, task {settings.task}, {settings.step} step, beta {settings.beta:g}, {T} steps x {B} path(s)")
+    print(
+        f"CSC {robot.name!r}, task {settings.task}, {settings.step} step, beta {settings.beta:g}, {T} steps x {B} path(s)"
+    )
     print(f"K_xd (N/m):\n{K}")
     for b in range(B):
         u, fr, st = res.u[b], res.frobenius[b], res.status[b]
         change = 100 * (1 - u[-1] / res.u_start[b]) if res.u_start[b] > 0 else 0.0
-        print(f"[{b}] u: {res.u_start[b]:.6g} -> {u[-1]:.6g} Nm/rad (min {u.min():.6g}, "
-              f"{abs(change):.1f}% {'lower' if change >= 0 else 'higher'})")
+        print(
+            f"[{b}] u: {res.u_start[b]:.6g} -> {u[-1]:.6g} Nm/rad (min {u.min():.6g}, "
+            f"{abs(change):.1f}% {'lower' if change >= 0 else 'higher'})"
+        )
         print(f"[{b}] |K_xd - K_C|_F: {res.frobenius_start[b]:.6g} -> {fr[-1]:.6g} N/m")
         print(f"[{b}] tracking error: max {res.tracking_error[b].max():.3g} m, last {res.tracking_error[b, -1]:.3g} m")
         counts = {describe_status(c): int(n) for c, n in zip(*np.unique(st, return_counts=True), strict=True)}
@@ -357,15 +426,23 @@ def _warn_tracking(res: Any, robot: Any, q0: np.ndarray, points: np.ndarray) -> 
     tcp0 = np.asarray(robot.fk(q0))[:d, 3] if off.size else None  # one start posture for every path
     for b in off:
         start = float(np.linalg.norm(tcp0 - points[b, 0]))
-        hint = (f"the start posture's TCP is {start:.3g} m from the first waypoint, and a CSC step is a "
-                "linearisation: start on the path" if start > 10 * TRACKING_WARN_M else
-                "the path may leave the workspace or the joint limits, or the null-space step is too large "
-                "(try a smaller --beta)")
+        hint = (
+            f"the start posture's TCP is {start:.3g} m from the first waypoint, and a CSC step is a "
+            "linearisation: start on the path"
+            if start > 10 * TRACKING_WARN_M
+            else "the path may leave the workspace or the joint limits, or the null-space step is too large "
+            "(try a smaller --beta)"
+        )
         if int(res.status[b, 0]) & STATUS_DAMPED and int(res.status[b, -1]) & STATUS_DAMPED:
-            hint += ("; the arm started at and stayed in a (near) singular posture, where the damped step "
-                     "cannot move along the direction the Jacobian lost: start from a bent posture")
-        print(f"jaxstiff: warning: path {b} ends {last[b]:.3g} m from its last waypoint "
-              f"(max {res.tracking_error[b].max():.3g} m): {hint}", file=sys.stderr)
+            hint += (
+                "; the arm started at and stayed in a (near) singular posture, where the damped step "
+                "cannot move along the direction the Jacobian lost: start from a bent posture"
+            )
+        print(
+            f"jaxstiff: warning: path {b} ends {last[b]:.3g} m from its last waypoint "
+            f"(max {res.tracking_error[b].max():.3g} m): {hint}",
+            file=sys.stderr,
+        )
 
 
 def run_csc(args: argparse.Namespace) -> int:
@@ -389,8 +466,11 @@ def run_csc(args: argparse.Namespace) -> int:
     print(f"csc: {'interrupted' if partial else 'done'} in {seconds:.1f} s", file=sys.stderr)
     written = _write(out, res, robot, q0, K, _meta(args, spec, robot, settings, K, q0, flag, sources, T_done, T))
     if partial:
-        print(f"\njaxstiff: interrupted: wrote {written} with the {T_done} of {T} steps finished before it "
-              "(meta 'interrupted' is true, 'steps' says how many)", file=sys.stderr)
+        print(
+            f"\njaxstiff: interrupted: wrote {written} with the {T_done} of {T} steps finished before it "
+            "(meta 'interrupted' is true, 'steps' says how many)",
+            file=sys.stderr,
+        )
         raise KeyboardInterrupt
     if interrupted or interrupt_pending() is not None:
         print(f"\njaxstiff: interrupted after the last step: wrote the complete result {written}", file=sys.stderr)

@@ -79,8 +79,10 @@ def main(argv: list[str] | None = None) -> int:
             rc = int(args._run(args) or 0)
         sig = interrupt_pending()
         if sig is not None and rc == 0:  # swallowed inside JAX and not seen at a checkpoint: the work had finished
-            print(f"jaxstiff: interrupted ({signal.Signals(sig).name}) after the work had finished; its output was written",
-                  file=sys.stderr)
+            print(
+                f"jaxstiff: interrupted ({signal.Signals(sig).name}) after the work had finished; its output was written",
+                file=sys.stderr,
+            )
             return 128 + int(sig)
         return rc
     except BrokenPipeError:  # output piped into `head` and the like: not an error of the user's

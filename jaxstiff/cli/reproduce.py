@@ -9,19 +9,31 @@ from jaxstiff.cli.common import command
 
 @command("reproduce", "run the experiments (seed figures 2-6, CSC, the quick sweep) and write one report")
 def _add_reproduce(p: argparse.ArgumentParser):
-    p.epilog = ("Needs a source checkout: the experiments are the scripts in its experiments/ folder, "
-                "each run as its own process. Writes DIR/report.md, DIR/figures/ and DIR/runs/.")
+    p.epilog = (
+        "Needs a source checkout: the experiments are the scripts in its experiments/ folder, "
+        "each run as its own process. Writes DIR/report.md, DIR/figures/ and DIR/runs/."
+    )
     p.add_argument("--out", required=True, metavar="DIR", help="report folder")
     p.add_argument("--quick", action="store_true", help="pass --quick to the experiments that have a short variant")
-    p.add_argument("--only", nargs="+", metavar="NAME", default=None,
-                   help="run only the experiments whose names start with these (e.g. fig4 csc); no sweep")
-    p.add_argument("--experiments", metavar="DIR", default=None,
-                   help="the experiments folder (none: $JAXSTIFF_EXPERIMENTS, then the source checkout's)")
+    p.add_argument(
+        "--only",
+        nargs="+",
+        metavar="NAME",
+        default=None,
+        help="run only the experiments whose names start with these (e.g. fig4 csc); no sweep",
+    )
+    p.add_argument(
+        "--experiments",
+        metavar="DIR",
+        default=None,
+        help="the experiments folder (none: $JAXSTIFF_EXPERIMENTS, then the source checkout's)",
+    )
     p.add_argument("--timeout", type=float, default=900.0, metavar="S", help="seconds per experiment")
     p.add_argument("--no-sweep", action="store_true", help="skip experiments/sweeps/quick.toml")
     p.add_argument("--report-only", action="store_true", help="run nothing; rebuild DIR/report.md from DIR/runs")
-    p.add_argument("--all", action="store_true",
-                   help="run every experiment script, not only the seed reproductions (fig*, csc*)")
+    p.add_argument(
+        "--all", action="store_true", help="run every experiment script, not only the seed reproductions (fig*, csc*)"
+    )
 
     def run(args) -> int:
         import os
@@ -32,9 +44,16 @@ def _add_reproduce(p: argparse.ArgumentParser):
             raise ValueError(f"--out: {args.out} is a file; the report needs a folder (made if missing)")
         if not args.timeout > 0:
             raise ValueError(f"--timeout must be > 0 seconds, got {args.timeout}")
-        res = run_reproduce(args.out, quick=args.quick, only=args.only, experiments_dir=args.experiments,
-                            timeout=args.timeout, sweep=not args.no_sweep, everything=args.all,
-                            report_only=args.report_only)
+        res = run_reproduce(
+            args.out,
+            quick=args.quick,
+            only=args.only,
+            experiments_dir=args.experiments,
+            timeout=args.timeout,
+            sweep=not args.no_sweep,
+            everything=args.all,
+            report_only=args.report_only,
+        )
         failed = [r.name for r in res.runs if not r.ok]
         print(f"{len(res.runs) - len(failed)} of {len(res.runs)} ok in {res.wall_s:.0f} s -> {res.report}")
         if failed:

@@ -16,7 +16,11 @@ from .common import add_robot_flags, command, parse_floats, robot_spec_from_args
 @command("robot", "print a robot's chain, limits, and FK/Jacobian at a posture")
 def _add_robot(p: argparse.ArgumentParser) -> Any:
     add_robot_flags(p)
-    p.add_argument("--q", default=None, help="posture, comma-separated rad (m for prismatic joints; default: the nominal posture, mid-range + 30 deg per revolute joint, mid-range for a prismatic one)")
+    p.add_argument(
+        "--q",
+        default=None,
+        help="posture, comma-separated rad (m for prismatic joints; default: the nominal posture, mid-range + 30 deg per revolute joint, mid-range for a prismatic one)",
+    )
 
     def run(args: argparse.Namespace) -> int:
         import numpy as np
@@ -35,13 +39,18 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
                 raise ValueError(f"--q needs {robot.n} values for {robot.name!r}, got {q.size}")
             for i in np.flatnonzero(~robot.free):
                 if q[i] != robot.locked_values[i]:
-                    raise ValueError(f"--q gives joint {robot.joint_names[i]!r} = {q[i]:g}, but it is locked at "
-                                     f"{robot.locked_values[i]:g} (--lock); give the locked value or drop the lock")
+                    raise ValueError(
+                        f"--q gives joint {robot.joint_names[i]!r} = {q[i]:g}, but it is locked at "
+                        f"{robot.locked_values[i]:g} (--lock); give the locked value or drop the lock"
+                    )
             out = np.flatnonzero((q < robot.lower) | (q > robot.upper))
             if out.size:
                 i = int(out[0])
-                warnings.warn(f"--q: joint {robot.joint_names[i]!r} = {q[i]:g} is outside its limits "
-                              f"[{robot.lower[i]:g}, {robot.upper[i]:g}] (FK and Jacobian shown anyway)", stacklevel=1)
+                warnings.warn(
+                    f"--q: joint {robot.joint_names[i]!r} = {q[i]:g} is outside its limits "
+                    f"[{robot.lower[i]:g}, {robot.upper[i]:g}] (FK and Jacobian shown anyway)",
+                    stacklevel=1,
+                )
         T, J = robot.fk_and_jacobian(q)
         np.set_printoptions(precision=5, suppress=True, linewidth=120)
         print(robot.describe())

@@ -29,12 +29,14 @@ if TYPE_CHECKING:
 __all__ = ["summary_table", "rate_limits", "WaypointProgress", "add_shape_flags", "run_shape"]
 
 _S = ShapeSettings()
-EPILOG = ("Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
-          "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
-          "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
-          "file is written with the waypoints finished so far (the others have status 5, not run; meta "
-          "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written; after the "
-          "last waypoint the complete file is still written.")
+EPILOG = (
+    "Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
+    "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
+    "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
+    "file is written with the waypoints finished so far (the others have status 5, not run; meta "
+    "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written; after the "
+    "last waypoint the complete file is still written."
+)
 
 
 def _num(text: Any, flag: str, cast: Any = float) -> Any:
@@ -120,55 +122,107 @@ def rate_limits(robot: Robot, dq_deg: float, dq_m: float | None) -> float | np.n
 
 # ---------------------------------------------------------------------- flags
 def _add_problem_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--path", action="append", metavar="CSV",
-                   help="path file with header x,y,z[,dx,dy,dz], metres in the base frame (repeatable: several "
-                        "paths with the same number of waypoints, one result file; messages number them from "
-                        "0, in the order given, as the file's first axis). Default: the shipped "
-                        "default path (jaxstiff.paths.default_path)")
+    p.add_argument(
+        "--path",
+        action="append",
+        metavar="CSV",
+        help="path file with header x,y,z[,dx,dy,dz], metres in the base frame (repeatable: several "
+        "paths with the same number of waypoints, one result file; messages number them from "
+        "0, in the order given, as the file's first axis). Default: the shipped "
+        "default path (jaxstiff.paths.default_path)",
+    )
     p.add_argument("--criterion", default=_S.criterion, help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
     p.add_argument("--ratio", default=_S.ratio, metavar="R", help=setting_help(ShapeSettings, "ratio", extra=", > 1"))
     p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)")
-    p.add_argument("--task", default=_S.task, choices=list(TASKS),
-                   help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2")
-    p.add_argument("--q0", default=None, metavar="RAD,...",
-                   help="start posture, one value per joint (rad; m for prismatic joints; locked joints at their values); "
-                        "default: damped-least-squares IK from the nominal posture to the first waypoint")
-    p.add_argument("--kj0", default=None, metavar="V|V,...",
-                   help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
-                        "(default: mid-range (kmin+kmax)/2)")
+    p.add_argument(
+        "--task",
+        default=_S.task,
+        choices=list(TASKS),
+        help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2",
+    )
+    p.add_argument(
+        "--q0",
+        default=None,
+        metavar="RAD,...",
+        help="start posture, one value per joint (rad; m for prismatic joints; locked joints at their values); "
+        "default: damped-least-squares IK from the nominal posture to the first waypoint",
+    )
+    p.add_argument(
+        "--kj0",
+        default=None,
+        metavar="V|V,...",
+        help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
+        "(default: mid-range (kmin+kmax)/2)",
+    )
 
 
 def _add_limit_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--dq-deg", default=math.degrees(_S.dq), metavar="D",
-                   help=setting_help(ShapeSettings, "dq", unit="degrees per waypoint", extra=" (inf = none)"))
-    p.add_argument("--dq-m", default=None, metavar="M",
-                   help="rate limit of prismatic joints, m per waypoint (inf = none; default: the value of "
-                        "--dq-deg in radians read as metres, 2 -> 0.0349 m)")
+    p.add_argument(
+        "--dq-deg",
+        default=math.degrees(_S.dq),
+        metavar="D",
+        help=setting_help(ShapeSettings, "dq", unit="degrees per waypoint", extra=" (inf = none)"),
+    )
+    p.add_argument(
+        "--dq-m",
+        default=None,
+        metavar="M",
+        help="rate limit of prismatic joints, m per waypoint (inf = none; default: the value of "
+        "--dq-deg in radians read as metres, 2 -> 0.0349 m)",
+    )
     p.add_argument("--dk", default=_S.dk, metavar="K", help=setting_help(ShapeSettings, "dk", extra=" (inf = none)"))
     p.add_argument("--kmin", default=_S.kmin, metavar="A", help=setting_help(ShapeSettings, "kmin", extra=", > 0"))
     p.add_argument("--kmax", default=_S.kmax, metavar="B", help=setting_help(ShapeSettings, "kmax", extra=", > kmin"))
     p.add_argument("--c", default=_S.c, metavar="C", help=setting_help(ShapeSettings, "c"))
-    p.add_argument("--first-rate-limit", dest="first_rate_limit", action="store_true",
-                   help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
-                        "first waypoint may use the full joint and stiffness ranges)")
-    p.add_argument("--no-first-rate-limit", dest="first_rate_limit", action="store_false",
-                   help="the default: do not rate-limit the first waypoint")
+    p.add_argument(
+        "--first-rate-limit",
+        dest="first_rate_limit",
+        action="store_true",
+        help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
+        "first waypoint may use the full joint and stiffness ranges)",
+    )
+    p.add_argument(
+        "--no-first-rate-limit",
+        dest="first_rate_limit",
+        action="store_false",
+        help="the default: do not rate-limit the first waypoint",
+    )
     p.set_defaults(first_rate_limit=_S.first_rate_limit)
-    p.add_argument("--first-starts", default=_S.first_starts, metavar="N",
-                   help="start postures for the first (not rate-limited) waypoint")
-    p.add_argument("--cms-volume", default=None, metavar="V",
-                   help=f"CMS target: product of the ellipsoid axes, (N/m)^3 (default: {_S.cms_mean_axis:g}^3, "
-                        f"i.e. a geometric-mean axis of {_S.cms_mean_axis:g} N/m)")
-    p.add_argument("--cms-major", default=None, metavar="N_PER_M", help="CMS target: major axis lambda1, N/m, instead of the volume")
+    p.add_argument(
+        "--first-starts",
+        default=_S.first_starts,
+        metavar="N",
+        help="start postures for the first (not rate-limited) waypoint",
+    )
+    p.add_argument(
+        "--cms-volume",
+        default=None,
+        metavar="V",
+        help=f"CMS target: product of the ellipsoid axes, (N/m)^3 (default: {_S.cms_mean_axis:g}^3, "
+        f"i.e. a geometric-mean axis of {_S.cms_mean_axis:g} N/m)",
+    )
+    p.add_argument(
+        "--cms-major",
+        default=None,
+        metavar="N_PER_M",
+        help="CMS target: major axis lambda1, N/m, instead of the volume",
+    )
 
 
 def _add_solver_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--solver", default=_S.solver,
-                   help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
-                        "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
-                        "trajectory after a greedy warm start), or another registered solver")
-    p.add_argument("--starts", default=_S.starts, metavar="S",
-                   help="starts per waypoint, multi-start solvers only (default: the solver's own)")
+    p.add_argument(
+        "--solver",
+        default=_S.solver,
+        help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
+        "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
+        "trajectory after a greedy warm start), or another registered solver",
+    )
+    p.add_argument(
+        "--starts",
+        default=_S.starts,
+        metavar="S",
+        help="starts per waypoint, multi-start solvers only (default: the solver's own)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary table")
 
 
@@ -184,11 +238,19 @@ def add_shape_flags(p: argparse.ArgumentParser) -> None:
 # ---------------------------------------------------------------------- run
 def _read_numbers(args: argparse.Namespace) -> dict[str, Any]:
     """The numeric flags, checked (errors name the flag)."""
-    v = {"ratio": _num(args.ratio, "--ratio"), "dq_deg": _num(args.dq_deg, "--dq-deg"), "dk": _num(args.dk, "--dk"),
-         "kmin": _num(args.kmin, "--kmin"), "kmax": _num(args.kmax, "--kmax"), "c": _num(args.c, "--c"),
-         "starts": _num(args.starts, "--starts", int), "first_starts": _num(args.first_starts, "--first-starts", int),
-         "cms_volume": _num(args.cms_volume, "--cms-volume"), "cms_major": _num(args.cms_major, "--cms-major"),
-         "dq_m": _num(args.dq_m, "--dq-m")}
+    v = {
+        "ratio": _num(args.ratio, "--ratio"),
+        "dq_deg": _num(args.dq_deg, "--dq-deg"),
+        "dk": _num(args.dk, "--dk"),
+        "kmin": _num(args.kmin, "--kmin"),
+        "kmax": _num(args.kmax, "--kmax"),
+        "c": _num(args.c, "--c"),
+        "starts": _num(args.starts, "--starts", int),
+        "first_starts": _num(args.first_starts, "--first-starts", int),
+        "cms_volume": _num(args.cms_volume, "--cms-volume"),
+        "cms_major": _num(args.cms_major, "--cms-major"),
+        "dq_m": _num(args.dq_m, "--dq-m"),
+    }
     for key, flag, unit in (("dq_deg", "--dq-deg", "degrees"), ("dq_m", "--dq-m", "m"), ("dk", "--dk", "Nm/rad")):
         x = v[key]
         if x is not None and (math.isnan(x) or x < 0):
@@ -205,7 +267,9 @@ def _read_paths(files: list[str] | None) -> tuple[Path, list[str]]:
     paths = [Path.from_csv(f) for f in files]
     Ps = sorted({pp.P for pp in paths})
     if len(Ps) > 1:
-        raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {Ps}; run them separately")
+        raise ValueError(
+            f"--path: all paths of one run need the same number of waypoints, got {Ps}; run them separately"
+        )
     return (paths[0] if len(paths) == 1 else Path.stack(paths)), [os.path.abspath(f) for f in files]
 
 
@@ -213,7 +277,9 @@ def _read_start_states(args: argparse.Namespace, robot: Robot) -> tuple[list[flo
     """--q0 (n values) and --kj0 (1 or n values)."""
     q0 = _nums(args.q0, "--q0")
     if q0 is not None and len(q0) != robot.n:
-        raise ValueError(f"--q0 needs {robot.n} values (one per joint of {robot.name!r}: {', '.join(robot.joint_names)}), got {len(q0)}")
+        raise ValueError(
+            f"--q0 needs {robot.n} values (one per joint of {robot.name!r}: {', '.join(robot.joint_names)}), got {len(q0)}"
+        )
     kj0 = _nums(args.kj0, "--kj0")
     if kj0 is not None and len(kj0) not in (1, robot.n):
         raise ValueError(f"--kj0 needs 1 or {robot.n} values, got {len(kj0)}")
@@ -228,9 +294,12 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
     from jaxstiff.shaping import ShapeInterrupted, shape
 
     if args.solver in ("pgd", "trajectory", "hybrid") and not args.quiet:
-        print(f"shape: solver {args.solver} solves all {kw['path'].B} path(s) x {kw['path'].P} waypoints as one batch "
-              "(compiling, then solving; no per-waypoint progress until then, and Ctrl-C takes effect when it ends) ...",
-              file=sys.stderr, flush=True)
+        print(
+            f"shape: solver {args.solver} solves all {kw['path'].B} path(s) x {kw['path'].P} waypoints as one batch "
+            "(compiling, then solving; no per-waypoint progress until then, and Ctrl-C takes effect when it ends) ...",
+            file=sys.stderr,
+            flush=True,
+        )
     try:
         with progress(total, "shape", "waypoints", enabled=not args.quiet) as bar:
             res = shape(progress=WaypointProgress(bar), **kw)
@@ -241,13 +310,19 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
             raise
         with deferred_interrupts():
             written = e.result.save(out)
-        print(f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
-              f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)", file=sys.stderr)
+        print(
+            f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
+            f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)",
+            file=sys.stderr,
+        )
         raise
     except KeyboardInterrupt:
-        why = ("it solves all paths together" if args.solver not in ("slsqp", "slsqp-fd")
-               else "the interrupt came before the first waypoint was finished, or after the last, while the "
-                    "result was assembled")
+        why = (
+            "it solves all paths together"
+            if args.solver not in ("slsqp", "slsqp-fd")
+            else "the interrupt came before the first waypoint was finished, or after the last, while the "
+            "result was assembled"
+        )
         print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
         raise
     with deferred_interrupts():  # the work is done: an interrupt now still gets the file
@@ -275,12 +350,18 @@ def _report(args: argparse.Namespace, res: ShapeResult, written: str) -> int:
     # the first waypoint has no rate limit (unless --first-rate-limit): if it was reached and later
     # ones were not, the limits per waypoint are the likelier cause
     after_first = bool(np.all(usable[:, 0])) and not args.first_rate_limit
-    hint = ("the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
-            "tight for the waypoint spacing, or the path leaves the robot's reach" if after_first
-            else "check the path's units and the robot's reach")
-    print(f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
-          f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
-          f"{hint} (status codes: see jaxstiff.results)", file=sys.stderr)
+    hint = (
+        "the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
+        "tight for the waypoint spacing, or the path leaves the robot's reach"
+        if after_first
+        else "check the path's units and the robot's reach"
+    )
+    print(
+        f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
+        f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
+        f"{hint} (status codes: see jaxstiff.results)",
+        file=sys.stderr,
+    )
     return 0 if usable.any() else 3  # 3: the file is written, but holds no usable waypoint
 
 
@@ -300,13 +381,27 @@ def run_shape(args: argparse.Namespace) -> int:
     q0, kj0 = _read_start_states(args, robot)
     enable_x64()
     prefer_sync_cpu_dispatch()  # per-waypoint SLSQP is latency-bound: see its docstring
-    kw = dict(robot=robot, path=path, criterion=args.criterion, ratio=v["ratio"], task=args.task, solver=args.solver,
-              starts=v["starts"], q0=None if q0 is None else np.asarray(q0), kj0=kj0,
-              dq=rate_limits(robot, v["dq_deg"], v["dq_m"]), dk=v["dk"], kmin=v["kmin"], kmax=v["kmax"], c=v["c"],
-              first_rate_limit=args.first_rate_limit, first_starts=v["first_starts"], cms_volume=v["cms_volume"],
-              cms_major=v["cms_major"],
-              meta_extra={"path_files": path_files, "robot_spec": spec.meta(),
-                          "cli": cli_record(args)})
+    kw = dict(
+        robot=robot,
+        path=path,
+        criterion=args.criterion,
+        ratio=v["ratio"],
+        task=args.task,
+        solver=args.solver,
+        starts=v["starts"],
+        q0=None if q0 is None else np.asarray(q0),
+        kj0=kj0,
+        dq=rate_limits(robot, v["dq_deg"], v["dq_m"]),
+        dk=v["dk"],
+        kmin=v["kmin"],
+        kmax=v["kmax"],
+        c=v["c"],
+        first_rate_limit=args.first_rate_limit,
+        first_starts=v["first_starts"],
+        cms_volume=v["cms_volume"],
+        cms_major=v["cms_major"],
+        meta_extra={"path_files": path_files, "robot_spec": spec.meta(), "cli": cli_record(args)},
+    )
     res, written = _solve_and_save(args, out, kw, path.B * path.P)
     return _report(args, res, written)
 

@@ -21,17 +21,32 @@ is DIR/results.parquet (one row per path x setting), with DIR/summary.md and DIR
 def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int]:
     p.epilog = _EPILOG
     p.add_argument("config", metavar="CONFIG.toml", help="sweep config (TOML)")
-    p.add_argument("--out", required=True, metavar="DIR", help="result folder (new/empty, or this sweep's with --resume)")
+    p.add_argument(
+        "--out", required=True, metavar="DIR", help="result folder (new/empty, or this sweep's with --resume)"
+    )
     p.add_argument("--resume", action="store_true", help="continue the sweep in DIR, skipping its finished chunks")
-    p.add_argument("--backend", choices=("local", "ray"), default="local",
-                   help="local: this process (batches sharded over its JAX devices); ray: one Ray task per chunk")
-    p.add_argument("--address", default=None, help="Ray cluster address ('auto', 'ray://HOST:10001'); none: start a local Ray instance")
-    p.add_argument("--ray-num-cpus", type=int, default=None, metavar="N", help="CPUs of a local Ray instance (none: all)")
+    p.add_argument(
+        "--backend",
+        choices=("local", "ray"),
+        default="local",
+        help="local: this process (batches sharded over its JAX devices); ray: one Ray task per chunk",
+    )
+    p.add_argument(
+        "--address",
+        default=None,
+        help="Ray cluster address ('auto', 'ray://HOST:10001'); none: start a local Ray instance",
+    )
+    p.add_argument(
+        "--ray-num-cpus", type=int, default=None, metavar="N", help="CPUs of a local Ray instance (none: all)"
+    )
     p.add_argument("--dry-run", action="store_true", help="validate the config, print the plan, run nothing")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-report", action="store_true", help="skip summary.md and the heat maps")
-    p.add_argument("--no-compile-cache", action="store_true",
-                   help="do not use the persistent XLA compilation cache ($JAXSTIFF_CACHE_DIR, ~/.cache/jaxstiff/xla)")
+    p.add_argument(
+        "--no-compile-cache",
+        action="store_true",
+        help="do not use the persistent XLA compilation cache ($JAXSTIFF_CACHE_DIR, ~/.cache/jaxstiff/xla)",
+    )
 
     def run(args: argparse.Namespace) -> int:
         # (looked up on the package at call time: tests replace jaxstiff.sweep.run_sweep)
@@ -46,15 +61,28 @@ def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int
             raise ValueError(f"--ray-num-cpus must be >= 1, got {args.ray_num_cpus}")
         ray_init = {"num_cpus": args.ray_num_cpus} if args.ray_num_cpus else None
         try:
-            outcome = run_sweep(plan, args.out, resume=args.resume, backend=args.backend, address=args.address,
-                                ray_init=ray_init, progress=not args.no_progress, report=not args.no_report,
-                                compile_cache=not args.no_compile_cache)
+            outcome = run_sweep(
+                plan,
+                args.out,
+                resume=args.resume,
+                backend=args.backend,
+                address=args.address,
+                ray_init=ray_init,
+                progress=not args.no_progress,
+                report=not args.no_report,
+                compile_cache=not args.no_compile_cache,
+            )
         except KeyboardInterrupt:
-            print(f"jaxstiff: interrupted; finished chunks are saved in {args.out}; "
-                  f"continue with: jaxstiff sweep {args.config} --out {args.out} --resume", file=sys.stderr)
+            print(
+                f"jaxstiff: interrupted; finished chunks are saved in {args.out}; "
+                f"continue with: jaxstiff sweep {args.config} --out {args.out} --resume",
+                file=sys.stderr,
+            )
             return interrupt_exit_code()  # 130 Ctrl-C, 143 SIGTERM
-        print(f"{outcome.n_rows} rows ({len(outcome.computed)} chunks computed, {len(outcome.skipped)} resumed) "
-              f"in {outcome.wall_s:.1f} s -> {outcome.table_file}")
+        print(
+            f"{outcome.n_rows} rows ({len(outcome.computed)} chunks computed, {len(outcome.skipped)} resumed) "
+            f"in {outcome.wall_s:.1f} s -> {outcome.table_file}"
+        )
         return 0
 
     return run

@@ -48,8 +48,14 @@ def det_cofactors(A: jax.Array) -> tuple[jax.Array, jax.Array]:
     if m == 2:
         cof = [[c[1][1], -c[1][0]], [-c[0][1], c[0][0]]]
     else:
-        cof = [[c[(i + 1) % 3][(j + 1) % 3] * c[(i + 2) % 3][(j + 2) % 3]
-                - c[(i + 1) % 3][(j + 2) % 3] * c[(i + 2) % 3][(j + 1) % 3] for j in range(3)] for i in range(3)]
+        cof = [
+            [
+                c[(i + 1) % 3][(j + 1) % 3] * c[(i + 2) % 3][(j + 2) % 3]
+                - c[(i + 1) % 3][(j + 2) % 3] * c[(i + 2) % 3][(j + 1) % 3]
+                for j in range(3)
+            ]
+            for i in range(3)
+        ]
     det = sum(c[0][j] * cof[0][j] for j in range(m))
     return det, jnp.stack([jnp.stack(r, -1) for r in cof], -2)  # type: ignore[return-value]
 

@@ -23,8 +23,15 @@ ArrayLike: TypeAlias = jax.typing.ArrayLike
 _DEFAULTS = CSCSettings()  # the damping rule's defaults (nu0, damping), as csc_rollout's
 
 
-def null_space_direction(robot: Robot, q: ArrayLike, K_xd: ArrayLike, *, task: str | None = None, nu0: ArrayLike = _DEFAULTS.nu0,
-                         damping: ArrayLike = _DEFAULTS.damping) -> tuple[jax.Array, jax.Array, jax.Array]:
+def null_space_direction(
+    robot: Robot,
+    q: ArrayLike,
+    K_xd: ArrayLike,
+    *,
+    task: str | None = None,
+    nu0: ArrayLike = _DEFAULTS.nu0,
+    damping: ArrayLike = _DEFAULTS.damping,
+) -> tuple[jax.Array, jax.Array, jax.Array]:
     """The projected CSC gradient ``dq_N = (I - J+ J) grad u(q)`` (S1-14, S1-15, S1-20) at q.
 
     Args:
@@ -44,7 +51,9 @@ def null_space_direction(robot: Robot, q: ArrayLike, K_xd: ArrayLike, *, task: s
 
 
 @functools.partial(jax.jit, static_argnums=(0, 1))
-def _null_space_direction(robot: Robot, task: str, q: jax.Array, K_xd: jax.Array, nu0: ArrayLike, damping: ArrayLike) -> tuple:
+def _null_space_direction(
+    robot: Robot, task: str, q: jax.Array, K_xd: jax.Array, nu0: ArrayLike, damping: ArrayLike
+) -> tuple:
     rows = TASK_ROWS[task]
     free = jnp.asarray(robot.free, dtype=q.dtype)
 
@@ -64,8 +73,16 @@ def _null_space_direction(robot: Robot, task: str, q: jax.Array, K_xd: jax.Array
     return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), out)
 
 
-def project_to_target(robot: Robot, q: ArrayLike, target: ArrayLike, *, task: str = "xy", iters: int = 6,
-                      nu0: ArrayLike = _DEFAULTS.nu0, damping: ArrayLike = _DEFAULTS.damping) -> jax.Array:
+def project_to_target(
+    robot: Robot,
+    q: ArrayLike,
+    target: ArrayLike,
+    *,
+    task: str = "xy",
+    iters: int = 6,
+    nu0: ArrayLike = _DEFAULTS.nu0,
+    damping: ArrayLike = _DEFAULTS.damping,
+) -> jax.Array:
     """Newton projection of postures onto ``x(q) = target``: ``q <- q + J+ (target - x(q))``, ``iters`` times.
 
     Differentiable (a fixed number of steps), so a start posture can be parametrised on its
@@ -93,7 +110,9 @@ def project_to_target(robot: Robot, q: ArrayLike, target: ArrayLike, *, task: st
 
 
 @functools.partial(jax.jit, static_argnums=(0, 1, 2))
-def _project(robot: Robot, task: str, iters: int, q: jax.Array, target: jax.Array, nu0: ArrayLike, damping: ArrayLike) -> jax.Array:
+def _project(
+    robot: Robot, task: str, iters: int, q: jax.Array, target: jax.Array, nu0: ArrayLike, damping: ArrayLike
+) -> jax.Array:
     d = len(TASK_ROWS[task])
     free = jnp.asarray(robot.free, dtype=q.dtype)
 

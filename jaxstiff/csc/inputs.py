@@ -43,7 +43,9 @@ def path_points(path: Any) -> Any:
     if isinstance(pts, (list, tuple)):
         pts = np.asarray(pts, dtype=float)
     if not hasattr(pts, "shape"):
-        raise ValueError(f"path must be a jaxstiff Path or an array (..., T, 2 or 3) of TCP targets, got {type(path).__name__}")
+        raise ValueError(
+            f"path must be a jaxstiff Path or an array (..., T, 2 or 3) of TCP targets, got {type(path).__name__}"
+        )
     return pts
 
 
@@ -86,8 +88,10 @@ def _start_posture(robot: Robot, q0: Any) -> jax.Array:
     q0 = jnp.asarray(q0) if not isinstance(q0, (list, tuple)) else jnp.asarray(np.asarray(q0, dtype=float))
     dtype = q0.dtype if jnp.issubdtype(q0.dtype, jnp.floating) else jnp.asarray(1.0).dtype
     if jnp.finfo(dtype).bits < 32:
-        raise ValueError(f"q0 has dtype {jnp.dtype(dtype).name}: the rollout computes in q0's dtype, and {jnp.dtype(dtype).name} "
-                         "overflows (u ~ 1e3 Nm/rad squared) and cannot hold a step; pass float32 or float64")
+        raise ValueError(
+            f"q0 has dtype {jnp.dtype(dtype).name}: the rollout computes in q0's dtype, and {jnp.dtype(dtype).name} "
+            "overflows (u ~ 1e3 Nm/rad squared) and cannot hold a step; pass float32 or float64"
+        )
     return q0.astype(dtype)
 
 
@@ -101,7 +105,9 @@ def _task_of(robot: Robot, K_xd: jax.Array, task: str | None) -> str:
     if task not in TASK_ROWS:
         raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASK_ROWS)}")
     if len(TASK_ROWS[task]) != m:
-        raise ValueError(f"task {task!r} needs K_xd of shape (..., {len(TASK_ROWS[task])}, {len(TASK_ROWS[task])}), got {tuple(K_xd.shape)}")
+        raise ValueError(
+            f"task {task!r} needs K_xd of shape (..., {len(TASK_ROWS[task])}, {len(TASK_ROWS[task])}), got {tuple(K_xd.shape)}"
+        )
     # Fewer free joints than task rows, or free joints' rows that are dead at every posture: the
     # primary task could not be followed (the damped step would only approximate it). As many free
     # joints as rows is allowed: no redundancy, so the null-space step is zero and the rollout only
@@ -140,7 +146,9 @@ def _hold_rotation(hold_orientation: Any, task: str, dtype: Any) -> jax.Array | 
     if hold_orientation is None:
         return None
     if task != "full":
-        raise ValueError(f"hold_orientation is for task 'full' (the held tool orientation); task {task!r} has no orientation rows")
+        raise ValueError(
+            f"hold_orientation is for task 'full' (the held tool orientation); task {task!r} has no orientation rows"
+        )
     R_hold = jnp.asarray(hold_orientation, dtype=dtype)
     if R_hold.ndim < 2 or R_hold.shape[-2:] != (3, 3):
         raise ValueError(f"hold_orientation must be a rotation matrix of shape (..., 3, 3), got {tuple(R_hold.shape)}")
@@ -148,8 +156,9 @@ def _hold_rotation(hold_orientation: Any, task: str, dtype: Any) -> jax.Array | 
         Rn = np.asarray(R_hold, dtype=float)
         orth = np.max(np.abs(np.swapaxes(Rn, -1, -2) @ Rn - np.eye(3))) if np.all(np.isfinite(Rn)) else np.inf
         if not (orth < 1e-6 and np.all(np.linalg.det(Rn) > 0)):
-            raise ValueError(f"hold_orientation must be a finite rotation matrix (R^T R = I, det R = +1), "
-                             f"max |R^T R - I| = {orth:g}")
+            raise ValueError(
+                f"hold_orientation must be a finite rotation matrix (R^T R = I, det R = +1), max |R^T R - I| = {orth:g}"
+            )
     return R_hold
 
 
@@ -159,9 +168,20 @@ def _check_complex(path: Any, K_xd: Any, q0: Any, beta: Any) -> None:
             raise ValueError(f"{name} is complex ({v.dtype}): stiffnesses, postures and paths are real")
 
 
-def prepare_rollout(robot: Robot, path: Any, K_xd: Any, q0: Any, beta: Any = None, *, settings: CSCSettings | None = None,
-                    kxd_varying: bool | None = None, hold_orientation: Any = None, remat: bool = True,
-                    chunk: int | None = 128, **given: Any) -> tuple[StaticSettings, int | None, tuple, tuple[int, ...]]:
+def prepare_rollout(
+    robot: Robot,
+    path: Any,
+    K_xd: Any,
+    q0: Any,
+    beta: Any = None,
+    *,
+    settings: CSCSettings | None = None,
+    kxd_varying: bool | None = None,
+    hold_orientation: Any = None,
+    remat: bool = True,
+    chunk: int | None = 128,
+    **given: Any,
+) -> tuple[StaticSettings, int | None, tuple, tuple[int, ...]]:
     """Every check of :func:`jaxstiff.csc_rollout` and its inputs flattened to one batch axis:
     ``(static settings, chunk, arrays for rollout_batch, batch shape)``. No compilation: the
     command line calls it to report bad input before it announces the run. Arguments as
@@ -200,15 +220,42 @@ def prepare_rollout(robot: Robot, path: Any, K_xd: Any, q0: Any, beta: Any = Non
         batches.append(("hold_orientation", R_hold.shape[:-2]))
     batch = broadcast_batch(*batches)
     flat = _flatten(robot, batch, targets, K_xd, q0, beta, null_eps_a, R_hold, bool(kxd_varying))
-    st = StaticSettings(task=task, step=s["step"], newton=int(s["newton"]), joint_limits=s["joint_limits"], remat=bool(remat),
-                        varying=bool(kxd_varying))
+    st = StaticSettings(
+        task=task,
+        step=s["step"],
+        newton=int(s["newton"]),
+        joint_limits=s["joint_limits"],
+        remat=bool(remat),
+        varying=bool(kxd_varying),
+    )
     tb, kb, qb, bb, eb, rb = flat
-    args = (tb, kb, qb, bb, scalars["kmin"], scalars["kmax"], scalars["nu0"], scalars["damping"], eb, scalars["jl_gain"], rb)
+    args = (
+        tb,
+        kb,
+        qb,
+        bb,
+        scalars["kmin"],
+        scalars["kmax"],
+        scalars["nu0"],
+        scalars["damping"],
+        eb,
+        scalars["jl_gain"],
+        rb,
+    )
     return st, chunk, args, batch
 
 
-def _flatten(robot: Robot, batch: tuple[int, ...], targets: jax.Array, K_xd: jax.Array, q0: jax.Array, beta: jax.Array,
-             null_eps: jax.Array, R_hold: jax.Array | None, varying: bool) -> tuple:
+def _flatten(
+    robot: Robot,
+    batch: tuple[int, ...],
+    targets: jax.Array,
+    K_xd: jax.Array,
+    q0: jax.Array,
+    beta: jax.Array,
+    null_eps: jax.Array,
+    R_hold: jax.Array | None,
+    varying: bool,
+) -> tuple:
     """The per-rollout inputs broadcast to ``batch`` and flattened to one axis B."""
     B = math.prod(batch)
     k_tail = K_xd.shape[-3:] if varying else K_xd.shape[-2:]
@@ -221,8 +268,15 @@ def _flatten(robot: Robot, batch: tuple[int, ...], targets: jax.Array, K_xd: jax
     return tb, kb, qb, bb, eb, rb
 
 
-def validate_values(robot: Robot, targets: jax.Array, K_xd: jax.Array, q0: jax.Array, beta: jax.Array,
-                    scalars: dict[str, jax.Array], null_eps: jax.Array) -> None:
+def validate_values(
+    robot: Robot,
+    targets: jax.Array,
+    K_xd: jax.Array,
+    q0: jax.Array,
+    beta: jax.Array,
+    scalars: dict[str, jax.Array],
+    null_eps: jax.Array,
+) -> None:
     """Value checks at the Python boundary, in numpy (skipped for traced inputs)."""
 
     def val(x: Any) -> np.ndarray | None:

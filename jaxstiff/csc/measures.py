@@ -69,9 +69,18 @@ def _realised_jvp(task: str, primals: tuple, tangents: tuple) -> tuple:
     return (K_C, frob), lin(tuple(tangents))
 
 
-
-def posture_measures(J: jax.Array, K: jax.Array, p: jax.Array, R: jax.Array | None, target: jax.Array, *,
-                     kmin: jax.Array, kmax: jax.Array, task: str, R_hold: jax.Array | None) -> tuple:
+def posture_measures(
+    J: jax.Array,
+    K: jax.Array,
+    p: jax.Array,
+    R: jax.Array | None,
+    target: jax.Array,
+    *,
+    kmin: jax.Array,
+    kmax: jax.Array,
+    task: str,
+    R_hold: jax.Array | None,
+) -> tuple:
     """``(kj (n,), K_C (m, m), |K_xd - K_C|_F, tracking error (m), orientation error (rad))`` of one posture.
 
     Args:

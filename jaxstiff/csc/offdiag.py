@@ -143,8 +143,9 @@ offdiag_value_and_grad = jax.custom_jvp(_offdiag_value_and_grad, nondiff_argnums
 offdiag_value_and_grad.defjvp(_offdiag_jvp)
 
 
-def offdiag_gradient(robot: Robot, q: jax.typing.ArrayLike, K_xd: jax.typing.ArrayLike,
-                     task: str | None = None) -> tuple[jax.Array, jax.Array]:
+def offdiag_gradient(
+    robot: Robot, q: jax.typing.ArrayLike, K_xd: jax.typing.ArrayLike, task: str | None = None
+) -> tuple[jax.Array, jax.Array]:
     """``(u(q), grad u(q))`` of the off-diagonal norm (S1-19) at postures q (..., n), K_xd (..., m, m).
 
     Uses the rollout's own closed-form routine (:func:`offdiag_value_and_grad`); ``jax.grad`` of

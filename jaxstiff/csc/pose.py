@@ -64,4 +64,3 @@ def orientation_angle(R: jax.Array, Rd: jax.Array) -> jax.Array:
     and ``(tr(R^T Rd) - 1) / 2`` its cosine; atan2 of the two is accurate at every angle (arccos
     of the cosine alone loses half the digits near 0), with a finite gradient at 0."""
     return jnp.arctan2(vector_norm(orientation_error(R, Rd)), 0.5 * (jnp.sum(R * Rd, axis=(-2, -1)) - 1.0))
-

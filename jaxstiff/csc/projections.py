@@ -31,8 +31,16 @@ import jax.numpy as jnp
 from jaxstiff._numerics.linalg import mm
 from jaxstiff.csc.algebra import det_cofactors, det_small, mtv, mv, outer, spd_inverse, spd_inverse_primal
 
-__all__ = ["Damping", "damping_rule", "isotropy_threshold", "damped_inverse", "damped_pinv", "damped_projections",
-           "projections_forward", "projections_vjp"]
+__all__ = [
+    "Damping",
+    "damping_rule",
+    "isotropy_threshold",
+    "damped_inverse",
+    "damped_pinv",
+    "damped_projections",
+    "projections_forward",
+    "projections_vjp",
+]
 
 Scalar: TypeAlias = jax.typing.ArrayLike  #: a scalar setting (a float or a traced 0-d array)
 
@@ -127,7 +135,17 @@ def projections_vjp(res: tuple, cts: tuple) -> tuple:
     """VJP of :func:`damped_projections` w.r.t. ``(Jf, dx, vs, nu0, damping)`` (derivation there)."""
     Jf, d, cof, Ainv, y, zs, vs, nu0, damping = res
     A0, scale, safe_scale, pos, nu_raw, nu, damped, t, w, thr = (
-        d.A0, d.scale, d.safe_scale, d.pos, d.nu_raw, d.nu, d.damped, d.t, d.w, d.thr)
+        d.A0,
+        d.scale,
+        d.safe_scale,
+        d.pos,
+        d.nu_raw,
+        d.nu,
+        d.damped,
+        d.t,
+        d.w,
+        d.thr,
+    )
     dqP_b, Pv_bs, nu_b = cts
     m = Jf.shape[-2]
     dx_b = mv(Ainv, mv(Jf, dqP_b))
@@ -169,4 +187,3 @@ def _damped_projections_jvp(primals: tuple, tangents: tuple) -> tuple:
     dqP, Pvs, nu, res = projections_forward(*primals)
     lin = jax.linear_transpose(lambda *cts: projections_vjp(res, cts), dqP, Pvs, nu)
     return (dqP, Pvs, nu), lin(tuple(tangents))
-

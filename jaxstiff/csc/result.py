@@ -125,7 +125,9 @@ def concat_results(parts: list[CSCResult]) -> CSCResult:
     out = {}
     for f in dataclasses.fields(CSCResult):
         arrays = [getattr(r, f.name) for r in parts]
-        out[f.name] = arrays[0] if f.name in START_FIELDS else np.concatenate(arrays, axis=step_axis(f.name, arrays[0].ndim))
+        out[f.name] = (
+            arrays[0] if f.name in START_FIELDS else np.concatenate(arrays, axis=step_axis(f.name, arrays[0].ndim))
+        )
     return CSCResult(**out)
 
 
@@ -138,12 +140,25 @@ def array_units(robot: Any, task: str) -> dict[str, Any]:
     q = [("m" if p else "rad") for p in pris] if per_joint else "rad"
     kj = [("N/m" if p else "Nm/rad") for p in pris] if per_joint else "Nm/rad"
     return {
-        "q": q, "q0": q, "kj": kj,
-        "u": "Nm/rad" if not per_joint else ("norm of J^T K_xd J's off-diagonal entries: Nm/rad between revolute "
-                                             "joints, N/m between prismatic ones, N (= Nm/m) across"),
+        "q": q,
+        "q0": q,
+        "kj": kj,
+        "u": "Nm/rad"
+        if not per_joint
+        else (
+            "norm of J^T K_xd J's off-diagonal entries: Nm/rad between revolute "
+            "joints, N/m between prismatic ones, N (= Nm/m) across"
+        ),
         "u_start": "as u",
-        "K_C": "N/m" if task != "full" else "6x6 [[N/m, N/rad], [Nm/m, Nm/rad]]", "K_xd": "as K_C",
-        "frobenius": "as K_C (Frobenius norm of K_xd - K_C)", "frobenius_start": "as frobenius",
-        "position": "m", "target": "m", "tracking_error": "m", "orientation_error": "rad",
-        "isotropy": "1 (in [0, 1])", "null_step": "rad (m for prismatic joints)", "status": "bit mask (status_bits)",
+        "K_C": "N/m" if task != "full" else "6x6 [[N/m, N/rad], [Nm/m, Nm/rad]]",
+        "K_xd": "as K_C",
+        "frobenius": "as K_C (Frobenius norm of K_xd - K_C)",
+        "frobenius_start": "as frobenius",
+        "position": "m",
+        "target": "m",
+        "tracking_error": "m",
+        "orientation_error": "rad",
+        "isotropy": "1 (in [0, 1])",
+        "null_step": "rad (m for prismatic joints)",
+        "status": "bit mask (status_bits)",
     }

@@ -80,9 +80,22 @@ __all__ = [
 BATCH_AXIS = "jaxstiff_csc_rollouts"  #: the named vmap axis of a chunk's rollouts
 
 
-def rollout_one(robot: Robot, st: StaticSettings, axis_name: str, targets: jax.Array, K_xd: jax.Array, q0: jax.Array,
-                beta: jax.Array, kmin: jax.Array, kmax: jax.Array, nu0: jax.Array, damping: jax.Array,
-                null_eps: jax.Array, jl_gain: jax.Array, R_hold: jax.Array | None = None) -> CSCResult:
+def rollout_one(
+    robot: Robot,
+    st: StaticSettings,
+    axis_name: str,
+    targets: jax.Array,
+    K_xd: jax.Array,
+    q0: jax.Array,
+    beta: jax.Array,
+    kmin: jax.Array,
+    kmax: jax.Array,
+    nu0: jax.Array,
+    damping: jax.Array,
+    null_eps: jax.Array,
+    jl_gain: jax.Array,
+    R_hold: jax.Array | None = None,
+) -> CSCResult:
     """One rollout. targets (T, d), K_xd (T, m, m) or (m, m), q0 (n,), beta (), R_hold (3, 3) or
     None (task "full": the orientation held; None: q0's). See :func:`csc_rollout`.
     Runs under ``vmap(axis_name=axis_name)`` over the rollouts of a chunk."""
@@ -127,9 +140,22 @@ def rollout_batch_jit(backend: str, top_level: bool) -> Callable[..., CSCResult]
     return jax.jit(_rollout_batch_impl, static_argnums=(0, 1, 2), compiler_options=opts)
 
 
-def _rollout_batch_impl(robot: Robot, st: StaticSettings, chunk: int | None, targets: jax.Array, K_xd: jax.Array,
-                        q0: jax.Array, beta: jax.Array, kmin: jax.Array, kmax: jax.Array, nu0: jax.Array,
-                        damping: jax.Array, null_eps: jax.Array, jl_gain: jax.Array, R_hold: jax.Array | None) -> CSCResult:
+def _rollout_batch_impl(
+    robot: Robot,
+    st: StaticSettings,
+    chunk: int | None,
+    targets: jax.Array,
+    K_xd: jax.Array,
+    q0: jax.Array,
+    beta: jax.Array,
+    kmin: jax.Array,
+    kmax: jax.Array,
+    nu0: jax.Array,
+    damping: jax.Array,
+    null_eps: jax.Array,
+    jl_gain: jax.Array,
+    R_hold: jax.Array | None,
+) -> CSCResult:
     def one(xs: tuple) -> CSCResult:
         t, K, q, b, e, R = xs
         return rollout_one(robot, st, BATCH_AXIS, t, K, q, b, kmin, kmax, nu0, damping, e, jl_gain, R)
@@ -228,8 +254,26 @@ def csc_rollout(
             a non-symmetric or indefinite K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs).
     """
     st, chunk, args, batch = prepare_rollout(
-        robot, path, K_xd, q0, beta, settings=settings, task=task, step=step, kmin=kmin, kmax=kmax, nu0=nu0,
-        damping=damping, null_eps=null_eps, newton=newton, joint_limits=joint_limits, jl_gain=jl_gain,
-        kxd_varying=kxd_varying, hold_orientation=hold_orientation, remat=remat, chunk=chunk)
+        robot,
+        path,
+        K_xd,
+        q0,
+        beta,
+        settings=settings,
+        task=task,
+        step=step,
+        kmin=kmin,
+        kmax=kmax,
+        nu0=nu0,
+        damping=damping,
+        null_eps=null_eps,
+        newton=newton,
+        joint_limits=joint_limits,
+        jl_gain=jl_gain,
+        kxd_varying=kxd_varying,
+        hold_orientation=hold_orientation,
+        remat=remat,
+        chunk=chunk,
+    )
     res = rollout_batch(robot, st, chunk, *args)
     return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), res)

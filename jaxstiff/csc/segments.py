@@ -33,8 +33,17 @@ class CSCInterrupted(KeyboardInterrupt):
         self.result, self.steps_done, self.steps_total = result, steps_done, steps_total
 
 
-def csc_rollout_segments(robot: Robot, path: Any, K_xd: Any, q0: Any, beta: Any = None, *, segment_steps: int,
-                         progress: Callable[[int, int], None] | None = None, **kwargs: Any) -> CSCResult:
+def csc_rollout_segments(
+    robot: Robot,
+    path: Any,
+    K_xd: Any,
+    q0: Any,
+    beta: Any = None,
+    *,
+    segment_steps: int,
+    progress: Callable[[int, int], None] | None = None,
+    **kwargs: Any,
+) -> CSCResult:
     """:func:`csc_rollout` run as consecutive segments of ``segment_steps`` steps, for long runs
     that should show progress and keep their finished steps when interrupted.
 
@@ -81,8 +90,15 @@ def csc_rollout_segments(robot: Robot, path: Any, K_xd: Any, q0: Any, beta: Any 
     return _run_segments(one, pts, np.asarray(K_xd), q, st.varying, int(segment_steps), progress)
 
 
-def _run_segments(one: Callable[[np.ndarray, np.ndarray, np.ndarray], CSCResult], pts: np.ndarray, K: np.ndarray,
-                  q: np.ndarray, varying: bool, segment_steps: int, progress: Callable[[int, int], None] | None) -> CSCResult:
+def _run_segments(
+    one: Callable[[np.ndarray, np.ndarray, np.ndarray], CSCResult],
+    pts: np.ndarray,
+    K: np.ndarray,
+    q: np.ndarray,
+    varying: bool,
+    segment_steps: int,
+    progress: Callable[[int, int], None] | None,
+) -> CSCResult:
     """The loop of :func:`csc_rollout_segments`: ``one(points, K_xd, q0)`` per segment of equal length."""
     T = pts.shape[-2]
     L = int(min(segment_steps, T))
@@ -100,8 +116,10 @@ def _run_segments(one: Callable[[np.ndarray, np.ndarray, np.ndarray], CSCResult]
             keep = min(L, T - done)
             r = one(seg(done, pts, pts.ndim - 2), seg(done, K, K.ndim - 3) if varying else K, q)
             if keep < L:  # the padded last segment: drop the rows past the path's end
-                rows: dict[str, Any] = {name: (a if name in START_FIELDS else np.take(a, np.arange(keep), axis=step_axis(name, a.ndim)))
-                                        for name, a in r.as_dict().items()}
+                rows: dict[str, Any] = {
+                    name: (a if name in START_FIELDS else np.take(a, np.arange(keep), axis=step_axis(name, a.ndim)))
+                    for name, a in r.as_dict().items()
+                }
                 r = CSCResult(**rows)
             parts.append(r)
             q = np.asarray(r.q[..., -1, :])
@@ -133,11 +151,15 @@ class StepProgress:
             for note in self.notes:  # warnings about the settings, once they are known to be valid
                 print(f"jaxstiff: warning: {note}", file=sys.stderr)
             if self.L >= self.T:
-                msg = (f"csc: {self.B} rollout(s) x {self.T} steps in one compiled run (compiling, then running; no "
-                       "progress in between, and Ctrl-C takes effect when it ends) ...")
+                msg = (
+                    f"csc: {self.B} rollout(s) x {self.T} steps in one compiled run (compiling, then running; no "
+                    "progress in between, and Ctrl-C takes effect when it ends) ..."
+                )
             else:
-                msg = (f"csc: {self.B} rollout(s) x {self.T} steps in segments of {self.L} steps (compiling, then a line "
-                       "per segment; Ctrl-C keeps the finished segments) ...")
+                msg = (
+                    f"csc: {self.B} rollout(s) x {self.T} steps in segments of {self.L} steps (compiling, then a line "
+                    "per segment; Ctrl-C keeps the finished segments) ..."
+                )
             print(msg, file=sys.stderr, flush=True)
             return
         if self.L >= self.T:
@@ -145,8 +167,14 @@ class StepProgress:
         if self.t1 is None:  # the rate leaves out the first segment (it includes the compilation)
             self.t1, self.first = now, done
         rate = (done - self.first) / (now - self.t1) if done > self.first and now > self.t1 else 0.0
-        eta = f"ETA {(total - done) / rate:.1f} s" if rate > 0 and done < total else ("done" if done >= total else "ETA ...")
-        msg = f"csc: {done}/{total} steps x {self.B} rollout(s) ({100 * done / total:.0f}%)  {now - self.t0:.1f} s  {eta}"
+        eta = (
+            f"ETA {(total - done) / rate:.1f} s"
+            if rate > 0 and done < total
+            else ("done" if done >= total else "ETA ...")
+        )
+        msg = (
+            f"csc: {done}/{total} steps x {self.B} rollout(s) ({100 * done / total:.0f}%)  {now - self.t0:.1f} s  {eta}"
+        )
         if self.tty:
             sys.stderr.write("\r" + msg + ("\n" if done >= total else ""))
         else:

@@ -139,8 +139,16 @@ def _joint_constants(robot: Robot, dtype: Any) -> dict[str, Any]:
     )
 
 
-def step_context(robot: Robot, st: StaticSettings, axis_name: str, d: int, q0: jax.Array, K_xd: jax.Array,
-                 scalars: dict[str, Any], R_hold: jax.Array | None) -> tuple[StepContext, jax.Array]:
+def step_context(
+    robot: Robot,
+    st: StaticSettings,
+    axis_name: str,
+    d: int,
+    q0: jax.Array,
+    K_xd: jax.Array,
+    scalars: dict[str, Any],
+    R_hold: jax.Array | None,
+) -> tuple[StepContext, jax.Array]:
     """The :class:`StepContext` of one rollout and its start posture (locked joints at their values).
 
     ``scalars``: beta, kmin, kmax, nu0, damping, null_eps, jl_gain. ``R_hold`` None with task
@@ -227,7 +235,9 @@ def solve_step(ctx: StepContext, q: jax.Array, J: jax.Array, g: jax.Array, dx: j
     return dq, null, nu, damped, (nN < null_eps) | ~has_null
 
 
-def saturate(ctx: StepContext, k: int, q: jax.Array, lin: tuple, prev: tuple, dq_sat: jax.Array, mask: jax.Array) -> tuple:
+def saturate(
+    ctx: StepContext, k: int, q: jax.Array, lin: tuple, prev: tuple, dq_sat: jax.Array, mask: jax.Array
+) -> tuple:
     """Round ``k`` of the saturation: joints the step ``prev = (dq, null, small)`` pushes past a
     limit go exactly to it and are frozen; the other movable joints re-solve the same linearised
     step ``lin = (J, g, dx)`` for the rest. A joint the re-solve pushes out is frozen in turn, up to
@@ -250,8 +260,12 @@ def saturate(ctx: StepContext, k: int, q: jax.Array, lin: tuple, prev: tuple, dq
             dq2, null2, small2, mask2 = saturate(ctx, k + 1, q, lin, (dq2, null2, small2), dq_sat, mask_new)
         else:
             mask2 = mask_new
-        return (jnp.where(any_over, dq2, dq_prev), jnp.where(any_over, null2, null_prev),
-                jnp.where(any_over, small2, small_prev), jnp.where(any_over, mask2, mask))
+        return (
+            jnp.where(any_over, dq2, dq_prev),
+            jnp.where(any_over, null2, null_prev),
+            jnp.where(any_over, small2, small_prev),
+            jnp.where(any_over, mask2, mask),
+        )
 
     # Rare (a limit reached): re-solve only when some rollout of the vmapped chunk needs it. The
     # predicate is reduced over the batch axis, so it stays a branch under vmap. The branch is
@@ -293,8 +307,9 @@ def csc_step(ctx: StepContext, q: jax.Array, xs: tuple) -> tuple[jax.Array, dict
     # measures of the posture q (reached by the previous step) against the previous waypoint
     u_rep = u if not ctx.st.varying else offdiag(J, K_prev)
     with jax.named_scope("csc_measures"):
-        kj, K_C, frob, err, oerr = posture_measures(J, K_prev, p, R, target_prev, kmin=ctx.kmin, kmax=ctx.kmax,
-                                                    task=ctx.st.task, R_hold=ctx.R_hold)
+        kj, K_C, frob, err, oerr = posture_measures(
+            J, K_prev, p, R, target_prev, kmin=ctx.kmin, kmax=ctx.kmax, task=ctx.st.task, R_hold=ctx.R_hold
+        )
     dx = task_error(ctx, p, R, target)
     with jax.named_scope("csc_solve"):
         dq1, null1, nu, damped, small1 = solve_step(ctx, q, J, g, dx, ctx.free)
@@ -309,6 +324,17 @@ def csc_step(ctx: StepContext, q: jax.Array, xs: tuple) -> tuple[jax.Array, dict
     q_next = jnp.where(ok, q_clamped, q)
     status = _status(damped, hit, ok, small)
     step_len = jnp.where(ok, vector_norm(null), 0.0)
-    out = dict(q=q, u=u_rep, frobenius=frob, tracking_error=err, orientation_error=oerr, kj=kj, K_C=K_C,
-               position=p3, isotropy=nu, null_step=step_len, status=status)
+    out = dict(
+        q=q,
+        u=u_rep,
+        frobenius=frob,
+        tracking_error=err,
+        orientation_error=oerr,
+        kj=kj,
+        K_C=K_C,
+        position=p3,
+        isotropy=nu,
+        null_step=step_len,
+        status=status,
+    )
     return q_next, out

@@ -19,8 +19,18 @@ import numpy as np
 
 from jaxstiff._numerics.batch import is_traced
 
-__all__ = ["Chain", "JointType", "JOINT_REVOLUTE", "JOINT_PRISMATIC", "snap", "mat_to_tuple", "tuple_to_mat",
-           "tcp_matrix", "check_locked", "check_q"]
+__all__ = [
+    "Chain",
+    "JointType",
+    "JOINT_REVOLUTE",
+    "JOINT_PRISMATIC",
+    "snap",
+    "mat_to_tuple",
+    "tuple_to_mat",
+    "tcp_matrix",
+    "check_locked",
+    "check_q",
+]
 
 
 class JointType(enum.IntEnum):
@@ -225,9 +235,7 @@ def check_locked(
         if not math.isfinite(v):
             raise ValueError(f"locked value of joint {name!r} must be finite, got {v}")
         if v < lower[i] or v > upper[i]:
-            raise ValueError(
-                f"locked value {v:g} of joint {name!r} is outside its limits [{lower[i]:g}, {upper[i]:g}]"
-            )
+            raise ValueError(f"locked value {v:g} of joint {name!r} is outside its limits [{lower[i]:g}, {upper[i]:g}]")
         values[i] = v
     return tuple(values)
 
@@ -265,8 +273,7 @@ def check_q(robot: Chain, q: Any, name: str = "q") -> Any:
         raise ValueError(f"{name} must be an array of shape (..., {robot.n}), got {type(q).__name__}")
     if not jnp.issubdtype(q.dtype, jnp.floating):
         raise ValueError(
-            f"{name} must have a floating dtype (float32 or float64), got {q.dtype}; "
-            f"convert with q.astype(float)"
+            f"{name} must have a floating dtype (float32 or float64), got {q.dtype}; convert with q.astype(float)"
         )
     if q.ndim == 0 or q.shape[-1] != robot.n:
         raise ValueError(
@@ -277,6 +284,8 @@ def check_q(robot: Chain, q: Any, name: str = "q") -> Any:
         a = np.asarray(q)
         if not np.all(np.isfinite(a)):
             idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
-            raise ValueError(f"{name} contains NaN or Inf: {name}{list(idx)} = {a[idx]} "
-                             f"(joint {robot.joint_names[idx[-1]]!r} of robot {robot.name!r})")
+            raise ValueError(
+                f"{name} contains NaN or Inf: {name}{list(idx)} = {a[idx]} "
+                f"(joint {robot.joint_names[idx[-1]]!r} of robot {robot.name!r})"
+            )
     return q

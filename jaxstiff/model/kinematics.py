@@ -32,7 +32,15 @@ import jax.numpy as jnp
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
-__all__ = ["fk", "jacobian", "fk_and_jacobian", "position_and_jacobian", "jacobian_tangent", "cos_sin", "POLY_MIN_BATCH"]
+__all__ = [
+    "fk",
+    "jacobian",
+    "fk_and_jacobian",
+    "position_and_jacobian",
+    "jacobian_tangent",
+    "cos_sin",
+    "POLY_MIN_BATCH",
+]
 
 Scalar = float | jax.Array  # a Python float is a compile-time constant
 Vec3 = Sequence[Scalar]
@@ -175,9 +183,7 @@ def _jacobian_entries(p_tcp: Vec3, frames: list) -> list[list[Scalar]]:
 
 
 def _jacobian_array(cols: list[list[Scalar]], q: jax.Array, rows: Sequence[int] = range(6)) -> jax.Array:
-    return jnp.stack(
-        [jnp.stack([_full(cols[j][r], q) for j in range(len(cols))], axis=-1) for r in rows], axis=-2
-    )
+    return jnp.stack([jnp.stack([_full(cols[j][r], q) for j in range(len(cols))], axis=-1) for r in rows], axis=-2)
 
 
 def _check(robot: Chain, q: jax.Array) -> None:
@@ -314,7 +320,7 @@ def running_sum(x: jax.Array, reverse: bool = False, exclusive: bool = False) ->
     cols = [x[..., i] for i in range(n)]
     out: list = [None] * n
     acc = None
-    for i in (range(n - 1, -1, -1) if reverse else range(n)):
+    for i in range(n - 1, -1, -1) if reverse else range(n):
         if exclusive:
             out[i] = jnp.zeros_like(cols[i]) if acc is None else acc
         acc = cols[i] if acc is None else acc + cols[i]

@@ -21,9 +21,7 @@ def robot_path(name: str) -> str:
     stem = name[:-5] if name.endswith(".urdf") else name
     candidate = _urdf_dir() / f"{stem}.urdf"
     if not candidate.is_file():
-        raise FileNotFoundError(
-            f"no shipped robot named {name!r}; shipped robots: {', '.join(shipped_robots())}"
-        )
+        raise FileNotFoundError(f"no shipped robot named {name!r}; shipped robots: {', '.join(shipped_robots())}")
     return str(candidate)
 
 

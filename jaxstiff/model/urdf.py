@@ -88,7 +88,9 @@ def _check_joint_xml(path: str, elem: Any) -> None:
             if limit.get(attr) is not None:
                 vals = _float_attr(path, f"joint {name!r} limit {attr}", limit.get(attr))
                 if len(vals) != 1 or math.isnan(vals[0]) or (attr in ("lower", "upper") and math.isinf(vals[0])):
-                    raise ValueError(f"{path}: joint {name!r} limit {attr} must be a finite number, got {limit.get(attr)!r}")
+                    raise ValueError(
+                        f"{path}: joint {name!r} limit {attr} must be a finite number, got {limit.get(attr)!r}"
+                    )
 
 
 def _resolve_path(path: str | os.PathLike) -> str:
@@ -222,7 +224,9 @@ def _check_chain_joint(path: str, j: Any) -> None:
             f"choose a tip link above it (tip_link, command line: --tip-link)"
         )
     if j.type in ("floating", "planar"):
-        raise ValueError(f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported")
+        raise ValueError(
+            f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported"
+        )
 
 
 def _unit_axis(path: str, j: Any) -> tuple[float, ...]:
@@ -246,7 +250,7 @@ def _limits(path: str, j: Any) -> tuple[float, float]:
     if j.limit is None:
         raise ValueError(
             f"{path}: {j.type} joint {j.name!r} has no <limit>; URDF requires one"
-            + (" (use type=\"continuous\" for an unlimited revolute joint)" if j.type == "revolute" else "")
+            + (' (use type="continuous" for an unlimited revolute joint)' if j.type == "revolute" else "")
         )
     # URDF spec (and urdfdom): a missing lower/upper attribute defaults to 0.
     lo = 0.0 if j.limit.lower is None else float(j.limit.lower)
@@ -259,7 +263,7 @@ def _limits(path: str, j: Any) -> tuple[float, float]:
         warnings.warn(
             f"{path}: {j.type} joint {j.name!r} has an empty range [{lo:g}, {hi:g}]{why}; "
             f"it cannot move within its limits (lock it, or give it real limits or type "
-            f"\"continuous\")",
+            f'"continuous")',
             UserWarning,
             stacklevel=_WARN_STACKLEVEL,
         )

@@ -49,10 +49,17 @@ def tangents(points: ArrayLike, where: str = "path") -> np.ndarray:
     if P > 2:
         # an out-and-back turn (the path reverses at waypoint i): the central difference cancels,
         # but both segments lie on one line, which is the direction (alpha is sign-free)
-        rev = np.flatnonzero((norm[1:-1] <= 1e-9 * (seg[:-1] + seg[1:])) & (seg[:-1] > ZERO_SEGMENT_M) & (seg[1:] > ZERO_SEGMENT_M)) + 1
+        rev = (
+            np.flatnonzero(
+                (norm[1:-1] <= 1e-9 * (seg[:-1] + seg[1:])) & (seg[:-1] > ZERO_SEGMENT_M) & (seg[1:] > ZERO_SEGMENT_M)
+            )
+            + 1
+        )
         t[rev] = (pts[rev] - pts[rev - 1]) / seg[rev - 1, None] - (pts[rev + 1] - pts[rev]) / seg[rev, None]
         norm[rev] = np.linalg.norm(t[rev], axis=-1)
-    bad = np.flatnonzero((norm <= ZERO_SEGMENT_M) | np.r_[seg <= ZERO_SEGMENT_M, False] | np.r_[False, seg <= ZERO_SEGMENT_M])
+    bad = np.flatnonzero(
+        (norm <= ZERO_SEGMENT_M) | np.r_[seg <= ZERO_SEGMENT_M, False] | np.r_[False, seg <= ZERO_SEGMENT_M]
+    )
     if bad.size:
         raise ValueError(
             f"{where}: zero-length segment at waypoint {int(bad[0])} (consecutive waypoints coincide) "
@@ -67,8 +74,10 @@ def _checked_points(points: ArrayLike, has_directions: bool, where: str) -> np.n
     if pts.ndim not in (2, 3) or pts.shape[-1] != 3:
         raise ValueError(f"{where}: points must have shape (P, 3) or (B, P, 3), got {pts.shape}")
     if pts.shape[-2] < 1 or (pts.shape[-2] < 2 and not has_directions):
-        raise ValueError(f"{where}: a path needs at least 2 waypoints, or 1 with its direction given (columns "
-                         f"dx,dy,dz): one point has no tangent; got {pts.shape[-2]}")
+        raise ValueError(
+            f"{where}: a path needs at least 2 waypoints, or 1 with its direction given (columns "
+            f"dx,dy,dz): one point has no tangent; got {pts.shape[-2]}"
+        )
     if pts.ndim == 3 and pts.shape[0] < 1:
         raise ValueError(f"{where}: empty batch of paths")
     if not np.all(np.isfinite(pts)):
@@ -198,7 +207,7 @@ class Path:
         except ValueError as exc:  # geometry (zero-length segment or direction): say which line
             msg = re.sub(r"waypoint (\d+)", lambda m: f"waypoint {m[1]} (line {lines[int(m[1])]})", str(exc))
             if msg.startswith(name + ":"):
-                msg = file + msg[len(name):]
+                msg = file + msg[len(name) :]
             raise ValueError(msg) from None
 
     def to_csv(self, file: str | os.PathLike[str], directions: bool = True) -> None:

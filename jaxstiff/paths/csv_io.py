@@ -34,7 +34,11 @@ def _content_lines(file: str) -> list[tuple[int, str]]:
     except UnicodeDecodeError:
         raise ValueError(f"{file}: not a text CSV file (cannot decode as UTF-8)") from None
     # CSV line ends only (str.splitlines also splits at form feeds, vertical tabs, U+2028, ...)
-    lines = [(i + 1, ln) for i, ln in enumerate(re.split(r"\r\n|\r|\n", text)) if ln.strip() and not ln.lstrip().startswith("#")]
+    lines = [
+        (i + 1, ln)
+        for i, ln in enumerate(re.split(r"\r\n|\r|\n", text))
+        if ln.strip() and not ln.lstrip().startswith("#")
+    ]
     if not lines:
         raise ValueError(f"{file}: empty file; expected a header x,y,z[,dx,dy,dz] and waypoint rows")
     return lines

@@ -99,8 +99,14 @@ def chain_points(robot: Chain, q: ArrayLike) -> np.ndarray:
 
 
 def draw_arm(
-    ax: Any, robot: Chain, q: Sequence[float] | np.ndarray, color: Any, label: str | None = None, lw: float = 3.0,
-    annotate: bool = False, kj: Sequence[float] | np.ndarray | None = None,
+    ax: Any,
+    robot: Chain,
+    q: Sequence[float] | np.ndarray,
+    color: Any,
+    label: str | None = None,
+    lw: float = 3.0,
+    annotate: bool = False,
+    kj: Sequence[float] | np.ndarray | None = None,
 ) -> np.ndarray:
     """Draw a planar arm at posture ``q`` (rad) on ``ax`` in its xy plane (m); optionally label each
     joint's angle and stiffness ``kj`` (Nm/rad). Returns the points of :func:`chain_points`."""
@@ -113,7 +119,9 @@ def draw_arm(
             txt = f"q{i + 1} = {np.degrees(q[i]):.2f}°"
             if kj is not None:
                 txt += f"\nk_j{i + 1} = {kj[i]:g} Nm/rad"
-            ax.annotate(txt, pts[i, :2], xytext=(10, -30 if i else 6), textcoords="offset points", fontsize=8, color="tab:red")
+            ax.annotate(
+                txt, pts[i, :2], xytext=(10, -30 if i else 6), textcoords="offset points", fontsize=8, color="tab:red"
+            )
         ax.annotate("EE (TCP)", pts[-1, :2], xytext=(8, 6), textcoords="offset points", fontsize=8, color="tab:blue")
     return pts
 

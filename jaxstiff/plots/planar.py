@@ -19,8 +19,13 @@ __all__ = ["figure_cms", "figure_cds", "figure_criteria", "figure_u_frobenius"]
 
 
 def figure_cms(
-    robot: Chain, q: Sequence[float] | np.ndarray, kj0: Sequence[float] | np.ndarray, ks: Sequence[float],
-    K_list: Sequence[ArrayLike], file: str | os.PathLike, title: str | None = None,
+    robot: Chain,
+    q: Sequence[float] | np.ndarray,
+    kj0: Sequence[float] | np.ndarray,
+    ks: Sequence[float],
+    K_list: Sequence[ArrayLike],
+    file: str | os.PathLike,
+    title: str | None = None,
 ) -> str:
     """Seed 000 Fig. 2: one planar posture, joint stiffnesses ``k * kj0``, the ellipses of ``K(k)``.
 
@@ -55,8 +60,13 @@ def figure_cms(
 
 
 def figure_cds(
-    robot: Chain, postures: Sequence[Sequence[float] | np.ndarray], kj: Sequence[float] | np.ndarray,
-    K_list: Sequence[ArrayLike], file: str | os.PathLike, labels: Sequence[str] | None = None, title: str | None = None,
+    robot: Chain,
+    postures: Sequence[Sequence[float] | np.ndarray],
+    kj: Sequence[float] | np.ndarray,
+    K_list: Sequence[ArrayLike],
+    file: str | os.PathLike,
+    labels: Sequence[str] | None = None,
+    title: str | None = None,
 ) -> str:
     """Seed 000 Fig. 3: several postures with the same TCP position and their stiffness ellipses.
 
@@ -88,8 +98,14 @@ def figure_cds(
 
 
 def figure_criteria(
-    alpha_deg: np.ndarray, rho: np.ndarray, F1: np.ndarray, F2: np.ndarray, r: float, c: float,
-    file: str | os.PathLike, title: str | None = None,
+    alpha_deg: np.ndarray,
+    rho: np.ndarray,
+    F1: np.ndarray,
+    F2: np.ndarray,
+    r: float,
+    c: float,
+    file: str | os.PathLike,
+    title: str | None = None,
 ) -> str:
     """Seed 000 Fig. 6: f1 and f2 over orientation error x axis ratio, minimum sets in red.
 
@@ -106,18 +122,46 @@ def figure_criteria(
     A, P = np.meshgrid(alpha_deg, rho, indexing="ij")
     fig = plt.figure(figsize=(13, 10))
     gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1], hspace=0.25, wspace=0.15)
-    specs = [("f1", F1, f"f1 = (|α| + c) / (min(ρ, r)/r),  r = {r:g}, c = {c:g}"), ("f2", F2, f"f2 = (1 + |α|)(1 + |r − ρ|),  r = {r:g}")]
+    specs = [
+        ("f1", F1, f"f1 = (|α| + c) / (min(ρ, r)/r),  r = {r:g}, c = {c:g}"),
+        ("f2", F2, f"f2 = (1 + |α|)(1 + |r − ρ|),  r = {r:g}"),
+    ]
     rho_line = rho[rho >= r]
     for col, (name, F, label) in enumerate(specs):
         ax = fig.add_subplot(gs[0, col], projection="3d")
-        ax.plot_surface(A, P, F, cmap="viridis", norm=LogNorm(vmin=F.min(), vmax=F.max()), linewidth=0,
-                        antialiased=True, alpha=0.85, rcount=A.shape[0], ccount=A.shape[1])
+        ax.plot_surface(
+            A,
+            P,
+            F,
+            cmap="viridis",
+            norm=LogNorm(vmin=F.min(), vmax=F.max()),
+            linewidth=0,
+            antialiased=True,
+            alpha=0.85,
+            rcount=A.shape[0],
+            ccount=A.shape[1],
+        )
         if name == "f1":
-            ax.plot(np.zeros_like(rho_line), rho_line, np.full_like(rho_line, c), color="red", lw=3, zorder=10,
-                    label="minimum set: α = 0, ρ ≥ r")
+            ax.plot(
+                np.zeros_like(rho_line),
+                rho_line,
+                np.full_like(rho_line, c),
+                color="red",
+                lw=3,
+                zorder=10,
+                label="minimum set: α = 0, ρ ≥ r",
+            )
         else:
-            ax.scatter([0.0], [r], [1.0], color="red", s=70, depthshade=False, zorder=10,  # pyright: ignore[reportArgumentType]
-                       label="minimum: α = 0, ρ = r")  # (Axes3D.scatter takes zs; the 2-D stubs do not)
+            ax.scatter(
+                [0.0],
+                [r],
+                [1.0],
+                color="red",
+                s=70,
+                depthshade=False,
+                zorder=10,  # pyright: ignore[reportArgumentType]
+                label="minimum: α = 0, ρ = r",
+            )  # (Axes3D.scatter takes zs; the 2-D stubs do not)
         ax.set_xticks([-90, -45, 0, 45, 90])
         ax.set_xlabel("orientation error α (deg)")
         ax.set_ylabel("axis ratio ρ = λ1/λ2")
@@ -134,7 +178,11 @@ def figure_criteria(
             ax2.plot(np.zeros_like(rho_line), rho_line, color="red", lw=4, label=f"minimum set (f1 = c = {c:g})")
         else:
             ax2.plot([0.0], [r], "o", color="red", ms=9, label="minimum (f2 = 1)")
-        ax2.set(xlabel="orientation error α (deg)", ylabel="axis ratio ρ = λ1/λ2", title=f"{name} (colour: log scale, white: contours)")
+        ax2.set(
+            xlabel="orientation error α (deg)",
+            ylabel="axis ratio ρ = λ1/λ2",
+            title=f"{name} (colour: log scale, white: contours)",
+        )
         ax2.set_xticks([-90, -45, 0, 45, 90])
         ax2.legend(fontsize=8, loc="upper right")
         fig.colorbar(pcm, ax=ax2, label=name)
@@ -142,10 +190,19 @@ def figure_criteria(
     return save_figure(fig, file)
 
 
-def figure_u_frobenius(steps: ArrayLike, u: ArrayLike, frobenius: ArrayLike, labels: Sequence[str], file: str | os.PathLike,
-                       *, xlabel: str = "time step k",
-                       titles: Sequence[str] = ("off-diagonal joint stiffness u (S1-19)", "Frobenius error of the realised stiffness"),
-                       suptitle: str | None = None, figsize: tuple[float, float] = (12, 4.5), dpi: int = 120) -> str:
+def figure_u_frobenius(
+    steps: ArrayLike,
+    u: ArrayLike,
+    frobenius: ArrayLike,
+    labels: Sequence[str],
+    file: str | os.PathLike,
+    *,
+    xlabel: str = "time step k",
+    titles: Sequence[str] = ("off-diagonal joint stiffness u (S1-19)", "Frobenius error of the realised stiffness"),
+    suptitle: str | None = None,
+    figsize: tuple[float, float] = (12, 4.5),
+    dpi: int = 120,
+) -> str:
     """CSC over time: u(q) (left) and ``|K_xd - K_C|_F`` (right), one curve per rollout.
 
     Args:
@@ -166,8 +223,10 @@ def figure_u_frobenius(steps: ArrayLike, u: ArrayLike, frobenius: ArrayLike, lab
     frobenius = np.atleast_2d(np.asarray(frobenius, dtype=float))
     want = (len(labels), steps.shape[0])
     if u.shape != want or frobenius.shape != want:
-        raise ValueError(f"figure_u_frobenius: u {u.shape} and frobenius {frobenius.shape} must both be "
-                         f"(len(labels), len(steps)) = {want}")
+        raise ValueError(
+            f"figure_u_frobenius: u {u.shape} and frobenius {frobenius.shape} must both be "
+            f"(len(labels), len(steps)) = {want}"
+        )
     plt = pyplot()
     fig, ax = plt.subplots(1, 2, figsize=figsize)
     for ub, fb, lab in zip(u, frobenius, labels, strict=False):

@@ -39,7 +39,9 @@ def stiffness_axes(
     return w[:, ::-1], V[:, :, ::-1]
 
 
-def _panel_joints(ax: Any, wp: np.ndarray, values: np.ndarray, res: ShapeResult, colors: Any, ylabel: str, title: str) -> None:
+def _panel_joints(
+    ax: Any, wp: np.ndarray, values: np.ndarray, res: ShapeResult, colors: Any, ylabel: str, title: str
+) -> None:
     """(a)/(b): one curve a joint over the waypoints, legend below."""
     for i in range(res.n):
         ax.plot(wp, values[:, i], color=colors[i], label=str(res.joint_names[i]))
@@ -58,7 +60,10 @@ def _panel_criterion(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
     else:
         ax.plot(wp, res.criterion[b], "k.-", label=crit)
         ax.set(ylabel=f"{crit} (-)")
-    ax.set(xlabel="waypoint p", title=f"(c) criterion {crit} (its minimum is {fmin:g})" if fmin else f"(c) criterion {crit}")
+    ax.set(
+        xlabel="waypoint p",
+        title=f"(c) criterion {crit} (its minimum is {fmin:g})" if fmin else f"(c) criterion {crit}",
+    )
     ax.set_yscale("log")
     ax.legend(fontsize=8, loc="best")
     ax.grid(alpha=0.3, which="both")
@@ -84,8 +89,11 @@ def _panel_alpha_ratio(ax: Any, wp: np.ndarray, res: ShapeResult, b: int, r: flo
 def _panel_cms(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
     """(e): the CMS factor k per waypoint."""
     ax.plot(wp, res.cms[b], "C2.-")
-    ax.set(xlabel="waypoint p", ylabel="CMS factor k (-)",
-           title="(e) common-mode stiffness: kj_scaled = k kj (equal ellipsoid volume)")
+    ax.set(
+        xlabel="waypoint p",
+        ylabel="CMS factor k (-)",
+        title="(e) common-mode stiffness: kj_scaled = k kj (equal ellipsoid volume)",
+    )
     ax.grid(alpha=0.3)
 
 
@@ -135,11 +143,21 @@ def _panel_projection_xy(
         ell = (U * np.sqrt(np.maximum(w2, 0))) @ np.stack([np.cos(t), np.sin(t)])
         ax.plot(pts[k, 0] + ell[0], pts[k, 1] + ell[1], color="C1", label="ellipsoid outline (xy)" if j == 0 else None)
         a = V[k][:2, 0] * semi[k, 0]
-        ax.plot(pts[k, 0] + np.array([-a[0], a[0]]), pts[k, 1] + np.array([-a[1], a[1]]), "C3-", lw=1,
-                label="major axis" if j == 0 else None)
+        ax.plot(
+            pts[k, 0] + np.array([-a[0], a[0]]),
+            pts[k, 1] + np.array([-a[1], a[1]]),
+            "C3-",
+            lw=1,
+            label="major axis" if j == 0 else None,
+        )
         d = res.direction[b, k, :2] * semi[k, 0]
-        ax.plot(pts[k, 0] + np.array([-d[0], d[0]]), pts[k, 1] + np.array([-d[1], d[1]]), "C0:", lw=1,
-                label="path tangent" if j == 0 else None)
+        ax.plot(
+            pts[k, 0] + np.array([-d[0], d[0]]),
+            pts[k, 1] + np.array([-d[1], d[1]]),
+            "C0:",
+            lw=1,
+            label="path tangent" if j == 0 else None,
+        )
     ax.set(xlabel="x (m)", ylabel="y (m)", title="(g) projection on the xy plane")
     ax.set_aspect("equal")
     ax.legend(fontsize=8, loc="best")
@@ -170,10 +188,24 @@ def figure_shape_path(
     fig = plt.figure(figsize=(17, 14))
     gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.45, wspace=0.9)
     colors = plt.cm.tab10(np.arange(res.n))
-    _panel_joints(fig.add_subplot(gs[0, 0:2]), wp, res.kj[b], res, colors,
-                  "joint stiffness k_j (Nm/rad)", "(a) joint stiffness (before CMS)")
-    _panel_joints(fig.add_subplot(gs[0, 2:4]), wp, np.degrees(res.q[b]), res, colors,
-                  "joint position q (deg)", "(b) joint positions")
+    _panel_joints(
+        fig.add_subplot(gs[0, 0:2]),
+        wp,
+        res.kj[b],
+        res,
+        colors,
+        "joint stiffness k_j (Nm/rad)",
+        "(a) joint stiffness (before CMS)",
+    )
+    _panel_joints(
+        fig.add_subplot(gs[0, 2:4]),
+        wp,
+        np.degrees(res.q[b]),
+        res,
+        colors,
+        "joint position q (deg)",
+        "(b) joint positions",
+    )
     _panel_criterion(fig.add_subplot(gs[0, 4:6]), wp, res, b)
     _panel_alpha_ratio(fig.add_subplot(gs[1, 0:3]), wp, res, b, float(res.meta["ratio"]))
     _panel_cms(fig.add_subplot(gs[1, 3:6]), wp, res, b)

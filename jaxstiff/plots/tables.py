@@ -26,7 +26,9 @@ def experiment_parser(name: str, description: str) -> argparse.ArgumentParser:
         'out/fig2_cms'
     """
     ap = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default=os.path.join("out", name), help=f"output folder (default {os.path.join('out', name)})")
+    ap.add_argument(
+        "--out", default=os.path.join("out", name), help=f"output folder (default {os.path.join('out', name)})"
+    )
     return ap
 
 
@@ -44,8 +46,11 @@ def markdown_table(rows: Sequence[dict]) -> list[str]:
     if not rows:
         raise ValueError("markdown_table: no rows")
     header = list(rows[0])
-    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header),
-            *("| " + " | ".join(row[h] for h in header) + " |" for row in rows)]
+    return [
+        "| " + " | ".join(header) + " |",
+        "|" + "---|" * len(header),
+        *("| " + " | ".join(row[h] for h in header) + " |" for row in rows),
+    ]
 
 
 def text_table(rows: Sequence[dict], width: int, sep: str = " ") -> list[str]:
@@ -62,7 +67,10 @@ def text_table(rows: Sequence[dict], width: int, sep: str = " ") -> list[str]:
     if not rows:
         raise ValueError("text_table: no rows")
     header = list(rows[0])
-    return [sep.join(f"{h:>{width}s}" for h in header), *(sep.join(f"{row[h]:>{width}s}" for h in header) for row in rows)]
+    return [
+        sep.join(f"{h:>{width}s}" for h in header),
+        *(sep.join(f"{row[h]:>{width}s}" for h in header) for row in rows),
+    ]
 
 
 def save_table_csv(rows: Sequence[dict], file: str | os.PathLike) -> str:

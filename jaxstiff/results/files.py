@@ -135,8 +135,6 @@ _ARRAYS_BN = ("q0", "kj0")
 _INT_KEYS = ("status", "solver_code", "nit", "nfev")
 
 
-
-
 @dataclasses.dataclass(frozen=True, eq=False)
 class ShapeResult:
     """Per-waypoint solution of a shaping run; arrays as in the result file (module docstring).
@@ -228,7 +226,9 @@ class ShapeResult:
         if head != b"PK\x03\x04":  # every .npz is a zip archive; anything else numpy would try to unpickle
             text = all(32 <= b < 127 or b in (9, 10, 13) for b in head)
             kind = "the file is empty" if not head else "it is text, e.g. a CSV" if text else "it is not a zip archive"
-            raise ValueError(f"{file}: not a readable .npz result file ({kind}); results are written by `jaxstiff shape --out r.npz`")
+            raise ValueError(
+                f"{file}: not a readable .npz result file ({kind}); results are written by `jaxstiff shape --out r.npz`"
+            )
         try:
             with np.load(file, allow_pickle=False) as z:
                 data = {k: z[k] for k in z.files}
@@ -390,15 +390,21 @@ def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike
         if usable.any():
             out["max_pos_error"] = max(out["max_pos_error"], float(err[usable].max()))
         out["max_position_mismatch"] = max(out["max_position_mismatch"], float(np.abs(pos - res.position[b]).max()))
-        bound = np.r_[(robot.lower - q).ravel(), (q - robot.upper).ravel(), (kmin - kj).ravel(), (kj - kmax).ravel(), 0.0]
+        bound = np.r_[
+            (robot.lower - q).ravel(), (q - robot.upper).ravel(), (kmin - kj).ravel(), (kj - kmax).ravel(), 0.0
+        ]
         out["max_bound_violation"] = max(out["max_bound_violation"], float(bound.max()))
         if lmask.any():
-            out["max_locked_violation"] = max(out["max_locked_violation"], float(np.abs(q[:, lmask] - locked[lmask]).max()))
+            out["max_locked_violation"] = max(
+                out["max_locked_violation"], float(np.abs(q[:, lmask] - locked[lmask]).max())
+            )
         Qr, Kr, rate = reference_states(res, b)
         if rate.any():
             dqv = np.abs(q[rate] - Qr[rate]) - prm["dq"][b]
             dkv = np.abs(kj[rate] - Kr[rate]) - prm["dk"][b]
-            out["max_rate_violation"] = max(out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0])))
+            out["max_rate_violation"] = max(
+                out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0]))
+            )
         # reported stiffness quantities, recomputed in numpy
         K = np.stack([np_translational_stiffness(robot, q[p], kj[p], task) for p in range(res.P)])
         alpha, rho = np_alpha_ratio(K, res.direction[b])
@@ -407,7 +413,9 @@ def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike
         crit = res.meta["criterion"]
         if crit in ("f1", "f2"):
             f = np_criterion(crit, alpha, rho, float(prm["ratio"][b]), c)
-            out["max_criterion_mismatch"] = max(out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max()))
+            out["max_criterion_mismatch"] = max(
+                out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max())
+            )
         cms_ref = np_cms(K, res.meta["cms"])
         out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))
     return out

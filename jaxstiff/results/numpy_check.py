@@ -15,8 +15,15 @@ from jaxstiff.runtime.io import file_sha256
 if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
 
-__all__ = ["np_fk_position", "robot_from_meta", "np_jacobian_rows", "np_translational_stiffness", "np_alpha_ratio",
-           "np_criterion", "np_cms"]
+__all__ = [
+    "np_fk_position",
+    "robot_from_meta",
+    "np_jacobian_rows",
+    "np_translational_stiffness",
+    "np_alpha_ratio",
+    "np_criterion",
+    "np_cms",
+]
 
 
 def np_fk_position(robot: Robot, q: np.ndarray) -> np.ndarray:
@@ -36,7 +43,6 @@ def np_fk_position(robot: Robot, q: np.ndarray) -> np.ndarray:
             T = T @ M
         out[idx] = (T @ robot.tip_matrix)[:3, 3]
     return out
-
 
 
 def robot_from_meta(meta: dict[str, Any], urdf: str | os.PathLike | None = None, check_sha: bool = True) -> Robot:
@@ -115,7 +121,9 @@ def np_alpha_ratio(K: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return np.degrees(np.arctan2(sinang, cosang)), w[..., -1] / w[..., -2]
 
 
-def np_criterion(name: str, alpha: np.ndarray, rho: np.ndarray, r: float | np.ndarray, c: float | np.ndarray) -> np.ndarray:
+def np_criterion(
+    name: str, alpha: np.ndarray, rho: np.ndarray, r: float | np.ndarray, c: float | np.ndarray
+) -> np.ndarray:
     """f1 (S0-9, ``name == "f1"``) or f2 (S0-15) from alpha (deg) and the axis ratio rho."""
     if name == "f1":
         return (np.abs(alpha) + c) / (np.minimum(rho, r) / r)
@@ -129,4 +137,3 @@ def np_cms(K: np.ndarray, cms_meta: dict[str, Any]) -> np.ndarray:
         return float(cms_meta["target_major"]) / w[..., -1]
     m = K.shape[-1]
     return (float(cms_meta["target_volume"]) / np.prod(w, axis=-1)) ** (1.0 / m)
-

@@ -10,8 +10,18 @@ import enum
 
 import numpy as np
 
-__all__ = ["ShapeStatus", "SOLVED", "NOT_CONVERGED", "CLIPPED", "UNREACHABLE", "NONFINITE", "NOT_RUN",
-           "STATUS_NAMES", "USABLE", "is_usable"]
+__all__ = [
+    "ShapeStatus",
+    "SOLVED",
+    "NOT_CONVERGED",
+    "CLIPPED",
+    "UNREACHABLE",
+    "NONFINITE",
+    "NOT_RUN",
+    "STATUS_NAMES",
+    "USABLE",
+    "is_usable",
+]
 
 
 class ShapeStatus(enum.IntEnum):

@@ -20,8 +20,16 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["atomic_write", "atomic_write_text", "json_default", "interrupt_handlers", "interrupt_pending", "raise_if_interrupted",
-           "deferred_interrupts", "interrupt_exit_code"]
+__all__ = [
+    "atomic_write",
+    "atomic_write_text",
+    "json_default",
+    "interrupt_handlers",
+    "interrupt_pending",
+    "raise_if_interrupted",
+    "deferred_interrupts",
+    "interrupt_exit_code",
+]
 
 
 def _umask() -> int:
@@ -58,6 +66,7 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
 
 def atomic_write_text(file: str | os.PathLike, text: str) -> str:
     """Write ``text`` (UTF-8, newlines as given) to ``file`` atomically."""
+
     def write(fh: IO) -> None:
         fh.write(text)
 

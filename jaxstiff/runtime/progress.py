@@ -60,8 +60,18 @@ class Progress:
         terminal: force terminal (True) or plain-line (False) mode (default: ``file.isatty()``).
     """
 
-    def __init__(self, total: float, desc: str = "", unit: str = "it", *, initial: float = 0, enabled: bool = True,
-                 file: TextIO | None = None, log_every: float | None = None, terminal: bool | None = None):
+    def __init__(
+        self,
+        total: float,
+        desc: str = "",
+        unit: str = "it",
+        *,
+        initial: float = 0,
+        enabled: bool = True,
+        file: TextIO | None = None,
+        log_every: float | None = None,
+        terminal: bool | None = None,
+    ):
         self.total, self.desc, self.unit = float(total), desc, unit
         self.enabled = bool(enabled)
         self.file = file if file is not None else sys.stderr
@@ -74,8 +84,17 @@ class Progress:
         self._closed = False
         self._bar: tqdm | None = None
         if self.enabled and self.terminal:
-            self._bar = _Bar(total=self.total, initial=self.n, desc=desc, unit=unit, file=self.file, leave=True,
-                             mininterval=0.2, bar_format=BAR_FORMAT, dynamic_ncols=True)
+            self._bar = _Bar(
+                total=self.total,
+                initial=self.n,
+                desc=desc,
+                unit=unit,
+                file=self.file,
+                leave=True,
+                mininterval=0.2,
+                bar_format=BAR_FORMAT,
+                dynamic_ncols=True,
+            )
 
     def update(self, n: float = 1, note: str | None = None) -> None:
         """``n`` more units done; ``note`` (e.g. ``"path 2"``) is shown after the count."""
@@ -130,8 +149,9 @@ class Progress:
     def __enter__(self) -> Progress:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         self.close()
 
 

@@ -33,8 +33,9 @@ class FieldInfo:
     choices: tuple[Any, ...] | None
 
 
-def setting(default: Any, *, unit: str = "", doc: str = "", choices: Iterable[Any] | None = None,
-            check: Check | None = None) -> Any:
+def setting(
+    default: Any, *, unit: str = "", doc: str = "", choices: Iterable[Any] | None = None, check: Check | None = None
+) -> Any:
     """A settings field: ``x: float = setting(1.0, unit="N/m", doc="...", check=positive)``."""
     meta = {"unit": unit, "doc": doc, "choices": None if choices is None else tuple(choices), "check": check}
     return dataclasses.field(default=default, metadata=meta)
@@ -96,8 +97,12 @@ class Settings:
     @classmethod
     def fields_info(cls) -> list[FieldInfo]:
         """Every field with its default, unit, doc and choices (for help texts, docs and tests)."""
-        return [FieldInfo(f.name, f.default, f.metadata.get("unit", ""), f.metadata.get("doc", ""),
-                          f.metadata.get("choices")) for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+        return [
+            FieldInfo(
+                f.name, f.default, f.metadata.get("unit", ""), f.metadata.get("doc", ""), f.metadata.get("choices")
+            )
+            for f in dataclasses.fields(cls)  # type: ignore[arg-type]
+        ]
 
     @classmethod
     def defaults(cls) -> dict[str, Any]:

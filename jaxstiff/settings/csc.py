@@ -38,8 +38,15 @@ def _isotropy_threshold(v: object) -> str | None:
 
 
 def _optional_positive(v: object) -> str | None:
-    return None if v is None else (None if _is_real(v) and math.isfinite(v) and v > 0  # type: ignore[arg-type]
-                                   else "must be a finite number > 0 (or None: from K_xd and the dtype)")
+    return (
+        None
+        if v is None
+        else (
+            None
+            if _is_real(v) and math.isfinite(v) and v > 0  # type: ignore[arg-type]
+            else "must be a finite number > 0 (or None: from K_xd and the dtype)"
+        )
+    )
 
 
 def _optional_gain(v: object) -> str | None:
@@ -62,28 +69,50 @@ class CSCSettings(Settings):
 
     section = "csc"
 
-    task: str | None = setting(None, choices=(None, *CSC_TASKS), doc="task rows (default: from the size of K_xd: 2 xy, 3 xyz, 6 full)")
-    step: str = setting("adaptive", choices=STEP_RULES,
-                        doc="null-space step rule: adaptive = beta x |dq_P| (S1-22), constant = a null step of length beta")
-    beta: float = setting(1.0, unit="1 (adaptive) or rad per step (constant; m for prismatic joints)",
-                          doc="null-step multiplier (S1-22); constant rule: the null-step length", check=_finite_non_negative)
+    task: str | None = setting(
+        None, choices=(None, *CSC_TASKS), doc="task rows (default: from the size of K_xd: 2 xy, 3 xyz, 6 full)"
+    )
+    step: str = setting(
+        "adaptive",
+        choices=STEP_RULES,
+        doc="null-space step rule: adaptive = beta x |dq_P| (S1-22), constant = a null step of length beta",
+    )
+    beta: float = setting(
+        1.0,
+        unit="1 (adaptive) or rad per step (constant; m for prismatic joints)",
+        doc="null-step multiplier (S1-22); constant rule: the null-step length",
+        check=_finite_non_negative,
+    )
     kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive)
-    kmax: float = setting(math.inf, unit="Nm/rad", doc="actuator range: highest joint stiffness (inf: open)",
-                          check=_positive)
-    nu0: float = setting(1e-2, unit="1", doc="isotropy threshold: damping below nu0^(m/2) (S1-16's damped inverse)",
-                         check=_isotropy_threshold)
-    damping: float = setting(0.1, unit="1", doc="relative damping lam / sqrt(tr(J J^T)/m) at a singularity",
-                             check=_finite_non_negative)
-    null_eps: float | None = setting(None, unit="Nm/rad^2", doc="floor of |dq_N| (default: 1e-9 |K_xd|_F, from the dtype)",
-                                     check=_optional_positive)
+    kmax: float = setting(
+        math.inf, unit="Nm/rad", doc="actuator range: highest joint stiffness (inf: open)", check=_positive
+    )
+    nu0: float = setting(
+        1e-2,
+        unit="1",
+        doc="isotropy threshold: damping below nu0^(m/2) (S1-16's damped inverse)",
+        check=_isotropy_threshold,
+    )
+    damping: float = setting(
+        0.1, unit="1", doc="relative damping lam / sqrt(tr(J J^T)/m) at a singularity", check=_finite_non_negative
+    )
+    null_eps: float | None = setting(
+        None, unit="Nm/rad^2", doc="floor of |dq_N| (default: 1e-9 |K_xd|_F, from the dtype)", check=_optional_positive
+    )
     newton: int = setting(0, doc="Newton corrections of the TCP inside each step", check=_count)
-    joint_limits: str = setting("off", choices=JOINT_LIMIT_MODES,
-                                doc="joint-limit avoidance as a secondary task (joints are always clamped to their limits)")
+    joint_limits: str = setting(
+        "off",
+        choices=JOINT_LIMIT_MODES,
+        doc="joint-limit avoidance as a secondary task (joints are always clamped to their limits)",
+    )
     jl_gain: float | None = setting(
-        None, unit="rad per step (priority) or 1 (sum)",
+        None,
+        unit="rad per step (priority) or 1 (sum)",
         doc=f"joint-limit avoidance gain: priority = rad per step for a joint at its limit (before the projection), "
-            f"sum = weight against the CSC gradient at a limit (default: {DEFAULT_JL_GAIN} with joint_limits priority "
-            f"or sum, else 0)", check=_optional_gain)
+        f"sum = weight against the CSC gradient at a limit (default: {DEFAULT_JL_GAIN} with joint_limits priority "
+        f"or sum, else 0)",
+        check=_optional_gain,
+    )
 
     def __post_init__(self) -> None:
         super().__post_init__()

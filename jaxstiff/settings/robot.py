@@ -59,13 +59,18 @@ class RobotSpec(Settings):
     urdf: str = setting(DEFAULT_ROBOT, doc="URDF file or shipped robot name")
     base_link: str | None = setting(None, doc="first link of the chain (default: the URDF root)")
     tip_link: str | None = setting(
-        None, doc="last link of the chain (default: the leaf reached through the most actuated joints; "
-                  "an error if several tie)")
+        None,
+        doc="last link of the chain (default: the leaf reached through the most actuated joints; "
+        "an error if several tie)",
+    )
     locked: Mapping[str, float] | None = setting(
-        None, unit="rad (m for prismatic joints)",
-        doc="locked joints {name: value}; default: the shipped robot's (kuka_lwr4: lwr_a7=0, as seed 000); {} frees all")
-    tcp: tuple[float, ...] | None = setting(None, unit="m, rad", doc="tool offset x,y,z[,roll,pitch,yaw] after the tip link",
-                                            check=_check_tcp)
+        None,
+        unit="rad (m for prismatic joints)",
+        doc="locked joints {name: value}; default: the shipped robot's (kuka_lwr4: lwr_a7=0, as seed 000); {} frees all",
+    )
+    tcp: tuple[float, ...] | None = setting(
+        None, unit="m, rad", doc="tool offset x,y,z[,roll,pitch,yaw] after the tip link", check=_check_tcp
+    )
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "urdf", os.fspath(self.urdf))
@@ -90,8 +95,13 @@ class RobotSpec(Settings):
     def build(self) -> Robot:
         """Read the URDF into a :class:`~jaxstiff.Robot` (errors name the file, link or joint)."""
         locks = self.resolved_locks()
-        return Robot.from_urdf(self.urdf, base_link=self.base_link, tip_link=self.tip_link,
-                               locked=locks or None, tcp=None if self.tcp is None else tcp_transform(self.tcp))
+        return Robot.from_urdf(
+            self.urdf,
+            base_link=self.base_link,
+            tip_link=self.tip_link,
+            locked=locks or None,
+            tcp=None if self.tcp is None else tcp_transform(self.tcp),
+        )
 
     def meta(self) -> dict[str, Any]:
         out = super().meta()
@@ -139,11 +149,13 @@ def tcp_transform(tcp: Sequence[float]) -> np.ndarray:
     if len(v) == 6:
         r, p, y = v[3:]
         cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-        T[:3, :3] = np.array([
-            [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr],
-        ])
+        T[:3, :3] = np.array(
+            [
+                [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                [-sp, cp * sr, cp * cr],
+            ]
+        )
     return T
 
 

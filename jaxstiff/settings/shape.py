@@ -30,8 +30,11 @@ DEFAULT_DQ_DEG = 2.0  #: joint rate limit, degrees per waypoint (the seed leaves
 
 
 def _ratio(v: object) -> str | None:
-    return None if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 1 else \
-        "must be a finite number > 1 (lambda1 / lambda2)"
+    return (
+        None
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 1
+        else "must be a finite number > 1 (lambda1 / lambda2)"
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,17 +52,26 @@ class ShapeSettings(Settings):
     task: str = setting("full", choices=TASKS, doc="task rows of K_T: full = top-left 3x3 of the 6x6 K_C")
     solver: str = setting("slsqp", doc="solver (slsqp, slsqp-fd, pgd, hybrid, trajectory, or a registered one)")
     starts: int | None = setting(None, doc="starts per waypoint (None: the solver's default; SLSQP: 1)")
-    dq: float = setting(math.radians(DEFAULT_DQ_DEG), unit="rad per waypoint (m for prismatic joints)",
-                        doc="joint rate limit (S0-11, S0-12)", check=non_negative)
-    dk: float = setting(5.0, unit="Nm/rad per waypoint (N/m for prismatic joints)",
-                        doc="joint stiffness rate limit (S0-13, S0-14)", check=non_negative)
+    dq: float = setting(
+        math.radians(DEFAULT_DQ_DEG),
+        unit="rad per waypoint (m for prismatic joints)",
+        doc="joint rate limit (S0-11, S0-12)",
+        check=non_negative,
+    )
+    dk: float = setting(
+        5.0,
+        unit="Nm/rad per waypoint (N/m for prismatic joints)",
+        doc="joint stiffness rate limit (S0-13, S0-14)",
+        check=non_negative,
+    )
     kmin: float = setting(1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive)
     kmax: float = setting(100.0, unit="Nm/rad", doc="highest joint stiffness", check=positive)
     c: float = setting(0.01, unit="deg", doc="offset c of f1 (S0-9)", check=non_negative)
     first_rate_limit: bool = setting(False, doc="apply the rate limits between (q0, kj0) and waypoint 0")
     first_starts: int = setting(8, doc="IK start postures tried at the first waypoint", check=at_least(1))
-    cms_mean_axis: float = setting(1000.0, unit="N/m", doc="CMS: the common geometric-mean axis of every waypoint",
-                                   check=positive)
+    cms_mean_axis: float = setting(
+        1000.0, unit="N/m", doc="CMS: the common geometric-mean axis of every waypoint", check=positive
+    )
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -82,8 +94,10 @@ def limit_per_joint(value: Any, n: int, what: str, unit: str, B: int = 1) -> np.
     if a.ndim == 0:
         a = np.full(n, float(a))
     if a.shape != (n,) and a.shape != (B, n):
-        raise ValueError(f"{what} must be a number, {n} numbers (one per joint) or shape ({B}, {n}) "
-                         f"(one row per path) ({unit}), got shape {a.shape}")
+        raise ValueError(
+            f"{what} must be a number, {n} numbers (one per joint) or shape ({B}, {n}) "
+            f"(one row per path) ({unit}), got shape {a.shape}"
+        )
     bad_nan = np.argwhere(np.isnan(a))
     bad_neg = np.argwhere(a < 0)
     for bad, why in ((bad_nan, "is NaN"), (bad_neg, f"must be >= 0 ({unit}; inf = no limit)")):
@@ -109,7 +123,9 @@ def ratio_per_path(value: Any, B: int) -> float | np.ndarray:
             raise ValueError(f"ratio must be finite and > 1 (lambda1 / lambda2), got {r}")
         return r
     if a.shape != (B,):
-        raise ValueError(f"ratio must be a number or {B} numbers (one per path of the batch of {B}), got shape {a.shape}")
+        raise ValueError(
+            f"ratio must be a number or {B} numbers (one per path of the batch of {B}), got shape {a.shape}"
+        )
     bad = np.flatnonzero(~(np.isfinite(a) & (a > 1.0)))
     if bad.size:
         b = int(bad[0])

@@ -19,8 +19,17 @@ import numpy as np
 
 from jaxstiff.settings.base import Settings, setting
 
-__all__ = ["OptionRule", "option", "SolverOptions", "SLSQPOptions", "PGDOptions", "HybridOptions",
-           "TrajectoryOptions", "WARM_STARTS", "OPTIONS_OF"]
+__all__ = [
+    "OptionRule",
+    "option",
+    "SolverOptions",
+    "SLSQPOptions",
+    "PGDOptions",
+    "HybridOptions",
+    "TrajectoryOptions",
+    "WARM_STARTS",
+    "OPTIONS_OF",
+]
 
 WARM_STARTS = ("pgd", "hybrid", "slsqp")  #: the greedy solvers the trajectory solver's ``warm`` may name
 
@@ -40,8 +49,9 @@ class OptionRule:
     def normalise(self, label: str, name: str, v: Any) -> Any:
         """``v`` as int / float, or a ValueError naming ``label``'s option ``name``."""
         if self.kind == "int":
-            ok = not isinstance(v, bool) and (isinstance(v, (int, np.integer)) or (
-                isinstance(v, (float, np.floating)) and float(v).is_integer()))
+            ok = not isinstance(v, bool) and (
+                isinstance(v, (int, np.integer)) or (isinstance(v, (float, np.floating)) and float(v).is_integer())
+            )
             if not ok or v < self.lo:
                 raise ValueError(f"{label} option {name!r} must be an integer >= {self.lo}, got {v!r}")
             return int(v)
@@ -64,12 +74,20 @@ class OptionRule:
             self.normalise("", "", v)
         except ValueError as e:
             msg = str(e)
-            return msg[msg.index("must "):msg.rindex(", got")]
+            return msg[msg.index("must ") : msg.rindex(", got")]
         return None
 
 
-def option(default: Any, doc: str = "", *, unit: str = "", kind: str | None = None, lo: int = 0,
-           parse: bool = False, choices: Iterable[Any] | None = None) -> Any:
+def option(
+    default: Any,
+    doc: str = "",
+    *,
+    unit: str = "",
+    kind: str | None = None,
+    lo: int = 0,
+    parse: bool = False,
+    choices: Iterable[Any] | None = None,
+) -> Any:
     """A solver option field: a :func:`~jaxstiff.settings.base.setting` with an :class:`OptionRule`."""
     if kind is not None and kind not in _KINDS:
         raise ValueError(f"option kind must be one of {_KINDS}, got {kind!r}")
@@ -104,7 +122,9 @@ class SolverOptions(Settings):
         for f in fields:
             allowed = f.metadata.get("choices")
             if f.name in out and allowed is not None and out[f.name] not in allowed:
-                raise ValueError(f"{cls.label} option {f.name!r} must be {cls.choice_text(allowed)}, got {out[f.name]!r}")
+                raise ValueError(
+                    f"{cls.label} option {f.name!r} must be {cls.choice_text(allowed)}, got {out[f.name]!r}"
+                )
         return out
 
     @classmethod
@@ -123,12 +143,16 @@ class SLSQPOptions(SolverOptions):
 
     maxiter: int = option(200, "SLSQP iterations per waypoint", kind="int", lo=1)
     first_maxiter: int = option(1000, "iterations at a first waypoint that is not rate-limited", kind="int", lo=1)
-    ftol: float = option(1e-8, "SLSQP's accuracy goal (objective change and constraint violation)",
-                         kind="positive", parse=True)
+    ftol: float = option(
+        1e-8, "SLSQP's accuracy goal (objective change and constraint violation)", kind="positive", parse=True
+    )
     kj_scale: float = option(100.0, "stiffness unit inside SLSQP", unit="Nm/rad", kind="positive", parse=True)
     f_scale: float = option(0.1, "factor on the criterion inside SLSQP", kind="positive", parse=True)
-    driver: str = option("lean", "lean: scipy's SLSQP routine from a minimal loop; scipy: scipy.optimize.minimize",
-                         choices=("lean", "scipy"))
+    driver: str = option(
+        "lean",
+        "lean: scipy's SLSQP routine from a minimal loop; scipy: scipy.optimize.minimize",
+        choices=("lean", "scipy"),
+    )
 
     @classmethod
     def choice_text(cls, allowed: tuple[Any, ...]) -> str:
@@ -146,31 +170,38 @@ class PGDOptions(SolverOptions):
     starts: int = option(8, "S starts per waypoint (best) or independent rollouts (rollout)", kind="int", lo=1)
     mode: str = option("rollout", "how the S starts are used", choices=("best", "rollout"))
     iters: int = option(40, "projected gradient iterations per start and waypoint", kind="int", lo=1)
-    iters_first: int = option(150, "iterations at the first waypoint (its box is the whole joint range)",
-                              kind="int", lo=1)
+    iters_first: int = option(
+        150, "iterations at the first waypoint (its box is the whole joint range)", kind="int", lo=1
+    )
     starts_first: int = option(16, "starts at the first waypoint (best mode; rollouts: S)", kind="int", lo=1)
     newton: int = option(2, "Newton corrections after each step", kind="int", lo=0)
     polish: int = option(6, "Newton corrections of the final point", kind="int", lo=0)
-    surrogate: float = option(0.0, "fraction of the iterations spent on the smooth surrogate first",
-                              kind="nonnegative")
+    surrogate: float = option(0.0, "fraction of the iterations spent on the smooth surrogate first", kind="nonnegative")
     surrogate_first: float = option(0.5, "the same at the first waypoint (no warm start there)", kind="nonnegative")
     step0_first: float = option(0.15, "first step at the first waypoint, fraction of the box width", kind="positive")
     step0: float = option(0.05, "first step, fraction of the box width", kind="positive")
     step1: float = option(1e-5, "last step, fraction of the box width", kind="positive")
-    spread: float = option(0.5, "random starts: fraction of the box half-width around the reference",
-                           kind="nonnegative")
-    posture_spread: float = option(0.6, "joint perturbation of the first-waypoint postures (no rate limit)",
-                                   unit="rad", kind="nonnegative")
-    accept_tol: float = option(1e-7, "position error of an iterate that may be kept as the best", unit="m",
-                               kind="positive")
+    spread: float = option(
+        0.5, "random starts: fraction of the box half-width around the reference", kind="nonnegative"
+    )
+    posture_spread: float = option(
+        0.6, "joint perturbation of the first-waypoint postures (no rate limit)", unit="rad", kind="nonnegative"
+    )
+    accept_tol: float = option(
+        1e-7, "position error of an iterate that may be kept as the best", unit="m", kind="positive"
+    )
     iters_lm: int = option(10, "criterion iterations after the LM stage (f1, f2; later waypoints)", kind="int", lo=1)
-    lm_iters: int = option(20, "Levenberg-Marquardt steps on the f1/f2 residuals before the gradient stage",
-                           kind="int", lo=0)
+    lm_iters: int = option(
+        20, "Levenberg-Marquardt steps on the f1/f2 residuals before the gradient stage", kind="int", lo=0
+    )
     lm_iters_first: int = option(25, "the same at the first waypoint", kind="int", lo=0)
     lm_wpos: float = option(1e3, "weight of the position rows in the LM residual", unit="1/m", kind="positive")
     lm_walign: float = option(100.0, "weight of the alignment rows against the log-ratio row", kind="positive")
-    tie_tol: float = option(1e-7, "starts within this (relative) of the best criterion tie; the one farthest "
-                            "from the limits is kept", kind="nonnegative")
+    tie_tol: float = option(
+        1e-7,
+        "starts within this (relative) of the best criterion tie; the one farthest from the limits is kept",
+        kind="nonnegative",
+    )
     chunk: int = option(256, "trajectories per compiled call (memory bound)", kind="int", lo=1)
     seed: int = option(0, "seed of the random starts", kind="int", lo=0)
 
@@ -182,10 +213,14 @@ class HybridOptions(SolverOptions):
     label = "hybrid"
     section = "hybrid"
 
-    polish_slsqp: str = option("all", "all: SLSQP polishes every waypoint; unusable: only where pgd found no "
-                               "usable point", choices=("all", "unusable"))
-    chain: str = option("greedy", "greedy: SLSQP chains from its own previous waypoint; pgd: from pgd's",
-                        choices=("greedy", "pgd"))
+    polish_slsqp: str = option(
+        "all",
+        "all: SLSQP polishes every waypoint; unusable: only where pgd found no usable point",
+        choices=("all", "unusable"),
+    )
+    chain: str = option(
+        "greedy", "greedy: SLSQP chains from its own previous waypoint; pgd: from pgd's", choices=("greedy", "pgd")
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -198,8 +233,9 @@ class TrajectoryOptions(SolverOptions):
 
     warm: str = option("pgd", "greedy warm start", choices=WARM_STARTS)
     traj_iters: int = option(240, "Adam steps over the whole trajectory (all blocks)", kind="int", lo=1)
-    blocks: int = option(4, "feasibility pass + best-so-far after each block; penalty weight grows per block",
-                         kind="int", lo=1)
+    blocks: int = option(
+        4, "feasibility pass + best-so-far after each block; penalty weight grows per block", kind="int", lo=1
+    )
     traj_step0: float = option(0.3, "first step, fraction of the rate limit", kind="positive")
     traj_step1: float = option(0.003, "last step, fraction of the rate limit", kind="positive")
     mu0: float = option(10.0, "first penalty weight; x10 per block", kind="positive")

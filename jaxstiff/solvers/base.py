@@ -23,9 +23,19 @@ from jaxstiff.settings.solvers import (
 )
 from jaxstiff.solvers.problem import Limits, WaypointProblem
 
-__all__ = ["SolveRequest", "SOLVERS", "SolverInterrupted", "register_solver", "outcomes_to_arrays",
-           "solver_defaults", "solver_option_names", "options_for_solver", "check_options", "first_starts_use",
-           "options_meta"]
+__all__ = [
+    "SolveRequest",
+    "SOLVERS",
+    "SolverInterrupted",
+    "register_solver",
+    "outcomes_to_arrays",
+    "solver_defaults",
+    "solver_option_names",
+    "options_for_solver",
+    "check_options",
+    "first_starts_use",
+    "options_meta",
+]
 
 
 # ---------------------------------------------------------------------- solver registry
@@ -90,7 +100,6 @@ class SolverInterrupted(KeyboardInterrupt):
         self.arrays = arrays
 
 
-
 def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, Any]]) -> None:
     """Make a solver available as ``shape(..., solver=name)`` and ``jaxstiff shape --solver name``."""
     if not callable(fn):
@@ -98,7 +107,9 @@ def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, Any]]) -> 
     SOLVERS[name] = fn
 
 
-def outcomes_to_arrays(per_path: Sequence[Sequence[Any]], n_free: int, q0: np.ndarray, free_idx: Sequence[int]) -> dict[str, Any]:
+def outcomes_to_arrays(
+    per_path: Sequence[Sequence[Any]], n_free: int, q0: np.ndarray, free_idx: Sequence[int]
+) -> dict[str, Any]:
     """Per-waypoint outcomes (``x``, ``status``, ``code``, ``nit``, ``nfev``, ``pos_error``, ``time_s``;
     ``per_path[b][p]``) as the :data:`SOLVERS` dict: ``q``, ``kj`` (B, P, n) and (B, P) arrays; locked
     joints keep ``q0`` (B, n)."""
@@ -106,9 +117,17 @@ def outcomes_to_arrays(per_path: Sequence[Sequence[Any]], n_free: int, q0: np.nd
     n = q0.shape[-1]
     q = np.repeat(q0[:, None, :], P, axis=1).astype(float)
     kj = np.zeros((B, P, n))
-    out: dict[str, np.ndarray] = {k: np.zeros((B, P), dtype=dt) for k, dt in
-           (("status", np.int64), ("solver_code", np.int64), ("nit", np.int64), ("nfev", np.int64),
-            ("pos_error", float), ("time_s", float))}
+    out: dict[str, np.ndarray] = {
+        k: np.zeros((B, P), dtype=dt)
+        for k, dt in (
+            ("status", np.int64),
+            ("solver_code", np.int64),
+            ("nit", np.int64),
+            ("nfev", np.int64),
+            ("pos_error", float),
+            ("time_s", float),
+        )
+    }
     fi = list(free_idx)
     for b, outs in enumerate(per_path):
         for p, o in enumerate(outs):
@@ -191,8 +210,13 @@ def check_options(solver: str, options: Mapping[str, Any] | None) -> None:
     if unknown:
         import difflib
 
-        hints = [f"{k!r} (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, known, n=1)) else repr(k) for k in unknown]
-        raise ValueError(f"unknown option(s) for solver {solver!r}: {', '.join(hints)}; known: {', '.join(sorted(known))}")
+        hints = [
+            f"{k!r} (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, known, n=1)) else repr(k)
+            for k in unknown
+        ]
+        raise ValueError(
+            f"unknown option(s) for solver {solver!r}: {', '.join(hints)}; known: {', '.join(sorted(known))}"
+        )
     greedy = warm if solver == "trajectory" else solver  # the part that runs pgd and/or SLSQP
     # values: the trajectory solver's own, then those of the part that runs pgd and/or SLSQP
     classes = OPTIONS_OF[greedy] + ((TrajectoryOptions,) if solver == "trajectory" else ())
@@ -214,8 +238,10 @@ def first_starts_use(solver: str, opts_meta: dict[str, Any], n_first: int, first
     if greedy in ("pgd", "hybrid"):
         S = int(opts_meta["starts"])
         S1 = max(S, int(popts["starts_first"])) if popts.get("mode") == "best" else S
-        return (f"{min(n_first, S1)} of the {S1} first-waypoint starts of pgd (q0 first; the rest random "
-                "postures, options starts/starts_first)")
+        return (
+            f"{min(n_first, S1)} of the {S1} first-waypoint starts of pgd (q0 first; the rest random "
+            "postures, options starts/starts_first)"
+        )
     if greedy in ("slsqp", "slsqp-fd"):
         return "SLSQP solves the first waypoint from each (q0 first); the best is kept"
     return "passed to the solver as SolveRequest.first_starts"

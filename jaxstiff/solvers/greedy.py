@@ -34,9 +34,23 @@ from jaxstiff.solvers.problem import (
     newton_project,
 )
 
-__all__ = ["SolverOutput", "WaypointOutcome", "PathInterrupted", "WaypointSolver", "PosAndJac", "Objective",
-           "CODE_MEANING", "REPAIR_POS", "TIE_RTOL", "not_run_outcomes", "kernel_objective", "judge", "greedy_path",
-           "check_single_start", "run_greedy"]
+__all__ = [
+    "SolverOutput",
+    "WaypointOutcome",
+    "PathInterrupted",
+    "WaypointSolver",
+    "PosAndJac",
+    "Objective",
+    "CODE_MEANING",
+    "REPAIR_POS",
+    "TIE_RTOL",
+    "not_run_outcomes",
+    "kernel_objective",
+    "judge",
+    "greedy_path",
+    "check_single_start",
+    "run_greedy",
+]
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
 TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count as equally good
@@ -80,8 +94,10 @@ class WaypointSolver(Protocol):
 
     options: dict[str, Any]
 
-    def __call__(self, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray,
-                 maxiter: int | None = None) -> SolverOutput: ...
+    def __call__(
+        self, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
+    ) -> SolverOutput: ...
+
 
 #: one judged answer for a waypoint: ``(x, status, pos_error, solver code, criterion)``
 Candidate = tuple[np.ndarray, int, float, int, float]
@@ -186,7 +202,11 @@ def _pick(problem: WaypointProblem, cands: Sequence[Candidate]) -> Candidate:
 
     def margin(c: Candidate) -> float:
         qf = c[0][:nf]
-        m = np.where(finite, np.minimum(qf - np.where(finite, lo[free], 0.0), np.where(finite, hi[free], 0.0) - qf) / span, np.inf)
+        m = np.where(
+            finite,
+            np.minimum(qf - np.where(finite, lo[free], 0.0), np.where(finite, hi[free], 0.0) - qf) / span,
+            np.inf,
+        )
         return float(np.min(m)) if nf else 0.0
 
     return max(ties, key=margin)
@@ -284,8 +304,9 @@ def greedy_path(
             if not rate:
                 starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
             params = WaypointProblem.params(targets[p], directions[p], ratio, c)
-            cands, nit, nfev = _solve_starts(problem, solver, starts, lb, ub, targets[p], params, pj, fobj, pos_tol,
-                                             None if rate else first_maxiter)
+            cands, nit, nfev = _solve_starts(
+                problem, solver, starts, lb, ub, targets[p], params, pj, fobj, pos_tol, None if rate else first_maxiter
+            )
             x, status, err, code, _ = _pick(problem, cands)
             out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
             if status in R.USABLE:
@@ -324,9 +345,22 @@ def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, An
         prog = None if progress is None else (lambda p, b=b: progress(b, p))
         try:
             per_path.append(
-                greedy_path(prob, req.targets[b], req.directions[b], req.q0[b], req.kj0[b], req.limits.for_path(b),
-                            float(ratios[b]), req.c, solver, pos_tol=req.pos_tol, progress=prog,
-                            first_starts=req.first_starts[b], first_maxiter=solver.options["first_maxiter"], **extra)
+                greedy_path(
+                    prob,
+                    req.targets[b],
+                    req.directions[b],
+                    req.q0[b],
+                    req.kj0[b],
+                    req.limits.for_path(b),
+                    float(ratios[b]),
+                    req.c,
+                    solver,
+                    pos_tol=req.pos_tol,
+                    progress=prog,
+                    first_starts=req.first_starts[b],
+                    first_maxiter=solver.options["first_maxiter"],
+                    **extra,
+                )
             )
         except PathInterrupted as e:
             per_path.append(e.done)

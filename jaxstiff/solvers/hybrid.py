@@ -135,9 +135,23 @@ def polish(
     sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
     solver = make_slsqp_solver(problem, sl_opts)
     B = targets.shape[0]
-    ctx = _Polish(problem, targets, directions, q0, kj0, limits, np.broadcast_to(np.asarray(ratio, float), (B,)), c,
-                  base, own["polish_slsqp"], solver, jax_pos_and_jac(problem), kernel_objective(problem), pos_tol,
-                  first_starts)
+    ctx = _Polish(
+        problem,
+        targets,
+        directions,
+        q0,
+        kj0,
+        limits,
+        np.broadcast_to(np.asarray(ratio, float), (B,)),
+        c,
+        base,
+        own["polish_slsqp"],
+        solver,
+        jax_pos_and_jac(problem),
+        kernel_objective(problem),
+        pos_tol,
+        first_starts,
+    )
     out = {k: np.array(v, copy=True) for k, v in base.items() if isinstance(v, np.ndarray)}
     for b in range(B):
         if own["chain"] == "greedy":
@@ -270,11 +284,14 @@ def _best_slsqp(
     for xs in starts:
         x_start = clip_to_box(xs, lb, ub)
         try:
-            sol = ctx.solver(x_start.copy(), lb, ub, params, maxiter=None if rate else ctx.solver.options["first_maxiter"])
+            sol = ctx.solver(
+                x_start.copy(), lb, ub, params, maxiter=None if rate else ctx.solver.options["first_maxiter"]
+            )
         except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
             sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
-        x, status, err = judge(problem, sol, x_start, lb, ub, ctx.targets[b, p], params, ctx.pos_and_jac, ctx.objective,
-                               ctx.pos_tol)
+        x, status, err = judge(
+            problem, sol, x_start, lb, ub, ctx.targets[b, p], params, ctx.pos_and_jac, ctx.objective, ctx.pos_tol
+        )
         if status in R.USABLE:
             f_new = ctx.objective(x, params)
             if f_new < f_best:
@@ -320,14 +337,38 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     opts = dict(req.options or {})
     pg_opts = {k: v for k, v in opts.items() if k in pgd.DEFAULT_OPTIONS}
     base = pgd.solve_batch(
-        req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-        starts=req.starts, options=pg_opts, pos_tol=req.pos_tol, first_starts=req.first_starts,
+        req.problem,
+        req.targets,
+        req.directions,
+        req.q0,
+        req.kj0,
+        req.limits,
+        req.ratio,
+        req.c,
+        starts=req.starts,
+        options=pg_opts,
+        pos_tol=req.pos_tol,
+        first_starts=req.first_starts,
     )
     base.pop("criterion", None)
-    out: dict[str, Any] = polish(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio,
-                                 req.c, base, options=opts, pos_tol=req.pos_tol, first_starts=req.first_starts)
+    out: dict[str, Any] = polish(
+        req.problem,
+        req.targets,
+        req.directions,
+        req.q0,
+        req.kj0,
+        req.limits,
+        req.ratio,
+        req.c,
+        base,
+        options=opts,
+        pos_tol=req.pos_tol,
+        first_starts=req.first_starts,
+    )
     from jaxstiff.solvers.slsqp import CODE_MEANING
 
-    out["code_meaning"] = (f"{CODE_MEANING}, where the polish's answer was taken; else the index of pgd's "
-                           "winning start (the file does not tell the two apart)")
+    out["code_meaning"] = (
+        f"{CODE_MEANING}, where the polish's answer was taken; else the index of pgd's "
+        "winning start (the file does not tell the two apart)"
+    )
     return out

@@ -43,9 +43,24 @@ from jaxstiff.solvers.greedy import not_run_outcomes as not_run_outcomes
 from jaxstiff.solvers.greedy import run_greedy as run_greedy
 from jaxstiff.solvers.problem import Limits, WaypointProblem, compiled_position, compiled_scaled
 
-__all__ = ["WaypointOutcome", "SolverOutput", "PathInterrupted", "greedy_path", "make_slsqp_solver", "solve_path",
-           "DEFAULT_OPTIONS", "run_request", "run_greedy", "check_single_start", "judge", "not_run_outcomes",
-           "CODE_MEANING", "WaypointSolver", "REPAIR_POS", "TIE_RTOL"]
+__all__ = [
+    "WaypointOutcome",
+    "SolverOutput",
+    "PathInterrupted",
+    "greedy_path",
+    "make_slsqp_solver",
+    "solve_path",
+    "DEFAULT_OPTIONS",
+    "run_request",
+    "run_greedy",
+    "check_single_start",
+    "judge",
+    "not_run_outcomes",
+    "CODE_MEANING",
+    "WaypointSolver",
+    "REPAIR_POS",
+    "TIE_RTOL",
+]
 
 #: SLSQP settings used unless overridden (``shape(..., options=...)``), from
 #: :class:`~jaxstiff.settings.solvers.SLSQPOptions`: ``maxiter`` iterations per waypoint
@@ -73,8 +88,13 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
     t0 = time.perf_counter()
     x_dummy = problem.x_of(np.nan_to_num(problem.robot.locked_values) + 0.1, np.ones(problem.n))
     # argument kinds as in every later call (y numpy; params, scale on the device): one cache entry
-    np.asarray(fused_s(x_dummy, jnp.asarray(WaypointProblem.params(np.zeros(3), [1.0, 0.0, 0.0], 2.0, 0.0)),
-                       jnp.asarray(np.ones(problem.nx + 1))))
+    np.asarray(
+        fused_s(
+            x_dummy,
+            jnp.asarray(WaypointProblem.params(np.zeros(3), [1.0, 0.0, 0.0], 2.0, 0.0)),
+            jnp.asarray(np.ones(problem.nx + 1)),
+        )
+    )
     np.asarray(compiled_position(problem)(np.nan_to_num(problem.robot.locked_values)))
     compile_s = time.perf_counter() - t0
     nx, k = problem.nx, len(problem.pos_rows)
@@ -90,8 +110,9 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
 
     lean = opts["driver"] == "lean" and _lean_driver_works()
 
-    def solve(x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray,
-              maxiter: int | None = None) -> SolverOutput:
+    def solve(
+        x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
+    ) -> SolverOutput:
         last: list[Any] = [b"", None]
         count = [0]
         params_dev = jnp.asarray(params)  # on the device once per waypoint, not once per call
@@ -106,6 +127,7 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
 
         iters = int(maxiter or opts["maxiter"])
         if lean:
+
             def fgca(y: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
                 out = ev(y)
                 return out[sl_f], out[sl_g], out[sl_c], out[sl_a].reshape(k, nx)
@@ -123,7 +145,12 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
             "jac": lambda y: ev(y)[sl_a].reshape(k, nx),
         }
         res = minimize(
-            fun, x0 / scale, jac=True, bounds=Bounds(lb / scale, ub / scale), constraints=[cons], method="SLSQP",
+            fun,
+            x0 / scale,
+            jac=True,
+            bounds=Bounds(lb / scale, ub / scale),
+            constraints=[cons],
+            method="SLSQP",
             options={"maxiter": iters, "ftol": float(opts["ftol"])},
         )
         x = np.asarray(res.x, float) * scale
@@ -164,9 +191,29 @@ def _slsqp_lean(
     from scipy.optimize._slsqplib import slsqp as _kernel
 
     n, m = x0.size, meq
-    state = {"acc": float(acc), "alpha": 0.0, "f0": 0.0, "gs": 0.0, "h1": 0.0, "h2": 0.0, "h3": 0.0, "h4": 0.0,
-             "t": 0.0, "t0": 0.0, "tol": 10.0 * float(acc), "exact": 0, "inconsistent": 0, "reset": 0, "iter": 0,
-             "itermax": int(maxiter), "line": 0, "m": m, "meq": meq, "mode": 0, "n": n}
+    state = {
+        "acc": float(acc),
+        "alpha": 0.0,
+        "f0": 0.0,
+        "gs": 0.0,
+        "h1": 0.0,
+        "h2": 0.0,
+        "h3": 0.0,
+        "h4": 0.0,
+        "t": 0.0,
+        "t0": 0.0,
+        "tol": 10.0 * float(acc),
+        "exact": 0,
+        "inconsistent": 0,
+        "reset": 0,
+        "iter": 0,
+        "itermax": int(maxiter),
+        "line": 0,
+        "m": m,
+        "meq": meq,
+        "mode": 0,
+        "n": n,
+    }
     indices = np.zeros(max(m + 2 * n + 2, 1), dtype=np.int32)
     size = n * (n + 1) // 2 + 3 * m * n - (m + 5 * n + 7) * meq + 9 * m + 8 * n * n + 35 * n + meq * meq + 28
     size += 2 * n * (n + 1)  # no inequality constraints
@@ -222,10 +269,15 @@ def _lean_driver_works() -> bool:
 
         x0, lo, hi = np.full(n, 0.9), np.full(n, -1.0), np.full(n, 1.0)
         # scipy's stubs type Bounds' lb/ub as float; arrays are what its documentation describes
-        ref = minimize(lambda x: fgca(x)[:2], x0, jac=True, bounds=Bounds(lo, hi),  # pyright: ignore[reportArgumentType]
-                       method="SLSQP",
-                       constraints=[{"type": "eq", "fun": lambda x: fgca(x)[2], "jac": lambda x: fgca(x)[3]}],
-                       options={"maxiter": 100, "ftol": 1e-10})
+        ref = minimize(
+            lambda x: fgca(x)[:2],
+            x0,
+            jac=True,
+            bounds=Bounds(lo, hi),  # pyright: ignore[reportArgumentType]
+            method="SLSQP",
+            constraints=[{"type": "eq", "fun": lambda x: fgca(x)[2], "jac": lambda x: fgca(x)[3]}],
+            options={"maxiter": 100, "ftol": 1e-10},
+        )
         x, mode, nit = _slsqp_lean(fgca, x0, lo, hi, 2, 100, 1e-10)
         ok = bool(mode == ref.status and nit == ref.nit and np.allclose(x, ref.x, rtol=0, atol=1e-12))
     except Exception:  # private API moved or changed: use minimize
@@ -249,7 +301,16 @@ def solve_path(
     """Greedy SLSQP with JAX derivatives along one path; see :func:`greedy_path`."""
     solver = make_slsqp_solver(problem, options)
     return greedy_path(
-        problem, targets, directions, q0, kj0, limits, ratio, c, solver, progress=progress,
+        problem,
+        targets,
+        directions,
+        q0,
+        kj0,
+        limits,
+        ratio,
+        c,
+        solver,
+        progress=progress,
         first_maxiter=solver.options["first_maxiter"],
     )
 

@@ -150,8 +150,9 @@ def make_fd_solver(problem: WaypointProblem, options: Mapping[str, Any] | None =
     scale = np.r_[np.ones(problem.n_free), np.full(problem.n, float(opts["kj_scale"]))]
     fscale = float(opts["f_scale"])
 
-    def solve(x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray,
-              maxiter: int | None = None) -> SolverOutput:
+    def solve(
+        x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
+    ) -> SolverOutput:
         count = [0]
 
         def fun(y: np.ndarray) -> float:
@@ -162,10 +163,16 @@ def make_fd_solver(problem: WaypointProblem, options: Mapping[str, Any] | None =
             return chain.position(q_of(y * scale))[rows] - params[0:3][rows]
 
         res = minimize(
-            fun, x0 / scale, bounds=Bounds(lb / scale, ub / scale), constraints=[{"type": "eq", "fun": con}],
-            method="SLSQP", options={"maxiter": int(maxiter or opts["maxiter"]), "ftol": float(opts["ftol"])},
+            fun,
+            x0 / scale,
+            bounds=Bounds(lb / scale, ub / scale),
+            constraints=[{"type": "eq", "fun": con}],
+            method="SLSQP",
+            options={"maxiter": int(maxiter or opts["maxiter"]), "ftol": float(opts["ftol"])},
         )
-        return SolverOutput(np.asarray(res.x, float) * scale, int(res.status), int(res.status) == 0, int(res.nit), count[0])
+        return SolverOutput(
+            np.asarray(res.x, float) * scale, int(res.status), int(res.status) == 0, int(res.nit), count[0]
+        )
 
     solve.options = opts  # type: ignore[attr-defined]
     return cast(WaypointSolver, solve)  # a function with its options attached

@@ -136,7 +136,7 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) ->
 
         def block(i, carry):
             X, m1, m2, t, Xb, Fb, Eb, STb, scb = carry
-            mu = mu0 * 10.0 ** i
+            mu = mu0 * 10.0**i
 
             def it(_, c2):
                 X, m1, m2, t = c2
@@ -169,7 +169,10 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) ->
 def _compiled(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
     traj = _kernel(problem, dict(opts_items), first_rate)
     # per path: warm start, targets, directions, start state, rate limits (dq_f, dk) and ratio
-    return jax.jit(jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None)), compiler_options=kernel_compiler_options())
+    return jax.jit(
+        jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None)),
+        compiler_options=kernel_compiler_options(),
+    )
 
 
 def refine_batch(
@@ -219,8 +222,19 @@ def refine_batch(
             e = min(s + C, B)
             sl = slice(s, e)
             t0 = time.perf_counter()
-            res = fn(pad(Xw[sl], C), pad(targets[sl], C), pad(directions[sl], C), pad(x0[sl], C), pad(dq_f[sl], C), pad(dk[sl], C),
-                     float(limits.kmin), float(limits.kmax), pad(r_arr[sl], C), float(c), float(pos_tol))
+            res = fn(
+                pad(Xw[sl], C),
+                pad(targets[sl], C),
+                pad(directions[sl], C),
+                pad(x0[sl], C),
+                pad(dq_f[sl], C),
+                pad(dk[sl], C),
+                float(limits.kmin),
+                float(limits.kmax),
+                pad(r_arr[sl], C),
+                float(c),
+                float(pos_tol),
+            )
             res = jax.tree_util.tree_map(np.asarray, res)
             dt = time.perf_counter() - t0
             m = e - s
@@ -256,7 +270,18 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
             raise KeyboardInterrupt from None
     else:
         raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm_kind!r}")
-    out = refine_batch(req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-                       warm, options=opts, pos_tol=req.pos_tol)
+    out = refine_batch(
+        req.problem,
+        req.targets,
+        req.directions,
+        req.q0,
+        req.kj0,
+        req.limits,
+        req.ratio,
+        req.c,
+        warm,
+        options=opts,
+        pos_tol=req.pos_tol,
+    )
     out["code_meaning"] = f"the warm start's ({warm_kind}): {warm.get('code_meaning')}"
     return out

@@ -90,6 +90,7 @@ __all__ = [
     "select_task_rows",
 ]
 
+
 def _joint_stiffness_array(kj: jax.Array, J: jax.Array) -> jax.Array:
     kj = jnp.asarray(kj, dtype=J.dtype)
     if kj.ndim < 1 or kj.shape[-1] != J.shape[-1]:
@@ -269,5 +270,3 @@ def _cct_term(robot: Any, rows: tuple[int, ...], q: jax.Array, F: jax.Array) -> 
     qf = jnp.broadcast_to(q, batch + (n,)).reshape((-1, n))
     Ff = jnp.broadcast_to(F, batch + (m,)).reshape((-1, m))
     return jax.vmap(jax.jacfwd(tau))(qf, Ff).reshape(batch + (n, n))
-
-

@@ -166,8 +166,6 @@ def f2(K: jax.Array, d: jax.Array, r: ArrayLike, c: float = 0.0) -> jax.Array:
     return _f2(K, d, r)
 
 
-
-
 def frobenius(K: jax.Array, K_d: jax.Array) -> jax.Array:
     """``||K_d - K||_F`` (...,) (S1-10), with a finite (zero) gradient where ``K = K_d``.
 
@@ -211,7 +209,9 @@ def offdiag(J: jax.Array, K_xd: jax.Array) -> jax.Array:
         raise ValueError(f"J must be a task-row Jacobian (..., m, n), got shape {tuple(J.shape)}")
     K_xd = jnp.asarray(K_xd, dtype=J.dtype)
     if K_xd.shape[-2:] != (J.shape[-2], J.shape[-2]):
-        raise ValueError(f"K_xd must have shape (..., {J.shape[-2]}, {J.shape[-2]}) to match J {tuple(J.shape)}, got {tuple(K_xd.shape)}")
+        raise ValueError(
+            f"K_xd must have shape (..., {J.shape[-2]}, {J.shape[-2]}) to match J {tuple(J.shape)}, got {tuple(K_xd.shape)}"
+        )
     broadcast_batch(("J", J.shape[:-2]), ("K_xd", K_xd.shape[:-2]))
     return _offdiag(J, K_xd)
 
@@ -298,4 +298,6 @@ def get_criterion(criterion: str | Criterion) -> Criterion:
     try:
         return CRITERIA[criterion]
     except (KeyError, TypeError):
-        raise ValueError(f"unknown criterion {criterion!r}; choose one of {', '.join(CRITERIA)} or pass a function") from None
+        raise ValueError(
+            f"unknown criterion {criterion!r}; choose one of {', '.join(CRITERIA)} or pass a function"
+        ) from None

@@ -58,35 +58,6 @@ __all__ = [
 ]
 
 
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
 @jax.tree_util.register_dataclass
 @dataclasses.dataclass(frozen=True)
 class Ellipsoid:
@@ -108,10 +79,6 @@ class Ellipsoid:
     def major(self) -> jax.Array:
         """The unit direction of the longest axis, ``v1`` (..., m)."""
         return self.directions[..., :, 0]
-
-
-
-
 
 
 def ellipsoid(K: jax.Array) -> Ellipsoid:
@@ -140,7 +107,9 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
         if np.any(neg):
             at = np.argwhere(neg)[0]
             where = f" at index {tuple(int(i) for i in at)}" if at.size else ""
-            raise ValueError(f"K must be positive (semi-)definite (a stiffness); it has the eigenvalue {float(w[tuple(at)][-1]):g}{where}")
+            raise ValueError(
+                f"K must be positive (semi-)definite (a stiffness); it has the eigenvalue {float(w[tuple(at)][-1]):g}{where}"
+            )
     return e
 
 
@@ -158,10 +127,6 @@ def axis_ratio(K: jax.Array) -> jax.Array:
 def volume(K: jax.Array) -> jax.Array:
     """Product of the axes (...,): volume of a 3x3 ellipsoid (up to 4/3 pi), area of a 2x2 one (up to pi)."""
     return ellipsoid(K).volume
-
-
-
-
 
 
 def alpha_rad(v1: jax.Array, d: jax.Array) -> jax.Array:

@@ -40,11 +40,17 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False) -> str | No
     # motion (a CSC rollout's primary task) has the free joints only
     cols = robot.free if motion else np.ones(robot.n, dtype=bool)
     k = int(cols.sum())
-    lost = "so the path cannot be followed along the missing {}" if motion else "so its stiffness along the missing {} is undefined"
+    lost = (
+        "so the path cannot be followed along the missing {}"
+        if motion
+        else "so its stiffness along the missing {} is undefined"
+    )
     if k < m:
         have = f"only {k} free joint(s) move the TCP" if motion else f"the robot has only {k} joint(s)"
-        return (f"task {task!r} controls {m} Cartesian rows ({', '.join(_ROW_NAMES[r] for r in rows)}) but {have}, "
-                + lost.format("rows"))
+        return (
+            f"task {task!r} controls {m} Cartesian rows ({', '.join(_ROW_NAMES[r] for r in rows)}) but {have}, "
+            + lost.format("rows")
+        )
     # Structural rank: sample postures within the limits (continuous joints in [-pi, pi]); a task
     # whose Jacobian rows lose rank at every sample (a planar chain asked for z, an axis parallel
     # to another ...) is not a singular posture but a wrong task for this robot.
@@ -66,8 +72,11 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False) -> str | No
     dead = [_ROW_NAMES[r] for i, r in enumerate(rows) if np.all(np.abs(Js[:, i, :]) < 1e-12)]
     rank = int(np.max(np.sum(s > 1e-9 * s[:, :1], axis=1)))
     which = "free joints' " if motion else ""
-    why = (f"row(s) {', '.join(dead)} of its {which}Jacobian are zero at every posture (a planar chain?)" if dead
-           else f"its {m} task rows have rank {rank} at every sampled posture")
+    why = (
+        f"row(s) {', '.join(dead)} of its {which}Jacobian are zero at every posture (a planar chain?)"
+        if dead
+        else f"its {m} task rows have rank {rank} at every sampled posture"
+    )
     return f"task {task!r} controls {m} Cartesian rows but {why}, " + lost.format("direction")
 
 
@@ -87,13 +96,14 @@ def check_task_feasible(robot: Chain, task: str, *, motion: bool = False) -> Non
     if msg is not None:
         smaller = [t for t in ("xyz", "xy") if len(TASK_ROWS[t]) < len(TASK_ROWS[task])]
         ok = [t for t in smaller if _task_rank_report(robot, t, motion) is None]
-        hint = (f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'the x and y rows only'})" if ok
-                else "task 'xy' needs a chain that moves in the base xy plane")
+        hint = (
+            f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'the x and y rows only'})"
+            if ok
+            else "task 'xy' needs a chain that moves in the base xy plane"
+        )
         if motion and not robot.free.all():
             hint += ", or unlock joints"
         raise ValueError(f"{msg}; {hint}")
-
-
 
 
 def select_task_rows(J: jax.Array, task: str) -> jax.Array:

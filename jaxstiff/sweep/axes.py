@@ -33,8 +33,18 @@ from jaxstiff.settings.csc import CSC_TASKS, JOINT_LIMIT_MODES, STEP_RULES, CSCS
 from jaxstiff.settings.shape import TASKS, ShapeSettings
 from jaxstiff.sweep.schema import SweepConfigError, Table, number, range_values, suggest, typename, validate
 
-__all__ = ["AxisSpec", "AXES", "kxd_matrix", "axes_table", "axis_values", "q0_values", "resolve_jl_gain",
-           "cross_checks", "CSC_SWEEP_TASK", "Q0_FAMILIES"]
+__all__ = [
+    "AxisSpec",
+    "AXES",
+    "kxd_matrix",
+    "axes_table",
+    "axis_values",
+    "q0_values",
+    "resolve_jl_gain",
+    "cross_checks",
+    "CSC_SWEEP_TASK",
+    "Q0_FAMILIES",
+]
 
 Q0_FAMILIES = ("ik", "nominal", "random")
 CSC_SWEEP_TASK = "xyz"  #: CSCSettings.task = None resolved for a sweep's 3x3 K_xd (see the module docstring)
@@ -102,32 +112,94 @@ def _solvers() -> list[str]:
 
 
 def _q0_specs() -> tuple[AxisSpec, AxisSpec]:
-    return (AxisSpec("q0", "q0", "ik", doc='start posture: "ik", "nominal", "random" or [q_1..q_n] rad'),
-            AxisSpec("q0_seed", "int", 0, check=_ge(0), doc='seed index of q0 = "random" postures'))
+    return (
+        AxisSpec("q0", "q0", "ik", doc='start posture: "ik", "nominal", "random" or [q_1..q_n] rad'),
+        AxisSpec("q0_seed", "int", 0, check=_ge(0), doc='seed index of q0 = "random" postures'),
+    )
 
 
 def _shape_axes() -> dict[str, AxisSpec]:
     d = ShapeSettings()
     S = "ShapeSettings."
     specs = (
-        AxisSpec("criterion", "str", d.criterion, static=True, choices=_criteria, setting=S + "criterion",
-                 doc="shaping criterion (S0-9 f1, S0-15 f2)"),
-        AxisSpec("task", "str", d.task, static=True, choices=TASKS, setting=S + "task", doc="task rows of K_T (SPEC 2)"),
-        AxisSpec("solver", "str", d.solver, static=True, choices=_solvers, setting=S + "solver", doc="solver of jaxstiff.shape"),
-        AxisSpec("starts", "int", d.starts or 0, static=True, check=_ge(0), setting=S + "starts (None -> 0)",
-                 doc="starts per waypoint (0: the solver's default; SLSQP: 1)"),
-        AxisSpec("ratio", "float", d.ratio, check=_gt(1.0, " (lambda1 / lambda2)"), setting=S + "ratio", doc="wanted axis ratio r"),
+        AxisSpec(
+            "criterion",
+            "str",
+            d.criterion,
+            static=True,
+            choices=_criteria,
+            setting=S + "criterion",
+            doc="shaping criterion (S0-9 f1, S0-15 f2)",
+        ),
+        AxisSpec(
+            "task", "str", d.task, static=True, choices=TASKS, setting=S + "task", doc="task rows of K_T (SPEC 2)"
+        ),
+        AxisSpec(
+            "solver",
+            "str",
+            d.solver,
+            static=True,
+            choices=_solvers,
+            setting=S + "solver",
+            doc="solver of jaxstiff.shape",
+        ),
+        AxisSpec(
+            "starts",
+            "int",
+            d.starts or 0,
+            static=True,
+            check=_ge(0),
+            setting=S + "starts (None -> 0)",
+            doc="starts per waypoint (0: the solver's default; SLSQP: 1)",
+        ),
+        AxisSpec(
+            "ratio",
+            "float",
+            d.ratio,
+            check=_gt(1.0, " (lambda1 / lambda2)"),
+            setting=S + "ratio",
+            doc="wanted axis ratio r",
+        ),
         AxisSpec("c", "float", d.c, check=_ge(0.0), setting=S + "c", doc="offset c of f1 (S0-9)"),
-        AxisSpec("dq_deg", "float", float(f"{math.degrees(d.dq):.12g}"), unit="deg per waypoint", check=_ge(0.0),
-                 setting=S + "dq (rad -> deg)",
-                 doc="joint rate limit (S0-11, S0-12); a prismatic joint gets the same number in m (3 deg -> 0.0524 m)"),
-        AxisSpec("dk", "float", d.dk, unit="Nm/rad per waypoint", check=_ge(0.0), setting=S + "dk", doc="stiffness rate limit (S0-13, S0-14)"),
-        AxisSpec("kmin", "float", d.kmin, unit="Nm/rad", check=_gt(0.0), setting=S + "kmin", doc="lower stiffness bound"),
-        AxisSpec("kmax", "float", d.kmax, unit="Nm/rad", check=_gt(0.0), setting=S + "kmax", doc="upper stiffness bound"),
-        AxisSpec("first_rate_limit", "bool", d.first_rate_limit, setting=S + "first_rate_limit",
-                 doc="apply the rate limits between (q0, kj0) and waypoint 0"),
-        AxisSpec("first_starts", "int", d.first_starts, check=_ge(1), setting=S + "first_starts",
-                 doc="IK start postures tried at the first waypoint (no rate limit)"),
+        AxisSpec(
+            "dq_deg",
+            "float",
+            float(f"{math.degrees(d.dq):.12g}"),
+            unit="deg per waypoint",
+            check=_ge(0.0),
+            setting=S + "dq (rad -> deg)",
+            doc="joint rate limit (S0-11, S0-12); a prismatic joint gets the same number in m (3 deg -> 0.0524 m)",
+        ),
+        AxisSpec(
+            "dk",
+            "float",
+            d.dk,
+            unit="Nm/rad per waypoint",
+            check=_ge(0.0),
+            setting=S + "dk",
+            doc="stiffness rate limit (S0-13, S0-14)",
+        ),
+        AxisSpec(
+            "kmin", "float", d.kmin, unit="Nm/rad", check=_gt(0.0), setting=S + "kmin", doc="lower stiffness bound"
+        ),
+        AxisSpec(
+            "kmax", "float", d.kmax, unit="Nm/rad", check=_gt(0.0), setting=S + "kmax", doc="upper stiffness bound"
+        ),
+        AxisSpec(
+            "first_rate_limit",
+            "bool",
+            d.first_rate_limit,
+            setting=S + "first_rate_limit",
+            doc="apply the rate limits between (q0, kj0) and waypoint 0",
+        ),
+        AxisSpec(
+            "first_starts",
+            "int",
+            d.first_starts,
+            check=_ge(1),
+            setting=S + "first_starts",
+            doc="IK start postures tried at the first waypoint (no rate limit)",
+        ),
         *_q0_specs(),
     )
     return {a.name: a for a in specs}
@@ -137,18 +209,79 @@ def _csc_axes() -> dict[str, AxisSpec]:
     d = CSCSettings()
     C = "CSCSettings."
     specs = (
-        AxisSpec("task", "str", d.task or CSC_SWEEP_TASK, static=True, choices=tuple(t for t in CSC_TASKS if t != "full"),
-                 setting=C + "task (None -> xyz: the sweep's K_xd is 3x3)", doc="task rows (K_xd is 2x2 or 3x3)"),
-        AxisSpec("step", "str", d.step, static=True, choices=STEP_RULES, setting=C + "step", doc="null-step rule (S1-22 or constant)"),
-        AxisSpec("kmin", "float", d.kmin, static=True, unit="Nm/rad", check=_gt(0.0), setting=C + "kmin", doc="actuator range, lower"),
-        AxisSpec("kmax", "float", d.kmax, static=True, unit="Nm/rad", check=_gt(0.0), setting=C + "kmax",
-                 doc="actuator range, upper (inf: open)"),
-        AxisSpec("newton", "int", d.newton, static=True, check=_ge(0), setting=C + "newton", doc="Newton corrections per step"),
-        AxisSpec("joint_limits", "str", d.joint_limits, static=True, choices=JOINT_LIMIT_MODES, setting=C + "joint_limits",
-                 doc="joint-limit secondary task"),
-        AxisSpec("jl_gain", "float", d.jl_gain, static=True, check=_ge(0.0), setting=C + "jl_gain",
-                 doc="joint-limit gain (default: 0.3 with joint_limits on, else 0)"),
-        AxisSpec("beta", "float", d.beta, check=_both(_ge(0.0), _finite), setting=C + "beta", doc="null-step multiplier beta (S1-22)"),
+        AxisSpec(
+            "task",
+            "str",
+            d.task or CSC_SWEEP_TASK,
+            static=True,
+            choices=tuple(t for t in CSC_TASKS if t != "full"),
+            setting=C + "task (None -> xyz: the sweep's K_xd is 3x3)",
+            doc="task rows (K_xd is 2x2 or 3x3)",
+        ),
+        AxisSpec(
+            "step",
+            "str",
+            d.step,
+            static=True,
+            choices=STEP_RULES,
+            setting=C + "step",
+            doc="null-step rule (S1-22 or constant)",
+        ),
+        AxisSpec(
+            "kmin",
+            "float",
+            d.kmin,
+            static=True,
+            unit="Nm/rad",
+            check=_gt(0.0),
+            setting=C + "kmin",
+            doc="actuator range, lower",
+        ),
+        AxisSpec(
+            "kmax",
+            "float",
+            d.kmax,
+            static=True,
+            unit="Nm/rad",
+            check=_gt(0.0),
+            setting=C + "kmax",
+            doc="actuator range, upper (inf: open)",
+        ),
+        AxisSpec(
+            "newton",
+            "int",
+            d.newton,
+            static=True,
+            check=_ge(0),
+            setting=C + "newton",
+            doc="Newton corrections per step",
+        ),
+        AxisSpec(
+            "joint_limits",
+            "str",
+            d.joint_limits,
+            static=True,
+            choices=JOINT_LIMIT_MODES,
+            setting=C + "joint_limits",
+            doc="joint-limit secondary task",
+        ),
+        AxisSpec(
+            "jl_gain",
+            "float",
+            d.jl_gain,
+            static=True,
+            check=_ge(0.0),
+            setting=C + "jl_gain",
+            doc="joint-limit gain (default: 0.3 with joint_limits on, else 0)",
+        ),
+        AxisSpec(
+            "beta",
+            "float",
+            d.beta,
+            check=_both(_ge(0.0), _finite),
+            setting=C + "beta",
+            doc="null-step multiplier beta (S1-22)",
+        ),
         AxisSpec("kxd_major", "float", 3000.0, unit="N/m", check=_both(_gt(0.0), _finite), doc="K_xd major axis"),
         AxisSpec("kxd_ratio", "float", 3.0, check=_both(_ge(1.0), _finite), doc="K_xd major / minor axis"),
         AxisSpec("kxd_angle_deg", "float", 30.0, unit="deg", check=_finite, doc="K_xd major axis angle about base z"),
@@ -234,7 +367,9 @@ def _one_value(v: Any, spec: AxisSpec, key: str, source: str) -> Any:
             x = number(v, key, integer=spec.type == "int", source=source)
         except SweepConfigError:
             want = "an integer" if spec.type == "int" else "a number"
-            raise SweepConfigError(key, f"expected {want} or a list/range of them, got {typename(v)} {v!r}", source) from None
+            raise SweepConfigError(
+                key, f"expected {want} or a list/range of them, got {typename(v)} {v!r}", source
+            ) from None
         text = spec.check(x) if spec.check else None
         if not text and not math.isfinite(x) and not (spec.name == "kmax" and math.isinf(spec.default)):
             text = f"must be finite, got {v!r}"  # (only the csc actuator range may be open: kmax = inf)
@@ -249,7 +384,9 @@ def _one_value(v: Any, spec: AxisSpec, key: str, source: str) -> Any:
         raise SweepConfigError(key, f"expected a string or a list of strings, got {typename(v)} {v!r}", source)
     allowed = spec.allowed()
     if allowed is not None and v not in allowed:
-        raise SweepConfigError(key, f"unknown value {v!r}{suggest(v, allowed)}; choose one of {', '.join(allowed)}", source)
+        raise SweepConfigError(
+            key, f"unknown value {v!r}{suggest(v, allowed)}; choose one of {', '.join(allowed)}", source
+        )
     return v
 
 
@@ -261,7 +398,9 @@ def axis_values(raw: Any, spec: AxisSpec, key: str, robot: Any, source: str = ""
         return [None]  # (csc jl_gain: the settings' rule, resolved per row)
     if isinstance(raw, Mapping):
         if spec.type not in ("float", "int"):
-            raise SweepConfigError(key, f"a range table only works for numbers; {spec.name} takes {spec.type} values", source)
+            raise SweepConfigError(
+                key, f"a range table only works for numbers; {spec.name} takes {spec.type} values", source
+            )
         vals = range_values(dict(raw), key, spec.type == "int", source)
     elif isinstance(raw, list):
         if not raw:
@@ -275,16 +414,27 @@ def axis_values(raw: Any, spec: AxisSpec, key: str, robot: Any, source: str = ""
 def _posture(v: list, i: int, key: str, robot: Any, source: str) -> list[float]:
     q = [float(number(x, f"{key}[{i}][{j}]", source=source)) for j, x in enumerate(v)]
     if len(q) != robot.n:
-        raise SweepConfigError(key, f"posture {i} has {len(q)} values; robot {robot.name!r} has {robot.n} joints "
-                                    f"({', '.join(robot.joint_names)})", source)
+        raise SweepConfigError(
+            key,
+            f"posture {i} has {len(q)} values; robot {robot.name!r} has {robot.n} joints "
+            f"({', '.join(robot.joint_names)})",
+            source,
+        )
     lo, hi = robot.lower, robot.upper
     for j, x in enumerate(q):
         if not (lo[j] <= x <= hi[j]):
-            raise SweepConfigError(key, f"posture {i}: q[{j}] = {x:g} rad is outside the limits [{lo[j]:g}, {hi[j]:g}] "
-                                        f"of joint {robot.joint_names[j]!r}", source)
+            raise SweepConfigError(
+                key,
+                f"posture {i}: q[{j}] = {x:g} rad is outside the limits [{lo[j]:g}, {hi[j]:g}] "
+                f"of joint {robot.joint_names[j]!r}",
+                source,
+            )
         if robot.locked[j] is not None and abs(x - robot.locked[j]) > 1e-12:
-            raise SweepConfigError(key, f"posture {i}: joint {robot.joint_names[j]!r} is locked at {robot.locked[j]:g} rad, "
-                                        f"got {x:g}", source)
+            raise SweepConfigError(
+                key,
+                f"posture {i}: joint {robot.joint_names[j]!r} is locked at {robot.locked[j]:g} rad, got {x:g}",
+                source,
+            )
     return q
 
 
@@ -299,18 +449,25 @@ def q0_values(raw: Any, key: str, robot: Any, source: str = "") -> list:
             raise SweepConfigError(key, "a posture must be written inside a list: q0 = [[q_1, ..., q_n]] (rad)", source)
         items = raw
     else:
-        raise SweepConfigError(key, f'expected "ik", "nominal", "random" or a list of postures, got {typename(raw)} {raw!r}', source)
+        raise SweepConfigError(
+            key, f'expected "ik", "nominal", "random" or a list of postures, got {typename(raw)} {raw!r}', source
+        )
     out: list = []
     for i, v in enumerate(items):
         if isinstance(v, str):
             if v not in Q0_FAMILIES:
-                raise SweepConfigError(key, f"unknown q0 family {v!r}{suggest(v, Q0_FAMILIES)}; choose ik, nominal, random "
-                                            "or a posture", source)
+                raise SweepConfigError(
+                    key,
+                    f"unknown q0 family {v!r}{suggest(v, Q0_FAMILIES)}; choose ik, nominal, random or a posture",
+                    source,
+                )
             out.append(v)
         elif isinstance(v, list):
             out.append(_posture(v, i, key, robot, source))
         else:
-            raise SweepConfigError(key, f"item {i}: expected a string or a posture list, got {typename(v)} {v!r}", source)
+            raise SweepConfigError(
+                key, f"item {i}: expected a string or a posture list, got {typename(v)} {v!r}", source
+            )
     return out
 
 
@@ -325,30 +482,48 @@ def _check_tasks(kind: str, axes: Mapping[str, list], robot: Any, source: str) -
             raise SweepConfigError("axes.task", f"robot {robot.name!r}: {e}", source) from None
         m = len(TASK_ROWS[task])
         if kind == "csc" and robot.n_free <= m:  # allowed (tracking only), but the sweep's point is lost
-            warnings.warn(f"{source or 'config'}: axes.task {task!r}: robot {robot.name!r} has {robot.n_free} free "
-                          f"joints for {m} task rows: no null space, so the arm only tracks the path, and beta and the "
-                          "step rule do not change its motion", stacklevel=3)
+            warnings.warn(
+                f"{source or 'config'}: axes.task {task!r}: robot {robot.name!r} has {robot.n_free} free "
+                f"joints for {m} task rows: no null space, so the arm only tracks the path, and beta and the "
+                "step rule do not change its motion",
+                stacklevel=3,
+            )
 
 
-def cross_checks(kind: str, axes: Mapping[str, list], trajectories: Sequence[Any], robot: Any, source: str = "") -> None:
+def cross_checks(
+    kind: str, axes: Mapping[str, list], trajectories: Sequence[Any], robot: Any, source: str = ""
+) -> None:
     """Checks that need several axes, the robot or the paths (kmin < kmax, single-start solvers,
     feasible tasks, random seeds, planar directions)."""
     for lo in axes["kmin"]:
         for hi in axes["kmax"]:
             if not lo < hi:
-                raise SweepConfigError("axes.kmin", f"kmin = {lo:g} is not below kmax = {hi:g} (axes.kmax); every "
-                                                    "combination needs 0 < kmin < kmax", source)
+                raise SweepConfigError(
+                    "axes.kmin",
+                    f"kmin = {lo:g} is not below kmax = {hi:g} (axes.kmax); every combination needs 0 < kmin < kmax",
+                    source,
+                )
     if kind == "shape":
         for s in axes["solver"]:
             if s in ("slsqp", "slsqp-fd") and any(k > 1 for k in axes["starts"]):
-                raise SweepConfigError("axes.starts", f"solver {s!r} is single-start; starts must be 0 or 1 (or sweep "
-                                                      "multi-start solvers separately)", source)
+                raise SweepConfigError(
+                    "axes.starts",
+                    f"solver {s!r} is single-start; starts must be 0 or 1 (or sweep multi-start solvers separately)",
+                    source,
+                )
     _check_tasks(kind, axes, robot, source)
     if len(axes["q0_seed"]) > 1 and "random" not in axes["q0"]:
-        raise SweepConfigError("axes.q0_seed", f"{len(axes['q0_seed'])} seeds, but axes.q0 has no \"random\" family: "
-                                               "the seed only draws random postures, so every seed would repeat the same rows", source)
+        raise SweepConfigError(
+            "axes.q0_seed",
+            f'{len(axes["q0_seed"])} seeds, but axes.q0 has no "random" family: '
+            "the seed only draws random postures, so every seed would repeat the same rows",
+            source,
+        )
     if kind == "shape" and "xy" in axes["task"]:
         for t in trajectories:
             if np.any(np.abs(t.directions[:, 2]) > 1e-9):
-                raise SweepConfigError("axes.task", f"task 'xy' needs directions in the xy plane (dz = 0); path {t.name!r} "
-                                                    "has dz != 0", source)
+                raise SweepConfigError(
+                    "axes.task",
+                    f"task 'xy' needs directions in the xy plane (dz = 0); path {t.name!r} has dz != 0",
+                    source,
+                )

@@ -21,8 +21,16 @@ from jaxstiff.sweep.chunks import compute_chunk
 from jaxstiff.sweep.plan import Chunk, SweepPlan
 from jaxstiff.sweep.store import SweepStore
 
-__all__ = ["BACKENDS", "Progress", "run_local", "run_ray", "ray_task", "import_ray", "default_cache_dir",
-           "enable_compile_cache"]
+__all__ = [
+    "BACKENDS",
+    "Progress",
+    "run_local",
+    "run_ray",
+    "ray_task",
+    "import_ray",
+    "default_cache_dir",
+    "enable_compile_cache",
+]
 
 BACKENDS = ("local", "ray")
 
@@ -37,15 +45,24 @@ class Progress:
     the rows and chunks done. A resumed run starts at the finished chunks' share.
     """
 
-    def __init__(self, name: str, plan: SweepPlan, done_chunks: Iterable[int], enabled: bool = True, stream: Any = None):
+    def __init__(
+        self, name: str, plan: SweepPlan, done_chunks: Iterable[int], enabled: bool = True, stream: Any = None
+    ):
         done = list(done_chunks)
         self.chunk_units = {c.id: sum(plan.row_trajectory(r).P for r in c.rows) for c in plan.chunks}
         self.total_rows, self.total_chunks = plan.n_rows, len(plan.chunks)
         self.rows_done = sum(len(plan.chunks[c].rows) for c in done)
         self.chunks_done = len(done)
         self.inflight = 0.0
-        self.bar = _Bar(sum(self.chunk_units.values()), name, "waypoints", initial=sum(self.chunk_units[c] for c in done),
-                        enabled=enabled, file=stream, log_every=10.0)
+        self.bar = _Bar(
+            sum(self.chunk_units.values()),
+            name,
+            "waypoints",
+            initial=sum(self.chunk_units[c] for c in done),
+            enabled=enabled,
+            file=stream,
+            log_every=10.0,
+        )
         self.bar.set_note(self._note())
 
     def _note(self) -> str:
@@ -96,8 +113,16 @@ def import_ray() -> Any:
     return ray
 
 
-def run_ray(plan: SweepPlan, todo: Iterable[Chunk], store: SweepStore, prog: Progress, on_commit: OnCommit,
-            address: str | None, ray_init: Mapping[str, Any] | None, cache_dir: str | None) -> None:
+def run_ray(
+    plan: SweepPlan,
+    todo: Iterable[Chunk],
+    store: SweepStore,
+    prog: Progress,
+    on_commit: OnCommit,
+    address: str | None,
+    ray_init: Mapping[str, Any] | None,
+    cache_dir: str | None,
+) -> None:
     """Submit every chunk of ``todo`` as a Ray task and commit the results as they arrive (a Ray
     instance started here is shut down at the end; unfinished tasks are cancelled)."""
     ray = import_ray()

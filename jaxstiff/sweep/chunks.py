@@ -70,17 +70,32 @@ def compute_chunk(plan: SweepPlan, chunk_id: int, progress: Callable[[float], No
         rows, arrays, devices = _shape_chunk(plan, chunk, progress)
     else:
         rows, arrays, devices = _csc_chunk(plan, chunk, progress)
-    return {"chunk": chunk.id, "rows": rows, "arrays": arrays, "wall_s": time.perf_counter() - t0,
-            "worker": _worker(), "devices": devices}
+    return {
+        "chunk": chunk.id,
+        "rows": rows,
+        "arrays": arrays,
+        "wall_s": time.perf_counter() - t0,
+        "worker": _worker(),
+        "devices": devices,
+    }
 
 
 def _base_row(plan: SweepPlan, chunk: Chunk, r: int) -> dict:
     traj = plan.row_trajectory(r)
-    return {"row_id": r, "chunk": chunk.id, "group": chunk.group, "path": traj.name, "path_index": traj.index,
-            "P": traj.P, **table_settings(plan.row_settings(r))}
+    return {
+        "row_id": r,
+        "chunk": chunk.id,
+        "group": chunk.group,
+        "path": traj.name,
+        "path_index": traj.index,
+        "P": traj.P,
+        **table_settings(plan.row_settings(r)),
+    }
 
 
-def _shape_call(plan: SweepPlan, chunk: Chunk, k: int, rids: list[int], progress: Callable[[float], None] | None) -> tuple:
+def _shape_call(
+    plan: SweepPlan, chunk: Chunk, k: int, rids: list[int], progress: Callable[[float], None] | None
+) -> tuple:
     """One batched ``shape()`` call over the paths of rows ``rids`` (one setting): ``(name, result, starts)``."""
     from jaxstiff.paths import Path
     from jaxstiff.shaping import shape
@@ -88,21 +103,44 @@ def _shape_call(plan: SweepPlan, chunk: Chunk, k: int, rids: list[int], progress
 
     st = plan.row_settings(rids[0])
     trajs = [plan.row_trajectory(r) for r in rids]
-    path = Path(np.stack([t.points for t in trajs]), np.stack([t.directions for t in trajs]),
-                name=";".join(t.name for t in trajs))
+    path = Path(
+        np.stack([t.points for t in trajs]),
+        np.stack([t.directions for t in trajs]),
+        name=";".join(t.name for t in trajs),
+    )
     starts = [start_posture_and_error(plan, r) for r in rids]
     q0 = np.stack([q for q, _ in starts])
     tick = None if progress is None else (lambda b, p: progress(1))
     name = f"arrays/chunk-{chunk.id:06d}-{k}.npz"
     res = shape(
-        plan.robot, path, st["criterion"], st["ratio"], task=st["task"], solver=st["solver"],
-        starts=st["starts"] or None, q0=q0, dq=math.radians(st["dq_deg"]), dk=st["dk"], kmin=st["kmin"],
-        kmax=st["kmax"], c=st["c"], first_rate_limit=st["first_rate_limit"], first_starts=st["first_starts"],
-        options=options_for_solver(st["solver"], plan.options) or None, progress=tick,
-        meta_extra={"sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id,
-                              "row_ids": list(rids), "paths": [t.name for t in trajs],
-                              "q0": [table_settings(plan.row_settings(r))["q0"] for r in rids],
-                              "q0_ik_error_m": [None if math.isnan(e) else e for _, e in starts]}},
+        plan.robot,
+        path,
+        st["criterion"],
+        st["ratio"],
+        task=st["task"],
+        solver=st["solver"],
+        starts=st["starts"] or None,
+        q0=q0,
+        dq=math.radians(st["dq_deg"]),
+        dk=st["dk"],
+        kmin=st["kmin"],
+        kmax=st["kmax"],
+        c=st["c"],
+        first_rate_limit=st["first_rate_limit"],
+        first_starts=st["first_starts"],
+        options=options_for_solver(st["solver"], plan.options) or None,
+        progress=tick,
+        meta_extra={
+            "sweep": {
+                "name": plan.name,
+                "plan_hash": plan.plan_hash,
+                "chunk": chunk.id,
+                "row_ids": list(rids),
+                "paths": [t.name for t in trajs],
+                "q0": [table_settings(plan.row_settings(r))["q0"] for r in rids],
+                "q0_ik_error_m": [None if math.isnan(e) else e for _, e in starts],
+            }
+        },
     )
     return name, res, starts
 
@@ -123,14 +161,27 @@ def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None
         for b, r in enumerate(rids):
             row = _base_row(plan, chunk, r)
             row["q0_ik_error_m"] = starts[b][1]
-            row.update(shape_row_metrics(
-                res.status[b], res.alpha_deg[b], res.ratio[b], res.criterion[b], res.pos_error[b], res.cms[b],
-                res.nfev[b], criterion=st["criterion"], ratio_target=st["ratio"],
-                alpha_tol_deg=plan.alpha_tol_deg, ratio_rel_tol=plan.ratio_rel_tol))
+            row.update(
+                shape_row_metrics(
+                    res.status[b],
+                    res.alpha_deg[b],
+                    res.ratio[b],
+                    res.criterion[b],
+                    res.pos_error[b],
+                    res.cms[b],
+                    res.nfev[b],
+                    criterion=st["criterion"],
+                    ratio_target=st["ratio"],
+                    alpha_tol_deg=plan.alpha_tol_deg,
+                    ratio_rel_tol=plan.ratio_rel_tol,
+                )
+            )
             row.update(result_file=name, result_index=b)
             rows.append(row)
     # batched JAX solvers (pgd, hybrid, ...) shard their batch over the local devices; SLSQP is a host loop
-    devices = 1 if plan.settings[plan.rows[chunk.rows[0]][0]]["solver"] in ("slsqp", "slsqp-fd") else jax.local_device_count()
+    devices = (
+        1 if plan.settings[plan.rows[chunk.rows[0]][0]]["solver"] in ("slsqp", "slsqp-fd") else jax.local_device_count()
+    )
     return rows, arrays, devices
 
 
@@ -166,25 +217,48 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
     chunk_size = int(plan.config["sweep"]["chunk_size"])
     sharded, _nd = shard_batch(inputs, size=min(chunk_size, max(len(c.rows) for c in plan.chunks)))
     res = csc_rollout(
-        plan.robot, sharded["targets"], sharded["K_xd"], sharded["q0"], sharded["beta"], task=task,
-        step=g["step"], kmin=g["kmin"], kmax=g["kmax"], newton=int(g["newton"]), joint_limits=g["joint_limits"],
-        jl_gain=g["jl_gain"], kxd_varying=False,
+        plan.robot,
+        sharded["targets"],
+        sharded["K_xd"],
+        sharded["q0"],
+        sharded["beta"],
+        task=task,
+        step=g["step"],
+        kmin=g["kmin"],
+        kmax=g["kmax"],
+        newton=int(g["newton"]),
+        joint_limits=g["joint_limits"],
+        jl_gain=g["jl_gain"],
+        kxd_varying=False,
     )
     devices = len(res.q.sharding.device_set)
-    out = {k: np.asarray(v)[:len(rids)] for k, v in res.as_dict().items()}
+    out = {k: np.asarray(v)[: len(rids)] for k, v in res.as_dict().items()}
     if progress is not None:
         progress(sum(t.P for t in trajs))
     name = f"arrays/chunk-{chunk.id:06d}-0.npz"
     data = {k: (v.astype(np.int64) if k == "status" else v.astype(np.float64)) for k, v in out.items()}
-    data.update(row_id=np.asarray(rids, dtype=np.int64), K_xd=inputs["K_xd"], q0=inputs["q0"], beta=inputs["beta"],
-                joint_names=np.asarray(plan.robot.joint_names, dtype=str),
-                meta=np.asarray(json.dumps(_csc_meta(plan, chunk, g, rids, sts, trajs), sort_keys=True, default=json_default)))
+    data.update(
+        row_id=np.asarray(rids, dtype=np.int64),
+        K_xd=inputs["K_xd"],
+        q0=inputs["q0"],
+        beta=inputs["beta"],
+        joint_names=np.asarray(plan.robot.joint_names, dtype=str),
+        meta=np.asarray(json.dumps(_csc_meta(plan, chunk, g, rids, sts, trajs), sort_keys=True, default=json_default)),
+    )
     rows = []
     for i, r in enumerate(rids):
         row = _base_row(plan, chunk, r)
         row["q0_ik_error_m"] = starts[i][1]
-        row.update(csc_row_metrics(out["u"][i], out["frobenius"][i], out["tracking_error"][i], out["status"][i],
-                                   out["u_start"][i], out["frobenius_start"][i]))
+        row.update(
+            csc_row_metrics(
+                out["u"][i],
+                out["frobenius"][i],
+                out["tracking_error"][i],
+                out["status"][i],
+                out["u_start"][i],
+                out["frobenius_start"][i],
+            )
+        )
         row.update(result_file=name, result_index=i)
         rows.append(row)
     return rows, [(name, data)], devices

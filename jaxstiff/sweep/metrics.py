@@ -105,8 +105,14 @@ def shape_row_metrics(
     }
 
 
-def csc_row_metrics(u: np.ndarray, frobenius: np.ndarray, tracking_error: np.ndarray, status: np.ndarray,
-                    u_start: float, frobenius_start: float) -> dict[str, float]:
+def csc_row_metrics(
+    u: np.ndarray,
+    frobenius: np.ndarray,
+    tracking_error: np.ndarray,
+    status: np.ndarray,
+    u_start: float,
+    frobenius_start: float,
+) -> dict[str, float]:
     """Metrics of one CSC rollout from its per-step arrays (each (T,)) and start values."""
     from jaxstiff.csc.rollout import STATUS_DAMPED, STATUS_JOINT_LIMIT, STATUS_NAN
 

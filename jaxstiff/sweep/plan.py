@@ -42,8 +42,16 @@ from jaxstiff.sweep.schema import (
 from jaxstiff.sweep.sections import report_choices, solver_options
 from jaxstiff.sweep.trajectories import Trajectory, format_value, read_paths
 
-__all__ = ["Chunk", "SweepPlan", "load_config", "parse_config", "hashed_config", "build_robot", "expand_rows",
-           "cut_chunks"]
+__all__ = [
+    "Chunk",
+    "SweepPlan",
+    "load_config",
+    "parse_config",
+    "hashed_config",
+    "build_robot",
+    "expand_rows",
+    "cut_chunks",
+]
 
 
 def hashed_config(normalised: dict) -> dict:
@@ -137,7 +145,8 @@ class SweepPlan:
             f"sweep {self.name!r} (kind {self.kind}): {self.n_rows} rows = {len(self.settings)} settings x "
             f"{len(self.trajectories)} paths; {len(self.groups)} groups, {len(self.chunks)} chunks",
             f"robot: {self.robot.name} ({self.robot.n} joints, {self.robot.n_free} free)",
-            "paths: " + ", ".join(f"{t.name} (P={t.P})" for t in self.trajectories[:8])
+            "paths: "
+            + ", ".join(f"{t.name} (P={t.P})" for t in self.trajectories[:8])
             + (f", ... ({len(self.trajectories)} in all)" if len(self.trajectories) > 8 else ""),
         ]
         for k, v in self.axes.items():
@@ -166,8 +175,11 @@ def build_robot(cfg: Mapping[str, Any], base_dir: str, source: str = "") -> tupl
     if tbl.name is not None:
         shipped = shipped_robots()
         if tbl.name.removesuffix(".urdf") not in shipped:
-            raise SweepConfigError("robot.name", f"unknown robot {tbl.name!r}{suggest(tbl.name, shipped)}; shipped robots: "
-                                                 f"{', '.join(shipped)}", source)
+            raise SweepConfigError(
+                "robot.name",
+                f"unknown robot {tbl.name!r}{suggest(tbl.name, shipped)}; shipped robots: {', '.join(shipped)}",
+                source,
+            )
         urdf = robot_path(tbl.name)
     else:
         given = str(tbl.urdf)
@@ -176,18 +188,33 @@ def build_robot(cfg: Mapping[str, Any], base_dir: str, source: str = "") -> tupl
             raise SweepConfigError("robot.urdf", f"file not found: {urdf}", source)
     matrix = tbl.tcp is not None and isinstance(tbl.tcp[0], list)  # a 4x4 transform (RobotSpec takes 3 or 6 values)
     try:
-        spec = RobotSpec(urdf=urdf, base_link=tbl.base_link, tip_link=tbl.tip_link, locked=tbl.locked,
-                         tcp=None if tbl.tcp is None or matrix else tuple(tbl.tcp))
+        spec = RobotSpec(
+            urdf=urdf,
+            base_link=tbl.base_link,
+            tip_link=tbl.tip_link,
+            locked=tbl.locked,
+            tcp=None if tbl.tcp is None or matrix else tuple(tbl.tcp),
+        )
         locks = spec.resolved_locks()
         if tbl.tcp is None or len(tbl.tcp) == 3 or matrix:  # (the file's tcp as given, as before)
-            robot = Robot.from_urdf(urdf, base_link=tbl.base_link, tip_link=tbl.tip_link, locked=locks or None,
-                                    tcp=None if tbl.tcp is None else np.asarray(tbl.tcp))
+            robot = Robot.from_urdf(
+                urdf,
+                base_link=tbl.base_link,
+                tip_link=tbl.tip_link,
+                locked=locks or None,
+                tcp=None if tbl.tcp is None else np.asarray(tbl.tcp),
+            )
         else:
             robot = spec.build()
     except (ValueError, FileNotFoundError) as exc:
         text = str(exc)
-        key = ("robot.locked" if tbl.locked and "lock" in text.lower()
-               else "robot.tcp" if tbl.tcp is not None and text.startswith(("tcp", "robot.tcp")) else "robot")
+        key = (
+            "robot.locked"
+            if tbl.locked and "lock" in text.lower()
+            else "robot.tcp"
+            if tbl.tcp is not None and text.startswith(("tcp", "robot.tcp"))
+            else "robot"
+        )
         raise SweepConfigError(key, text, source) from None
     out = dict(cfg["robot"])
     if tbl.locked is None and locks:  # the shipped robot's default locks (recorded: they change results)
@@ -197,8 +224,9 @@ def build_robot(cfg: Mapping[str, Any], base_dir: str, source: str = "") -> tupl
 
 
 # ---------------------------------------------------------------------------- expansion
-def expand_rows(kind: str, axes: Mapping[str, list], trajectories: list[Trajectory]
-                ) -> tuple[tuple[dict, ...], list[tuple[int, int]], list[int], tuple[dict, ...]]:
+def expand_rows(
+    kind: str, axes: Mapping[str, list], trajectories: list[Trajectory]
+) -> tuple[tuple[dict, ...], list[tuple[int, int]], list[int], tuple[dict, ...]]:
     """``(settings, rows, row_group, groups)``: the product of the axes (csc ``jl_gain`` None
     resolved per setting) times the paths, and the groups of rows sharing the static key."""
     names = list(AXES[kind])
@@ -218,8 +246,9 @@ def expand_rows(kind: str, axes: Mapping[str, list], trajectories: list[Trajecto
     return settings, rows, row_group, groups
 
 
-def _whole_setting_chunks(ids: list[int], rows: list[tuple[int, int]], g: int, chunk_size: int,
-                          chunks: list[Chunk]) -> None:
+def _whole_setting_chunks(
+    ids: list[int], rows: list[tuple[int, int]], g: int, chunk_size: int, chunks: list[Chunk]
+) -> None:
     blocks: list[list[int]] = []  # runs of rows of one setting
     for r in ids:
         if blocks and rows[blocks[-1][0]][0] == rows[r][0]:
@@ -233,7 +262,7 @@ def _whole_setting_chunks(ids: list[int], rows: list[tuple[int, int]], g: int, c
                 chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(cur)))
                 cur = []
             for i in range(0, len(blk), chunk_size):
-                chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(blk[i: i + chunk_size])))
+                chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(blk[i : i + chunk_size])))
             continue
         if cur and len(cur) + len(blk) > chunk_size:
             chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(cur)))
@@ -243,7 +272,9 @@ def _whole_setting_chunks(ids: list[int], rows: list[tuple[int, int]], g: int, c
         chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(cur)))
 
 
-def cut_chunks(kind: str, rows: list[tuple[int, int]], row_group: list[int], n_groups: int, chunk_size: int) -> list[Chunk]:
+def cut_chunks(
+    kind: str, rows: list[tuple[int, int]], row_group: list[int], n_groups: int, chunk_size: int
+) -> list[Chunk]:
     """Each group's rows in chunks of at most ``chunk_size`` (kind "shape": whole settings per
     chunk as long as they fit, so every batched call of a group has the same number of paths)."""
     members: dict[int, list[int]] = {}
@@ -256,7 +287,7 @@ def cut_chunks(kind: str, rows: list[tuple[int, int]], row_group: list[int], n_g
             _whole_setting_chunks(ids, rows, g, chunk_size, chunks)
         else:
             for i in range(0, len(ids), chunk_size):
-                chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(ids[i: i + chunk_size])))
+                chunks.append(Chunk(id=len(chunks), group=g, rows=tuple(ids[i : i + chunk_size])))
     return chunks
 
 
@@ -302,7 +333,9 @@ def load_config(file: str | os.PathLike) -> SweepPlan:
     return parse_config(cfg, base_dir=os.path.dirname(os.path.abspath(file)), source=file, text=text)
 
 
-def parse_config(cfg: Mapping[str, Any], base_dir: str | os.PathLike = ".", source: str = "", text: str = "") -> SweepPlan:
+def parse_config(
+    cfg: Mapping[str, Any], base_dir: str | os.PathLike = ".", source: str = "", text: str = ""
+) -> SweepPlan:
     """Validate and expand a config given as a dict (the parsed TOML).
 
     Args:
@@ -319,7 +352,9 @@ def parse_config(cfg: Mapping[str, Any], base_dir: str | os.PathLike = ".", sour
     known_keys(cfg, TOP_KEYS, "", source)
     sweep = validate(SweepTable, cfg.get("sweep", {}), "sweep", source)
     kind = sweep.kind
-    name = sweep.name if sweep.name is not None else (os.path.splitext(os.path.basename(source))[0] if source else "sweep")
+    name = (
+        sweep.name if sweep.name is not None else (os.path.splitext(os.path.basename(source))[0] if source else "sweep")
+    )
     chunk_size = sweep.chunk_size if sweep.chunk_size is not None else DEFAULT_CHUNK[kind]
     robot, robot_spec = build_robot(cfg, base_dir, source)
     trajectories = read_paths(cfg, kind, base_dir, source)
@@ -333,9 +368,15 @@ def parse_config(cfg: Mapping[str, Any], base_dir: str | os.PathLike = ".", sour
     settings, rows, row_group, groups = expand_rows(kind, axes, trajectories)
     chunks = cut_chunks(kind, rows, row_group, len(groups), chunk_size)
     normalised = {
-        "sweep": {"kind": kind, "name": name, "chunk_size": chunk_size, "seed": sweep.seed,
-                  "alpha_tol_deg": float(sweep.alpha_tol_deg), "ratio_rel_tol": float(sweep.ratio_rel_tol),
-                  "description": sweep.description},
+        "sweep": {
+            "kind": kind,
+            "name": name,
+            "chunk_size": chunk_size,
+            "seed": sweep.seed,
+            "alpha_tol_deg": float(sweep.alpha_tol_deg),
+            "ratio_rel_tol": float(sweep.ratio_rel_tol),
+            "description": sweep.description,
+        },
         "robot": robot_spec,
         "paths": [{"name": t.name, "P": t.P, **t.spec} for t in trajectories],
         "axes": axes,
@@ -343,9 +384,25 @@ def parse_config(cfg: Mapping[str, Any], base_dir: str | os.PathLike = ".", sour
         "report": {"heatmaps": [list(p) for p in heatmaps], "metrics": list(metrics)},
     }
     return SweepPlan(
-        kind=kind, name=name, robot=robot, robot_spec=robot_spec, trajectories=tuple(trajectories), axes=axes,
-        settings=settings, rows=tuple(rows), groups=groups, row_group=tuple(row_group), chunks=tuple(chunks),
-        options=options, seed=sweep.seed, alpha_tol_deg=float(sweep.alpha_tol_deg),
-        ratio_rel_tol=float(sweep.ratio_rel_tol), heatmaps=heatmaps, metrics=metrics, config=normalised,
-        config_text=text, source=source, plan_hash=_plan_hash(normalised, robot, trajectories),
+        kind=kind,
+        name=name,
+        robot=robot,
+        robot_spec=robot_spec,
+        trajectories=tuple(trajectories),
+        axes=axes,
+        settings=settings,
+        rows=tuple(rows),
+        groups=groups,
+        row_group=tuple(row_group),
+        chunks=tuple(chunks),
+        options=options,
+        seed=sweep.seed,
+        alpha_tol_deg=float(sweep.alpha_tol_deg),
+        ratio_rel_tol=float(sweep.ratio_rel_tol),
+        heatmaps=heatmaps,
+        metrics=metrics,
+        config=normalised,
+        config_text=text,
+        source=source,
+        plan_hash=_plan_hash(normalised, robot, trajectories),
     )

@@ -68,10 +68,20 @@ def heatmap(df: Any, plan: SweepPlan, x: str, y: str, metric: str, file: str) ->
         for j in range(vals.shape[1]):
             v = vals[i, j]
             txt = "n/a" if not np.isfinite(v) else (f"{v:.2f}" if share else f"{v:.3g}")
-            ax.text(j, i, txt, ha="center", va="center", fontsize=8, color="white" if np.isfinite(v) and v < mid else "black")
+            ax.text(
+                j,
+                i,
+                txt,
+                ha="center",
+                va="center",
+                fontsize=8,
+                color="white" if np.isfinite(v) and v < mid else "black",
+            )
     cb = fig.colorbar(im, ax=ax)
     cb.set_label(metric + (" (fraction of waypoints)" if metric.startswith("share_") else ""))
-    averaged = "other axes averaged" if "path" in (x, y) else f"other axes and the {len(plan.trajectories)} paths averaged"
+    averaged = (
+        "other axes averaged" if "path" in (x, y) else f"other axes and the {len(plan.trajectories)} paths averaged"
+    )
     ax.set_title(f"{plan.name}: mean {metric}\n{y} vs {x} ({averaged})", fontsize=9)
     fig.tight_layout()
     try:
@@ -107,34 +117,66 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
         f"{len(plan.groups)} groups, {len(plan.chunks)} chunks",
         f"- robot: `{plan.robot.name}` ({plan.robot.n} joints, {plan.robot.n_free} free)"
         + (f", locked {plan.robot_spec.get('locked')}" if plan.robot_spec.get("locked") else ""),
-        "- paths: " + ", ".join(f"`{t.name}` (P={t.P})" for t in plan.trajectories[:12])
+        "- paths: "
+        + ", ".join(f"`{t.name}` (P={t.P})" for t in plan.trajectories[:12])
         + (" ..." if len(plan.trajectories) > 12 else ""),
         f"- plan hash: `{plan.plan_hash[:16]}`",
     ]
     if wall is not None:
         md.append(f"- compute time (sum over chunks): {wall:.1f} s")
     if plan.kind == "shape":
-        md.append(f"- success: usable waypoint with alpha < {plan.alpha_tol_deg:g} deg and ratio within "
-                  f"{100 * plan.ratio_rel_tol:g}% of r (f1: ratio >= {1 - plan.ratio_rel_tol:g} r)")
+        md.append(
+            f"- success: usable waypoint with alpha < {plan.alpha_tol_deg:g} deg and ratio within "
+            f"{100 * plan.ratio_rel_tol:g}% of r (f1: ratio >= {1 - plan.ratio_rel_tol:g} r)"
+        )
     md += ["", "## Axes", ""]
-    md.append(_md_table(["axis", "values", "meaning"],
-                        [[k, ", ".join(_fmt(x) if not isinstance(x, list) else str(x) for x in v), AXES[plan.kind][k].doc]
-                         for k, v in plan.axes.items()]))
+    md.append(
+        _md_table(
+            ["axis", "values", "meaning"],
+            [
+                [k, ", ".join(_fmt(x) if not isinstance(x, list) else str(x) for x in v), AXES[plan.kind][k].doc]
+                for k, v in plan.axes.items()
+            ],
+        )
+    )
     md += ["", "## Overall (over the rows with a value: a metric of no usable waypoint is NaN)", ""]
-    md.append(_md_table(["metric", "rows", "mean", "min", "max", "meaning"],
-                        [[m, f"{int(df[m].notna().sum())} of {len(df)}", float(df[m].mean()), float(df[m].min()),
-                          float(df[m].max()), METRICS[plan.kind][m]] for m in all_metrics]))
+    md.append(
+        _md_table(
+            ["metric", "rows", "mean", "min", "max", "meaning"],
+            [
+                [
+                    m,
+                    f"{int(df[m].notna().sum())} of {len(df)}",
+                    float(df[m].mean()),
+                    float(df[m].min()),
+                    float(df[m].max()),
+                    METRICS[plan.kind][m],
+                ]
+                for m in all_metrics
+            ],
+        )
+    )
     for ax in varying:
         g = df.groupby(ax, sort=True)[metrics].mean()
         md += ["", f"## By {_label(plan, ax)}", ""]
-        md.append(_md_table([ax] + [f"mean {m}" for m in metrics], [[i] + [float(v) for v in r] for i, r in zip(g.index, g.values, strict=True)]))
+        md.append(
+            _md_table(
+                [ax] + [f"mean {m}" for m in metrics],
+                [[i] + [float(v) for v in r] for i, r in zip(g.index, g.values, strict=True)],
+            )
+        )
     if varying:
         key = metrics[0]
         cols = varying
         g = df.groupby(cols, sort=True)[metrics].mean().sort_values(key, ascending=False).head(5)
         md += ["", f"## Best settings by mean {key}", ""]
         idx = [list(i) if isinstance(i, tuple) else [i] for i in g.index]
-        md.append(_md_table(cols + [f"mean {m}" for m in metrics], [i + [float(v) for v in r] for i, r in zip(idx, g.values, strict=True)]))
+        md.append(
+            _md_table(
+                cols + [f"mean {m}" for m in metrics],
+                [i + [float(v) for v in r] for i, r in zip(idx, g.values, strict=True)],
+            )
+        )
     if plan.heatmaps:
         md += ["", "## Heat maps", ""]
         for x, y in plan.heatmaps:
@@ -142,8 +184,12 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
                 f = heatmap(df, plan, x, y, m, os.path.join(plots, f"heatmap_{m}_{y}_vs_{x}.png"))
                 md.append(f"![{m} over {y} x {x}](plots/{os.path.basename(f)})")
                 md.append("")
-    md += ["", "Files: `results.parquet` (one row per path x setting; `result_file`/`result_index` point to the "
-           "per-waypoint arrays), `arrays/`, `timing.csv`, `manifest.json`.", ""]
+    md += [
+        "",
+        "Files: `results.parquet` (one row per path x setting; `result_file`/`result_index` point to the "
+        "per-waypoint arrays), `arrays/`, `timing.csv`, `manifest.json`.",
+        "",
+    ]
     f = os.path.join(out, "summary.md")
     atomic_write_text(f, "\n".join(md))
     return f

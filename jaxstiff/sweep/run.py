@@ -126,9 +126,18 @@ def _cache_dir(compile_cache: bool | str) -> str | None:
     return cache_dir
 
 
-def _compute(plan: SweepPlan, store: SweepStore, *, backend: str, progress: bool, log: Callable[[str], None],
-             on_commit: Callable[[int], None] | None, address: str | None, ray_init: Mapping[str, Any] | None,
-             cache_dir: str | None) -> list[int]:
+def _compute(
+    plan: SweepPlan,
+    store: SweepStore,
+    *,
+    backend: str,
+    progress: bool,
+    log: Callable[[str], None],
+    on_commit: Callable[[int], None] | None,
+    address: str | None,
+    ray_init: Mapping[str, Any] | None,
+    cache_dir: str | None,
+) -> list[int]:
     """Compute the chunks not yet in ``store``; returns the ids computed, in commit order. Records
     the run as finished or interrupted; a KeyboardInterrupt passes on after the resume hint."""
     computed: list[int] = []
@@ -149,7 +158,9 @@ def _compute(plan: SweepPlan, store: SweepStore, *, backend: str, progress: bool
         status = "finished"
     except KeyboardInterrupt:
         prog.close()
-        log(f"interrupted: {len(store.done)} of {len(plan.chunks)} chunks are saved in {store.out}; continue with --resume")
+        log(
+            f"interrupted: {len(store.done)} of {len(plan.chunks)} chunks are saved in {store.out}; continue with --resume"
+        )
         raise
     finally:
         store.finish_run(status)
@@ -215,8 +226,17 @@ def run_sweep(
         log(plan.describe())
         if skipped:
             log(f"resuming: {len(skipped)} of {len(plan.chunks)} chunks already finished in {store.out}")
-        computed = _compute(plan, store, backend=backend, progress=progress, log=log, on_commit=on_commit,
-                            address=address, ray_init=ray_init, cache_dir=cache_dir)
+        computed = _compute(
+            plan,
+            store,
+            backend=backend,
+            progress=progress,
+            log=log,
+            on_commit=on_commit,
+            address=address,
+            ray_init=ray_init,
+            cache_dir=cache_dir,
+        )
         table_file = store.assemble()
         if report:
             from jaxstiff.sweep.report import write_report
@@ -225,5 +245,13 @@ def run_sweep(
         log(f"wrote {table_file} ({plan.n_rows} rows)")
     finally:
         store.close()
-    return SweepOutcome(out=store.out, table_file=table_file, n_rows=plan.n_rows, n_chunks=len(plan.chunks),
-                        computed=tuple(computed), skipped=skipped, wall_s=time.perf_counter() - t0, plan=plan)
+    return SweepOutcome(
+        out=store.out,
+        table_file=table_file,
+        n_rows=plan.n_rows,
+        n_chunks=len(plan.chunks),
+        computed=tuple(computed),
+        skipped=skipped,
+        wall_s=time.perf_counter() - t0,
+        plan=plan,
+    )

@@ -22,9 +22,27 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationIn
 from pydantic_core import PydanticCustomError
 
 __all__ = [
-    "SweepConfigError", "Table", "SweepTable", "RobotTable", "PathFileTable", "RangeTable", "ReportTable",
-    "KINDS", "TOP_KEYS", "DEFAULT_CHUNK", "MAX_ROWS", "validate", "problem", "typename", "suggest",
-    "number", "vec3", "short_float", "range_values", "check_table", "known_keys",
+    "SweepConfigError",
+    "Table",
+    "SweepTable",
+    "RobotTable",
+    "PathFileTable",
+    "RangeTable",
+    "ReportTable",
+    "KINDS",
+    "TOP_KEYS",
+    "DEFAULT_CHUNK",
+    "MAX_ROWS",
+    "validate",
+    "problem",
+    "typename",
+    "suggest",
+    "number",
+    "vec3",
+    "short_float",
+    "range_values",
+    "check_table",
+    "known_keys",
 ]
 
 KINDS = ("shape", "csc")
@@ -73,9 +91,17 @@ def short_float(x: float) -> float:
 
 
 # ---------------------------------------------------------------------------- pydantic -> SweepConfigError
-_EXPECTED = {"int_type": "an integer", "int_from_float": "an integer", "float_type": "a number",
-             "string_type": "a string", "bool_type": "true or false", "dict_type": "a table",
-             "model_type": "a table", "list_type": "a list", "tuple_type": "a list"}
+_EXPECTED = {
+    "int_type": "an integer",
+    "int_from_float": "an integer",
+    "float_type": "a number",
+    "string_type": "a string",
+    "bool_type": "true or false",
+    "dict_type": "a table",
+    "model_type": "a table",
+    "list_type": "a list",
+    "tuple_type": "a list",
+}
 _BOUNDS = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}
 
 M = TypeVar("M", bound=BaseModel)
@@ -156,7 +182,9 @@ def known_keys(tbl: Mapping[str, Any], allowed: Sequence[str], key: str, source:
     for k in tbl:
         if k not in allowed:
             where = f"{key}.{k}" if key else k
-            raise SweepConfigError(where, f"unknown key{suggest(k, allowed)} (allowed: {', '.join(allowed)}){extra}", source)
+            raise SweepConfigError(
+                where, f"unknown key{suggest(k, allowed)} (allowed: {', '.join(allowed)}){extra}", source
+            )
 
 
 # ---------------------------------------------------------------------------- numbers
@@ -257,11 +285,16 @@ class RobotTable(Table):
                     if isinstance(x, bool) or not isinstance(x, (int, float)):
                         raise problem(f"expected a number, got {typename(x)} {x!r}", at=f"[{i}][{j}]")
             return [[float(x) for x in r] for r in v]
-        ok = isinstance(v, list) and len(v) in (3, 6) and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)
+        ok = (
+            isinstance(v, list)
+            and len(v) in (3, 6)
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in v)
+        )
         if not ok:
-            raise problem("expected 3 numbers [x, y, z] (m), 6 numbers [x, y, z, roll, pitch, yaw] (m, rad) "
-                          f"or a 4x4 transform, all finite; got {v!r}")
+            raise problem(
+                "expected 3 numbers [x, y, z] (m), 6 numbers [x, y, z, roll, pitch, yaw] (m, rad) "
+                f"or a 4x4 transform, all finite; got {v!r}"
+            )
         return [float(x) for x in v]
 
 
@@ -308,8 +341,12 @@ class RangeTable(Table):
         integer = bool((info.context or {}).get("integer"))
         for k in ("start", "stop", "step"):
             v = getattr(self, k)
-            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
-                                  or (integer and not isinstance(v, int)) or (isinstance(v, float) and math.isnan(v))):
+            if v is not None and (
+                isinstance(v, bool)
+                or not isinstance(v, (int, float))
+                or (integer and not isinstance(v, int))
+                or (isinstance(v, float) and math.isnan(v))
+            ):
                 want = "an integer" if integer else "a number"
                 raise problem(f"expected {want}, got {typename(v)} {v!r}", at=k)
         if self.num is not None and (isinstance(self.num, bool) or not isinstance(self.num, int)):
@@ -340,8 +377,12 @@ def range_values(raw: Mapping[str, Any], key: str, integer: bool, source: str = 
     if integer:
         if not np.allclose(vals, np.round(vals), rtol=0, atol=1e-9):
             shown = ", ".join(f"{x:g}" for x in vals[:6]) + (", ..." if len(vals) > 6 else "")
-            raise SweepConfigError(key, f"an integer axis: this range gives values that are not integers ({shown}); "
-                                        "give {start, stop, step} or a list", source)
+            raise SweepConfigError(
+                key,
+                f"an integer axis: this range gives values that are not integers ({shown}); "
+                "give {start, stop, step} or a list",
+                source,
+            )
         return [int(round(x)) for x in vals]
     return [short_float(float(x)) for x in vals]
 

@@ -35,7 +35,9 @@ def solver_options(cfg: Mapping[str, Any], axes: Mapping[str, list], source: str
     for k, v in tbl.items():
         key = f"solver_options.{k}"
         if known is not None and k not in known:
-            raise SweepConfigError(key, f"unknown option{suggest(k, known)} for {which}; options: {', '.join(known)}", source)
+            raise SweepConfigError(
+                key, f"unknown option{suggest(k, known)} for {which}; options: {', '.join(known)}", source
+            )
         if isinstance(v, bool) or not isinstance(v, (int, float, str)):
             raise SweepConfigError(key, f"expected a number or a string, got {typename(v)} {v!r}", source)
         if isinstance(v, float) and not math.isfinite(v) or (isinstance(v, (int, float)) and v < 0):
@@ -51,7 +53,9 @@ def solver_options(cfg: Mapping[str, Any], axes: Mapping[str, list], source: str
 
 def _heatmap_pairs(hm: Any, kind: str, axes: Mapping[str, list], n_paths: int, source: str) -> list[tuple[str, str]]:
     if not isinstance(hm, list) or not all(isinstance(p, list) and len(p) == 2 for p in hm):
-        raise SweepConfigError("report.heatmaps", f'expected a list of axis pairs, e.g. [["ratio", "dq_deg"]], got {hm!r}', source)
+        raise SweepConfigError(
+            "report.heatmaps", f'expected a list of axis pairs, e.g. [["ratio", "dq_deg"]], got {hm!r}', source
+        )
     pairs = []
     for i, (a, b) in enumerate(hm):
         key = f"report.heatmaps[{i}]"
@@ -61,8 +65,9 @@ def _heatmap_pairs(hm: Any, kind: str, axes: Mapping[str, list], n_paths: int, s
                     raise SweepConfigError(key, "'path' needs at least two paths", source)
                 continue
             if ax not in AXES[kind]:
-                raise SweepConfigError(key, f"unknown axis {ax!r}{suggest(str(ax), list(AXES[kind]) + ['path'])} "
-                                            "(axes and 'path')", source)
+                raise SweepConfigError(
+                    key, f"unknown axis {ax!r}{suggest(str(ax), list(AXES[kind]) + ['path'])} (axes and 'path')", source
+                )
             if len(axes[ax]) < 2:
                 raise SweepConfigError(key, f"axis {ax!r} has one value; a heat map needs two varying axes", source)
         if a == b:
@@ -71,8 +76,9 @@ def _heatmap_pairs(hm: Any, kind: str, axes: Mapping[str, list], n_paths: int, s
     return pairs
 
 
-def report_choices(cfg: Mapping[str, Any], kind: str, axes: Mapping[str, list], n_paths: int,
-                   source: str = "") -> tuple[tuple[tuple[str, str], ...], tuple[str, ...]]:
+def report_choices(
+    cfg: Mapping[str, Any], kind: str, axes: Mapping[str, list], n_paths: int, source: str = ""
+) -> tuple[tuple[tuple[str, str], ...], tuple[str, ...]]:
     """``[report]``: the heat maps' axis pairs (default: up to 6 pairs of varying axes) and metrics."""
     from jaxstiff.sweep.metrics import METRICS
 
@@ -82,14 +88,20 @@ def report_choices(cfg: Mapping[str, Any], kind: str, axes: Mapping[str, list], 
     else:  # numeric pairs first, then numeric x categorical, then categorical pairs; at most 6
         numeric = [k for k, s in AXES[kind].items() if s.type in ("float", "int") and len(axes[k]) > 1]
         others = [k for k, s in AXES[kind].items() if s.type not in ("float", "int") and len(axes[k]) > 1]
-        pairs = (list(itertools.combinations(numeric, 2)) + [(a, b) for a in numeric for b in others]
-                 + list(itertools.combinations(others, 2)))[:6]
+        pairs = (
+            list(itertools.combinations(numeric, 2))
+            + [(a, b) for a in numeric for b in others]
+            + list(itertools.combinations(others, 2))
+        )[:6]
     allowed = list(METRICS[kind])
     metrics = tbl.metrics if tbl.metrics is not None else allowed[:2]
     if not isinstance(metrics, list) or not metrics:
         raise SweepConfigError("report.metrics", f"expected a non-empty list of metric names, got {metrics!r}", source)
     for m in metrics:
         if m not in allowed:
-            raise SweepConfigError("report.metrics", f"unknown metric {m!r}{suggest(str(m), allowed)}; metrics: "
-                                                     f"{', '.join(allowed)}", source)
+            raise SweepConfigError(
+                "report.metrics",
+                f"unknown metric {m!r}{suggest(str(m), allowed)}; metrics: {', '.join(allowed)}",
+                source,
+            )
     return tuple(pairs), tuple(metrics)

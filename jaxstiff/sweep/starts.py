@@ -43,9 +43,15 @@ def start_posture(plan: SweepPlan, row_id: int) -> np.ndarray:
     return start_posture_and_error(plan, row_id)[0]
 
 
-def _retry_ik(robot: Any, target: np.ndarray, q: np.ndarray, err: float,
-              draw: Callable[[np.random.Generator], np.ndarray], rng: np.random.Generator,
-              planar: bool) -> tuple[np.ndarray, float]:
+def _retry_ik(
+    robot: Any,
+    target: np.ndarray,
+    q: np.ndarray,
+    err: float,
+    draw: Callable[[np.random.Generator], np.ndarray],
+    rng: np.random.Generator,
+    planar: bool,
+) -> tuple[np.ndarray, float]:
     """Up to :data:`IK_RETRIES` more IK solves from ``draw(rng)`` postures; the closest kept."""
     from jaxstiff.ik import ik_position
 

@@ -97,7 +97,9 @@ class SweepStore:
             return
         others = [f for f in os.listdir(self.out) if f not in (LOCK_FILE, OWNER_FILE)]
         if others:
-            raise ValueError(f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder")
+            raise ValueError(
+                f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder"
+            )
 
     # ------------------------------------------------------------------ paths
     def path(self, *parts: str) -> str:
@@ -123,8 +125,10 @@ class SweepStore:
                     who = fh.read().strip()
             except OSError:
                 who = ""
-            raise ValueError(f"another jaxstiff sweep is writing to {self.out} ({who or 'unknown process'}); "
-                             "wait for it or choose another --out") from None
+            raise ValueError(
+                f"another jaxstiff sweep is writing to {self.out} ({who or 'unknown process'}); "
+                "wait for it or choose another --out"
+            ) from None
         self._lock_obj = lock
         atomic_write_text(self.path(OWNER_FILE), f"pid {os.getpid()} on {socket.gethostname()} since {_now()}\n")
 
@@ -159,7 +163,11 @@ class SweepStore:
                         f"--out {self.out} holds this sweep under another label (sweep.name {was.get('name')!r}, now "
                         f"{plan.name!r}; the name defaults to the config's file name, so a renamed file changes it): "
                         f"set name = {json.dumps(was.get('name'))}"
-                        + (f" and description = {json.dumps(was.get('description', ''))}" if "sweep.description" in diff else "")
+                        + (
+                            f" and description = {json.dumps(was.get('description', ''))}"
+                            if "sweep.description" in diff
+                            else ""
+                        )
                         + " in [sweep] to continue it, or use a new --out"
                     )
                 raise ValueError(
@@ -187,9 +195,17 @@ class SweepStore:
         self.done: dict[int, dict] = self._scan_done()
         self.manifest = self._load_manifest()
         self.run_index = len(self.manifest["runs"])
-        self.manifest["runs"].append({"run": self.run_index, "started": _now(), "host": socket.gethostname(),
-                                      "pid": os.getpid(), "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"),
-                                      "skipped": sorted(self.done), "computed": []})
+        self.manifest["runs"].append(
+            {
+                "run": self.run_index,
+                "started": _now(),
+                "host": socket.gethostname(),
+                "pid": os.getpid(),
+                "OMP_NUM_THREADS": os.environ.get("OMP_NUM_THREADS"),
+                "skipped": sorted(self.done),
+                "computed": [],
+            }
+        )
         self._write_manifest()
 
     def _plan_record(self) -> dict:
@@ -202,7 +218,9 @@ class SweepStore:
             "n_rows": p.n_rows,
             "n_chunks": len(p.chunks),
             "groups": list(p.groups),
-            "chunks": [{"id": c.id, "group": c.group, "rows": [c.rows[0], c.rows[-1]], "n": len(c.rows)} for c in p.chunks],
+            "chunks": [
+                {"id": c.id, "group": c.group, "rows": [c.rows[0], c.rows[-1]], "n": len(c.rows)} for c in p.chunks
+            ],
             "config": p.config,
             "source": os.path.abspath(p.source) if p.source else "",
             "created": _now(),
@@ -224,7 +242,11 @@ class SweepStore:
             except (OSError, json.JSONDecodeError) as exc:
                 raise ValueError(f"{f}: unreadable chunk file ({exc}); delete it to recompute that chunk") from None
             cid = rec.get("chunk")
-            if rec.get("plan_hash") != self.plan.plan_hash or not isinstance(cid, int) or not 0 <= cid < len(self.plan.chunks):
+            if (
+                rec.get("plan_hash") != self.plan.plan_hash
+                or not isinstance(cid, int)
+                or not 0 <= cid < len(self.plan.chunks)
+            ):
                 raise ValueError(f"{f}: belongs to another sweep; delete it or use a new --out")
             want = list(self.plan.chunks[cid].rows)
             if [r["row_id"] for r in rec.get("rows", [])] != want:
@@ -246,8 +268,16 @@ class SweepStore:
         # the rows files are the truth: drop entries without one, add those missing
         man["chunks"] = {k: v for k, v in man["chunks"].items() if int(k) in self.done}
         for cid, rec in self.done.items():
-            man["chunks"].setdefault(str(cid), {"wall_s": rec.get("wall_s"), "finished": rec.get("finished"),
-                                                "worker": rec.get("worker"), "devices": rec.get("devices"), "run": None})
+            man["chunks"].setdefault(
+                str(cid),
+                {
+                    "wall_s": rec.get("wall_s"),
+                    "finished": rec.get("finished"),
+                    "worker": rec.get("worker"),
+                    "devices": rec.get("devices"),
+                    "run": None,
+                },
+            )
         return man
 
     def _write_manifest(self) -> None:
@@ -286,8 +316,13 @@ class SweepStore:
         }
         atomic_write_text(self.rows_file(cid), _json(rec))
         self.done[cid] = rec
-        self.manifest["chunks"][str(cid)] = {"wall_s": rec["wall_s"], "finished": rec["finished"], "worker": rec["worker"],
-                                             "devices": rec["devices"], "run": self.run_index}
+        self.manifest["chunks"][str(cid)] = {
+            "wall_s": rec["wall_s"],
+            "finished": rec["finished"],
+            "worker": rec["worker"],
+            "devices": rec["devices"],
+            "run": self.run_index,
+        }
         self.manifest["runs"][-1]["computed"].append(cid)
         self._write_manifest()
 
@@ -301,8 +336,13 @@ class SweepStore:
         from jaxstiff.sweep.metrics import METRICS
 
         k = self.plan.kind
-        return (["row_id", "chunk", "group", "path", "path_index", "P"] + list(AXES[k]) + ["q0_ik_error_m"]
-                + list(METRICS[k]) + ["result_file", "result_index"])
+        return (
+            ["row_id", "chunk", "group", "path", "path_index", "P"]
+            + list(AXES[k])
+            + ["q0_ik_error_m"]
+            + list(METRICS[k])
+            + ["result_file", "result_index"]
+        )
 
     def rows(self) -> list[dict]:
         """All finished rows, sorted by row_id."""
@@ -318,13 +358,17 @@ class SweepStore:
         """
         missing = [c.id for c in self.plan.chunks if c.id not in self.done]
         if missing:
-            raise ValueError(f"{len(missing)} chunks are not finished yet (first: {missing[0]}); run again with --resume")
+            raise ValueError(
+                f"{len(missing)} chunks are not finished yet (first: {missing[0]}); run again with --resume"
+            )
         rows = self.rows()
         cols = self.columns()
         timing = ["chunk,rows,wall_s,devices,worker,finished"]
         for cid in sorted(self.done):
             rec = self.done[cid]
-            timing.append(f"{cid},{len(rec['rows'])},{rec['wall_s']!r},{rec.get('devices', 1)},{rec.get('worker', '')},{rec['finished']}")
+            timing.append(
+                f"{cid},{len(rec['rows'])},{rec['wall_s']!r},{rec.get('devices', 1)},{rec.get('worker', '')},{rec['finished']}"
+            )
         atomic_write_text(self.path("timing.csv"), "\n".join(timing) + "\n")
         try:
             import pandas as pd  # noqa: F401  (used by table_frame)

@@ -37,9 +37,23 @@ __all__ = ["GENERATORS", "Trajectory", "generator_values", "read_paths", "format
 GENERATORS: dict[str, dict[str, str]] = {
     "default": {"n": "int"},
     "line": {"start": "vec3", "end": "vec3", "n": "int"},
-    "arc": {"center": "vec3", "radius": "float", "start_deg": "float", "end_deg": "float", "n": "int", "normal": "vec3"},
+    "arc": {
+        "center": "vec3",
+        "radius": "float",
+        "start_deg": "float",
+        "end_deg": "float",
+        "n": "int",
+        "normal": "vec3",
+    },
     "circle": {"center": "vec3", "radius": "float", "n": "int", "normal": "vec3"},
-    "half_sine": {"start": "vec3", "end": "vec3", "amplitude": "float", "n": "int", "periods": "float", "normal": "vec3"},
+    "half_sine": {
+        "start": "vec3",
+        "end": "vec3",
+        "amplitude": "float",
+        "n": "int",
+        "periods": "float",
+        "normal": "vec3",
+    },
     "spline": {"points": "points", "n": "int"},
     "point": {"point": "vec3", "n": "int", "direction": "vec3"},
 }
@@ -84,8 +98,15 @@ def _point_path(point: Any, n: int = 20, direction: Any = (1.0, 0.0, 0.0)) -> An
 def _generator_fns() -> dict[str, Callable[..., Any]]:
     from jaxstiff import paths as P
 
-    return {"default": P.default_path, "line": P.line, "arc": P.arc, "circle": P.circle,
-            "half_sine": P.half_sine, "spline": P.spline, "point": _point_path}
+    return {
+        "default": P.default_path,
+        "line": P.line,
+        "arc": P.arc,
+        "circle": P.circle,
+        "half_sine": P.half_sine,
+        "spline": P.spline,
+        "point": _point_path,
+    }
 
 
 class _GeneratorBase(Table):
@@ -171,8 +192,11 @@ def _file_path(tbl: Mapping[str, Any], key: str, kind: str, base_dir: str, sourc
 def _generated_paths(tbl: Mapping[str, Any], key: str, source: str) -> list[Trajectory]:
     gen = tbl["generator"]
     if gen not in GENERATORS:
-        raise SweepConfigError(f"{key}.generator", f"unknown generator {gen!r}{suggest(str(gen), list(GENERATORS))}; choose one "
-                                                   f"of {', '.join(GENERATORS)}", source)
+        raise SweepConfigError(
+            f"{key}.generator",
+            f"unknown generator {gen!r}{suggest(str(gen), list(GENERATORS))}; choose one of {', '.join(GENERATORS)}",
+            source,
+        )
     entry = validate(_GENERATOR_MODELS[gen], tbl, key, source)
     label = getattr(entry, "name", None)
     if label is not None and (not isinstance(label, str) or not label):
@@ -182,8 +206,11 @@ def _generated_paths(tbl: Mapping[str, Any], key: str, source: str) -> list[Traj
     if getattr(entry, "zip", False):
         lengths = {k: len(options[k]) for k in varying}
         if len(set(lengths.values())) > 1:
-            raise SweepConfigError(f"{key}.zip", f"zip = true pairs the list-valued parameters, which need equal lengths; "
-                                                 f"got {lengths}", source)
+            raise SweepConfigError(
+                f"{key}.zip",
+                f"zip = true pairs the list-valued parameters, which need equal lengths; got {lengths}",
+                source,
+            )
         n_paths = max(lengths.values(), default=1)
         combos = [tuple(v[i] if len(v) > 1 else v[0] for v in options.values()) for i in range(n_paths)]
     else:
@@ -226,7 +253,9 @@ def _unique_names(paths: list[Trajectory]) -> list[Trajectory]:
 def read_paths(cfg: Mapping[str, Any], kind: str, base_dir: str, source: str = "") -> list[Trajectory]:
     """Every path of ``[[paths]]``, expanded and indexed (relative files resolve against ``base_dir``)."""
     if "paths" not in cfg:
-        raise SweepConfigError("paths", "missing: give at least one [[paths]] table (file = CSV, or generator = ...)", source)
+        raise SweepConfigError(
+            "paths", "missing: give at least one [[paths]] table (file = CSV, or generator = ...)", source
+        )
     plist = cfg["paths"]
     if isinstance(plist, Mapping):
         plist = [plist]
@@ -238,8 +267,11 @@ def read_paths(cfg: Mapping[str, Any], kind: str, base_dir: str, source: str = "
         if not isinstance(entry, Mapping):
             raise SweepConfigError(key, f"expected a table, got {typename(entry)} {entry!r}", source)
         if ("file" in entry) == ("generator" in entry):
-            raise SweepConfigError(key, "give exactly one of 'file' (a CSV path) and 'generator' (one of "
-                                        + ", ".join(GENERATORS) + ")", source)
+            raise SweepConfigError(
+                key,
+                "give exactly one of 'file' (a CSV path) and 'generator' (one of " + ", ".join(GENERATORS) + ")",
+                source,
+            )
         if "file" in entry:
             out.append(_file_path(entry, key, kind, base_dir, source))
         else:

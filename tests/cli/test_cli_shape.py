@@ -47,9 +47,34 @@ def test_two_paths_one_file_and_options(tmp_path, small_csv, capsys):
     base = jaxstiff.Path.from_csv(small_csv)
     jaxstiff.Path(base.points + [0.0, 0.0, 0.02], base.directions).to_csv(p2)
     out = tmp_path / "two.npz"
-    rc = main(["shape", "--path", str(small_csv), "--path", str(p2), "--out", str(out), "--quiet",
-               "--criterion", "f2", "--ratio", "4", "--dq-deg", "3", "--dk", "8", "--kmin", "2", "--kmax", "90",
-               "--kj0", "40", "--first-starts", "1"])
+    rc = main(
+        [
+            "shape",
+            "--path",
+            str(small_csv),
+            "--path",
+            str(p2),
+            "--out",
+            str(out),
+            "--quiet",
+            "--criterion",
+            "f2",
+            "--ratio",
+            "4",
+            "--dq-deg",
+            "3",
+            "--dk",
+            "8",
+            "--kmin",
+            "2",
+            "--kmax",
+            "90",
+            "--kj0",
+            "40",
+            "--first-starts",
+            "1",
+        ]
+    )
     cap = capsys.readouterr()
     assert rc == 0, cap.err
     assert cap.out == "" and cap.err == ""  # --quiet
@@ -93,7 +118,10 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--path", _bad(t, "h.csv", "a,b\n1,2\n3,4\n")], "header must be"),
         (lambda t: ["--path", _bad(t, "n.csv", "x,y,z\n0.6,0.2,0.3\n0.6,nan,0.3\n")], "not finite"),
         (lambda t: ["--path", _bad(t, "one.csv", "x,y,z\n0.6,0.2,0.3\n")], "at least 2 waypoints"),
-        (lambda t: ["--path", _bad(t, "z.csv", "x,y,z\n0.6,0.2,0.3\n0.6,0.2,0.3\n0.6,0.1,0.3\n")], "zero-length segment"),
+        (
+            lambda t: ["--path", _bad(t, "z.csv", "x,y,z\n0.6,0.2,0.3\n0.6,0.2,0.3\n0.6,0.1,0.3\n")],
+            "zero-length segment",
+        ),
         (lambda t: ["--ratio", "1"], "ratio must be finite and > 1"),
         (lambda t: ["--ratio", "inf"], "ratio must be finite and > 1"),
         (lambda t: ["--ratio", "abc"], "--ratio: expected a number"),
@@ -111,7 +139,10 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--robot", str(t)], "is not a file"),  # a folder
         (lambda t: ["--out", str(t / "no" / "dir" / "x.npz")], "folder does not exist"),
         (lambda t: ["--out", str(t)], "is a folder"),
-        (lambda t: ["--path", str(t)], "is a folder; give a CSV file"),  # was "not found"  # was written beside it as <folder>.npz
+        (
+            lambda t: ["--path", str(t)],
+            "is a folder; give a CSV file",
+        ),  # was "not found"  # was written beside it as <folder>.npz
         (lambda t: ["--out", "/proc/x.npz"], "cannot write into folder /proc"),  # found before the work
     ],
 )
@@ -204,7 +235,9 @@ def test_sigterm_during_the_save_still_writes_the_complete_file(tmp_path, small_
     assert sorted(os.listdir(tmp_path)) == ["res.npz", "small.csv"]
     back = jaxstiff.ShapeResult.load(out)
     assert R.is_usable(back.status).all() and R.verify(back)["max_pos_error"] <= 1e-9
-    assert signal.getsignal(signal.SIGTERM) is not None and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert (
+        signal.getsignal(signal.SIGTERM) is not None and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    )
 
 
 def test_atomic_write_removes_its_temporary_file_on_an_interrupt(tmp_path):
@@ -269,16 +302,31 @@ def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, mon
         real(self, b, p)
         if self.done == 4:
             _swallowed_sigint()  # raised at the next waypoint's tick
+
     monkeypatch.setattr(cs.WaypointProgress, "__call__", tick)
     out = tmp_path / "part.npz"
-    rc = main(["shape", "--path", str(small_csv), "--path", str(small_csv), "--out", str(out), "--quiet",
-               "--first-starts", "1"])
+    rc = main(
+        [
+            "shape",
+            "--path",
+            str(small_csv),
+            "--path",
+            str(small_csv),
+            "--out",
+            str(out),
+            "--quiet",
+            "--first-starts",
+            "1",
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 130 and out.exists(), err
     assert "with the 5 of 6 waypoints finished" in err and "interrupted (SIGINT)" in err
     back = jaxstiff.ShapeResult.load(out)
     assert back.meta["interrupted"] is True
-    assert R.is_usable(back.status[0]).all() and R.is_usable(back.status[1, :2]).all() and back.status[1, 2] == R.NOT_RUN
+    assert (
+        R.is_usable(back.status[0]).all() and R.is_usable(back.status[1, :2]).all() and back.status[1, 2] == R.NOT_RUN
+    )
     np.testing.assert_array_equal(back.q[1, 2], back.q[1, 1])  # the reference state, unchanged
     v = R.verify(back)
     assert v["max_pos_error"] <= 1e-9 and v["max_bound_violation"] <= 0.0 and v["max_rate_violation"] <= 1e-12
@@ -322,7 +370,9 @@ def test_a_signal_while_the_command_starts_up_stops_it():
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 130 and "interrupted (SIGINT)" in res.stderr, (res.returncode, res.stderr)
     assert "planar_3r" not in res.stdout  # no work was done
-    lib = ("import signal, jaxstiff\n"
-           "assert signal.getsignal(signal.SIGINT) is signal.default_int_handler\n"
-           "assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL\n")
+    lib = (
+        "import signal, jaxstiff\n"
+        "assert signal.getsignal(signal.SIGINT) is signal.default_int_handler\n"
+        "assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL\n"
+    )
     assert subprocess.run([sys.executable, "-c", lib], capture_output=True, timeout=120).returncode == 0

@@ -155,8 +155,12 @@ def test_small_det_and_inverse_with_their_jvps_match_numpy(m):
     # reverse mode goes through the same rules (transposed): grad of a scalar of both
     f = lambda a: jnp.sum(algebra.spd_inverse(a) * dA) + algebra.det_small(a).sum()
     g = np.asarray(jax.grad(f)(jnp.asarray(A)))
-    fd = np.array([(float(f(jnp.asarray(A + h * E))) - float(f(jnp.asarray(A - h * E)))) / (2 * h)
-                   for E in np.eye(m * m).reshape(m * m, m, m)[:, None].repeat(4, 1)]).reshape(m, m)
+    fd = np.array(
+        [
+            (float(f(jnp.asarray(A + h * E))) - float(f(jnp.asarray(A - h * E)))) / (2 * h)
+            for E in np.eye(m * m).reshape(m * m, m, m)[:, None].repeat(4, 1)
+        ]
+    ).reshape(m, m)
     assert_close(g.sum(0), fd, rtol=1e-6, atol=1e-8 * np.max(np.abs(fd)), what="grad")
 
 
@@ -169,7 +173,9 @@ def test_closed_form_gradient_of_u_equals_autodiff(name, task, m):
     K = jnp.asarray(X @ X.T * 1000.0)
     rows = jaxstiff.stiffness.TASK_ROWS[task]
     u, g = csc.offdiag_gradient(robot, q, K, task)
-    ref = jax.jit(jax.vmap(jax.grad(lambda x: jaxstiff.offdiag(jaxstiff.position_and_jacobian(robot, x, rows)[1], K))))(q)
+    ref = jax.jit(jax.vmap(jax.grad(lambda x: jaxstiff.offdiag(jaxstiff.position_and_jacobian(robot, x, rows)[1], K))))(
+        q
+    )
     assert_close(g, ref, rtol=1e-10, atol=1e-9 * float(jnp.max(jnp.abs(ref))), what="grad u")
 
 
@@ -219,8 +225,13 @@ def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
     J = rng.normal(size=(m, n))
     if case == "near_singular":
         J[1] = J[0] * 0.999 + 1e-3 * rng.normal(size=n)
-    args = (jnp.asarray(J), jnp.asarray(rng.normal(size=m)), (jnp.asarray(rng.normal(size=n)), jnp.asarray(rng.normal(size=n))),
-            jnp.asarray(1e-2), jnp.asarray(0.1))
+    args = (
+        jnp.asarray(J),
+        jnp.asarray(rng.normal(size=m)),
+        (jnp.asarray(rng.normal(size=n)), jnp.asarray(rng.normal(size=n))),
+        jnp.asarray(1e-2),
+        jnp.asarray(0.1),
+    )
     _, _, nu = jax.jit(projections.damped_projections)(*args)
     assert (float(nu) < 1e-2 ** (m / 2)) == (case == "near_singular")  # the case is what it says
     w = [jnp.asarray(rng.normal(size=n)) for _ in range(3)]
@@ -229,11 +240,18 @@ def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
         def inner(*a):
             dqP, (p1, p2), nu = f(*a)
             return jnp.sum(w[0] * jnp.sin(dqP)) + jnp.sum(w[1] * p1) + jnp.sum(w[2] * p2 * p2) + 3.0 * nu
+
         return inner
 
-    for a, b in zip(jax.tree.leaves(jax.jit(projections.damped_projections)(*args)), jax.tree.leaves(jax.jit(_plain_projections)(*args)), strict=True):
+    for a, b in zip(
+        jax.tree.leaves(jax.jit(projections.damped_projections)(*args)),
+        jax.tree.leaves(jax.jit(_plain_projections)(*args)),
+        strict=True,
+    ):
         assert_close(a, b, rtol=1e-13, atol=1e-13, what="values")
-    got = jax.jit(jax.grad(loss(projections.damped_projections), argnums=(0, 1, 2, 3, 4)))(*args)  # jitted: no op-by-op dispatch
+    got = jax.jit(jax.grad(loss(projections.damped_projections), argnums=(0, 1, 2, 3, 4)))(
+        *args
+    )  # jitted: no op-by-op dispatch
     want = jax.jit(jax.grad(loss(_plain_projections), argnums=(0, 1, 2, 3, 4)))(*args)
     for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want), strict=True):
         assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="VJP")
@@ -253,7 +271,11 @@ def test_damped_projections_of_a_zero_jacobian_are_finite():
         dx, v = jnp.ones(m), jnp.arange(1.0, 5.0)
         dqP, (Pv,), nu = jax.jit(projections.damped_projections)(Jf, dx, (v,), jnp.asarray(1e-2), jnp.asarray(0.1))
         assert np.all(np.asarray(dqP) == 0.0) and np.all(np.asarray(Pv) == np.asarray(v)) and float(nu) == 0.0
-        g = jax.jit(jax.grad(lambda J, dx=dx, v=v: jnp.sum(projections.damped_projections(J, dx, (v,), 1e-2, 0.1)[0] ** 2 + 1.0)))(Jf)
+        g = jax.jit(
+            jax.grad(
+                lambda J, dx=dx, v=v: jnp.sum(projections.damped_projections(J, dx, (v,), 1e-2, 0.1)[0] ** 2 + 1.0)
+            )
+        )(Jf)
         assert np.all(np.isfinite(np.asarray(g)))
 
 
@@ -277,7 +299,11 @@ def test_realised_stiffness_vjp_and_jvp_equal_autodiff(task, m):
     grads = [jax.jit(jax.grad(loss(f), argnums=(0, 1, 2)))(J, kj, K) for f in (ours, plain)]
     for a, b in zip(*grads, strict=True):
         assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="VJP")
-    for tangents in [(J * 0.0 + 1.0, kj * 0.0, K * 0.0), (J * 0.0, jnp.asarray(rng.normal(size=n)), K * 0.0), (J * 0.0, kj * 0.0, W + W.T)]:
+    for tangents in [
+        (J * 0.0 + 1.0, kj * 0.0, K * 0.0),
+        (J * 0.0, jnp.asarray(rng.normal(size=n)), K * 0.0),
+        (J * 0.0, kj * 0.0, W + W.T),
+    ]:
         tans = [jax.jit(lambda p, t, f=f: jax.jvp(f, p, t)[1])((J, kj, K), tangents) for f in (ours, plain)]
         for a, b in zip(*tans, strict=True):
             assert_close(a, b, rtol=1e-10, atol=1e-12 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="JVP")
@@ -404,7 +430,9 @@ def test_batch_equals_separate_rollouts():
     q0 = Q_SEED + rng.uniform(-0.05, 0.05, size=(3, 3))
     beta = np.array([0.5, 1.0, 2.0])
     K = np.stack([rot2(a) @ np.diag([3000.0, 1000.0]) @ rot2(a).T for a in (0.0, 30.0, 60.0)])
-    paths = np.stack([X_SEED + np.linspace(0, 1, T)[:, None] * np.array(v) for v in ([-0.3, 0.2], [0.2, 0.2], [0.0, -0.4])])
+    paths = np.stack(
+        [X_SEED + np.linspace(0, 1, T)[:, None] * np.array(v) for v in ([-0.3, 0.2], [0.2, 0.2], [0.0, -0.4])]
+    )
     batched = jaxstiff.csc_rollout(PLANAR, paths, K, q0, beta)
     chunked = jaxstiff.csc_rollout(PLANAR, paths, K, q0, beta, chunk=2)  # lax.map over chunks, with a remainder
     assert batched.q.shape == (3, T, 3) and batched.K_C.shape == (3, T, 2, 2) and batched.u_start.shape == (3,)
@@ -421,7 +449,9 @@ def test_batch_equals_separate_rollouts():
 def test_varying_kxd(hold):
     T = 1000
     # K_xd varying along the path (T, m, m), here all equal, gives the constant-K_xd rollout
-    same = jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (T, 1)), np.broadcast_to(K_SEED, (T, 2, 2)), Q_SEED, 2e-3, step="constant")
+    same = jaxstiff.csc_rollout(
+        PLANAR, np.tile(X_SEED, (T, 1)), np.broadcast_to(K_SEED, (T, 2, 2)), Q_SEED, 2e-3, step="constant"
+    )
     assert_close(same.q, hold.q, rtol=1e-13, atol=1e-14, what="varying (all equal) vs constant K_xd")
     # K_xd turning by 90 degrees while the TCP holds still: u is reported against each waypoint's K_xd
     Ks = np.stack([rot2(a) @ np.diag([3000.0, 1000.0]) @ rot2(a).T for a in np.linspace(0, 90, T)])
@@ -480,7 +510,9 @@ def test_chunked_batch_with_some_rollouts_at_a_limit_equals_separate_rollouts():
     assert hit[0] and hit[3] and not hit[1] and not hit[2], hit
 
     def loss(x, b):
-        r = jaxstiff.csc_rollout(PLANAR_LIM, HOLD_300, K_SEED, x, beta[b] if b is not None else beta, step="constant", chunk=2)
+        r = jaxstiff.csc_rollout(
+            PLANAR_LIM, HOLD_300, K_SEED, x, beta[b] if b is not None else beta, step="constant", chunk=2
+        )
         return jnp.sum(jnp.mean(r.u, axis=-1))
 
     g_batch = np.asarray(jax.grad(loss)(jnp.asarray(q0), None))
@@ -563,8 +595,12 @@ def test_orientation_error_is_the_rotation_angle():
 
 def test_float32_stays_float32():
     r = jaxstiff.csc_rollout(
-        PLANAR, np.tile(X_SEED, (20, 1)).astype(np.float32), K_SEED.astype(np.float32), Q_SEED.astype(np.float32),
-        np.float32(2e-3), step="constant",
+        PLANAR,
+        np.tile(X_SEED, (20, 1)).astype(np.float32),
+        K_SEED.astype(np.float32),
+        Q_SEED.astype(np.float32),
+        np.float32(2e-3),
+        step="constant",
     )
     assert r.q.dtype == jnp.float32 and r.u.dtype == jnp.float32 and r.K_C.dtype == jnp.float32
     assert np.all(np.isfinite(np.asarray(r.u))) and float(r.u[-1]) < float(r.u_start)
@@ -581,7 +617,9 @@ def test_second_call_does_not_recompile(hold):
 def test_path_object_is_accepted(hold):
     from jaxstiff.paths import Path
 
-    path = Path(np.hstack([np.tile(X_SEED, (1000, 1)), np.zeros((1000, 1))]), directions=np.tile([1.0, 0.0, 0.0], (1000, 1)))
+    path = Path(
+        np.hstack([np.tile(X_SEED, (1000, 1)), np.zeros((1000, 1))]), directions=np.tile([1.0, 0.0, 0.0], (1000, 1))
+    )
     r = jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant")
     assert_close(r.q, hold.q, rtol=0, atol=0)
 
@@ -625,17 +663,37 @@ def test_task_the_robot_cannot_control_is_refused():
     with pytest.raises(ValueError, match=r"task 'xyz'.*vz.*zero at every posture.*use task 'xy'"):
         jaxstiff.csc_rollout(PLANAR, path, np.diag([3000.0, 1000.0, 500.0]), Q_SEED, 1.0)
     lwr5 = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.0})
-    with pytest.raises(ValueError, match=r"task 'full' controls 6 Cartesian rows .* only 5 free joint.*cannot be followed.*or unlock joints"):
+    with pytest.raises(
+        ValueError,
+        match=r"task 'full' controls 6 Cartesian rows .* only 5 free joint.*cannot be followed.*or unlock joints",
+    ):
         jaxstiff.csc_rollout(lwr5, np.array([[0.0, 0.3, 0.9]]), np.eye(6) * 1e3, np.full(7, 0.3) * lwr5.free, 1.0)
 
 
 # ---------------------------------------------------------------- command line
 def test_cli_hold_writes_result_file(tmp_path, capsys, hold):
     out = tmp_path / "hold.npz"
-    rc = cli_main([
-        "csc", "--robot", "planar_3r", "--hold", f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}", "--kxd", "3000,1000@30",
-        "--q0-deg", "75,-74.74,-76.30", "--beta", "2e-3", "--step", "constant", "--steps", "1000", "--out", str(out),
-    ])
+    rc = cli_main(
+        [
+            "csc",
+            "--robot",
+            "planar_3r",
+            "--hold",
+            f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}",
+            "--kxd",
+            "3000,1000@30",
+            "--q0-deg",
+            "75,-74.74,-76.30",
+            "--beta",
+            "2e-3",
+            "--step",
+            "constant",
+            "--steps",
+            "1000",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     text = capsys.readouterr().out
     assert "u:" in text and "5994.9" in text
@@ -652,11 +710,30 @@ def test_cli_warns_when_a_path_ends_off_its_target(tmp_path, capsys):
     """Holding a point out of reach (|x| = 5 m > 3 m): the file is written, and stderr says the
     rollout ends far from the target instead of only printing the number."""
     out = tmp_path / "far.npz"
-    rc = cli_main(["csc", "--robot", "planar_3r", "--hold", "5,0", "--kxd", "3000,1000", "--q0", "0.3,0.3,0.3",
-                   "--steps", "20", "--lock", "none", "--out", str(out)])  # ('--lock none' as in `jaxstiff shape`)
+    rc = cli_main(
+        [
+            "csc",
+            "--robot",
+            "planar_3r",
+            "--hold",
+            "5,0",
+            "--kxd",
+            "3000,1000",
+            "--q0",
+            "0.3,0.3,0.3",
+            "--steps",
+            "20",
+            "--lock",
+            "none",
+            "--out",
+            str(out),
+        ]
+    )  # ('--lock none' as in `jaxstiff shape`)
     err = capsys.readouterr().err
     assert rc == 0 and out.exists()
-    assert re.search(r"warning: path 0 ends [\d.]+ m from its last waypoint .*start posture's TCP is 3\.\d+ m from the first", err), err
+    assert re.search(
+        r"warning: path 0 ends [\d.]+ m from its last waypoint .*start posture's TCP is 3\.\d+ m from the first", err
+    ), err
 
 
 def test_cli_warns_when_the_arm_stays_at_a_singular_start(tmp_path, capsys):
@@ -667,8 +744,25 @@ def test_cli_warns_when_the_arm_stays_at_a_singular_start(tmp_path, capsys):
     lwr = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     tcp = np.asarray(lwr.fk(np.zeros(7)))[:3, 3]
     hold = ",".join(repr(float(v)) for v in tcp - [0.0, 0.0, 0.2])
-    argv = ["csc", "--robot", "kuka_lwr4", "--lock", "lwr_a7=0", "--hold", hold, "--kxd", "3000,1000,2000",
-            "--steps", "30", "--step", "constant", "--beta", "1e-3", "--out", str(out)]
+    argv = [
+        "csc",
+        "--robot",
+        "kuka_lwr4",
+        "--lock",
+        "lwr_a7=0",
+        "--hold",
+        hold,
+        "--kxd",
+        "3000,1000,2000",
+        "--steps",
+        "30",
+        "--step",
+        "constant",
+        "--beta",
+        "1e-3",
+        "--out",
+        str(out),
+    ]
     assert cli_main(argv + ["--q0", "0,0,0,0,0,0,0"]) == 0
     err = capsys.readouterr().err
     assert "stayed in a (near) singular posture" in err and "start from a bent posture" in err, err
@@ -684,7 +778,11 @@ def test_cli_warns_when_task_xy_ignores_the_targets_z(tmp_path, capsys):
     z_tcp = float(PLANAR.fk(Q_SEED)[2, 3])
     x, y = float(X_SEED[0]), float(X_SEED[1])
     base = ["csc", "--robot", "planar_3r", "--kxd", "3000,1000", "--q0-deg", "75,-74.74,-76.30", "--steps", "3"]
-    for hold, warned in ((f"{x!r},{y!r},{z_tcp + 0.5!r}", True), (f"{x!r},{y!r},{z_tcp!r}", False), (f"{x!r},{y!r}", False)):
+    for hold, warned in (
+        (f"{x!r},{y!r},{z_tcp + 0.5!r}", True),
+        (f"{x!r},{y!r},{z_tcp!r}", False),
+        (f"{x!r},{y!r}", False),
+    ):
         assert cli_main(base + ["--hold", hold, "--out", str(tmp_path / "h.npz")]) == 0
         err = capsys.readouterr().err
         assert ("tracks x and y only" in err) == warned, (hold, err)
@@ -719,10 +817,31 @@ def test_cli_takes_negative_comma_lists_as_values(tmp_path):
     from jaxstiff.cli.common import join_negative_values as _join_negative_values
 
     assert _join_negative_values(["csc", "--hold", "-1.2,0.9", "--beta", "-1", "--q0", ".5,1", "-x"]) == [
-        "csc", "--hold=-1.2,0.9", "--beta=-1", "--q0", ".5,1", "-x"]
+        "csc",
+        "--hold=-1.2,0.9",
+        "--beta=-1",
+        "--q0",
+        ".5,1",
+        "-x",
+    ]
     out = tmp_path / "neg.npz"
-    rc = cli_main(["csc", "--robot", "planar_3r", "--hold", "-1.2,0.9", "--kxd", "3000,1000", "--q0-deg", "-60,-40,-30",
-                   "--steps", "3", "--out", str(out)])
+    rc = cli_main(
+        [
+            "csc",
+            "--robot",
+            "planar_3r",
+            "--hold",
+            "-1.2,0.9",
+            "--kxd",
+            "3000,1000",
+            "--q0-deg",
+            "-60,-40,-30",
+            "--steps",
+            "3",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     with np.load(out) as f:
         np.testing.assert_array_equal(f["target"][0, 0], [-1.2, 0.9])
@@ -736,8 +855,21 @@ def test_cli_path_with_a_pause_holds_still(tmp_path):
     x, y = float(X_SEED[0]), float(X_SEED[1])
     f.write_text(f"x,y,z\n{x!r},{y!r},0\n{x!r},{y + 0.01!r},0\n{x!r},{y + 0.01!r},0\n{x!r},{y + 0.02!r},0\n")
     out = tmp_path / "p.npz"
-    rc = cli_main(["csc", "--robot", "planar_3r", "--path", str(f), "--kxd", "3000,1000", "--q0-deg", "75,-74.74,-76.30",
-                   "--out", str(out)])
+    rc = cli_main(
+        [
+            "csc",
+            "--robot",
+            "planar_3r",
+            "--path",
+            str(f),
+            "--kxd",
+            "3000,1000",
+            "--q0-deg",
+            "75,-74.74,-76.30",
+            "--out",
+            str(out),
+        ]
+    )
     assert rc == 0
     with np.load(out) as r:
         np.testing.assert_array_equal(r["target"][0], [[x, y], [x, y + 0.01], [x, y + 0.01], [x, y + 0.02]])
@@ -758,7 +890,10 @@ def test_gradients_finite_at_a_zero_desired_stiffness():
 
     Z = jnp.zeros((2, 2))
     for step in ("constant", "adaptive"):
-        for g in (jax.grad(loss, argnums=(0, 1, 2))(Z, q0, 2e-3, step), jax.jacfwd(loss, argnums=(0, 1, 2))(Z, q0, 2e-3, step)):
+        for g in (
+            jax.grad(loss, argnums=(0, 1, 2))(Z, q0, 2e-3, step),
+            jax.jacfwd(loss, argnums=(0, 1, 2))(Z, q0, 2e-3, step),
+        ):
             assert all(np.all(np.isfinite(np.asarray(x))) for x in g), (step, g)
     # with K_xd = 0 nothing depends on beta or q0's null motion: q0's gradient is the tracking's, finite
     gq = jax.grad(lambda q: loss(Z, q, 2e-3))(q0)
@@ -793,13 +928,17 @@ def test_segments_equal_one_rollout_planar_line(seg):
     beta = np.array([0.5, 2.0])
     whole = jaxstiff.csc_rollout(robot, path, K, q0, beta)
     seen = []
-    parts = csc.csc_rollout_segments(robot, path, K, q0, beta, segment_steps=seg, progress=lambda d, t: seen.append((d, t)))
+    parts = csc.csc_rollout_segments(
+        robot, path, K, q0, beta, segment_steps=seg, progress=lambda d, t: seen.append((d, t))
+    )
     _fields_close(parts, whole)
     assert seen[0] == (0, 50) and seen[-1] == (50, 50) and len(seen) == 1 + -(-50 // seg)  # (0: inputs checked)
     if seg == 7:  # K_xd varying along the path is cut with it
         Kt = K * np.linspace(1.0, 2.0, 50)[:, None, None]
-        _fields_close(csc.csc_rollout_segments(robot, path, Kt, q0, beta, segment_steps=seg),
-                      jaxstiff.csc_rollout(robot, path, Kt, q0, beta))
+        _fields_close(
+            csc.csc_rollout_segments(robot, path, Kt, q0, beta, segment_steps=seg),
+            jaxstiff.csc_rollout(robot, path, Kt, q0, beta),
+        )
 
 
 def test_segments_hold_the_first_orientation_in_task_full():
@@ -821,11 +960,14 @@ def test_segments_hold_the_first_orientation_in_task_full():
     assert np.linalg.norm(Tend[:3, :3] - Rz @ T0[:3, :3]) < 1e-3
 
 
-@pytest.mark.parametrize("kwargs,match", [
-    (dict(hold_orientation=np.eye(3) * 2.0), "rotation matrix"),
-    (dict(hold_orientation=np.diag([1.0, 1.0, -1.0])), "rotation matrix"),
-    (dict(hold_orientation=np.eye(2)), r"shape \(\.\.\., 3, 3\)"),
-])
+@pytest.mark.parametrize(
+    "kwargs,match",
+    [
+        (dict(hold_orientation=np.eye(3) * 2.0), "rotation matrix"),
+        (dict(hold_orientation=np.diag([1.0, 1.0, -1.0])), "rotation matrix"),
+        (dict(hold_orientation=np.eye(2)), r"shape \(\.\.\., 3, 3\)"),
+    ],
+)
 def test_hold_orientation_is_checked(kwargs, match):
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
     q0 = np.deg2rad([20.0, 40.0, -30.0, -70.0, 25.0, 50.0, 10.0])
@@ -851,7 +993,9 @@ def test_segments_interrupted_keep_the_finished_rows(hold):
         return progress
 
     with pytest.raises(csc.CSCInterrupted) as e:
-        csc.csc_rollout_segments(PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant", segment_steps=300, progress=stop_after(2))
+        csc.csc_rollout_segments(
+            PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant", segment_steps=300, progress=stop_after(2)
+        )
     assert e.value.steps_done == 600 and e.value.steps_total == 1000
     _fields_close(e.value.result, hold, rows=600)
     with pytest.raises(ValueError, match="segment_steps"):
@@ -861,7 +1005,9 @@ def test_segments_interrupted_keep_the_finished_rows(hold):
     bad[900, 0] = np.nan
     seen = []
     with pytest.raises(ValueError, match="path contains NaN"):
-        csc.csc_rollout_segments(PLANAR, bad, K_SEED, Q_SEED, 2e-3, segment_steps=300, progress=lambda d, t: seen.append(d))
+        csc.csc_rollout_segments(
+            PLANAR, bad, K_SEED, Q_SEED, 2e-3, segment_steps=300, progress=lambda d, t: seen.append(d)
+        )
     assert seen == []
 
 
@@ -872,8 +1018,23 @@ def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(t
     from jaxstiff.cli import csc as _cli_csc
 
     monkeypatch.setattr(_cli_csc, "SEGMENT_WORK", 300)
-    argv = ["csc", "--robot", "planar_3r", "--hold", f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}", "--kxd", "3000,1000@30",
-            "--q0-deg", "75,-74.74,-76.30", "--beta", "2e-3", "--step", "constant", "--steps", "1000"]
+    argv = [
+        "csc",
+        "--robot",
+        "planar_3r",
+        "--hold",
+        f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}",
+        "--kxd",
+        "3000,1000@30",
+        "--q0-deg",
+        "75,-74.74,-76.30",
+        "--beta",
+        "2e-3",
+        "--step",
+        "constant",
+        "--steps",
+        "1000",
+    ]
     out = tmp_path / "full.npz"
     assert cli_main(argv + ["--out", str(out)]) == 0
     err = capsys.readouterr().err
@@ -903,8 +1064,23 @@ def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(t
 
 def test_cli_checks_numeric_flags_before_warning(tmp_path, capsys):
     """--kmin 0 with --hold and the adaptive step: the flag's error, and no hold warning first."""
-    rc = cli_main(["csc", "--robot", "planar_3r", "--hold", "1,1", "--kxd", "3000,1000", "--q0", "0,0,0",
-                   "--kmin", "0", "--out", str(tmp_path / "r.npz")])
+    rc = cli_main(
+        [
+            "csc",
+            "--robot",
+            "planar_3r",
+            "--hold",
+            "1,1",
+            "--kxd",
+            "3000,1000",
+            "--q0",
+            "0,0,0",
+            "--kmin",
+            "0",
+            "--out",
+            str(tmp_path / "r.npz"),
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "--kmin must be" in err and "warning" not in err, err
 
@@ -912,8 +1088,19 @@ def test_cli_checks_numeric_flags_before_warning(tmp_path, capsys):
 def test_cli_locked_joint_q0_must_be_the_locked_value(tmp_path, capsys):
     """The help says locked joints take their locked values in --q0: another value is an error
     naming the joint (it was silently replaced); the raw --q0 text is kept in meta."""
-    base = ["csc", "--robot", "kuka_lwr4", "--lock", "lwr_a7=0.2", "--hold", "0.5,0.1,0.6", "--kxd", "3000,1000,2000",
-            "--steps", "2"]
+    base = [
+        "csc",
+        "--robot",
+        "kuka_lwr4",
+        "--lock",
+        "lwr_a7=0.2",
+        "--hold",
+        "0.5,0.1,0.6",
+        "--kxd",
+        "3000,1000,2000",
+        "--steps",
+        "2",
+    ]
     out = tmp_path / "r.npz"
     assert cli_main(base + ["--q0", "0.3,0.5,0,-1.2,0,0.6,0.9", "--out", str(out)]) == 2
     err = capsys.readouterr().err
@@ -932,8 +1119,23 @@ def test_cli_joint_limit_avoidance_has_a_gain_by_default(tmp_path, capsys):
     documented default (recorded in meta) and moves the arm differently from --joint-limits off;
     an explicit --jl-gain 0 gets a warning."""
     x = np.asarray(jaxstiff.Robot.from_urdf("planar_4r").fk(np.array([0.4, 0.8, -0.6, 0.9])))[:2, 3]
-    base = ["csc", "--robot", "planar_4r", "--hold", f"{float(x[0])!r},{float(x[1])!r}", "--kxd", "3000,1000@30", "--q0", "0.4,0.8,-0.6,0.9",
-            "--step", "constant", "--beta", "5e-3", "--steps", "50"]
+    base = [
+        "csc",
+        "--robot",
+        "planar_4r",
+        "--hold",
+        f"{float(x[0])!r},{float(x[1])!r}",
+        "--kxd",
+        "3000,1000@30",
+        "--q0",
+        "0.4,0.8,-0.6,0.9",
+        "--step",
+        "constant",
+        "--beta",
+        "5e-3",
+        "--steps",
+        "50",
+    ]
     runs = {}
     for extra in ([], ["--joint-limits", "priority"], ["--joint-limits", "priority", "--jl-gain", "0"]):
         out = tmp_path / f"r{len(runs)}.npz"
@@ -960,7 +1162,9 @@ def test_saturation_keeps_tracking_when_the_resolve_pushes_another_joint_out():
     q0 = np.array([0.4, 0.8, -0.6, 0.9])
     x0 = numpy_fk(robot, q0)[:2, 3]
     K = rot2(30.0) @ np.diag([3000.0, 1000.0]) @ rot2(30.0).T
-    r = jaxstiff.csc_rollout(robot, np.tile(x0, (600, 1)), K, q0, 5e-3, step="constant", joint_limits="priority", jl_gain=0.02)
+    r = jaxstiff.csc_rollout(
+        robot, np.tile(x0, (600, 1)), K, q0, 5e-3, step="constant", joint_limits="priority", jl_gain=0.02
+    )
     q = np.asarray(r.q)
     assert np.all(q >= robot.lower - 1e-12) and np.all(q <= robot.upper + 1e-12)
     assert np.any(np.asarray(r.status) & csc.STATUS_JOINT_LIMIT)  # the limits were really reached
@@ -1003,8 +1207,21 @@ def test_settings_defaults_are_the_api_and_cli_defaults():
     # the effective default reaches the rollout: no keywords == every default given explicitly
     path = np.tile(X_SEED, (5, 1))
     a = jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED)
-    b = jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, 1.0, step="adaptive", kmin=1.0, kmax=np.inf, nu0=1e-2, damping=0.1,
-                             newton=0, joint_limits="off", jl_gain=0.0)
+    b = jaxstiff.csc_rollout(
+        PLANAR,
+        path,
+        K_SEED,
+        Q_SEED,
+        1.0,
+        step="adaptive",
+        kmin=1.0,
+        kmax=np.inf,
+        nu0=1e-2,
+        damping=0.1,
+        newton=0,
+        joint_limits="off",
+        jl_gain=0.0,
+    )
     _fields_close(a, b, rtol=0, atol=0)
 
 
@@ -1014,11 +1231,20 @@ def test_settings_object_and_its_checks():
 
     path = np.tile(X_SEED, (20, 1))
     s = CSCSettings(step="constant", beta=2e-3)
-    _fields_close(jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, settings=s),
-                  jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant"), rtol=0, atol=0)
-    for kwargs, match in ((dict(kmin=0.0), r"csc\.kmin \(Nm/rad\) must be a number > 0"), (dict(nu0=1.0), r"csc\.nu0.*\[0, 1\)"),
-                          (dict(kmin=5.0, kmax=2.0), r"csc\.kmax \(2\) must be >= csc\.kmin \(5\)"), (dict(step="fast"), "csc.step"),
-                          (dict(newton=1.5), "csc.newton"), (dict(beta=math.inf), "csc.beta")):
+    _fields_close(
+        jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, settings=s),
+        jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, 2e-3, step="constant"),
+        rtol=0,
+        atol=0,
+    )
+    for kwargs, match in (
+        (dict(kmin=0.0), r"csc\.kmin \(Nm/rad\) must be a number > 0"),
+        (dict(nu0=1.0), r"csc\.nu0.*\[0, 1\)"),
+        (dict(kmin=5.0, kmax=2.0), r"csc\.kmax \(2\) must be >= csc\.kmin \(5\)"),
+        (dict(step="fast"), "csc.step"),
+        (dict(newton=1.5), "csc.newton"),
+        (dict(beta=math.inf), "csc.beta"),
+    ):
         with pytest.raises(ValueError, match=match):
             CSCSettings(**kwargs)
     with pytest.raises(ValueError, match="settings must be a jaxstiff.settings.CSCSettings"):
@@ -1027,9 +1253,18 @@ def test_settings_object_and_its_checks():
 
 def test_status_bits_are_an_int_flag_with_the_old_values():
     assert issubclass(csc.CSCStatus, int)
-    assert (csc.STATUS_OK, csc.STATUS_DAMPED, csc.STATUS_JOINT_LIMIT, csc.STATUS_NAN, csc.STATUS_NULL_SMALL) == (0, 1, 2, 4, 8)
+    assert (csc.STATUS_OK, csc.STATUS_DAMPED, csc.STATUS_JOINT_LIMIT, csc.STATUS_NAN, csc.STATUS_NULL_SMALL) == (
+        0,
+        1,
+        2,
+        4,
+        8,
+    )
     assert csc.STATUS_DAMPED is csc.CSCStatus.DAMPED and rollout.STATUS_NAN is csc.CSCStatus.NAN
-    assert csc.describe_status(csc.CSCStatus.DAMPED | csc.CSCStatus.NULL_SMALL) == "damped (near singular), null-space gradient below null_eps"
+    assert (
+        csc.describe_status(csc.CSCStatus.DAMPED | csc.CSCStatus.NULL_SMALL)
+        == "damped (near singular), null-space gradient below null_eps"
+    )
     assert csc.describe_status(0) == "ok" and csc.STATUS_NAMES[4] == "NaN guard (step dropped)"
 
 
@@ -1040,13 +1275,41 @@ def test_cli_meta_records_settings_with_units_and_robot_spec(tmp_path):
     from jaxstiff.settings import CSCSettings
 
     out = tmp_path / "r.npz"
-    assert cli_main(["csc", "--robot", "planar_3r", "--hold", "1.2,0.5", "--steps", "3", "--kxd", "3000,1000@30",
-                     "--q0-deg", "20,40,30", "--kmin", "2", "--joint-limits", "sum", "--out", str(out)]) == 0
+    assert (
+        cli_main(
+            [
+                "csc",
+                "--robot",
+                "planar_3r",
+                "--hold",
+                "1.2,0.5",
+                "--steps",
+                "3",
+                "--kxd",
+                "3000,1000@30",
+                "--q0-deg",
+                "20,40,30",
+                "--kmin",
+                "2",
+                "--joint-limits",
+                "sum",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     with np.load(out) as f:
         meta = json.loads(str(f["meta"]))
     s = meta["settings"]
     assert set(CSCSettings.field_names()) <= set(s)
-    assert s["kmin"] == 2.0 and s["kmax"] == "inf" and s["task"] == "xy" and s["jl_gain"] == 0.3 and s["joint_limits"] == "sum"
+    assert (
+        s["kmin"] == 2.0
+        and s["kmax"] == "inf"
+        and s["task"] == "xy"
+        and s["jl_gain"] == 0.3
+        and s["joint_limits"] == "sum"
+    )
     assert s["units"]["kmin"] == "Nm/rad" and s["units"]["kmax"] == "Nm/rad" and "rad per step" in s["units"]["beta"]
     assert meta["kmin"] == 2.0 and meta["jl_gain"] == 0.3 and meta["nu0"] == 1e-2  # the former keys stay
     assert meta["units"]["orientation_error"] == "rad"
@@ -1085,12 +1348,50 @@ def test_cli_tcp_flag_is_accepted_and_recorded(tmp_path):
     robot = jaxstiff.Robot.from_urdf("planar_3r", tcp=tcp_transform(tcp))
     q0 = np.deg2rad([20.0, 40.0, 30.0])
     x = [float(v) for v in np.asarray(robot.fk(q0))[:2, 3]]
-    assert cli_main(["csc", "--robot", "planar_3r", "--tcp", ",".join(map(str, tcp)), "--hold", f"{x[0]!r},{x[1]!r}",
-                     "--kxd", "3000,1000@30", "--q0-deg", "20,40,30", "--steps", "3", "--out", str(out)]) == 0
+    assert (
+        cli_main(
+            [
+                "csc",
+                "--robot",
+                "planar_3r",
+                "--tcp",
+                ",".join(map(str, tcp)),
+                "--hold",
+                f"{x[0]!r},{x[1]!r}",
+                "--kxd",
+                "3000,1000@30",
+                "--q0-deg",
+                "20,40,30",
+                "--steps",
+                "3",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     with np.load(out) as f:
         meta = json.loads(str(f["meta"]))
         assert f["tracking_error"][0, 0] < 1e-9  # the TCP with the tool offset starts on the point
     assert meta["robot_spec"]["tcp"] == tcp
     assert np.allclose(np.asarray(meta["robot"]["tcp"])[:3, 3], [0.0, 0.0, 0.1])
-    assert cli_main(["csc", "--robot", "planar_3r", "--tcp", "1,2", "--hold", "1,1", "--kxd", "3000,1000", "--q0", "0,0,0",
-                     "--out", str(out)]) == 2
+    assert (
+        cli_main(
+            [
+                "csc",
+                "--robot",
+                "planar_3r",
+                "--tcp",
+                "1,2",
+                "--hold",
+                "1,1",
+                "--kxd",
+                "3000,1000",
+                "--q0",
+                "0,0,0",
+                "--out",
+                str(out),
+            ]
+        )
+        == 2
+    )

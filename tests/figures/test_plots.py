@@ -142,9 +142,20 @@ def test_figure_shape_path_on_a_small_result(tmp_path):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     kj = np.full((P, n), 50.0) + np.arange(n)
     res = types.SimpleNamespace(
-        P=P, n=n, joint_names=np.array(robot.joint_names), meta={"ratio": 5.0, "criterion": "f1", "c": 0.01, "task": "full"},
-        q=q[None], kj=kj[None], kj_scaled=2 * kj[None], cms=np.full((1, P), 2.0), target=pos[None], direction=d[None],
-        criterion=np.full((1, P), 0.5), alpha_deg=np.linspace(0, 3, P)[None], ratio=np.linspace(3, 6, P)[None])
+        P=P,
+        n=n,
+        joint_names=np.array(robot.joint_names),
+        meta={"ratio": 5.0, "criterion": "f1", "c": 0.01, "task": "full"},
+        q=q[None],
+        kj=kj[None],
+        kj_scaled=2 * kj[None],
+        cms=np.full((1, P), 2.0),
+        target=pos[None],
+        direction=d[None],
+        criterion=np.full((1, P), 0.5),
+        alpha_deg=np.linspace(0, 3, P)[None],
+        ratio=np.linspace(3, 6, P)[None],
+    )
     file = plots.figure_shape_path(res, robot, tmp_path / "fig4.png", "test", every=2, dpi=20)
     w, h = png_size(file)
     assert w > 100 and h > 100
@@ -173,7 +184,12 @@ def test_experiment_parser():
 
 def test_tables(tmp_path):
     rows = [{"k": "0.5", "ratio": "2.5", "note": "a, b"}, {"k": "1", "ratio": "3", "note": 'say "x"'}]
-    assert plots.markdown_table(rows) == ["| k | ratio | note |", "|---|---|---|", "| 0.5 | 2.5 | a, b |", '| 1 | 3 | say "x" |']
+    assert plots.markdown_table(rows) == [
+        "| k | ratio | note |",
+        "|---|---|---|",
+        "| 0.5 | 2.5 | a, b |",
+        '| 1 | 3 | say "x" |',
+    ]
     file = plots.save_table_csv(rows, tmp_path / "summary.csv")
     with open(file, newline="", encoding="utf-8") as fh:
         assert list(csv.DictReader(fh)) == rows
@@ -181,7 +197,11 @@ def test_tables(tmp_path):
         assert fh.read().startswith(b"k,ratio,note\r\n")  # csv's usual line ends, as before
     with pytest.raises(ValueError, match="no rows"):
         plots.save_table_csv([], tmp_path / "empty.csv")
-    assert plots.text_table(rows, width=6, sep="|") == ["     k| ratio|  note", "   0.5|   2.5|  a, b", '     1|     3|say "x"']
+    assert plots.text_table(rows, width=6, sep="|") == [
+        "     k| ratio|  note",
+        "   0.5|   2.5|  a, b",
+        '     1|     3|say "x"',
+    ]
     with pytest.raises(ValueError, match="no rows"):
         plots.markdown_table([])
     with pytest.raises(ValueError, match="no rows"):

@@ -14,11 +14,14 @@ from jaxstiff import reproduce
 from jaxstiff.cli import main
 
 # a valid 1x1 PNG, written by the fake experiments
-PNG = base64.b64decode("iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg==")
+PNG = base64.b64decode(
+    "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg=="
+)
 
 
 def _script(body: str) -> str:
-    return textwrap.dedent("""\
+    return (
+        textwrap.dedent("""\
         import argparse, base64, os, sys
         ap = argparse.ArgumentParser()
         ap.add_argument("--out", required=True)
@@ -26,33 +29,44 @@ def _script(body: str) -> str:
         a = ap.parse_args()
         os.makedirs(a.out, exist_ok=True)
         PNG = base64.b64decode({png!r})
-        """).format(png=base64.b64encode(PNG).decode()) + textwrap.dedent(body) + '\nif __name__ == "__main__":\n    pass\n'
+        """).format(png=base64.b64encode(PNG).decode())
+        + textwrap.dedent(body)
+        + '\nif __name__ == "__main__":\n    pass\n'
+    )
 
 
 @pytest.fixture()
 def fake_experiments(tmp_path):
     d = tmp_path / "experiments"
     d.mkdir()
-    (d / "fig2_cms.py").write_text(_script("""
+    (d / "fig2_cms.py").write_text(
+        _script("""
         open(os.path.join(a.out, "ellipses.png"), "wb").write(PNG)
         open(os.path.join(a.out, "extra.png"), "wb").write(PNG)
         open(os.path.join(a.out, "summary.md"), "w").write("# Fig. 2\\n\\nscaled ellipses ![e](ellipses.png)\\n")
-        """).replace("--quick", "--fast"))
-    (d / "csc_hold.py").write_text(_script("""
+        """).replace("--quick", "--fast")
+    )
+    (d / "csc_hold.py").write_text(
+        _script("""
         open(os.path.join(a.out, "quick.txt"), "w").write(str(a.quick))
         open(os.path.join(a.out, "table.csv"), "w").write("beta,u_end\\n0.001,2030.5\\n0.002,1500.25\\n")
         open(os.path.join(a.out, "u.png"), "wb").write(PNG)
         open(os.path.join(a.out, "summary.json"), "w").write('{"u_start": 5994.9335, "setup": {"q0_deg": [75.0, -74.74, -76.3]}}')
         print("u: 5994.9 -> 2003.1 Nm/rad")
-        """))
-    (d / "fig9_broken.py").write_text(_script("""
+        """)
+    )
+    (d / "fig9_broken.py").write_text(
+        _script("""
         print("computing ...")
         sys.exit("fig9: the solver diverged at waypoint 7")
-        """))
-    (d / "fig3_hangs.py").write_text(_script("""
+        """)
+    )
+    (d / "fig3_hangs.py").write_text(
+        _script("""
         import time
         time.sleep(60)
-        """))
+        """)
+    )
     (d / "common.py").write_text("def helper():\n    return 1\n")  # no __main__: not an experiment
     (d / "_private.py").write_text(_script(""))
     return d
@@ -68,8 +82,9 @@ def test_discovery_order(fake_experiments):
 
 def test_report_gathers_everything_and_survives_failures(fake_experiments, tmp_path):
     out = tmp_path / "report"
-    res = reproduce.run_reproduce(out, quick=True, experiments_dir=fake_experiments, timeout=3.0, sweep=False,
-                                  everything=True, log=lambda s: None)
+    res = reproduce.run_reproduce(
+        out, quick=True, experiments_dir=fake_experiments, timeout=3.0, sweep=False, everything=True, log=lambda s: None
+    )
     status = {r.name: r.code for r in res.runs}
     assert status == {"fig2_cms": 0, "fig3_hangs": None, "csc_hold": 0, "fig9_broken": 1}
     assert not res.ok
@@ -90,17 +105,22 @@ def test_report_gathers_everything_and_survives_failures(fake_experiments, tmp_p
     # --quick only where the script has it
     assert (out / "runs" / "csc_hold" / "quick.txt").read_text() == "True"
     assert "--quick" not in (out / "runs" / "fig2_cms" / "log.txt").read_text().splitlines()[0]
-    assert "`python experiments/fig2_cms.py --out DIR`" in md and "`python experiments/csc_hold.py --out DIR --quick`" in md
+    assert (
+        "`python experiments/fig2_cms.py --out DIR`" in md
+        and "`python experiments/csc_hold.py --out DIR --quick`" in md
+    )
     # failures: exit code and the end of the log; the hang: timed out
     assert "failed with exit code 1" in md and "the solver diverged at waypoint 7" in md
     assert "timed out" in md
     # the report can be rebuilt from the runs without running anything again
     (out / "report.md").unlink()
-    again = reproduce.run_reproduce(out, experiments_dir=fake_experiments, sweep=False, everything=True,
-                                    report_only=True, log=lambda s: None)
+    again = reproduce.run_reproduce(
+        out, experiments_dir=fake_experiments, sweep=False, everything=True, report_only=True, log=lambda s: None
+    )
     assert [r.name for r in again.runs] == [r.name for r in res.runs]
     assert (out / "report.md").read_text().split("- total wall time")[1] == md.split("- total wall time")[1].replace(
-        f"{res.wall_s:.0f} s", f"{sum(r.wall_s for r in res.runs):.0f} s", 1)
+        f"{res.wall_s:.0f} s", f"{sum(r.wall_s for r in res.runs):.0f} s", 1
+    )
 
 
 def test_cli_only_and_errors(fake_experiments, tmp_path, capsys):

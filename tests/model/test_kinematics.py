@@ -229,6 +229,7 @@ def test_large_batches_match_numpy_and_autodiff(dtype):
             w = np.einsum("...ij,...kj->...ik", dT[..., :3, :3], Tn[..., :3, :3])
             J_ref = np.concatenate([dT[..., :3, 3], np.stack([w[..., 2, 1], w[..., 0, 2], w[..., 1, 0]], -1)], -1)
             assert_close(J[..., :, i], J_ref, rtol=0, atol=1e-12, what=f"column {i} vs jvp")
+
         # reverse mode through the polynomial path == per-configuration grads (vmap traces one
         # configuration at a time, so those take XLA's sin/cos)
         def loss(x):
@@ -508,7 +509,13 @@ def test_jacobian_tangent_matches_autodiff_on_random_chains(joints, seed):
     assert_close(dp, dT[:3, 3], rtol=0, atol=1e-12, what="dp")
     assert_close(dJ, dJ_ad, rtol=0, atol=1e-12, what="dJ")
     # omega: dR = [omega]x R
-    assert_close(dT[:3, :3], np.cross(np.asarray(omega)[:, None], np.asarray(T[:3, :3]), axis=0), rtol=0, atol=1e-12, what="omega")
+    assert_close(
+        dT[:3, :3],
+        np.cross(np.asarray(omega)[:, None], np.asarray(T[:3, :3]), axis=0),
+        rtol=0,
+        atol=1e-12,
+        what="omega",
+    )
 
 
 @pytest.mark.parametrize("n", [1, 2, 7, 40])  # 40: above the unrolled range, jnp.cumsum is used
@@ -531,4 +538,6 @@ def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
     if exclusive:
         L = L & (k[None, :] != k[:, None])
     ct = np.random.default_rng(n + 1).normal(size=x.shape)
-    assert_close(jax.vjp(f, jnp.asarray(x))[1](jnp.asarray(ct))[0], ct @ L.astype(float), rtol=1e-14, atol=1e-14, what="VJP")
+    assert_close(
+        jax.vjp(f, jnp.asarray(x))[1](jnp.asarray(ct))[0], ct @ L.astype(float), rtol=1e-14, atol=1e-14, what="VJP"
+    )

@@ -119,7 +119,17 @@ def test_robot_is_static_hashable_and_equal_across_reads():
 
 def test_describe_lists_the_chain():
     text = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool", locked={"j4": 0.5}).describe()
-    for word in ("j1", "j2", "j3", "j4", "prismatic", "revolute", "continuous", "locked at 0.5 rad", "'world' -> 'tool'"):
+    for word in (
+        "j1",
+        "j2",
+        "j3",
+        "j4",
+        "prismatic",
+        "revolute",
+        "continuous",
+        "locked at 0.5 rad",
+        "'world' -> 'tool'",
+    ):
         assert word in text, word
 
 
@@ -226,9 +236,13 @@ def test_prismatic_joints_get_lengths_not_degrees():
     q = nominal_posture(robot)
     assert q[1] == pytest.approx(0.5 * (lo[1] + hi[1]), abs=1e-15)
     fin = np.isfinite(lo) & np.isfinite(hi) & ~pris
-    np.testing.assert_allclose(q[fin], np.clip(0.5 * (lo[fin] + hi[fin]) + np.deg2rad(30.0), lo[fin], hi[fin]), atol=1e-15)
+    np.testing.assert_allclose(
+        q[fin], np.clip(0.5 * (lo[fin] + hi[fin]) + np.deg2rad(30.0), lo[fin], hi[fin]), atol=1e-15
+    )
     np.testing.assert_array_equal(rate_limits(robot, 2.0, None), np.full(4, np.deg2rad(2.0)))
-    np.testing.assert_array_equal(rate_limits(robot, 2.0, 0.01), [np.deg2rad(2.0), 0.01, np.deg2rad(2.0), np.deg2rad(2.0)])
+    np.testing.assert_array_equal(
+        rate_limits(robot, 2.0, 0.01), [np.deg2rad(2.0), 0.01, np.deg2rad(2.0), np.deg2rad(2.0)]
+    )
     assert rate_limits(jaxstiff.Robot.from_urdf("planar_3r"), 2.0, 0.01) == np.deg2rad(2.0)  # no prismatic joint
 
 
@@ -238,8 +252,25 @@ def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):
     q0 = np.array([np.deg2rad(10.0), 0.2, np.deg2rad(20.0), np.deg2rad(30.0)])
     x = ",".join(repr(float(v)) for v in np.asarray(robot.fk(q0))[:3, 3])
     out = tmp_path / "c.npz"
-    rc = main(["csc", "--robot", BRANCHED, "--tip-link", "tool", "--hold", x, "--kxd", "3000,1000,2000",
-               "--q0-deg", ",".join(map(str, q_deg)), "--steps", "2", "--out", str(out)])
+    rc = main(
+        [
+            "csc",
+            "--robot",
+            BRANCHED,
+            "--tip-link",
+            "tool",
+            "--hold",
+            x,
+            "--kxd",
+            "3000,1000,2000",
+            "--q0-deg",
+            ",".join(map(str, q_deg)),
+            "--steps",
+            "2",
+            "--out",
+            str(out),
+        ]
+    )
     cap = capsys.readouterr()
     text, err = cap.out, cap.err
     assert rc == 0
@@ -262,7 +293,9 @@ def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):
     line = next(ln for ln in text.splitlines() if ln.startswith("posture q"))
     assert "(deg; m for prismatic joints)" in line
     vals = np.array([float(v) for v in line.split(":", 1)[1].strip(" []").split(",")])
-    assert robot.lower[1] <= vals[1] <= robot.upper[1] and vals[1] == pytest.approx(0.5 * (robot.lower[1] + robot.upper[1]))
+    assert robot.lower[1] <= vals[1] <= robot.upper[1] and vals[1] == pytest.approx(
+        0.5 * (robot.lower[1] + robot.upper[1])
+    )
 
 
 @pytest.mark.parametrize("command", ["shape", "csc"])
@@ -271,10 +304,16 @@ def test_out_must_be_a_file_name_checked_before_any_work(tmp_path, capsys, monke
     internal temporary name. Both are refused up front, and nothing is written."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "adir.npz").mkdir()
-    args = {"shape": ["shape", "--robot", "planar_3r", "--task", "xy", "--quiet"],
-            "csc": ["csc", "--robot", "planar_3r", "--hold", "1.2,1.0", "--kxd", "3000,1000", "--q0", "0.3,0.3,0.3"]}[command]
-    for out, match in (("", "expected a file name like result.npz, got ''"), ("adir.npz", "adir.npz is a folder"),
-                       ("adir", "adir.npz is a folder"), ("sub/", "expected a file name")):
+    args = {
+        "shape": ["shape", "--robot", "planar_3r", "--task", "xy", "--quiet"],
+        "csc": ["csc", "--robot", "planar_3r", "--hold", "1.2,1.0", "--kxd", "3000,1000", "--q0", "0.3,0.3,0.3"],
+    }[command]
+    for out, match in (
+        ("", "expected a file name like result.npz, got ''"),
+        ("adir.npz", "adir.npz is a folder"),
+        ("adir", "adir.npz is a folder"),
+        ("sub/", "expected a file name"),
+    ):
         assert main(args + ["--out", out]) == 2
         err = capsys.readouterr().err
         assert match in err and "Traceback" not in err and ".tmp" not in err, err

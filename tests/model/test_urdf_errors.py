@@ -153,7 +153,9 @@ def test_no_path_between_base_and_tip():
 
 
 def test_ambiguous_tip():
-    with raises(ValueError, "tip link is ambiguous below 'world'", "camera, tool", "pass tip_link (command line: --tip-link)"):
+    with raises(
+        ValueError, "tip link is ambiguous below 'world'", "camera, tool", "pass tip_link (command line: --tip-link)"
+    ):
         jaxstiff.Robot.from_urdf(BRANCHED)
 
 
@@ -168,13 +170,19 @@ def test_chain_without_actuated_joints():
     "extra,message",
     [
         ('<link name="l1"/>', "duplicate link names: l1"),
-        ('<link name="l3"/><joint name="j3" type="fixed"><parent link="base"/><child link="l2"/></joint>',
-         "link 'l2' is the child of two joints"),
-        ('<joint name="j3" type="fixed"><parent link="l2"/><child link="ghost"/></joint>',
-         "joint 'j3' names unknown child link 'ghost'"),
+        (
+            '<link name="l3"/><joint name="j3" type="fixed"><parent link="base"/><child link="l2"/></joint>',
+            "link 'l2' is the child of two joints",
+        ),
+        (
+            '<joint name="j3" type="fixed"><parent link="l2"/><child link="ghost"/></joint>',
+            "joint 'j3' names unknown child link 'ghost'",
+        ),
         ('<joint name="j3" type="fixed"><parent link="l2"/></joint>', "joint 'j3' has no <child link=...>"),
-        ('<joint name="j3" type="ball"><parent link="l2"/><child link="l2"/></joint>',
-         "joint 'j3' has unknown type 'ball'"),
+        (
+            '<joint name="j3" type="ball"><parent link="l2"/><child link="l2"/></joint>',
+            "joint 'j3' has unknown type 'ball'",
+        ),
     ],
     ids=["duplicate-link", "two-parents", "unknown-link", "no-child", "unknown-type"],
 )
@@ -203,18 +211,39 @@ def test_several_roots_need_a_base_link(write):
         (f'<origin xyz="1 0 0" rpy="0 inf 0"/><axis xyz="0 0 1"/>{LIMIT}', "joint 'j2' origin rpy has NaN or Inf"),
         (f'<origin xyz="1 0 1e999"/><axis xyz="0 0 1"/>{LIMIT}', "joint 'j2' origin xyz has NaN or Inf"),
         (f'<origin xyz="1 0"/><axis xyz="0 0 1"/>{LIMIT}', "joint 'j2' origin xyz needs 3 numbers"),
-        ('<axis xyz="0 0 1"/><limit lower="nan" upper="1" effort="1" velocity="1"/>',
-         "joint 'j2' limit lower must be a finite number, got 'nan'"),
-        ('<axis xyz="0 0 1"/><limit lower="-1" upper="inf" effort="1" velocity="1"/>',
-         "joint 'j2' limit upper must be a finite number, got 'inf'"),
-        ('<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="NaN" velocity="1"/>',
-         "joint 'j2' limit effort must be a finite number"),
-        ('<axis xyz="0 0 1"/><limit lower="1" upper="-1" effort="1" velocity="1"/>',
-         "joint 'j2' has lower limit 1 > upper limit -1"),
+        (
+            '<axis xyz="0 0 1"/><limit lower="nan" upper="1" effort="1" velocity="1"/>',
+            "joint 'j2' limit lower must be a finite number, got 'nan'",
+        ),
+        (
+            '<axis xyz="0 0 1"/><limit lower="-1" upper="inf" effort="1" velocity="1"/>',
+            "joint 'j2' limit upper must be a finite number, got 'inf'",
+        ),
+        (
+            '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="NaN" velocity="1"/>',
+            "joint 'j2' limit effort must be a finite number",
+        ),
+        (
+            '<axis xyz="0 0 1"/><limit lower="1" upper="-1" effort="1" velocity="1"/>',
+            "joint 'j2' has lower limit 1 > upper limit -1",
+        ),
         ('<axis xyz="0 0 1"/>', "revolute joint 'j2' has no <limit>; URDF requires one"),
     ],
-    ids=["zero-axis", "nan-axis", "short-axis", "text-axis", "nan-xyz", "inf-rpy", "overflow-xyz",
-         "short-xyz", "nan-lower", "inf-upper", "nan-effort", "lower>upper", "no-limit"],
+    ids=[
+        "zero-axis",
+        "nan-axis",
+        "short-axis",
+        "text-axis",
+        "nan-xyz",
+        "inf-rpy",
+        "overflow-xyz",
+        "short-xyz",
+        "nan-lower",
+        "inf-upper",
+        "nan-effort",
+        "lower>upper",
+        "no-limit",
+    ],
 )
 def test_bad_joint_numbers(write, j2, message):
     path = write(two_joint_urdf(j2=j2))
@@ -223,7 +252,9 @@ def test_bad_joint_numbers(write, j2, message):
 
 
 def test_a_prismatic_joint_without_limit_gets_no_revolute_hint(write):
-    path = write(two_joint_urdf(j2='<axis xyz="1 0 0"/>').replace('name="j2" type="revolute"', 'name="j2" type="prismatic"'))
+    path = write(
+        two_joint_urdf(j2='<axis xyz="1 0 0"/>').replace('name="j2" type="revolute"', 'name="j2" type="prismatic"')
+    )
     with pytest.raises(ValueError, match=r"prismatic joint 'j2' has no <limit>; URDF requires one$"):
         jaxstiff.Robot.from_urdf(path)
 
@@ -240,16 +271,29 @@ def test_a_robot_without_a_name_attribute_is_read_under_its_file_name(write):
 
 def test_bad_numbers_in_a_fixed_joint_outside_the_chain(write):
     """NaN anywhere in the file is refused, even on a joint the chain does not use."""
-    path = write(two_joint_urdf(extra='<link name="s"/><joint name="cam" type="fixed"><parent link="l1"/>'
-                                      '<child link="s"/><origin xyz="0 0 nan"/></joint>'))
+    path = write(
+        two_joint_urdf(
+            extra='<link name="s"/><joint name="cam" type="fixed"><parent link="l1"/>'
+            '<child link="s"/><origin xyz="0 0 nan"/></joint>'
+        )
+    )
     with raises(ValueError, "joint 'cam' origin xyz has NaN or Inf"):
         jaxstiff.Robot.from_urdf(path, tip_link="l2")
 
 
 def test_mimic_joint_in_the_chain_is_refused_by_name(write):
-    path = write(two_joint_urdf(j2=f'<origin xyz="1 0 0"/><axis xyz="0 0 1"/>{LIMIT}<mimic joint="j1" multiplier="2"/>'))
-    with raises(ValueError, path, "joint 'j2' mimics joint 'j1'", "not supported", "locking it does not help",
-                "choose a tip link above it", "--tip-link"):
+    path = write(
+        two_joint_urdf(j2=f'<origin xyz="1 0 0"/><axis xyz="0 0 1"/>{LIMIT}<mimic joint="j1" multiplier="2"/>')
+    )
+    with raises(
+        ValueError,
+        path,
+        "joint 'j2' mimics joint 'j1'",
+        "not supported",
+        "locking it does not help",
+        "choose a tip link above it",
+        "--tip-link",
+    ):
         jaxstiff.Robot.from_urdf(path)
     with raises(ValueError, "joint 'j2' mimics joint 'j1'"):  # the hint is right: a lock does not help
         jaxstiff.Robot.from_urdf(path, locked={"j2": 0.0})
@@ -353,7 +397,21 @@ def test_cli_prints_a_urdf_warning_as_one_line(write, capsys):
     path = write(two_joint_urdf(j2='<origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit effort="1" velocity="1"/>'))
     with pytest.warns(UserWarning, match="empty range"):  # the Python API keeps a real warning
         jaxstiff.Robot.from_urdf(path)
-    rc = cli_main(["csc", "--robot", path, "--hold", "1,0", "--kxd", "bad", "--q0", "0,0", "--out", os.path.join(os.path.dirname(path), "r.npz")])
+    rc = cli_main(
+        [
+            "csc",
+            "--robot",
+            path,
+            "--hold",
+            "1,0",
+            "--kxd",
+            "bad",
+            "--q0",
+            "0,0",
+            "--out",
+            os.path.join(os.path.dirname(path), "r.npz"),
+        ]
+    )
     err = capsys.readouterr().err
     assert rc == 2 and "jaxstiff: error:" in err
     lines = [ln for ln in err.splitlines() if "empty range" in ln]

@@ -47,8 +47,20 @@ def test_save_load_round_trip_without_pickles(tmp_path):
         assert z["q"].shape == (2, 4, 3) and z["cms"].shape == (2, 4) and z["target"].shape == (2, 4, 3)
         meta = json.loads(str(z["meta"]))
     # the DESIGN.md contract
-    assert {"joint_names", "q", "kj", "cms", "target", "direction", "position", "alpha_deg", "ratio", "criterion",
-            "status", "meta"} <= keys
+    assert {
+        "joint_names",
+        "q",
+        "kj",
+        "cms",
+        "target",
+        "direction",
+        "position",
+        "alpha_deg",
+        "ratio",
+        "criterion",
+        "status",
+        "meta",
+    } <= keys
     assert meta["note"] == "ü"
     back = jaxstiff.ShapeResult.load(f)
     for k, v in res.arrays().items():

@@ -64,7 +64,7 @@ def test_shape_settings_defaults_are_shape_defaults_in_the_api(default_run):
     assert lim["dq"] == [S.dq] * 7 and lim["dk"] == [S.dk] * 7
     assert (lim["kmin"], lim["kmax"], lim["first_rate_limit"]) == (S.kmin, S.kmax, S.first_rate_limit)
     assert meta["first_starts"]["count"] == S.first_starts
-    assert meta["cms"]["target_volume"] == S.cms_mean_axis ** 3
+    assert meta["cms"]["target_volume"] == S.cms_mean_axis**3
     # shaping.DEFAULTS (meta["defaults"]) is derived from the settings; dq in degrees there
     from jaxstiff.shaping import DEFAULTS
 
@@ -76,8 +76,12 @@ def test_shape_settings_defaults_are_shape_defaults_in_the_api(default_run):
 
 def test_settings_object_and_keywords(default_run):
     """``settings=`` gives the defaults; a keyword wins over it; the meta says what ran."""
-    res = jaxstiff.shape(jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0}), short_path(2),
-                         ratio=4.0, settings=ShapeSettings(ratio=3.0, dk=6.0, first_starts=1))
+    res = jaxstiff.shape(
+        jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0}),
+        short_path(2),
+        ratio=4.0,
+        settings=ShapeSettings(ratio=3.0, dk=6.0, first_starts=1),
+    )
     m = res.meta
     assert m["ratio"] == 4.0 and m["settings"]["ratio"] == 4.0
     assert m["limits"]["dk"] == [6.0] * 7 and m["settings"]["dk"] == 6.0
@@ -137,7 +141,9 @@ def test_every_command_has_the_same_robot_flags(command):
         assert flag in got, f"{command}: {flag} missing"
         w, g = want[flag], got[flag]
         assert (g.dest, g.default, g.help, g.metavar, type(g)) == (w.dest, w.default, w.help, w.metavar, type(w)), (
-            command, flag)
+            command,
+            flag,
+        )
 
 
 @pytest.mark.parametrize("command", ["robot", "shape", "csc"])

@@ -51,8 +51,9 @@ def rate_excess(res, b, dq, dk):
     worst = -np.inf
     for p in range(res.P):
         if started:
-            worst = max(worst, float(np.max(np.abs(res.q[b, p] - q_ref) - dq)),
-                        float(np.max(np.abs(res.kj[b, p] - k_ref) - dk)))
+            worst = max(
+                worst, float(np.max(np.abs(res.q[b, p] - q_ref) - dq)), float(np.max(np.abs(res.kj[b, p] - k_ref) - dk))
+            )
         if res.status[b, p] in R.USABLE:
             q_ref, k_ref, started = res.q[b, p], res.kj[b, p], True
     return worst
@@ -121,8 +122,9 @@ def test_per_path_limits_hold_and_are_recorded(slsqp_batch, tmp_path):
 
 def test_per_path_batch_equals_single_runs_slsqp(slsqp_batch):
     for b in range(2):
-        one = shape(PTS[b:b + 1], DIRS[b:b + 1], Q0[b], ratio=float(RATIOS[b]), dq=DQ[b], dk=DK[b],
-                    first_rate_limit=True)
+        one = shape(
+            PTS[b : b + 1], DIRS[b : b + 1], Q0[b], ratio=float(RATIOS[b]), dq=DQ[b], dk=DK[b], first_rate_limit=True
+        )
         for key in ("q", "kj", "status", "criterion", "ratio", "alpha_deg"):
             np.testing.assert_array_equal(getattr(one, key)[0], getattr(slsqp_batch, key)[b], err_msg=key)
 
@@ -177,7 +179,11 @@ def test_every_solver_honours_per_path_parameters(solver):
 
     meta = res.meta
     if solver == "hybrid":  # pgd (2 starts given) then SLSQP
-        assert meta["starts"] == 2 and meta["options"]["iters"] == 5 and meta["options"]["mode"] == pgd.DEFAULT_OPTIONS["mode"]
+        assert (
+            meta["starts"] == 2
+            and meta["options"]["iters"] == 5
+            and meta["options"]["mode"] == pgd.DEFAULT_OPTIONS["mode"]
+        )
         assert meta["options"]["maxiter"] == slsqp.DEFAULT_OPTIONS["maxiter"] and meta["options"]["chain"] == "greedy"
     elif solver == "trajectory":  # warm start from SLSQP: single start
         assert meta["starts"] == 1 and meta["options"]["traj_iters"] == 4 and meta["options"]["mu0"] > 0
@@ -186,12 +192,20 @@ def test_every_solver_honours_per_path_parameters(solver):
         assert meta["starts"] == 1 and meta["options"] == slsqp.DEFAULT_OPTIONS
     # what the solver did with the first waypoint's start postures (pgd: some of its own starts)
     use = meta["first_starts"]["use"]
-    assert ("first-waypoint starts of pgd" in use) == (solver == "hybrid") and ("SLSQP solves" in use) == (solver != "hybrid"), use
+    assert ("first-waypoint starts of pgd" in use) == (solver == "hybrid") and ("SLSQP solves" in use) == (
+        solver != "hybrid"
+    ), use
     for b in range(2):
         assert rate_excess(res, b, DQ[b], DK[b]) <= 1e-12, f"path {b}"
     assert rate_excess(res, 0, DQ[1], DK[1]) > 1e-3
     for b in range(2):  # each path as if it were alone, with its own parameters
-        one = shape(PTS[b:b + 1], DIRS[b:b + 1], Q0[b], solver=solver, **{**kw, "ratio": float(RATIOS[b]), "dq": DQ[b], "dk": DK[b]})
+        one = shape(
+            PTS[b : b + 1],
+            DIRS[b : b + 1],
+            Q0[b],
+            solver=solver,
+            **{**kw, "ratio": float(RATIOS[b]), "dq": DQ[b], "dk": DK[b]},
+        )
         for key in ("q", "kj", "status", "criterion"):
             np.testing.assert_array_equal(getattr(one, key)[0], getattr(res, key)[b], err_msg=f"{key}, path {b}")
 

@@ -51,13 +51,17 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
     pts[0, 2, :2] *= 10.0  # far outside the arm's reach
     base_res = run(jaxstiff.Path(pts, path.directions), q0)
     assert base_res.status[0, 2] == R.UNREACHABLE
-    base = {k: np.array(getattr(base_res, k)) for k in ("q", "kj", "status", "pos_error", "solver_code", "nit", "nfev", "time_s")}
+    base = {
+        k: np.array(getattr(base_res, k))
+        for k in ("q", "kj", "status", "pos_error", "solver_code", "nit", "nfev", "time_s")
+    }
     base["kj"][0, 2] = 100.0  # as if pgd's chain had carried another stiffness there
     problem = WaypointProblem(PLANAR, "xy", get_criterion("f2"))
     dk = 5.0
     limits = Limits(dq=np.full(3, 0.1), dk=np.full(3, dk), kmin=1.0, kmax=100.0, first_rate_limit=False)
-    out = hybrid.polish(problem, pts, base_res.direction, q0, np.full((1, 3), 50.5), limits, 3.0, 0.0, base,
-                        options={"chain": "greedy"})
+    out = hybrid.polish(
+        problem, pts, base_res.direction, q0, np.full((1, 3), 50.5), limits, 3.0, 0.0, base, options={"chain": "greedy"}
+    )
     assert out["status"][0, 2] == R.UNREACHABLE
     assert np.all(R.is_usable(out["status"][0, [0, 1, 3]]))
     # waypoint 2's reference is waypoint 1 (the last usable one), waypoint 3's too

@@ -104,7 +104,6 @@ def test_pgd_quality_close_to_slsqp(batch3):
     assert res.criterion[ok].mean() <= ref.criterion[ok].mean() * 1.5
 
 
-
 @pytest.mark.parametrize("mode", ["rollout", "best"])
 def test_both_modes_feasible(tmp_path, mode):
     path, q0 = planar_paths(2, 4, seed=3)
@@ -173,7 +172,7 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
                     k = len(ops.rows)
                     np.testing.assert_allclose(e[:k], (numpy_fk(robot, q)[:3, 3] - tgt)[list(ops.rows)], atol=1e-12)
                     Kd = K @ d
-                    np.testing.assert_allclose(e[k:k + m], (Kd - (d @ Kd) * d) / (d @ Kd), atol=1e-9)
+                    np.testing.assert_allclose(e[k : k + m], (Kd - (d @ Kd) * d) / (d @ Kd), atol=1e-9)
                     if np.allclose(d, V[:, -1]) or np.allclose(d, -V[:, -1]):
                         rho = w[-1] / w[-2]
                         b = np.log(rho / r) if kind == "f2" else min(np.log(rho / r), 0.0)
@@ -181,7 +180,8 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
 
 
 @pytest.mark.parametrize(
-    "robot_name,task,locked", [("planar_3r", "xy", None), ("kuka_lwr4", "full", {"lwr_a7": 0.0}), ("kuka_lwr4", "xyz", None)]
+    "robot_name,task,locked",
+    [("planar_3r", "xy", None), ("kuka_lwr4", "full", {"lwr_a7": 0.0}), ("kuka_lwr4", "xyz", None)],
 )
 def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
     """The LM stage's Jacobian (closed-form kinematic and stiffness derivatives) against forward-mode

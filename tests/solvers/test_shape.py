@@ -69,14 +69,25 @@ def verify_file(file, alpha_tol=1e-5):
     meta = json.loads(str(data["meta"]))
     B, P, n = data["q"].shape
     # the contract's keys and shapes (DESIGN.md)
-    for k, shp in {"joint_names": (n,), "kj": (B, P, n), "cms": (B, P), "target": (B, P, 3), "direction": (B, P, 3),
-                   "position": (B, P, 3), "alpha_deg": (B, P), "ratio": (B, P), "criterion": (B, P),
-                   "status": (B, P), "kj_scaled": (B, P, n)}.items():
+    for k, shp in {
+        "joint_names": (n,),
+        "kj": (B, P, n),
+        "cms": (B, P),
+        "target": (B, P, 3),
+        "direction": (B, P, 3),
+        "position": (B, P, 3),
+        "alpha_deg": (B, P),
+        "ratio": (B, P),
+        "criterion": (B, P),
+        "status": (B, P),
+        "kj_scaled": (B, P, n),
+    }.items():
         assert data[k].shape == shp, k
     rm = meta["robot"]
     assert hashlib.sha256(open(rm["urdf"], "rb").read()).hexdigest() == rm["sha256"]
-    robot = jaxstiff.Robot.from_urdf(rm["urdf"], base_link=rm["base_link"], tip_link=rm["tip_link"],
-                                     locked=rm["locked"], tcp=np.asarray(rm["tcp"]))
+    robot = jaxstiff.Robot.from_urdf(
+        rm["urdf"], base_link=rm["base_link"], tip_link=rm["tip_link"], locked=rm["locked"], tcp=np.asarray(rm["tcp"])
+    )
     assert list(data["joint_names"]) == list(robot.joint_names)
     lim = meta["limits"]
     dq, dk = np.asarray(lim["dq"]), np.asarray(lim["dk"])
@@ -110,7 +121,9 @@ def verify_file(file, alpha_tol=1e-5):
             # CMS: k^m det(K) = target volume (or k lambda1 = target major), kj_scaled = k kj
             cm = meta["cms"]
             w = np.linalg.eigvalsh(K)
-            k_ref_cms = cm["target_major"] / w[-1] if cm["target_major"] else (cm["target_volume"] / np.prod(w)) ** (1 / len(w))
+            k_ref_cms = (
+                cm["target_major"] / w[-1] if cm["target_major"] else (cm["target_volume"] / np.prod(w)) ** (1 / len(w))
+            )
             assert abs(data["cms"][b, p] - k_ref_cms) < 1e-6 * k_ref_cms
             assert_close(data["kj_scaled"][b, p], data["cms"][b, p] * kj, rtol=1e-14)
     return data, meta, robot
@@ -143,8 +156,25 @@ def test_f2_result_verified_from_the_file_alone(f2_file):
 
 def test_meta_records_every_input_and_default(f2_file):
     meta = f2_file[1].meta
-    for key in ("robot", "criterion", "ratio", "c", "task", "solver", "options", "limits", "q0_source", "kj0_source",
-                "cms", "path", "defaults", "versions", "status_codes", "first_starts", "pos_tol"):
+    for key in (
+        "robot",
+        "criterion",
+        "ratio",
+        "c",
+        "task",
+        "solver",
+        "options",
+        "limits",
+        "q0_source",
+        "kj0_source",
+        "cms",
+        "path",
+        "defaults",
+        "versions",
+        "status_codes",
+        "first_starts",
+        "pos_tol",
+    ):
         assert key in meta, key
     assert math.isclose(meta["limits"]["dq"][0], math.radians(2.0))
     assert meta["limits"]["dk"] == [5.0] * 7 and meta["limits"]["kmin"] == 1.0 and meta["limits"]["kmax"] == 100.0
@@ -153,7 +183,9 @@ def test_meta_records_every_input_and_default(f2_file):
     # solver_code is SLSQP's exit mode here, and status 0 (solved) needs mode 0 (converged)
     res = f2_file[1]
     assert meta["solver_code_meaning"].startswith("SLSQP exit mode")
-    assert np.all(res.solver_code[res.status == R.SOLVED] == 0) and np.all((res.solver_code >= -1) & (res.solver_code <= 9))
+    assert np.all(res.solver_code[res.status == R.SOLVED] == 0) and np.all(
+        (res.solver_code >= -1) & (res.solver_code <= 9)
+    )
 
 
 def test_load_round_trip(f2_file):
@@ -202,8 +234,9 @@ def test_slsqp_fd_baseline_agrees(lwr, f2_file, tmp_path):
     """The seed's own method (numpy + finite differences) solves the same problem to the same quality."""
     res_jax = f2_file[1]
     path = short_default(3)
-    res = jaxstiff.shape(lwr, path, "f2", 5.0, solver="slsqp-fd", q0=res_jax.q[0, 0], kj0=res_jax.kj[0, 0],
-                         first_rate_limit=True)
+    res = jaxstiff.shape(
+        lwr, path, "f2", 5.0, solver="slsqp-fd", q0=res_jax.q[0, 0], kj0=res_jax.kj[0, 0], first_rate_limit=True
+    )
     res.save(tmp_path / "fd.npz")
     data, meta, _ = verify_file(tmp_path / "fd.npz")
     assert meta["solver"] == "slsqp-fd"
@@ -228,8 +261,13 @@ def test_problem_derivatives_match_finite_differences_and_numpy(lwr):
                 f, g, cval, A = prob.unpack(np.asarray(fused(x, params)))
                 assert math.isclose(f, obj_np(x, params), rel_tol=1e-9)
                 h = np.r_[np.full(6, 1e-6), np.full(7, 1e-5)]
-                g_fd = np.array([(obj_np(x + h[i] * np.eye(13)[i], params) - obj_np(x - h[i] * np.eye(13)[i], params)) / (2 * h[i])
-                                 for i in range(13)])
+                g_fd = np.array(
+                    [
+                        (obj_np(x + h[i] * np.eye(13)[i], params) - obj_np(x - h[i] * np.eye(13)[i], params))
+                        / (2 * h[i])
+                        for i in range(13)
+                    ]
+                )
                 assert_close(g, g_fd, rtol=1e-5, atol=1e-6, what=f"{crit.__name__} gradient")
                 q = np.r_[x[:6], 0.0]
                 assert_close(cval, numpy_fk(lwr, q)[:3, 3] - params[:3], atol=1e-14)
@@ -256,7 +294,9 @@ def test_objective_finite_at_singular_posture(lwr):
     """q = 0: the LWR stands straight up (singular). Values and gradients stay finite."""
     prob = WaypointProblem(lwr, "full", jaxstiff.f2)
     with jax.enable_x64(True):
-        out = np.asarray(compiled(prob)(np.r_[np.zeros(6), np.full(7, 50.0)], prob.params(np.zeros(3), [1, 0, 0], 5, 0.01)))
+        out = np.asarray(
+            compiled(prob)(np.r_[np.zeros(6), np.full(7, 50.0)], prob.params(np.zeros(3), [1, 0, 0], 5, 0.01))
+        )
     assert np.all(np.isfinite(out))
 
 
@@ -277,7 +317,9 @@ def test_task_xy_warns_when_the_path_is_off_the_tcp_plane():
     naming the target's and the TCP's z (it came back silently as an unreachable path)."""
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     pts = np.array([[1.5, 0.5 + 0.02 * i, 0.3] for i in range(3)])
-    with pytest.warns(UserWarning, match=r"task 'xy' matches x and y only, and 3 of 3 waypoints .*target z = 0\.3 m, TCP z = 0 m"):
+    with pytest.warns(
+        UserWarning, match=r"task 'xy' matches x and y only, and 3 of 3 waypoints .*target z = 0\.3 m, TCP z = 0 m"
+    ):
         res = jaxstiff.shape(robot, paths.Path(pts), "f2", 3.0, task="xy", first_starts=2)
     assert np.all(res.status == R.UNREACHABLE) and np.allclose(res.pos_error, 0.3)
     # the same path in the plane: solved, no warning
@@ -302,13 +344,21 @@ def test_continuous_joint_runs_without_numpy_warnings(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         res = jaxstiff.shape(robot, path, "f2", 3.0, task="xy", first_starts=2, dq=math.radians(10), dk=20.0)
-        roll = jaxstiff.csc_rollout(robot, np.tile([1.2, 1.0], (20, 1)), np.diag([3000.0, 1000.0]),
-                                    np.radians([75.0, -74.74, -76.30]), 1e-3, step="constant")
+        roll = jaxstiff.csc_rollout(
+            robot,
+            np.tile([1.2, 1.0], (20, 1)),
+            np.diag([3000.0, 1000.0]),
+            np.radians([75.0, -74.74, -76.30]),
+            1e-3,
+            step="constant",
+        )
     assert np.all(R.is_usable(res.status)) and np.all(res.alpha_deg < 1.0)
     assert np.all(np.isfinite(np.asarray(roll.q))) and np.all(np.isfinite(np.asarray(roll.u)))
 
 
-@pytest.mark.parametrize("task, match", [("full", r"only 3 joint.*use task 'xy'"), ("xyz", r"row\(s\) vz .* zero at every posture")])
+@pytest.mark.parametrize(
+    "task, match", [("full", r"only 3 joint.*use task 'xy'"), ("xyz", r"row\(s\) vz .* zero at every posture")]
+)
 def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match):
     """Planar 3R with task full/xyz: the z stiffness would be the 1e-12 regularisation's (ratios
     ~1e10 written as if solved). Refused in the library and, with exit 2 and no file, in the CLI."""
@@ -433,8 +483,11 @@ def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane(lwr):
     pts = short_default(3).points.copy()
     pts[2, 2] += 0.01  # the path climbs at its end: the default tangents get a z component
     path = jaxstiff.Path(pts, name="climb")
-    with pytest.raises(ValueError, match=r"task 'xy' needs directions in the xy plane \(dz = 0\); path 0 \(climb\) "
-                                         r"has dz = 0\.\d+ at waypoint 1 \(its z changes along the path"):
+    with pytest.raises(
+        ValueError,
+        match=r"task 'xy' needs directions in the xy plane \(dz = 0\); path 0 \(climb\) "
+        r"has dz = 0\.\d+ at waypoint 1 \(its z changes along the path",
+    ):
         jaxstiff.shape(lwr, path, "f2", 5.0, task="xy")
 
 
@@ -451,7 +504,8 @@ def test_meta_tcp_is_the_offset_given(tmp_path):
         '<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0" rpy="0.2 0.5 -0.9"/>'
         '<axis xyz="0 1 0"/><limit lower="-2" upper="2" effort="1" velocity="1"/></joint>'
         '<joint name="f" type="fixed"><parent link="l2"/><child link="t"/><origin xyz="0.3 0.01 0.02" rpy="0.77 -1.23 2.01"/>'
-        '</joint></robot>')
+        "</joint></robot>"
+    )
     assert robot_meta(jaxstiff.Robot.from_urdf(str(urdf)))["tcp"] == np.eye(4).tolist()
     want = np.eye(4)
     want[:3, 3] = [0.05, -0.02, 0.1]
@@ -465,7 +519,12 @@ def test_one_waypoint_with_its_direction(solver):
     task full, with SLSQP; the planar 3R, task xy, with the batch solver, whose compilation is
     then short)."""
     if solver == "slsqp":
-        robot, task, x, d = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0}), "full", [0.6, 0.0, 0.3], [0.0, 0.6, 0.8]
+        robot, task, x, d = (
+            jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0}),
+            "full",
+            [0.6, 0.0, 0.3],
+            [0.0, 0.6, 0.8],
+        )
     else:
         robot, task, x, d = jaxstiff.Robot.from_urdf("planar_3r"), "xy", [1.5, 0.5, 0.0], [0.6, 0.8, 0.0]
     d = np.asarray(d)

@@ -18,6 +18,9 @@ def test_trajectory_beats_or_keeps_warm_start(tmp_path):
         nw, nt = (~R.is_usable(warm.status[b])).sum(), (~R.is_usable(traj.status[b])).sum()
         assert nt <= nw
         if nt == nw:
-            assert traj.criterion[b][R.is_usable(traj.status[b])].sum() <= warm.criterion[b][R.is_usable(warm.status[b])].sum() + 1e-9
+            assert (
+                traj.criterion[b][R.is_usable(traj.status[b])].sum()
+                <= warm.criterion[b][R.is_usable(warm.status[b])].sum() + 1e-9
+            )
     check_file(traj, tmp_path)
     assert traj.meta["solver_code_meaning"].startswith("the warm start's (pgd): index of the start")

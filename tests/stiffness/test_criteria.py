@@ -124,7 +124,10 @@ def test_offdiag_hand_computation():
     assert bool(jnp.all(jnp.isfinite(g)))
     # batched: broadcast one K over a batch of J
     Jb = jnp.asarray(RNG.normal(size=(5, 2, 4)))
-    ref = [np.sqrt(sum((Jn.T @ np.asarray(K) @ Jn)[i, j] ** 2 for i in range(4) for j in range(i + 1, 4))) for Jn in np.asarray(Jb)]
+    ref = [
+        np.sqrt(sum((Jn.T @ np.asarray(K) @ Jn)[i, j] ** 2 for i in range(4) for j in range(i + 1, 4)))
+        for Jn in np.asarray(Jb)
+    ]
     assert_close(jaxstiff.offdiag(Jb, K), np.array(ref), rtol=1e-13)
 
 
@@ -154,7 +157,9 @@ def test_gradient_wrt_K_vs_finite_differences(m):
             d = rng.normal(size=m)
             r = 1.2 if name == "f1" else 5.0  # f1 with r below rho: away from the min(rho, r) kink
             g = np.asarray(_f1_f2_grad_K(jnp.asarray(K), jnp.asarray(d), r, jnp.asarray(w)))
-            f = lambda x: np.asarray(fn(jnp.asarray(0.5 * (x + x.reshape(m, m).T.ravel())).reshape(m, m), jnp.asarray(d), r))  # noqa: E731, B023  (called in this iteration)
+            f = lambda x, fn=fn, d=d, r=r: np.asarray(  # noqa: E731
+                fn(jnp.asarray(0.5 * (x + x.reshape(m, m).T.ravel())).reshape(m, m), jnp.asarray(d), r)
+            )
             fd = central_diff(f, K.ravel(), h=1e-5).reshape(m, m)
             assert_close(0.5 * (g + g.T), fd, rtol=1e-5, atol=1e-7, what=name)
 
@@ -223,7 +228,12 @@ def test_gradient_wrt_q_and_kj_vs_finite_differences(rname, task):
 SINGULAR = [
     ("kuka_lwr4", np.zeros(7), "full", np.array([1.0, 0.0, 0.0])),
     ("kuka_lwr4", np.array([0.3, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), "full", np.array([0.0, 0.0, 1.0])),
-    ("kuka_lwr4", np.array([0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0]), "full", np.array([1.0, 1.0, 0.0])),  # lower arm stretched
+    (
+        "kuka_lwr4",
+        np.array([0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        "full",
+        np.array([1.0, 1.0, 0.0]),
+    ),  # lower arm stretched
     ("planar_3r", np.zeros(3), "xy", np.array([1.0, 0.0])),
     ("planar_3r", np.zeros(3), "xy", np.array([0.0, 1.0])),
     ("planar_3r", np.array([0.7, 0.0, 0.0]), "xy", np.array([1.0, 1.0])),
@@ -413,12 +423,30 @@ def test_shape_mismatches_name_the_arguments():
     r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     J = jaxstiff.jacobian(r, jnp.full((2, 7), 0.3))
     cases = [
-        (lambda: jaxstiff.translational_stiffness(J, jnp.ones((3, 7))), r"batch axes do not broadcast: J \(2,\), kj \(3,\)"),
-        (lambda: jaxstiff.frobenius(jnp.eye(3), jnp.eye(2)), r"K \(3, 3\) and K_d \(2, 2\) must be matrices of the same size"),
-        (lambda: jaxstiff.frobenius(jnp.ones(3), jnp.ones(3)), r"K must be square matrices \(\.\.\., m, m\), got shape \(3,\)"),
-        (lambda: jaxstiff.frobenius(jnp.ones((2, 3, 3)), jnp.ones((3, 3, 3))), r"batch axes do not broadcast: K \(2,\), K_d \(3,\)"),
-        (lambda: jaxstiff.offdiag(jnp.ones(3), jnp.eye(3)), r"J must be a task-row Jacobian \(\.\.\., m, n\), got shape \(3,\)"),
-        (lambda: jaxstiff.offdiag(jnp.ones((2, 3, 7)), jnp.ones((3, 3, 3))), r"batch axes do not broadcast: J \(2,\), K_xd \(3,\)"),
+        (
+            lambda: jaxstiff.translational_stiffness(J, jnp.ones((3, 7))),
+            r"batch axes do not broadcast: J \(2,\), kj \(3,\)",
+        ),
+        (
+            lambda: jaxstiff.frobenius(jnp.eye(3), jnp.eye(2)),
+            r"K \(3, 3\) and K_d \(2, 2\) must be matrices of the same size",
+        ),
+        (
+            lambda: jaxstiff.frobenius(jnp.ones(3), jnp.ones(3)),
+            r"K must be square matrices \(\.\.\., m, m\), got shape \(3,\)",
+        ),
+        (
+            lambda: jaxstiff.frobenius(jnp.ones((2, 3, 3)), jnp.ones((3, 3, 3))),
+            r"batch axes do not broadcast: K \(2,\), K_d \(3,\)",
+        ),
+        (
+            lambda: jaxstiff.offdiag(jnp.ones(3), jnp.eye(3)),
+            r"J must be a task-row Jacobian \(\.\.\., m, n\), got shape \(3,\)",
+        ),
+        (
+            lambda: jaxstiff.offdiag(jnp.ones((2, 3, 7)), jnp.ones((3, 3, 3))),
+            r"batch axes do not broadcast: J \(2,\), K_xd \(3,\)",
+        ),
     ]
     for call, match in cases:
         with pytest.raises(ValueError, match=match):

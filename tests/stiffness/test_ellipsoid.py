@@ -156,14 +156,24 @@ def test_orientation_error_vs_acos_and_sign_invariance(m):
 
 def test_orientation_error_constructed_2d():
     # K with major axis at angle theta, d at angle phi: alpha = distance of theta - phi to the nearest multiple of 180, in [0, 90]
-    for theta, phi in [(10.0, 10.0), (10.0, 40.0), (80.0, -80.0), (0.0, 90.0), (30.0, 210.0), (179.0, 1.0), (45.0, 135.0)]:
+    for theta, phi in [
+        (10.0, 10.0),
+        (10.0, 40.0),
+        (80.0, -80.0),
+        (0.0, 90.0),
+        (30.0, 210.0),
+        (179.0, 1.0),
+        (45.0, 135.0),
+    ]:
         t = math.radians(theta)
         R = np.array([[math.cos(t), -math.sin(t)], [math.sin(t), math.cos(t)]])
         K = R @ np.diag([7.0, 2.0]) @ R.T
         d = np.array([math.cos(math.radians(phi)), math.sin(math.radians(phi))])
         diff = (theta - phi) % 180.0
         expected = min(diff, 180.0 - diff)
-        assert_close(jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(d)), expected, atol=1e-10, what=f"{theta}, {phi}")
+        assert_close(
+            jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(d)), expected, atol=1e-10, what=f"{theta}, {phi}"
+        )
 
 
 def test_orientation_error_small_angles_are_accurate():
@@ -259,7 +269,11 @@ def spd_batches(draw):
     lams = 10.0 ** (log_scale + rng.uniform(0, cond, size=shape + (m,)))
     if draw(st.booleans()):  # force a repeated eigenvalue
         lams[..., 1] = lams[..., 0]
-    return spd_from(lams, random_rotation(rng, m, shape)), np.sort(lams, axis=-1)[..., ::-1], rng.normal(size=shape + (m,))
+    return (
+        spd_from(lams, random_rotation(rng, m, shape)),
+        np.sort(lams, axis=-1)[..., ::-1],
+        rng.normal(size=shape + (m,)),
+    )
 
 
 @jax.jit
@@ -304,7 +318,11 @@ def test_non_finite_stiffness_gives_nan_not_a_perfect_score(bad):
     e = jaxstiff.ellipsoid(jnp.asarray(K))
     assert np.isnan(float(e.ratio)) and np.all(np.isnan(np.asarray(e.axes)))
     d = jnp.array([1.0, 0.0, 0.0])
-    for value in (jaxstiff.orientation_error(jnp.asarray(K), d), jaxstiff.f1(jnp.asarray(K), d, 3.0), jaxstiff.f2(jnp.asarray(K), d, 3.0)):
+    for value in (
+        jaxstiff.orientation_error(jnp.asarray(K), d),
+        jaxstiff.f1(jnp.asarray(K), d, 3.0),
+        jaxstiff.f2(jnp.asarray(K), d, 3.0),
+    ):
         assert np.isnan(float(value))
     both = jaxstiff.ellipsoid(jnp.stack([jnp.asarray(K), jnp.eye(3)]))  # the finite one is unaffected
     assert np.isnan(float(both.ratio[0])) and float(both.ratio[1]) == 1.0

@@ -124,7 +124,10 @@ def test_csv_round_trip(tmp_path):
         ("x,y,z\n1,2,3\n4,5\n", r":3: expected 3 values"),
         ("x,y,z\n1,2,3\n4,nan,6\n", "not finite"),
         ("x,y,z\n1,2,3\n1,2,3\n", r"bad.csv: zero-length segment at waypoint 0 \(line 2\)"),
-        ("# note\nx,y,z,dx,dy,dz\n1,2,3,1,0,0\n4,5,6,0,0,0\n", r"bad.csv: zero-length direction at waypoint 1 \(line 4\)"),
+        (
+            "# note\nx,y,z,dx,dy,dz\n1,2,3,1,0,0\n4,5,6,0,0,0\n",
+            r"bad.csv: zero-length direction at waypoint 1 \(line 4\)",
+        ),
         ("x,y,z\n1,2,3\n4,1_0,6\n", r":3: column y: '1_0' is not a number"),  # float() takes it as 10
         ("x,y,z\n1,2,3\n4,\uff15,6\n", r":3: column y: '\uff15' is not a number"),  # full-width 5
         ("x,y,z\n1,2,3\n4,5\x0b,6\n7,8\n", r"bad.csv:4: expected 3 values"),  # a vertical tab is no line end

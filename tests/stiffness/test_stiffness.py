@@ -155,7 +155,9 @@ def test_cms_factor_reaches_targets():
     J = r.jacobian(jnp.asarray(q))
     K = jaxstiff.translational_stiffness(J, jnp.asarray(kj), "full")
     k = jaxstiff.cms_factor(K, target_major=5000.0)
-    assert_close(np.linalg.eigvalsh(np.asarray(k)[:, None, None] * np.asarray(K))[:, -1], np.full(N, 5000.0), rtol=1e-12)
+    assert_close(
+        np.linalg.eigvalsh(np.asarray(k)[:, None, None] * np.asarray(K))[:, -1], np.full(N, 5000.0), rtol=1e-12
+    )
     k, kj_scaled = cms_scale(K, jnp.asarray(kj), target_volume=1e9)
     assert_close(kj_scaled, np.asarray(k)[:, None] * kj, rtol=1e-15)
     K_scaled = jaxstiff.translational_stiffness(J, kj_scaled, "full")
@@ -185,7 +187,9 @@ def test_joint_stiffness_congruence_and_cct_planar_closed_form():
     Kq = np.asarray(jaxstiff.joint_stiffness(jnp.asarray(J), jnp.asarray(Kx), task="xy"))
     assert_close(Kq, J[:2].T @ Kx @ J[:2], rtol=1e-13)
     F = np.array([12.0, -7.0])
-    Kq_F = np.asarray(jaxstiff.joint_stiffness(jnp.asarray(J), jnp.asarray(Kx), jnp.asarray(F), robot=r, q=jnp.asarray(q), task="xy"))
+    Kq_F = np.asarray(
+        jaxstiff.joint_stiffness(jnp.asarray(J), jnp.asarray(Kx), jnp.asarray(F), robot=r, q=jnp.asarray(q), task="xy")
+    )
     assert_close(Kq_F - Kq, planar_kg(q, F), rtol=1e-12, atol=1e-12)
     # F = 0 reduces to the congruence
     Kq_0 = jaxstiff.joint_stiffness(jnp.asarray(J), jnp.asarray(Kx), jnp.zeros(2), robot=r, q=jnp.asarray(q), task="xy")
@@ -200,9 +204,9 @@ def test_cct_term_vs_finite_differences_lwr():
     F = RNG.normal(size=(2, len(rows))) * 20.0
     Kx = np.eye(len(rows)) * 1000.0
     J = r.jacobian(jnp.asarray(q))
-    KG = np.asarray(jaxstiff.joint_stiffness(J, jnp.asarray(Kx), jnp.asarray(F), robot=r, q=jnp.asarray(q), task=task)) - np.asarray(
-        jaxstiff.joint_stiffness(J, jnp.asarray(Kx), task=task)
-    )
+    KG = np.asarray(
+        jaxstiff.joint_stiffness(J, jnp.asarray(Kx), jnp.asarray(F), robot=r, q=jnp.asarray(q), task=task)
+    ) - np.asarray(jaxstiff.joint_stiffness(J, jnp.asarray(Kx), task=task))
     for b in range(2):
         tau = lambda x: np.asarray(r.jacobian(jnp.asarray(x)))[rows].T @ F[b]  # noqa: E731, B023  (called in this iteration)
         assert_close(KG[b], central_diff(tau, q[b], h=1e-6), rtol=1e-7, atol=1e-7)
@@ -232,7 +236,9 @@ def test_joint_stiffness_errors():
 @functools.partial(jax.jit, static_argnums=2)
 def _grad_of_stiffness(J, kj, task):
     """Gradient of a scalar of K_T w.r.t. J and kj (compiled once per shape and task)."""
-    return jax.grad(lambda JJ, kk: jnp.sum(jnp.sin(jaxstiff.translational_stiffness(JJ, kk, task) * 1e-3)), argnums=(0, 1))(J, kj)
+    return jax.grad(
+        lambda JJ, kk: jnp.sum(jnp.sin(jaxstiff.translational_stiffness(JJ, kk, task) * 1e-3)), argnums=(0, 1)
+    )(J, kj)
 
 
 SINGULAR = [
@@ -471,8 +477,11 @@ def test_concrete_non_positive_kj_is_refused_by_name(fn):
     f = getattr(jaxstiff.stiffness, fn)
     kj = np.full(7, 50.0)
     assert np.all(np.isfinite(np.asarray(f(J, kj, task="xyz"))))
-    for bad, where in ((-kj, r"kj\[0\] = -50"), (np.where(np.arange(7) == 2, 0.0, kj), r"kj\[2\] = 0"),
-                       (np.tile(kj, (2, 1)) * [[1.0], [-1.0]], r"kj\[1, 0\] = -50")):
+    for bad, where in (
+        (-kj, r"kj\[0\] = -50"),
+        (np.where(np.arange(7) == 2, 0.0, kj), r"kj\[2\] = 0"),
+        (np.tile(kj, (2, 1)) * [[1.0], [-1.0]], r"kj\[1, 0\] = -50"),
+    ):
         with pytest.raises(ValueError, match=r"kj must be > 0 .*" + where):
             f(J, bad, task="xyz")
     traced = jax.jit(lambda k: f(J, k, task="xyz"))(jnp.asarray(np.where(np.arange(7) == 2, 0.0, kj)))

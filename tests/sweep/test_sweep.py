@@ -32,8 +32,16 @@ REPO = str(REPO_ROOT)
 SHAPE_CFG = {
     "sweep": {"kind": "shape", "name": "tiny-shape", "chunk_size": 4},
     "robot": {"name": "planar_3r"},
-    "paths": [{"generator": "arc", "center": [0.0, 0.0, 0.0], "radius": [1.5, 2.0], "start_deg": 10.0,
-               "end_deg": 12.0, "n": 3}],
+    "paths": [
+        {
+            "generator": "arc",
+            "center": [0.0, 0.0, 0.0],
+            "radius": [1.5, 2.0],
+            "start_deg": 10.0,
+            "end_deg": 12.0,
+            "n": 3,
+        }
+    ],
     "axes": {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "dk": [5.0, 10.0], "first_starts": 2},
 }
 
@@ -161,8 +169,10 @@ def test_shape_row_equals_bare_shape_call(shape_run):
     got = ShapeResult.load(os.path.join(shape_run.out, row["result_file"]))
     # the same batch of paths as the sweep's call (shape's extra first-waypoint starts are drawn
     # from one generator across the batch, so a path's result depends on its batch position)
-    trajs = [shape_run.plan.trajectories[i] for i in
-             (df[df["result_file"] == row["result_file"]].sort_values("result_index")["path_index"])]
+    trajs = [
+        shape_run.plan.trajectories[i]
+        for i in (df[df["result_file"] == row["result_file"]].sort_values("result_index")["path_index"])
+    ]
     batch = jaxstiff.paths.Path(np.stack([t.points for t in trajs]), np.stack([t.directions for t in trajs]))
     ref = jaxstiff.shape(shape_run.plan.robot, batch, "f2", 3.0, task="xy", dk=10.0, first_starts=2)
     assert got.B == ref.B == len(trajs)
@@ -237,7 +247,10 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
         assert st.done == {}
     # a renamed config file renames the sweep (its label only): the error says how to continue
     renamed = parse_config({**SHAPE_CFG, "sweep": {**SHAPE_CFG["sweep"], "name": "renamed"}})
-    with pytest.raises(ValueError, match=r"holds this sweep under another label \(sweep.name '.+', now 'renamed'.*set name = \".+\" in \[sweep\] to continue"):
+    with pytest.raises(
+        ValueError,
+        match=r"holds this sweep under another label \(sweep.name '.+', now 'renamed'.*set name = \".+\" in \[sweep\] to continue",
+    ):
         SweepStore(shape_run.out, renamed, resume=True)
     foreign = tmp_path / "foreign"
     foreign.mkdir()
@@ -259,13 +272,19 @@ def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch)
     from jaxstiff.ik import nominal_posture
     from jaxstiff.sweep.run import IK_RETRIES, IK_TOL_M, Q0_CACHE, start_posture_and_error
 
-    far = {**SHAPE_CFG, "paths": [{"generator": "point", "point": [5.0, 0.0, 0.0], "n": 3, "name": "far"}],
-           "axes": {"task": "xy", "q0": ["ik", "random", "nominal"]}}
+    far = {
+        **SHAPE_CFG,
+        "paths": [{"generator": "point", "point": [5.0, 0.0, 0.0], "n": 3, "name": "far"}],
+        "axes": {"task": "xy", "q0": ["ik", "random", "nominal"]},
+    }
     plan = parse_config(far)
     Q0_CACHE.clear()
     for r, fam in enumerate(("ik", "random")):
         assert plan.row_settings(r)["q0"] == fam
-        with pytest.warns(UserWarning, match=rf"path 'far' \(q0 = '{fam}'.*ends 2(\.\d+)? m from its first waypoint after {1 + IK_RETRIES} tries"):
+        with pytest.warns(
+            UserWarning,
+            match=rf"path 'far' \(q0 = '{fam}'.*ends 2(\.\d+)? m from its first waypoint after {1 + IK_RETRIES} tries",
+        ):
             q, err = start_posture_and_error(plan, r)
         # planar 3R with unit links reaches 3 m at most: the IK stops ~2 m short, at the limits
         assert 1.9 < err < 2.1 and np.all(q >= plan.robot.lower - 1e-12) and np.all(q <= plan.robot.upper + 1e-12)
@@ -330,8 +349,13 @@ def test_two_devices_give_the_same_table(csc_cfg, csc_run, tmp_path):
     assert jax.local_device_count() == 1
     out = tmp_path / "two"
     env = _subprocess_env(XLA_FLAGS="--xla_force_host_platform_device_count=2")
-    p = subprocess.run([sys.executable, "-c", _CLI, "sweep", csc_cfg, "--out", str(out), "--no-progress", "--no-report"],
-                       env=env, capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [sys.executable, "-c", _CLI, "sweep", csc_cfg, "--out", str(out), "--no-progress", "--no-report"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode == 0, p.stderr
     timing = pd.read_csv(out / "timing.csv")
     assert set(timing["devices"]) == {2}  # every batch was split across both devices
@@ -353,8 +377,12 @@ run_sweep(sys.argv[1], sys.argv[2], progress=False, report=False, on_commit=lamb
 @pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
     out = tmp_path / "killed"
-    proc = subprocess.Popen([sys.executable, "-c", _KILL_DRIVER, csc_cfg, str(out)], env=_subprocess_env(),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _KILL_DRIVER, csc_cfg, str(out)],
+        env=_subprocess_env(),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     chunks = out / "chunks"
     deadline = time.time() + 240
     while time.time() < deadline and proc.poll() is None:
@@ -383,8 +411,7 @@ def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
 def test_ray_backend_gives_the_same_table(csc_cfg, csc_run, tmp_path, monkeypatch):
     ray = pytest.importorskip("ray")
     monkeypatch.setenv("RAY_AUTH_MODE", "disabled")  # a local test instance needs no token
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
-             runtime_env={"env_vars": {"PYTHONPATH": REPO}})
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False, runtime_env={"env_vars": {"PYTHONPATH": REPO}})
     try:
         res = run_sweep(csc_cfg, tmp_path / "ray", backend="ray", progress=False, report=False)
     finally:
@@ -407,8 +434,10 @@ def test_cli_validates_before_any_work(tmp_path, capsys):
     assert "jaxstiff: error:" in err and "axes.ratio: empty axis" in err
     assert not out.exists()
     good = tmp_path / "good.toml"
-    good.write_text('[robot]\nname = "planar_3r"\n[[paths]]\ngenerator = "point"\npoint = [1.0, 1.0, 0.0]\nn = 3\n'
-                    '[axes]\ntask = "xy"\nratio = [2.0, 3.0]\n')
+    good.write_text(
+        '[robot]\nname = "planar_3r"\n[[paths]]\ngenerator = "point"\npoint = [1.0, 1.0, 0.0]\nn = 3\n'
+        '[axes]\ntask = "xy"\nratio = [2.0, 3.0]\n'
+    )
     assert main(["sweep", str(good), "--out", str(out), "--dry-run"]) == 0
     assert "2 rows = 2 settings x 1 paths" in capsys.readouterr().out
     assert not out.exists()
@@ -432,8 +461,10 @@ def test_cli_sigterm_is_an_interrupt_with_exit_143(tmp_path, capsys, monkeypatch
 
     monkeypatch.setattr(sweep_mod, "run_sweep", killed)
     good = tmp_path / "good.toml"
-    good.write_text('[robot]\nname = "planar_3r"\n[[paths]]\ngenerator = "point"\npoint = [1.0, 1.0, 0.0]\nn = 3\n'
-                    '[axes]\ntask = "xy"\nratio = [2.0, 3.0]\n')
+    good.write_text(
+        '[robot]\nname = "planar_3r"\n[[paths]]\ngenerator = "point"\npoint = [1.0, 1.0, 0.0]\nn = 3\n'
+        '[axes]\ntask = "xy"\nratio = [2.0, 3.0]\n'
+    )
     assert main(["sweep", str(good), "--out", str(tmp_path / "out")]) == 143
     err = capsys.readouterr().err
     assert "interrupted; finished chunks are saved" in err and "--resume" in err and "after the work" not in err

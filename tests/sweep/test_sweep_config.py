@@ -21,8 +21,16 @@ def base() -> dict:
     return {
         "sweep": {"kind": "shape", "name": "t", "chunk_size": 3},
         "robot": {"name": "planar_3r"},
-        "paths": [{"generator": "arc", "center": [0.0, 0.0, 0.0], "radius": [1.5, 2.0], "start_deg": 10.0,
-                   "end_deg": 14.0, "n": 3}],
+        "paths": [
+            {
+                "generator": "arc",
+                "center": [0.0, 0.0, 0.0],
+                "radius": [1.5, 2.0],
+                "start_deg": 10.0,
+                "end_deg": 14.0,
+                "n": 3,
+            }
+        ],
         "axes": {"task": "xy", "ratio": [2.0, 3.0], "criterion": ["f1", "f2"]},
     }
 
@@ -65,63 +73,239 @@ CATALOGUE = [
     ("wrong type", lambda t: _set(base(), "axes.ratio", "five"), "axes.ratio", ["expected a number", "'five'"]),
     ("bool is not a number", lambda t: _set(base(), "axes.ratio", True), "axes.ratio", ["expected a number", "bool"]),
     ("empty axis list", lambda t: _set(base(), "axes.ratio", []), "axes.ratio", ["empty axis"]),
-    ("empty range", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "num": 0}), "axes.ratio", ["empty axis", "num"]),
-    ("range without stop", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "num": 3}), "axes.ratio", ["needs 'stop'"]),
-    ("huge range", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 3.0, "num": 2_000_000_000}), "axes.ratio",
-     ["num = 2000000000", "the limit is"]),
-    ("range step going nowhere", lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "step": -1.0}), "axes.ratio", ["step"]),
-    ("unknown robot", lambda t: _set(base(), "robot.name", "kuka_lwr5"), "robot.name", ["unknown robot", "kuka_lwr4", "planar_3r"]),
-    ("missing urdf file", lambda t: {**_set(base(), "robot", {"urdf": "nope.urdf"})}, "robot.urdf", ["file not found", "nope.urdf"]),
+    (
+        "empty range",
+        lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "num": 0}),
+        "axes.ratio",
+        ["empty axis", "num"],
+    ),
+    (
+        "range without stop",
+        lambda t: _set(base(), "axes.ratio", {"start": 2.0, "num": 3}),
+        "axes.ratio",
+        ["needs 'stop'"],
+    ),
+    (
+        "huge range",
+        lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 3.0, "num": 2_000_000_000}),
+        "axes.ratio",
+        ["num = 2000000000", "the limit is"],
+    ),
+    (
+        "range step going nowhere",
+        lambda t: _set(base(), "axes.ratio", {"start": 2.0, "stop": 4.0, "step": -1.0}),
+        "axes.ratio",
+        ["step"],
+    ),
+    (
+        "unknown robot",
+        lambda t: _set(base(), "robot.name", "kuka_lwr5"),
+        "robot.name",
+        ["unknown robot", "kuka_lwr4", "planar_3r"],
+    ),
+    (
+        "missing urdf file",
+        lambda t: {**_set(base(), "robot", {"urdf": "nope.urdf"})},
+        "robot.urdf",
+        ["file not found", "nope.urdf"],
+    ),
     ("name and urdf", lambda t: _set(base(), "robot.urdf", "x.urdf"), "robot", ["exactly one of 'name'"]),
-    ("unknown locked joint", lambda t: _set(base(), "robot.locked", {"no_such_joint": 0.0}), "robot.locked", ["no_such_joint"]),
-    ("missing path file", lambda t: _set(base(), "paths", [{"file": "missing.csv"}]), "paths[0].file", ["not found", "missing.csv"]),
-    ("malformed path file", lambda t: _set(base(), "paths", [{"file": _bad_csv(t)}]), "paths[0].file", ["bad.csv", "abc", "not a number"]),
-    ("unknown generator", lambda t: _set(base(), "paths.0.generator", "spiral"), "paths[0].generator", ["unknown generator 'spiral'", "arc"]),
-    ("unknown generator parameter", lambda t: _set(base(), "paths.0.radios", 1.0), "paths[0].radios", ["unknown key", "did you mean 'radius'"]),
-    ("missing generator parameter", lambda t: _set(base(), "paths.0.radius", _DELETE), "paths[0].radius", ["missing", "radius"]),
+    (
+        "unknown locked joint",
+        lambda t: _set(base(), "robot.locked", {"no_such_joint": 0.0}),
+        "robot.locked",
+        ["no_such_joint"],
+    ),
+    (
+        "missing path file",
+        lambda t: _set(base(), "paths", [{"file": "missing.csv"}]),
+        "paths[0].file",
+        ["not found", "missing.csv"],
+    ),
+    (
+        "malformed path file",
+        lambda t: _set(base(), "paths", [{"file": _bad_csv(t)}]),
+        "paths[0].file",
+        ["bad.csv", "abc", "not a number"],
+    ),
+    (
+        "unknown generator",
+        lambda t: _set(base(), "paths.0.generator", "spiral"),
+        "paths[0].generator",
+        ["unknown generator 'spiral'", "arc"],
+    ),
+    (
+        "unknown generator parameter",
+        lambda t: _set(base(), "paths.0.radios", 1.0),
+        "paths[0].radios",
+        ["unknown key", "did you mean 'radius'"],
+    ),
+    (
+        "missing generator parameter",
+        lambda t: _set(base(), "paths.0.radius", _DELETE),
+        "paths[0].radius",
+        ["missing", "radius"],
+    ),
     ("bad generator value", lambda t: _set(base(), "paths.0.radius", -1.0), "paths[0]", ["radius must be > 0"]),
     ("no paths", lambda t: {k: v for k, v in base().items() if k != "paths"}, "paths", ["missing", "[[paths]]"]),
-    ("q0 seeds without random postures", lambda t: _set(base(), "axes.q0_seed", [0, 1]), "axes.q0_seed", ["no \"random\" family", "repeat the same rows"]),
-    ("infinite ratio", lambda t: _set(base(), "axes.ratio", [2.0, float("inf")]), "axes.ratio", ["must be finite", "inf"]),
+    (
+        "q0 seeds without random postures",
+        lambda t: _set(base(), "axes.q0_seed", [0, 1]),
+        "axes.q0_seed",
+        ['no "random" family', "repeat the same rows"],
+    ),
+    (
+        "infinite ratio",
+        lambda t: _set(base(), "axes.ratio", [2.0, float("inf")]),
+        "axes.ratio",
+        ["must be finite", "inf"],
+    ),
     ("infinite c", lambda t: _set(base(), "axes.c", float("inf")), "axes.c", ["must be finite"]),
     ("infinite shape kmax", lambda t: _set(base(), "axes.kmax", float("inf")), "axes.kmax", ["must be finite"]),
     ("ratio not above 1", lambda t: _set(base(), "axes.ratio", [0.5, 2.0]), "axes.ratio", ["must be > 1", "0.5"]),
-    ("kmin not below kmax", lambda t: _set(_set(base(), "axes.kmin", [1.0, 50.0]), "axes.kmax", 20.0), "axes.kmin", ["kmin = 50", "kmax = 20"]),
+    (
+        "kmin not below kmax",
+        lambda t: _set(_set(base(), "axes.kmin", [1.0, 50.0]), "axes.kmax", 20.0),
+        "axes.kmin",
+        ["kmin = 50", "kmax = 20"],
+    ),
     ("negative rate limit", lambda t: _set(base(), "axes.dq_deg", -1.0), "axes.dq_deg", ["must be >= 0", "-1"]),
-    ("unknown criterion", lambda t: _set(base(), "axes.criterion", ["f1", "f3"]), "axes.criterion", ["unknown value 'f3'", "f1, f2"]),
-    ("unknown solver", lambda t: _set(base(), "axes.solver", "ipopt"), "axes.solver", ["unknown value 'ipopt'", "slsqp"]),
+    (
+        "unknown criterion",
+        lambda t: _set(base(), "axes.criterion", ["f1", "f3"]),
+        "axes.criterion",
+        ["unknown value 'f3'", "f1, f2"],
+    ),
+    (
+        "unknown solver",
+        lambda t: _set(base(), "axes.solver", "ipopt"),
+        "axes.solver",
+        ["unknown value 'ipopt'", "slsqp"],
+    ),
     ("multi-start with slsqp", lambda t: _set(base(), "axes.starts", [1, 4]), "axes.starts", ["single-start"]),
     ("duplicate axis value", lambda t: _set(base(), "axes.ratio", [2.0, 2.0]), "axes.ratio", ["duplicate value 2.0"]),
-    ("csc axis in a shape sweep", lambda t: _set(base(), "axes.beta", 0.1), "axes.beta", ["unknown axis", "kind 'csc'"]),
-    ("shape axis in a csc sweep", lambda t: _set(csc_base(), "axes.criterion", "f2"), "axes.criterion", ["unknown axis", "kind 'shape'"]),
-    ("unknown kind", lambda t: _set(base(), "sweep.kind", "shaping"), "sweep.kind", ["unknown kind 'shaping'", "did you mean 'shape'"]),
+    (
+        "csc axis in a shape sweep",
+        lambda t: _set(base(), "axes.beta", 0.1),
+        "axes.beta",
+        ["unknown axis", "kind 'csc'"],
+    ),
+    (
+        "shape axis in a csc sweep",
+        lambda t: _set(csc_base(), "axes.criterion", "f2"),
+        "axes.criterion",
+        ["unknown axis", "kind 'shape'"],
+    ),
+    (
+        "unknown kind",
+        lambda t: _set(base(), "sweep.kind", "shaping"),
+        "sweep.kind",
+        ["unknown kind 'shaping'", "did you mean 'shape'"],
+    ),
     ("chunk size zero", lambda t: _set(base(), "sweep.chunk_size", 0), "sweep.chunk_size", ["must be >= 1"]),
-    ("chunk size not an integer", lambda t: _set(base(), "sweep.chunk_size", 2.5), "sweep.chunk_size", ["expected an integer"]),
+    (
+        "chunk size not an integer",
+        lambda t: _set(base(), "sweep.chunk_size", 2.5),
+        "sweep.chunk_size",
+        ["expected an integer"],
+    ),
     ("q0 of the wrong length", lambda t: _set(base(), "axes.q0", [[0.1, 0.2]]), "axes.q0", ["2 values", "3 joints"]),
     ("q0 posture outside its list", lambda t: _set(base(), "axes.q0", [0.1, 0.2, 0.3]), "axes.q0", ["inside a list"]),
-    ("unknown q0 family", lambda t: _set(base(), "axes.q0", "rand"), "axes.q0", ["unknown q0 family 'rand'", "did you mean 'random'"]),
-    ("task xy with 3-D directions", lambda t: _set(_set(base(), "paths.0.normal", [1.0, 0.0, 0.0]), "axes.task", "xy"), "axes.task", ["xy plane"]),
-    ("pgd option in an slsqp sweep", lambda t: {**base(), "solver_options": {"iters": 10}}, "solver_options.iters", ["for SLSQP", "maxiter"]),
-    ("bad option value", lambda t: {**_set(base(), "axes.solver", ["slsqp", "pgd"]), "solver_options": {"maxiter": 2.5}}, "solver_options", ["'maxiter' must be an integer"]),
-    ("trajectory option out of range", lambda t: {**_set(base(), "axes.solver", "trajectory"), "solver_options": {"blocks": 0}},
-     "solver_options", ["trajectory option 'blocks' must be an integer >= 1, got 0"]),
-    ("trajectory option not a number", lambda t: {**_set(base(), "axes.solver", "trajectory"), "solver_options": {"traj_iters": "many"}},
-     "solver_options", ["'traj_iters' must be an integer", "'many'"]),
-    ("hybrid option not a choice", lambda t: {**_set(base(), "axes.solver", "hybrid"), "solver_options": {"polish_slsqp": "bogus"}},
-     "solver_options", ["hybrid option 'polish_slsqp' must be one of 'all', 'unusable'"]),
-    ("pgd integer option given a fraction", lambda t: {**_set(base(), "axes.solver", "pgd"), "solver_options": {"newton": 2.5}},
-     "solver_options", ["pgd option 'newton' must be an integer >= 0, got 2.5"]),
-    ("unknown solver option", lambda t: {**base(), "solver_options": {"maxiters": 10}}, "solver_options.maxiters", ["did you mean 'maxiter'"]),
-    ("heat map of a fixed axis", lambda t: {**base(), "report": {"heatmaps": [["ratio", "dk"]]}}, "report.heatmaps[0]", ["'dk' has one value"]),
+    (
+        "unknown q0 family",
+        lambda t: _set(base(), "axes.q0", "rand"),
+        "axes.q0",
+        ["unknown q0 family 'rand'", "did you mean 'random'"],
+    ),
+    (
+        "task xy with 3-D directions",
+        lambda t: _set(_set(base(), "paths.0.normal", [1.0, 0.0, 0.0]), "axes.task", "xy"),
+        "axes.task",
+        ["xy plane"],
+    ),
+    (
+        "pgd option in an slsqp sweep",
+        lambda t: {**base(), "solver_options": {"iters": 10}},
+        "solver_options.iters",
+        ["for SLSQP", "maxiter"],
+    ),
+    (
+        "bad option value",
+        lambda t: {**_set(base(), "axes.solver", ["slsqp", "pgd"]), "solver_options": {"maxiter": 2.5}},
+        "solver_options",
+        ["'maxiter' must be an integer"],
+    ),
+    (
+        "trajectory option out of range",
+        lambda t: {**_set(base(), "axes.solver", "trajectory"), "solver_options": {"blocks": 0}},
+        "solver_options",
+        ["trajectory option 'blocks' must be an integer >= 1, got 0"],
+    ),
+    (
+        "trajectory option not a number",
+        lambda t: {**_set(base(), "axes.solver", "trajectory"), "solver_options": {"traj_iters": "many"}},
+        "solver_options",
+        ["'traj_iters' must be an integer", "'many'"],
+    ),
+    (
+        "hybrid option not a choice",
+        lambda t: {**_set(base(), "axes.solver", "hybrid"), "solver_options": {"polish_slsqp": "bogus"}},
+        "solver_options",
+        ["hybrid option 'polish_slsqp' must be one of 'all', 'unusable'"],
+    ),
+    (
+        "pgd integer option given a fraction",
+        lambda t: {**_set(base(), "axes.solver", "pgd"), "solver_options": {"newton": 2.5}},
+        "solver_options",
+        ["pgd option 'newton' must be an integer >= 0, got 2.5"],
+    ),
+    (
+        "unknown solver option",
+        lambda t: {**base(), "solver_options": {"maxiters": 10}},
+        "solver_options.maxiters",
+        ["did you mean 'maxiter'"],
+    ),
+    (
+        "heat map of a fixed axis",
+        lambda t: {**base(), "report": {"heatmaps": [["ratio", "dk"]]}},
+        "report.heatmaps[0]",
+        ["'dk' has one value"],
+    ),
     ("csc kxd ratio below 1", lambda t: _set(csc_base(), "axes.kxd_ratio", 0.5), "axes.kxd_ratio", ["must be >= 1"]),
-    ("task beyond the robot's joints", lambda t: _set(base(), "axes.task", ["xy", "full"]), "axes.task", ["'planar_3r'", "only 3 joint"]),
-    ("csc task the robot cannot control", lambda t: _set(csc_base(), "axes.task", "xyz"), "axes.task", ["vz", "zero at every posture"]),
-    ("csc task full", lambda t: _set(csc_base(), "axes.task", "full"), "axes.task", ["unknown value 'full'", "xy, xyz"]),
-    ("integer range that is not integers", lambda t: _set(base(), "axes.first_starts", {"start": 1, "stop": 4, "num": 3}),
-     "axes.first_starts", ["not integers (1, 2.5, 4)"]),
-    ("infinite tcp entry", lambda t: _set(base(), "robot.tcp", [[1.0, 0.0, 0.0, math.inf], [0.0, 1.0, 0.0, 0.0],
-                                                                  [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]),
-     "robot.tcp", ["NaN or Inf: [[1.0, 0.0, 0.0, inf], [0.0, 1.0, 0.0, 0.0]"]),
+    (
+        "task beyond the robot's joints",
+        lambda t: _set(base(), "axes.task", ["xy", "full"]),
+        "axes.task",
+        ["'planar_3r'", "only 3 joint"],
+    ),
+    (
+        "csc task the robot cannot control",
+        lambda t: _set(csc_base(), "axes.task", "xyz"),
+        "axes.task",
+        ["vz", "zero at every posture"],
+    ),
+    (
+        "csc task full",
+        lambda t: _set(csc_base(), "axes.task", "full"),
+        "axes.task",
+        ["unknown value 'full'", "xy, xyz"],
+    ),
+    (
+        "integer range that is not integers",
+        lambda t: _set(base(), "axes.first_starts", {"start": 1, "stop": 4, "num": 3}),
+        "axes.first_starts",
+        ["not integers (1, 2.5, 4)"],
+    ),
+    (
+        "infinite tcp entry",
+        lambda t: _set(
+            base(),
+            "robot.tcp",
+            [[1.0, 0.0, 0.0, math.inf], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]],
+        ),
+        "robot.tcp",
+        ["NaN or Inf: [[1.0, 0.0, 0.0, inf], [0.0, 1.0, 0.0, 0.0]"],
+    ),
 ]
 
 
@@ -158,10 +342,13 @@ def test_relative_files_resolve_against_the_toml_folder(tmp_path):
     sub.mkdir()
     P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 14.0, n=3).to_csv(sub / "p.csv")
     (sub / "s.toml").write_text(
-        '[robot]\nname = "planar_3r"\n[[paths]]\nfile = "p.csv"\n[axes]\ntask = "xy"\n', encoding="utf-8")
+        '[robot]\nname = "planar_3r"\n[[paths]]\nfile = "p.csv"\n[axes]\ntask = "xy"\n', encoding="utf-8"
+    )
     plan = load_config(sub / "s.toml")
     assert plan.trajectories[0].name == "p"
-    np.testing.assert_allclose(plan.trajectories[0].points, P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 14.0, n=3).points, atol=1e-15)
+    np.testing.assert_allclose(
+        plan.trajectories[0].points, P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 14.0, n=3).points, atol=1e-15
+    )
     assert plan.name == "s"
 
 
@@ -191,8 +378,15 @@ def test_generator_lists_make_one_path_per_value():
 
 def test_zip_pairs_generator_lists():
     cfg = base()
-    cfg["paths"] = [{"generator": "line", "start": [[1.5, 0.0, 0.0], [1.6, 0.0, 0.0]], "end": [[1.5, 0.1, 0.0], [1.6, 0.1, 0.0]],
-                     "n": 3, "zip": True}]
+    cfg["paths"] = [
+        {
+            "generator": "line",
+            "start": [[1.5, 0.0, 0.0], [1.6, 0.0, 0.0]],
+            "end": [[1.5, 0.1, 0.0], [1.6, 0.1, 0.0]],
+            "n": 3,
+            "zip": True,
+        }
+    ]
     plan = parse_config(cfg)
     assert len(plan.trajectories) == 2
     for t, x in zip(plan.trajectories, (1.5, 1.6), strict=True):
@@ -248,8 +442,11 @@ def test_groups_share_static_settings_and_chunks_stay_inside_groups():
         assert {plan.row_group[r] for r in c.rows} == {c.group}
         # whole settings: each group has one path per P, so a chunk never splits a setting
         settings = [plan.rows[r][0] for r in c.rows]
-        assert all(sum(1 for r in range(plan.n_rows) if plan.rows[r][0] == s and plan.row_group[r] == c.group)
-                   == settings.count(s) for s in set(settings))
+        assert all(
+            sum(1 for r in range(plan.n_rows) if plan.rows[r][0] == s and plan.row_group[r] == c.group)
+            == settings.count(s)
+            for s in set(settings)
+        )
         seen += c.rows
     assert sorted(seen) == list(range(plan.n_rows))
 
@@ -291,7 +488,9 @@ def test_plan_hash_sees_file_contents_not_their_folder(tmp_path):
     a.mkdir()
     shutil.copy(jaxstiff.robot_path("planar_3r"), a / "arm.urdf")
     P.arc([0.0, 0.0, 0.0], 1.5, 10.0, 14.0, n=3).to_csv(a / "p.csv")
-    (a / "s.toml").write_text('[robot]\nurdf = "arm.urdf"\n[[paths]]\nfile = "p.csv"\n[axes]\ntask = "xy"\n', encoding="utf-8")
+    (a / "s.toml").write_text(
+        '[robot]\nurdf = "arm.urdf"\n[[paths]]\nfile = "p.csv"\n[axes]\ntask = "xy"\n', encoding="utf-8"
+    )
     h0 = load_config(a / "s.toml").plan_hash
     shutil.copytree(a, tmp_path / "b")
     os.symlink(a, tmp_path / "link")
@@ -362,7 +561,9 @@ def test_csc_sweep_without_a_null_space_warns():
     import warnings
 
     two_free = _set(csc_base(), "robot.locked", {"joint_3": 0.0})
-    with pytest.warns(UserWarning, match=r"axes.task 'xy': robot 'planar_3r' has 2 free joints for 2 task rows: no null space"):
+    with pytest.warns(
+        UserWarning, match=r"axes.task 'xy': robot 'planar_3r' has 2 free joints for 2 task rows: no null space"
+    ):
         parse_config(two_free)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -377,17 +578,39 @@ def test_sweep_defaults_are_the_settings_defaults():
     from jaxstiff.settings import CSCSettings, ShapeSettings
 
     shape, csc = ShapeSettings(), CSCSettings()
-    want_shape = {"criterion": shape.criterion, "task": shape.task, "solver": shape.solver,
-                  "starts": 0 if shape.starts is None else shape.starts, "ratio": shape.ratio, "c": shape.c,
-                  "dq_deg": math.degrees(shape.dq), "dk": shape.dk, "kmin": shape.kmin, "kmax": shape.kmax,
-                  "first_rate_limit": shape.first_rate_limit, "first_starts": shape.first_starts}
-    want_csc = {"task": "xyz" if csc.task is None else csc.task, "step": csc.step, "kmin": csc.kmin, "kmax": csc.kmax,
-                "newton": csc.newton, "joint_limits": csc.joint_limits, "jl_gain": csc.jl_gain, "beta": csc.beta}
+    want_shape = {
+        "criterion": shape.criterion,
+        "task": shape.task,
+        "solver": shape.solver,
+        "starts": 0 if shape.starts is None else shape.starts,
+        "ratio": shape.ratio,
+        "c": shape.c,
+        "dq_deg": math.degrees(shape.dq),
+        "dk": shape.dk,
+        "kmin": shape.kmin,
+        "kmax": shape.kmax,
+        "first_rate_limit": shape.first_rate_limit,
+        "first_starts": shape.first_starts,
+    }
+    want_csc = {
+        "task": "xyz" if csc.task is None else csc.task,
+        "step": csc.step,
+        "kmin": csc.kmin,
+        "kmax": csc.kmax,
+        "newton": csc.newton,
+        "joint_limits": csc.joint_limits,
+        "jl_gain": csc.jl_gain,
+        "beta": csc.beta,
+    }
     for kind, want in (("shape", want_shape), ("csc", want_csc)):
         mirrored = {k for k, s in AXES[kind].items() if s.setting}
         assert mirrored == set(want), kind  # every axis with a settings twin is checked here
         for k, v in want.items():
-            assert AXES[kind][k].default == pytest.approx(v, rel=1e-15) if isinstance(v, float) else AXES[kind][k].default == v, k
+            assert (
+                AXES[kind][k].default == pytest.approx(v, rel=1e-15)
+                if isinstance(v, float)
+                else AXES[kind][k].default == v
+            ), k
     assert AXES["shape"]["dq_deg"].default == 2.0  # exactly, as the table column shows it
     assert csc.beta == 1.0 and AXES["csc"]["beta"].default == 1.0  # (the sweep's own default was 0.5)
 
@@ -417,7 +640,10 @@ def test_shipped_robot_gets_the_commands_default_lock():
     plan = parse_config(cfg)
     want = RobotSpec(urdf="kuka_lwr4").build()
     assert plan.robot.n_free == want.n_free == 6
-    assert dict(zip(plan.robot.joint_names, plan.robot.locked, strict=True))["lwr_a7"] == DEFAULT_LOCKS["kuka_lwr4"]["lwr_a7"]
+    assert (
+        dict(zip(plan.robot.joint_names, plan.robot.locked, strict=True))["lwr_a7"]
+        == DEFAULT_LOCKS["kuka_lwr4"]["lwr_a7"]
+    )
     assert plan.robot_spec["locked"] == {"lwr_a7": 0.0} and plan.robot_spec["locked_by_default"] is True
     free = parse_config(_set(cfg, "robot.locked", {}))
     assert free.robot.n_free == 7 and "locked_by_default" not in free.robot_spec

@@ -73,17 +73,32 @@ Modules: :mod:`.ops` (the traceable pieces of one waypoint problem: box, Newton,
 """
 
 from jaxstiff.solvers.pgd.batch import (
-           CODE_MEANING,
-           DEFAULT_OPTIONS,
-           check_options,
-           compiled_kernel,
-           pad_rows,
-           run_request,
-           solve_batch,
+    CODE_MEANING,
+    DEFAULT_OPTIONS,
+    check_options,
+    compiled_kernel,
+    pad_rows,
+    run_request,
+    solve_batch,
 )
 from jaxstiff.solvers.pgd.kernel import make_kernel
 from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, lm_kind, spd_solve
 from jaxstiff.solvers.pgd.stages import finish
 
-__all__ = ["DEFAULT_OPTIONS", "CODE_MEANING", "check_options", "solve_batch", "make_kernel", "run_request", "compiled_kernel",
-           "pad_rows", "WaypointOps", "spd_solve", "clip_box", "box_scales", "lm_kind", "adam_direction", "finish"]
+__all__ = [
+    "DEFAULT_OPTIONS",
+    "CODE_MEANING",
+    "check_options",
+    "solve_batch",
+    "make_kernel",
+    "run_request",
+    "compiled_kernel",
+    "pad_rows",
+    "WaypointOps",
+    "spd_solve",
+    "clip_box",
+    "box_scales",
+    "lm_kind",
+    "adam_direction",
+    "finish",
+]

@@ -18,16 +18,39 @@ from jaxstiff.solvers.pgd.kernel import make_kernel
 from jaxstiff.solvers.pgd.ops import lm_kind
 from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, content_seed
 
-__all__ = ["DEFAULT_OPTIONS", "check_options", "compiled_kernel", "pad_rows", "solve_batch", "CODE_MEANING",
-           "run_request", "first_start_rows", "iteration_counts"]
+__all__ = [
+    "DEFAULT_OPTIONS",
+    "check_options",
+    "compiled_kernel",
+    "pad_rows",
+    "solve_batch",
+    "CODE_MEANING",
+    "run_request",
+    "first_start_rows",
+    "iteration_counts",
+]
 
 #: Settings (``shape(..., solver="pgd", starts=S, options=...)``), from
 #: :class:`~jaxstiff.settings.solvers.PGDOptions` (what each one does is documented there).
 DEFAULT_OPTIONS: dict[str, Any] = PGDOptions.defaults()
 
 #: options of the other shipped solvers that may share an options dict with pgd's
-_SHARED = frozenset({"maxiter", "ftol", "kj_scale", "f_scale", "polish_slsqp", "traj_iters", "traj_step0", "traj_step1",
-                     "warm", "blocks", "mu0", "chain"})
+_SHARED = frozenset(
+    {
+        "maxiter",
+        "ftol",
+        "kj_scale",
+        "f_scale",
+        "polish_slsqp",
+        "traj_iters",
+        "traj_step0",
+        "traj_step1",
+        "warm",
+        "blocks",
+        "mu0",
+        "chain",
+    }
+)
 
 
 def check_options(options: Mapping[str, Any] | None, starts: int | None = None) -> dict[str, Any]:
@@ -157,7 +180,16 @@ def _run_chunks(
     kmin, kmax, c, pos_tol = shared
     B, P = targets.shape[:2]
     X = np.zeros((B, P, x0.shape[-1]))
-    out: dict[str, Any] = {k: np.zeros((B, P), dt) for k, dt in (("status", np.int64), ("solver_code", np.int64), ("pos_error", float), ("criterion", float), ("time_s", float))}
+    out: dict[str, Any] = {
+        k: np.zeros((B, P), dt)
+        for k, dt in (
+            ("status", np.int64),
+            ("solver_code", np.int64),
+            ("pos_error", float),
+            ("criterion", float),
+            ("time_s", float),
+        )
+    }
     compile_s, run_s = 0.0, 0.0
     with jax.enable_x64(True):
         for s in range(0, B, C):
@@ -165,9 +197,18 @@ def _run_chunks(
             sl = slice(s, e)
             keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(pad_rows(path_data[sl], C))
             args = (
-                pad_rows(targets[sl], C), pad_rows(directions[sl], C), pad_rows(x0[sl], C), keys,
-                pad_rows(dq_f[sl], C), pad_rows(dk[sl], C), kmin, kmax, pad_rows(r_arr[sl], C),
-                c, pos_tol, pad_rows(extra[sl], C),
+                pad_rows(targets[sl], C),
+                pad_rows(directions[sl], C),
+                pad_rows(x0[sl], C),
+                keys,
+                pad_rows(dq_f[sl], C),
+                pad_rows(dk[sl], C),
+                kmin,
+                kmax,
+                pad_rows(r_arr[sl], C),
+                c,
+                pos_tol,
+                pad_rows(extra[sl], C),
             )
             if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
                 from jaxstiff.runtime.sharding import shard_rows
@@ -192,11 +233,15 @@ def _run_chunks(
             out["solver_code"][sl] = res["start"][:m]
             out["pos_error"][sl] = res["err"][:m]
             out["criterion"][sl] = res["f"][:m]
-            out["time_s"][sl] = dt / ((e - s) * P)  # the chunk's wall time over its real waypoints (padding rows excluded)
+            out["time_s"][sl] = dt / (
+                (e - s) * P
+            )  # the chunk's wall time over its real waypoints (padding rows excluded)
     return X, out, compile_s, run_s
 
 
-def iteration_counts(problem: WaypointProblem, opts: Mapping[str, Any], B: int, P: int) -> tuple[np.ndarray, np.ndarray]:
+def iteration_counts(
+    problem: WaypointProblem, opts: Mapping[str, Any], B: int, P: int
+) -> tuple[np.ndarray, np.ndarray]:
     """``(nit, nfev)`` (B, P): the fixed iteration counts per start (gradient/LM steps) and the
     gradient evaluations over all starts, the first waypoint apart."""
     S = int(opts["starts"])
@@ -218,8 +263,18 @@ CODE_MEANING = "index of the start that won (-1 = none); no convergence flag (fi
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="pgd"``)."""
     res = solve_batch(
-        req.problem, req.targets, req.directions, req.q0, req.kj0, req.limits, req.ratio, req.c,
-        starts=req.starts, options=req.options, pos_tol=req.pos_tol, first_starts=req.first_starts,
+        req.problem,
+        req.targets,
+        req.directions,
+        req.q0,
+        req.kj0,
+        req.limits,
+        req.ratio,
+        req.c,
+        starts=req.starts,
+        options=req.options,
+        pos_tol=req.pos_tol,
+        first_starts=req.first_starts,
     )
     res.pop("criterion", None)
     res["code_meaning"] = CODE_MEANING

@@ -21,7 +21,9 @@ __all__ = ["make_kernel", "PGDKernel"]
 Waypoint = tuple[jax.Array, jax.Array, jax.Array, jax.Array, jax.Array]
 
 
-def make_kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) -> Callable[..., dict[str, jax.Array]]:
+def make_kernel(
+    problem: WaypointProblem, opts: dict[str, Any], first_rate: bool
+) -> Callable[..., dict[str, jax.Array]]:
     """The per-trajectory function ``(targets (P,3), dirs (P,3), x0 (nx,), key, dq_f, dk, kmin,
     kmax, r, c, pos_tol, extra (E, nx)) -> dict`` (traceable, vmappable over trajectories);
     ``extra``: given first-waypoint start states (E may be 0). :meth:`PGDKernel.traj`."""
@@ -48,12 +50,22 @@ class PGDKernel:
         self.wpos, self.walign = float(opts["lm_wpos"]), float(opts["lm_walign"])
         self.vstart = jax.vmap(self.one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0))
         self.S1 = max(self.S, int(opts["starts_first"])) if self.mode == "best" else self.S
-        self.vfirst = jax.vmap(lambda *a: self.one_start(*a, first=True),
-                               in_axes=(0, None, None, None, None, None, None, None, None, None))
+        self.vfirst = jax.vmap(
+            lambda *a: self.one_start(*a, first=True), in_axes=(0, None, None, None, None, None, None, None, None, None)
+        )
         self.tie = float(opts["tie_tol"])
 
-    def starts_at(self, key: jax.Array, xref: jax.Array, lb: jax.Array, ub: jax.Array, rate: jax.Array,
-                  kmin: jax.Array, kmax: jax.Array, S: int | None = None) -> jax.Array:
+    def starts_at(
+        self,
+        key: jax.Array,
+        xref: jax.Array,
+        lb: jax.Array,
+        ub: jax.Array,
+        rate: jax.Array,
+        kmin: jax.Array,
+        kmax: jax.Array,
+        S: int | None = None,
+    ) -> jax.Array:
         """(S, nx) start points in the box: start 0 the reference, others random around it."""
         S = self.S if S is None else S
         nf, nx = self.nf, self.nx
@@ -71,8 +83,20 @@ class PGDKernel:
         xs = xs.at[0].set(xref)
         return clip_box(xs, lb[None, :], ub[None, :])
 
-    def one_start(self, x0: jax.Array, lb: jax.Array, ub: jax.Array, tgt: jax.Array, d: jax.Array, r: jax.Array,
-                  c: jax.Array, kspan: jax.Array, pos_tol: jax.Array, rate: jax.Array, first: bool = False):
+    def one_start(
+        self,
+        x0: jax.Array,
+        lb: jax.Array,
+        ub: jax.Array,
+        tgt: jax.Array,
+        d: jax.Array,
+        r: jax.Array,
+        c: jax.Array,
+        kspan: jax.Array,
+        pos_tol: jax.Array,
+        rate: jax.Array,
+        first: bool = False,
+    ):
         """One start's optimisation (:func:`~jaxstiff.solvers.pgd.stages.optimise`) and verdict
         (:func:`~jaxstiff.solvers.pgd.stages.finish`): ``(x, f, err, usable, finite)``."""
         ops, nf = self.ops, self.nf
@@ -81,6 +105,7 @@ class PGDKernel:
         lm: Callable[[jax.Array], jax.Array] | None = None
         kind = self.kind
         if kind is not None and nlm > 0:
+
             def lm_stage(x: jax.Array) -> jax.Array:
                 x = ops.lm(x, lb, ub, tgt, d, r, kind, nlm, self.wpos, self.walign, box_scales(lb, ub, nf, kspan))
                 return ops.newton(x, tgt, lb, ub, 3)
@@ -89,8 +114,16 @@ class PGDKernel:
         xb = optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, self.opts, first, lm=lm)
         return finish(ops, xb, lb, ub, tgt, d, r, c, pos_tol, self.polish)
 
-    def pick(self, x: jax.Array, fv: jax.Array, err: jax.Array, usable: jax.Array, finite: jax.Array,
-             kmin: jax.Array, kmax: jax.Array) -> jax.Array:
+    def pick(
+        self,
+        x: jax.Array,
+        fv: jax.Array,
+        err: jax.Array,
+        usable: jax.Array,
+        finite: jax.Array,
+        kmin: jax.Array,
+        kmax: jax.Array,
+    ) -> jax.Array:
         """Index of the kept start: among the usable ones within ``tie_tol`` (relative) of the best
         criterion, the one farthest from the joint and stiffness limits (normalised; stiffness in
         log scale), so that later waypoints have room to follow the path. None usable: the
@@ -101,15 +134,23 @@ class PGDKernel:
         fb = jnp.min(sc)
         near = usable & (sc <= fb + self.tie * jnp.maximum(jnp.abs(fb), 1.0))
         dt = x.dtype
-        lo = jnp.concatenate([jnp.asarray(np.where(np.isfinite(qlo), qlo, -np.pi), dt), jnp.full((ops.n,), jnp.log(kmin))])
-        hi = jnp.concatenate([jnp.asarray(np.where(np.isfinite(qhi), qhi, np.pi), dt), jnp.full((ops.n,), jnp.log(kmax))])
+        lo = jnp.concatenate(
+            [jnp.asarray(np.where(np.isfinite(qlo), qlo, -np.pi), dt), jnp.full((ops.n,), jnp.log(kmin))]
+        )
+        hi = jnp.concatenate(
+            [jnp.asarray(np.where(np.isfinite(qhi), qhi, np.pi), dt), jnp.full((ops.n,), jnp.log(kmax))]
+        )
         y = jnp.concatenate([x[:, :nf], jnp.log(jnp.maximum(x[:, nf:], 1e-300))], axis=1)
         room = jnp.min(jnp.minimum(y - lo, hi - y) / jnp.maximum(hi - lo, 1e-300), axis=1)
         i_near = jnp.argmax(jnp.where(near, room, -jnp.inf))
         return jnp.where(jnp.any(usable), i_near, jnp.argmin(jnp.where(finite, err, jnp.inf)))
 
-    def step(self, carry: tuple[jax.Array, jax.Array], inp: tuple[jax.Array, jax.Array, jax.Array],
-             lims: tuple[jax.Array, ...]) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
+    def step(
+        self,
+        carry: tuple[jax.Array, jax.Array],
+        inp: tuple[jax.Array, jax.Array, jax.Array],
+        lims: tuple[jax.Array, ...],
+    ) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
         """One waypoint after the first (a ``lax.scan`` step): carry ``(xref (S, nx), at_start (S,))``,
         input ``(target, direction, key)``, ``lims = (dq_f, dk, kmin, kmax, r, c, kspan, pos_tol)``."""
         ops, S = self.ops, self.S
@@ -140,8 +181,9 @@ class PGDKernel:
         xo = jnp.where(finite[:, None], x, jax.vmap(clip_box)(xref, lb, ub))
         return carry, (xo, fv, err, status, jnp.arange(S))
 
-    def first(self, key: jax.Array, x0: jax.Array, extra: jax.Array, tgt: jax.Array, d: jax.Array,
-              lims: tuple[jax.Array, ...]) -> tuple[Waypoint, tuple[jax.Array, jax.Array]]:
+    def first(
+        self, key: jax.Array, x0: jax.Array, extra: jax.Array, tgt: jax.Array, d: jax.Array, lims: tuple[jax.Array, ...]
+    ) -> tuple[Waypoint, tuple[jax.Array, jax.Array]]:
         """The first waypoint, apart: more starts and iterations (its box is usually the whole
         range); given start states ``extra`` (greedy SLSQP's IK postures) replace random starts
         1..E. Returns its outputs and the scan's initial carry."""
@@ -165,9 +207,21 @@ class PGDKernel:
             carry0 = (jnp.where(u1[:, None], x1, x0[None, :]), ~u1)
         return first, carry0
 
-    def traj(self, targets: jax.Array, dirs: jax.Array, x0: jax.Array, key: jax.Array, dq_f: jax.Array,
-             dk: jax.Array, kmin: jax.Array, kmax: jax.Array, r: jax.Array, c: jax.Array, pos_tol: jax.Array,
-             extra: jax.Array) -> dict[str, jax.Array]:
+    def traj(
+        self,
+        targets: jax.Array,
+        dirs: jax.Array,
+        x0: jax.Array,
+        key: jax.Array,
+        dq_f: jax.Array,
+        dk: jax.Array,
+        kmin: jax.Array,
+        kmax: jax.Array,
+        r: jax.Array,
+        c: jax.Array,
+        pos_tol: jax.Array,
+        extra: jax.Array,
+    ) -> dict[str, jax.Array]:
         """One trajectory (see :func:`make_kernel`): ``x`` (P, nx), ``f``, ``err``, ``status``,
         ``start`` (P,)."""
         lims = (dq_f, dk, kmin, kmax, r, c, kmax - kmin, pos_tol)

@@ -22,8 +22,18 @@ from jaxstiff.stiffness.core import (
 from jaxstiff.stiffness.criteria import f1 as _f1
 from jaxstiff.stiffness.criteria import f2 as _f2
 
-__all__ = ["WaypointOps", "spd_solve", "complement_basis", "lm_kind", "clip_box", "box_scales", "adam_direction",
-           "ADAM_B1", "ADAM_B2", "ADAM_EPS"]
+__all__ = [
+    "WaypointOps",
+    "spd_solve",
+    "complement_basis",
+    "lm_kind",
+    "clip_box",
+    "box_scales",
+    "adam_direction",
+    "ADAM_B1",
+    "ADAM_B2",
+    "ADAM_EPS",
+]
 
 
 class WaypointOps:
@@ -175,7 +185,9 @@ class WaypointOps:
         w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
         m = Js.shape[0]
         t = 3 if m == 6 else m
-        Kc = damped_inverse_primal(compliance(Js, kj, self.pr.task), False)  # the damped inverse, all of it (no AD through it here)
+        Kc = damped_inverse_primal(
+            compliance(Js, kj, self.pr.task), False
+        )  # the damped inverse, all of it (no AD through it here)
         P = Kc[:, :t]  # (m, t)
         K = Kc[:t, :t]
         G = jnp.sum(P[:, :, None] * Js[:, None, :], axis=0)  # (t, n)
@@ -251,7 +263,9 @@ def spd_solve(A: jax.Array, b: jax.Array) -> jax.Array:
         L[(j, j)] = jnp.sqrt(jnp.maximum(s, tiny))
         inv.append(1.0 / L[(j, j)])
         for r in range(j + 1, k):
-            L[(r, j)] = (A[r, j] - sum((L[(r, i)] * L[(j, i)] for i in range(j)), start=jnp.zeros((), A.dtype))) * inv[j]
+            L[(r, j)] = (A[r, j] - sum((L[(r, i)] * L[(j, i)] for i in range(j)), start=jnp.zeros((), A.dtype))) * inv[
+                j
+            ]
     y = []
     for r in range(k):
         y.append((b[r] - sum((L[(r, i)] * y[i] for i in range(r)), start=jnp.zeros((), A.dtype))) * inv[r])
@@ -297,8 +311,9 @@ def box_scales(lb: jax.Array, ub: jax.Array, nf: int, kspan: float | jax.Array) 
 ADAM_B1, ADAM_B2, ADAM_EPS = 0.9, 0.999, 1e-12
 
 
-def adam_direction(g: jax.Array, scale: jax.Array, m1: jax.Array, m2: jax.Array,
-                   tt: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+def adam_direction(
+    g: jax.Array, scale: jax.Array, m1: jax.Array, m2: jax.Array, tt: jax.Array
+) -> tuple[jax.Array, jax.Array, jax.Array]:
     """One Adam update of the scaled gradient: ``(u, m1, m2)``.
 
     ``gy = g * scale`` (non-finite gradient entries count as 0), ``m1 = b1 m1 + (1 - b1) gy``,

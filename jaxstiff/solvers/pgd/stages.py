@@ -20,7 +20,12 @@ def optimise(ops: WaypointOps, x0, lb, ub, target, d, r, c, kspan, opts, first=F
     ``first``: the first waypoint's settings (``iters_first``, ``surrogate_first``, ``step0_first``).
     """
     if first:
-        opts = {**opts, "iters": opts["iters_first"], "surrogate": opts["surrogate_first"], "step0": opts["step0_first"]}
+        opts = {
+            **opts,
+            "iters": opts["iters_first"],
+            "surrogate": opts["surrogate_first"],
+            "step0": opts["step0_first"],
+        }
     elif lm is not None:
         opts = {**opts, "iters": opts["iters_lm"]}
     iters = int(opts["iters"])

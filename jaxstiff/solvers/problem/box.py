@@ -13,8 +13,18 @@ import numpy as np
 from jaxstiff.solvers.problem.compiled import jax_pos_and_jac
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
-__all__ = ["box", "rate_bounds", "clip_to_box", "newton_project", "check_point", "PointCheck", "Limits", "POS_TOL",
-           "BOUND_TOL", "content_seed"]
+__all__ = [
+    "box",
+    "rate_bounds",
+    "clip_to_box",
+    "newton_project",
+    "check_point",
+    "PointCheck",
+    "Limits",
+    "POS_TOL",
+    "BOUND_TOL",
+    "content_seed",
+]
 
 POS_TOL = 1e-9  #: m, largest position error of a waypoint that counts as reached
 BOUND_TOL = 1e-9  #: largest excursion outside the box that SLSQP may report before it counts as clipped
@@ -126,7 +136,7 @@ def newton_project(
         if not np.all(np.isfinite(step)):
             break
         new = clip_to_box(x[:nf] + step, lb[:nf], ub[:nf])
-        hit = (new != x[:nf] + step)
+        hit = new != x[:nf] + step
         active |= hit
         x[:nf] = new
         if active.all():
@@ -184,8 +194,9 @@ class Limits:
             return self
         dq = np.asarray(self.dq, float)
         dk = np.asarray(self.dk, float)
-        return Limits(dq[b] if dq.ndim == 2 else dq, dk[b] if dk.ndim == 2 else dk, self.kmin, self.kmax,
-                      self.first_rate_limit)
+        return Limits(
+            dq[b] if dq.ndim == 2 else dq, dk[b] if dk.ndim == 2 else dk, self.kmin, self.kmax, self.first_rate_limit
+        )
 
     def rows(self, B: int) -> tuple[np.ndarray, np.ndarray]:
         """``(dq (B, n), dk (B, n))``: the rate limits of every path of a batch of B."""

@@ -13,7 +13,14 @@ import numpy as np
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
-__all__ = ["compiled", "compiled_evaluate", "compiled_report", "compiled_scaled", "compiled_position", "jax_pos_and_jac"]
+__all__ = [
+    "compiled",
+    "compiled_evaluate",
+    "compiled_report",
+    "compiled_scaled",
+    "compiled_position",
+    "jax_pos_and_jac",
+]
 
 
 @functools.lru_cache(maxsize=64)
@@ -73,4 +80,3 @@ def jax_pos_and_jac(problem: WaypointProblem) -> Callable[[np.ndarray], tuple[np
         return out[:3], out[3:].reshape(k, nf)
 
     return pos_and_jac
-

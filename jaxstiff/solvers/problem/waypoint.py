@@ -112,9 +112,7 @@ class WaypointProblem:
 
     # ------------------------------------------------------------------ pure building blocks
     def stiffness(self, q: jax.Array, kj: jax.Array) -> jax.Array:
-        """Translational stiffness ``K_T`` (..., m, m), N/m, at (q, kj) (S0-4, S0-6).
-
-        """
+        """Translational stiffness ``K_T`` (..., m, m), N/m, at (q, kj) (S0-4, S0-6)."""
         _, J = position_and_jacobian(self.robot, q, task_rows(self.task))
         return translational_stiffness(J, kj, task=self.task)
 
@@ -206,4 +204,3 @@ class WaypointProblem:
     def params(target, direction, r: float, c: float) -> np.ndarray:
         """The flat float64 parameter vector ``[target (3), d (3), r, c]``."""
         return np.concatenate([np.asarray(target, float), np.asarray(direction, float), [float(r), float(c)]])
-
