@@ -32,7 +32,6 @@ Example:
 from __future__ import annotations
 
 import math
-import os
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -44,29 +43,27 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.paths import Path
 from jaxstiff.results import files as R
 from jaxstiff.settings.robot import RobotSpec
-from jaxstiff.settings.shape import ShapeSettings, limit_per_joint, ratio_per_path
-from jaxstiff.shaping_steps import FIRST_STARTS_SEED as FIRST_STARTS_SEED
-from jaxstiff.shaping_steps import FIRST_STARTS_SPREAD_DEG as FIRST_STARTS_SPREAD_DEG
+from jaxstiff.settings.shape import ShapeSettings
+from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
+from jaxstiff.shaping_inputs import FIRST_STARTS_SPREAD_DEG as FIRST_STARTS_SPREAD_DEG
+from jaxstiff.shaping_inputs import ShapeInputs, robot_and_path
+from jaxstiff.shaping_inputs import check_inputs as check_inputs
+from jaxstiff.shaping_inputs import first_start_postures as first_start_postures
+from jaxstiff.shaping_inputs import first_start_rng as first_start_rng
+from jaxstiff.shaping_inputs import make_start_states as make_start_states
 from jaxstiff.shaping_steps import (
-    ShapeInputs,
     assemble_result,
     cms_factors,
     report_at_solution,
     shape_meta,
     warn_off_plane,
 )
-from jaxstiff.shaping_steps import first_start_postures as first_start_postures
-from jaxstiff.shaping_steps import first_start_rng as first_start_rng
-from jaxstiff.shaping_steps import make_start_states as make_start_states
 from jaxstiff.solvers.base import SOLVERS, SolveRequest, SolverInterrupted, register_solver
-from jaxstiff.solvers.base import check_options as _check_options
 from jaxstiff.solvers.base import first_starts_use as _first_starts_use
 from jaxstiff.solvers.base import options_for_solver as options_for_solver  # re-exported (sweep)
 from jaxstiff.solvers.base import options_meta as _options_meta
 from jaxstiff.solvers.base import solver_option_names as solver_option_names  # re-exported (sweep)
 from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem
-from jaxstiff.stiffness.core import check_task_feasible, task_rows
-from jaxstiff.stiffness.criteria import get_criterion
 
 __all__ = [
     "shape",
@@ -143,147 +140,6 @@ class ShapeInterrupted(KeyboardInterrupt):
         self.result = result
 
 
-# ---------------------------------------------------------------------- input checks
-def _robot_and_path(
-    robot: Robot | RobotSpec | str | os.PathLike[str], path: Any
-) -> tuple[Robot, dict[str, Any] | None, Path]:
-    """The chain (and the RobotSpec's meta when one was given) and the paths as a batch (B, P, 3)."""
-    spec = None
-    if isinstance(robot, RobotSpec):
-        spec, robot = robot.meta(), robot.build()
-    elif isinstance(robot, (str, os.PathLike)):
-        robot = Robot.from_urdf(robot)
-    if not isinstance(robot, Robot):
-        raise ValueError(f"robot must be a jaxstiff.Robot, a RobotSpec or a URDF path, got {type(robot).__name__}")
-    if path is None:
-        from jaxstiff.paths import default_path
-
-        path = default_path()
-    if isinstance(path, (list, tuple)) and path and all(isinstance(p, Path) for p in path):
-        path = Path.stack(list(path))  # a list of equal-length paths -> one batch (B, P, 3)
-    if not isinstance(path, Path):
-        path = Path(path)
-    return robot, spec, path.as_batch()
-
-
-def _numbers(
-    v: Mapping[str, Any], cms_volume: float | None, cms_major: float | None, pos_tol: float, m: int
-) -> tuple[float, float, float]:
-    """kmin, kmax, c (checked) and the CMS targets and pos_tol (checked)."""
-    try:
-        kmin, kmax, c = float(v["kmin"]), float(v["kmax"]), float(v["c"])
-    except (TypeError, ValueError):
-        raise ValueError("kmin, kmax and c must be numbers (c is the same for every path)") from None
-    if not (math.isfinite(kmin) and math.isfinite(kmax)) or kmin <= 0 or kmin >= kmax:
-        raise ValueError(f"need finite 0 < kmin < kmax (Nm/rad), got kmin={kmin}, kmax={kmax}")
-    if not math.isfinite(c) or c < 0:
-        raise ValueError(f"c must be a finite number >= 0, got {c}")
-    if not (pos_tol > 0):
-        raise ValueError(f"pos_tol must be > 0 (m), got {pos_tol}")
-    if cms_volume is not None and cms_major is not None:
-        raise ValueError("give at most one of cms_volume and cms_major")
-    if cms_major is not None and not (cms_major > 0):
-        raise ValueError(f"cms_major must be > 0 (N/m), got {cms_major}")
-    if cms_volume is not None and not (cms_volume > 0):
-        raise ValueError(f"cms_volume must be > 0 ((N/m)^{m}), got {cms_volume}")
-    return kmin, kmax, c
-
-
-def _check_planar(path: Path, task: str) -> None:
-    if task == "xy" and np.any(np.abs(path.directions[..., 2]) > 1e-9):
-        b, k = (int(i) for i in np.argwhere(np.abs(path.directions[..., 2]) > 1e-9)[0])
-        raise ValueError(
-            f"task 'xy' needs directions in the xy plane (dz = 0); path {b}"
-            + (f" ({path.name})" if path.name else "")
-            + f" has dz = {path.directions[b, k, 2]:.3g} at waypoint {k} (its z changes along the path, or a "
-            "given direction leaves the plane: a planar task needs a path at constant z)"
-        )
-
-
-def _same_value(a: np.ndarray) -> float | None:
-    """The one value of a per-joint array (n,) whose entries are all equal, else None."""
-    return float(a[0]) if a.ndim == 1 and a.size and np.all(a == a[0]) else None
-
-
-def check_inputs(
-    robot: Robot,
-    path: Path,
-    values: Mapping[str, Any],
-    base: ShapeSettings,
-    *,
-    cms_volume: float | None,
-    cms_major: float | None,
-    options: Mapping[str, Any] | None,
-    pos_tol: float,
-) -> ShapeInputs:
-    """Step 1: check every input before any work (errors name the value, path and joint) and
-    resolve the defaults. ``values`` holds every :class:`ShapeSettings` field, per-path arrays
-    allowed for ratio (B,), dq and dk ((n,) or (B, n)); ``base`` gives the settings recorded for
-    the rest."""
-    B, n, task, solver = path.B, robot.n, values["task"], values["solver"]
-    if solver not in SOLVERS:
-        raise ValueError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
-    criterion = values["criterion"]
-    crit_fn = get_criterion(criterion)
-    crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
-    _check_options(solver, options)
-    task_rows(task)
-    check_task_feasible(robot, task)
-    ratio = ratio_per_path(values["ratio"], B)
-    m = 2 if task == "xy" else 3
-    kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)
-    dq = limit_per_joint(values["dq"], n, "dq (joint rate limit per waypoint)", "rad", B)
-    dk = limit_per_joint(values["dk"], n, "dk (stiffness rate limit per waypoint)", "Nm/rad", B)
-    _check_planar(path, task)
-    n_first = int(values["first_starts"])
-    if n_first < 1:
-        raise ValueError(f"first_starts must be >= 1, got {values['first_starts']}")
-    if cms_volume is None and cms_major is None:
-        cms_volume = float(values["cms_mean_axis"]) ** m
-    scalars = {
-        "criterion": crit_name,
-        "task": task,
-        "solver": solver,
-        "starts": values["starts"],
-        "kmin": kmin,
-        "kmax": kmax,
-        "c": c,
-        "first_rate_limit": bool(values["first_rate_limit"]),
-        "first_starts": n_first,
-        "cms_mean_axis": float(values["cms_mean_axis"]),
-    }
-    for key, one in (
-        ("ratio", ratio if isinstance(ratio, float) else None),
-        ("dq", _same_value(dq)),
-        ("dk", _same_value(dk)),
-    ):
-        if one is not None:
-            scalars[key] = one
-    return ShapeInputs(
-        robot=robot,
-        path=path,
-        criterion=criterion,
-        crit_name=crit_name,
-        crit_fn=crit_fn,
-        ratio=ratio,
-        c=c,
-        task=task,
-        solver=solver,
-        starts=values["starts"],
-        options=options,
-        dq=dq,
-        dk=dk,
-        kmin=kmin,
-        kmax=kmax,
-        first_rate_limit=bool(values["first_rate_limit"]),
-        first_starts=n_first,
-        cms_volume=cms_volume,
-        cms_major=cms_major,
-        pos_tol=float(pos_tol),
-        settings=base.replace(**scalars),
-    )
-
-
 def _solve(
     inp: ShapeInputs, extra_starts: list, progress: Callable[[int, int], None] | None
 ) -> tuple[WaypointProblem, SolveRequest, dict[str, Any], bool]:
@@ -343,8 +199,8 @@ def shape(
 
     Every setting left out (None) comes from ``settings`` (default :class:`ShapeSettings()
     <jaxstiff.settings.ShapeSettings>`, whose defaults are given below); one given here wins over
-    ``settings``. A long function only in its argument list: the work is the steps of the module
-    docstring.
+    ``settings``. Long only for its 23 documented parameters; the body is the named steps of the
+    module docstring (:func:`check_inputs`, :func:`make_start_states`, solve, report, meta, result).
 
     Args:
         robot: the chain (its locked joints stay fixed), a :class:`~jaxstiff.settings.RobotSpec`
@@ -421,7 +277,7 @@ def shape(
         "first_starts": first_starts,
     }
     values = {**dataclass_values(base), **{k: v for k, v in given.items() if v is not None}}
-    robot_, spec_meta, bpath = _robot_and_path(robot, path)
+    robot_, spec_meta, bpath = robot_and_path(robot, path)
     inp = check_inputs(
         robot_, bpath, values, base, cms_volume=cms_volume, cms_major=cms_major, options=options, pos_tol=pos_tol
     )

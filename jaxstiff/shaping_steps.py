@@ -14,20 +14,25 @@ from __future__ import annotations
 import dataclasses
 import datetime
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import jax
 import numpy as np
 
-from jaxstiff.ik import NOMINAL_OFFSET_DEG, ik_position, nominal_posture
+from jaxstiff.ik import NOMINAL_OFFSET_DEG, nominal_posture
 from jaxstiff.model.robot import Robot
 from jaxstiff.paths import DEFAULT_PATH_SPEC, Path
 from jaxstiff.results import files as R
 from jaxstiff.runtime.io import deferred_interrupts
 from jaxstiff.settings.robot import robot_meta, versions
-from jaxstiff.settings.shape import ShapeSettings
-from jaxstiff.solvers.problem import WaypointProblem, compiled_report, content_seed
+from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
+from jaxstiff.shaping_inputs import FIRST_STARTS_SPREAD_DEG as FIRST_STARTS_SPREAD_DEG
+from jaxstiff.shaping_inputs import ShapeInputs as ShapeInputs
+from jaxstiff.shaping_inputs import first_start_postures as first_start_postures
+from jaxstiff.shaping_inputs import first_start_rng as first_start_rng
+from jaxstiff.shaping_inputs import make_start_states as make_start_states
+from jaxstiff.solvers.problem import WaypointProblem, compiled_report
 from jaxstiff.stiffness.criteria import CRITERIA
 
 __all__ = [
@@ -45,156 +50,6 @@ __all__ = [
     "FIRST_STARTS_SEED",
     "FIRST_STARTS_SPREAD_DEG",
 ]
-
-FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures, mixed with each path's own data
-FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg
-
-
-@dataclasses.dataclass
-class ShapeInputs:
-    """The checked inputs of one :func:`jaxstiff.shape` call (what the steps pass on).
-
-    Shapes: B paths of P waypoints, n joints; ``ratio`` a float or (B,); ``dq``/``dk`` (n,) or
-    (B, n); ``q0``/``kj0`` (B, n) once the start states are made. Units as in :func:`jaxstiff.shape`.
-    """
-
-    robot: Robot
-    path: Path  #: the batch (B, P, 3)
-    criterion: str | Callable[..., Any]
-    crit_name: str
-    crit_fn: Callable[..., Any]
-    ratio: float | np.ndarray
-    c: float
-    task: str
-    solver: str
-    starts: int | None
-    options: Mapping[str, Any] | None
-    dq: np.ndarray
-    dk: np.ndarray
-    kmin: float
-    kmax: float
-    first_rate_limit: bool
-    first_starts: int
-    cms_volume: float | None
-    cms_major: float | None
-    pos_tol: float
-    settings: ShapeSettings  #: the settings that ran, per-path arrays aside (meta["settings"])
-    robot_spec: dict[str, Any] | None = None  #: the RobotSpec's meta, when one was given
-    q0: np.ndarray | None = None
-    kj0: np.ndarray | None = None
-    q0_given: bool = False
-    kj0_given: bool = False
-    ik_error: list[float] | None = None
-
-    @property
-    def m(self) -> int:
-        """Rows of the task stiffness: 2 for task "xy", else 3."""
-        return 2 if self.task == "xy" else 3
-
-
-def first_start_rng(seed: int, target: np.ndarray, direction: np.ndarray, q0: np.ndarray) -> np.random.Generator:
-    """The random generator of one path's extra first-waypoint start postures: seeded by ``seed``
-    and a CRC-32 of the path's targets (P, 3), directions (P, 3) and start posture q0 (n,), so the
-    same path gets the same postures wherever it stands in a batch."""
-    return np.random.default_rng(np.random.SeedSequence([int(seed), content_seed(target, direction, q0)]))
-
-
-def first_start_postures(
-    robot: Robot,
-    points: np.ndarray,
-    directions: np.ndarray,
-    q0: np.ndarray,
-    kj0: np.ndarray,
-    count: int,
-    task: str = "full",
-    seed: int = FIRST_STARTS_SEED,
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """``count`` extra start states ``(q, kj0)`` for a path's first waypoint (no rate limit there).
-
-    Each posture is the position IK of the first waypoint from the nominal posture perturbed by up
-    to +-:data:`FIRST_STARTS_SPREAD_DEG` per free joint; the random draws come from
-    :func:`first_start_rng` (the seed and the path's own data), so a path gets the same postures
-    wherever it stands in a batch. Greedy SLSQP solves the first waypoint from each of them
-    besides ``q0``; pgd and the hybrid use them as some of their first-waypoint starts.
-    """
-    spread = np.deg2rad(FIRST_STARTS_SPREAD_DEG)
-    rng = first_start_rng(seed, points, directions, q0)
-    out = []
-    for _ in range(int(count)):
-        qn = nominal_posture(robot) + np.where(robot.free, rng.uniform(-spread, spread, robot.n), 0.0)
-        qn = np.clip(qn, robot.lower, robot.upper)
-        qs, _ = ik_position(robot, points[0], qn, planar=(task == "xy"))
-        out.append((qs, np.array(kj0, float, copy=True)))
-    return out
-
-
-def _start_states(robot: Robot, value: Any, B: int, what: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.ndim == 1:
-        a = np.broadcast_to(a, (B, a.shape[0]))
-    if a.ndim != 2 or a.shape != (B, robot.n):
-        raise ValueError(
-            f"{what} must have {robot.n} values (one per joint of {robot.name!r}) or shape ({B}, {robot.n}), got shape {np.shape(value)}"
-        )
-    if not np.all(np.isfinite(a)):
-        idx = tuple(int(i) for i in np.argwhere(~np.isfinite(a))[0])
-        where = f"joint {robot.joint_names[idx[-1]]!r}" + (f" of path {idx[0]}" if B > 1 else "")
-        raise ValueError(f"{what} contains NaN or Inf: {where} has {a[idx]}")
-    return np.array(a, dtype=float)
-
-
-def _check_q0(robot: Robot, q0: np.ndarray) -> None:
-    lo, hi = robot.lower, robot.upper
-    for b, q in enumerate(q0):
-        bad = np.flatnonzero((q < lo) | (q > hi))
-        if bad.size:
-            i = int(bad[0])
-            raise ValueError(
-                f"q0[{i}] = {q[i]:.6g} rad for joint {robot.joint_names[i]!r} is outside its limits "
-                f"[{lo[i]:.6g}, {hi[i]:.6g}]" + (f" (path {b})" if q0.shape[0] > 1 else "")
-            )
-        lv = robot.locked_values
-        for i in np.flatnonzero(~np.isnan(lv)):
-            if abs(q[i] - lv[i]) > 1e-12:
-                raise ValueError(f"q0[{i}] = {q[i]:.6g} but joint {robot.joint_names[i]!r} is locked at {lv[i]:.6g}")
-
-
-def make_start_states(inp: ShapeInputs, q0: Any, kj0: Any) -> list[list[tuple[np.ndarray, np.ndarray]]]:
-    """Step 2: the start states (B, n) into ``inp`` (``q0`` given or IK from the nominal posture to
-    each path's first waypoint; ``kj0`` given or mid-range), and each path's extra start postures
-    for the first waypoint (none when it is rate-limited)."""
-    robot, bpath, B, n = inp.robot, inp.path, inp.path.B, inp.robot.n
-    inp.kj0_given = kj0 is not None
-    if kj0 is None:
-        inp.kj0 = np.full((B, n), 0.5 * (inp.kmin + inp.kmax))
-    else:
-        a = np.asarray(kj0, dtype=float)
-        inp.kj0 = _start_states(robot, np.full(n, float(a)) if a.ndim == 0 else a, B, "kj0")
-        bad = np.argwhere((inp.kj0 < inp.kmin) | (inp.kj0 > inp.kmax))
-        if bad.size:
-            bb, i = bad[0]
-            raise ValueError(
-                f"kj0[{i}] = {inp.kj0[bb, i]:.6g} Nm/rad for joint {robot.joint_names[i]!r} is outside "
-                f"[kmin, kmax] = [{inp.kmin:g}, {inp.kmax:g}]"
-            )
-    with jax.enable_x64(True):
-        inp.q0_given = q0 is not None
-        if q0 is not None:
-            inp.q0 = _start_states(robot, q0, B, "q0")
-            _check_q0(robot, inp.q0)
-        else:
-            inp.q0, inp.ik_error = np.zeros((B, n)), []
-            for b in range(B):
-                inp.q0[b], e = ik_position(robot, bpath.points[b, 0], planar=(inp.task == "xy"))
-                inp.ik_error.append(e)
-        if inp.first_rate_limit:
-            return [[] for _ in range(B)]
-        return [
-            first_start_postures(
-                robot, bpath.points[b], bpath.directions[b], inp.q0[b], inp.kj0[b], inp.first_starts - 1, inp.task
-            )
-            for b in range(B)
-        ]
 
 
 @dataclasses.dataclass

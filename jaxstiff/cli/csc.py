@@ -36,7 +36,6 @@ import argparse
 import json
 import math
 import os
-import re
 import sys
 import time
 from typing import Any
@@ -44,13 +43,17 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.cli.common import add_robot_flags, check_out_file, command, robot_spec_from_args
+from jaxstiff.cli.csc_flags import M_TASK, parse_numbers
+from jaxstiff.cli.csc_flags import SETTING_FLAGS as SETTING_FLAGS
+from jaxstiff.cli.csc_flags import add_setting_flags as add_setting_flags
+from jaxstiff.cli.csc_flags import parse_kxd as parse_kxd
+from jaxstiff.cli.csc_flags import settings_from_args as settings_from_args
 from jaxstiff.csc.segments import StepProgress
 from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending
 from jaxstiff.runtime.io import json_default as _json_default
 from jaxstiff.settings.csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
 from jaxstiff.settings.csc import CSCSettings
 
-_M_TASK = {2: "xy", 3: "xyz", 6: "full"}
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
 #: rollout-steps per segment of a long run (on a CPU core about 0.5-1 s for a batch of a 7-joint
 #: arm, 3-5 s for one rollout): a progress line after each, and an interrupt keeps the finished ones
@@ -61,51 +64,6 @@ MIN_SEGMENT = 10
 def segment_steps(B: int, T: int) -> int:
     """Steps per segment for B rollouts of T steps (T itself for a short run: one compiled call)."""
     return int(min(T, max(MIN_SEGMENT, math.ceil(SEGMENT_WORK / max(B, 1)))))
-
-
-def _numbers(text: str, flag: str) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip() != ""]
-    except ValueError:
-        raise ValueError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
-    if not vals or not all(math.isfinite(v) for v in vals):
-        raise ValueError(f"{flag}: expected finite comma-separated numbers, got {text!r}")
-    return vals
-
-
-def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
-    """``"K1,..,Km[@DEG]"`` or ``m*m`` numbers -> symmetric (m, m) matrix (N/m). See module docstring."""
-    body, sep, deg = text.partition("@")
-    vals = _numbers(body, "--kxd")
-    want = None if task is None else {"xy": 2, "xyz": 3, "full": 6}[task]
-    if sep:
-        angle = _numbers(deg, "--kxd angle")
-        if len(angle) != 1 or len(vals) not in (2, 3) or (want is not None and len(vals) != want):
-            raise ValueError(
-                f"--kxd {text!r}: the K1,...,Km@DEG form needs m = 2 or 3 diagonal values"
-                + (f" (m = {want} for task {task!r})" if want else "")
-                + " and one angle in degrees"
-            )
-        c, s = math.cos(math.radians(angle[0])), math.sin(math.radians(angle[0]))
-        R = np.array([[c, -s], [s, c]]) if len(vals) == 2 else np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        K = R @ np.diag(vals) @ R.T
-    elif len(vals) in (2, 3, 6) and (want is None or len(vals) == want):
-        K = np.diag(vals)
-    elif len(vals) in (4, 9, 36) and (want is None or len(vals) == want * want):
-        m = int(round(math.sqrt(len(vals))))
-        K = np.asarray(vals).reshape(m, m)
-        if not np.allclose(K, K.T, rtol=1e-9, atol=1e-9):
-            raise ValueError(f"--kxd {text!r}: the matrix (row by row) is not symmetric")
-    else:
-        raise ValueError(
-            f"--kxd {text!r}: give m diagonal values K1,...,Km[@DEG] or m*m matrix entries, m = 2, 3 or 6"
-            + (f" (m = {want} for task {task!r})" if want else "")
-            + f"; got {len(vals)} numbers"
-        )
-    w = np.linalg.eigvalsh(0.5 * (K + K.T))
-    if w[0] < -1e-9 * np.max(np.abs(w)):  # as csc_rollout: a zero stiffness along an axis is allowed
-        raise ValueError(f"--kxd {text!r}: K_xd must be positive semi-definite (stiffness in N/m), eigenvalue {w[0]:g}")
-    return K
 
 
 def _warn_ignored_z(robot: Any, q0: np.ndarray, z: np.ndarray, flag: str) -> None:
@@ -120,21 +78,6 @@ def _warn_ignored_z(robot: Any, q0: np.ndarray, z: np.ndarray, flag: str) -> Non
         )
 
 
-#: the settings flags of `jaxstiff csc`: CSCSettings field -> flag (defaults, units and help from the field)
-SETTING_FLAGS = {
-    "beta": "--beta",
-    "step": "--step",
-    "task": "--task",
-    "kmin": "--kmin",
-    "kmax": "--kmax",
-    "nu0": "--nu0",
-    "damping": "--damping",
-    "null_eps": "--null-eps",
-    "newton": "--newton",
-    "joint_limits": "--joint-limits",
-    "jl_gain": "--jl-gain",
-}
-
 _EPILOG = (
     "Result file (--out, .npz, numpy.load(..., allow_pickle=False)); B paths (1 for --hold), T steps, n joints, "
     "m task rows, d target coordinates: q (B,T,n), u (B,T), frobenius (B,T), tracking_error (B,T), "
@@ -147,46 +90,6 @@ _EPILOG = (
     "written, 'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 130 / 143 interrupted by "
     "Ctrl-C / SIGTERM."
 )
-
-
-def add_setting_flags(p: argparse.ArgumentParser) -> None:
-    """One flag per :class:`CSCSettings` field (:data:`SETTING_FLAGS`), its default, unit and doc from the field."""
-    for info in CSCSettings.fields_info():
-        flag = SETTING_FLAGS[info.name]
-        kind: Any = int if info.name == "newton" else str if info.choices else float
-        choices = [c for c in info.choices if c is not None] if info.choices else None
-        unit = f" [{info.unit}]" if info.unit and info.unit != "1" else ""
-        shown = (
-            ""
-            if info.default is None
-            else f" (default: {info.default:g})"
-            if isinstance(info.default, float)
-            else f" (default: {info.default})"
-        )
-        help_text = info.doc + unit + shown
-        p.add_argument(flag, type=kind, choices=choices, default=info.default, help=help_text)
-
-
-def settings_from_args(args: argparse.Namespace) -> CSCSettings:
-    """The :class:`CSCSettings` of the flags; an error names the flag (``--kmin must be ...``)."""
-    try:
-        return CSCSettings(**{name: getattr(args, name) for name in SETTING_FLAGS})
-    except ValueError as e:
-        raise ValueError(_flag_message(str(e))) from None
-
-
-def _flag_message(msg: str) -> str:
-    """``csc.kmin (Nm/rad) must be ...`` -> ``--kmin must be ... (Nm/rad)``."""
-    units: list[str] = []
-
-    def flag(m: re.Match) -> str:
-        if m.group(2):
-            units.append(m.group(2))
-        name = str(m.group(1))
-        return SETTING_FLAGS.get(name, "--" + name.replace("_", "-"))
-
-    out = re.sub(r"csc\.(\w+)(?: \(([^)]*)\))?", flag, msg)
-    return out + (f" ({units[0]})" if units else "")
 
 
 @command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
@@ -222,9 +125,9 @@ def _add_csc(p: argparse.ArgumentParser):
 def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, str]:
     """q0 (n,) in rad (m for prismatic joints) from --q0 or --q0-deg, locked joints checked; and the flag."""
     if args.q0 is not None:
-        q0 = np.asarray(_numbers(args.q0, "--q0"))
+        q0 = np.asarray(parse_numbers(args.q0, "--q0"))
     else:
-        q0 = np.asarray(_numbers(args.q0_deg, "--q0-deg"), dtype=float)
+        q0 = np.asarray(parse_numbers(args.q0_deg, "--q0-deg"), dtype=float)
         if q0.shape == (robot.n,):  # degrees for revolute joints; a prismatic joint's value is a length
             q0 = np.where(robot.prismatic, q0, np.deg2rad(q0))
     flag = "--q0" if args.q0 is not None else "--q0-deg"
@@ -249,7 +152,7 @@ def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) ->
     """The (B, T, d) targets of --hold or --path, and their sources for meta."""
     d = 2 if task == "xy" else 3
     if args.hold is not None:
-        x = _numbers(args.hold, "--hold")
+        x = parse_numbers(args.hold, "--hold")
         if len(x) not in (d, 3):
             raise ValueError(f"--hold needs {d} coordinates (m) for task {task!r}, got {len(x)}")
         points = np.tile(np.asarray(x), (1, args.steps, 1))
@@ -457,7 +360,7 @@ def run_csc(args: argparse.Namespace) -> int:
     spec = robot_spec_from_args(args)
     robot = spec.build()
     K = parse_kxd(args.kxd, settings.task)
-    settings = settings.replace(task=settings.task or _M_TASK[K.shape[0]])
+    settings = settings.replace(task=settings.task or M_TASK[K.shape[0]])
     q0, flag = _start_posture(args, robot)
     points, sources = _targets(args, robot, q0, settings.task or "")
     res, interrupted, seconds = _rollout(robot, points, K, q0, settings, _notes(args, settings))

@@ -14,10 +14,11 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
-from jaxstiff.cli.common import add_robot_flags, check_out_file, command, robot_spec_from_args, setting_help
+from jaxstiff.cli.common import check_out_file, command, robot_spec_from_args
+from jaxstiff.cli.shape_flags import EPILOG as EPILOG
+from jaxstiff.cli.shape_flags import add_shape_flags as add_shape_flags
 from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending, raise_if_interrupted
 from jaxstiff.runtime.progress import Progress, progress
-from jaxstiff.settings.shape import TASKS, ShapeSettings
 
 if TYPE_CHECKING:
     import numpy as np
@@ -27,16 +28,6 @@ if TYPE_CHECKING:
     from jaxstiff.results.files import ShapeResult
 
 __all__ = ["summary_table", "rate_limits", "WaypointProgress", "add_shape_flags", "run_shape"]
-
-_S = ShapeSettings()
-EPILOG = (
-    "Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
-    "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
-    "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
-    "file is written with the waypoints finished so far (the others have status 5, not run; meta "
-    "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written; after the "
-    "last waypoint the complete file is still written."
-)
 
 
 def _num(text: Any, flag: str, cast: Any = float) -> Any:
@@ -118,121 +109,6 @@ def rate_limits(robot: Robot, dq_deg: float, dq_m: float | None) -> float | np.n
     if not prismatic.any():
         return dq
     return np.where(prismatic, dq if dq_m is None else dq_m, dq)
-
-
-# ---------------------------------------------------------------------- flags
-def _add_problem_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--path",
-        action="append",
-        metavar="CSV",
-        help="path file with header x,y,z[,dx,dy,dz], metres in the base frame (repeatable: several "
-        "paths with the same number of waypoints, one result file; messages number them from "
-        "0, in the order given, as the file's first axis). Default: the shipped "
-        "default path (jaxstiff.paths.default_path)",
-    )
-    p.add_argument("--criterion", default=_S.criterion, help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
-    p.add_argument("--ratio", default=_S.ratio, metavar="R", help=setting_help(ShapeSettings, "ratio", extra=", > 1"))
-    p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)")
-    p.add_argument(
-        "--task",
-        default=_S.task,
-        choices=list(TASKS),
-        help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2",
-    )
-    p.add_argument(
-        "--q0",
-        default=None,
-        metavar="RAD,...",
-        help="start posture, one value per joint (rad; m for prismatic joints; locked joints at their values); "
-        "default: damped-least-squares IK from the nominal posture to the first waypoint",
-    )
-    p.add_argument(
-        "--kj0",
-        default=None,
-        metavar="V|V,...",
-        help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
-        "(default: mid-range (kmin+kmax)/2)",
-    )
-
-
-def _add_limit_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--dq-deg",
-        default=math.degrees(_S.dq),
-        metavar="D",
-        help=setting_help(ShapeSettings, "dq", unit="degrees per waypoint", extra=" (inf = none)"),
-    )
-    p.add_argument(
-        "--dq-m",
-        default=None,
-        metavar="M",
-        help="rate limit of prismatic joints, m per waypoint (inf = none; default: the value of "
-        "--dq-deg in radians read as metres, 2 -> 0.0349 m)",
-    )
-    p.add_argument("--dk", default=_S.dk, metavar="K", help=setting_help(ShapeSettings, "dk", extra=" (inf = none)"))
-    p.add_argument("--kmin", default=_S.kmin, metavar="A", help=setting_help(ShapeSettings, "kmin", extra=", > 0"))
-    p.add_argument("--kmax", default=_S.kmax, metavar="B", help=setting_help(ShapeSettings, "kmax", extra=", > kmin"))
-    p.add_argument("--c", default=_S.c, metavar="C", help=setting_help(ShapeSettings, "c"))
-    p.add_argument(
-        "--first-rate-limit",
-        dest="first_rate_limit",
-        action="store_true",
-        help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
-        "first waypoint may use the full joint and stiffness ranges)",
-    )
-    p.add_argument(
-        "--no-first-rate-limit",
-        dest="first_rate_limit",
-        action="store_false",
-        help="the default: do not rate-limit the first waypoint",
-    )
-    p.set_defaults(first_rate_limit=_S.first_rate_limit)
-    p.add_argument(
-        "--first-starts",
-        default=_S.first_starts,
-        metavar="N",
-        help="start postures for the first (not rate-limited) waypoint",
-    )
-    p.add_argument(
-        "--cms-volume",
-        default=None,
-        metavar="V",
-        help=f"CMS target: product of the ellipsoid axes, (N/m)^3 (default: {_S.cms_mean_axis:g}^3, "
-        f"i.e. a geometric-mean axis of {_S.cms_mean_axis:g} N/m)",
-    )
-    p.add_argument(
-        "--cms-major",
-        default=None,
-        metavar="N_PER_M",
-        help="CMS target: major axis lambda1, N/m, instead of the volume",
-    )
-
-
-def _add_solver_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--solver",
-        default=_S.solver,
-        help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
-        "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
-        "trajectory after a greedy warm start), or another registered solver",
-    )
-    p.add_argument(
-        "--starts",
-        default=_S.starts,
-        metavar="S",
-        help="starts per waypoint, multi-start solvers only (default: the solver's own)",
-    )
-    p.add_argument("--quiet", action="store_true", help="no progress bar and no summary table")
-
-
-def add_shape_flags(p: argparse.ArgumentParser) -> None:
-    """Every flag of ``jaxstiff shape`` (the robot flags are every command's)."""
-    p.epilog = EPILOG
-    add_robot_flags(p)
-    _add_problem_flags(p)
-    _add_limit_flags(p)
-    _add_solver_flags(p)
 
 
 # ---------------------------------------------------------------------- run

@@ -210,6 +210,8 @@ def csc_rollout(
 
     Settings (``beta``, ``task`` ... ``jl_gain``) come from ``settings`` (default: CSCSettings'
     defaults, as ``jaxstiff csc``'s); a keyword that is not None overrides its field (arrays too).
+    Long only for its 20 documented parameters; the body is two named steps (:func:`prepare_rollout`,
+    :func:`rollout_batch`).
 
     Args:
         robot: the chain (static: one compilation per robot and setting).

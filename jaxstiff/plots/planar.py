@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -97,6 +97,86 @@ def figure_cds(
     return save_figure(fig, file)
 
 
+def _criterion_surface(
+    ax: Any,
+    A: np.ndarray,
+    P: np.ndarray,
+    F: np.ndarray,
+    name: str,
+    label: str,
+    rho_line: np.ndarray,
+    r: float,
+    c: float,
+) -> None:
+    """Top panel of :func:`figure_criteria`: the criterion as a 3-D surface (log colour), minimum set in red."""
+    from matplotlib.colors import LogNorm
+
+    ax.plot_surface(
+        A,
+        P,
+        F,
+        cmap="viridis",
+        norm=LogNorm(vmin=F.min(), vmax=F.max()),
+        linewidth=0,
+        antialiased=True,
+        alpha=0.85,
+        rcount=A.shape[0],
+        ccount=A.shape[1],
+    )
+    if name == "f1":
+        ax.plot(
+            np.zeros_like(rho_line),
+            rho_line,
+            np.full_like(rho_line, c),
+            color="red",
+            lw=3,
+            zorder=10,
+            label="minimum set: α = 0, ρ ≥ r",
+        )
+    else:
+        ax.scatter(
+            [0.0],
+            [r],
+            [1.0],
+            color="red",
+            s=70,
+            depthshade=False,
+            zorder=10,  # pyright: ignore[reportArgumentType]
+            label="minimum: α = 0, ρ = r",
+        )  # (Axes3D.scatter takes zs; the 2-D stubs do not)
+    ax.set_xticks([-90, -45, 0, 45, 90])
+    ax.set_xlabel("orientation error α (deg)")
+    ax.set_ylabel("axis ratio ρ = λ1/λ2")
+    ax.set_zlabel(name)
+    ax.set_title(label, fontsize=10)
+    ax.view_init(elev=30, azim=-60)
+    ax.legend(fontsize=8, loc="upper left")
+
+
+def _criterion_map(
+    fig: Any, ax2: Any, A: np.ndarray, P: np.ndarray, F: np.ndarray, name: str, rho_line: np.ndarray, r: float, c: float
+) -> None:
+    """Bottom panel of :func:`figure_criteria`: the criterion as a colour map with contours and its colour bar."""
+    from matplotlib.colors import LogNorm
+
+    pcm = ax2.pcolormesh(A, P, F, norm=LogNorm(vmin=F.min(), vmax=F.max()), cmap="viridis", shading="auto")
+    levels = [v for v in (0.1, 1.5, 3, 10, 30, 100, 300) if F.min() < v < F.max()]
+    cs = ax2.contour(A, P, F, levels=levels, colors="white", linewidths=0.7)
+    ax2.clabel(cs, fmt="%g", fontsize=7)
+    if name == "f1":
+        ax2.plot(np.zeros_like(rho_line), rho_line, color="red", lw=4, label=f"minimum set (f1 = c = {c:g})")
+    else:
+        ax2.plot([0.0], [r], "o", color="red", ms=9, label="minimum (f2 = 1)")
+    ax2.set(
+        xlabel="orientation error α (deg)",
+        ylabel="axis ratio ρ = λ1/λ2",
+        title=f"{name} (colour: log scale, white: contours)",
+    )
+    ax2.set_xticks([-90, -45, 0, 45, 90])
+    ax2.legend(fontsize=8, loc="upper right")
+    fig.colorbar(pcm, ax=ax2, label=name)
+
+
 def figure_criteria(
     alpha_deg: np.ndarray,
     rho: np.ndarray,
@@ -117,8 +197,6 @@ def figure_criteria(
         file: PNG to write.
     """
     plt = pyplot()
-    from matplotlib.colors import LogNorm
-
     A, P = np.meshgrid(alpha_deg, rho, indexing="ij")
     fig = plt.figure(figsize=(13, 10))
     gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1], hspace=0.25, wspace=0.15)
@@ -128,64 +206,8 @@ def figure_criteria(
     ]
     rho_line = rho[rho >= r]
     for col, (name, F, label) in enumerate(specs):
-        ax = fig.add_subplot(gs[0, col], projection="3d")
-        ax.plot_surface(
-            A,
-            P,
-            F,
-            cmap="viridis",
-            norm=LogNorm(vmin=F.min(), vmax=F.max()),
-            linewidth=0,
-            antialiased=True,
-            alpha=0.85,
-            rcount=A.shape[0],
-            ccount=A.shape[1],
-        )
-        if name == "f1":
-            ax.plot(
-                np.zeros_like(rho_line),
-                rho_line,
-                np.full_like(rho_line, c),
-                color="red",
-                lw=3,
-                zorder=10,
-                label="minimum set: α = 0, ρ ≥ r",
-            )
-        else:
-            ax.scatter(
-                [0.0],
-                [r],
-                [1.0],
-                color="red",
-                s=70,
-                depthshade=False,
-                zorder=10,  # pyright: ignore[reportArgumentType]
-                label="minimum: α = 0, ρ = r",
-            )  # (Axes3D.scatter takes zs; the 2-D stubs do not)
-        ax.set_xticks([-90, -45, 0, 45, 90])
-        ax.set_xlabel("orientation error α (deg)")
-        ax.set_ylabel("axis ratio ρ = λ1/λ2")
-        ax.set_zlabel(name)
-        ax.set_title(label, fontsize=10)
-        ax.view_init(elev=30, azim=-60)
-        ax.legend(fontsize=8, loc="upper left")
-        ax2 = fig.add_subplot(gs[1, col])
-        pcm = ax2.pcolormesh(A, P, F, norm=LogNorm(vmin=F.min(), vmax=F.max()), cmap="viridis", shading="auto")
-        levels = [v for v in (0.1, 1.5, 3, 10, 30, 100, 300) if F.min() < v < F.max()]
-        cs = ax2.contour(A, P, F, levels=levels, colors="white", linewidths=0.7)
-        ax2.clabel(cs, fmt="%g", fontsize=7)
-        if name == "f1":
-            ax2.plot(np.zeros_like(rho_line), rho_line, color="red", lw=4, label=f"minimum set (f1 = c = {c:g})")
-        else:
-            ax2.plot([0.0], [r], "o", color="red", ms=9, label="minimum (f2 = 1)")
-        ax2.set(
-            xlabel="orientation error α (deg)",
-            ylabel="axis ratio ρ = λ1/λ2",
-            title=f"{name} (colour: log scale, white: contours)",
-        )
-        ax2.set_xticks([-90, -45, 0, 45, 90])
-        ax2.legend(fontsize=8, loc="upper right")
-        fig.colorbar(pcm, ax=ax2, label=name)
+        _criterion_surface(fig.add_subplot(gs[0, col], projection="3d"), A, P, F, name, label, rho_line, r, c)
+        _criterion_map(fig, fig.add_subplot(gs[1, col]), A, P, F, name, rho_line, r, c)
     fig.suptitle(title or "Seed 000 Fig. 6: criteria over orientation error × axis ratio", fontsize=12)
     return save_figure(fig, file)
 

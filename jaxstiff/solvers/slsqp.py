@@ -78,13 +78,9 @@ def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     return SLSQPOptions.check_values({**DEFAULT_OPTIONS, **(options or {})})
 
 
-def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> WaypointSolver:
-    """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX derivatives."""
-    from scipy.optimize import Bounds, minimize
-
-    opts = check_options(options)
-    fused_s = compiled_scaled(problem)
-    # compile now (once per problem and dtype), so that waypoint timings exclude compilation
+def _compile_now(problem: WaypointProblem, fused_s: Callable[..., Any]) -> float:
+    """Compile the solver's kernels now (once per problem and dtype), so that waypoint timings
+    exclude compilation; return the seconds it took."""
     t0 = time.perf_counter()
     x_dummy = problem.x_of(np.nan_to_num(problem.robot.locked_values) + 0.1, np.ones(problem.n))
     # argument kinds as in every later call (y numpy; params, scale on the device): one cache entry
@@ -96,7 +92,16 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
         )
     )
     np.asarray(compiled_position(problem)(np.nan_to_num(problem.robot.locked_values)))
-    compile_s = time.perf_counter() - t0
+    return time.perf_counter() - t0
+
+
+def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> WaypointSolver:
+    """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX derivatives."""
+    from scipy.optimize import Bounds, minimize
+
+    opts = check_options(options)
+    fused_s = compiled_scaled(problem)
+    compile_s = _compile_now(problem, fused_s)
     nx, k = problem.nx, len(problem.pos_rows)
     sl_f, sl_g, sl_c = 0, slice(1, 1 + nx), slice(1 + nx, 1 + nx + k)
     sl_a = slice(1 + nx + k, None)

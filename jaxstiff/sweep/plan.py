@@ -27,16 +27,15 @@ import numpy as np
 
 from jaxstiff.runtime.io import json_default
 from jaxstiff.sweep.axes import AXES, axes_table, cross_checks, resolve_jl_gain
+from jaxstiff.sweep.robot_table import build_robot as build_robot
 from jaxstiff.sweep.schema import (
     DEFAULT_CHUNK,
     MAX_ROWS,
     TOP_KEYS,
-    RobotTable,
     SweepConfigError,
     SweepTable,
     check_table,
     known_keys,
-    suggest,
     validate,
 )
 from jaxstiff.sweep.sections import report_choices, solver_options
@@ -158,69 +157,6 @@ class SweepPlan:
 def _fmt_values(v: list) -> str:
     s = ", ".join(format_value(x) for x in v[:8])
     return s + (f", ... ({len(v)} values)" if len(v) > 8 else "")
-
-
-# ---------------------------------------------------------------------------- [robot]
-def build_robot(cfg: Mapping[str, Any], base_dir: str, source: str = "") -> tuple[Any, dict]:
-    """``(Robot, normalised spec)`` of the ``[robot]`` table, through :class:`~jaxstiff.settings.RobotSpec`
-    (a shipped robot gets its default locks, as in every command: kuka_lwr4 locks lwr_a7 = 0)."""
-    from jaxstiff.model.robot import Robot
-    from jaxstiff.model.shipped import robot_path, shipped_robots
-    from jaxstiff.runtime.io import file_sha256
-    from jaxstiff.settings.robot import RobotSpec
-
-    if "robot" not in cfg:
-        raise SweepConfigError("robot", "missing table [robot] (give name = a shipped robot, or urdf = a file)", source)
-    tbl = validate(RobotTable, cfg["robot"], "robot", source)
-    if tbl.name is not None:
-        shipped = shipped_robots()
-        if tbl.name.removesuffix(".urdf") not in shipped:
-            raise SweepConfigError(
-                "robot.name",
-                f"unknown robot {tbl.name!r}{suggest(tbl.name, shipped)}; shipped robots: {', '.join(shipped)}",
-                source,
-            )
-        urdf = robot_path(tbl.name)
-    else:
-        given = str(tbl.urdf)
-        urdf = given if os.path.isabs(given) else os.path.join(base_dir, given)
-        if not os.path.isfile(urdf):
-            raise SweepConfigError("robot.urdf", f"file not found: {urdf}", source)
-    matrix = tbl.tcp is not None and isinstance(tbl.tcp[0], list)  # a 4x4 transform (RobotSpec takes 3 or 6 values)
-    try:
-        spec = RobotSpec(
-            urdf=urdf,
-            base_link=tbl.base_link,
-            tip_link=tbl.tip_link,
-            locked=tbl.locked,
-            tcp=None if tbl.tcp is None or matrix else tuple(tbl.tcp),
-        )
-        locks = spec.resolved_locks()
-        if tbl.tcp is None or len(tbl.tcp) == 3 or matrix:  # (the file's tcp as given, as before)
-            robot = Robot.from_urdf(
-                urdf,
-                base_link=tbl.base_link,
-                tip_link=tbl.tip_link,
-                locked=locks or None,
-                tcp=None if tbl.tcp is None else np.asarray(tbl.tcp),
-            )
-        else:
-            robot = spec.build()
-    except (ValueError, FileNotFoundError) as exc:
-        text = str(exc)
-        key = (
-            "robot.locked"
-            if tbl.locked and "lock" in text.lower()
-            else "robot.tcp"
-            if tbl.tcp is not None and text.startswith(("tcp", "robot.tcp"))
-            else "robot"
-        )
-        raise SweepConfigError(key, text, source) from None
-    out = dict(cfg["robot"])
-    if tbl.locked is None and locks:  # the shipped robot's default locks (recorded: they change results)
-        out.update(locked=locks, locked_by_default=True)
-    out.update(urdf_file=os.path.abspath(urdf), urdf_sha256=file_sha256(urdf))
-    return robot, out
 
 
 # ---------------------------------------------------------------------------- expansion

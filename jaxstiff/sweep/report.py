@@ -96,14 +96,8 @@ def _md_table(header: list[str], rows: list[list]) -> str:
     return "\n".join(lines)
 
 
-def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str:
-    """Write ``summary.md`` and ``plots/heatmap_*.png`` for the finished sweep in ``out``; return summary.md."""
-    df = read_table(out)
-    plots = os.path.join(out, "plots")
-    os.makedirs(plots, exist_ok=True)
-    metrics = list(plan.metrics)
-    all_metrics = list(METRICS[plan.kind])
-    varying = plan.varying_axes()
+def _md_header(plan: SweepPlan, manifest: dict | None) -> list[str]:
+    """Title, description and the plan's facts (rows, robot, paths, hash, compute time, success rule)."""
     md = [f"# Sweep `{plan.name}` ({plan.kind})", ""]
     desc = plan.config["sweep"].get("description")
     if desc:
@@ -129,7 +123,12 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
             f"- success: usable waypoint with alpha < {plan.alpha_tol_deg:g} deg and ratio within "
             f"{100 * plan.ratio_rel_tol:g}% of r (f1: ratio >= {1 - plan.ratio_rel_tol:g} r)"
         )
-    md += ["", "## Axes", ""]
+    return md
+
+
+def _md_axes_and_overall(plan: SweepPlan, df: Any) -> list[str]:
+    """The axes table and the overall statistics of every metric."""
+    md = ["", "## Axes", ""]
     md.append(
         _md_table(
             ["axis", "values", "meaning"],
@@ -152,10 +151,16 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
                     float(df[m].max()),
                     METRICS[plan.kind][m],
                 ]
-                for m in all_metrics
+                for m in METRICS[plan.kind]
             ],
         )
     )
+    return md
+
+
+def _md_by_axis(plan: SweepPlan, df: Any, metrics: list[str], varying: list[str]) -> list[str]:
+    """The mean metrics per value of each varying axis, and the five best settings."""
+    md: list[str] = []
     for ax in varying:
         g = df.groupby(ax, sort=True)[metrics].mean()
         md += ["", f"## By {_label(plan, ax)}", ""]
@@ -177,6 +182,12 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
                 [i + [float(v) for v in r] for i, r in zip(idx, g.values, strict=True)],
             )
         )
+    return md
+
+
+def _md_heatmaps(plan: SweepPlan, df: Any, metrics: list[str], plots: str) -> list[str]:
+    """Draw the configured heat maps into ``plots`` and link them."""
+    md: list[str] = []
     if plan.heatmaps:
         md += ["", "## Heat maps", ""]
         for x, y in plan.heatmaps:
@@ -184,6 +195,20 @@ def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str
                 f = heatmap(df, plan, x, y, m, os.path.join(plots, f"heatmap_{m}_{y}_vs_{x}.png"))
                 md.append(f"![{m} over {y} x {x}](plots/{os.path.basename(f)})")
                 md.append("")
+    return md
+
+
+def write_report(plan: SweepPlan, out: str, manifest: dict | None = None) -> str:
+    """Write ``summary.md`` and ``plots/heatmap_*.png`` for the finished sweep in ``out``; return summary.md."""
+    df = read_table(out)
+    plots = os.path.join(out, "plots")
+    os.makedirs(plots, exist_ok=True)
+    metrics = list(plan.metrics)
+    varying = plan.varying_axes()
+    md = _md_header(plan, manifest)
+    md += _md_axes_and_overall(plan, df)
+    md += _md_by_axis(plan, df, metrics, varying)
+    md += _md_heatmaps(plan, df, metrics, plots)
     md += [
         "",
         "Files: `results.parquet` (one row per path x setting; `result_file`/`result_index` point to the "

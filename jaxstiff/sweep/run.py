@@ -168,6 +168,25 @@ def _compute(
     return computed
 
 
+def _check_backend(backend: str) -> None:
+    """Refuse an unknown backend; for ``"ray"``, fail early (clear message) when Ray is missing."""
+    if backend not in BACKENDS:
+        raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    if backend == "ray":
+        import_ray()
+
+
+def _assemble(plan: SweepPlan, store: SweepStore, report: bool, log: Callable[[str], None]) -> str:
+    """Write the table (and, with ``report``, summary.md and the heat maps); return the table file."""
+    table_file = store.assemble()
+    if report:
+        from jaxstiff.sweep.report import write_report
+
+        write_report(plan, store.out, manifest=store.manifest)
+    log(f"wrote {table_file} ({plan.n_rows} rows)")
+    return table_file
+
+
 def run_sweep(
     config: str | os.PathLike | Mapping[str, Any] | SweepPlan,
     out: str | os.PathLike,
@@ -210,10 +229,7 @@ def run_sweep(
     """
     from jaxstiff.runtime.x64 import enable_x64
 
-    if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
-    if backend == "ray":
-        import_ray()
+    _check_backend(backend)
     if log is None:
         log = (lambda s: print(s, file=sys.stderr, flush=True)) if progress else (lambda s: None)
     plan = _plan_of(config)
@@ -237,12 +253,7 @@ def run_sweep(
             ray_init=ray_init,
             cache_dir=cache_dir,
         )
-        table_file = store.assemble()
-        if report:
-            from jaxstiff.sweep.report import write_report
-
-            write_report(plan, store.out, manifest=store.manifest)
-        log(f"wrote {table_file} ({plan.n_rows} rows)")
+        table_file = _assemble(plan, store, report, log)
     finally:
         store.close()
     return SweepOutcome(

@@ -31,13 +31,14 @@ import glob
 import json
 import os
 import socket
-from collections.abc import Iterable
 from typing import Any
 
 from jaxstiff.runtime.io import atomic_write, atomic_write_text
 from jaxstiff.runtime.io import json_default as _json_default
 from jaxstiff.sweep.axes import AXES
 from jaxstiff.sweep.plan import SweepPlan, hashed_config
+from jaxstiff.sweep.table import read_table as read_table
+from jaxstiff.sweep.table import rows_csv, table_frame
 
 __all__ = ["SweepStore", "read_table", "atomic_write_text", "FORMAT"]
 
@@ -375,57 +376,11 @@ class SweepStore:
             import pyarrow  # noqa: F401
         except ImportError:
             f = self.path("results.csv")
-            atomic_write_text(f, _rows_csv(rows, cols))
+            atomic_write_text(f, rows_csv(rows, cols))
             return f
         df = table_frame(rows, cols, self.plan.kind)
         f = self.path("results.parquet")
         return atomic_write(f, lambda fh: df.to_parquet(fh, index=False), binary=True)
-
-
-def table_frame(rows: list[dict], cols: list[str], kind: str) -> Any:
-    """The results table as a pandas DataFrame with fixed column order and dtypes."""
-    import pandas as pd
-
-    df = pd.DataFrame.from_records(rows, columns=cols)
-    for name, spec in AXES[kind].items():
-        if spec.type == "float":
-            df[name] = df[name].astype("float64")
-        elif spec.type == "int":
-            df[name] = df[name].astype("int64")
-        elif spec.type == "bool":
-            df[name] = df[name].astype(bool)
-        else:
-            df[name] = df[name].astype(str)
-    for c in ("row_id", "chunk", "group", "path_index", "P", "result_index"):
-        df[c] = df[c].astype("int64")
-    df["q0_ik_error_m"] = df["q0_ik_error_m"].astype("float64")  # (NaN where the start posture is no IK solution)
-    return df
-
-
-def _rows_csv(rows: Iterable[dict], cols: list[str]) -> str:
-    import csv
-    import io
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(cols)
-    for r in rows:
-        w.writerow([repr(r[c]) if isinstance(r[c], float) else r[c] for c in cols])
-    return buf.getvalue()
-
-
-def read_table(out: str | os.PathLike) -> Any:
-    """The results table of a finished sweep folder as a pandas DataFrame (Parquet, else CSV)."""
-    import pandas as pd
-
-    out = os.fspath(out)
-    pq = os.path.join(out, "results.parquet")
-    if os.path.isfile(pq):
-        return pd.read_parquet(pq)
-    csvf = os.path.join(out, "results.csv")
-    if os.path.isfile(csvf):
-        return pd.read_csv(csvf)
-    raise FileNotFoundError(f"no results table in {out} (the sweep has not finished; run it again with --resume)")
 
 
 def _config_diff(old: dict, new: dict, prefix: str = "") -> str:

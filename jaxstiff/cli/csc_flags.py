@@ -1,0 +1,119 @@
+"""The flags of ``jaxstiff csc`` that become values: ``--kxd`` (see :mod:`jaxstiff.cli.csc`) and the
+:class:`~jaxstiff.settings.CSCSettings` flags (defaults, units and help from the settings fields)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+from typing import Any
+
+import numpy as np
+
+from jaxstiff.settings.csc import CSCSettings
+
+__all__ = ["M_TASK", "SETTING_FLAGS", "parse_numbers", "parse_kxd", "add_setting_flags", "settings_from_args"]
+
+M_TASK = {2: "xy", 3: "xyz", 6: "full"}  #: the task of an m x m K_xd when --task is not given
+
+
+def parse_numbers(text: str, flag: str) -> list[float]:
+    """Comma-separated finite numbers of ``flag``; an error names the flag and the text."""
+    try:
+        vals = [float(v) for v in text.split(",") if v.strip() != ""]
+    except ValueError:
+        raise ValueError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
+    if not vals or not all(math.isfinite(v) for v in vals):
+        raise ValueError(f"{flag}: expected finite comma-separated numbers, got {text!r}")
+    return vals
+
+
+def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
+    """``"K1,..,Km[@DEG]"`` or ``m*m`` numbers -> symmetric (m, m) matrix (N/m). See :mod:`jaxstiff.cli.csc`."""
+    body, sep, deg = text.partition("@")
+    vals = parse_numbers(body, "--kxd")
+    want = None if task is None else {"xy": 2, "xyz": 3, "full": 6}[task]
+    if sep:
+        angle = parse_numbers(deg, "--kxd angle")
+        if len(angle) != 1 or len(vals) not in (2, 3) or (want is not None and len(vals) != want):
+            raise ValueError(
+                f"--kxd {text!r}: the K1,...,Km@DEG form needs m = 2 or 3 diagonal values"
+                + (f" (m = {want} for task {task!r})" if want else "")
+                + " and one angle in degrees"
+            )
+        c, s = math.cos(math.radians(angle[0])), math.sin(math.radians(angle[0]))
+        R = np.array([[c, -s], [s, c]]) if len(vals) == 2 else np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        K = R @ np.diag(vals) @ R.T
+    elif len(vals) in (2, 3, 6) and (want is None or len(vals) == want):
+        K = np.diag(vals)
+    elif len(vals) in (4, 9, 36) and (want is None or len(vals) == want * want):
+        m = int(round(math.sqrt(len(vals))))
+        K = np.asarray(vals).reshape(m, m)
+        if not np.allclose(K, K.T, rtol=1e-9, atol=1e-9):
+            raise ValueError(f"--kxd {text!r}: the matrix (row by row) is not symmetric")
+    else:
+        raise ValueError(
+            f"--kxd {text!r}: give m diagonal values K1,...,Km[@DEG] or m*m matrix entries, m = 2, 3 or 6"
+            + (f" (m = {want} for task {task!r})" if want else "")
+            + f"; got {len(vals)} numbers"
+        )
+    w = np.linalg.eigvalsh(0.5 * (K + K.T))
+    if w[0] < -1e-9 * np.max(np.abs(w)):  # as csc_rollout: a zero stiffness along an axis is allowed
+        raise ValueError(f"--kxd {text!r}: K_xd must be positive semi-definite (stiffness in N/m), eigenvalue {w[0]:g}")
+    return K
+
+
+#: the settings flags of `jaxstiff csc`: CSCSettings field -> flag (defaults, units and help from the field)
+SETTING_FLAGS = {
+    "beta": "--beta",
+    "step": "--step",
+    "task": "--task",
+    "kmin": "--kmin",
+    "kmax": "--kmax",
+    "nu0": "--nu0",
+    "damping": "--damping",
+    "null_eps": "--null-eps",
+    "newton": "--newton",
+    "joint_limits": "--joint-limits",
+    "jl_gain": "--jl-gain",
+}
+
+
+def add_setting_flags(p: argparse.ArgumentParser) -> None:
+    """One flag per :class:`CSCSettings` field (:data:`SETTING_FLAGS`), its default, unit and doc from the field."""
+    for info in CSCSettings.fields_info():
+        flag = SETTING_FLAGS[info.name]
+        kind: Any = int if info.name == "newton" else str if info.choices else float
+        choices = [c for c in info.choices if c is not None] if info.choices else None
+        unit = f" [{info.unit}]" if info.unit and info.unit != "1" else ""
+        shown = (
+            ""
+            if info.default is None
+            else f" (default: {info.default:g})"
+            if isinstance(info.default, float)
+            else f" (default: {info.default})"
+        )
+        help_text = info.doc + unit + shown
+        p.add_argument(flag, type=kind, choices=choices, default=info.default, help=help_text)
+
+
+def settings_from_args(args: argparse.Namespace) -> CSCSettings:
+    """The :class:`CSCSettings` of the flags; an error names the flag (``--kmin must be ...``)."""
+    try:
+        return CSCSettings(**{name: getattr(args, name) for name in SETTING_FLAGS})
+    except ValueError as e:
+        raise ValueError(_flag_message(str(e))) from None
+
+
+def _flag_message(msg: str) -> str:
+    """``csc.kmin (Nm/rad) must be ...`` -> ``--kmin must be ... (Nm/rad)``."""
+    units: list[str] = []
+
+    def flag(m: re.Match) -> str:
+        if m.group(2):
+            units.append(m.group(2))
+        name = str(m.group(1))
+        return SETTING_FLAGS.get(name, "--" + name.replace("_", "-"))
+
+    out = re.sub(r"csc\.(\w+)(?: \(([^)]*)\))?", flag, msg)
+    return out + (f" ({units[0]})" if units else "")
