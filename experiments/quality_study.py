@@ -73,14 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     def traj_from(name):
         def run(req):
             return trajectory.refine_batch(
-                req.problem,
-                req.targets,
-                req.directions,
-                req.q0,
-                req.kj0,
-                req.limits,
-                req.ratio,
-                req.c,
+                *req.batch_args,
                 cached[name],
                 options=req.options,
                 pos_tol=req.pos_tol,

@@ -382,8 +382,3 @@ def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike
         cms_ref = np_cms(K, res.meta["cms"])
         out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))
     return out
-
-
-# former private names, still used by tests/test_sweep.py (use the public ones)
-_np_translational_stiffness = np_translational_stiffness
-_np_jacobian_rows = np_jacobian_rows

@@ -80,6 +80,12 @@ class SolveRequest:
         """(B,) the wanted axis ratio of every path."""
         return np.broadcast_to(np.asarray(self.ratio, float), (self.targets.shape[0],)).copy()
 
+    @property
+    def batch_args(self) -> tuple[Any, ...]:
+        """The positional arguments every batch solver takes, in order: ``(problem, targets,
+        directions, q0, kj0, limits, ratio, c)``."""
+        return (self.problem, self.targets, self.directions, self.q0, self.kj0, self.limits, self.ratio, self.c)
+
 
 #: A solver maps a :class:`SolveRequest` to a dict of arrays: ``q``, ``kj`` (B,P,n), ``status``,
 #: ``pos_error``, ``solver_code``, ``nit``, ``nfev``, ``time_s`` (B,P), and optionally ``compile_s``

@@ -337,14 +337,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     opts = dict(req.options or {})
     pg_opts = {k: v for k, v in opts.items() if k in pgd.DEFAULT_OPTIONS}
     base = pgd.solve_batch(
-        req.problem,
-        req.targets,
-        req.directions,
-        req.q0,
-        req.kj0,
-        req.limits,
-        req.ratio,
-        req.c,
+        *req.batch_args,
         starts=req.starts,
         options=pg_opts,
         pos_tol=req.pos_tol,
@@ -352,14 +345,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     )
     base.pop("criterion", None)
     out: dict[str, Any] = polish(
-        req.problem,
-        req.targets,
-        req.directions,
-        req.q0,
-        req.kj0,
-        req.limits,
-        req.ratio,
-        req.c,
+        *req.batch_args,
         base,
         options=opts,
         pos_tol=req.pos_tol,

@@ -271,14 +271,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     else:
         raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm_kind!r}")
     out = refine_batch(
-        req.problem,
-        req.targets,
-        req.directions,
-        req.q0,
-        req.kj0,
-        req.limits,
-        req.ratio,
-        req.c,
+        *req.batch_args,
         warm,
         options=opts,
         pos_tol=req.pos_tol,

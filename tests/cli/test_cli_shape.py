@@ -24,6 +24,7 @@ def small_csv(tmp_path):
     return f
 
 
+@pytest.mark.slow
 def test_small_run_end_to_end(tmp_path, small_csv, capsys):
     out = tmp_path / "res.npz"
     rc = main(["shape", "--path", str(small_csv), "--out", str(out), "--first-starts", "2"])
@@ -354,6 +355,7 @@ def test_library_interrupt_carries_the_finished_part():
     assert res.meta["interrupted"] is True and np.all(np.isfinite(res.alpha_deg))
 
 
+@pytest.mark.slow
 def test_a_signal_while_the_command_starts_up_stops_it():
     """Ctrl-C in the second the command spends importing JAX used to land in JAX's GC callback,
     be printed and dropped, and the command ran to the end with exit 0. Started as the command

@@ -179,6 +179,7 @@ def test_closed_form_gradient_of_u_equals_autodiff(name, task, m):
     assert_close(g, ref, rtol=1e-10, atol=1e-9 * float(jnp.max(jnp.abs(ref))), what="grad u")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("task", ["xy", "xyz", "full"])
 def test_offdiag_value_and_grad_derivatives_equal_autodiff(task):
     """(u, grad u) carry a hand-written VJP (and its transpose as JVP); both equal plain autodiff
@@ -279,6 +280,7 @@ def test_damped_projections_of_a_zero_jacobian_are_finite():
         assert np.all(np.isfinite(np.asarray(g)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("task,m", [("xy", 2), ("xyz", 3), ("full", 6)])
 def test_realised_stiffness_vjp_and_jvp_equal_autodiff(task, m):
     """(K_C, |K_xd - K_C|_F) with its hand-written VJP / transposed JVP equal autodiff of
@@ -345,6 +347,7 @@ X_GRAD = np.concatenate([[1.0, math.pi / 6, 1.0, 1.0], Q_SEED])
 LINE = X_SEED + np.linspace(0.0, 1.0, T_GRAD)[:, None] * np.array([-0.4, 0.3])
 
 
+@pytest.mark.slow
 def test_gradient_through_200_steps_matches_central_differences():
     g = np.asarray(jax.grad(_loss)(jnp.asarray(X_GRAD), LINE))
     fd = central_diff(lambda x: float(_loss(jnp.asarray(x), LINE)), X_GRAD, h=1e-5)[0]
@@ -352,6 +355,7 @@ def test_gradient_through_200_steps_matches_central_differences():
     assert_close(g, fd, rtol=1e-5, atol=1e-5 * np.max(np.abs(fd)), what="d loss / (beta, K params, q0)")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shift", [0.0, 1e-15, -1e-15])
 def test_adaptive_gradient_when_the_path_starts_at_the_tcp(shift):
     """|dq_P| has a kink at dx = 0; a path that starts exactly at the start TCP sits on it, and the
@@ -370,6 +374,7 @@ def test_adaptive_gradient_when_the_path_starts_at_the_tcp(shift):
     assert_close(g, fd, rtol=1e-5, atol=1e-6 * np.max(np.abs(fd)), what=f"d loss / d q0, path shifted {shift:g} m")
 
 
+@pytest.mark.slow
 def test_no_null_step_without_a_null_space():
     """Two free joints, two task rows (planar 3R, joint 3 locked), near the stretched posture: there
     is no null space, and (I - J+ J) grad u is only round-off or, damped, a leftover that the
@@ -390,6 +395,7 @@ def test_no_null_step_without_a_null_space():
     assert np.all(np.asarray(r3.null_step) > 1e-3)
 
 
+@pytest.mark.slow
 def test_forward_mode_equals_reverse_mode_and_hessian_is_finite():
     """The rollout's closed-form derivatives are custom JVPs (reverse mode transposes them), so
     jax.jvp / jacfwd / hessian work too: forward and reverse mode agree, the hessian matches
@@ -424,6 +430,7 @@ def test_no_nan_through_a_singular_posture():
 
 
 # ---------------------------------------------------------------- batching
+@pytest.mark.slow
 def test_batch_equals_separate_rollouts():
     T = T_GRAD  # singles reuse the forward program of the finite-difference test
     rng = np.random.default_rng(5)
@@ -478,6 +485,7 @@ def test_joint_limit_saturation_keeps_tcp_and_limit():
     assert drift.max() < 1e-6, drift.max()
 
 
+@pytest.mark.slow
 def test_gradient_with_an_active_joint_limit_is_finite_and_matches_differences():
     """Joint 3 runs into its limit at step ~50 and sits there for the rest (clamped, re-solved with
     the other joints): the gradient w.r.t. beta and q0 stays finite and agrees with central
@@ -498,6 +506,7 @@ def test_gradient_with_an_active_joint_limit_is_finite_and_matches_differences()
     assert_close(g, fd, rtol=0.05, atol=0.0, what="d loss / (beta, q0) with a joint at its limit")
 
 
+@pytest.mark.slow
 def test_chunked_batch_with_some_rollouts_at_a_limit_equals_separate_rollouts():
     """The saturation re-solve runs only in chunks where some rollout reaches a limit (a branch on
     the batch): a chunk with one saturating and one free rollout, a chunk with neither, and a
@@ -523,6 +532,7 @@ def test_chunked_batch_with_some_rollouts_at_a_limit_equals_separate_rollouts():
         assert_close(g_batch[b], jax.grad(loss)(jnp.asarray(q0[b]), b), rtol=1e-9, atol=1e-9, what=f"grad[{b}]")
 
 
+@pytest.mark.slow
 def test_every_joint_saturating_moves_to_the_limits_without_nan():
     """All free joints pushed past their limits in one step: the re-solve has no joint left (J = 0);
     the step still takes every joint to its limit (no NaN guard, finite gradient)."""
@@ -542,6 +552,7 @@ def test_every_joint_saturating_moves_to_the_limits_without_nan():
     assert np.all(np.isfinite(np.asarray(jax.grad(loss)(jnp.asarray(Q_SEED)))))
 
 
+@pytest.mark.slow
 def test_locked_joint_never_moves_lwr():
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.3, "lwr_a3": -0.2})
     q0 = np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0])  # a3, a7 replaced by their locked values
@@ -558,6 +569,7 @@ def test_locked_joint_never_moves_lwr():
     assert float(r.u[-1]) < float(r.u_start)
 
 
+@pytest.mark.slow
 def test_full_task_holds_position_and_orientation():
     """Task "full" (6 rows): the 7-joint LWR has one redundant DOF; the tool orientation is held."""
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
@@ -736,6 +748,7 @@ def test_cli_warns_when_a_path_ends_off_its_target(tmp_path, capsys):
     ), err
 
 
+@pytest.mark.slow
 def test_cli_warns_when_the_arm_stays_at_a_singular_start(tmp_path, capsys):
     """The LWR straight up (a singular posture) with a target 0.2 m down its own axis: no joint
     moves the TCP along the arm, so the damped step is zero and the rollout stays there. The warning
@@ -876,6 +889,7 @@ def test_cli_path_with_a_pause_holds_still(tmp_path):
         assert np.all(np.isfinite(r["q"])) and r["tracking_error"][0, -1] < 1e-3
 
 
+@pytest.mark.slow
 def test_gradients_finite_at_a_zero_desired_stiffness():
     """K_xd = 0 passes the PSD check; its default null_eps was tiny, so 1/null_eps^2 in a tangent of
     the null step overflowed (inf * 0 = NaN) and |K_xd|_F had no gradient at 0: grad w.r.t. K_xd
@@ -915,6 +929,7 @@ def _fields_close(a, b, rtol=1e-12, atol=1e-12, rows=None):
             np.testing.assert_allclose(x, y, rtol=rtol, atol=atol, err_msg=f.name)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seg", [1, 7, 50, 60])
 def test_segments_equal_one_rollout_planar_line(seg):
     """csc_rollout_segments continues each segment from the posture the previous one reached:
@@ -941,6 +956,7 @@ def test_segments_equal_one_rollout_planar_line(seg):
         )
 
 
+@pytest.mark.slow
 def test_segments_hold_the_first_orientation_in_task_full():
     """Task full: every segment holds q0's tool orientation (not its own start's), so the rows
     equal one rollout's; a held orientation given explicitly is really used."""
@@ -1114,6 +1130,7 @@ def test_cli_locked_joint_q0_must_be_the_locked_value(tmp_path, capsys):
         assert np.all(f["q"][0, :, 6] == 0.2)
 
 
+@pytest.mark.slow
 def test_cli_joint_limit_avoidance_has_a_gain_by_default(tmp_path, capsys):
     """--joint-limits priority without --jl-gain used gain 0, i.e. did nothing: it now takes the
     documented default (recorded in meta) and moves the arm differently from --joint-limits off;
@@ -1316,6 +1333,7 @@ def test_cli_meta_records_settings_with_units_and_robot_spec(tmp_path):
     assert meta["robot_spec"]["urdf"] == "planar_3r" and meta["robot_spec"]["locked"] == {}
 
 
+@pytest.mark.slow
 def test_cli_lwr_locks_its_seventh_joint_by_default(tmp_path, capsys):
     """Without --lock, `jaxstiff csc` on the shipped kuka_lwr4 locks lwr_a7 = 0 as `jaxstiff shape`
     does (RobotSpec's default); a --q0 with another value for lwr_a7 is the locked-joint error;

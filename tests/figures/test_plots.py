@@ -35,6 +35,7 @@ def leftovers(folder):
     return [f for f in os.listdir(folder) if f.startswith(".tmp")]
 
 
+@pytest.mark.slow
 def test_import_does_not_pull_matplotlib():
     code = "import sys, jaxstiff.plots; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout

@@ -208,6 +208,7 @@ def test_cos_sin_polynomial_is_accurate_and_has_exact_derivative(dtype):
     assert_close(ds, np.cos(np.asarray(xs, float)), rtol=0, atol=4 * float(ulp))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
 def test_large_batches_match_numpy_and_autodiff(dtype):
     """Batches of >= 64 take the polynomial cos/sin path on the CPU: same answers, same dtype."""
@@ -394,6 +395,7 @@ PK_CASES = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("urdf,tip,base", PK_CASES, ids=["lwr", "planar", "branched-tool", "branched-side"])
 def test_matches_pytorch_kinematics(urdf, tip, base):
     """FK and J vs pytorch-kinematics' ``jacobian(th, ret_eef_pose=True)`` to 1e-6.
@@ -471,6 +473,7 @@ def _fk_from_parameters(joints, q):
     return T
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(joints=random_chains(), seed=st.integers(0, 2**31 - 1))
 def test_random_chains_match_numpy_fk_and_finite_differences(joints, seed):
@@ -490,6 +493,7 @@ def test_random_chains_match_numpy_fk_and_finite_differences(joints, seed):
     assert_close(J, J_fd, rtol=0, atol=1e-10, what="J vs finite differences")
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(joints=random_chains(), seed=st.integers(0, 2**31 - 1))
 def test_jacobian_tangent_matches_autodiff_on_random_chains(joints, seed):

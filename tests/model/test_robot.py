@@ -195,6 +195,7 @@ def test_cli_robot_warns_for_a_posture_outside_the_limits(capsys):
     assert "outside its limits" in err and "joint_2" in err
 
 
+@pytest.mark.slow
 def test_console_script_runs():
     exe = shutil.which("jaxstiff")
     cmd = [exe, "robot"] if exe else [sys.executable, "-m", "jaxstiff.cli", "robot"]
@@ -203,6 +204,7 @@ def test_console_script_runs():
     assert "lwr_a7" in res.stdout and "T_base_tcp" in res.stdout
 
 
+@pytest.mark.slow
 def test_pickled_robot_equals_and_hashes_like_a_fresh_read():
     """The cached hash must not travel: string hashes differ between processes (ray, sweeps)."""
     code = (
@@ -246,6 +248,7 @@ def test_prismatic_joints_get_lengths_not_degrees():
     assert rate_limits(jaxstiff.Robot.from_urdf("planar_3r"), 2.0, 0.01) == np.deg2rad(2.0)  # no prismatic joint
 
 
+@pytest.mark.slow
 def test_csc_cli_reads_and_prints_prismatic_joints_in_metres(tmp_path, capsys):
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
     q_deg = [10.0, 0.2, 20.0, 30.0]  # the prismatic joint (second) at 0.2 m

@@ -153,6 +153,7 @@ def _three_batches(solver, **kw):
     return [(r, i) for r, i in ((ab, 1), (b, 0), (ba, 0))]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["slsqp", "pgd"])
 def test_result_does_not_depend_on_batch_position(solver):
     # default first_rate_limit=False: the first waypoint uses extra random start postures
@@ -167,6 +168,7 @@ def test_result_does_not_depend_on_batch_position(solver):
 TRAJ_OPTS = {"warm": "slsqp", "traj_iters": 4, "blocks": 1, "polish": 2}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["slsqp-fd", "hybrid", "trajectory"])
 def test_every_solver_honours_per_path_parameters(solver):
     kw = dict(ratio=RATIOS, dq=DQ, dk=DK)  # first waypoint not rate-limited (default)

@@ -4,11 +4,13 @@ as greedy SLSQP (an independent solver of the same problem), exactly feasible (n
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from test_pgd import OPTS, check_file, planar_paths, run
 
 from jaxstiff.results import files as R
 
 
+@pytest.mark.slow
 def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
     path, q0 = planar_paths(3, 5)
     base = run(path, q0)  # same pgd settings and keys as inside the hybrid
@@ -35,6 +37,7 @@ def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
             assert gre.criterion[b].sum() <= base.criterion[b].sum() * (1 + 1e-9) + 1e-12, b
 
 
+@pytest.mark.slow
 def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
     """A waypoint no solver can reach, where pgd's stored (unusable) state lies outside the box of
     the hybrid's own chain (pgd's chain differs): the hybrid reports it unreachable with a state

@@ -84,6 +84,7 @@ def test_pgd_batch_feasible_and_verified(batch3, tmp_path):
     check_file(res, tmp_path)
 
 
+@pytest.mark.slow
 def test_pgd_chunking_does_not_change_results(batch3):
     path, q0, res = batch3
     one = run(path, q0, options={**OPTS, "chunk": 3})  # same keys per path index, other chunking
@@ -104,6 +105,7 @@ def test_pgd_quality_close_to_slsqp(batch3):
     assert res.criterion[ok].mean() <= ref.criterion[ok].mean() * 1.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mode", ["rollout", "best"])
 def test_both_modes_feasible(tmp_path, mode):
     path, q0 = planar_paths(2, 4, seed=3)
@@ -140,6 +142,7 @@ def test_list_of_paths_is_the_same_batch(batch3):
     assert again.status.shape == (3, 5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("robot_name,task", [("planar_3r", "xy"), ("kuka_lwr4", "full")])
 def test_lm_residual_against_numpy_eigen(robot_name, task):
     """The LM stage's residual rows, recomputed in numpy with a full eigen-decomposition: the
@@ -183,6 +186,7 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
     "robot_name,task,locked",
     [("planar_3r", "xy", None), ("kuka_lwr4", "full", {"lwr_a7": 0.0}), ("kuka_lwr4", "xyz", None)],
 )
+@pytest.mark.slow
 def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
     """The LM stage's Jacobian (closed-form kinematic and stiffness derivatives) against forward-mode
     autodiff of the residual through the whole chain, and its residual against :meth:`lm_residual`,
@@ -215,6 +219,7 @@ def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
                 assert err.max() < 1e-9, (kind, r, err.max(), np.unravel_index(err.argmax(), err.shape))
 
 
+@pytest.mark.slow
 def test_unrolled_spd_solve_against_numpy():
     """The unrolled Cholesky solve used in the kernels: numpy's solve on random SPD systems of the
     sizes that occur (1..7), batched by vmap, and finite on an all-zero system."""

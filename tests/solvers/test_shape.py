@@ -210,6 +210,7 @@ def test_rate_limits_bind_when_asked(lwr):
     assert np.all(R.is_usable(res.status))
 
 
+@pytest.mark.slow
 def test_f1_short_run_and_verification(lwr, tmp_path):
     res = jaxstiff.shape(lwr, short_default(3), "f1", 5.0, first_starts=3)
     res.save(tmp_path / "f1.npz")
@@ -330,6 +331,7 @@ def test_task_xy_warns_when_the_path_is_off_the_tcp_plane():
     assert np.all(res.status == R.SOLVED)
 
 
+@pytest.mark.slow
 def test_continuous_joint_runs_without_numpy_warnings(tmp_path):
     """A continuous joint has limits (-inf, inf): mid-range and limit margins must not compute
     inf - inf (numpy RuntimeWarning, and NaN if it were used)."""
@@ -374,6 +376,7 @@ def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match)
     assert re.search(match, err) and "Traceback" not in err and not out.exists()
 
 
+@pytest.mark.slow
 def test_full_task_with_locked_joints_keeps_their_springs(tmp_path):
     """Two of the LWR's joints locked (five free, fewer than the six rows of task 'full'): the
     stiffness still has seven springs (SPEC section 1), so the task is defined and solved; the
@@ -426,6 +429,7 @@ def test_bad_input_is_a_clear_value_error(lwr, kwargs, match):
         jaxstiff.shape(lwr, short_default(2), crit, ratio, **kw)
 
 
+@pytest.mark.slow
 def test_verify_can_fail(f2_file):
     """The library's own verifier flags a tampered result (bounds, rates, reported values)."""
     res = f2_file[1]
@@ -512,6 +516,7 @@ def test_meta_tcp_is_the_offset_given(tmp_path):
     assert robot_meta(jaxstiff.Robot.from_urdf(str(urdf), tcp=[0.05, -0.02, 0.1]))["tcp"] == want.tolist()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["slsqp", "pgd"])
 def test_one_waypoint_with_its_direction(solver):
     """A single waypoint is a path when its direction is given (no tangent needed): the ellipsoid

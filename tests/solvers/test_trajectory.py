@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from test_pgd import OPTS, check_file, planar_paths, run
 
 from jaxstiff.results import files as R
@@ -10,6 +11,7 @@ from jaxstiff.solvers import pgd
 TOPTS = {**OPTS, "traj_iters": 16, "blocks": 2, "chunk": 2}
 
 
+@pytest.mark.slow
 def test_trajectory_beats_or_keeps_warm_start(tmp_path):
     path, q0 = planar_paths(2, 5, seed=5)
     warm = run(path, q0, options={k: v for k, v in TOPTS.items() if k in pgd.DEFAULT_OPTIONS})  # = the warm start

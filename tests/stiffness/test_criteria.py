@@ -189,6 +189,7 @@ WEIGHTS = {"f1": jnp.array([1.0, 0.0]), "f2": jnp.array([0.0, 1.0])}
 PIPE_CASES = [("kuka_lwr4", "full"), ("planar_3r", "xy")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rname,task", PIPE_CASES)
 def test_gradient_wrt_q_and_kj_vs_finite_differences(rname, task):
     rb = robot(rname)

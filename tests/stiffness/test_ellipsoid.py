@@ -110,6 +110,7 @@ def test_ellipsoid_is_a_pytree():
         assert_close(a, b, rtol=1e-14)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dtype", [jnp.float32])  # float64 in -> float64 out: checked in the tests above
 def test_dtype_kept(dtype):
     K = jnp.asarray(random_spd(RNG, 3, (N,)), dtype=dtype)
@@ -184,6 +185,7 @@ def test_orientation_error_small_angles_are_accurate():
         assert_close(jaxstiff.orientation_error(jnp.asarray(K), jnp.asarray(d)), math.degrees(eps), rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_zero_direction_gives_zero_alpha_and_finite_gradient():
     K = jnp.asarray(random_spd(RNG, 3))
     d = jnp.zeros(3)
@@ -284,6 +286,7 @@ def _ellipsoid_alpha_grad(K, d):
     return e, a, g
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(spd_batches())
 def test_property_axes_ratio_volume_alpha(data):

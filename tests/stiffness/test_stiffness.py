@@ -61,6 +61,7 @@ def check_rel_error(rel, cond):
 CASES = [("kuka_lwr4", "xyz"), ("kuka_lwr4", "full"), ("planar_3r", "xy")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,task", CASES)
 def test_cartesian_stiffness_matches_numpy_inverse(name, task):
     r = robot(name)
@@ -196,6 +197,7 @@ def test_joint_stiffness_congruence_and_cct_planar_closed_form():
     assert_close(Kq_0, Kq, rtol=1e-14)
 
 
+@pytest.mark.slow
 def test_cct_term_vs_finite_differences_lwr():
     task = "full"
     r = robot("kuka_lwr4")
@@ -250,6 +252,7 @@ SINGULAR = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name,q,task", SINGULAR)
 def test_singular_postures_are_flagged_and_finite(name, q, task):
     r = robot(name)
@@ -284,6 +287,7 @@ def test_zero_or_negative_kj_stays_finite():
     assert bool(jnp.all(jnp.isfinite(K)))
 
 
+@pytest.mark.slow
 def test_dtype_kept_float32():
     r = robot("kuka_lwr4")
     q = np.array([0.3, 0.8, -0.4, -1.3, 0.5, 0.9, 0.0])
@@ -361,6 +365,7 @@ def jacobian_batches(draw):
     return J, kj, draw(st.sampled_from(["xyz", "full"]))
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(jacobian_batches())
 def test_property_spd_finite_and_exact_when_regular(data):
@@ -382,6 +387,7 @@ def test_property_spd_finite_and_exact_when_regular(data):
         assert np.all(np.asarray(compliance_condition(jnp.asarray(J), jnp.asarray(kj), task)) > 1e10)
 
 
+@pytest.mark.slow
 def test_fusion_boundary_is_an_identity_for_every_transformation():
     """The CPU fusion boundary (a primitive of its own) is the identity in value, under vmap
     (nested too), and for derivatives: forward, reverse, reverse over vmap, second order."""
@@ -409,6 +415,7 @@ def test_fusion_boundary_is_an_identity_for_every_transformation():
     assert fusion_boundary(empty) is empty
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(jax.default_backend() != "cpu", reason="the boundary is a conditional on CPU only")
 def test_fusion_boundary_survives_vmap_on_cpu():
     """Under vmap the stiffness must still be computed behind a conditional (a ``select`` would
@@ -468,6 +475,7 @@ def test_locked_joints_keep_their_springs_in_the_task_check():
         check_task_feasible(robot, "full", motion=True)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fn", ["compliance", "cartesian_stiffness", "translational_stiffness", "compliance_condition"])
 def test_concrete_non_positive_kj_is_refused_by_name(fn):
     """kj <= 0 given as numbers: a ValueError naming the entry (it came back as a matrix of ~1e-140

@@ -309,6 +309,7 @@ def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch)
 
 
 # ---------------------------------------------------------------------------- csc sweeps
+@pytest.mark.slow
 def test_csc_table_against_numpy(csc_run):
     df = csc_run.table()
     plan = csc_run.plan
@@ -342,6 +343,7 @@ def _subprocess_env(**extra) -> dict:
     return env
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_two_devices_give_the_same_table(csc_cfg, csc_run, tmp_path):
     import jax
@@ -374,6 +376,7 @@ run_sweep(sys.argv[1], sys.argv[2], progress=False, report=False, on_commit=lamb
 """
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
     out = tmp_path / "killed"
@@ -407,6 +410,7 @@ def test_sigkill_midway_then_resume(csc_cfg, csc_run, tmp_path):
     _frame_equal(res.table(), csc_run.table())
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:os.fork:RuntimeWarning")
 def test_ray_backend_gives_the_same_table(csc_cfg, csc_run, tmp_path, monkeypatch):
     ray = pytest.importorskip("ray")

@@ -263,14 +263,7 @@ CODE_MEANING = "index of the start that won (-1 = none); no convergence flag (fi
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="pgd"``)."""
     res = solve_batch(
-        req.problem,
-        req.targets,
-        req.directions,
-        req.q0,
-        req.kj0,
-        req.limits,
-        req.ratio,
-        req.c,
+        *req.batch_args,
         starts=req.starts,
         options=req.options,
         pos_tol=req.pos_tol,
