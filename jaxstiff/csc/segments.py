@@ -15,6 +15,7 @@ from jaxstiff.csc.result import START_FIELDS, CSCResult, concat_results, step_ax
 from jaxstiff.csc.rollout import csc_rollout
 from jaxstiff.model.robot import Robot
 from jaxstiff.runtime.io import raise_if_interrupted
+from jaxstiff.runtime.progress import Progress
 
 __all__ = ["CSCInterrupted", "csc_rollout_segments", "StepProgress"]
 
@@ -135,34 +136,28 @@ def _run_segments(
 
 
 class StepProgress:
-    """A ``progress`` for :func:`csc_rollout_segments` (``jaxstiff csc``'s): the run's lines on stderr: what runs how (once the inputs are checked), then for a segmented
-    run the progress after each segment (redrawn in place on a terminal, a line each otherwise)."""
+    """A ``progress`` for :func:`csc_rollout_segments` (``jaxstiff csc``'s), on stderr: what runs how
+    (once the inputs are checked), then for a segmented run the progress after each segment: a bar
+    on a terminal (:mod:`jaxstiff.runtime.progress`), a line a segment with the time and ETA in a log."""
 
     def __init__(self, B: int, T: int, L: int, notes: list[str] | tuple[str, ...] = ()) -> None:
         self.B, self.T, self.L, self.notes = B, T, L, list(notes)
         self.t0 = time.perf_counter()
         self.t1: float | None = None
         self.first = 0
-        self.tty = sys.stderr.isatty()
+        self.bar: Progress | None = None
 
     def __call__(self, done: int, total: int) -> None:
         now = time.perf_counter()
         if done == 0:
-            for note in self.notes:  # warnings about the settings, once they are known to be valid
-                print(f"jaxstiff: warning: {note}", file=sys.stderr)
-            if self.L >= self.T:
-                msg = (
-                    f"csc: {self.B} rollout(s) x {self.T} steps in one compiled run (compiling, then running; no "
-                    "progress in between, and Ctrl-C takes effect when it ends) ..."
-                )
-            else:
-                msg = (
-                    f"csc: {self.B} rollout(s) x {self.T} steps in segments of {self.L} steps (compiling, then a line "
-                    "per segment; Ctrl-C keeps the finished segments) ..."
-                )
-            print(msg, file=sys.stderr, flush=True)
+            self._start()
             return
-        if self.L >= self.T:
+        if self.L >= self.T or self.bar is None:
+            return
+        if self.bar.terminal:
+            self.bar.update(done - self.bar.n)
+            if done >= total:
+                self.bar.close()
             return
         if self.t1 is None:  # the rate leaves out the first segment (it includes the compilation)
             self.t1, self.first = now, done
@@ -172,11 +167,23 @@ class StepProgress:
             if rate > 0 and done < total
             else ("done" if done >= total else "ETA ...")
         )
-        msg = (
+        self.bar.write(
             f"csc: {done}/{total} steps x {self.B} rollout(s) ({100 * done / total:.0f}%)  {now - self.t0:.1f} s  {eta}"
         )
-        if self.tty:
-            sys.stderr.write("\r" + msg + ("\n" if done >= total else ""))
+
+    def _start(self) -> None:
+        for note in self.notes:  # warnings about the settings, once they are known to be valid
+            print(f"jaxstiff: warning: {note}", file=sys.stderr)
+        if self.L >= self.T:
+            msg = (
+                f"csc: {self.B} rollout(s) x {self.T} steps in one compiled run (compiling, then running; no "
+                "progress in between, and Ctrl-C takes effect when it ends) ..."
+            )
         else:
-            sys.stderr.write(msg + "\n")
-        sys.stderr.flush()
+            msg = (
+                f"csc: {self.B} rollout(s) x {self.T} steps in segments of {self.L} steps (compiling, then a line "
+                "per segment; Ctrl-C keeps the finished segments) ..."
+            )
+        print(msg, file=sys.stderr, flush=True)
+        if self.L < self.T:  # in a log, the lines per segment above; the bar is closed only on a terminal
+            self.bar = Progress(self.T, "csc", "steps")
