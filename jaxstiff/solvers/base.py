@@ -81,7 +81,9 @@ class SolveRequest:
         return np.broadcast_to(np.asarray(self.ratio, float), (self.targets.shape[0],)).copy()
 
     @property
-    def batch_args(self) -> tuple[Any, ...]:
+    def batch_args(
+        self,
+    ) -> tuple[WaypointProblem, np.ndarray, np.ndarray, np.ndarray, np.ndarray, Limits, float | np.ndarray, float]:
         """The positional arguments every batch solver takes, in order: ``(problem, targets,
         directions, q0, kj0, limits, ratio, c)``."""
         return (self.problem, self.targets, self.directions, self.q0, self.kj0, self.limits, self.ratio, self.c)
