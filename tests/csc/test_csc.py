@@ -215,6 +215,7 @@ def _plain_projections(Jf, dx, vs, nu0, damping):
     return pinv(dx), tuple(v - pinv(algebra.mv(Jf, v)) for v in vs), nu
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("m,n", [(2, 3), (3, 7), (6, 7)])
 @pytest.mark.parametrize("case", ["regular", "near_singular"])
 def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
@@ -263,6 +264,7 @@ def test_damped_projections_vjp_and_jvp_equal_autodiff(m, n, case):
         assert_close(a, b, rtol=1e-9, atol=1e-9 * (1.0 + float(np.max(np.abs(np.asarray(b))))), what="JVP")
 
 
+@pytest.mark.slow
 def test_damped_projections_of_a_zero_jacobian_are_finite():
     """Every joint frozen (J = 0, the re-solve after all joints saturate): J+ = 0 exactly, the
     projection is the identity, and values and gradients are finite (the damped inverse of the
@@ -605,6 +607,7 @@ def test_orientation_error_is_the_rotation_angle():
     assert np.all(np.isfinite(np.asarray(g)))
 
 
+@pytest.mark.slow
 def test_float32_stays_float32():
     r = jaxstiff.csc_rollout(
         PLANAR,
@@ -861,6 +864,7 @@ def test_cli_takes_negative_comma_lists_as_values(tmp_path):
         np.testing.assert_allclose(f["q0"], np.deg2rad([-60.0, -40.0, -30.0]), rtol=0, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_cli_path_with_a_pause_holds_still(tmp_path):
     """`csc --path` with a repeated row (the arm pauses): one step per row, no tangents needed
     (it was refused as a zero-length segment, a check only the shaping's directions need)."""
@@ -1101,6 +1105,7 @@ def test_cli_checks_numeric_flags_before_warning(tmp_path, capsys):
     assert rc == 2 and "--kmin must be" in err and "warning" not in err, err
 
 
+@pytest.mark.slow
 def test_cli_locked_joint_q0_must_be_the_locked_value(tmp_path, capsys):
     """The help says locked joints take their locked values in --q0: another value is an error
     naming the joint (it was silently replaced); the raw --q0 text is kept in meta."""

@@ -131,6 +131,7 @@ def test_figure_u_frobenius(tmp_path):
     assert not os.path.exists(tmp_path / "bad.png")
 
 
+@pytest.mark.slow
 def test_figure_shape_path_on_a_small_result(tmp_path):
     """The seven panels from a hand-made result (no solver run): the LWR along 6 waypoints of a line."""
     import jaxstiff

@@ -80,6 +80,7 @@ def test_discovery_order(fake_experiments):
     assert seeds == ["fig2_cms.py", "fig3_hangs.py", "csc_hold.py"]
 
 
+@pytest.mark.slow
 def test_report_gathers_everything_and_survives_failures(fake_experiments, tmp_path):
     out = tmp_path / "report"
     res = reproduce.run_reproduce(

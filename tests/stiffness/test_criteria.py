@@ -146,6 +146,7 @@ def _f1_f2_grad_K(K, d, r, w):
     return jax.grad(lambda k: w[0] * jaxstiff.f1(k, d, r) + w[1] * jaxstiff.f2(k, d, r))(K)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("m", [2, 3])
 def test_gradient_wrt_K_vs_finite_differences(m):
     rng = np.random.default_rng(5 + m)
@@ -386,6 +387,7 @@ def _both_with_grads(K, d, r):
     return out
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(criterion_inputs())
 def test_property_bounds_and_finiteness(data):
@@ -418,6 +420,7 @@ def test_nan_in_gives_nan_out_and_integer_J_is_refused():
     assert float(jaxstiff.offdiag(J, K)) == pytest.approx(np.sqrt(np.sum(np.triu(Kq, 1) ** 2)), rel=1e-14)
 
 
+@pytest.mark.slow
 def test_shape_mismatches_name_the_arguments():
     """Raw JAX errors (TypeError 'mul got incompatible shapes', 'axis -2 is out of bounds',
     IndexError) were what a wrong shape gave; now a ValueError naming the arguments and shapes."""

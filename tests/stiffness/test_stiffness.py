@@ -162,7 +162,14 @@ def test_cms_factor_reaches_targets():
     k, kj_scaled = cms_scale(K, jnp.asarray(kj), target_volume=1e9)
     assert_close(kj_scaled, np.asarray(k)[:, None] * kj, rtol=1e-15)
     K_scaled = jaxstiff.translational_stiffness(J, kj_scaled, "full")
-    assert_close(np.linalg.det(np.asarray(K_scaled)), np.full(N, 1e9), rtol=1e-10)
+    # the volume target is met to 1e-10 where the posture is well conditioned; near a singularity
+    # K carries the documented damping (check_rel_error: ~1e-12 x cond, ~3x that in a determinant).
+    # Which postures the shared RNG draws here depends on the tests run before (the fast lane's
+    # order drew one with cond ~1e12), so the bound follows the condition, as check_rel_error does.
+    rel = np.abs(np.linalg.det(np.asarray(K_scaled)) / 1e9 - 1.0)
+    cond = np.asarray(jaxstiff.compliance_condition(J, kj_scaled, "full"))
+    assert np.all(rel[cond < 1e5] < 1e-10), rel[cond < 1e5].max()
+    assert np.all(rel < 1e-10 + 6e-12 * cond), (rel / cond).max()
     with pytest.raises(ValueError, match="exactly one"):
         jaxstiff.cms_factor(K)
     with pytest.raises(ValueError, match="target_major must be > 0"):
