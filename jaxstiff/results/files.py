@@ -89,18 +89,18 @@ from jaxstiff.results.numpy_check import (
     np_translational_stiffness,
     robot_from_meta,
 )
-from jaxstiff.results.status import (
-    CLIPPED,
-    NONFINITE,
-    NOT_CONVERGED,
-    NOT_RUN,
-    SOLVED,
-    STATUS_NAMES,
-    UNREACHABLE,
-    USABLE,
-    ShapeStatus,
-    is_usable,
-)
+
+# the status codes live in results.status; re-exported here for the former `jaxstiff.results` module
+from jaxstiff.results.status import CLIPPED as CLIPPED
+from jaxstiff.results.status import NONFINITE as NONFINITE
+from jaxstiff.results.status import NOT_CONVERGED as NOT_CONVERGED
+from jaxstiff.results.status import NOT_RUN as NOT_RUN
+from jaxstiff.results.status import SOLVED as SOLVED
+from jaxstiff.results.status import STATUS_NAMES as STATUS_NAMES
+from jaxstiff.results.status import UNREACHABLE as UNREACHABLE
+from jaxstiff.results.status import USABLE as USABLE
+from jaxstiff.results.status import ShapeStatus as ShapeStatus
+from jaxstiff.results.status import is_usable as is_usable
 from jaxstiff.runtime.io import file_sha256
 from jaxstiff.runtime.io import json_default as _json_default
 
@@ -108,19 +108,9 @@ if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
 
 __all__ = [
-    "ShapeStatus",
     "np_translational_stiffness",
     "np_jacobian_rows",
     "ShapeResult",
-    "SOLVED",
-    "NOT_CONVERGED",
-    "CLIPPED",
-    "UNREACHABLE",
-    "NONFINITE",
-    "NOT_RUN",
-    "STATUS_NAMES",
-    "USABLE",
-    "is_usable",
     "verify",
     "summary",
     "path_parameters",

@@ -58,23 +58,3 @@ from jaxstiff.solvers.problem.compiled import compiled_report as compiled_report
 from jaxstiff.solvers.problem.compiled import compiled_scaled as compiled_scaled
 from jaxstiff.solvers.problem.compiled import jax_pos_and_jac as jax_pos_and_jac
 from jaxstiff.solvers.problem.waypoint import WaypointProblem as WaypointProblem
-
-__all__ = [
-    "WaypointProblem",
-    "compiled",
-    "compiled_evaluate",
-    "compiled_report",
-    "compiled_scaled",
-    "compiled_position",
-    "jax_pos_and_jac",
-    "box",
-    "clip_to_box",
-    "newton_project",
-    "check_point",
-    "PointCheck",
-    "POS_TOL",
-    "BOUND_TOL",
-    "content_seed",
-    "Limits",
-    "rate_bounds",
-]
