@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from jaxstiff.cli.common import parse_floats
 from jaxstiff.settings.csc import CSCSettings
 
 __all__ = ["M_TASK", "SETTING_FLAGS", "parse_numbers", "parse_kxd", "add_setting_flags", "settings_from_args"]
@@ -19,10 +20,7 @@ M_TASK = {2: "xy", 3: "xyz", 6: "full"}  #: the task of an m x m K_xd when --tas
 
 def parse_numbers(text: str, flag: str) -> list[float]:
     """Comma-separated finite numbers of ``flag``; an error names the flag and the text."""
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip() != ""]
-    except ValueError:
-        raise ValueError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
+    vals = parse_floats(text, flag)
     if not vals or not all(math.isfinite(v) for v in vals):
         raise ValueError(f"{flag}: expected finite comma-separated numbers, got {text!r}")
     return vals
