@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     def traj_from(name):
         def run(req):
             return trajectory.refine_batch(
-                *req.batch_args,
+                req,
                 cached[name],
                 options=req.options,
                 pos_tol=req.pos_tol,

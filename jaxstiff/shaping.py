@@ -144,6 +144,8 @@ def _solve(
     inp: ShapeInputs, extra_starts: list, progress: Callable[[int, int], None] | None
 ) -> tuple[WaypointProblem, SolveRequest, dict[str, Any], bool]:
     """Step 3: run the solver; an interrupt after some waypoints keeps them (the rest NOT_RUN)."""
+    if inp.q0 is None or inp.kj0 is None:  # made by step 2 (the start states)
+        raise RuntimeError("shape: the start states were not made before the solve")
     with jax.enable_x64(True):
         problem = WaypointProblem(inp.robot, inp.task, inp.crit_fn)
         limits = Limits(dq=inp.dq, dk=inp.dk, kmin=inp.kmin, kmax=inp.kmax, first_rate_limit=inp.first_rate_limit)

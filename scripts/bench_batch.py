@@ -85,7 +85,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff.solvers import pgd
-    from jaxstiff.solvers.problem import Limits, WaypointProblem
+    from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
     from jaxstiff.stiffness.criteria import get_criterion
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
@@ -107,14 +107,7 @@ def main(argv=None) -> int:
     ]
     t_ik = time.perf_counter() - t_ik
     res = pgd.solve_batch(
-        prob,
-        pts,
-        dirs,
-        q0,
-        kj0,
-        limits,
-        5.0,
-        0.01,
+        WaypointBatch(prob, pts, dirs, q0, kj0, limits, 5.0, 0.01),
         starts=args.starts,
         options=opts,
         return_timing=True,

@@ -7,6 +7,7 @@ here by name and imported on first use, so ``import jaxstiff`` loads none of the
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -21,7 +22,7 @@ from jaxstiff.settings.solvers import (
     SLSQPOptions,
     TrajectoryOptions,
 )
-from jaxstiff.solvers.problem import Limits, WaypointProblem
+from jaxstiff.solvers.problem import WaypointBatch
 
 __all__ = [
     "SolveRequest",
@@ -39,18 +40,12 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------- solver registry
-class SolveRequest:
-    """Everything a registered solver gets: the problem, the paths, the start states, the limits.
+@dataclasses.dataclass(frozen=True, eq=False)
+class SolveRequest(WaypointBatch):
+    """Everything a registered solver gets: the paths (the :class:`~jaxstiff.solvers.problem.WaypointBatch`
+    fields, so a request is passed as is to the batch solvers) and how to solve them.
 
-    Attributes:
-        problem: :class:`~jaxstiff.solvers.problem.WaypointProblem`.
-        targets, directions: (B, P, 3).
-        q0, kj0: (B, n) start states.
-        limits: :class:`~jaxstiff.solvers.problem.Limits`; ``dq``/``dk`` are (n,) (the same for
-            every path) or (B, n) (per path): take path b's with ``limits.for_path(b)``.
-        ratio: the wanted axis ratio, a float (every path) or a (B,) array (per path);
-            :attr:`ratios` is always (B,).
-        c: f1's offset (a float, every path).
+    Attributes (besides ``problem``, ``targets``, ``directions``, ``q0``, ``kj0``, ``limits``, ``ratio``, ``c``):
         starts: number of starts (multi-start solvers).
         options: solver options (dict).
         pos_tol: m, position tolerance of a usable waypoint.
@@ -58,35 +53,11 @@ class SolveRequest:
         first_starts: per path, the first waypoint's extra start states ``(q (n,), kj (n,))``.
     """
 
-    problem: WaypointProblem
-    targets: np.ndarray
-    directions: np.ndarray
-    q0: np.ndarray
-    kj0: np.ndarray
-    limits: Limits
-    ratio: float | np.ndarray
-    c: float
     starts: int | None
     options: dict[str, Any] | None
     pos_tol: float
     progress: Callable[[int, int], None] | None
     first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]]
-
-    def __init__(self, **kw: Any):
-        self.__dict__.update(kw)
-
-    @property
-    def ratios(self) -> np.ndarray:
-        """(B,) the wanted axis ratio of every path."""
-        return np.broadcast_to(np.asarray(self.ratio, float), (self.targets.shape[0],)).copy()
-
-    @property
-    def batch_args(
-        self,
-    ) -> tuple[WaypointProblem, np.ndarray, np.ndarray, np.ndarray, np.ndarray, Limits, float | np.ndarray, float]:
-        """The positional arguments every batch solver takes, in order: ``(problem, targets,
-        directions, q0, kj0, limits, ratio, c)``."""
-        return (self.problem, self.targets, self.directions, self.q0, self.kj0, self.limits, self.ratio, self.c)
 
 
 #: A solver maps a :class:`SolveRequest` to a dict of arrays: ``q``, ``kj`` (B,P,n), ``status``,

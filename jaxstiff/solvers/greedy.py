@@ -26,7 +26,7 @@ from jaxstiff.solvers.base import SolveRequest, SolverInterrupted, outcomes_to_a
 from jaxstiff.solvers.problem import (
     BOUND_TOL,
     POS_TOL,
-    Limits,
+    WaypointBatch,
     WaypointProblem,
     clip_to_box,
     compiled,
@@ -244,14 +244,8 @@ def _solve_starts(
 
 
 def greedy_path(
-    problem: WaypointProblem,
-    targets: np.ndarray,
-    directions: np.ndarray,
-    q0: np.ndarray,
-    kj0: np.ndarray,
-    limits: Limits,
-    ratio: float,
-    c: float,
+    batch: WaypointBatch,
+    b: int,
     solver: WaypointSolver,
     pos_and_jac: PosAndJac | None = None,
     objective: Objective | None = None,
@@ -260,7 +254,7 @@ def greedy_path(
     first_starts: Sequence[tuple[np.ndarray, np.ndarray]] = (),
     first_maxiter: int | None = None,
 ) -> list[WaypointOutcome]:
-    """Solve the waypoints of one path one after the other (seed 000's greedy scheme).
+    """Solve the waypoints of path ``b`` of ``batch`` one after the other (seed 000's greedy scheme).
 
     Waypoint p's box is built around the reference state: the last usable waypoint's
     (q, kj), or the start state ``(q0, kj0)`` before the first usable waypoint (with the rate
@@ -268,11 +262,9 @@ def greedy_path(
     clipped into the box.
 
     Args:
-        problem: the waypoint problem.
-        targets, directions: (P, 3).
-        q0, kj0: (n,) start state.
-        limits: stiffness range and rate limits.
-        ratio, c: criterion parameters.
+        batch: the paths (problem, targets and directions (B, P, 3), start states (B, n), limits,
+            criterion parameters ratio and c).
+        b: which path of the batch.
         solver: ``(x0, lb, ub, params) -> SolverOutput``.
         pos_and_jac: ``q -> (position (3,), J[rows][:, free])`` for the repair and the check;
             default: the JAX kernel.
@@ -290,9 +282,16 @@ def greedy_path(
     Returns:
         One :class:`WaypointOutcome` per waypoint.
     """
+    problem, limits, targets, directions = (
+        batch.problem,
+        batch.limits.for_path(b),
+        batch.targets[b],
+        batch.directions[b],
+    )
+    ratio, c = float(batch.ratios[b]), batch.c
     pj = jax_pos_and_jac(problem) if pos_and_jac is None else pos_and_jac
     fobj = kernel_objective(problem) if objective is None else objective
-    q_ref, kj_ref = np.asarray(q0, float), np.asarray(kj0, float)
+    q_ref, kj_ref = np.asarray(batch.q0[b], float), np.asarray(batch.kj0[b], float)
     at_start = True
     out: list[WaypointOutcome] = []
     try:
@@ -337,7 +336,6 @@ def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, An
     prob = req.problem
 
     per_path: list[list[WaypointOutcome]] = []
-    ratios = req.ratios
     B, P = req.targets.shape[:2]
     interrupted = False
     progress = req.progress
@@ -346,14 +344,8 @@ def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, An
         try:
             per_path.append(
                 greedy_path(
-                    prob,
-                    req.targets[b],
-                    req.directions[b],
-                    req.q0[b],
-                    req.kj0[b],
-                    req.limits.for_path(b),
-                    float(ratios[b]),
-                    req.c,
+                    req,
+                    b,
                     solver,
                     pos_tol=req.pos_tol,
                     progress=prog,

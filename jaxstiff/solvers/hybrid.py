@@ -59,7 +59,7 @@ from jaxstiff.solvers.greedy import (
     judge,
     kernel_objective,
 )
-from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, jax_pos_and_jac
+from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, clip_to_box, jax_pos_and_jac
 
 __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 
@@ -82,14 +82,8 @@ class _Polish:
     """What the polish of every path shares: the batch (B paths, P waypoints), pgd's result
     ``base``, the SLSQP solver and the problem's kernels."""
 
-    problem: WaypointProblem
-    targets: np.ndarray  # (B, P, 3), m
-    directions: np.ndarray  # (B, P, 3), unit
-    q0: np.ndarray  # (B, n)
-    kj0: np.ndarray  # (B, n)
-    limits: Limits
+    batch: WaypointBatch
     ratios: np.ndarray  # (B,)
-    c: float
     base: dict[str, np.ndarray]
     mode: str  # option polish_slsqp
     solver: WaypointSolver
@@ -100,18 +94,18 @@ class _Polish:
 
     def params(self, b: int, p: int) -> np.ndarray:
         """The flat parameter vector of waypoint p of path b."""
-        return WaypointProblem.params(self.targets[b, p], self.directions[b, p], self.ratios[b], self.c)
+        return WaypointProblem.params(
+            self.batch.targets[b, p], self.batch.directions[b, p], self.ratios[b], self.batch.c
+        )
+
+    @property
+    def problem(self) -> WaypointProblem:
+        """The batch's waypoint problem."""
+        return self.batch.problem
 
 
 def polish(
-    problem: WaypointProblem,
-    targets: np.ndarray,
-    directions: np.ndarray,
-    q0: np.ndarray,
-    kj0: np.ndarray,
-    limits: Limits,
-    ratio: float | np.ndarray,
-    c: float,
+    batch: WaypointBatch,
     base: dict[str, np.ndarray],
     options: Mapping[str, Any] | None = None,
     pos_tol: float = 1e-9,
@@ -119,7 +113,7 @@ def polish(
 ) -> dict[str, np.ndarray]:
     """SLSQP polish of a feasible batch solution ``base`` (the SOLVERS dict format, e.g. pgd's).
 
-    ``ratio``: a number or (B,); ``limits.dq``/``dk``: (n,) or (B, n) (per path).
+    ``batch``: the paths (``ratio`` a number or (B,); ``limits.dq``/``dk`` (n,) or (B, n), per path).
     ``first_starts``: per path, the extra start states ``(q, kj)`` greedy SLSQP tries at a first
     waypoint without rate limit (:func:`jaxstiff.solvers.greedy.greedy_path`); with the greedy
     chain SLSQP runs from them there too, so the hybrid's first waypoint is never worse than
@@ -133,17 +127,12 @@ def polish(
     opts = dict(options or {})
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
     sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
+    problem = batch.problem
     solver = make_slsqp_solver(problem, sl_opts)
-    B = targets.shape[0]
+    B = batch.targets.shape[0]
     ctx = _Polish(
-        problem,
-        targets,
-        directions,
-        q0,
-        kj0,
-        limits,
-        np.broadcast_to(np.asarray(ratio, float), (B,)),
-        c,
+        batch,
+        batch.ratios,
         base,
         own["polish_slsqp"],
         solver,
@@ -175,14 +164,14 @@ def _next_usable(usable: np.ndarray) -> np.ndarray:
 def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -> None:
     """Polish path b along ``chain`` ("greedy" or "pgd", module docstring), writing into ``dst``."""
     problem = ctx.problem
-    limits = ctx.limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
+    limits = ctx.batch.limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
     dx = np.r_[np.asarray(limits.dq, float)[list(problem.free_idx)], np.asarray(limits.dk, float)]
     Xb = problem.x_of(ctx.base["q"][b], ctx.base["kj"][b])
     usable_b = R.is_usable(ctx.base["status"][b])
     nxt = _next_usable(usable_b)
-    q_ref, kj_ref = np.asarray(ctx.q0[b], float).copy(), np.asarray(ctx.kj0[b], float).copy()
+    q_ref, kj_ref = np.asarray(ctx.batch.q0[b], float).copy(), np.asarray(ctx.batch.kj0[b], float).copy()
     at_start = True
-    for p in range(ctx.targets.shape[1]):
+    for p in range(ctx.batch.targets.shape[1]):
         t0 = time.perf_counter()
         rate = limits.first_rate_limit or not at_start
         lb, ub = limits.box(problem, q_ref, kj_ref, rate)
@@ -290,7 +279,7 @@ def _best_slsqp(
         except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
             sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
         x, status, err = judge(
-            problem, sol, x_start, lb, ub, ctx.targets[b, p], params, ctx.pos_and_jac, ctx.objective, ctx.pos_tol
+            problem, sol, x_start, lb, ub, ctx.batch.targets[b, p], params, ctx.pos_and_jac, ctx.objective, ctx.pos_tol
         )
         if status in R.USABLE:
             f_new = ctx.objective(x, params)
@@ -337,7 +326,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     opts = dict(req.options or {})
     pg_opts = {k: v for k, v in opts.items() if k in pgd.DEFAULT_OPTIONS}
     base = pgd.solve_batch(
-        *req.batch_args,
+        req,
         starts=req.starts,
         options=pg_opts,
         pos_tol=req.pos_tol,
@@ -345,7 +334,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     )
     base.pop("criterion", None)
     out: dict[str, Any] = polish(
-        *req.batch_args,
+        req,
         base,
         options=opts,
         pos_tol=req.pos_tol,

@@ -41,7 +41,7 @@ from jaxstiff.solvers.greedy import greedy_path as greedy_path
 from jaxstiff.solvers.greedy import judge as judge
 from jaxstiff.solvers.greedy import not_run_outcomes as not_run_outcomes
 from jaxstiff.solvers.greedy import run_greedy as run_greedy
-from jaxstiff.solvers.problem import Limits, WaypointProblem, compiled_position, compiled_scaled
+from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, compiled_position, compiled_scaled
 
 __all__ = [
     "WaypointOutcome",
@@ -292,28 +292,16 @@ def _lean_driver_works() -> bool:
 
 
 def solve_path(
-    problem: WaypointProblem,
-    targets: np.ndarray,
-    directions: np.ndarray,
-    q0: np.ndarray,
-    kj0: np.ndarray,
-    limits: Limits,
-    ratio: float,
-    c: float,
+    batch: WaypointBatch,
+    b: int = 0,
     options: Mapping[str, Any] | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> list[WaypointOutcome]:
-    """Greedy SLSQP with JAX derivatives along one path; see :func:`greedy_path`."""
-    solver = make_slsqp_solver(problem, options)
+    """Greedy SLSQP with JAX derivatives along path ``b`` of ``batch``; see :func:`greedy_path`."""
+    solver = make_slsqp_solver(batch.problem, options)
     return greedy_path(
-        problem,
-        targets,
-        directions,
-        q0,
-        kj0,
-        limits,
-        ratio,
-        c,
+        batch,
+        b,
         solver,
         progress=progress,
         first_maxiter=solver.options["first_maxiter"],

@@ -43,7 +43,7 @@ from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported 
 from jaxstiff.settings.solvers import TrajectoryOptions
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
-from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem
+from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem
 
 __all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]
 
@@ -176,14 +176,7 @@ def _compiled(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...],
 
 
 def refine_batch(
-    problem: WaypointProblem,
-    targets: np.ndarray,
-    directions: np.ndarray,
-    q0: np.ndarray,
-    kj0: np.ndarray,
-    limits: Limits,
-    ratio: float | np.ndarray,
-    c: float,
+    batch: WaypointBatch,
     warm: Mapping[str, Any],
     options: Mapping[str, Any] | None = None,
     pos_tol: float = POS_TOL,
@@ -191,22 +184,23 @@ def refine_batch(
     """Trajectory-level refinement of a feasible batch solution ``warm`` (SOLVERS dict format).
 
     Args:
-        targets, directions: (B, P, 3); q0, kj0: (B, n); ratio: a number or (B,);
-            ``limits.dq``/``dk``: (n,) or (B, n) (per path).
+        batch: the paths (targets, directions (B, P, 3); q0, kj0 (B, n); ratio a number or (B,);
+            ``limits.dq``/``dk`` (n,) or (B, n), per path).
         warm: the greedy solution (``q``, ``kj`` (B,P,n), ``status``...).
 
     Returns:
         The SOLVERS dict; per path, fewer unusable waypoints or a total criterion <= the warm start's.
     """
     opts = {**DEFAULT_OPTIONS, **{k: v for k, v in (options or {}).items() if k in DEFAULT_OPTIONS}}
-    targets = np.asarray(targets, float)
-    directions = np.asarray(directions, float)
+    problem, limits = batch.problem, batch.limits
+    targets = np.asarray(batch.targets, float)
+    directions = np.asarray(batch.directions, float)
     B, P = targets.shape[:2]
     nf = problem.n_free
     free = list(problem.free_idx)
     Xw = problem.x_of(warm["q"], warm["kj"])
-    x0 = problem.x_of(np.asarray(q0, float), np.asarray(kj0, float))
-    r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
+    x0 = problem.x_of(np.asarray(batch.q0, float), np.asarray(batch.kj0, float))
+    r_arr = batch.ratios
     # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
     # simplified away), so a lone path would differ from the same path in a batch in the last bits;
     # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
@@ -232,7 +226,7 @@ def refine_batch(
                 float(limits.kmin),
                 float(limits.kmax),
                 pad(r_arr[sl], C),
-                float(c),
+                float(batch.c),
                 float(pos_tol),
             )
             res = jax.tree_util.tree_map(np.asarray, res)
@@ -271,7 +265,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     else:
         raise ValueError(f"option warm must be 'pgd', 'hybrid' or 'slsqp', got {warm_kind!r}")
     out = refine_batch(
-        *req.batch_args,
+        req,
         warm,
         options=opts,
         pos_tol=req.pos_tol,

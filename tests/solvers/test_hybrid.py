@@ -46,7 +46,7 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
 
     import jaxstiff
     from jaxstiff.solvers import hybrid
-    from jaxstiff.solvers.problem import Limits, WaypointProblem
+    from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
     from jaxstiff.stiffness.criteria import get_criterion
 
     path, q0 = planar_paths(1, 4, seed=1)
@@ -62,9 +62,8 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
     problem = WaypointProblem(PLANAR, "xy", get_criterion("f2"))
     dk = 5.0
     limits = Limits(dq=np.full(3, 0.1), dk=np.full(3, dk), kmin=1.0, kmax=100.0, first_rate_limit=False)
-    out = hybrid.polish(
-        problem, pts, base_res.direction, q0, np.full((1, 3), 50.5), limits, 3.0, 0.0, base, options={"chain": "greedy"}
-    )
+    batch = WaypointBatch(problem, pts, base_res.direction, q0, np.full((1, 3), 50.5), limits, 3.0, 0.0)
+    out = hybrid.polish(batch, base, options={"chain": "greedy"})
     assert out["status"][0, 2] == R.UNREACHABLE
     assert np.all(R.is_usable(out["status"][0, [0, 1, 3]]))
     # waypoint 2's reference is waypoint 1 (the last usable one), waypoint 3's too

@@ -16,7 +16,7 @@ from jaxstiff.settings.solvers import PGDOptions
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.pgd.kernel import make_kernel
 from jaxstiff.solvers.pgd.ops import lm_kind
-from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, content_seed
+from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem, content_seed
 
 __all__ = [
     "DEFAULT_OPTIONS",
@@ -84,14 +84,7 @@ def pad_rows(a: np.ndarray, C: int) -> np.ndarray:
 
 
 def solve_batch(
-    problem: WaypointProblem,
-    targets: np.ndarray,
-    directions: np.ndarray,
-    q0: np.ndarray,
-    kj0: np.ndarray,
-    limits: Limits,
-    ratio: float | np.ndarray,
-    c: float,
+    batch: WaypointBatch,
     *,
     starts: int | None = None,
     options: Mapping[str, Any] | None = None,
@@ -102,13 +95,10 @@ def solve_batch(
     """Shape B paths with multi-start projected gradient (the solver behind ``solver="pgd"``).
 
     Args:
-        problem: the waypoint problem (robot, task, criterion).
-        targets, directions: (B, P, 3), m and unit vectors, base frame.
-        q0, kj0: (B, n) start states (rad; Nm/rad).
-        limits: rate limits and stiffness range (S0-11 ... S0-14); ``dq``/``dk`` (n,) or (B, n)
-            (one row per path).
-        ratio: wanted axis ratio r, a number or (B,) (one per path: a parameter sweep in one call).
-        c: f1's offset.
+        batch: the paths: problem (robot, task, criterion), targets and directions (B, P, 3) (m, unit
+            vectors, base frame), start states q0, kj0 (B, n) (rad; Nm/rad), limits (S0-11 ... S0-14;
+            ``dq``/``dk`` (n,) or (B, n), one row per path), the wanted axis ratio r (a number or (B,):
+            a parameter sweep in one call) and f1's offset c.
         starts: S (default ``options["starts"]``).
         options: see :data:`DEFAULT_OPTIONS`.
         pos_tol: m, position error of a usable waypoint.
@@ -122,12 +112,13 @@ def solve_batch(
         ``nfev``, ``time_s``, ``criterion`` (B,P) in the :data:`jaxstiff.solvers.base.SOLVERS` format.
     """
     opts = check_options(options, starts)
-    targets = np.asarray(targets, float)
-    directions = np.asarray(directions, float)
+    problem, limits, q0 = batch.problem, batch.limits, np.asarray(batch.q0, float)
+    targets = np.asarray(batch.targets, float)
+    directions = np.asarray(batch.directions, float)
     B, P = targets.shape[:2]
     nf = problem.n_free
-    r_arr = np.broadcast_to(np.asarray(ratio, float), (B,)).copy()
-    x0 = np.asarray(problem.x_of(np.asarray(q0, float), np.asarray(kj0, float)))
+    r_arr = batch.ratios
+    x0 = np.asarray(problem.x_of(q0, np.asarray(batch.kj0, float)))
     # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
     # simplified away), so a lone path would differ from the same path in a batch in the last bits;
     # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
@@ -141,9 +132,9 @@ def solve_batch(
     # does not depend on its position in the batch or on the chunk size
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
-    shared = (float(limits.kmin), float(limits.kmax), float(c), float(pos_tol))
+    shared = (float(limits.kmin), float(limits.kmax), float(batch.c), float(pos_tol))
     X, out, compile_s, run_s = _run_chunks(fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), C)
-    q = np.repeat(np.asarray(q0, float)[:, None, :], P, axis=1)
+    q = np.repeat(q0[:, None, :], P, axis=1)
     q[..., list(problem.free_idx)] = X[..., :nf]
     out["q"], out["kj"] = q, X[..., nf:].copy()
     out["nit"], out["nfev"] = iteration_counts(problem, opts, B, P)
@@ -263,7 +254,7 @@ CODE_MEANING = "index of the start that won (-1 = none); no convergence flag (fi
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="pgd"``)."""
     res = solve_batch(
-        *req.batch_args,
+        req,
         starts=req.starts,
         options=req.options,
         pos_tol=req.pos_tol,

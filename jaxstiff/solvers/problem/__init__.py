@@ -45,6 +45,7 @@ from jaxstiff.solvers.problem.box import BOUND_TOL as BOUND_TOL
 from jaxstiff.solvers.problem.box import POS_TOL as POS_TOL
 from jaxstiff.solvers.problem.box import Limits as Limits
 from jaxstiff.solvers.problem.box import PointCheck as PointCheck
+from jaxstiff.solvers.problem.box import WaypointBatch as WaypointBatch
 from jaxstiff.solvers.problem.box import box as box
 from jaxstiff.solvers.problem.box import check_point as check_point
 from jaxstiff.solvers.problem.box import clip_to_box as clip_to_box

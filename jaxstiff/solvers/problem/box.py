@@ -21,6 +21,7 @@ __all__ = [
     "check_point",
     "PointCheck",
     "Limits",
+    "WaypointBatch",
     "POS_TOL",
     "BOUND_TOL",
     "content_seed",
@@ -217,3 +218,31 @@ class Limits:
         if not rate:
             return box(problem, None, None, self.dq, self.dk, self.kmin, self.kmax)
         return box(problem, q_ref, kj_ref, self.dq, self.dk, self.kmin, self.kmax)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class WaypointBatch:
+    """The paths a solver works on: what every shipped solver entry point takes first.
+
+    Attributes:
+        problem: the waypoint problem (robot, task, criterion).
+        targets, directions: (B, P, 3) TCP positions (m) and unit desired directions.
+        q0, kj0: (B, n) start states (rad or m; Nm/rad).
+        limits: stiffness range and rate limits; (n,) or per path (B, n), see :meth:`Limits.for_path`.
+        ratio: the wanted axis ratio, a float (every path) or a (B,) array (per path).
+        c: f1's offset (a float, every path).
+    """
+
+    problem: WaypointProblem
+    targets: np.ndarray
+    directions: np.ndarray
+    q0: np.ndarray
+    kj0: np.ndarray
+    limits: Limits
+    ratio: float | np.ndarray
+    c: float
+
+    @property
+    def ratios(self) -> np.ndarray:
+        """(B,) the wanted axis ratio of every path."""
+        return np.broadcast_to(np.asarray(self.ratio, float), (self.targets.shape[0],)).copy()
