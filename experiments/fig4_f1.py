@@ -1,18 +1,22 @@
 """Seed 000, Fig. 4: shaping along a curved path with f1 (ratio at least 5), KUKA LWR 4, 7th joint locked.
 
 Setup (the seed gives neither the path nor the rate limits; jaxstiff's documented defaults):
-``urdf/kuka_lwr4.urdf`` with ``lwr_a7`` locked at 0; the shipped default path
-(:func:`jaxstiff.paths.default_path`: a half-sine bump in the plane z = 0.30 m, 60 waypoints,
-0.55 m); desired direction = the path tangent; criterion f1 (S0-9) with r = 5, c = 0.01; task
+``urdf/kuka_lwr4.urdf`` with ``lwr_a7`` locked at 0 (as in the seed; how a locked joint enters K_C is
+jaxstiff.shape's default, SPEC section 1); the shipped default path (:func:`jaxstiff.paths.default_path`:
+a half-sine bump in the plane z = 0.30 m, 60 waypoints, 0.55 m, the tangent turning at most 1.9 deg
+per waypoint); desired direction = the path tangent; criterion f1 (S0-9) with r = 5, c = 0.01; task
 "full" (K_T = top-left 3x3 of the 6x6 K_C, S0-6/7); kj in [1, 100] Nm/rad; rate limits 2 deg and
 5 Nm/rad per waypoint (S0-11 ... S0-14), not applied to the first waypoint; solver "slsqp" (SLSQP
 per waypoint with JAX derivatives); CMS to a geometric-mean axis of 1000 N/m.
 
 Panels, as in the seed: (a) joint stiffness, (b) joint positions, (c) criterion value, (d) orientation
 error (with the axis ratio), (e) CMS factor, (f) the path with the CMS-scaled 3-D stiffness ellipsoids,
-(g) their projection on the xy plane. Writes ``fig4_f1.png``, ``summary.md`` (the table: share of
-waypoints with alpha < 1 deg and ratio >= 4.9, max position error and max bound/rate violation checked
-with a numpy FK, time per waypoint), ``summary.csv`` and the result file ``fig4_f1.npz``.
+(g) their projection on the xy plane (ellipse scale in N/m stated). Writes ``fig4_f1.png``,
+``summary.md`` (the table: share of waypoints with alpha < 1 deg and ratio >= 4.9, the path's largest
+turn per waypoint against the rate limit, waypoints with a joint held by a rate limit, max position
+error and max bound/rate violation checked with a numpy FK, time per waypoint), ``summary.csv`` and
+the result file ``fig4_f1.npz``. ``fig4_f1_curved.py`` runs the same on a path that turns faster than
+the rate limits can follow.
 
 Usage:
     python experiments/fig4_f1.py [--out DIR] [--quick]
@@ -25,13 +29,33 @@ import sys
 import time
 
 
-def summary_rows(res, verification):
-    """The summary table of the experiment as (metric, value) rows."""
+def limits_in_use(res, robot) -> dict:
+    """The path's turning per waypoint against the joint rate limit, and how often the limits hold joints."""
+    import numpy as np
+
+    from jaxstiff.paths import Path
+    from jaxstiff.paths.generators import turning_deg
+    from jaxstiff.plots.shape_path import rate_limited_joints
+
+    lim = rate_limited_joints(res, robot)
+    return {
+        "turning": turning_deg(Path(res.target[0], res.direction[0])),
+        "dq_deg": float(np.degrees(np.max(res.meta["limits"]["dq"]))),
+        "dk": float(np.max(res.meta["limits"]["dk"])),
+        "wp_q_rate": int(np.count_nonzero(lim["q_rate"])),
+        "wp_kj_rate": int(np.count_nonzero(lim["kj_rate"])),
+        "per_wp": lim,
+    }
+
+
+def summary_rows(res, verification, limits):
+    """The summary table of the experiment as (metric, value) rows (``limits``: :func:`limits_in_use`)."""
     import numpy as np
 
     from jaxstiff.results import files as R
 
     s = R.summary(res)
+    t = limits["turning"]
     r = float(res.meta["ratio"])
     rlabel = (
         f"share of waypoints with ratio >= {0.98 * r:g} (f1 asks for at least {r:g})"
@@ -48,6 +72,14 @@ def summary_rows(res, verification):
         ("max alpha (deg)", f"{float(res.alpha_deg.max()):.3g}"),
         ("ratio min / max", f"{float(res.ratio.min()):.3f} / {float(res.ratio.max()):.3f}"),
         (
+            "path tangent's turn per waypoint min / max (deg); joint rate limit dq (deg)",
+            f"{float(t.min()):.2f} / {float(t.max()):.2f}; {limits['dq_deg']:g}",
+        ),
+        (
+            f"waypoints with a joint at its rate limit dq / a stiffness at dk = {limits['dk']:g} Nm/rad",
+            f"{limits['wp_q_rate']} / {limits['wp_kj_rate']}",
+        ),
+        (
             "status counts (0 solved, 1 not converged, 2 clipped, 3 unreachable, 4 non-finite)",
             " ".join(str(int(x)) for x in st),
         ),
@@ -61,11 +93,50 @@ def summary_rows(res, verification):
     ]
 
 
-def run(criterion: str, tag: str, title: str, argv=None) -> int:
+def default_setup(criterion: str) -> str:
+    """The interpretations of the default-path run (this docstring's Setup paragraph) for ``criterion``."""
+    setup = " ".join(__doc__.split("Setup")[1].split("Panels")[0].split())
+    if criterion == "f2":  # fig5: the same setup with the other criterion
+        setup = setup.replace("criterion f1 (S0-9) with r = 5, c = 0.01", "criterion f2 (S0-15) with r = 5")
+        assert "f2 (S0-15)" in setup, "fig4_f1's setup text changed: update the f2 substitution"
+    return setup
+
+
+def default_path_note(res, limits) -> list[str]:
+    """What the default path's gentle turning means for the result (Markdown lines)."""
+    t, dq = limits["turning"], limits["dq_deg"]
+    nq, nk = limits["wp_q_rate"], limits["wp_kj_rate"]
+    below = "below" if float(t.max()) < dq else "not below"
+    if nq == 0 and nk == 0:
+        held = "no joint and no joint stiffness reaches its rate limit at any waypoint"
+        verdict = "the rate limits never hold the ellipsoid back"
+    else:
+        held = f"a joint reaches its rate limit at {nq} and a joint stiffness at {nk} of {res.P} waypoints"
+        verdict = "the rate limits rarely hold the ellipsoid back"
+    curved = {"f1": "fig4_f1_curved", "f2": "fig5_f2_curved"}.get(res.meta["criterion"], "the `_curved` run")
+    return [
+        f"The default path's tangent turns at most {float(t.max()):.2f} deg per waypoint ({below} the joint rate "
+        f"limit of {dq:g} deg per waypoint; stiffness rate limit {limits['dk']:g} Nm/rad per waypoint), and {held}. "
+        f"On this path {verdict}, so an even alpha and ratio along the whole path is the expected result: it does "
+        f"not show where the criterion gives way. `{curved}` repeats this figure on a path whose tangent turns "
+        "faster than the limits can follow.",
+    ]
+
+
+def run(criterion: str, tag: str, title: str, argv=None, path_fn=None, setup=None, extra=None) -> int:
+    """Shape along a path with ``criterion`` (r = 5), draw the seven panels, write the summary.
+
+    Args:
+        path_fn: ``path_fn(quick) -> Path``; default: the shipped default path (its first 20 waypoints
+            with ``--quick``).
+        setup: the interpretations paragraph (default: :func:`default_setup`).
+        extra: ``extra(res, robot, limits, out) -> list of Markdown lines`` put after the table
+            (default: :func:`default_path_note`).
+    """
     from jaxstiff.plots import experiment_parser
 
-    ap = experiment_parser(tag, __doc__)
-    ap.add_argument("--quick", action="store_true", help="only the first 20 waypoints of the default path")
+    ap = experiment_parser(tag, getattr(sys.modules.get("__main__"), "__doc__", None) or __doc__)  # the script's
+    ap.add_argument("--quick", action="store_true", help="a shorter path (see above)")
     args = ap.parse_args(argv)
 
     from jaxstiff.runtime.x64 import enable_x64
@@ -81,9 +152,12 @@ def run(criterion: str, tag: str, title: str, argv=None) -> int:
 
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
-    path = jaxstiff.default_path()
-    if args.quick:
-        path = jaxstiff.Path(path.points[:20], path.directions[:20], name="default (first 20)")
+    if path_fn is None:
+        path = jaxstiff.default_path()
+        if args.quick:
+            path = jaxstiff.Path(path.points[:20], path.directions[:20], name="default (first 20)")
+    else:
+        path = path_fn(args.quick)
     t0 = time.perf_counter()
     res = jaxstiff.shape(robot, path, criterion, 5.0)
     wall = time.perf_counter() - t0
@@ -91,17 +165,15 @@ def run(criterion: str, tag: str, title: str, argv=None) -> int:
     ver = R.verify(res)
     plots.figure_shape_path(res, robot, os.path.join(args.out, f"{tag}.png"), title)
 
-    rows = summary_rows(res, ver) + [("wall time of the run incl. compilation (s)", f"{wall:.1f}")]
+    limits = limits_in_use(res, robot)
+    rows = summary_rows(res, ver, limits) + [("wall time of the run incl. compilation (s)", f"{wall:.1f}")]
     atomic_write_text(
         os.path.join(args.out, "summary.csv"), "metric,value\n" + "".join(f'"{k}","{v}"\n' for k, v in rows)
     )
-    lines = [f"## {title}", "", f"![{tag}]({tag}.png)", "", "| metric | value |", "| --- | --- |"]
-    lines += [f"| {k} | {v} |" for k, v in rows]
-    setup = " ".join(__doc__.split("Setup")[1].split("Panels")[0].split())
-    if criterion == "f2":  # fig5: the same setup with the other criterion
-        setup = setup.replace("criterion f1 (S0-9) with r = 5, c = 0.01", "criterion f2 (S0-15) with r = 5")
-        assert "f2 (S0-15)" in setup, "fig4_f1's setup text changed: update the f2 substitution"
-    lines += ["", "Setup: " + setup]
+    setup = default_setup(criterion) if setup is None else setup
+    lines = [f"## {title}", "", "Setup: " + setup, "", f"![{tag}]({tag}.png)", ""]
+    lines += ["| metric | value |", "| --- | --- |"] + [f"| {k} | {v} |" for k, v in rows] + [""]
+    lines += default_path_note(res, limits) if extra is None else extra(res, robot, limits, args.out)
     atomic_write_text(os.path.join(args.out, "summary.md"), "\n".join(lines) + "\n")
     for k, v in rows:
         print(f"{k:<90} {v}")

@@ -17,7 +17,7 @@ The shipped default, :func:`default_path`: a half-sine bump in the LWR's xy plan
 docstring for its geometry.
 
 Modules: :mod:`.core` (:class:`Path`, :func:`tangents`), :mod:`.csv_io` (reading and writing the
-CSV text), :mod:`.generators` (line, arc, circle, half_sine, spline), :mod:`.default` (the shipped
+CSV text), :mod:`.generators` (line, arc, circle, half_sine, spline, ellipse_arc; turning_deg), :mod:`.default` (the shipped
 default path). Every public name is importable from ``jaxstiff.paths``.
 
 Example:
@@ -39,9 +39,12 @@ from .default import DEFAULT_PATH_SPEC as DEFAULT_PATH_SPEC
 from .default import default_path as default_path
 from .generators import arc as arc
 from .generators import circle as circle
+from .generators import ellipse_arc as ellipse_arc
+from .generators import ellipse_curvature as ellipse_curvature
 from .generators import half_sine as half_sine
 from .generators import line as line
 from .generators import spline as spline
+from .generators import turning_deg as turning_deg
 
 __all__ = [
     "Path",
@@ -52,6 +55,9 @@ __all__ = [
     "circle",
     "half_sine",
     "spline",
+    "ellipse_arc",
+    "ellipse_curvature",
+    "turning_deg",
     "default_path",
     "DEFAULT_PATH_SPEC",
 ]

@@ -1,7 +1,9 @@
-"""Path generators: line, arc, circle, half_sine, spline.
+"""Path generators: line, arc, circle, half_sine, spline, ellipse_arc; the turning rate of a path.
 
 Every generator returns a :class:`~jaxstiff.paths.Path` of ``n`` waypoints (metres, robot base
-frame) with the curve's analytic unit tangent as the desired direction.
+frame) with the curve's analytic unit tangent as the desired direction. :func:`turning_deg`
+gives the angle the direction turns between consecutive waypoints (what the rate limits of a
+shaping run have to follow).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from .core import ZERO_SEGMENT_M, Path
 
-__all__ = ["line", "arc", "circle", "half_sine", "spline"]
+__all__ = ["line", "arc", "circle", "half_sine", "spline", "ellipse_arc", "ellipse_curvature", "turning_deg"]
 
 
 def _vec3(v: ArrayLike, what: str) -> np.ndarray:
@@ -151,3 +153,70 @@ def spline(points: ArrayLike, n: int = 60) -> Path:
     cs = CubicSpline(u, pts, axis=0, bc_type="natural" if pts.shape[0] > 2 else "not-a-knot")
     s = np.linspace(0.0, u[-1], n)
     return Path(cs(s), cs(s, 1), name="spline")
+
+
+def ellipse_curvature(semi_x: float, semi_y: float, t_deg: ArrayLike) -> np.ndarray:
+    """Curvature (1/m) of the ellipse ``(semi_x cos t, semi_y sin t)`` at parameter angles ``t_deg`` (degrees).
+
+    ``kappa(t) = a b / (a^2 sin^2 t + b^2 cos^2 t)^(3/2)`` with ``a = semi_x``, ``b = semi_y``: largest,
+    ``a / b^2``, at the ends of the longer axis when ``a > b``.
+    """
+    t = np.deg2rad(np.asarray(t_deg, dtype=float))
+    a, b = float(semi_x), float(semi_y)
+    return a * b / (a**2 * np.sin(t) ** 2 + b**2 * np.cos(t) ** 2) ** 1.5
+
+
+def ellipse_arc(
+    center: ArrayLike,
+    semi_x: float,
+    semi_y: float,
+    start_deg: float,
+    end_deg: float,
+    n: int = 60,
+    normal: ArrayLike = (0.0, 0.0, 1.0),
+) -> Path:
+    """``n`` waypoints equally spaced in arc length on an elliptic arc; direction = analytic tangent.
+
+    ``x(t) = center + semi_x cos(t) e1 + semi_y sin(t) e2`` for the parameter angle ``t`` from
+    ``start_deg`` to ``end_deg`` (either sense), ``(e1, e2)`` the in-plane basis of :func:`arc`
+    (the base x and y axes for the default normal +z). Unlike a circle, the curvature varies along
+    the arc (:func:`ellipse_curvature`): with ``semi_x > semi_y`` it peaks at ``t = 0`` and
+    ``180`` deg. With equal spacing ``ds`` the tangent turns by about ``kappa ds`` between
+    waypoints, so the turning rate per waypoint follows the curvature (:func:`turning_deg`).
+
+    Args:
+        center: (3,) m.
+        semi_x, semi_y: semi-axes along ``e1`` and ``e2``, m, > 0 (equal: a circular arc).
+        start_deg, end_deg: parameter angles (degrees) of the first and last waypoint.
+        n: waypoints (the arc length is found on a fine grid of 4096 parameter steps per
+            waypoint, so the spacing is equal to about 1e-9 of the arc).
+        normal: (3,) plane normal (default +z: an arc in a horizontal xy plane).
+    """
+    c = _vec3(center, "center")
+    for what, v in (("semi_x", semi_x), ("semi_y", semi_y)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"ellipse_arc {what} must be a finite number > 0 (m), got {v}")
+    n = _check_n(n)
+    if start_deg == end_deg:
+        raise ValueError("ellipse_arc: start and end angles coincide")
+    e1, e2, _ = _plane_basis(normal)
+    fine = np.deg2rad(np.linspace(start_deg, end_deg, 4096 * n + 1))
+    speed = np.hypot(semi_x * np.sin(fine), semi_y * np.cos(fine))  # |dx/dt|
+    s = np.r_[0.0, np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.abs(np.diff(fine)))]  # trapezoid rule
+    th = np.interp(np.linspace(0.0, s[-1], n), s, fine)
+    pts = c + semi_x * np.cos(th)[:, None] * e1 + semi_y * np.sin(th)[:, None] * e2
+    sense = 1.0 if end_deg > start_deg else -1.0
+    d = sense * (-semi_x * np.sin(th)[:, None] * e1 + semi_y * np.cos(th)[:, None] * e2)
+    return Path(pts, d, name="ellipse_arc")
+
+
+def turning_deg(path: Path) -> np.ndarray:
+    """How far the desired direction turns between consecutive waypoints, degrees: (P - 1,) or (B, P - 1).
+
+    The angle between ``d_p`` and ``d_{p+1}`` (``atan2(|d_p x d_{p+1}|, d_p . d_{p+1})``, accurate also
+    for tiny angles). For a generator's tangents and equal spacing ``ds`` it is about
+    ``kappa ds`` (rad): compare it with the joint rate limit ``dq`` per waypoint.
+    """
+    d = np.asarray(path.directions, dtype=float)
+    a, b = d[..., :-1, :], d[..., 1:, :]
+    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, axis=-1)))

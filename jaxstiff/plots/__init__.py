@@ -18,9 +18,18 @@ Example:
     (5.0, 1.0)
 """
 
-from jaxstiff.plots.base import chain_points, draw_arm, ellipse_points, pyplot, save_figure, style_ellipse_panel
+from jaxstiff.plots.base import (
+    chain_points,
+    draw_arm,
+    draw_scale_bar,
+    ellipse_points,
+    nice_value,
+    pyplot,
+    save_figure,
+    style_ellipse_panel,
+)
 from jaxstiff.plots.planar import figure_cds, figure_cms, figure_criteria, figure_u_frobenius
-from jaxstiff.plots.shape_path import figure_shape_path, stiffness_axes
+from jaxstiff.plots.shape_path import figure_shape_path, figure_turning, rate_limited_joints, stiffness_axes
 from jaxstiff.plots.tables import experiment_parser, markdown_table, save_table_csv, text_table
 
 __all__ = [
@@ -36,6 +45,10 @@ __all__ = [
     "figure_criteria",
     "figure_u_frobenius",
     "figure_shape_path",
+    "figure_turning",
+    "rate_limited_joints",
+    "nice_value",
+    "draw_scale_bar",
     "experiment_parser",
     "markdown_table",
     "text_table",

@@ -15,7 +15,16 @@ from jaxstiff.runtime.io import atomic_write
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = ["pyplot", "save_figure", "ellipse_points", "chain_points", "draw_arm", "style_ellipse_panel"]
+__all__ = [
+    "pyplot",
+    "save_figure",
+    "ellipse_points",
+    "chain_points",
+    "draw_arm",
+    "style_ellipse_panel",
+    "nice_value",
+    "draw_scale_bar",
+]
 
 
 def pyplot() -> Any:
@@ -132,3 +141,46 @@ def style_ellipse_panel(ax: Any, title: str) -> None:
     ax.set_aspect("equal")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
+
+
+def nice_value(x: float) -> float:
+    """The largest of 1, 2, 5 times a power of ten that is at most ``x`` (> 0): a round scale-bar value.
+
+    Example:
+        >>> from jaxstiff.plots.base import nice_value
+        >>> nice_value(730.0), nice_value(0.031)
+        (500.0, 0.02)
+    """
+    if not (np.isfinite(x) and x > 0):
+        raise ValueError(f"nice_value needs a finite number > 0, got {x}")
+    e = np.floor(np.log10(x))
+    m = x / 10**e
+    step = 5.0 if m >= 5 else 2.0 if m >= 2 else 1.0
+    return float(round(step * 10**e, 12))
+
+
+def draw_scale_bar(ax: Any, length: float, label: str, loc: str = "upper left", anchor: Any = (1.02, 1.0)) -> None:
+    """A horizontal scale bar of ``length`` data units (an ellipse panel drawn in metres: the length
+    a stated stiffness has on the plot) with ``label`` under it.
+
+    Placed at ``loc`` of the point ``anchor`` in axes fractions (default: outside, right of the top
+    right corner, where it hides no data); ``anchor=None`` puts it in the ``loc`` corner inside."""
+    from matplotlib.font_manager import FontProperties
+    from mpl_toolkits.axes_grid1.anchored_artists import AnchoredSizeBar
+
+    bar = AnchoredSizeBar(
+        ax.transData,
+        length,
+        label,
+        loc,
+        pad=0.4,
+        sep=4,
+        frameon=True,
+        size_vertical=0.04 * length,
+        fontproperties=FontProperties(size=8),
+        bbox_to_anchor=anchor,
+        bbox_transform=ax.transAxes if anchor is not None else None,
+        borderpad=0.0 if anchor is not None else 0.5,
+    )
+    bar.patch.set_alpha(0.8)
+    ax.add_artist(bar)

@@ -1,4 +1,5 @@
-"""Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result."""
+"""Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result; alpha and rho along
+the path against the turning rate of its tangent (:func:`figure_turning`)."""
 
 from __future__ import annotations
 
@@ -7,13 +8,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from jaxstiff.plots.base import pyplot, save_figure
+from jaxstiff.plots.base import draw_scale_bar, nice_value, pyplot, save_figure
 
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
     from jaxstiff.results.files import ShapeResult
 
-__all__ = ["stiffness_axes", "figure_shape_path"]
+__all__ = ["stiffness_axes", "figure_shape_path", "rate_limited_joints", "figure_turning"]
 
 
 def stiffness_axes(
@@ -82,7 +83,7 @@ def _panel_alpha_ratio(ax: Any, wp: np.ndarray, res: ShapeResult, b: int, r: flo
     ax2.set_ylim(0, max(2 * r, 1.1 * float(res.ratio[b].max())))
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper right")
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
     ax.grid(alpha=0.3)
 
 
@@ -97,10 +98,16 @@ def _panel_cms(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
     ax.grid(alpha=0.3)
 
 
+def _scale_text(n_per_m: float) -> str:
+    """'1 cm on the plot = X N/m' for ellipses drawn at ``n_per_m`` (N/m of stiffness per m of drawing)."""
+    return f"ellipse semi-axes: 1 cm on the plot = {0.01 * n_per_m:.4g} N/m"
+
+
 def _panel_ellipsoids_3d(
-    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int
+    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int, n_per_m: float
 ) -> None:
-    """(f): the path (m) with the CMS-scaled 3-D ellipsoids every ``2 * every`` waypoints, equal axes."""
+    """(f): the path (m) with the CMS-scaled 3-D ellipsoids every ``2 * every`` waypoints, equal axes;
+    semi-axes drawn at ``n_per_m`` N/m per metre of the plot (stated in the title)."""
     from matplotlib.ticker import MaxNLocator
 
     pts = res.target[b]
@@ -110,11 +117,17 @@ def _panel_ellipsoids_3d(
     sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1)
     idx3 = np.arange(0, P, 2 * every)
     size = 0.5 * 2 * every * spacing  # display semi-major axis (m) of the stiffest ellipsoid
+    n_per_m /= 2.0  # drawn twice as large as in (g)
     for k in idx3:
         E = sphere * (unit[k] * size) @ V[k].T + pts[k]
         ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.6, linewidth=0, shade=True)
         ax.quiver(*pts[k], *(0.6 * size * res.direction[b, k]), color="C0", lw=1)
-    ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title="(f) path and 3-D stiffness ellipsoids (CMS-scaled)")
+    ax.set(
+        xlabel="x (m)",
+        ylabel="y (m)",
+        zlabel="z (m)",
+        title=f"(f) path and 3-D stiffness ellipsoids (CMS-scaled)\n{_scale_text(n_per_m)}",
+    )
     lo, hi = pts.min(0) - 1.1 * size, pts.max(0) + 1.1 * size
     lo[2], hi[2] = min(lo[2], pts[:, 2].mean() - 0.05), max(hi[2], pts[:, 2].mean() + 0.05)
     ax.set_xlim(lo[0], hi[0])
@@ -127,10 +140,11 @@ def _panel_ellipsoids_3d(
 
 
 def _panel_projection_xy(
-    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int
+    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int, n_per_m: float
 ) -> None:
     """(g): outlines of the ellipsoids projected on the xy plane every ``every`` waypoints, with
-    their major axes and the path tangent."""
+    their major axes and the path tangent; a scale bar in N/m (``n_per_m`` N/m per metre of the plot),
+    the legend below the axes (it would hide the path's apex or the y label inside)."""
     pts = res.target[b]
     idx = np.arange(0, res.P, every)
     ax.plot(pts[:, 0], pts[:, 1], "k-", lw=1.5, label="path")
@@ -158,9 +172,11 @@ def _panel_projection_xy(
             lw=1,
             label="path tangent" if j == 0 else None,
         )
-    ax.set(xlabel="x (m)", ylabel="y (m)", title="(g) projection on the xy plane")
+    ax.set(xlabel="x (m)", ylabel="y (m)", title=f"(g) projection on the xy plane\n{_scale_text(n_per_m)}")
     ax.set_aspect("equal")
-    ax.legend(fontsize=8, loc="best")
+    value = nice_value(size * n_per_m)  # a round stiffness near the largest drawn semi-axis
+    draw_scale_bar(ax, value / n_per_m, f"{value:g} N/m")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     ax.grid(alpha=0.3)
 
 
@@ -207,14 +223,136 @@ def figure_shape_path(
         "(b) joint positions",
     )
     _panel_criterion(fig.add_subplot(gs[0, 4:6]), wp, res, b)
-    _panel_alpha_ratio(fig.add_subplot(gs[1, 0:3]), wp, res, b, float(res.meta["ratio"]))
-    _panel_cms(fig.add_subplot(gs[1, 3:6]), wp, res, b)
+    row = gs[1, :].subgridspec(1, 2, wspace=0.3)  # room between (d)'s right axis label and (e)'s left one
+    _panel_alpha_ratio(fig.add_subplot(row[0, 0]), wp, res, b, float(res.meta["ratio"]))
+    _panel_cms(fig.add_subplot(row[0, 1]), wp, res, b)
 
     lam, V = stiffness_axes(robot, res.q[b], res.kj_scaled[b], res.meta["task"])
     spacing = float(np.median(np.linalg.norm(np.diff(res.target[b], axis=0), axis=1)))
     unit = lam / lam[:, :1].max()  # axes relative to the largest major axis on the path
-    _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:4], projection="3d"), res, b, unit, V, spacing, every)
-    _panel_projection_xy(fig.add_subplot(gs[2, 4:6]), res, b, unit, V, spacing, every)
+    n_per_m = float(lam[:, 0].max()) / (0.5 * every * spacing)  # N/m per metre of drawing in (g)
+    _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:4], projection="3d"), res, b, unit, V, spacing, every, n_per_m)
+    _panel_projection_xy(fig.add_subplot(gs[2, 4:6]), res, b, unit, V, spacing, every, n_per_m)
 
     fig.suptitle(title, fontsize=13)
+    return save_figure(fig, file, dpi=dpi)
+
+
+def rate_limited_joints(res: ShapeResult, robot: Chain, b: int = 0, rtol: float = 1e-6) -> dict[str, np.ndarray]:
+    """Per waypoint of path ``b``: how many free joints sit at a limit (S0-11 ... S0-14), (P,) ints each.
+
+    ``"q_rate"``: joints whose step from the waypoint's reference state is the joint rate limit
+    ``dq`` (within ``rtol`` of it); ``"kj_rate"``: the same for the stiffness step and ``dk``;
+    ``"q_bound"``: joints at a joint limit; ``"kj_bound"``: joint stiffnesses at ``kmin`` or
+    ``kmax``. The reference state is the previous usable waypoint's (its start state before the
+    first, where rate limits apply only with ``first_rate_limit``), as in
+    :func:`jaxstiff.results.files.reference_states`; locked joints never count.
+    """
+    from jaxstiff.results.files import path_parameters, reference_states
+
+    free = np.asarray(robot.free)
+    prm = path_parameters(res.meta, res.B, res.n)
+    lim = res.meta["limits"]
+    q, kj = res.q[b], res.kj[b]
+    q_ref, kj_ref, rate = reference_states(res, b)
+    dq, dk = prm["dq"][b], prm["dk"][b]
+    at_q = (np.abs(q - q_ref) >= dq * (1 - rtol)) & np.isfinite(dq) & rate[:, None]
+    at_k = (np.abs(kj - kj_ref) >= dk * (1 - rtol)) & np.isfinite(dk) & rate[:, None]
+    span_q = np.where(np.isfinite(robot.upper - robot.lower), robot.upper - robot.lower, 1.0)
+    q_bound = (q - robot.lower <= rtol * span_q) | (robot.upper - q <= rtol * span_q)
+    kspan = float(lim["kmax"]) - float(lim["kmin"])
+    kj_bound = (kj - float(lim["kmin"]) <= rtol * kspan) | (float(lim["kmax"]) - kj <= rtol * kspan)
+    return {
+        k: np.sum(v & free, axis=1)
+        for k, v in (("q_rate", at_q), ("kj_rate", at_k), ("q_bound", q_bound), ("kj_bound", kj_bound))
+    }
+
+
+def _turning_overlay(ax: Any, wp: np.ndarray, turning: np.ndarray, dq_deg: float) -> Any:
+    """A twin axis with the tangent's turning per waypoint (deg) and the joint rate limit line."""
+    ax2 = ax.twinx()
+    ax2.plot(wp[1:], turning, color="0.45", lw=2, alpha=0.8, label="path tangent turns (deg per waypoint)")
+    ax2.axhline(dq_deg, color="0.25", ls="--", lw=1, label=f"joint rate limit dq = {dq_deg:g} deg per waypoint")
+    ax2.set_ylabel("turning of the path tangent (deg per waypoint)", color="0.3")
+    ax2.set_ylim(0, 1.15 * max(float(turning.max()), dq_deg))
+    return ax2
+
+
+def figure_turning(
+    res: ShapeResult,
+    robot: Chain,
+    file: str | os.PathLike,
+    title: str,
+    b: int = 0,
+    alpha_ok: float = 1.0,
+    dpi: int = 110,
+) -> str:
+    """Where the shaping holds and where it gives way: alpha and rho along path ``b`` against the
+    turning rate of the path's tangent, and the joints held at their rate limits.
+
+    (a) orientation error alpha (deg, log scale) and (b) axis ratio rho, each with the angle the
+    desired direction turns between consecutive waypoints (deg per waypoint, from ``res.direction``;
+    :func:`jaxstiff.paths.generators.turning_deg`) on a twin axis with the joint rate limit ``dq``;
+    (c) the number of free joints at the joint rate limit ``dq`` and at the stiffness rate limit
+    ``dk`` (:func:`rate_limited_joints`). Waypoints where the tangent turns faster than ``dq`` are
+    shaded in every panel.
+
+    Args:
+        res: a :class:`jaxstiff.results.ShapeResult` (criterion f1 or f2: rho's target line is ``r``).
+        robot: the robot it was computed for (its free joints and joint limits).
+        file: PNG to write (cropped to the drawing).
+        title: figure title.
+        b: which path of the batch.
+        alpha_ok: the alpha (deg) drawn as the "holds" line.
+        dpi: resolution, dots per inch.
+    """
+    from jaxstiff.paths import Path
+    from jaxstiff.paths.generators import turning_deg
+    from jaxstiff.results.files import path_parameters
+
+    plt = pyplot()
+    wp = np.arange(res.P)
+    turning = turning_deg(Path(res.target[b], res.direction[b]))
+    prm = path_parameters(res.meta, res.B, res.n)
+    dq_deg = float(np.degrees(prm["dq"][b].max()))
+    r = float(prm["ratio"][b])
+    fast = np.r_[False, turning > dq_deg]  # waypoint p is reached by a turn faster than dq
+    fig, axes = plt.subplots(3, 1, figsize=(11, 11), sharex=True, gridspec_kw={"height_ratios": [1.2, 1.2, 0.8]})
+    for ax in axes:
+        for k in np.flatnonzero(fast):
+            ax.axvspan(k - 0.5, k + 0.5, color="C1", alpha=0.12, lw=0)
+    ax = axes[0]
+    ax.semilogy(wp, np.maximum(res.alpha_deg[b], 1e-9), "C3.-", label="orientation error alpha")
+    ax.axhline(alpha_ok, color="C3", ls=":", lw=1, label=f"alpha = {alpha_ok:g} deg")
+    ax.set(ylabel="alpha (deg, log scale)", title="(a) orientation error alpha and the turning of the path")
+    ax.set_ylim(1e-9, 10 ** np.ceil(np.log10(max(90.0, float(res.alpha_deg[b].max())))))
+    ax.grid(alpha=0.3, which="major")
+    ax2 = _turning_overlay(ax, wp, turning, dq_deg)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left", bbox_to_anchor=(1.09, 1.0))
+    ax = axes[1]
+    ax.plot(wp, res.ratio[b], "C0.-", label="axis ratio rho = lambda1/lambda2")
+    ax.axhline(r, color="C0", ls=":", lw=1, label=f"r = {r:g}")
+    ax.set(ylabel="axis ratio rho (-)", title="(b) axis ratio rho and the turning of the path")
+    ax.set_ylim(0, max(2 * r, 1.1 * float(res.ratio[b].max())))
+    ax.grid(alpha=0.3)
+    ax2 = _turning_overlay(ax, wp, turning, dq_deg)
+    h1, l1 = ax.get_legend_handles_labels()
+    h2, l2 = ax2.get_legend_handles_labels()
+    ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left", bbox_to_anchor=(1.09, 1.0))
+    ax = axes[2]
+    lim = rate_limited_joints(res, robot, b)
+    ax.step(wp, lim["q_rate"], "C4", where="mid", label=f"joints at the rate limit dq = {dq_deg:g} deg")
+    dk = float(prm["dk"][b].max())
+    ax.step(wp, lim["kj_rate"], "C2--", where="mid", label=f"joint stiffnesses at the rate limit dk = {dk:g} Nm/rad")
+    ax.set(xlabel="waypoint p", ylabel="free joints (count)", title="(c) joints held by the rate limits")
+    ax.set_ylim(-0.2, max(1, int(np.max([lim["q_rate"], lim["kj_rate"]]))) + 0.5)
+    ax.fill_between(
+        [], [], color="C1", alpha=0.12, label=f"waypoints the tangent reaches turning faster than {dq_deg:g} deg"
+    )
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.09, 1.0))
+    ax.grid(alpha=0.3)
+    fig.suptitle(title, fontsize=12)
+    fig.tight_layout()
     return save_figure(fig, file, dpi=dpi)
