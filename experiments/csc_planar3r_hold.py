@@ -1,15 +1,18 @@
-"""CSC on the planar 3R arm holding a point (seed 001's planar case), with figures and a summary.
+"""CSC on the planar 3R arm holding a point: the project's own case (seed 001 gives no simulation example).
 
-Setup (seed 001 / SPEC section 6): links 1 m, start posture q = (75, -74.74, -76.30) deg (seed 000,
-Fig. 2), the TCP held at x(q0), desired stiffness K_xd = R(30 deg) diag(3000, 1000) R(30 deg)^T N/m,
-task "xy". Holding still, the seed's adaptive step is zero (|dq_P| = 0), so the constant step is
-used: a null-space step of beta = 2e-3 rad per time step, 2000 steps. The closed loop keeps the TCP
-on the point. A second, batched run compares beta = 0.5e-3 ... 8e-3 (one vmap).
+Setup (SPEC section 6; every choice is this project's, see ``csc_cases.planar3r_hold``): links 1 m,
+start posture q = (75, -74.74, -76.30) deg (seed 000's Fig. 2 posture), the TCP held at x(q0),
+desired stiffness K_xd = R(30 deg) diag(3000, 1000) R(30 deg)^T N/m, task "xy". Holding still, the
+seed's adaptive step is zero (|dq_P| = 0), so the constant step is used: a null-space step of
+beta = 2e-3 rad per time step, 2000 steps. The closed loop keeps the TCP on the point. A second,
+batched run compares beta = 0.5e-3 ... 8e-3 (one vmap). The summary states where the Frobenius
+error is lowest: u keeps falling after it (seed 001's Proposition 2 is tested in
+``csc_propositions.py``).
 
 Outputs (``--out``, default ``out/csc_planar3r_hold``): ``u_frobenius.png`` (u(t) and
 ``|K_xd - K_C|_F`` over the steps), ``ellipses.png`` (desired vs realised stiffness ellipses at
 the start and at the end), ``self_motion.png`` (the arm's postures along the self-motion, joint
-angles over time), ``beta_sweep.png``, and ``summary.json``.
+angles over time), ``beta_sweep.png``, ``summary.md`` and ``summary.json``.
 
 Usage:
     python experiments/csc_planar3r_hold.py [--out DIR] [--steps 2000] [--beta 2e-3]
@@ -18,7 +21,6 @@ Usage:
 from __future__ import annotations
 
 import json
-import math
 import os
 import sys
 import time
@@ -35,6 +37,7 @@ def main(argv=None) -> int:
     from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
+    import csc_cases
     import jax
     import numpy as np
 
@@ -44,13 +47,9 @@ def main(argv=None) -> int:
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)
-    robot = jaxstiff.Robot.from_urdf("planar_3r")
-    q0 = np.deg2rad([75.0, -74.74, -76.30])
-    x0 = np.asarray(robot.fk(q0))[:2, 3]
-    c, s = math.cos(math.radians(30)), math.sin(math.radians(30))
-    R = np.array([[c, -s], [s, c]])
-    K = R @ np.diag([3000.0, 1000.0]) @ R.T
-    path = np.tile(x0, (args.steps, 1))
+    case = csc_cases.planar3r_hold(args.steps, args.beta)
+    robot, q0, K, path = case.robot, case.q0, case.K, case.path
+    x0 = np.round(path[0], 3) + 0.0  # for the labels (no "-0.000")
 
     t0 = time.perf_counter()
     res = jax.tree_util.tree_map(np.asarray, jaxstiff.csc_rollout(robot, path, K, q0, args.beta, step="constant"))
@@ -62,6 +61,7 @@ def main(argv=None) -> int:
     steps = np.arange(len(u))
     k_half = int(np.argmax(u <= 0.5 * u[0])) if np.any(u <= 0.5 * u[0]) else None
     k_min = int(np.argmin(u))
+    k_fmin = int(np.argmin(fr))
 
     # ---------------------------------------------------------------- figure 1: u(t), Frobenius(t)
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
@@ -74,6 +74,14 @@ def main(argv=None) -> int:
     ax[0].set(xlabel="time step k", ylabel="u(q)  [Nm/rad]", title="off-diagonal joint stiffness u (S1-19)")
     ax[0].legend()
     ax[1].plot(steps, fr, color="C1")
+    ax[1].plot(k_fmin, fr[k_fmin], "kv", ms=7)
+    ax[1].annotate(
+        f"min {fr[k_fmin]:.0f} (step {k_fmin}); then rises\nto {fr[-1]:.0f} while u still falls (to step {k_min})",
+        (k_fmin, fr[k_fmin]),
+        textcoords="offset points",
+        xytext=(-40, 25),
+        fontsize=9,
+    )
     ax[1].set(
         xlabel="time step k",
         ylabel=r"$\|K_{xd} - K_C\|_F$  [N/m]",
@@ -118,12 +126,13 @@ def main(argv=None) -> int:
     for j, k in enumerate(idx):
         P = plots.chain_points(robot, qs[k])[:, :2]
         ax[0].plot(P[:, 0], P[:, 1], "-o", color=cmap(j / (len(idx) - 1)), ms=3, lw=1.5)
-    ax[0].plot(*x0, "r*", ms=14, label="held TCP point", zorder=5)
+    ax[0].plot(*x0, "r*", ms=14, label=f"held TCP point ({x0[0]:.2f}, {x0[1]:.2f}) m", zorder=5)
     ax[0].set_aspect("equal")
     ax[0].set(xlabel="x [m]", ylabel="y [m]", title=f"self-motion: postures every {idx[1] - idx[0]} steps")
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(0, len(qs) - 1))
     fig.colorbar(sm, ax=ax[0], label="time step k")
-    ax[0].legend(loc="lower right")
+    ax[0].set_ylim(-0.15, 1.35)  # room above the arm for the legend: the held point is at the lower right
+    ax[0].legend(loc="upper left", fontsize=9)
     ax[0].grid(alpha=0.3)
     for i in range(3):
         ax[1].plot(np.arange(len(qs)), np.rad2deg(qs[:, i]), label=f"q{i + 1}")
@@ -156,7 +165,7 @@ def main(argv=None) -> int:
         "setup": {
             "robot": "planar_3r",
             "q0_deg": [75.0, -74.74, -76.30],
-            "x_hold_m": x0.tolist(),
+            "x_hold_m": path[0].tolist(),
             "K_xd": K.tolist(),
             "task": "xy",
             "step": "constant",
@@ -173,12 +182,12 @@ def main(argv=None) -> int:
         "frobenius_start": float(fr[0]),
         "frobenius_end": float(fr[-1]),
         "frobenius_min": float(fr.min()),
+        "frobenius_min_step": k_fmin,
+        "u_at_frobenius_min": float(u[k_fmin]),
+        "frobenius_share_of_K_xd_min_end": [float(fr.min() / np.linalg.norm(K)), float(fr[-1] / np.linalg.norm(K))],
         "max_tcp_drift_m": float(res.tracking_error.max()),
         "q_end_deg": np.rad2deg(res.q[-1]).tolist(),
-        "status_counts": {
-            jaxstiff.csc.describe_status(c): int(n)
-            for c, n in zip(*np.unique(res.status, return_counts=True), strict=True)
-        },
+        "status_counts": csc_cases.status_counts(res.status),
         "adaptive_step_null_motion_rad": float(np.abs(np.asarray(adaptive.q) - q0).max()),
         "beta_sweep": {
             f"{b:g}": {"u_end": float(sweep.u[i, -1]), "max_drift_m": float(sweep.tracking_error[i].max())}
@@ -201,7 +210,37 @@ def main(argv=None) -> int:
     )
     for b, v in summary["beta_sweep"].items():
         print(f"  beta {b:>7} rad: u_end {v['u_end']:8.1f}, max drift {v['max_drift_m']:.1e} m")
-    print(f"figures and summary.json in {args.out}")
+    kn = float(np.linalg.norm(K))
+    body = [
+        "## Result",
+        "",
+        f"- u (S1-19): {u[0]:.1f} -> {u[-1]:.1f} Nm/rad ({summary['u_drop_percent']:.1f} % lower), lowest "
+        f"{u[k_min]:.1f} at step {k_min}, halved at step {k_half}; the arm stops there (the constant step "
+        "leaves a stationary point of u on the self-motion manifold), statuses: "
+        + ", ".join(f"{k} {v}" for k, v in summary["status_counts"].items()),
+        f"- |K_xd - K_C|_F: {fr[0]:.1f} -> {fr[-1]:.1f} N/m ({100 * fr[0] / kn:.0f} % -> {100 * fr[-1] / kn:.0f} % of "
+        f"|K_xd|_F = {kn:.0f} N/m). **It is lowest at step {k_fmin}** ({fr[k_fmin]:.1f} N/m, "
+        f"{100 * fr[k_fmin] / kn:.0f} %, u = {u[k_fmin]:.0f} Nm/rad) **and rises again by "
+        f"{fr[-1] - fr[k_fmin]:.1f} N/m while u keeps falling** to {u[-1]:.0f} Nm/rad: lowering u is not "
+        "lowering the stiffness error here (seed 001's Proposition 2 is a claim; tested in `csc_propositions`)",
+        f"- TCP drift over {args.steps} steps: at most {res.tracking_error.max():.1e} m (closed loop)",
+        f"- the seed's adaptive step while holding: null motion {summary['adaptive_step_null_motion_rad']:.1e} rad "
+        "(zero, as S1-22 gives for a path that stands still)",
+        "",
+        "Batched beta sweep (one vmap; constant step, rad per step):",
+        "",
+        "| beta [rad] | u at the end [Nm/rad] | max TCP drift [m] |",
+        "|---|---|---|",
+        *(f"| {b} | {v['u_end']:.1f} | {v['max_drift_m']:.1e} |" for b, v in summary["beta_sweep"].items()),
+    ]
+    csc_cases.write_summary(
+        args.out,
+        "CSC, planar 3R holding a point",
+        case.setup,
+        body,
+        ["u_frobenius.png", "ellipses.png", "self_motion.png", "beta_sweep.png"],
+    )
+    print(f"figures, summary.md and summary.json in {args.out}")
     return 0
 
 

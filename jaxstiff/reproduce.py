@@ -2,7 +2,8 @@
 
 The experiments are the scripts in the source checkout's ``experiments/`` folder, each runnable
 as ``python experiments/NAME.py --out DIR``. By default the reproductions of the seeds run: seed 000
-Fig. 2-6 (``fig*``) and the CSC experiments of seed 001 (``csc*``); ``--all`` adds the others
+Fig. 2-6 (``fig*``), the project's own CSC cases of seed 001's method (``csc*``; the seed has no
+simulation example) and the MuJoCo check of the stiffness model (``sim*``); ``--all`` adds the others
 (studies beyond the seeds, which may take much longer), ``--only`` picks by name. They
 are run here as **subprocesses**, one after another:
 
@@ -48,8 +49,8 @@ from jaxstiff.runtime.io import atomic_write_text
 
 __all__ = ["find_experiments_dir", "discover", "run_reproduce", "ReproduceOutcome", "ExperimentRun"]
 
-#: Order of the report: seed 000 figures 2-6, then CSC, then the rest alphabetically.
-ORDER = ("fig2", "fig3", "fig4", "fig5", "fig6", "csc")
+#: Order of the report: seed 000 figures 2-6, then CSC, then the physics check, then the rest alphabetically.
+ORDER = ("fig2", "fig3", "fig4", "fig5", "fig6", "csc", "sim")
 
 
 def find_experiments_dir(explicit: str | os.PathLike | None = None) -> str:
@@ -107,8 +108,8 @@ def discover(folder: str, everything: bool = True) -> list[str]:
     """Experiment scripts in ``folder`` (``NAME.py`` with a ``__main__`` block taking ``--out``), report order.
 
     Args:
-        everything: all of them; False: only the reproductions of the seeds (names starting with
-            ``fig`` or ``csc``), the default set of ``jaxstiff reproduce``.
+        everything: all of them; False: the default set of ``jaxstiff reproduce``: seed 000's figures
+            (names starting with ``fig``), the CSC cases (``csc``) and the physics check (``sim``).
     """
     scripts = [p for p in glob.glob(os.path.join(folder, "*.py")) if _is_experiment(p)]
     if not everything:

@@ -219,7 +219,7 @@ def _intro(quick: bool, only: Sequence[str] | None, everything: bool) -> list[st
             if only
             else "Every experiment of the repository"
             if everything
-            else "The reproductions of the seeds (fig*, csc*)"
+            else "The reproductions of seed 000's figures (fig*) and the project's own CSC cases on seed 001's method (csc*)"
         )
         + ", run by `jaxstiff reproduce"
         + (" --quick" if quick else "")

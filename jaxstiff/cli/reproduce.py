@@ -32,7 +32,9 @@ def _add_reproduce(p: argparse.ArgumentParser):
     p.add_argument("--no-sweep", action="store_true", help="skip experiments/sweeps/quick.toml")
     p.add_argument("--report-only", action="store_true", help="run nothing; rebuild DIR/report.md from DIR/runs")
     p.add_argument(
-        "--all", action="store_true", help="run every experiment script, not only the seed reproductions (fig*, csc*)"
+        "--all",
+        action="store_true",
+        help="run every experiment script, not only the default set (seed 000's figures fig*, the CSC cases csc*)",
     )
 
     def run(args) -> int:
