@@ -15,6 +15,7 @@ import sys
 import warnings
 
 from ..runtime.io import interrupt_exit_code, interrupt_handlers, interrupt_pending, raise_if_interrupted
+from . import check_sim as _check_sim_command  # noqa: F401  (jaxstiff check-sim)
 from . import csc as _csc_command  # noqa: F401  (registers jaxstiff csc)
 from . import reproduce as _reproduce_command  # noqa: F401  (jaxstiff reproduce)
 from . import robot as _robot_command  # noqa: F401  (jaxstiff robot)
@@ -23,7 +24,7 @@ from . import sweep as _sweep_command  # noqa: F401  (jaxstiff sweep)
 from .common import COMMANDS, join_negative_values
 
 #: the order of ``jaxstiff --help``
-COMMAND_ORDER = ("robot", "shape", "csc", "sweep", "reproduce")
+COMMAND_ORDER = ("robot", "shape", "csc", "sweep", "reproduce", "check-sim")
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):

@@ -1,0 +1,57 @@
+"""jaxstiff.sim without MuJoCo: the locked-joint mode, the waypoint sample, the missing-MuJoCo message."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff.sim.setup import locked_joint_mode, select_waypoints, spring_mask
+
+
+def test_locked_joint_mode_reads_meta_and_defaults_to_spring():
+    assert locked_joint_mode({}) == "spring"  # files written before the option: locked joints kept their springs
+    assert locked_joint_mode({"settings": {"task": "full"}}) == "spring"
+    assert locked_joint_mode({"settings": {"locked_joints": "rigid"}}) == "rigid"
+    assert locked_joint_mode({"settings": {"locked_joints": "spring"}}) == "spring"
+    with pytest.raises(ValueError, match="locked_joints"):
+        locked_joint_mode({"settings": {"locked_joints": "stiff"}})
+
+
+def test_spring_mask_follows_the_mode():
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    assert spring_mask(robot, "rigid").tolist() == [True] * 6 + [False]
+    assert spring_mask(robot, "spring").tolist() == [True] * 7
+
+
+def test_select_waypoints():
+    assert select_waypoints(60, 3) == [0, 30, 59]  # round(29.5) = 30 (banker's rounding gives 30 too)
+    assert select_waypoints(4, 10) == [0, 1, 2, 3]
+    assert select_waypoints(10, [0, -1]) == [0, 9]
+    assert select_waypoints(5, None) == [0, 1, 2, 3, 4]
+    with pytest.raises(ValueError, match="out of range"):
+        select_waypoints(5, [7])
+
+
+def test_import_and_cli_work_without_mujoco(tmp_path):
+    """`import jaxstiff` and the CLI's parser load with MuJoCo hidden; check-sim says how to install it."""
+    code = (
+        "import sys; sys.modules['mujoco'] = None\n"
+        "import jaxstiff, jaxstiff.sim\n"
+        "from jaxstiff.cli.main import main\n"
+        "assert main(['robot', '--robot', 'planar_3r']) == 0\n"
+        f"sys.exit(main(['check-sim', {str(tmp_path / 'r.npz')!r}]))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2, out.stderr
+    assert 'pip install "jaxstiff[sim]"' in out.stderr
+
+
+def testprobe_directions_are_unit_and_span_the_task():
+    from jaxstiff.sim.check import probe_directions
+
+    for task, k in (("xy", 2), ("xyz", 3), ("full", 6)):
+        axes, extra = probe_directions(task)
+        assert axes.shape == (k, 6) and np.linalg.matrix_rank(axes) == k
+        assert np.allclose(np.linalg.norm(extra, axis=1), 1.0)
