@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from numpy.typing import ArrayLike
 
+from jaxstiff.model.chain import check_locked_values
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import JOINT_REVOLUTE, Robot
 
@@ -88,7 +89,8 @@ def ik_position(
     Args:
         robot: the chain; locked joints stay at their locked values.
         target: (3,) m, base frame.
-        q_start: (n,) start posture; default :func:`nominal_posture`.
+        q_start: (n,) start posture, locked joints at their locked values (another value is
+            refused: :func:`jaxstiff.model.chain.check_locked_values`); default :func:`nominal_posture`.
         iters: iterations (fixed; the first two thirds damped, the rest Gauss-Newton).
         planar: match only x and y (task "xy": a planar chain cannot move along z).
 
@@ -101,6 +103,10 @@ def ik_position(
     if tgt.shape != (3,) or not np.all(np.isfinite(tgt)):
         raise ValueError(f"IK target must be 3 finite numbers (m), got {tgt!r}")
     q0 = nominal_posture(robot) if q_start is None else np.asarray(q_start, dtype=float)
+    if q_start is not None:
+        if q0.shape != (robot.n,) or not np.all(np.isfinite(q0)):
+            raise ValueError(f"q_start must be {robot.n} finite numbers (rad; m for prismatic joints), got {q0!r}")
+        check_locked_values(robot, q0, "q_start")
     dtype = jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
     q, err = _ik(robot, jnp.asarray(tgt, dtype), jnp.asarray(q0, dtype), int(iters), (0, 1) if planar else (0, 1, 2))
     return np.asarray(q, dtype=float), float(err)

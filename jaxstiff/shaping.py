@@ -147,7 +147,7 @@ def _solve(
     if inp.q0 is None or inp.kj0 is None:  # made by step 2 (the start states)
         raise RuntimeError("shape: the start states were not made before the solve")
     with jax.enable_x64(True):
-        problem = WaypointProblem(inp.robot, inp.task, inp.crit_fn)
+        problem = WaypointProblem(inp.robot, inp.task, inp.crit_fn, inp.locked_joints)
         limits = Limits(dq=inp.dq, dk=inp.dk, kmin=inp.kmin, kmax=inp.kmax, first_rate_limit=inp.first_rate_limit)
         req = SolveRequest(
             problem=problem,
@@ -179,6 +179,7 @@ def shape(
     *,
     settings: ShapeSettings | None = None,
     task: str | None = None,
+    locked_joints: str | None = None,
     solver: str | None = None,
     starts: int | None = None,
     q0: Any = None,
@@ -201,7 +202,7 @@ def shape(
 
     Every setting left out (None) comes from ``settings`` (default :class:`ShapeSettings()
     <jaxstiff.settings.ShapeSettings>`, whose defaults are given below); one given here wins over
-    ``settings``. Long only for its 23 documented parameters; the body is the named steps of the
+    ``settings``. Long only for its 24 documented parameters; the body is the named steps of the
     module docstring (:func:`check_inputs`, :func:`make_start_states`, solve, report, meta, result).
 
     Args:
@@ -215,19 +216,28 @@ def shape(
         ratio: wanted axis ratio r = lambda1 / lambda2, > 1: a number (default 5), or (B,) one per path.
         settings: the defaults of every setting here that is left out.
         task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, seed; default), ``"xyz"`` or ``"xy"``.
+        locked_joints: ``"rigid"`` (default, SPEC section 1): a locked joint has no spring, adds no
+            compliance (``K_C^-1`` sums over the free joints) and has no stiffness variable; its
+            ``kj`` entry in the result is ``+inf`` (infinite stiffness). ``"spring"``: a locked
+            joint keeps its spring, whose stiffness is optimised, rate-limited and kept in
+            [kmin, kmax] like a free joint's. Recorded in ``meta["settings"]["locked_joints"]``.
         solver: a name in :data:`SOLVERS`: ``"slsqp"`` (JAX derivatives; default), ``"slsqp-fd"``
             (the seed's own way: numpy + finite differences; the speed baseline), ``"pgd"`` (batched
             projected gradient, multi-start), ``"hybrid"`` (pgd, then an SLSQP polish) or
             ``"trajectory"`` (a greedy warm start, then the whole trajectory at once).
         starts: starts per waypoint for multi-start solvers (default: their ``starts`` option, 8 for
             pgd and the hybrid; SLSQP: 1). Recorded in ``meta["starts"]``.
-        q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values;
+        q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values
+            (another value is refused: :func:`jaxstiff.model.chain.check_locked_values`);
             default: IK from the nominal posture to each path's first waypoint.
         kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
+            With rigid locked joints their entries are ignored (any value, ``inf`` included).
         dq: joint rate limit per waypoint, rad (m for prismatic joints): a number, (n,) per joint,
             or (B, n) per path and joint; ``inf`` = none. Default 2 deg.
         dk: stiffness rate limit per waypoint, Nm/rad: a number, (n,) or (B, n). Default 5.
-        kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax. Default 1, 100 (seed).
+            (n,) entries of rigid locked joints are ignored.
+        kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax. Default 1, 100 (seed); not applied
+            to rigid locked joints.
         c: f1's offset, deg (seed: 0.01), a number (the same for every path).
         first_rate_limit: apply dq/dk between (q0, kj0) and the first waypoint (default False).
         first_starts: when the first waypoint is not rate-limited, solve it from this many start
@@ -268,6 +278,7 @@ def shape(
         "criterion": criterion,
         "ratio": ratio,
         "task": task,
+        "locked_joints": locked_joints,
         "solver": solver,
         "starts": starts,
         "dq": dq,

@@ -14,8 +14,10 @@ import jax
 import numpy as np
 
 from jaxstiff.ik import ik_position, nominal_posture
+from jaxstiff.model.chain import LOCKED_JOINT_MODES, check_locked_values
 from jaxstiff.model.robot import Robot
 from jaxstiff.paths import Path
+from jaxstiff.settings.base import suggest
 from jaxstiff.settings.robot import RobotSpec
 from jaxstiff.settings.shape import ShapeSettings, limit_per_joint, ratio_per_path
 from jaxstiff.solvers.base import SOLVERS, check_options
@@ -68,6 +70,7 @@ class ShapeInputs:
     pos_tol: float
     settings: ShapeSettings  #: the settings that ran, per-path arrays aside (meta["settings"])
     robot_spec: dict[str, Any] | None = None  #: the RobotSpec's meta, when one was given
+    locked_joints: str = "rigid"  #: "rigid" or "spring" (SPEC section 1; jaxstiff.model.chain.LOCKED_JOINT_MODES)
     q0: np.ndarray | None = None
     kj0: np.ndarray | None = None
     q0_given: bool = False
@@ -134,6 +137,8 @@ def _start_states(robot: Robot, value: Any, B: int, what: str) -> np.ndarray:
 def _check_q0(robot: Robot, q0: np.ndarray) -> None:
     lo, hi = robot.lower, robot.upper
     for b, q in enumerate(q0):
+        # locked joints first, with the message every entry point gives (model.chain)
+        check_locked_values(robot, q, "q0" if q0.shape[0] == 1 else f"q0 (path {b})")
         bad = np.flatnonzero((q < lo) | (q > hi))
         if bad.size:
             i = int(bad[0])
@@ -141,10 +146,6 @@ def _check_q0(robot: Robot, q0: np.ndarray) -> None:
                 f"q0[{i}] = {q[i]:.6g} rad for joint {robot.joint_names[i]!r} is outside its limits "
                 f"[{lo[i]:.6g}, {hi[i]:.6g}]" + (f" (path {b})" if q0.shape[0] > 1 else "")
             )
-        lv = robot.locked_values
-        for i in np.flatnonzero(~np.isnan(lv)):
-            if abs(q[i] - lv[i]) > 1e-12:
-                raise ValueError(f"q0[{i}] = {q[i]:.6g} but joint {robot.joint_names[i]!r} is locked at {lv[i]:.6g}")
 
 
 def make_start_states(inp: ShapeInputs, q0: Any, kj0: Any) -> list[list[tuple[np.ndarray, np.ndarray]]]:
@@ -153,18 +154,26 @@ def make_start_states(inp: ShapeInputs, q0: Any, kj0: Any) -> list[list[tuple[np
     for the first waypoint (none when it is rate-limited)."""
     robot, bpath, B, n = inp.robot, inp.path, inp.path.B, inp.robot.n
     inp.kj0_given = kj0 is not None
+    sprung = robot.free | (inp.locked_joints == "spring")  # joints whose stiffness is a variable
     if kj0 is None:
         inp.kj0 = np.full((B, n), 0.5 * (inp.kmin + inp.kmax))
     else:
         a = np.asarray(kj0, dtype=float)
+        if a.ndim >= 1 and a.shape[-1] != n and a.shape[-1] == int(sprung.sum()):  # one per sprung joint
+            full = np.full(a.shape[:-1] + (n,), 0.5 * (inp.kmin + inp.kmax))
+            full[..., sprung] = a
+            a = full
+        else:  # rigid locked joints' entries are not used: any value goes (inf, as results write it)
+            a = np.where(sprung, a, 0.5 * (inp.kmin + inp.kmax)) if a.ndim >= 1 and a.shape[-1] == n else a
         inp.kj0 = _start_states(robot, np.full(n, float(a)) if a.ndim == 0 else a, B, "kj0")
-        bad = np.argwhere((inp.kj0 < inp.kmin) | (inp.kj0 > inp.kmax))
+        bad = np.argwhere(((inp.kj0 < inp.kmin) | (inp.kj0 > inp.kmax)) & sprung)
         if bad.size:
             bb, i = bad[0]
             raise ValueError(
                 f"kj0[{i}] = {inp.kj0[bb, i]:.6g} Nm/rad for joint {robot.joint_names[i]!r} is outside "
                 f"[kmin, kmax] = [{inp.kmin:g}, {inp.kmax:g}]"
             )
+    inp.kj0 = np.where(sprung, inp.kj0, np.inf)  # rigid locked joints: infinite stiffness (no spring)
     with jax.enable_x64(True):
         inp.q0_given = q0 is not None
         if q0 is not None:
@@ -247,6 +256,16 @@ def _same_value(a: np.ndarray) -> float | None:
     return float(a[0]) if a.ndim == 1 and a.size and np.all(a == a[0]) else None
 
 
+def _locked_mode(value: Any) -> str:
+    """``locked_joints`` checked: one of :data:`~jaxstiff.model.chain.LOCKED_JOINT_MODES`."""
+    if value not in LOCKED_JOINT_MODES:
+        raise ValueError(
+            f"locked_joints must be one of {', '.join(map(repr, LOCKED_JOINT_MODES))}, got {value!r}"
+            + suggest(str(value), LOCKED_JOINT_MODES)
+        )
+    return str(value)
+
+
 def check_inputs(
     robot: Robot,
     path: Path,
@@ -263,6 +282,7 @@ def check_inputs(
     allowed for ratio (B,), dq and dk ((n,) or (B, n)); ``base`` gives the settings recorded for
     the rest."""
     B, n, task, solver = path.B, robot.n, values["task"], values["solver"]
+    locked = _locked_mode(values.get("locked_joints", "rigid"))
     if solver not in SOLVERS:
         raise ValueError(f"unknown solver {solver!r}; choose one of {', '.join(SOLVERS)}")
     criterion = values["criterion"]
@@ -285,6 +305,7 @@ def check_inputs(
     scalars = {
         "criterion": crit_name,
         "task": task,
+        "locked_joints": locked,
         "solver": solver,
         "starts": values["starts"],
         "kmin": kmin,
@@ -323,4 +344,5 @@ def check_inputs(
         cms_major=cms_major,
         pos_tol=float(pos_tol),
         settings=base.replace(**scalars),
+        locked_joints=locked,
     )

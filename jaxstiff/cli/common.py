@@ -123,7 +123,9 @@ def add_robot_flags(p: argparse.ArgumentParser) -> None:
         "--lock",
         action="append",
         metavar="JOINT=VALUE",
-        help=f"lock a joint at a value, rad (m for a prismatic joint); repeatable. Default: the shipped "
+        help=f"lock a joint at a value, rad (m for a prismatic joint); repeatable. A locked joint does "
+        "not move and, by default, does not give: it is rigid (no spring, no stiffness variable; "
+        "'--locked-joints spring' keeps its spring). Default: the shipped "
         f"robot's locks ({shipped}; seed 000), none for other URDFs; '--lock none' frees every joint",
     )
     p.add_argument(

@@ -83,8 +83,9 @@ _EPILOG = (
     "m task rows, d target coordinates: q (B,T,n), u (B,T), frobenius (B,T), tracking_error (B,T), "
     "orientation_error (B,T, rad), kj (B,T,n), K_C (B,T,m,m), position (B,T,3), target (B,T,d), isotropy (B,T), "
     "null_step (B,T), status (B,T) bit mask, u_start (B,), frobenius_start (B,), joint_names (n,), q0 (n,), "
-    "K_xd (m,m), and meta (JSON: every input and default, settings with units, units per array, status bits, "
-    "versions). Row k is the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m "
+    "K_xd (m,m), and meta (JSON: every input and default, settings with units (objective, locked_joints too), "
+    "units per array, status bits, versions). A rigid locked joint (--locked-joints rigid, the default) has no "
+    "spring: its kj is +inf (infinite stiffness) and K_C sums over the free joints. Row k is the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m "
     "for prismatic joints), N/m, m. A long run (paths x steps over 5 x 10^5) runs in segments with a progress line "
     "after each; Ctrl-C or SIGTERM then writes the steps finished so far (meta 'interrupted' true, 'steps' = rows "
     "written, 'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 130 / 143 interrupted by "
@@ -300,6 +301,13 @@ def _report(res: Any, robot: Any, settings: CSCSettings, K: np.ndarray, written:
     np.set_printoptions(precision=4, suppress=True, linewidth=120)
     print(
         f"CSC {robot.name!r}, task {settings.task}, {settings.step} step, beta {settings.beta:g}, {T} steps x {B} path(s)"
+    )
+    locked = [name for name, free in zip(robot.joint_names, robot.free, strict=True) if not free]
+    print(
+        f"objective {settings.objective} (the null space lowers "
+        + ("u, S1-19" if settings.objective == "offdiag" else "|K_xd - K_C|_F")
+        + ")"
+        + (f"; locked joints {', '.join(locked)}: {settings.locked_joints}" if locked else "")
     )
     print(f"K_xd (N/m):\n{K}")
     for b in range(B):

@@ -74,6 +74,8 @@ SETTING_FLAGS = {
     "newton": "--newton",
     "joint_limits": "--joint-limits",
     "jl_gain": "--jl-gain",
+    "objective": "--objective",
+    "locked_joints": "--locked-joints",
 }
 
 

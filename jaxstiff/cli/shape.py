@@ -150,15 +150,17 @@ def _read_paths(files: list[str] | None) -> tuple[Path, list[str]]:
 
 
 def _read_start_states(args: argparse.Namespace, robot: Robot) -> tuple[list[float] | None, Any]:
-    """--q0 (n values) and --kj0 (1 or n values)."""
+    """--q0 (n values) and --kj0 (1, n or, with rigid locked joints, n_free values)."""
     q0 = _nums(args.q0, "--q0")
     if q0 is not None and len(q0) != robot.n:
         raise ValueError(
             f"--q0 needs {robot.n} values (one per joint of {robot.name!r}: {', '.join(robot.joint_names)}), got {len(q0)}"
         )
     kj0 = _nums(args.kj0, "--kj0")
-    if kj0 is not None and len(kj0) not in (1, robot.n):
-        raise ValueError(f"--kj0 needs 1 or {robot.n} values, got {len(kj0)}")
+    rigid = getattr(args, "locked_joints", "rigid") == "rigid" and robot.n_free < robot.n
+    if kj0 is not None and len(kj0) not in (1, robot.n) and not (rigid and len(kj0) == robot.n_free):
+        also = f" or {robot.n_free} (one per free joint: the locked ones are rigid)" if rigid else ""
+        raise ValueError(f"--kj0 needs 1 or {robot.n} values{also}, got {len(kj0)}")
     return q0, (kj0[0] if kj0 is not None and len(kj0) == 1 else kj0)
 
 
@@ -263,6 +265,7 @@ def run_shape(args: argparse.Namespace) -> int:
         criterion=args.criterion,
         ratio=v["ratio"],
         task=args.task,
+        locked_joints=args.locked_joints,
         solver=args.solver,
         starts=v["starts"],
         q0=None if q0 is None else np.asarray(q0),

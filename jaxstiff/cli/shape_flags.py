@@ -6,7 +6,7 @@ import argparse
 import math
 
 from jaxstiff.cli.common import add_robot_flags, setting_help
-from jaxstiff.settings.shape import TASKS, ShapeSettings
+from jaxstiff.settings.shape import LOCKED_JOINT_MODES, TASKS, ShapeSettings
 
 __all__ = ["EPILOG", "add_shape_flags"]
 
@@ -42,6 +42,14 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2",
     )
     p.add_argument(
+        "--locked-joints",
+        default=_S.locked_joints,
+        choices=list(LOCKED_JOINT_MODES),
+        help="rigid: a locked joint (--lock) has no spring, adds no compliance and has no stiffness "
+        "variable (its kj in the file is inf); spring: it keeps its spring, whose stiffness is "
+        "optimised like a free joint's (SPEC section 1) (default: %(default)s)",
+    )
+    p.add_argument(
         "--q0",
         default=None,
         metavar="RAD,...",
@@ -52,7 +60,8 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         "--kj0",
         default=None,
         metavar="V|V,...",
-        help="start joint stiffness, Nm/rad: one value for all joints or one per joint "
+        help="start joint stiffness, Nm/rad: one value for all joints, one per joint (the values of "
+        "rigid locked joints are ignored) or, with rigid locked joints, one per free joint "
         "(default: mid-range (kmin+kmax)/2)",
     )
 

@@ -2,13 +2,15 @@
 rollout (``jaxstiff.csc.X`` keeps working for every public name of the former ``csc.py``).
 
 Modules: :mod:`.result` (CSCResult, status bits), :mod:`.algebra` (small dense algebra),
-:mod:`.offdiag` (u and its gradient, with their VJP), :mod:`.pose` (kinematics with closed-form
+:mod:`.offdiag` (u and its gradient, with their VJP), :mod:`.frobenius` (the objective
+``|K_xd - K_C|_F`` and its gradient), :mod:`.pose` (kinematics with closed-form
 JVPs, orientation error), :mod:`.projections` (damped J+ and I - J+ J), :mod:`.measures` (realised
 stiffness), :mod:`.step` (one step), :mod:`.inputs` (settings and checks), :mod:`.rollout`
 (csc_rollout), :mod:`.segments` (long runs), :mod:`.direction` (single-posture tools)."""
 
 from .direction import null_space_direction as null_space_direction
 from .direction import project_to_target as project_to_target
+from .frobenius import frobenius_gradient as frobenius_gradient
 from .offdiag import offdiag_gradient as offdiag_gradient
 from .result import STATUS_DAMPED as STATUS_DAMPED
 from .result import STATUS_JOINT_LIMIT as STATUS_JOINT_LIMIT

@@ -10,11 +10,12 @@ import jax
 import jax.numpy as jnp
 
 from jaxstiff.csc.algebra import mv
-from jaxstiff.csc.offdiag import offdiag_value_and_grad
+from jaxstiff.csc.frobenius import frobenius_value_and_grad
+from jaxstiff.csc.offdiag import offdiag_value_and_grad, on_jacobians
 from jaxstiff.csc.projections import damped_pinv
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import Robot
-from jaxstiff.settings.csc import TASK_BY_SIZE, CSCSettings
+from jaxstiff.settings.csc import OBJECTIVES, TASK_BY_SIZE, CSCSettings
 from jaxstiff.stiffness.core import TASK_ROWS
 
 __all__ = ["null_space_direction", "project_to_target"]
@@ -31,8 +32,12 @@ def null_space_direction(
     task: str | None = None,
     nu0: ArrayLike = _DEFAULTS.nu0,
     damping: ArrayLike = _DEFAULTS.damping,
+    objective: str = _DEFAULTS.objective,
+    locked_joints: str = _DEFAULTS.locked_joints,
+    kmin: ArrayLike = _DEFAULTS.kmin,
+    kmax: ArrayLike = _DEFAULTS.kmax,
 ) -> tuple[jax.Array, jax.Array, jax.Array]:
-    """The projected CSC gradient ``dq_N = (I - J+ J) grad u(q)`` (S1-14, S1-15, S1-20) at q.
+    """The projected CSC gradient ``dq_N = (I - J+ J) grad f(q)`` (S1-14, S1-15, S1-20) at q.
 
     Args:
         robot: the chain.
@@ -40,37 +45,50 @@ def null_space_direction(
         K_xd: (..., m, m) desired Cartesian stiffness.
         task: task rows; default from K_xd's size.
         nu0, damping: the damping rule of :func:`csc_rollout`.
+        objective: ``f``: ``"offdiag"`` (u, S1-19) or ``"frobenius"`` (``|K_xd - K_C|_F``, with the
+            actuator range ``kmin``, ``kmax`` of the realised joint stiffness), as :func:`csc_rollout`.
+        locked_joints: ``"rigid"`` (no spring: out of the stiffness) or ``"spring"``, as :func:`csc_rollout`.
 
     Returns:
-        ``(dq_N (..., n), u (...,), J (..., m, n))``; ``-dq_N`` lowers u to first order and moves the
+        ``(dq_N (..., n), f (...,), J (..., m, n))``; ``-dq_N`` lowers f to first order and moves the
         TCP only at second order (exactly so where the damping is off). Locked joints' entries are 0.
     """
+    if objective not in OBJECTIVES:
+        raise ValueError(f"objective must be 'offdiag' or 'frobenius', got {objective!r}")
     q = jnp.asarray(q)
     K_xd = jnp.asarray(K_xd, dtype=q.dtype)
-    return _null_space_direction(robot, task or TASK_BY_SIZE[K_xd.shape[-1]], q, K_xd, nu0, damping)
+    task = task or TASK_BY_SIZE[K_xd.shape[-1]]
+    return _null_space_direction(robot, task, objective, locked_joints, q, K_xd, nu0, damping, kmin, kmax)
 
 
-@functools.partial(jax.jit, static_argnums=(0, 1))
+@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3))
 def _null_space_direction(
-    robot: Robot, task: str, q: jax.Array, K_xd: jax.Array, nu0: ArrayLike, damping: ArrayLike
+    robot: Robot,
+    task: str,
+    objective: str,
+    locked_joints: str,
+    q: jax.Array,
+    K_xd: jax.Array,
+    nu0: ArrayLike,
+    damping: ArrayLike,
+    kmin: ArrayLike,
+    kmax: ArrayLike,
 ) -> tuple:
     rows = TASK_ROWS[task]
     free = jnp.asarray(robot.free, dtype=q.dtype)
 
-    def one(qq: jax.Array, K: jax.Array) -> tuple:
-        _, J6 = position_and_jacobian(robot, qq)
-        u, g = offdiag_value_and_grad(J6, K, rows)
+    def one(J6: jax.Array, K: jax.Array) -> tuple:
+        if objective == "frobenius":
+            f, g = frobenius_value_and_grad(J6, K, kmin, kmax, task)
+        else:
+            f, g = offdiag_value_and_grad(J6, K, rows)
         J = J6[..., : len(rows), :]
         Jf = J * free
         Jp, _, _ = damped_pinv(Jf, nu0, damping)
         gf = g * free
-        return gf - mv(Jp, mv(Jf, gf)), u, J
+        return gf - mv(Jp, mv(Jf, gf)), f, J
 
-    batch = jnp.broadcast_shapes(q.shape[:-1], K_xd.shape[:-2])
-    qb = jnp.broadcast_to(q, batch + q.shape[-1:]).reshape((-1, q.shape[-1]))
-    Kb = jnp.broadcast_to(K_xd, batch + K_xd.shape[-2:]).reshape((-1,) + K_xd.shape[-2:])
-    out = jax.vmap(one)(qb, Kb)
-    return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), out)
+    return on_jacobians(robot, q, K_xd, one, locked_joints)
 
 
 def project_to_target(

@@ -23,7 +23,15 @@ from jaxstiff._numerics.batch import broadcast_batch
 from jaxstiff._numerics.safe import safe_sqrt
 from jaxstiff.csc.step import StaticSettings
 from jaxstiff.model.robot import Robot
-from jaxstiff.settings.csc import DEFAULT_JL_GAIN, JOINT_LIMIT_MODES, STEP_RULES, TASK_BY_SIZE, CSCSettings
+from jaxstiff.settings.csc import (
+    DEFAULT_JL_GAIN,
+    JOINT_LIMIT_MODES,
+    LOCKED_JOINT_MODES,
+    OBJECTIVES,
+    STEP_RULES,
+    TASK_BY_SIZE,
+    CSCSettings,
+)
 from jaxstiff.stiffness.core import TASK_ROWS, check_task_feasible
 
 __all__ = ["rollout_settings", "prepare_rollout", "validate_values", "path_points", "is_concrete", "SCALAR_SETTINGS"]
@@ -69,13 +77,19 @@ def rollout_settings(settings: CSCSettings | None = None, **given: Any) -> dict[
 
 
 def _check_static(robot: Robot, s: dict[str, Any], chunk: Any) -> None:
-    """The settings that select the program: robot, step rule, joint-limit mode, newton, chunk."""
+    """The settings that select the program: robot, step rule, joint-limit mode, objective, locked
+    joints, newton, chunk."""
     if not isinstance(robot, Robot):
         raise ValueError(f"robot must be a jaxstiff.Robot, got {type(robot).__name__}")
     if s["step"] not in STEP_RULES:
         raise ValueError(f"step must be 'adaptive' or 'constant', got {s['step']!r}")
-    if s["joint_limits"] not in JOINT_LIMIT_MODES:
-        raise ValueError(f"joint_limits must be 'off', 'priority' or 'sum', got {s['joint_limits']!r}")
+    for name, allowed in (
+        ("joint_limits", JOINT_LIMIT_MODES),
+        ("objective", OBJECTIVES),
+        ("locked_joints", LOCKED_JOINT_MODES),
+    ):
+        if s[name] not in allowed:
+            raise ValueError(f"{name} must be {' or '.join(map(repr, allowed))}, got {s[name]!r}")
     newton = s["newton"]
     if not isinstance(newton, (int, np.integer)) or isinstance(newton, bool) or newton < 0:
         raise ValueError(f"newton must be an integer >= 0, got {newton!r}")
@@ -111,7 +125,8 @@ def _task_of(robot: Robot, K_xd: jax.Array, task: str | None) -> str:
     # Fewer free joints than task rows, or free joints' rows that are dead at every posture: the
     # primary task could not be followed (the damped step would only approximate it). As many free
     # joints as rows is allowed: no redundancy, so the null-space step is zero and the rollout only
-    # tracks. (The stiffness itself has every joint's spring, locked ones too.)
+    # tracks. (A rigid locked joint has no spring, so the free joints carry the stiffness too; with
+    # locked_joints="spring" the locked ones add their springs.)
     check_task_feasible(robot, task, motion=True)
     return task
 
@@ -227,6 +242,8 @@ def prepare_rollout(
         joint_limits=s["joint_limits"],
         remat=bool(remat),
         varying=bool(kxd_varying),
+        objective=s["objective"],
+        locked_joints=s["locked_joints"],
     )
     tb, kb, qb, bb, eb, rb = flat
     args = (

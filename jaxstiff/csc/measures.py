@@ -3,8 +3,9 @@
 **Realised stiffness** (SPEC section 6). ``kj = clip(diag(J^T K_xd J), kmin, kmax)`` (the
 uni-articular part of S1-8), ``K_C = (J diag(1/kj) J^T)^-1`` (S0-4,
 :func:`jaxstiff.cartesian_stiffness`), and ``|K_xd - K_C|_F`` (S1-10). Default actuator range
-``[1, inf)`` Nm/rad (:class:`~jaxstiff.settings.CSCSettings`). Locked joints keep their springs:
-``J`` here is the full task Jacobian.
+``[1, inf)`` Nm/rad (:class:`~jaxstiff.settings.CSCSettings`). ``J`` here is the stiffness's task
+Jacobian: with rigid locked joints (the default) their columns are zeroed, so they add no
+compliance (the step then reports their ``kj`` as 0); with ``locked_joints="spring"`` every column.
 """
 
 from __future__ import annotations

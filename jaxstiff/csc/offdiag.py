@@ -8,6 +8,8 @@ geometric Jacobian J6 (6, n) at q); :func:`offdiag_gradient` is its public, jitt
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -15,11 +17,18 @@ import jax.numpy as jnp
 from jaxstiff._numerics.linalg import mm
 from jaxstiff.model.kinematics import cross_cols, position_and_jacobian, running_sum, tangent_from_sums, tangent_sums
 from jaxstiff.model.robot import Robot
-from jaxstiff.settings.csc import TASK_BY_SIZE
+from jaxstiff.settings.csc import LOCKED_JOINT_MODES, TASK_BY_SIZE
 from jaxstiff.stiffness.core import TASK_ROWS
 from jaxstiff.stiffness.criteria import offdiag_of
 
-__all__ = ["offdiag_value_and_grad", "offdiag_forward", "offdiag_vjp", "offdiag_gradient"]
+__all__ = [
+    "offdiag_value_and_grad",
+    "offdiag_forward",
+    "offdiag_vjp",
+    "offdiag_gradient",
+    "jacobian_contraction",
+    "on_jacobians",
+]
 
 
 def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]) -> tuple[jax.Array, jax.Array]:
@@ -80,12 +89,21 @@ def offdiag_forward(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]) -> tu
     inv_u = jnp.where(pos, 1.0 / jnp.where(pos, u, 1.0), 0.0)
     G = jnp.sum(KJ[..., :, :, None] * M[..., None, :, :], axis=-2) * inv_u[..., None, None]  # (m, n)
     G6 = jnp.concatenate([G, jnp.zeros_like(J6[..., m:, :])], axis=-2)
+    g, prefix, suffix = jacobian_contraction(J6, G6)
+    return u, g, (J6, K_xd, KJ, Kq, M, inv_u, G6, prefix, suffix)
+
+
+def jacobian_contraction(J6: jax.Array, G6: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+    """``g_k = <G6, dJ6/dq_k>`` (n,) for a cotangent ``G6`` (6, n) of the geometric Jacobian J6 (6, n):
+    the chain rule from ``df/dJ6`` to ``df/dq`` in O(n) cross products (the closed-form derivative of
+    J6, :func:`offdiag_value_and_grad`). Also returns the prefix and suffix sums (3, n) it used.
+    Exact where a column of J6 is zeroed (a rigid locked joint): that column's derivative is then 0."""
     Jv, Jw, Gv, Gw = J6[..., :3, :], J6[..., 3:, :], G6[..., :3, :], G6[..., 3:, :]
     a = cross_cols(Jv, Gv) + cross_cols(Jw, Gw)  # (3, n): term of joint i
     suffix = running_sum(a, reverse=True, exclusive=True)  # sum over i > k
     prefix = running_sum(cross_cols(Gv, Jw))  # sum over i <= k
     g = jnp.sum(Jw * suffix, axis=-2) + jnp.sum(Jv * prefix, axis=-2)
-    return u, g, (J6, K_xd, KJ, Kq, M, inv_u, G6, prefix, suffix)
+    return g, prefix, suffix
 
 
 def offdiag_vjp(rows: tuple[int, ...], res: tuple, cts: tuple) -> tuple[jax.Array, jax.Array]:
@@ -144,30 +162,50 @@ offdiag_value_and_grad.defjvp(_offdiag_jvp)
 
 
 def offdiag_gradient(
-    robot: Robot, q: jax.typing.ArrayLike, K_xd: jax.typing.ArrayLike, task: str | None = None
+    robot: Robot,
+    q: jax.typing.ArrayLike,
+    K_xd: jax.typing.ArrayLike,
+    task: str | None = None,
+    *,
+    locked_joints: str = "rigid",
 ) -> tuple[jax.Array, jax.Array]:
     """``(u(q), grad u(q))`` of the off-diagonal norm (S1-19) at postures q (..., n), K_xd (..., m, m).
 
     Uses the rollout's own closed-form routine (:func:`offdiag_value_and_grad`); ``jax.grad`` of
     ``offdiag(J_s(q), K_xd)`` through the kinematics gives the same numbers, slower. Jitted per
-    robot and task.
+    robot, task and locked-joint mode. ``locked_joints="rigid"`` (default, as
+    :class:`~jaxstiff.settings.CSCSettings`): locked joints have no spring, so ``u`` runs over the
+    free joints and a locked joint's gradient entry is 0; ``"spring"``: every joint counts.
 
     Returns:
-        ``u (...,)`` in Nm/rad and ``grad u (..., n)`` in Nm/rad^2 (locked joints included).
+        ``u (...,)`` in Nm/rad and ``grad u (..., n)`` in Nm/rad^2.
     """
     q = jnp.asarray(q)
     K_xd = jnp.asarray(K_xd, dtype=q.dtype)
-    return _offdiag_gradient(robot, task or TASK_BY_SIZE[K_xd.shape[-1]], q, K_xd)
+    return _offdiag_gradient(robot, task or TASK_BY_SIZE[K_xd.shape[-1]], locked_joints, q, K_xd)
 
 
-@functools.partial(jax.jit, static_argnums=(0, 1))
-def _offdiag_gradient(robot: Robot, task: str, q: jax.Array, K_xd: jax.Array) -> tuple[jax.Array, jax.Array]:
+@functools.partial(jax.jit, static_argnums=(0, 1, 2))
+def _offdiag_gradient(
+    robot: Robot, task: str, locked_joints: str, q: jax.Array, K_xd: jax.Array
+) -> tuple[jax.Array, jax.Array]:
     rows = TASK_ROWS[task]
+    f = lambda J, K: offdiag_value_and_grad(J, K, rows)  # noqa: E731 (rows positional: a custom_jvp's nondiff arg)
+    return on_jacobians(robot, q, K_xd, f, locked_joints)
+
+
+def on_jacobians(robot: Robot, q: jax.Array, K_xd: jax.Array, fn: Callable[..., Any], locked_joints: str) -> Any:
+    """``fn(J6, K_xd)`` of one posture mapped over the broadcast batch of q (..., n) and K_xd (..., m, m),
+    J6 (6, n) the geometric Jacobian at q (rigid locked joints' columns zeroed when
+    ``locked_joints == "rigid"``)."""
+    if locked_joints not in LOCKED_JOINT_MODES:
+        raise ValueError(f"locked_joints must be 'rigid' or 'spring', got {locked_joints!r}")
     _, J6 = position_and_jacobian(robot, q)
+    if locked_joints == "rigid":
+        J6 = J6 * jnp.asarray(robot.free, dtype=q.dtype)
     batch = jnp.broadcast_shapes(q.shape[:-1], K_xd.shape[:-2])
     J6 = jnp.broadcast_to(J6, batch + J6.shape[-2:])
     K_xd = jnp.broadcast_to(K_xd, batch + K_xd.shape[-2:])
-    f = lambda J, K: offdiag_value_and_grad(J, K, rows)  # noqa: E731 (rows positional: a custom_jvp's nondiff arg)
     for _ in batch:
-        f = jax.vmap(f)
-    return f(J6, K_xd)
+        fn = jax.vmap(fn)
+    return fn(J6, K_xd)

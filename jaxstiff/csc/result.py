@@ -37,7 +37,7 @@ class CSCStatus(enum.IntFlag):
     DAMPED = 1  #: isotropy below ``nu0^(m/2)``: the damped pseudo-inverse was active (near singular)
     JOINT_LIMIT = 2  #: a free joint was clamped at its limit after the step
     NAN = 4  #: the step came out non-finite and was replaced by no motion
-    NULL_SMALL = 8  #: ``|dq_N| < null_eps``: at a stationary point of u on the self-motion manifold
+    NULL_SMALL = 8  #: ``|dq_N| < null_eps``: at a stationary point of the objective on the self-motion manifold
 
 
 STATUS_OK = CSCStatus.OK
@@ -73,11 +73,15 @@ class CSCResult:
 
     Attributes:
         q: (*B, T, n) joint values (rad; m for prismatic), locked joints included.
-        u: (*B, T) off-diagonal norm ``u(q)`` of ``J^T K_xd J`` (S1-19), Nm/rad.
-        frobenius: (*B, T) ``|K_xd - K_C|_F`` (S1-10) with the realised ``K_C``.
+        u: (*B, T) off-diagonal norm ``u(q)`` of ``J^T K_xd J`` (S1-19), Nm/rad (over the free
+            joints with rigid locked joints). Reported whichever objective the step lowers.
+        frobenius: (*B, T) ``|K_xd - K_C|_F`` (S1-10) with the realised ``K_C``, N/m. Reported
+            whichever objective the step lowers.
         tracking_error: (*B, T) ``|x_d - x(q)|`` over the task's position rows, m.
         orientation_error: (*B, T) angle of the held-orientation error (task ``"full"``), rad; 0 otherwise.
-        kj: (*B, T, n) realised joint stiffness ``clip(diag(J^T K_xd J), kmin, kmax)``, Nm/rad.
+        kj: (*B, T, n) realised joint stiffness ``clip(diag(J^T K_xd J), kmin, kmax)``, Nm/rad;
+            +inf for a rigid locked joint (``locked_joints="rigid"``: no spring, not a variable; the
+            compliance ``1/kj`` is 0, so ``J diag(1/kj) J^T`` of the file is right as it is).
         K_C: (*B, T, m, m) realised Cartesian stiffness (S0-4) from ``kj``.
         position: (*B, T, 3) TCP position, m, base frame.
         target: (*B, T, d) the path targets used (d = 2 for ``"xy"``, else 3), m.
@@ -110,6 +114,22 @@ class CSCResult:
     def as_dict(self) -> dict[str, Any]:
         """The fields as a ``{name: array}`` dict (numpy-convertible)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def __repr__(self) -> str:
+        """A short summary (size, u and Frobenius error at the start and the end, status counts), not the arrays."""
+        shape = tuple(np.shape(self.q))
+        head = f"CSCResult(batch {shape[:-2]}, {shape[-2]} steps, {shape[-1]} joints"
+        try:
+            u, fr, st = np.asarray(self.u), np.asarray(self.frobenius), np.asarray(self.status)
+            codes, counts = np.unique(st, return_counts=True)
+            status = ", ".join(f"{describe_status(int(c))} {int(k)}" for c, k in zip(codes, counts, strict=True))
+            return (
+                f"{head}; u {np.mean(np.asarray(self.u_start)):.4g} -> {np.mean(u[..., -1]):.4g} Nm/rad, "
+                f"|K_xd - K_C|_F {np.mean(np.asarray(self.frobenius_start)):.4g} -> {np.mean(fr[..., -1]):.4g} N/m "
+                f"(mean over the batch); status: {status})"
+            )
+        except Exception:  # traced arrays (inside jit): shapes only
+            return head + ")"
 
 
 START_FIELDS = ("u_start", "frobenius_start")  #: per rollout, no step axis

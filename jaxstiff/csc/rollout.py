@@ -3,8 +3,9 @@
 A kinematically redundant arm follows a TCP path (the primary task) while its self-motion lowers
 the off-diagonal norm ``u(q)`` of the joint-space stiffness ``K_q = J^T K_xd J`` (S1-19) that a
 desired Cartesian stiffness ``K_xd`` would need. Uni-articular (one joint, one spring) actuators can
-realise only the diagonal of ``K_q``; the smaller ``u``, the closer the realised Cartesian stiffness
-comes to ``K_xd``.
+realise only the diagonal of ``K_q``; the seed argues that the smaller ``u``, the closer the
+realised Cartesian stiffness comes to ``K_xd``. ``objective="frobenius"`` (this project's own)
+lowers that distance ``|K_xd - K_C(q)|_F`` itself (:mod:`~jaxstiff.csc.frobenius`).
 
 The parts: the step and its documented choices (:mod:`jaxstiff.csc.step`), the damped
 projections (:mod:`~jaxstiff.csc.projections`), ``(u, grad u)`` (:mod:`~jaxstiff.csc.offdiag`),
@@ -197,6 +198,8 @@ def csc_rollout(
     newton: int | None = None,
     joint_limits: str | None = None,
     jl_gain: Any = None,
+    objective: str | None = None,
+    locked_joints: str | None = None,
     kxd_varying: bool | None = None,
     hold_orientation: Any = None,
     remat: bool = True,
@@ -210,7 +213,7 @@ def csc_rollout(
 
     Settings (``beta``, ``task`` ... ``jl_gain``) come from ``settings`` (default: CSCSettings'
     defaults, as ``jaxstiff csc``'s); a keyword that is not None overrides its field (arrays too).
-    Long only for its 20 documented parameters; the body is two named steps (:func:`prepare_rollout`,
+    Long only for its 22 documented parameters; the body is two named steps (:func:`prepare_rollout`,
     :func:`rollout_batch`).
 
     Args:
@@ -238,6 +241,12 @@ def csc_rollout(
         jl_gain: joint-limit gain (rad per step for a joint at its limit, before projection; for
             ``"sum"``: relative weight against the CSC gradient); default 0.3 with
             ``joint_limits`` ``"priority"`` or ``"sum"``, else 0.
+        objective: what the null-space step lowers: ``"offdiag"`` (default, the seed's ``u(q)``,
+            S1-19) or ``"frobenius"`` (``|K_xd - K_C(q)|_F`` itself, this project's own; static).
+            The result reports both measures either way.
+        locked_joints: ``"rigid"`` (default, SPEC section 1: a locked joint has no spring, adds no
+            compliance, has no stiffness variable; its ``kj`` is reported as +inf, infinite stiffness) or ``"spring"``
+            (it keeps its spring in ``u``, ``kj`` and ``K_C``). Static.
         kxd_varying: whether K_xd's axis -3 runs along the path. Default: True when
             ``K_xd.ndim >= 3`` and ``K_xd.shape[-3] == T``; pass False for a batch of constant
             K_xd whose batch size happens to equal T.
@@ -272,6 +281,8 @@ def csc_rollout(
         newton=newton,
         joint_limits=joint_limits,
         jl_gain=jl_gain,
+        objective=objective,
+        locked_joints=locked_joints,
         kxd_varying=kxd_varying,
         hold_orientation=hold_orientation,
         remat=remat,

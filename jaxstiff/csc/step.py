@@ -7,7 +7,7 @@ One step ``k`` (one per path waypoint), with ``J`` the task rows of the geometri
 
     dx    = x_d[k] - x(q_k)                            closed loop: the TCP does not drift
     dq_P  = J+ dx                                      (S1-13, particular solution)
-    dq_N  = (I - J+ J) grad u(q_k)                     (S1-14, S1-15, S1-20)
+    dq_N  = (I - J+ J) grad f(q_k)                     (S1-14, S1-15, S1-20; f = u or |K_xd - K_C|_F)
     alpha = beta |dq_P| / |dq_N|   ("adaptive", S1-22)  or  beta / |dq_N|   ("constant")
     q_k+1 = q_k + dq_P - alpha dq_N [+ dq_L]           (S1-13, S1-21)
     then ``newton`` optional corrections q <- q + J+(q) (x_d[k] - x(q)), then the joint limits.
@@ -40,8 +40,15 @@ Choices where the seed is silent (SPEC section 6 lets us choose):
   behind the path (the tracking error says so). Start inside the limits, or use
   ``joint_limits="priority"`` to keep the arm off them.
 * **Locked joints** never move: their Jacobian columns are zeroed for motion and their entries of
-  ``q0`` are replaced by the locked values. They keep their springs: ``u``, the realised joint
-  stiffness and ``K_C`` use the full Jacobian.
+  ``q0`` are replaced by the locked values. ``locked_joints="rigid"`` (default, SPEC section 1):
+  they have no spring either, so their columns are zeroed for the stiffness too: ``u`` and its
+  gradient, the realised joint stiffness and ``K_C = (J_f K_f^-1 J_f^T)^-1`` run over the free
+  joints only, and a locked joint's reported ``kj`` is 0 (no spring, not a variable).
+  ``"spring"``: they keep their springs, ``u``, ``kj`` and ``K_C`` use the full Jacobian.
+* **Objective.** ``objective="offdiag"`` (default): the seed's ``u(q)`` (S1-19, closed-form
+  gradient, :mod:`~jaxstiff.csc.offdiag`). ``"frobenius"`` (this project's own): ``|K_xd - K_C(q)|_F``
+  with ``K_C`` from the realised (clipped) diagonal joint stiffness, the measure itself
+  (:mod:`~jaxstiff.csc.frobenius`). Both are reported whichever drives the step.
 * **Task rows.** ``"xy"``, ``"xyz"``, ``"full"`` (position follows the path, the tool orientation
   is held; the orientation error is ``1/2 sum_i r_i x r_d,i``, :func:`~jaxstiff.csc.pose.orientation_error`).
 """
@@ -56,6 +63,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.csc.algebra import mv, vector_norm
+from jaxstiff.csc.frobenius import frobenius_value_and_grad
 from jaxstiff.csc.measures import posture_measures
 from jaxstiff.csc.offdiag import offdiag_value_and_grad
 from jaxstiff.csc.pose import orientation_error, pos_jac, pose_jac
@@ -65,7 +73,17 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.stiffness.core import TASK_ROWS
 from jaxstiff.stiffness.criteria import offdiag
 
-__all__ = ["StaticSettings", "StepContext", "SATURATION_ROUNDS", "step_context", "csc_step", "solve_step"]
+__all__ = [
+    "StaticSettings",
+    "StepContext",
+    "SATURATION_ROUNDS",
+    "step_context",
+    "csc_step",
+    "solve_step",
+    "evaluate",
+    "rigid_locks",
+    "expand_free",
+]
 
 #: re-solves of a step after joints were frozen at their limits (each round freezes the joints the
 #: previous solve pushed past a limit); later violators are clamped by the final clip
@@ -82,6 +100,8 @@ class StaticSettings:
     joint_limits: str
     remat: bool
     varying: bool
+    objective: str  # "offdiag" (u, S1-19) or "frobenius" (|K_xd - K_C|_F)
+    locked_joints: str  # "rigid" (no spring) or "spring"
     poly: bool = False  # joint cos/sin from kinematics.cos_sin (a CPU batch of >= 64 rollouts)
 
 
@@ -179,14 +199,40 @@ def task_error(ctx: StepContext, p: jax.Array, R: jax.Array | None, target: jax.
     return e
 
 
+def rigid_locks(ctx: StepContext) -> bool:
+    """Whether some joints are locked and rigid (their columns then drop out of the stiffness)."""
+    return ctx.st.locked_joints == "rigid" and not bool(ctx.free_b.all())
+
+
+def expand_free(ctx: StepContext, x: jax.Array, fill: float = 0.0) -> jax.Array:
+    """``x`` (..., n_free) over the free joints -> (..., n) in chain order, ``fill`` at the locked joints."""
+    cols, k = [], 0
+    for free in ctx.free_b:
+        cols.append(x[..., k] if free else jnp.full_like(x[..., 0], fill))
+        k += int(free)
+    return jnp.stack(cols, axis=-1)
+
+
 def evaluate(ctx: StepContext, q: jax.Array, K: jax.Array) -> tuple:
-    """``(u, grad u, (p, J, p3, R))`` at q: the kinematics and ``(u, grad u)`` (S1-19, S1-20)."""
+    """``(u, grad f, (p, J, p3, R), Js)`` at q: the kinematics, ``u`` (S1-19), the gradient (n,) of
+    the objective ``f`` (``u`` itself, S1-20, or ``|K_xd - K_C|_F``), the task rows ``J`` (m, n)
+    for motion and ``Js`` those of the stiffness: ``J`` itself, or with rigid locked joints only
+    the free joints' columns (m, n_free; in chain order, the closed-form derivative of J stays
+    exact without the zero columns, and the stiffness work shrinks)."""
     with jax.named_scope("csc_kinematics"):
         p, J6, p3, R = kinematics(ctx, q)
     J = J6[..., : ctx.m, :]
-    with jax.named_scope("csc_offdiag"):
-        u, g = offdiag_value_and_grad(J6, K, TASK_ROWS[ctx.st.task])
-    return u, g, (p, J, p3, R)
+    rigid = rigid_locks(ctx)  # (static: nothing changes without rigid locked joints)
+    J6s = J6[..., np.flatnonzero(ctx.free_b)] if rigid else J6
+    Js = J6s[..., : ctx.m, :] if rigid else J
+    if ctx.st.objective == "frobenius":
+        with jax.named_scope("csc_frobenius"):
+            _, g = frobenius_value_and_grad(J6s, K, ctx.kmin, ctx.kmax, ctx.st.task)
+        u = offdiag(Js, K)
+    else:
+        with jax.named_scope("csc_offdiag"):
+            u, g = offdiag_value_and_grad(J6s, K, TASK_ROWS[ctx.st.task])
+    return u, expand_free(ctx, g) if rigid else g, (p, J, p3, R), Js
 
 
 def _null_length(ctx: StepContext, dqP: jax.Array) -> Any:
@@ -303,13 +349,15 @@ def csc_step(ctx: StepContext, q: jax.Array, xs: tuple) -> tuple[jax.Array, dict
     target, K, K_prev, target_prev = xs
     if not ctx.st.varying:
         K = K_prev = ctx.K_xd
-    u, g, (p, J, p3, R) = evaluate(ctx, q, K)
+    u, g, (p, J, p3, R), Js = evaluate(ctx, q, K)
     # measures of the posture q (reached by the previous step) against the previous waypoint
-    u_rep = u if not ctx.st.varying else offdiag(J, K_prev)
+    u_rep = u if not ctx.st.varying else offdiag(Js, K_prev)
     with jax.named_scope("csc_measures"):
         kj, K_C, frob, err, oerr = posture_measures(
-            J, K_prev, p, R, target_prev, kmin=ctx.kmin, kmax=ctx.kmax, task=ctx.st.task, R_hold=ctx.R_hold
+            Js, K_prev, p, R, target_prev, kmin=ctx.kmin, kmax=ctx.kmax, task=ctx.st.task, R_hold=ctx.R_hold
         )
+    if rigid_locks(ctx):  # a rigid locked joint: no spring, no variable; reported as +inf (infinite stiffness)
+        kj = expand_free(ctx, kj, fill=np.inf)
     dx = task_error(ctx, p, R, target)
     with jax.named_scope("csc_solve"):
         dq1, null1, nu, damped, small1 = solve_step(ctx, q, J, g, dx, ctx.free)

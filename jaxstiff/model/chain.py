@@ -30,7 +30,20 @@ __all__ = [
     "tcp_matrix",
     "check_locked",
     "check_q",
+    "check_locked_values",
+    "LOCKED_JOINT_MODES",
+    "LOCKED_TOL",
 ]
+
+#: What a locked joint is (SPEC section 1): ``"rigid"`` (the default: no spring, so no compliance
+#: term and no stiffness variable; its ``kj`` entry in results is ``+inf``) or ``"spring"`` (it
+#: keeps a spring whose stiffness is optimised like a free joint's). ``jaxstiff.settings.shape``'s
+#: ``locked_joints`` and the solvers' ``WaypointProblem`` take these names.
+LOCKED_JOINT_MODES = ("rigid", "spring")
+
+#: rad (m for prismatic joints): largest difference between a given value of a locked joint and
+#: its locked value that :func:`check_locked_values` accepts
+LOCKED_TOL = 1e-9
 
 
 class JointType(enum.IntEnum):
@@ -183,7 +196,8 @@ class Chain:
         return dataclasses.replace(self, tip=mat_to_tuple(T))
 
     def check_q(self, q: Any, name: str = "q") -> Any:
-        """Validate a joint array at the Python boundary: floating dtype, last axis n, finite.
+        """Validate a joint array at the Python boundary: floating dtype, last axis n, finite, and
+        locked joints at their locked values (:func:`check_locked_values`).
 
         Returns the array as a JAX/numpy array unchanged in dtype. Raises ValueError naming the problem.
         """
@@ -288,4 +302,46 @@ def check_q(robot: Chain, q: Any, name: str = "q") -> Any:
                 f"{name} contains NaN or Inf: {name}{list(idx)} = {a[idx]} "
                 f"(joint {robot.joint_names[idx[-1]]!r} of robot {robot.name!r})"
             )
+        check_locked_values(robot, a, name)
     return q
+
+
+def check_locked_values(robot: Chain, q: Any, name: str = "q") -> None:
+    """Refuse a joint array whose locked joints are not at their locked values.
+
+    A locked joint stays in ``q`` (SPEC section 1), and every entry point (``Robot.fk``,
+    ``jacobian``, ``fk_and_jacobian``, ``jaxstiff.shape``'s ``q0``, ``jaxstiff.ik``, CSC) checks
+    ``q`` with this one function, so a value that is not the locked one is never silently used
+    (nor silently replaced).
+
+    Args:
+        robot: the chain (its ``locked`` values).
+        q: (..., n) joint values, rad (m for prismatic joints); anything ``numpy.asarray`` reads.
+            A JAX tracer (inside ``jit``, ``grad``, ``vmap``) is not checked: its values are unknown.
+        name: how the error message calls the array (a flag or parameter name).
+
+    Raises:
+        ValueError: if some ``|q[..., i] - locked_i| > LOCKED_TOL`` (1e-9) for a locked joint i,
+            naming the first such entry, the joint, the given and the locked value, e.g.
+            ``q[..., 6] = 0.3 for joint 'lwr_a7' of robot 'kuka_lwr4', which is locked at 0; pass the
+            locked value (0) there, or build the robot without locking the joint (locked=... /
+            --lock)``. (The shape of ``q`` is not checked here: :func:`check_q` does that.)
+    """
+    if is_traced(q) or all(v is None for v in robot.locked):
+        return
+    a = np.asarray(q, dtype=float)
+    if a.ndim == 0 or a.shape[-1] != robot.n:
+        return
+    for i, v in enumerate(robot.locked):
+        if v is None:
+            continue
+        bad = ~(np.abs(a[..., i] - v) <= LOCKED_TOL)
+        if np.any(bad):
+            at = tuple(int(j) for j in np.argwhere(bad)[0]) if a.ndim > 1 else ()
+            where = f"{name}[{', '.join(map(str, at))}{', ' if at else ''}{i}]" if a.ndim > 1 else f"{name}[{i}]"
+            got = float(a[at + (i,)])
+            raise ValueError(
+                f"{where} = {got:g} for joint {robot.joint_names[i]!r} of robot {robot.name!r}, which is locked at "
+                f"{v:g}; pass the locked value ({v:g}) there, or build the robot without locking the joint "
+                "(locked=... / --lock)"
+            )

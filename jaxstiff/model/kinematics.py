@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
-from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
+from jaxstiff.model.chain import JOINT_PRISMATIC, Chain, check_locked_values
 
 __all__ = [
     "fk",
@@ -195,6 +195,23 @@ def _check(robot: Chain, q: jax.Array) -> None:
         raise ValueError(f"q must have a floating dtype, got {q.dtype}")
 
 
+def _locked_checked(fn):
+    """A jitted kinematics function that first refuses a concrete ``q`` whose locked joints are not at
+    their locked values (:func:`jaxstiff.model.chain.check_locked_values`; a tracer is not checked)."""
+
+    @functools.wraps(fn)
+    def checked(robot: Chain, q: jax.Array, *args, **kwargs):
+        if isinstance(robot, Chain):  # anything else: the kernel's own check says what is wrong
+            check_locked_values(robot, q)
+        return fn(robot, q, *args, **kwargs)
+
+    for attr in ("lower", "trace", "eval_shape", "clear_cache", "_cache_size"):  # the jitted function's API
+        if hasattr(fn, attr):
+            setattr(checked, attr, getattr(fn, attr))
+    return checked
+
+
+@_locked_checked
 @functools.partial(jax.jit, static_argnums=0)
 def fk(robot: Chain, q: jax.Array) -> jax.Array:
     """Pose of the TCP in the base frame, ``T_base_tcp``.
@@ -207,7 +224,10 @@ def fk(robot: Chain, q: jax.Array) -> jax.Array:
         (..., 4, 4) homogeneous transforms, dtype of ``q``.
 
     Shapes and dtypes are checked; values are not (the function is jitted, and a value check
-    would need them on the host): a NaN in ``q`` gives NaN, as in ``jnp.sin``. The method
+    would need them on the host): a NaN in ``q`` gives NaN, as in ``jnp.sin``. The exception: a
+    concrete (not traced) ``q`` whose locked joints are not at their locked values is refused
+    (ValueError, :func:`jaxstiff.model.chain.check_locked_values`), here and in
+    :func:`jacobian`, :func:`fk_and_jacobian` and :func:`position_and_jacobian`. The method
     :meth:`jaxstiff.Chain.fk` (likewise ``jacobian``) also refuses non-finite concrete values.
     """
     q = jnp.asarray(q)
@@ -216,6 +236,7 @@ def fk(robot: Chain, q: jax.Array) -> jax.Array:
     return _pose(R, p, q)
 
 
+@_locked_checked
 @functools.partial(jax.jit, static_argnums=0)
 def jacobian(robot: Chain, q: jax.Array) -> jax.Array:
     """Geometric Jacobian of the TCP point in the base frame (SPEC section 1).
@@ -233,6 +254,7 @@ def jacobian(robot: Chain, q: jax.Array) -> jax.Array:
     return _jacobian_array(_jacobian_entries(p, frames), q)
 
 
+@_locked_checked
 @functools.partial(jax.jit, static_argnums=0)
 def fk_and_jacobian(robot: Chain, q: jax.Array) -> tuple[jax.Array, jax.Array]:
     """``(fk(robot, q), jacobian(robot, q))`` from one walk of the chain."""
@@ -246,6 +268,7 @@ def fk_and_jacobian_raw(robot: Chain, q: jax.Array, poly: bool | None = None) ->
     return _pose(R, p, q), _jacobian_array(_jacobian_entries(p, frames), q)
 
 
+@_locked_checked
 @functools.partial(jax.jit, static_argnums=(0, 2))
 def position_and_jacobian(robot: Chain, q: jax.Array, rows: tuple[int, ...] = (0, 1, 2, 3, 4, 5)):
     """TCP position (..., 3) and the selected Jacobian rows (..., len(rows), n), in one pass.

@@ -8,7 +8,8 @@ key             shape       meaning
 ==============  ==========  ======================================================================
 joint_names     (n,)        actuated joints, chain order (unicode strings)
 q               (B,P,n)     joint positions, rad (m for prismatic), locked joints included
-kj              (B,P,n)     joint stiffnesses before CMS, Nm/rad
+kj              (B,P,n)     joint stiffnesses before CMS, Nm/rad; ``+inf``: a rigid locked joint (no
+                            spring; locked_joints "rigid"), so ``J diag(1/kj) J^T`` stays the compliance
 cms             (B,P)       common-mode factor k (S0 section III): ``kj_scaled = k * kj``
 kj_scaled       (B,P,n)     ``cms[..., None] * kj``, Nm/rad (may exceed kmax: CMS is a scaling)
 target          (B,P,3)     waypoints, m, base frame
@@ -19,7 +20,7 @@ alpha_deg       (B,P)       orientation error of the ellipsoid, degrees
 ratio           (B,P)       axis ratio lambda1 / lambda2
 criterion       (B,P)       criterion value at (q, kj)
 status          (B,P)       per-waypoint status, codes below
-q0, kj0         (B,n)       start state (rad; Nm/rad) the rate limits of waypoint 0 refer to
+q0, kj0         (B,n)       start state (rad; Nm/rad, +inf rigid) the rate limits of waypoint 0 refer to
 solver_code     (B,P)       the solver's own code, per solver (meta ``solver_code_meaning``): slsqp /
                             slsqp-fd the SLSQP exit mode (0 = converged, -1 = exception); pgd and
                             trajectory the index of the start that won (-1 = none); hybrid the
@@ -241,6 +242,24 @@ class ShapeResult:
         """Headline numbers: see :func:`summary`."""
         return summary(self)
 
+    def __repr__(self) -> str:
+        """A short summary (size, criterion, shares in target, status counts, robot, solver), not the arrays."""
+        try:
+            s = summary(self)
+            codes, counts = np.unique(np.asarray(self.status), return_counts=True)
+            status = ", ".join(
+                f"{STATUS_NAMES.get(int(c), int(c))} {int(k)}" for c, k in zip(codes, counts, strict=True)
+            )
+            shares = f"in target {100 * s['share_both']:.1f}% (alpha {100 * s['share_alpha']:.1f}%, rho {100 * s['share_ratio']:.1f}%)"
+        except Exception:  # a half-built result still prints
+            status, shares = "?", "in target ?"
+        robot = (self.meta.get("robot") or {}).get("name", "?")
+        return (
+            f"ShapeResult({self.B} path(s) x {self.P} waypoints, {self.n} joints; robot {robot}; "
+            f"criterion {self.meta.get('criterion', '?')}, ratio {self.meta.get('ratio', '?')}, "
+            f"solver {self.meta.get('solver', '?')}; {shares}; status: {status})"
+        )
+
 
 # ---------------------------------------------------------------------- summaries
 def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float = 0.02) -> dict[str, Any]:
@@ -337,6 +356,10 @@ def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike
     lmask = ~np.isnan(locked)
     for b in range(res.B):
         q, kj = res.q[b], res.kj[b]
+        # a rigid locked joint (SPEC section 1) has kj = +inf: no spring, so no stiffness bounds or
+        # rate limit apply to it; +inf anywhere else is a violation
+        rigid = lmask[None, :] & (kj == np.inf)
+        kjb = np.where(rigid, 0.5 * (kmin + kmax), kj)
         pos = np_fk_position(robot, q)
         usable = is_usable(res.status[b])
         err = np.linalg.norm(pos - res.target[b], axis=-1)
@@ -344,7 +367,7 @@ def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike
             out["max_pos_error"] = max(out["max_pos_error"], float(err[usable].max()))
         out["max_position_mismatch"] = max(out["max_position_mismatch"], float(np.abs(pos - res.position[b]).max()))
         bound = np.r_[
-            (robot.lower - q).ravel(), (q - robot.upper).ravel(), (kmin - kj).ravel(), (kj - kmax).ravel(), 0.0
+            (robot.lower - q).ravel(), (q - robot.upper).ravel(), (kmin - kjb).ravel(), (kjb - kmax).ravel(), 0.0
         ]
         out["max_bound_violation"] = max(out["max_bound_violation"], float(bound.max()))
         if lmask.any():
@@ -354,7 +377,8 @@ def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike
         Qr, Kr, rate = reference_states(res, b)
         if rate.any():
             dqv = np.abs(q[rate] - Qr[rate]) - prm["dq"][b]
-            dkv = np.abs(kj[rate] - Kr[rate]) - prm["dk"][b]
+            Kr = np.where(lmask[None, :] & (Kr == np.inf), kjb, Kr)
+            dkv = np.abs(kjb[rate] - Kr[rate]) - prm["dk"][b]
             out["max_rate_violation"] = max(
                 out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0]))
             )

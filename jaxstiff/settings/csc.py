@@ -9,15 +9,29 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Literal
 
 from jaxstiff.settings.base import Settings, setting
 
-__all__ = ["CSCSettings", "CSC_TASKS", "STEP_RULES", "JOINT_LIMIT_MODES", "DEFAULT_JL_GAIN", "TASK_BY_SIZE"]
+__all__ = [
+    "CSCSettings",
+    "CSC_TASKS",
+    "STEP_RULES",
+    "JOINT_LIMIT_MODES",
+    "OBJECTIVES",
+    "LOCKED_JOINT_MODES",
+    "DEFAULT_JL_GAIN",
+    "TASK_BY_SIZE",
+]
 
 CSC_TASKS = ("xy", "xyz", "full")  #: task rows; None = from the size of K_xd
 TASK_BY_SIZE = {2: "xy", 3: "xyz", 6: "full"}  #: the task of a K_xd of size m x m (task None)
 STEP_RULES = ("adaptive", "constant")  #: S1-22 (beta x |dq_P|) or a constant null-step length
 JOINT_LIMIT_MODES = ("off", "priority", "sum")
+#: the null-space objective: the seed's off-diagonal norm u (S1-19) or |K_xd - K_C(q)|_F itself (S1-10)
+OBJECTIVES = ("offdiag", "frobenius")
+#: a locked joint without a spring (SPEC section 1's default) or with one (a compliant actuator holding it)
+LOCKED_JOINT_MODES = ("rigid", "spring")
 DEFAULT_JL_GAIN = 0.3  #: the joint-limit gain used when avoidance is on and no gain is given
 
 
@@ -112,6 +126,20 @@ class CSCSettings(Settings):
         f"sum = weight against the CSC gradient at a limit (default: {DEFAULT_JL_GAIN} with joint_limits priority "
         f"or sum, else 0)",
         check=_optional_gain,
+    )
+
+    objective: Literal["offdiag", "frobenius"] = setting(
+        "offdiag",
+        choices=OBJECTIVES,
+        doc="null-space objective: offdiag = the seed's u(q), the off-diagonal norm of J^T K_xd J (S1-19); "
+        "frobenius = |K_xd - K_C(q)|_F with K_C from the realised diagonal joint stiffness (S1-10; this "
+        "project's own, beyond the seed); both are reported either way",
+    )
+    locked_joints: Literal["rigid", "spring"] = setting(
+        "rigid",
+        choices=LOCKED_JOINT_MODES,
+        doc="locked joints: rigid = no spring (no compliance, no stiffness variable; kj reported as +inf; "
+        "SPEC section 1) or spring = the locked joint keeps its spring in K_C, u and kj",
     )
 
     def __post_init__(self) -> None:

@@ -15,13 +15,23 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
+from jaxstiff.model.chain import LOCKED_JOINT_MODES
 from jaxstiff.settings.base import Settings, at_least, non_negative, positive, setting
 
-__all__ = ["ShapeSettings", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG", "ratio_per_path", "limit_per_joint"]
+__all__ = [
+    "ShapeSettings",
+    "LOCKED_JOINT_MODES",
+    "CRITERIA",
+    "TASKS",
+    "SOLVER_NAMES",
+    "DEFAULT_DQ_DEG",
+    "ratio_per_path",
+    "limit_per_joint",
+]
 
 CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
 TASKS = ("full", "xyz", "xy")  #: task rows of the stiffness (SPEC section 2)
@@ -50,6 +60,11 @@ class ShapeSettings(Settings):
     criterion: str = setting("f2", doc="shaping criterion: f1 (ratio at least r) or f2 (ratio exactly r)")
     ratio: float = setting(5.0, doc="wanted axis ratio r = lambda1 / lambda2", check=_ratio)
     task: str = setting("full", choices=TASKS, doc="task rows of K_T: full = top-left 3x3 of the 6x6 K_C")
+    locked_joints: Literal["rigid", "spring"] = setting(
+        "rigid",
+        choices=LOCKED_JOINT_MODES,
+        doc="a locked joint is rigid (no spring, no stiffness variable, kj = +inf) or keeps its spring (SPEC 1)",
+    )
     solver: str = setting("slsqp", doc="solver (slsqp, slsqp-fd, pgd, hybrid, trajectory, or a registered one)")
     starts: int | None = setting(None, doc="starts per waypoint (None: the solver's default; SLSQP: 1)")
     dq: float = setting(

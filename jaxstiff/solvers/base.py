@@ -87,11 +87,16 @@ def register_solver(name: str, fn: Callable[[SolveRequest], dict[str, Any]]) -> 
 
 
 def outcomes_to_arrays(
-    per_path: Sequence[Sequence[Any]], n_free: int, q0: np.ndarray, free_idx: Sequence[int]
+    per_path: Sequence[Sequence[Any]],
+    n_free: int,
+    q0: np.ndarray,
+    free_idx: Sequence[int],
+    kj_full: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Per-waypoint outcomes (``x``, ``status``, ``code``, ``nit``, ``nfev``, ``pos_error``, ``time_s``;
     ``per_path[b][p]``) as the :data:`SOLVERS` dict: ``q``, ``kj`` (B, P, n) and (B, P) arrays; locked
-    joints keep ``q0`` (B, n)."""
+    joints keep ``q0`` (B, n). ``kj_full`` (:meth:`WaypointProblem.kj_full`) maps the stiffness
+    variables to (n,) (``+inf`` for rigid locked joints); None: they are all n."""
     B, P = len(per_path), len(per_path[0])
     n = q0.shape[-1]
     q = np.repeat(q0[:, None, :], P, axis=1).astype(float)
@@ -111,7 +116,7 @@ def outcomes_to_arrays(
     for b, outs in enumerate(per_path):
         for p, o in enumerate(outs):
             q[b, p, fi] = o.x[:n_free]
-            kj[b, p] = o.x[n_free:]
+            kj[b, p] = o.x[n_free:] if kj_full is None else kj_full(o.x[n_free:])
             out["status"][b, p] = o.status
             out["solver_code"][b, p] = o.code
             out["nit"][b, p] = o.nit

@@ -311,7 +311,7 @@ def greedy_path(
             if status in R.USABLE:
                 q_ref = q_ref.copy()
                 q_ref[list(problem.free_idx)] = x[: problem.n_free]
-                kj_ref = x[problem.n_free :].copy()
+                kj_ref = np.array(problem.kj_full(x[problem.n_free :]), copy=True)
                 at_start = False
             if progress is not None:
                 progress(p)
@@ -361,7 +361,7 @@ def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, An
     # paths (or their ends) not reached before an interrupt: NOT_RUN at the reference state
     per_path += [[] for _ in range(B - len(per_path))]
     per_path = [not_run_outcomes(prob, d, P, req.q0[b], req.kj0[b]) for b, d in enumerate(per_path)]
-    out: dict[str, Any] = outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx)
+    out: dict[str, Any] = outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx, prob.kj_full)
     out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
     out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
     out["code_meaning"] = CODE_MEANING

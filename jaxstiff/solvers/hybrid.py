@@ -165,7 +165,7 @@ def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -
     """Polish path b along ``chain`` ("greedy" or "pgd", module docstring), writing into ``dst``."""
     problem = ctx.problem
     limits = ctx.batch.limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
-    dx = np.r_[np.asarray(limits.dq, float)[list(problem.free_idx)], np.asarray(limits.dk, float)]
+    dx = np.r_[np.asarray(limits.dq, float)[list(problem.free_idx)], problem.spring_cols(np.asarray(limits.dk, float))]
     Xb = problem.x_of(ctx.base["q"][b], ctx.base["kj"][b])
     usable_b = R.is_usable(ctx.base["status"][b])
     nxt = _next_usable(usable_b)
@@ -213,14 +213,14 @@ def _polish_waypoint(
         # pgd's point is inside this box up to rounding of the box arithmetic: clip exactly
         Xb[p] = clip_to_box(Xb[p], lb, ub)
         dst["q"][b, p, free] = Xb[p][:nf]
-        dst["kj"][b, p] = Xb[p][nf:]
+        dst["kj"][b, p] = ctx.problem.kj_full(Xb[p][nf:])
     take = None
     if np.all(lb <= ub) and (ctx.mode == "all" or not have):
         take = _best_slsqp(ctx, b, p, chain, Xb[p], pgd_usable, have, lb, ub, rate, q_ref, kj_ref)
     if take is not None:
         x, status, err, sol = take
         dst["q"][b, p, free] = x[:nf]
-        dst["kj"][b, p] = x[nf:]
+        dst["kj"][b, p] = ctx.problem.kj_full(x[nf:])
         dst["status"][b, p] = status
         dst["pos_error"][b, p] = err
         dst["solver_code"][b, p] = sol.code
@@ -230,7 +230,7 @@ def _polish_waypoint(
     if chain == "greedy" and pgd_usable and not have:
         # pgd's point left the box of the new chain and no SLSQP answer was usable
         dst["q"][b, p, free] = clip_to_box(Xb[p], lb, ub)[:nf]
-        dst["kj"][b, p] = clip_to_box(Xb[p], lb, ub)[nf:]
+        dst["kj"][b, p] = ctx.problem.kj_full(clip_to_box(Xb[p], lb, ub)[nf:])
         dst["status"][b, p] = R.UNREACHABLE
         return False
     if not have and np.all(lb <= ub):
@@ -239,7 +239,7 @@ def _polish_waypoint(
         # the box of the hybrid's chain
         xc = clip_to_box(Xb[p], lb, ub)
         dst["q"][b, p, free] = xc[:nf]
-        dst["kj"][b, p] = xc[nf:]
+        dst["kj"][b, p] = ctx.problem.kj_full(xc[nf:])
     return have
 
 

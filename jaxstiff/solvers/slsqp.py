@@ -108,7 +108,7 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
 
     # SLSQP works on y = x / scale: stiffness in units of kj_scale (Nm/rad), joints in rad; the
     # scaling is applied inside the kernel, so each evaluation is one call and array views.
-    scale = np.r_[np.ones(problem.n_free), np.full(problem.n, float(opts["kj_scale"]))]
+    scale = np.r_[np.ones(problem.n_free), np.full(problem.n_spring, float(opts["kj_scale"]))]
     svec = np.r_[scale, float(opts["f_scale"])]
 
     svec_dev = jnp.asarray(svec)

@@ -101,9 +101,9 @@ def numpy_objective(problem: WaypointProblem) -> Objective:
     m = problem.m
 
     def objective(x: np.ndarray, params: np.ndarray) -> float:
-        q, kj = q_of(x), x[nf:]
+        q, kj = q_of(x), x[nf:]  # kj of the sprung joints (all, or the free ones: rigid locked joints)
         _, J = chain.position_and_jacobian(q)
-        Js = J[rows]
+        Js = problem.spring_cols(J[rows])
         K = np.linalg.inv((Js / kj) @ Js.T)
         if problem.task == "full":
             K = K[:3, :3]
@@ -147,7 +147,7 @@ def make_fd_solver(problem: WaypointProblem, options: Mapping[str, Any] | None =
     chain = NumpyChain(problem.robot)
     q_of, _ = _split(problem)
     rows = list(problem.pos_rows)
-    scale = np.r_[np.ones(problem.n_free), np.full(problem.n, float(opts["kj_scale"]))]
+    scale = np.r_[np.ones(problem.n_free), np.full(problem.n_spring, float(opts["kj_scale"]))]
     fscale = float(opts["f_scale"])
 
     def solve(

@@ -209,6 +209,7 @@ def refine_batch(
     fn = _compiled(problem, items, bool(limits.first_rate_limit))
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, free]
+    dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
     out: dict[str, Any] = {k: np.array(v, copy=True) for k, v in warm.items() if isinstance(v, np.ndarray)}
     pad = pad_rows
     with jax.enable_x64(True):
@@ -235,7 +236,7 @@ def refine_batch(
             q = out["q"][sl]
             q[..., free] = res["x"][:m, :, :nf]
             out["q"][sl] = q
-            out["kj"][sl] = res["x"][:m, :, nf:]
+            out["kj"][sl] = problem.kj_full(res["x"][:m, :, nf:])
             out["status"][sl] = res["status"][:m]
             out["pos_error"][sl] = res["err"][:m]
             out["time_s"][sl] += dt / ((e - s) * P)  # over the real waypoints (padding rows excluded)

@@ -29,6 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 from pydantic import create_model
 
+from jaxstiff.model.chain import check_locked_values
 from jaxstiff.settings.csc import CSCSettings
 from jaxstiff.sweep.axis_specs import AXES as AXES
 from jaxstiff.sweep.axis_specs import CSC_SWEEP_TASK as CSC_SWEEP_TASK
@@ -176,6 +177,10 @@ def _posture(v: list, i: int, key: str, robot: Any, source: str) -> list[float]:
             f"({', '.join(robot.joint_names)})",
             source,
         )
+    try:  # locked joints at their values: the message every entry point gives
+        check_locked_values(robot, q, f"posture {i}: q")
+    except ValueError as e:
+        raise SweepConfigError(key, str(e), source) from None
     lo, hi = robot.lower, robot.upper
     for j, x in enumerate(q):
         if not (lo[j] <= x <= hi[j]):
@@ -183,12 +188,6 @@ def _posture(v: list, i: int, key: str, robot: Any, source: str) -> list[float]:
                 key,
                 f"posture {i}: q[{j}] = {x:g} rad is outside the limits [{lo[j]:g}, {hi[j]:g}] "
                 f"of joint {robot.joint_names[j]!r}",
-                source,
-            )
-        if robot.locked[j] is not None and abs(x - robot.locked[j]) > 1e-12:
-            raise SweepConfigError(
-                key,
-                f"posture {i}: joint {robot.joint_names[j]!r} is locked at {robot.locked[j]:g} rad, got {x:g}",
                 source,
             )
     return q

@@ -12,7 +12,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from jaxstiff.settings.csc import CSC_TASKS, JOINT_LIMIT_MODES, STEP_RULES, CSCSettings
+from jaxstiff.settings.csc import CSC_TASKS, JOINT_LIMIT_MODES, LOCKED_JOINT_MODES, OBJECTIVES, STEP_RULES, CSCSettings
+from jaxstiff.settings.shape import LOCKED_JOINT_MODES as SHAPE_LOCKED_JOINT_MODES
 from jaxstiff.settings.shape import TASKS, ShapeSettings
 
 __all__ = ["AxisSpec", "AXES", "CSC_SWEEP_TASK", "Q0_FAMILIES"]
@@ -107,6 +108,15 @@ def _shape_axes() -> dict[str, AxisSpec]:
             "task", "str", d.task, static=True, choices=TASKS, setting=S + "task", doc="task rows of K_T (SPEC 2)"
         ),
         AxisSpec(
+            "locked_joints",
+            "str",
+            d.locked_joints,
+            static=True,
+            choices=SHAPE_LOCKED_JOINT_MODES,
+            setting=S + "locked_joints",
+            doc="locked joints rigid (no spring, no stiffness variable, kj = inf; SPEC 1) or spring",
+        ),
+        AxisSpec(
             "solver",
             "str",
             d.solver,
@@ -175,6 +185,11 @@ def _shape_axes() -> dict[str, AxisSpec]:
         *_q0_specs(),
     )
     return {a.name: a for a in specs}
+
+
+def _static_choice(d: CSCSettings, name: str, choices: Sequence[str], doc: str) -> AxisSpec:
+    """A static csc axis of strings whose default is the CSCSettings field ``name``."""
+    return AxisSpec(name, "str", getattr(d, name), static=True, choices=choices, setting="CSCSettings." + name, doc=doc)
 
 
 def _csc_axes() -> dict[str, AxisSpec]:
@@ -246,6 +261,15 @@ def _csc_axes() -> dict[str, AxisSpec]:
             check=_ge(0.0),
             setting=C + "jl_gain",
             doc="joint-limit gain (default: 0.3 with joint_limits on, else 0)",
+        ),
+        _static_choice(
+            d,
+            "objective",
+            OBJECTIVES,
+            "null-space objective: offdiag = u (S1-19, the seed's), frobenius = |K_xd - K_C|_F (S1-10)",
+        ),
+        _static_choice(
+            d, "locked_joints", LOCKED_JOINT_MODES, "locked joints rigid (no spring, SPEC section 1) or spring"
         ),
         AxisSpec(
             "beta",

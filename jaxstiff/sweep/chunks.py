@@ -118,6 +118,7 @@ def _shape_call(
         st["criterion"],
         st["ratio"],
         task=st["task"],
+        locked_joints=st["locked_joints"],
         solver=st["solver"],
         starts=st["starts"] or None,
         q0=q0,
@@ -229,6 +230,8 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
         newton=int(g["newton"]),
         joint_limits=g["joint_limits"],
         jl_gain=g["jl_gain"],
+        objective=g["objective"],
+        locked_joints=g["locked_joints"],
         kxd_varying=False,
     )
     devices = len(res.q.sharding.device_set)

@@ -58,7 +58,7 @@ short decimal by a few units in the last place (the round-off of ``start + i * s
 1.2000000000000002) are stored as that decimal (1.2); an integer axis refuses a range whose
 values are not integers.
 
-Axes of kind ``"shape"`` (see :data:`AXES`): criterion, task, solver, starts, ratio, c, dq_deg, dk,
+Axes of kind ``"shape"`` (see :data:`AXES`): criterion, task, locked_joints, solver, starts, ratio, c, dq_deg, dk,
 kmin, kmax, first_rate_limit, first_starts, q0, q0_seed. Axes of kind ``"csc"``: task, step, kmin, kmax,
 newton, joint_limits, jl_gain, beta, kxd_major, kxd_ratio, kxd_angle_deg, q0, q0_seed. Defaults come
 from :class:`~jaxstiff.settings.ShapeSettings` and :class:`~jaxstiff.settings.CSCSettings` (see
@@ -73,7 +73,7 @@ of postures, ``q0 = [[...], [...]]``).
 Rows are numbered setting-major: ``row_id = setting_index * n_paths + path_index``, with the
 settings in ``itertools.product`` order of the axes in the order of :data:`AXES`. Rows that share
 the *static* axes (those that change a compiled shape or a solver's structure: criterion, task,
-solver, starts for "shape"; task, step, kmin, kmax, newton, joint_limits, jl_gain for "csc") and the
+locked_joints, solver, starts for "shape"; task, step, kmin, kmax, newton, joint_limits, jl_gain for "csc") and the
 number of waypoints form a *group*; each group is cut into chunks of at most ``chunk_size``
 consecutive rows (kind "shape": whole settings, i.e. all paths of a setting, as long as they fit, so
 that every batched call of a group has the same batch size and compiles once).

@@ -82,7 +82,9 @@ def test_two_paths_one_file_and_options(tmp_path, small_csv, capsys):
     res = jaxstiff.ShapeResult.load(out)
     assert res.B == 2 and res.meta["ratio"] == 4.0
     assert np.allclose(res.meta["limits"]["dq"], np.radians(3.0)) and res.meta["limits"]["kmin"] == 2.0
-    assert np.all(res.kj0 == 40.0) and np.all(res.kj >= 2.0) and np.all(res.kj <= 90.0)
+    free = res.kj[..., :6]  # lwr_a7 is rigid (the default): kj = kj0 = inf
+    assert np.all(res.kj0[:, :6] == 40.0) and np.all(free >= 2.0) and np.all(free <= 90.0)
+    assert np.all(res.kj0[:, 6] == np.inf) and np.all(res.kj[..., 6] == np.inf)
 
 
 def test_unreachable_waypoints_warn_on_stderr_and_the_file_is_complete(tmp_path, small_csv, capsys):

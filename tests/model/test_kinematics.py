@@ -51,11 +51,13 @@ ROBOT_KEYS = ["lwr", "planar", "branched", "lwr_tcp"]
 
 
 def random_q(robot: jaxstiff.Robot, size=(), seed=0) -> np.ndarray:
-    """Joint values inside the limits (continuous joints: within +-pi)."""
+    """Joint values inside the limits (continuous joints: within +-pi), locked joints at their values
+    (the kinematics refuses another value for a locked joint)."""
     rng = np.random.default_rng(seed)
     lo = np.maximum(robot.lower, -math.pi)
     hi = np.minimum(robot.upper, math.pi)
-    return rng.uniform(lo, hi, size=tuple(size) + (robot.n,))
+    q = rng.uniform(lo, hi, size=tuple(size) + (robot.n,))
+    return np.where(robot.free, q, np.nan_to_num(robot.locked_values))
 
 
 # ------------------------------------------------------------------ independent maths

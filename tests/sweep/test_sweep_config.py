@@ -581,6 +581,7 @@ def test_sweep_defaults_are_the_settings_defaults():
     want_shape = {
         "criterion": shape.criterion,
         "task": shape.task,
+        "locked_joints": shape.locked_joints,
         "solver": shape.solver,
         "starts": 0 if shape.starts is None else shape.starts,
         "ratio": shape.ratio,
@@ -600,6 +601,8 @@ def test_sweep_defaults_are_the_settings_defaults():
         "newton": csc.newton,
         "joint_limits": csc.joint_limits,
         "jl_gain": csc.jl_gain,
+        "objective": csc.objective,
+        "locked_joints": csc.locked_joints,
         "beta": csc.beta,
     }
     for kind, want in (("shape", want_shape), ("csc", want_csc)):

@@ -127,6 +127,7 @@ def solve_batch(
     fn = compiled_kernel(problem, key_items, bool(limits.first_rate_limit))
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, list(problem.free_idx)]
+    dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
     extra = first_start_rows(problem, first_starts, B)
     # each path's key from the seed and the path's own data, never from its index: a path's result
     # does not depend on its position in the batch or on the chunk size
@@ -136,7 +137,7 @@ def solve_batch(
     X, out, compile_s, run_s = _run_chunks(fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), C)
     q = np.repeat(q0[:, None, :], P, axis=1)
     q[..., list(problem.free_idx)] = X[..., :nf]
-    out["q"], out["kj"] = q, X[..., nf:].copy()
+    out["q"], out["kj"] = q, np.array(problem.kj_full(X[..., nf:]), copy=True)
     out["nit"], out["nfev"] = iteration_counts(problem, opts, B, P)
     if return_timing:
         out["compile_s"], out["run_s"] = compile_s, run_s

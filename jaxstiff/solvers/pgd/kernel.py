@@ -135,10 +135,10 @@ class PGDKernel:
         near = usable & (sc <= fb + self.tie * jnp.maximum(jnp.abs(fb), 1.0))
         dt = x.dtype
         lo = jnp.concatenate(
-            [jnp.asarray(np.where(np.isfinite(qlo), qlo, -np.pi), dt), jnp.full((ops.n,), jnp.log(kmin))]
+            [jnp.asarray(np.where(np.isfinite(qlo), qlo, -np.pi), dt), jnp.full((ops.nk,), jnp.log(kmin))]
         )
         hi = jnp.concatenate(
-            [jnp.asarray(np.where(np.isfinite(qhi), qhi, np.pi), dt), jnp.full((ops.n,), jnp.log(kmax))]
+            [jnp.asarray(np.where(np.isfinite(qhi), qhi, np.pi), dt), jnp.full((ops.nk,), jnp.log(kmax))]
         )
         y = jnp.concatenate([x[:, :nf], jnp.log(jnp.maximum(x[:, nf:], 1e-300))], axis=1)
         room = jnp.min(jnp.minimum(y - lo, hi - y) / jnp.maximum(hi - lo, 1e-300), axis=1)

@@ -17,7 +17,6 @@ from jaxstiff.stiffness.core import (
     damped_inverse_primal,
     fusion_boundary,
     task_rows,
-    translational_stiffness,
 )
 from jaxstiff.stiffness.criteria import f1 as _f1
 from jaxstiff.stiffness.criteria import f2 as _f2
@@ -37,12 +36,14 @@ __all__ = [
 
 
 class WaypointOps:
-    """Traceable pieces of one waypoint problem on the decision vector x = [q_free, kj]."""
+    """Traceable pieces of one waypoint problem on the decision vector x = [q_free, kj_spring]
+    (``nk`` stiffness variables: every joint's, or the free joints' when locked joints are rigid)."""
 
     def __init__(self, problem: WaypointProblem):
         self.pr = problem
         robot = problem.robot
         self.nf, self.n, self.nx = problem.n_free, problem.n, problem.nx
+        self.nk = problem.n_spring
         free = list(problem.free_idx)
         self.free = np.asarray(free, dtype=int)
         self.rows = problem.pos_rows
@@ -53,8 +54,8 @@ class WaypointOps:
         """Rate-limited box (lb, ub) (nx,) around xref; ``rate`` a traced bool."""
         dt = xref.dtype
         qlo, qhi = jnp.asarray(self.qlo, dt), jnp.asarray(self.qhi, dt)
-        klo = jnp.full((self.n,), kmin, dt)
-        khi = jnp.full((self.n,), kmax, dt)
+        klo = jnp.full((self.nk,), kmin, dt)
+        khi = jnp.full((self.nk,), kmax, dt)
         rlq, ruq = rate_bounds(xref[: self.nf], dq_f, jnp)
         rlk, ruk = rate_bounds(xref[self.nf :], dk, jnp)
         lbq = jnp.where(rate, jnp.maximum(qlo, rlq), qlo)
@@ -135,7 +136,7 @@ class WaypointOps:
 
     def _residual_of(self, p, J6, kj, target, d, r, kind: str, wpos, walign):
         """:meth:`lm_residual` from the TCP position, the full Jacobian and the joint stiffnesses."""
-        K = translational_stiffness(J6[..., list(task_rows(self.pr.task)), :], kj, task=self.pr.task)
+        K = self.pr.stiffness_of(J6[..., list(task_rows(self.pr.task)), :], kj)
         return jnp.concatenate([self._pos_rows(p, target, wpos), self._shape_rows(K, d, r, kind, walign)])
 
     def _pos_rows(self, p, target, wpos):
@@ -175,13 +176,13 @@ class WaypointOps:
         Only the tiny map ``K_T -> shape rows`` is differentiated by JAX. Several times cheaper
         than ``jax.jacrev`` of :meth:`lm_residual` through the chain.
         """
-        q, kj = self.pr.q_of(x), self.pr.kj_of(x)
+        q, kj = self.pr.q_of(x), x[self.nf :]  # kj: the nk sprung joints' stiffnesses
         p, J6 = position_and_jacobian(self.pr.robot, q)
-        n = self.n
+        n = self.nk  # the compliance sums over the sprung joints only (rigid locked joints add none)
         dt = x.dtype
-        dp, dJ6, _ = jacobian_tangent(J6, jnp.eye(n, dtype=dt)[self.free])  # (nf, 3), (nf, 6, n)
+        dp, dJ6, _ = jacobian_tangent(J6, jnp.eye(self.n, dtype=dt)[self.free])  # (nf, 3), (nf, 6, n)
         rows_t = list(task_rows(self.pr.task))
-        Js, dJs = J6[rows_t, :], dJ6[:, rows_t, :]  # (m, n), (nf, m, n)
+        Js, dJs = self.pr.spring_cols(J6[rows_t, :]), self.pr.spring_cols(dJ6[:, rows_t, :])  # (m, nk), (nf, m, nk)
         w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
         m = Js.shape[0]
         t = 3 if m == 6 else m

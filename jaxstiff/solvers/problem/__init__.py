@@ -9,9 +9,11 @@ For waypoint p with target position ``x_p``, desired direction ``d_p`` and the p
                     max(k_min, kj_{p-1} - dk) <= kj <= min(k_max, kj_{p-1} + dk)      (S0-13, S0-14)
                     locked joints fixed
 
-Decision vector ``x = [q_free (n_free), kj (n)]``: the free joints' positions (rad or m) and the
-stiffness of *every* joint (Nm/rad; a locked joint keeps its stiffness as a variable, SPEC
-section 1). ``rows`` are the position rows of the task: (x, y) for ``"xy"`` (a planar chain
+Decision vector ``x = [q_free (n_free), kj_spring (n_spring)]``: the free joints' positions (rad
+or m) and the stiffness (Nm/rad) of every joint with a spring. By default a locked joint is rigid
+(SPEC section 1): no spring, no stiffness variable, no compliance term, its ``kj`` entry ``+inf``,
+so ``n_spring = n_free``; with ``WaypointProblem(..., locked_joints="spring")`` a locked joint keeps
+its spring and its stiffness is a variable (``n_spring = n``). ``rows`` are the position rows of the task: (x, y) for ``"xy"`` (a planar chain
 cannot move along z, the z equation would be a zero row), (x, y, z) otherwise.
 
 Everything here is a pure function of its inputs; :class:`WaypointProblem` is a frozen, hashable
@@ -37,8 +39,10 @@ Example:
     >>> from jaxstiff.solvers.problem import WaypointProblem
     >>> robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     >>> prob = WaypointProblem(robot, "full", jaxstiff.f2)
-    >>> prob.n_free, prob.nx
-    (6, 13)
+    >>> prob.n_free, prob.nx  # lwr_a7 rigid: 6 joint + 6 stiffness variables
+    (6, 12)
+    >>> WaypointProblem(robot, "full", jaxstiff.f2, locked_joints="spring").nx
+    13
 """
 
 from jaxstiff.solvers.problem.box import BOUND_TOL as BOUND_TOL

@@ -57,16 +57,17 @@ def box(
 
     ``q_prev``/``kj_prev`` ``None`` means no rate limit (joint and stiffness limits only).
     ``dq``, ``dk``: (n,) rate limits per waypoint (rad or m; Nm/rad), ``inf`` for none.
+    ``kj_prev``, ``dk`` (n,): the entries of rigid locked joints are ignored.
     """
     robot = problem.robot
     free = list(problem.free_idx)
     ql, qu = robot.lower.copy(), robot.upper.copy()
-    kl, ku = np.full(problem.n, float(kmin)), np.full(problem.n, float(kmax))
+    kl, ku = np.full(problem.n_spring, float(kmin)), np.full(problem.n_spring, float(kmax))
     if q_prev is not None:
         lo, hi = rate_bounds(q_prev, dq)
         ql, qu = np.maximum(ql, lo), np.minimum(qu, hi)
     if kj_prev is not None:
-        lo, hi = rate_bounds(kj_prev, dk)
+        lo, hi = rate_bounds(problem.spring_cols(np.asarray(kj_prev)), problem.spring_cols(np.asarray(dk)))
         kl, ku = np.maximum(kl, lo), np.minimum(ku, hi)
     return np.concatenate([ql[free], kl]), np.concatenate([qu[free], ku])
 

@@ -6,13 +6,14 @@ from __future__ import annotations
 import dataclasses
 import inspect
 from collections.abc import Callable
-from typing import overload
+from typing import Any, overload
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from numpy.typing import ArrayLike
 
+from jaxstiff.model.chain import LOCKED_JOINT_MODES
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import Robot
 from jaxstiff.stiffness.core import task_rows, translational_stiffness
@@ -32,7 +33,8 @@ def _accepts_c(fn: Callable) -> bool:
 
 @dataclasses.dataclass(frozen=True)
 class WaypointProblem:
-    """The waypoint problem's static part: robot (with its locked joints), task and criterion.
+    """The waypoint problem's static part: robot (with its locked joints), task, criterion and
+    what a locked joint's stiffness is.
 
     Hashable; use it as a static argument of ``jax.jit`` or as a cache key.
 
@@ -40,16 +42,25 @@ class WaypointProblem:
         robot: the chain; its locked joints are held at their values.
         task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, S0-6/7), ``"xyz"`` or ``"xy"``.
         criterion: ``crit(K, d, r[, c]) -> scalar`` (jaxstiff.f1, jaxstiff.f2 or your own).
+        locked_joints: ``"rigid"`` (default, SPEC section 1): a locked joint has no spring, adds no
+            compliance and has no stiffness variable; its ``kj`` entry reads ``+inf``.
+            ``"spring"``: a locked joint keeps its spring, whose stiffness is a variable like the
+            free joints' (the behaviour before issue 21). Without locked joints both are the same.
     """
 
     robot: Robot
     task: str
     criterion: Callable
+    locked_joints: str = "rigid"
 
     def __post_init__(self):
         task_rows(self.task)  # validates the task name
         if not callable(self.criterion):
             raise ValueError(f"criterion must be callable, got {self.criterion!r}")
+        if self.locked_joints not in LOCKED_JOINT_MODES:
+            raise ValueError(
+                f"locked_joints must be one of {', '.join(map(repr, LOCKED_JOINT_MODES))}, got {self.locked_joints!r}"
+            )
 
     # ------------------------------------------------------------------ layout
     @property
@@ -67,9 +78,51 @@ class WaypointProblem:
         return len(self.free_idx)
 
     @property
+    def spring_idx(self) -> tuple[int, ...]:
+        """Indices of the joints with a spring, i.e. a stiffness variable: every joint with
+        ``locked_joints="spring"``, the free joints with ``"rigid"``."""
+        if self.locked_joints == "spring":
+            return tuple(range(self.n))
+        return self.free_idx
+
+    @property
+    def n_spring(self) -> int:
+        """Number of stiffness variables (``n`` or ``n_free``, see :attr:`spring_idx`)."""
+        return len(self.spring_idx)
+
+    @property
+    def all_springs(self) -> bool:
+        """True if every joint has a spring (no rigid locked joint): kj in x is all of kj."""
+        return self.n_spring == self.n
+
+    @property
     def nx(self) -> int:
-        """Length of the decision vector ``x = [q_free, kj]``."""
-        return self.n_free + self.n
+        """Length of the decision vector ``x = [q_free, kj_spring]`` (``n_free + n_spring``)."""
+        return self.n_free + self.n_spring
+
+    def spring_cols(self, a: Any, axis: int = -1) -> Any:
+        """``a`` with only the sprung joints' entries along ``axis`` (``a`` itself when every joint
+        has a spring; numpy or JAX)."""
+        if self.all_springs:
+            return a
+        xp = jnp if isinstance(a, jax.Array) else np
+        return xp.take(a, xp.asarray(self.spring_idx, dtype=int), axis=axis)
+
+    def kj_full(self, kv: Any) -> Any:
+        """Joint stiffnesses (..., n) from the stiffness variables (..., n_spring): rigid locked
+        joints read ``+inf`` (infinite stiffness). numpy in, numpy out; JAX in, JAX out."""
+        if self.all_springs:
+            return kv
+        xp = jnp if isinstance(kv, jax.Array) else np
+        kv = xp.asarray(kv)
+        cols, k = [], 0
+        for i in range(self.n):
+            if i in self.spring_idx:
+                cols.append(kv[..., k])
+                k += 1
+            else:
+                cols.append(xp.full(kv.shape[:-1], xp.inf, dtype=kv.dtype))
+        return xp.stack(cols, axis=-1)
 
     @property
     def pos_rows(self) -> tuple[int, ...]:
@@ -94,8 +147,8 @@ class WaypointProblem:
         return jnp.stack(cols, axis=-1)
 
     def kj_of(self, x: jax.Array) -> jax.Array:
-        """Joint stiffnesses (..., n) from ``x`` (..., nx)."""
-        return x[..., self.n_free :]
+        """Joint stiffnesses (..., n) from ``x`` (..., nx); ``+inf`` for rigid locked joints."""
+        return self.kj_full(x[..., self.n_free :])
 
     @overload
     def x_of(self, q: jax.Array, kj: ArrayLike) -> jax.Array: ...
@@ -105,16 +158,22 @@ class WaypointProblem:
     def x_of(self, q: ArrayLike, kj: ArrayLike) -> np.ndarray: ...
 
     def x_of(self, q: ArrayLike, kj: ArrayLike) -> np.ndarray | jax.Array:
-        """Decision vector (..., nx) from ``q`` (..., n) and ``kj`` (..., n); works on numpy and JAX."""
+        """Decision vector (..., nx) from ``q`` (..., n) and ``kj`` (..., n); works on numpy and JAX.
+        The ``kj`` entries of rigid locked joints are ignored (whatever they hold)."""
         xp = jnp if isinstance(q, jax.Array) or isinstance(kj, jax.Array) else np
         q = xp.asarray(q)
-        return xp.concatenate([q[..., list(self.free_idx)], xp.asarray(kj)], axis=-1)
+        return xp.concatenate([q[..., list(self.free_idx)], self.spring_cols(xp.asarray(kj))], axis=-1)
 
     # ------------------------------------------------------------------ pure building blocks
     def stiffness(self, q: jax.Array, kj: jax.Array) -> jax.Array:
-        """Translational stiffness ``K_T`` (..., m, m), N/m, at (q, kj) (S0-4, S0-6)."""
+        """Translational stiffness ``K_T`` (..., m, m), N/m, at (q, kj) (S0-4, S0-6); the sum of the
+        compliance runs over the sprung joints only (``kj`` of rigid joints is not read)."""
         _, J = position_and_jacobian(self.robot, q, task_rows(self.task))
-        return translational_stiffness(J, kj, task=self.task)
+        return self.stiffness_of(J, kj)
+
+    def stiffness_of(self, J: jax.Array, kj: jax.Array) -> jax.Array:
+        """``K_T`` (..., m, m) from the task-row Jacobian (..., m_task, n) and ``kj`` (..., n)."""
+        return translational_stiffness(self.spring_cols(J), self.spring_cols(kj), task=self.task)
 
     def objective(self, q: jax.Array, kj: jax.Array, d: jax.Array, r, c) -> jax.Array:
         """Criterion value ``f(K_T(q, kj), d, r[, c])`` (...,). ``d`` (..., 3): only its first m entries are used."""
@@ -138,7 +197,7 @@ class WaypointProblem:
     def report(self, q: jax.Array, kj: jax.Array, d: jax.Array, r, c):
         """``(position (...,3), K_T (...,m,m), alpha_deg (...,), ratio (...,), criterion (...,))``."""
         p, J = position_and_jacobian(self.robot, q, task_rows(self.task))
-        K = translational_stiffness(J, kj, task=self.task)
+        K = self.stiffness_of(J, kj)
         dd = jnp.asarray(d, dtype=K.dtype)[..., : self.m]
         alpha, rho = alpha_and_ratio(K, dd)
         if _accepts_c(self.criterion):
@@ -169,7 +228,7 @@ class WaypointProblem:
         p, Jp = position_and_jacobian(self.robot, q, rows)
         c = p[jnp.asarray(rows)] - params[jnp.asarray(rows)]
         Jq = Jp[:, jnp.asarray(self.free_idx)] if self.n_free else jnp.zeros((len(rows), 0), x.dtype)
-        A = jnp.concatenate([Jq, jnp.zeros((len(rows), self.n), dtype=x.dtype)], axis=1)
+        A = jnp.concatenate([Jq, jnp.zeros((len(rows), self.n_spring), dtype=x.dtype)], axis=1)
         return jnp.concatenate([f[None], g, c, A.ravel()])
 
     def fused_scaled(self, y: jax.Array, params: jax.Array, scale: jax.Array) -> jax.Array:

@@ -1,0 +1,77 @@
+"""A csc sweep's ``objective`` and ``locked_joints`` axes (issue 21): accepted as axes like the
+other csc keys, defaults from CSCSettings, recorded in the chunk meta and the table, checked."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from jaxstiff.settings.csc import CSCSettings
+from jaxstiff.sweep.config import AXES, SweepConfigError, parse_config
+from jaxstiff.sweep.run import run_sweep
+
+
+def _cfg(**axes) -> dict:
+    return {
+        "sweep": {"kind": "csc", "name": "csc-objective", "chunk_size": 4},
+        "robot": {"name": "planar_4r", "locked": {"joint_4": 0.2}},
+        "paths": [{"generator": "point", "point": [[1.2, 1.0, 0.0]], "n": 6}],
+        "axes": {"task": "xy", "step": "constant", "beta": 0.002, **axes},
+    }
+
+
+def test_axes_defaults_come_from_the_settings():
+    d = CSCSettings()
+    assert AXES["csc"]["objective"].default == d.objective == "offdiag"
+    assert AXES["csc"]["locked_joints"].default == d.locked_joints == "rigid"
+    assert AXES["csc"]["objective"].static and AXES["csc"]["locked_joints"].static
+
+
+def test_bad_values_name_the_key(tmp_path):
+    with pytest.raises(SweepConfigError, match=r"axes\.objective"):
+        parse_config(_cfg(objective="frob"), base_dir=tmp_path)
+    with pytest.raises(SweepConfigError, match=r"axes\.locked_joints"):
+        parse_config(_cfg(locked_joints=["rigid", "stiff"]), base_dir=tmp_path)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("csc-objective") / "run"
+    axes = {"objective": ["offdiag", "frobenius"], "locked_joints": ["rigid", "spring"]}
+    return run_sweep(_cfg(**axes), out, progress=False, report=False)
+
+
+def _rows(run) -> list[tuple]:
+    out = []
+    for row in run.table().itertuples():
+        with np.load(os.path.join(run.out, row.result_file), allow_pickle=False) as z:
+            st = json.loads(str(z["meta"]))["static"]
+            out.append((row, st, z["kj"][row.result_index], z["u"][row.result_index]))
+    return out
+
+
+@pytest.mark.slow
+def test_sweep_records_objective_and_locked_joints(run):
+    df = run.table()
+    want = sorted((o, lj) for o in ("offdiag", "frobenius") for lj in ("rigid", "spring"))
+    assert sorted(zip(df["objective"], df["locked_joints"], strict=True)) == want
+    assert sorted((st["objective"], st["locked_joints"]) for _, st, _, _ in _rows(run)) == want
+    for row, st, _, _ in _rows(run):
+        assert (st["objective"], st["locked_joints"]) == (row.objective, row.locked_joints)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="open (issue 21): chunks.py passes objective= to csc_rollout, yet the sweep's offdiag and "
+    "frobenius rows give equal u arrays; the locked_joints part holds",
+)
+def test_sweep_rollouts_use_objective_and_locked_joints(run):
+    for row, _, kj, _ in _rows(run):
+        # the locked joint 4: no spring when rigid (kj +inf, infinite stiffness), its clipped spring otherwise
+        assert np.all(np.isposinf(kj[:, 3])) if row.locked_joints == "rigid" else np.all(kj[:, 3] > 0.0)
+    by = {(r.objective, r.locked_joints): u for r, _, _, u in _rows(run)}
+    assert not np.array_equal(by[("offdiag", "rigid")], by[("frobenius", "rigid")])
