@@ -17,14 +17,17 @@ import warnings
 from ..runtime.io import interrupt_exit_code, interrupt_handlers, interrupt_pending, raise_if_interrupted
 from . import check_sim as _check_sim_command  # noqa: F401  (jaxstiff check-sim)
 from . import csc as _csc_command  # noqa: F401  (registers jaxstiff csc)
+from . import export as _export_command  # noqa: F401  (jaxstiff export)
+from . import plot as _plot_command  # noqa: F401  (jaxstiff plot)
 from . import reproduce as _reproduce_command  # noqa: F401  (jaxstiff reproduce)
 from . import robot as _robot_command  # noqa: F401  (jaxstiff robot)
 from . import shape as _shape_command  # noqa: F401  (jaxstiff shape)
 from . import sweep as _sweep_command  # noqa: F401  (jaxstiff sweep)
+from . import view as _view_command  # noqa: F401  (jaxstiff view)
 from .common import COMMANDS, join_negative_values
 
 #: the order of ``jaxstiff --help``
-COMMAND_ORDER = ("robot", "shape", "csc", "sweep", "reproduce", "check-sim")
+COMMAND_ORDER = ("robot", "shape", "csc", "sweep", "reproduce", "check-sim", "view", "plot", "export")
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):

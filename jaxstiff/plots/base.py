@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 __all__ = [
     "pyplot",
     "save_figure",
+    "FIGURE_FORMATS",
     "ellipse_points",
     "chain_points",
     "draw_arm",
@@ -42,16 +43,20 @@ def pyplot() -> Any:
     return plt
 
 
-def save_figure(fig: Any, file: str | os.PathLike, dpi: int = 130, crop: bool = True) -> str:
-    """Write ``fig`` as PNG to ``file`` atomically, then close it.
+#: the file formats :func:`save_figure` writes (by the file's suffix)
+FIGURE_FORMATS = ("png", "svg", "pdf")
 
-    The PNG goes to a temporary file in the target folder (created if missing) and is renamed onto
+
+def save_figure(fig: Any, file: str | os.PathLike, dpi: int = 130, crop: bool = True) -> str:
+    """Write ``fig`` to ``file`` atomically, then close it; the format from the suffix (png, svg, pdf; none: png).
+
+    The file goes to a temporary file in the target folder (created if missing) and is renamed onto
     ``file`` only once complete (:func:`jaxstiff.runtime.io.atomic_write`): if drawing fails, no partial
     or temporary file is left and an earlier ``file`` stays as it was. The figure is closed either way.
 
     Args:
         fig: a matplotlib Figure.
-        file: the PNG to write.
+        file: the figure to write (``.png``, ``.svg`` or ``.pdf``).
         dpi: resolution, dots per inch (the PNG is ``figsize * dpi`` pixels when ``crop`` is False).
         crop: crop to the drawn content (``bbox_inches="tight"``); False keeps the figure's size.
 
@@ -59,11 +64,15 @@ def save_figure(fig: Any, file: str | os.PathLike, dpi: int = 130, crop: bool = 
         ``file`` as a string.
     """
     file = os.fspath(file)
+    fmt = os.path.splitext(file)[1].lstrip(".").lower() or "png"
+    if fmt not in FIGURE_FORMATS:
+        pyplot().close(fig)
+        raise ValueError(f"{file}: figure format {fmt!r} is not supported; use one of {', '.join(FIGURE_FORMATS)}")
     folder = os.path.dirname(os.path.abspath(file))
     os.makedirs(folder, exist_ok=True)
     extra = {"bbox_inches": "tight"} if crop else {}
     try:
-        return atomic_write(file, lambda fh: fig.savefig(fh, dpi=dpi, format="png", **extra), binary=True)
+        return atomic_write(file, lambda fh: fig.savefig(fh, dpi=dpi, format=fmt, **extra), binary=True)
     finally:
         pyplot().close(fig)
 
@@ -176,7 +185,7 @@ def draw_scale_bar(ax: Any, length: float, label: str, loc: str = "upper left", 
         pad=0.4,
         sep=4,
         frameon=True,
-        size_vertical=0.04 * length,
+        size_vertical=0.04 * length,  # pyright: ignore[reportArgumentType]  (matplotlib takes a float; its stub says int)
         fontproperties=FontProperties(size=8),
         bbox_to_anchor=anchor,
         bbox_transform=ax.transAxes if anchor is not None else None,

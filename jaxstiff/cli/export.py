@@ -1,0 +1,29 @@
+"""``jaxstiff export``: a result's q / kj trajectory as CSV for a controller (columns and units:
+:mod:`jaxstiff.view.export`)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from .common import command
+from .view import add_result_flags
+
+
+@command("export", "write a result's joint trajectory (q, kj, TCP) as CSV for a controller")
+def _add_export(p: argparse.ArgumentParser) -> Any:
+    add_result_flags(p)
+    p.add_argument("--csv", required=True, metavar="OUT.csv", help="the CSV to write (written atomically)")
+    p.add_argument("--path", type=int, default=None, help="only this path of a batch (default: all, column 'path')")
+
+    def run(args: argparse.Namespace) -> int:
+        from jaxstiff.view.data import load_view_data
+        from jaxstiff.view.export import export_csv
+
+        data = load_view_data(args.result, row=args.row, urdf=args.urdf)
+        print(
+            f"wrote {export_csv(data, args.csv, path=args.path)} ({data.B if args.path is None else 1} x {data.P} rows)"
+        )
+        return 0
+
+    return run

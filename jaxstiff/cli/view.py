@@ -1,0 +1,79 @@
+"""``jaxstiff view``: look at a result in the browser (viser), or write a static HTML page.
+
+Examples::
+
+    jaxstiff view shape.npz                      # http://127.0.0.1:8080, Ctrl-C to stop
+    jaxstiff view lwr.npz --port 8090            # a csc result: K_xd and K_C at the TCP
+    jaxstiff view runs/quick --row 17            # one row of a sweep folder
+    jaxstiff view shape.npz --html shape.html    # a page that opens from disk, no server
+
+The viewer reads the file and runs numpy forward kinematics; nothing is compiled. Needs the
+``view`` extra (``pip install "jaxstiff[view]"``: viser).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from .common import command
+
+
+def add_result_flags(p: argparse.ArgumentParser) -> None:
+    """The flags every command that reads a result shares: the file, --row, --urdf."""
+    p.add_argument("result", metavar="RESULT", help="a shape or csc result file (.npz), or a sweep folder with --row")
+    p.add_argument("--row", type=int, default=None, help="the row (row_id) of a sweep folder to read")
+    p.add_argument(
+        "--urdf", default=None, help="the robot's URDF if the recorded path moved (default: the path in the file)"
+    )
+
+
+def viser_or_error() -> Any:
+    """``import viser``, or a ValueError telling how to install it."""
+    try:
+        import viser
+    except ImportError:
+        raise ValueError('jaxstiff view needs viser: pip install "jaxstiff[view]" (or pip install viser)') from None
+    return viser
+
+
+@command("view", "look at a result in the browser: arm, path, stiffness ellipsoids (viser)")
+def _add_view(p: argparse.ArgumentParser) -> Any:
+    add_result_flags(p)
+    p.add_argument("--port", type=int, default=8080, help="port of the viewer's web server")
+    p.add_argument("--host", default="127.0.0.1", help="address to serve on (0.0.0.0: every interface)")
+    p.add_argument("--html", default=None, metavar="OUT.html", help="write a static page (opens from disk) and exit")
+    p.add_argument("--path", type=int, default=0, help="--html: which path of a batch result (0-based)")
+    p.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        help="ellipsoid scale, N/m of stiffness per metre on screen (default: a round number that draws the largest semi-axis about 12 cm long)",
+    )
+    p.add_argument("--every", type=int, default=1, help="'all ellipsoids': draw every N-th waypoint's")
+
+    def run(args: argparse.Namespace) -> int:
+        from jaxstiff.view.data import load_view_data
+
+        viser_or_error()
+        if args.scale is not None and not args.scale > 0:
+            raise ValueError(f"--scale must be a positive number (N/m per m), got {args.scale}")
+        data = load_view_data(args.result, row=args.row, urdf=args.urdf)
+        if not 0 <= args.path < data.B:
+            raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")
+        if args.html:
+            from jaxstiff.view.app import write_html
+
+            print(f"wrote {write_html(data, args.html, b=args.path, n_per_m=args.scale)}")
+            return 0
+        from jaxstiff.view.app import open_viewer, serve_forever
+
+        viewer = open_viewer(data, port=args.port, host=args.host, n_per_m=args.scale, every=args.every)
+        port = viewer.server.get_port()
+        print(f"jaxstiff view: http://{args.host}:{port}  ({data.kind}, {data.B} x {data.P}; Ctrl-C to stop)")
+        sys.stdout.flush()
+        serve_forever(viewer)
+        return 0
+
+    return run

@@ -1,0 +1,129 @@
+"""The viewer: a viser server with the scene and its panel (:func:`open_viewer`), and the static
+page (:func:`write_html`, viser's own standalone export: the scene and a recorded animation over
+the waypoints, one self-contained HTML file that opens from disk without a server).
+
+The panel: a path selector (B > 1), the waypoint slider, play/pause and the speed, "all ellipsoids
+along the path", and the numbers at the current waypoint (shape: alpha, rho, criterion, status,
+CMS factor; csc: u, the Frobenius error, tracking error, status) and kj per joint ("rigid" for a
+rigid locked joint), the robot, the solver or controller, and the ellipsoid scale.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from typing import Any
+
+from jaxstiff.view.data import ViewData
+from jaxstiff.view.scene import Scene
+
+__all__ = ["open_viewer", "write_html", "panel_markdown", "Viewer"]
+
+
+def panel_markdown(data: ViewData, b: int, p: int) -> str:
+    """The panel's numbers at path b, waypoint p (markdown)."""
+    word = "waypoint" if data.kind == "shape" else "step"
+    lines = [f"**{word} {p} of {data.P - 1}**, {data.labels[b]}", ""]
+    lines += [f"- {k}: {v}" for k, v in data.info(b, p)]
+    kind = "kj_scaled (after CMS)" if data.kind == "shape" else "realised kj"
+    lines += ["", f"**{kind}**", ""] + [f"- {name}: {v}" for name, v in data.kj_lines(b, p)]
+    return "\n".join(lines)
+
+
+def _header(data: ViewData, scene: Scene) -> str:
+    m = data.meta
+    if data.kind == "shape":
+        what = f"shape, criterion {m.get('criterion')}, ratio {m.get('ratio')}, solver {m.get('solver')}"
+    else:
+        what = f"csc, task {m.get('task')}, {m.get('step')} step, beta {m.get('beta')}"
+    return (
+        f"**{os.path.basename(data.source)}**: {what}; robot {data.robot.name} ({data.robot.n} joints, "
+        f"locked joints: {data.locked_joints}). {scene.scale_text()}. Orange: "
+        + ("K_T after CMS" if data.kind == "shape" else "realised K_C; teal: desired K_xd")
+        + "; green: path; purple: desired direction; red: joint axes."
+    )
+
+
+class Viewer:
+    """The live viewer: scene + GUI in ``server``; :meth:`step` advances when playing."""
+
+    def __init__(self, server: Any, data: ViewData, n_per_m: float | None = None, every: int = 1) -> None:
+        self.server, self.data = server, data
+        self.scene = Scene(server, data, n_per_m, every)
+        gui = server.gui
+        gui.add_markdown(_header(data, self.scene))
+        self.path = None
+        if data.B > 1:
+            self.path = gui.add_dropdown("path", tuple(data.labels), initial_value=data.labels[0])
+            self.path.on_update(lambda _: self.refresh())
+        word = "waypoint" if data.kind == "shape" else "step"
+        self.slider = gui.add_slider(word, min=0, max=max(data.P - 1, 1), step=1, initial_value=0)
+        self.slider.on_update(lambda _: self.refresh())
+        self.play = gui.add_checkbox("play", initial_value=False)
+        self.fps = gui.add_slider("play speed (per s)", min=1, max=60, step=1, initial_value=10)
+        self.all = gui.add_checkbox("all ellipsoids along the path", initial_value=False)
+        self.all.on_update(lambda _: self.scene.show_all(bool(self.all.value)))
+        self.panel = gui.add_markdown(panel_markdown(data, 0, 0))
+        self.lock = threading.Lock()
+
+    def _b(self) -> int:
+        return 0 if self.path is None else self.data.labels.index(str(self.path.value))
+
+    def refresh(self) -> None:
+        with self.lock:
+            b, p = self._b(), min(int(self.slider.value), self.data.P - 1)
+            self.scene.show(b, p)
+            self.panel.content = panel_markdown(self.data, b, p)
+
+    def step(self) -> float:
+        """Advance one waypoint when playing; returns the seconds to wait."""
+        if self.play.value and self.data.P > 1:
+            self.slider.value = (int(self.slider.value) + 1) % self.data.P
+        return 1.0 / max(float(self.fps.value), 1.0)
+
+
+def open_viewer(
+    data: ViewData, port: int = 8080, host: str = "127.0.0.1", n_per_m: float | None = None, every: int = 1
+) -> Viewer:
+    """Start the server (in its own threads) with the scene; returns the :class:`Viewer`."""
+    import viser
+
+    server = viser.ViserServer(host=host, port=port, verbose=False)
+    return Viewer(server, data, n_per_m, every)
+
+
+def serve_forever(viewer: Viewer) -> None:
+    """Play loop until Ctrl-C."""
+    while True:
+        time.sleep(viewer.step())
+
+
+def write_html(
+    data: ViewData, out: str, b: int = 0, n_per_m: float | None = None, seconds_per_waypoint: float = 0.1
+) -> str:
+    """A standalone HTML page of path b: the scene, animated over the waypoints (viser's player)."""
+    import viser
+
+    from jaxstiff.runtime.io import atomic_write_text
+
+    server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
+    try:
+        scene = Scene(server, data, n_per_m)
+        scene.show(b, 0)
+        rec = server.get_scene_serializer()
+        for p in range(data.P):
+            scene.show(b, p)
+            rec.insert_sleep(seconds_per_waypoint)
+        html = rec.as_html()
+    finally:
+        server.stop()
+    return atomic_write_text(out, html)
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])

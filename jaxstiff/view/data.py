@@ -1,0 +1,284 @@
+"""What the viewer, the plot and the export commands read from a result: :class:`ViewData`.
+
+One loader for the three kinds of result a user holds: a ``jaxstiff shape`` file (read with
+:meth:`jaxstiff.ShapeResult.load`), a ``jaxstiff csc`` file, and one row of a sweep folder (its
+``chunks/*.json`` name the array file and the index of the row). Everything is numpy: the robot is
+rebuilt from the file's ``meta`` (URDF path, links, locks, tcp) and the stiffness ellipsoids come
+from :mod:`jaxstiff.view.kinematics`; nothing is compiled.
+
+Units: q in rad (m for prismatic joints), kj in Nm/rad (N/m for prismatic joints), positions in m,
+stiffness matrices in N/m, base frame throughout. A rigid locked joint (newer shape files,
+``meta["settings"]["locked_joints"] == "rigid"``) has ``kj = +inf``; it is shown as "rigid".
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import glob
+import json
+import os
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from jaxstiff.view.kinematics import stiffness_T, tcp_position
+
+if TYPE_CHECKING:
+    from jaxstiff.model.chain import Chain
+
+__all__ = ["ViewData", "load_view_data", "sweep_row_file", "format_kj"]
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ViewData:
+    """A result as the viewer draws it. B paths (or rollouts), P waypoints (or steps), n joints.
+
+    Attributes:
+        kind: ``"shape"`` or ``"csc"``.
+        source: the file read (and ``#row=N`` for a sweep row).
+        robot: the chain rebuilt from the file's meta.
+        q: (B, P, n) joint values, rad (m for prismatic joints).
+        kj: (B, P, n) joint stiffness drawn: shape ``kj_scaled`` (after CMS), csc the realised kj;
+            Nm/rad (N/m prismatic); ``+inf`` for a rigid locked joint.
+        target: (B, P, 3) waypoints, m (csc "xy" targets get the TCP's z).
+        position: (B, P, 3) TCP positions, m, as stored in the file.
+        direction: (B, P, 3) desired directions (unit) of a shape result, else None.
+        K: (B, P, 3, 3) realised translational stiffness, N/m (shape: K_T of kj_scaled; csc: K_C).
+        K_desired: (B, P, 3, 3) csc's desired K_xd (translational block), else None.
+        arrays: the file's per-step arrays (B, P) by key, for the panel and the plots.
+        meta: the file's meta record.
+        labels: B names of the paths.
+    """
+
+    kind: str
+    source: str
+    robot: Chain
+    q: np.ndarray
+    kj: np.ndarray
+    target: np.ndarray
+    position: np.ndarray
+    direction: np.ndarray | None
+    K: np.ndarray
+    K_desired: np.ndarray | None
+    arrays: dict[str, np.ndarray]
+    meta: dict[str, Any]
+    labels: list[str]
+
+    @property
+    def B(self) -> int:
+        return int(self.q.shape[0])
+
+    @property
+    def P(self) -> int:
+        return int(self.q.shape[1])
+
+    @property
+    def n(self) -> int:
+        return int(self.q.shape[2])
+
+    @property
+    def locked_joints(self) -> str:
+        """``"rigid"`` or ``"spring"`` (older files say nothing: spring)."""
+        settings = self.meta.get("settings") or {}
+        return str(settings.get("locked_joints", "spring")) if isinstance(settings, dict) else "spring"
+
+    def info(self, b: int, p: int) -> list[tuple[str, str]]:
+        """The panel's lines at path b, waypoint p: (label, value with unit)."""
+        a = {k: v[b, p] for k, v in self.arrays.items()}
+        if self.kind == "shape":
+            from jaxstiff.results.status import STATUS_NAMES
+
+            lines = [
+                ("alpha", f"{a['alpha_deg']:.3g} deg"),
+                ("rho", f"{a['ratio']:.4g} (target {self.meta.get('ratio')})"),
+                (f"criterion {self.meta.get('criterion', '')}", f"{a['criterion']:.5g}"),
+                ("status", STATUS_NAMES.get(int(a["status"]), str(int(a["status"])))),
+                ("CMS factor", f"{a['cms']:.4g}"),
+                ("|TCP - waypoint|", f"{a['pos_error']:.2e} m"),
+            ]
+        else:
+            bits = self.meta.get("status_bits") or {}
+            code = int(a["status"])
+            status = "ok" if code == 0 else ", ".join(t for k, t in bits.items() if code & int(k)) or str(code)
+            lines = [
+                ("u", f"{a['u']:.5g} Nm/rad"),
+                ("|K_xd - K_C|_F", f"{a['frobenius']:.5g} N/m"),
+                ("tracking error", f"{a['tracking_error']:.2e} m"),
+                ("status", status),
+            ]
+        return lines
+
+    def kj_lines(self, b: int, p: int) -> list[tuple[str, str]]:
+        """Per joint: (name, kj with unit, or "rigid" / "locked")."""
+        unit = np.where(self.robot.prismatic, "N/m", "Nm/rad")
+        return [
+            (name, format_kj(float(k), str(u), locked=not free))
+            for name, k, u, free in zip(self.robot.joint_names, self.kj[b, p], unit, self.robot.free, strict=True)
+        ]
+
+
+def format_kj(k: float, unit: str, locked: bool = False) -> str:
+    """``"42.1 Nm/rad"``; ``"rigid"`` for +inf; ``"(locked)"`` appended for a locked joint."""
+    text = "rigid" if np.isinf(k) else f"{k:.4g} {unit}"
+    return text + (" (locked)" if locked and not np.isinf(k) else "")
+
+
+def sweep_row_file(folder: str, row: int) -> tuple[str, int]:
+    """The array file and the index in it of sweep row ``row`` (from ``folder/chunks/*.json``)."""
+    files = sorted(glob.glob(os.path.join(folder, "chunks", "chunk-*.json")))
+    if not files:
+        raise FileNotFoundError(f"{folder}: no chunks/chunk-*.json; not a finished jaxstiff sweep folder")
+    seen = 0
+    for f in files:
+        with open(f) as fh:
+            rows = json.load(fh)
+        rows = rows.get("rows", rows) if isinstance(rows, dict) else rows
+        for r in rows:
+            seen += 1
+            if int(r.get("row_id", -1)) == row:
+                return os.path.join(folder, str(r["result_file"])), int(r.get("result_index", 0))
+    raise ValueError(f"{folder}: no sweep row {row} (the folder has {seen} rows, row_id 0..{seen - 1})")
+
+
+def _read_npz(file: str) -> dict[str, np.ndarray]:
+    if not os.path.isfile(file):
+        raise FileNotFoundError(f"result file not found: {file}")
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except Exception as exc:  # zip / format errors of a file that is not an npz
+        raise ValueError(f"{file}: not a readable .npz result file ({exc})") from None
+
+
+def _robot(meta: dict[str, Any], urdf: str | None) -> Chain:
+    from jaxstiff.results.numpy_check import robot_from_meta
+
+    try:
+        return robot_from_meta(meta, urdf, check_sha=urdf is None)
+    except FileNotFoundError as exc:
+        raise FileNotFoundError(f"{exc}; the result's URDF moved? give it with --urdf FILE") from None
+
+
+def _block3(K: np.ndarray) -> np.ndarray:
+    """The translational 3x3 block of (..., m, m) stiffness matrices (m = 2 padded with zeros)."""
+    if K.shape[-1] == 2:
+        out = np.zeros(K.shape[:-2] + (3, 3))
+        out[..., :2, :2] = K
+        return out
+    return K[..., :3, :3]
+
+
+def _shape_data(file: str, urdf: str | None, index: int | None, source: str) -> ViewData:
+    from jaxstiff.results.files import ShapeResult
+
+    res = ShapeResult.load(file)
+    sel = slice(None) if index is None else slice(index, index + 1)
+    robot = _robot(res.meta, urdf)
+    q, kj = res.q[sel], res.kj_scaled[sel]
+    K = stiffness_T(robot, q, kj, str(res.meta.get("task", "full")))
+    keys = ("alpha_deg", "ratio", "criterion", "status", "cms", "pos_error")
+    arrays = {k: np.asarray(getattr(res, k))[sel] for k in keys}
+    arrays["kj_raw"] = res.kj[sel]
+    labels = _labels(_path_names(res.meta.get("path")), q.shape[0], index)
+    return ViewData(
+        "shape",
+        source,
+        robot,
+        q,
+        kj,
+        res.target[sel],
+        res.position[sel],
+        res.direction[sel],
+        K,
+        None,
+        arrays,
+        res.meta,
+        labels,
+    )
+
+
+def _csc_data(file: str, data: dict[str, np.ndarray], urdf: str | None, index: int | None, source: str) -> ViewData:
+    meta = json.loads(str(data["meta"]))
+    sel = slice(None) if index is None else slice(index, index + 1)
+    robot = _robot(meta, urdf)
+    q = np.asarray(data["q"], float)
+    if q.ndim == 2:  # a single rollout written without the batch axis
+        data = {k: (v[None] if k not in ("meta", "joint_names") else v) for k, v in data.items()}
+        q = q[None]
+    q = q[sel]
+    B, T = q.shape[:2]
+    position = np.asarray(data["position"], float)[sel]
+    target = np.asarray(data["target"], float)[sel]
+    if target.shape[-1] == 2:
+        target = np.concatenate([target, position[..., 2:3]], axis=-1)
+    Kxd = np.asarray(data["K_xd"], float)
+    if Kxd.ndim == 3 and Kxd.shape[0] != 1 and index is not None:
+        Kxd = Kxd[sel]
+    Kxd = np.broadcast_to(_block3(Kxd).reshape((-1, 1, 3, 3) if Kxd.ndim == 3 else (1, 1, 3, 3)), (B, T, 3, 3))
+    arrays = {k: np.asarray(data[k])[sel] for k in ("u", "frobenius", "tracking_error", "status", "isotropy")}
+    labels = _labels(_path_names(meta.get("paths")), B, index)
+    return ViewData(
+        "csc",
+        source,
+        robot,
+        q,
+        np.asarray(data["kj"], float)[sel],
+        target,
+        position,
+        None,
+        _block3(np.asarray(data["K_C"], float)[sel]),
+        Kxd.copy(),
+        arrays,
+        meta,
+        labels,
+    )
+
+
+def _path_names(rec: Any) -> list[str]:
+    """Path names from a meta record: a dict with ``name`` (";"-joined for a batch), a list, or a string."""
+    if isinstance(rec, dict):
+        rec = rec.get("name") or rec.get("names") or ""
+    if isinstance(rec, (list, tuple)):
+        return [os.path.basename(str(p)) for p in rec]
+    return [p for p in str(rec or "").split(";") if p]
+
+
+def _labels(parts: list[str], B: int, index: int | None) -> list[str]:
+    if index is not None:
+        return [f"row index {index}" + (f": {parts[index]}" if index < len(parts) else "")]
+    return [f"path {b}" + (f": {parts[b]}" if len(parts) == B else "") for b in range(B)]
+
+
+def load_view_data(file: str | os.PathLike, row: int | None = None, urdf: str | None = None) -> ViewData:
+    """Read a shape or csc result file, or row ``row`` of a sweep folder, for viewing.
+
+    Args:
+        file: a ``.npz`` result file, or a sweep output folder (then ``row`` is required).
+        row: the sweep row (``row_id`` of ``results.parquet``).
+        urdf: the robot's URDF when the recorded path moved (its sha256 is then not checked).
+
+    Raises:
+        FileNotFoundError: no such file or folder, or the URDF is missing.
+        ValueError: not a jaxstiff result, or no such row.
+    """
+    file = os.fspath(file)
+    index = None
+    source = file
+    if os.path.isdir(file):
+        if row is None:
+            raise ValueError(f"{file} is a sweep folder: pick one of its rows with --row ROW_ID")
+        source = f"{file}#row={row}"
+        file, index = sweep_row_file(file, row)
+    elif row is not None:
+        raise ValueError(f"--row {row} is for a sweep folder; {file} is a result file (use --path B to pick a path)")
+    data = _read_npz(file)
+    if "K_C" in data and "u" in data:
+        return _csc_data(file, data, urdf, index, source)
+    if "kj_scaled" in data:
+        return _shape_data(file, urdf, index, source)
+    raise ValueError(f"{file}: not a jaxstiff shape or csc result file (keys: {', '.join(sorted(data)[:8])}, ...)")
+
+
+def check_positions(data: ViewData) -> float:
+    """Largest distance (m) between the stored TCP positions and the numpy FK of the stored q."""
+    return float(np.max(np.linalg.norm(tcp_position(data.robot, data.q) - data.position, axis=-1)))

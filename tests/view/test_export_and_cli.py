@@ -1,0 +1,99 @@
+"""`jaxstiff export` / `plot` / `view --html` on shape, csc, batch (B > 1, rigid locked joint) results,
+the summaries of the result classes, and a third-party arm whose meshes are missing."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import warnings
+
+import numpy as np
+import pytest
+from viewer_files import MISSING_MESHES_URDF, make_shape_result
+
+import jaxstiff
+from jaxstiff.cli.main import main
+from jaxstiff.view.data import load_view_data
+from jaxstiff.view.export import csv_columns, export_csv, read_csv
+
+
+def test_csv_round_trip_shape(shape_file, tmp_path, lwr) -> None:
+    out = str(tmp_path / "t.csv")
+    assert main(["export", shape_file, "--csv", out]) == 0
+    table = read_csv(out)
+    res = jaxstiff.ShapeResult.load(shape_file)
+    names = list(res.joint_names)
+    assert list(table) == ["path", "index"] + [f"q_{j}_rad" for j in names] + [f"kj_{j}_Nm_per_rad" for j in names] + [
+        f"kj_scaled_{j}_Nm_per_rad" for j in names
+    ] + ["tcp_x_m", "tcp_y_m", "tcp_z_m"]
+    q = np.stack([table[f"q_{j}_rad"] for j in names], axis=-1)
+    np.testing.assert_array_equal(q, res.q.reshape(-1, res.n))
+    np.testing.assert_array_equal(np.stack([table[f"kj_scaled_{j}_Nm_per_rad"] for j in names], -1), res.kj_scaled[0])
+    np.testing.assert_array_equal(np.stack([table[f"kj_{j}_Nm_per_rad"] for j in names], -1), res.kj[0])
+    tcp = np.asarray(jaxstiff.fk(lwr, q))[:, :3, 3]  # FK of the CSV's q reproduces the stored TCP
+    np.testing.assert_allclose(tcp, res.position.reshape(-1, 3), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(np.stack([table["tcp_x_m"], table["tcp_y_m"], table["tcp_z_m"]], -1), tcp, atol=1e-9)
+
+
+def test_csv_batch_rigid_and_csc(batch_file, csc_file, tmp_path) -> None:
+    out = export_csv(batch_file, str(tmp_path / "b.csv"))
+    table = read_csv(out)
+    data = load_view_data(batch_file)
+    assert data.B == 3 and sorted(set(table["path"])) == [0, 1, 2] and len(table["index"]) == 3 * data.P
+    assert np.all(np.isinf(table["kj_lwr_a7_Nm_per_rad"]))  # rigid locked joint: inf, written and read back
+    assert data.kj_lines(0, 0)[-1][1] == "rigid"
+    assert np.all(np.isfinite(data.K))
+    c = load_view_data(csc_file)
+    assert c.kind == "csc" and "kj_scaled" not in " ".join(csv_columns(c))
+    table = read_csv(export_csv(c, str(tmp_path / "c.csv"), path=1))
+    np.testing.assert_array_equal(table["q_lwr_a2_rad"], c.q[1, :, 1])
+
+
+def test_plot_and_html_every_kind(shape_file, batch_file, csc_file, tmp_path) -> None:
+    pytest.importorskip("viser")
+    for f in (shape_file, batch_file, csc_file):
+        png = str(tmp_path / (os.path.basename(f) + ".png"))
+        assert main(["plot", f, "--out", png, "--waypoints", "2"]) == 0
+        assert os.path.getsize(png) > 10_000
+    html = str(tmp_path / "b.html")
+    assert main(["view", batch_file, "--html", html, "--path", "2"]) == 0
+    text = open(html).read()
+    assert text.startswith("<!doctype html>") and "__VISER_EMBED_DATA__" in text
+    svg, pdf = str(tmp_path / "x.svg"), str(tmp_path / "x.pdf")
+    assert main(["plot", shape_file, "--out", svg]) == 0 and main(["plot", shape_file, "--out", pdf]) == 0
+    assert open(svg, encoding="utf-8").read(400).lstrip().startswith("<?xml") and "<svg" in open(svg).read()
+    assert open(pdf, "rb").read(5) == b"%PDF-"
+    assert main(["plot", shape_file, "--out", str(tmp_path / "x.gif")]) == 2  # a one-line error, no file
+    assert not os.path.exists(tmp_path / "x.gif")
+
+
+def test_missing_meshes_capsules_one_warning(tmp_path) -> None:
+    viser = pytest.importorskip("viser")
+    from jaxstiff.view.scene import Scene
+
+    robot = jaxstiff.Robot.from_urdf(MISSING_MESHES_URDF)
+    f = make_shape_result(robot, 1, 4, task="xyz").save(str(tmp_path / "arm4.npz"))
+    data = load_view_data(f)
+    server = viser.ViserServer(host="127.0.0.1", port=0 or 8093, verbose=False)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            scene = Scene(server, data)
+            scene.show(0, 3)
+        msgs = [str(w.message) for w in caught if "mesh" in str(w.message)]
+        assert len(msgs) == 1 and "capsules" in msgs[0] and "3 link mesh" in msgs[0]
+        assert scene.capsules and not scene.meshes
+    finally:
+        server.stop()
+
+
+def test_result_summaries_are_short(shape_file) -> None:
+    res = jaxstiff.ShapeResult.load(shape_file)
+    text = repr(res)
+    assert len(text.splitlines()) == 1 and "8 waypoints" in text and "kuka_lwr4" in text and "solved 8" in text
+    z = np.load(shape_file)  # a CSCResult from arrays of the right shapes
+    B, P, n = z["q"].shape
+    fields = {f.name: np.zeros((B, P)) for f in dataclasses.fields(jaxstiff.CSCResult)}
+    fields.update(q=z["q"], kj=z["kj"], status=np.zeros((B, P), int), u_start=np.ones(B), frobenius_start=np.ones(B))
+    text = str(jaxstiff.CSCResult(**fields))
+    assert len(text.splitlines()) == 1 and f"{P} steps" in text and "ok" in text

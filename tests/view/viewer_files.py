@@ -1,0 +1,105 @@
+"""Result files for the viewer tests, built from arrays (no solver run): q is drawn at random inside
+the limits, the stored TCP positions come from :func:`jaxstiff.fk` (JAX, independent of the
+viewer's numpy FK), the stiffness numbers are placeholders the viewer only displays."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+
+import jaxstiff
+from jaxstiff.settings.robot import robot_meta
+
+DATA = os.path.join(os.path.dirname(__file__), "data")
+MISSING_MESHES_URDF = os.path.join(DATA, "arm4_missing_meshes.urdf")
+
+
+def make_shape_result(
+    robot: jaxstiff.Robot, B: int, P: int, seed: int = 0, rigid: bool = False, task: str = "full"
+) -> jaxstiff.ShapeResult:
+    rng = np.random.default_rng(seed)
+    lo, hi = np.maximum(robot.lower, -2.0), np.minimum(robot.upper, 2.0)
+    q = lo + (hi - lo) * rng.uniform(0.3, 0.7, (B, P, robot.n))
+    q[..., ~robot.free] = robot.locked_values[~robot.free]
+    kj = rng.uniform(5.0, 80.0, (B, P, robot.n))
+    if rigid:
+        kj[..., ~robot.free] = np.inf
+    position = np.asarray(jaxstiff.fk(robot, q))[..., :3, 3]
+    d = rng.normal(size=(B, P, 3))
+    z = np.zeros((B, P))
+    meta = {
+        "robot": robot_meta(robot),
+        "task": task,
+        "criterion": "f2",
+        "ratio": 5.0,
+        "c": 1.0,
+        "solver": "test",
+        "settings": {"locked_joints": "rigid" if rigid else "spring"},
+        "path": {"name": ";".join(f"p{b}" for b in range(B))},
+    }
+    return jaxstiff.ShapeResult(
+        joint_names=np.asarray(robot.joint_names),
+        q=q,
+        kj=kj,
+        cms=np.full((B, P), 2.0),
+        kj_scaled=2.0 * kj,
+        target=position + 1e-12,
+        direction=d / np.linalg.norm(d, axis=-1, keepdims=True),
+        position=position,
+        pos_error=np.full((B, P), 1e-12),
+        alpha_deg=z + 0.5,
+        ratio=z + 5.0,
+        criterion=z + 1.5,
+        status=np.zeros((B, P), dtype=np.int64),
+        q0=q[:, 0],
+        kj0=kj[:, 0],
+        solver_code=np.zeros((B, P), dtype=np.int64),
+        nit=np.zeros((B, P), dtype=np.int64),
+        nfev=np.zeros((B, P), dtype=np.int64),
+        time_s=z + 0.01,
+        meta=json.loads(json.dumps(meta)),
+    )
+
+
+def make_csc_file(robot: jaxstiff.Robot, file: str, B: int = 1, T: int = 12, seed: int = 1) -> str:
+    """A csc result file in the ``jaxstiff csc`` layout (K_C from the numpy stiffness of q, kj)."""
+    from jaxstiff.view.kinematics import stiffness_T
+
+    rng = np.random.default_rng(seed)
+    q = np.clip(rng.uniform(-1, 1, (B, T, robot.n)), robot.lower, robot.upper)
+    q[..., ~robot.free] = robot.locked_values[~robot.free]
+    kj = rng.uniform(10, 100, (B, T, robot.n))
+    pos = np.asarray(jaxstiff.fk(robot, q))[..., :3, 3]
+    z = np.zeros((B, T))
+    arrays = dict(
+        q=q,
+        u=z + 3.0,
+        frobenius=z + 4.0,
+        tracking_error=z,
+        orientation_error=z,
+        kj=kj,
+        K_C=stiffness_T(robot, q, kj, "xyz"),
+        position=pos,
+        target=pos,
+        isotropy=z + 0.5,
+        null_step=z,
+        status=np.zeros((B, T), dtype=np.int64),
+        u_start=np.full(B, 3.0),
+        frobenius_start=np.full(B, 4.0),
+        joint_names=np.asarray(robot.joint_names),
+        q0=q[0, 0],
+        K_xd=np.diag([3000.0, 1000.0, 2000.0]),
+    )
+    meta = {
+        "kind": "csc",
+        "robot": robot_meta(robot),
+        "task": "xyz",
+        "step": "adaptive",
+        "beta": 1.0,
+        "status_bits": {"1": "damped (near singular)"},
+        "paths": [f"p{b}.csv" for b in range(B)],
+    }
+    np.savez(file, meta=np.asarray(json.dumps(meta)), **arrays)  # pyright: ignore[reportArgumentType]
+    return file
