@@ -2,7 +2,7 @@
 
 Examples::
 
-    # seed 001's planar case: hold a point, K_xd = R(30 deg) diag(3000, 1000) R^T N/m
+    # the project's planar hold case (seed 001 has no simulation example): hold a point, K_xd = R(30 deg) diag(3000, 1000) R^T N/m
     jaxstiff csc --robot planar_3r --hold 1.50005,0 --kxd 3000,1000@30 --q0-deg 75,-74.74,-76.30 \\
                  --step constant --beta 2e-3 --steps 1000 --out hold.npz
 

@@ -54,8 +54,8 @@ __all__ = [
 def kxd_matrix(task: str, major: float, ratio: float, angle_deg: float) -> np.ndarray:
     """Desired Cartesian stiffness of a CSC sweep row, N/m.
 
-    ``"xy"``: ``R(theta) diag(major, major / ratio) R(theta)^T`` (2x2), the form of seed 001's
-    planar example (R(30 deg) diag(3000, 1000) R(30 deg)^T). ``"xyz"``: ``R_z(theta) diag(major,
+    ``"xy"``: ``R(theta) diag(major, major / ratio) R(theta)^T`` (2x2), the form of the project's
+    planar CSC cases (R(30 deg) diag(3000, 1000) R(30 deg)^T; seed 001 has no simulation example). ``"xyz"``: ``R_z(theta) diag(major,
     major / ratio, major / ratio) R_z(theta)^T`` (3x3): the major axis in the horizontal plane at
     angle theta from base x.
     """

@@ -1,7 +1,7 @@
 """Configuration-based Stiffness Control rollout (jaxstiff.csc, seed 001, SPEC section 6).
 
 References outside the code under test: the planar 3R arm in closed form (numpy FK, Jacobian and
-u(q)), the numpy chain of tests/helpers.py for the LWR, the seed's start value u = 5995, central
+u(q)), the numpy chain of tests/helpers.py for the LWR, the start value u = 5995 of the project's planar hold case, central
 finite differences, and separate (unbatched) rollouts. The tests share compiled programs (same
 robot, settings and shapes) to keep the file fast: XLA compiles each distinct rollout once.
 """
@@ -27,7 +27,7 @@ from jaxstiff.csc import algebra, measures, offdiag, pose, projections, result, 
 DATA = DATA_DIR
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
-Q_SEED = np.deg2rad([75.0, -74.74, -76.30])  # seed 000 Fig. 2, seed 001's start posture
+Q_SEED = np.deg2rad([75.0, -74.74, -76.30])  # seed 000 Fig. 2 posture, the start of the project's planar hold case
 
 
 def rot2(deg: float) -> np.ndarray:
@@ -64,7 +64,7 @@ X_SEED = planar_fk(Q_SEED)
 
 @pytest.fixture(scope="module")
 def hold():
-    """Seed 001's planar hold case: 1000 constant steps of 2e-3 rad from the seed posture."""
+    """The project's planar hold case (seed 001 has no example): 1000 constant steps of 2e-3 rad from the seed posture."""
     return jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (1000, 1)), K_SEED, Q_SEED, 2e-3, step="constant")
 
 
