@@ -40,8 +40,11 @@ __all__ = [
 def _jacobian(robot: Chain, q: np.ndarray) -> np.ndarray:
     from jaxstiff.model.kinematics import jacobian
 
+    # A locked joint kept as a spring deflects under a load, so a loaded posture's value there
+    # differs from the locked one by design: use the kernel without the locked-value check.
+    kernel = getattr(jacobian, "__wrapped__", jacobian)
     with jax.enable_x64(True):
-        return np.asarray(jacobian(robot, jnp.asarray(q, dtype=jnp.float64)))
+        return np.asarray(kernel(robot, jnp.asarray(q, dtype=jnp.float64)))
 
 
 def joint_torque(robot: Chain, q: np.ndarray, wrench: np.ndarray) -> np.ndarray:

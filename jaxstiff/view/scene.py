@@ -35,7 +35,7 @@ COLORS = {
 }
 _LOOK: dict[str, dict[str, Any]] = {"ellipsoid": {}, "desired": {"wireframe": True}}
 CAPSULE_RADIUS = 0.03  #: m
-SCREEN_SEMI_AXIS = 0.12  #: m on screen of the largest semi-axis along the path (before rounding the scale)
+SCREEN_SEMI_AXIS = 0.15  #: m on screen of the largest semi-axis along the path (before rounding the scale)
 
 
 def nice_scale(largest: float, screen: float = SCREEN_SEMI_AXIS) -> float:
