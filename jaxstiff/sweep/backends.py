@@ -12,10 +12,11 @@ the same host and later sweeps of the same shapes load the compiled code.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
+from jaxstiff.runtime.compile_cache import default_cache_dir as default_cache_dir
+from jaxstiff.runtime.compile_cache import enable_compile_cache as runtime_enable_compile_cache
 from jaxstiff.runtime.progress import Progress as _Bar
 from jaxstiff.sweep.chunks import compute_chunk
 from jaxstiff.sweep.plan import Chunk, SweepPlan
@@ -158,43 +159,12 @@ def run_ray(
 
 
 # ---------------------------------------------------------------------------- compile cache
-def default_cache_dir() -> str | None:
-    """Folder of the persistent XLA compilation cache of sweeps, or None when disabled.
-
-    ``$JAXSTIFF_COMPILE_CACHE=0`` disables it; ``$JAXSTIFF_CACHE_DIR`` chooses the folder; default
-    the user cache folder of platformdirs plus ``xla`` (Linux: ``$XDG_CACHE_HOME/jaxstiff/xla``,
-    ``~/.cache/jaxstiff/xla``; macOS: ``~/Library/Caches/jaxstiff/xla``; Windows: the local app data).
-    """
-    if os.environ.get("JAXSTIFF_COMPILE_CACHE", "1").strip().lower() in ("0", "false", "no", "off"):
-        return None
-    d = os.environ.get("JAXSTIFF_CACHE_DIR")
-    if d:
-        return d
-    from platformdirs import user_cache_dir
-
-    return os.path.join(user_cache_dir("jaxstiff", appauthor=False), "xla")
-
-
 def enable_compile_cache(path: str | None) -> str | None:
-    """Turn on JAX's persistent compilation cache in ``path`` (an entry-point setting, like x64).
+    """Turn on JAX's persistent compilation cache in ``path`` for a sweep
+    (:func:`jaxstiff.runtime.compile_cache.enable_compile_cache`; programs compiling under 2 s are not stored).
 
     With the cache, a resumed run, the Ray workers of one host and the next sweep of the same
     shapes load a group's compiled code instead of compiling it again (measured timings:
-    docs/notes/sweep.md). The cache is keyed by the compiled program, so a stale entry is never
-    used. Left alone if the caller already configured a cache. Returns the folder in use (None:
-    no cache).
+    docs/notes/sweep.md). Returns the folder in use (None: no cache).
     """
-    import jax
-
-    current = getattr(jax.config, "jax_compilation_cache_dir", None)
-    if current:
-        return current
-    if not path:
-        return None
-    try:
-        os.makedirs(path, exist_ok=True)
-    except OSError:
-        return None
-    jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 2.0)
-    return path
+    return runtime_enable_compile_cache(path, min_compile_s=2.0)
