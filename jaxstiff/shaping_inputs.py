@@ -290,7 +290,7 @@ def check_inputs(
     crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
     check_options(solver, options)
     task_rows(task)
-    check_task_feasible(robot, task)
+    check_task_feasible(robot, task, locked_joints=locked)
     ratio = ratio_per_path(values["ratio"], B)
     m = 2 if task == "xy" else 3
     kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)

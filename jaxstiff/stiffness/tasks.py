@@ -33,12 +33,13 @@ _ROW_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
 
 
 @functools.lru_cache(maxsize=64)
-def _task_rank_report(robot: Chain, task: str, motion: bool = False) -> str | None:
+def _task_rank_report(robot: Chain, task: str, motion: bool = False, springs: str = "rigid") -> str | None:
     rows = task_rows(task)
     m = len(rows)
-    # the stiffness K = (J diag(1/kj) J^T)^-1 has every joint's spring, locked ones included; the
-    # motion (a CSC rollout's primary task) has the free joints only
-    cols = robot.free if motion else np.ones(robot.n, dtype=bool)
+    # the stiffness K = (J diag(1/kj) J^T)^-1 sums over the joints with a spring: the free ones, and
+    # the locked ones only with springs="spring"; the motion (a CSC rollout's primary task) has the
+    # free joints only
+    cols = robot.free if motion or springs == "rigid" else np.ones(robot.n, dtype=bool)
     k = int(cols.sum())
     lost = (
         "so the path cannot be followed along the missing {}"
@@ -46,7 +47,12 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False) -> str | No
         else "so its stiffness along the missing {} is undefined"
     )
     if k < m:
-        have = f"only {k} free joint(s) move the TCP" if motion else f"the robot has only {k} joint(s)"
+        if motion:
+            have = f"only {k} free joint(s) move the TCP"
+        elif k < robot.n:
+            have = f"only {k} joint(s) have a spring (the {robot.n - k} locked one(s) are rigid)"
+        else:
+            have = f"the robot has only {k} joint(s)"
         return (
             f"task {task!r} controls {m} Cartesian rows ({', '.join(_ROW_NAMES[r] for r in rows)}) but {have}, "
             + lost.format("rows")
@@ -71,7 +77,7 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False) -> str | No
         return None
     dead = [_ROW_NAMES[r] for i, r in enumerate(rows) if np.all(np.abs(Js[:, i, :]) < 1e-12)]
     rank = int(np.max(np.sum(s > 1e-9 * s[:, :1], axis=1)))
-    which = "free joints' " if motion else ""
+    which = "free joints' " if motion or k < robot.n else ""
     why = (
         f"row(s) {', '.join(dead)} of its {which}Jacobian are zero at every posture (a planar chain?)"
         if dead
@@ -80,29 +86,34 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False) -> str | No
     return f"task {task!r} controls {m} Cartesian rows but {why}, " + lost.format("direction")
 
 
-def check_task_feasible(robot: Chain, task: str, *, motion: bool = False) -> None:
+def check_task_feasible(robot: Chain, task: str, *, motion: bool = False, locked_joints: str = "rigid") -> None:
     """Raise ValueError if ``robot`` cannot control the rows of ``task`` at any posture.
 
     Two causes: fewer joints than task rows (a 3-joint arm with ``"full"``), and task rows that
     lose rank at every posture (a planar chain with ``"xyz"``: its ``vz`` row is always zero).
     Either makes the Cartesian stiffness infinite along a lost direction everywhere, not just
-    near a singular posture, so the result would only reflect the regularisation. Locked joints
-    count: they keep their springs (SPEC section 1), so a 7-joint arm with two joints locked has a
-    defined 6-row stiffness. With ``motion=True`` (a CSC rollout, whose primary task the free
-    joints follow) only the free joints count. The check samples six postures within the joint
-    limits once per (robot, task).
+    near a singular posture, so the result would only reflect the regularisation. Which joints
+    count: those with a spring for the stiffness (the free joints; with
+    ``locked_joints="spring"`` the locked ones too, SPEC section 1, so a 7-joint arm with two
+    sprung locked joints has a defined 6-row stiffness), and the free joints only with
+    ``motion=True`` (a CSC rollout, whose primary task the free joints follow). The check samples
+    six postures within the joint limits once per call.
     """
-    msg = _task_rank_report(robot, task, motion)
+    if locked_joints not in ("rigid", "spring"):
+        raise ValueError(f"locked_joints must be 'rigid' or 'spring', got {locked_joints!r}")
+    msg = _task_rank_report(robot, task, motion, locked_joints)
     if msg is not None:
         smaller = [t for t in ("xyz", "xy") if len(TASK_ROWS[t]) < len(TASK_ROWS[task])]
-        ok = [t for t in smaller if _task_rank_report(robot, t, motion) is None]
+        ok = [t for t in smaller if _task_rank_report(robot, t, motion, locked_joints) is None]
         hint = (
             f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'the x and y rows only'})"
             if ok
             else "task 'xy' needs a chain that moves in the base xy plane"
         )
-        if motion and not robot.free.all():
+        if not robot.free.all():
             hint += ", or unlock joints"
+            if not motion and locked_joints == "rigid":
+                hint += " (or keep their springs: locked_joints='spring', --locked-joints spring)"
         raise ValueError(f"{msg}; {hint}")
 
 

@@ -230,11 +230,14 @@ def q0_values(raw: Any, key: str, robot: Any, source: str = "") -> list:
 def _check_tasks(kind: str, axes: Mapping[str, list], robot: Any, source: str) -> None:
     from jaxstiff.stiffness.core import TASK_ROWS, check_task_feasible
 
+    modes = axes.get("locked_joints", ["rigid"]) if kind == "shape" else ["rigid"]
     for task in axes["task"]:
-        try:
-            check_task_feasible(robot, task, motion=kind == "csc")
-        except ValueError as e:
-            raise SweepConfigError("axes.task", f"robot {robot.name!r}: {e}", source) from None
+        for mode in modes:
+            try:
+                check_task_feasible(robot, task, motion=kind == "csc", locked_joints=mode)
+            except ValueError as e:
+                also = f" (locked_joints {mode!r})" if kind == "shape" and not robot.free.all() else ""
+                raise SweepConfigError("axes.task", f"robot {robot.name!r}{also}: {e}", source) from None
         m = len(TASK_ROWS[task])
         if kind == "csc" and robot.n_free <= m:  # allowed (tracking only), but the sweep's point is lost
             warnings.warn(

@@ -139,6 +139,7 @@ def test_figure_shape_path_on_a_small_result(tmp_path):
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     n, P = robot.n, 6
     q = np.deg2rad([10.0, 30.0, 0.0, -60.0, 0.0, 40.0, 0.0])[None] + np.linspace(0, 0.2, P)[:, None]
+    q[:, 6] = 0.0  # lwr_a7 at its locked value
     pos = np.stack([numpy_fk(robot, qi)[:3, 3] for qi in q])
     d = np.diff(pos, axis=0, append=2 * pos[-1:] - pos[-2:-1])
     d /= np.linalg.norm(d, axis=1, keepdims=True)

@@ -183,11 +183,16 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
 
 
 @pytest.mark.parametrize(
-    "robot_name,task,locked",
-    [("planar_3r", "xy", None), ("kuka_lwr4", "full", {"lwr_a7": 0.0}), ("kuka_lwr4", "xyz", None)],
+    "robot_name,task,locked,mode",
+    [
+        ("planar_3r", "xy", None, "rigid"),
+        ("kuka_lwr4", "full", {"lwr_a7": 0.0}, "rigid"),
+        ("kuka_lwr4", "full", {"lwr_a7": 0.0}, "spring"),
+        ("kuka_lwr4", "xyz", None, "rigid"),
+    ],
 )
 @pytest.mark.slow
-def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
+def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked, mode):
     """The LM stage's Jacobian (closed-form kinematic and stiffness derivatives) against forward-mode
     autodiff of the residual through the whole chain, and its residual against :meth:`lm_residual`,
     at random postures and stiffnesses (f1 with the ratio row active and inactive, f2)."""
@@ -200,10 +205,10 @@ def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked):
     rng = np.random.default_rng(11)
     with jax.enable_x64(True):
         for kind, r in (("f1", 1.5), ("f1", 40.0), ("f2", 5.0)):
-            ops = pgd.WaypointOps(WaypointProblem(robot, task, get_criterion(kind)))
+            ops = pgd.WaypointOps(WaypointProblem(robot, task, get_criterion(kind), locked_joints=mode))
             for _ in range(4):
                 q = rng.uniform(robot.lower * 0.8, robot.upper * 0.8)
-                kj = np.exp(rng.uniform(0.0, np.log(100.0), robot.n))
+                kj = np.exp(rng.uniform(0.0, np.log(100.0), ops.pr.n_spring))  # one per sprung joint
                 x = jax.numpy.asarray(np.r_[q[list(ops.pr.free_idx)], kj])
                 tgt = jax.numpy.asarray(numpy_fk(robot, q)[:3, 3] + rng.normal(size=3) * 0.01)
                 d = jax.numpy.asarray(rng.normal(size=3))

@@ -389,15 +389,18 @@ def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match)
 
 @pytest.mark.slow
 def test_full_task_with_locked_joints_keeps_their_springs(tmp_path):
-    """Two of the LWR's joints locked (five free, fewer than the six rows of task 'full'): the
-    stiffness still has seven springs (SPEC section 1), so the task is defined and solved; the
-    file verifies from the URDF alone (numpy K_T with all seven columns). It was refused as
-    'undefined' when the check counted free joints only."""
+    """Two of the LWR's joints locked (five free, fewer than the six rows of task 'full'). Kept as
+    springs (``locked_joints="spring"``) the stiffness has seven springs (SPEC section 1), so the
+    task is defined and solved; the file verifies from the URDF alone (numpy K_T with all seven
+    columns). Rigid (the default) only five joints give: refused before any work (it ran and
+    stored a K_T of ~1e15 N/m)."""
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.2})
     q = np.where(robot.free, np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0]), robot.locked_values)
     x0 = numpy_fk(robot, q)[:3, 3]
     path = jaxstiff.Path(x0 + np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0]]), np.array([[1.0, 0.0, 0.0]] * 2))
-    res = jaxstiff.shape(robot, path, "f2", 3.0, task="full", q0=q, first_starts=2)
+    with pytest.raises(ValueError, match=r"only 5 joint\(s\) have a spring"):
+        jaxstiff.shape(robot, path, "f2", 3.0, task="full", q0=q, first_starts=2)
+    res = jaxstiff.shape(robot, path, "f2", 3.0, task="full", q0=q, first_starts=2, locked_joints="spring")
     f = tmp_path / "locked_full.npz"
     res.save(f)
     data, meta, _ = verify_file(f)

@@ -425,7 +425,7 @@ def test_shape_mismatches_name_the_arguments():
     """Raw JAX errors (TypeError 'mul got incompatible shapes', 'axis -2 is out of bounds',
     IndexError) were what a wrong shape gave; now a ValueError naming the arguments and shapes."""
     r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
-    J = jaxstiff.jacobian(r, jnp.full((2, 7), 0.3))
+    J = jaxstiff.jacobian(r, jnp.full((2, 7), 0.3).at[:, 6].set(0.0))  # lwr_a7 at its locked value
     cases = [
         (
             lambda: jaxstiff.translational_stiffness(J, jnp.ones((3, 7))),

@@ -462,11 +462,12 @@ def test_task_check_samples_each_joint_inside_its_own_range(tmp_path):
         check_task_feasible(robot, "full")
 
 
-def test_locked_joints_keep_their_springs_in_the_task_check():
-    """Two of the LWR's seven joints locked: the 6-row stiffness still has seven springs, so task
-    'full' is defined (numpy: the full 6 x 7 Jacobian has rank 6 with a finite condition number),
-    while a CSC rollout, whose free joints must follow all six rows, is refused. Before, the shape
-    check counted only free joints and refused the stiffness as undefined."""
+def test_task_check_counts_the_joints_with_a_spring():
+    """Two of the LWR's seven joints locked. Kept as springs, the 6-row stiffness has seven springs,
+    so task 'full' is defined (numpy: the full 6 x 7 Jacobian has rank 6 with a finite condition
+    number), while a CSC rollout, whose free joints must follow all six rows, is refused. Rigid (the
+    default), only the five free joints give, so K along one direction is infinite: refused, with
+    the spring option named (it ran and stored a K_T of ~1e15 N/m)."""
     from jaxstiff.stiffness.core import check_task_feasible
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.2})
@@ -475,7 +476,14 @@ def test_locked_joints_keep_their_springs_in_the_task_check():
     s = np.linalg.svd(J, compute_uv=False)
     assert s[-1] > 1e-3 * s[0]  # all seven columns: rank 6
     assert np.linalg.matrix_rank(J[:, robot.free]) == 5  # the free joints alone: rank 5
-    check_task_feasible(robot, "full")  # no error: the stiffness is defined
+    check_task_feasible(robot, "full", locked_joints="spring")  # no error: the stiffness is defined
+    with pytest.raises(
+        ValueError, match=r"only 5 joint\(s\) have a spring \(the 2 locked one\(s\) are rigid\).*--locked-joints spring"
+    ):
+        check_task_feasible(robot, "full")
+    check_task_feasible(robot, "xyz")  # five springs for three rows: defined
+    with pytest.raises(ValueError, match="locked_joints must be 'rigid' or 'spring'"):
+        check_task_feasible(robot, "xyz", locked_joints="stiff")
     K = np.asarray(jaxstiff.cartesian_stiffness(J, np.full(7, 50.0), task="full"))
     assert_close(K, np.linalg.inv(J @ np.diag(np.full(7, 1 / 50.0)) @ J.T), rtol=1e-9, what="K with locked springs")
     with pytest.raises(ValueError, match=r"only 5 free joint\(s\) move the TCP.*cannot be followed.*or unlock joints"):
@@ -488,7 +496,7 @@ def test_concrete_non_positive_kj_is_refused_by_name(fn):
     """kj <= 0 given as numbers: a ValueError naming the entry (it came back as a matrix of ~1e-140
     from the regularisation, for every direction); under a trace the clamp keeps a batch finite."""
     r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
-    J = jaxstiff.jacobian(r, jnp.full(7, 0.3))
+    J = jaxstiff.jacobian(r, jnp.full(7, 0.3).at[6].set(0.0))  # lwr_a7 at its locked value
     f = getattr(jaxstiff.stiffness, fn)
     kj = np.full(7, 50.0)
     assert np.all(np.isfinite(np.asarray(f(J, kj, task="xyz"))))
