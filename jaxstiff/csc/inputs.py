@@ -22,6 +22,7 @@ import numpy as np
 from jaxstiff._numerics.batch import broadcast_batch
 from jaxstiff._numerics.safe import safe_sqrt
 from jaxstiff.csc.step import StaticSettings
+from jaxstiff.model.chain import check_locked_values
 from jaxstiff.model.robot import Robot
 from jaxstiff.settings.csc import (
     DEFAULT_JL_GAIN,
@@ -333,6 +334,7 @@ def validate_values(
         raise ValueError("null_eps must be > 0")
     qn = val(q0)
     if qn is not None and qn.size:
+        check_locked_values(robot, q0, "q0")  # the one rule (SPEC section 1), in q0's own dtype
         qn = qn.reshape(-1, robot.n)
         lo, hi = robot.lower, robot.upper
         bad = robot.free & (np.any(qn < lo - 1e-9, axis=0) | np.any(qn > hi + 1e-9, axis=0))

@@ -321,7 +321,9 @@ def check_locked_values(robot: Chain, q: Any, name: str = "q") -> None:
         name: how the error message calls the array (a flag or parameter name).
 
     Raises:
-        ValueError: if some ``|q[..., i] - locked_i| > LOCKED_TOL`` (1e-9) for a locked joint i,
+        ValueError: if some ``|q[..., i] - locked_i| > LOCKED_TOL`` (1e-9; for a float32 or
+            float16 ``q``, the rounding of the locked value in that dtype, ``2 eps max(1, |locked_i|)``,
+            if larger) for a locked joint i,
             naming the first such entry, the joint, the given and the locked value, e.g.
             ``q[..., 6] = 0.3 for joint 'lwr_a7' of robot 'kuka_lwr4', which is locked at 0; pass the
             locked value (0) there, or build the robot without locking the joint (locked=... /
@@ -329,13 +331,16 @@ def check_locked_values(robot: Chain, q: Any, name: str = "q") -> None:
     """
     if is_traced(q) or all(v is None for v in robot.locked):
         return
+    dt = getattr(q, "dtype", None)
+    eps = float(np.finfo(dt).eps) if dt is not None and np.issubdtype(dt, np.floating) else 0.0
     a = np.asarray(q, dtype=float)
     if a.ndim == 0 or a.shape[-1] != robot.n:
         return
     for i, v in enumerate(robot.locked):
         if v is None:
             continue
-        bad = ~(np.abs(a[..., i] - v) <= LOCKED_TOL)
+        tol = max(LOCKED_TOL, 2.0 * eps * max(1.0, abs(v)))  # 0.2 in float32 is 0.2 + 3e-9
+        bad = ~(np.abs(a[..., i] - v) <= tol)
         if np.any(bad):
             at = tuple(int(j) for j in np.argwhere(bad)[0]) if a.ndim > 1 else ()
             where = f"{name}[{', '.join(map(str, at))}{', ' if at else ''}{i}]" if a.ndim > 1 else f"{name}[{i}]"

@@ -43,9 +43,12 @@ def stiffness_axes(
 def _panel_joints(
     ax: Any, wp: np.ndarray, values: np.ndarray, res: ShapeResult, colors: Any, ylabel: str, title: str
 ) -> None:
-    """(a)/(b): one curve a joint over the waypoints, legend below."""
+    """(a)/(b): one curve a joint over the waypoints, legend below. A joint whose values are all
+    ``+inf`` (a rigid locked joint's kj, SPEC section 1) has no curve; its legend entry says "rigid"."""
     for i in range(res.n):
-        ax.plot(wp, values[:, i], color=colors[i], label=str(res.joint_names[i]))
+        rigid = bool(np.all(np.isposinf(values[:, i])))
+        label = f"{res.joint_names[i]} (rigid, kj = inf)" if rigid else str(res.joint_names[i])
+        ax.plot(wp, np.where(np.isfinite(values[:, i]), values[:, i], np.nan), color=colors[i], label=label)
     ax.set(xlabel="waypoint p", ylabel=ylabel, title=title)
     ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
     ax.grid(alpha=0.3)
@@ -256,8 +259,11 @@ def rate_limited_joints(res: ShapeResult, robot: Chain, b: int = 0, rtol: float 
     q, kj = res.q[b], res.kj[b]
     q_ref, kj_ref, rate = reference_states(res, b)
     dq, dk = prm["dq"][b], prm["dk"][b]
+    # a rigid locked joint's kj is +inf (inf - inf is nan): finite entries only, and locked joints never count
+    kj = np.where(np.isfinite(kj), kj, np.nan)
+    kj_ref = np.where(np.isfinite(kj_ref), kj_ref, np.nan)
     at_q = (np.abs(q - q_ref) >= dq * (1 - rtol)) & np.isfinite(dq) & rate[:, None]
-    at_k = (np.abs(kj - kj_ref) >= dk * (1 - rtol)) & np.isfinite(dk) & rate[:, None]
+    at_k = (np.abs(kj - kj_ref) >= dk * (1 - rtol)) & np.isfinite(dk) & np.isfinite(kj) & rate[:, None]
     span_q = np.where(np.isfinite(robot.upper - robot.lower), robot.upper - robot.lower, 1.0)
     q_bound = (q - robot.lower <= rtol * span_q) | (robot.upper - q <= rtol * span_q)
     kspan = float(lim["kmax"]) - float(lim["kmin"])

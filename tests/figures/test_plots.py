@@ -144,6 +144,7 @@ def test_figure_shape_path_on_a_small_result(tmp_path):
     d = np.diff(pos, axis=0, append=2 * pos[-1:] - pos[-2:-1])
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     kj = np.full((P, n), 50.0) + np.arange(n)
+    kj[:, 6] = np.inf  # lwr_a7 rigid (the default for a locked joint): +inf in the file
     res = types.SimpleNamespace(
         P=P,
         n=n,

@@ -62,6 +62,24 @@ def test_rate_limited_joints_counts_the_steps_set_to_the_limits():
     np.testing.assert_array_equal(lim["q_bound"], np.zeros(12, int))
 
 
+def test_rigid_locked_joint_kj_inf_counts_nothing_and_warns_nothing():
+    """A rigid locked joint's kj is +inf in the file (SPEC section 1): the counts are those of the
+    same result with a finite value there (the joint is locked, it never counts), without the
+    'invalid value' RuntimeWarning of inf - inf (the warnings filter makes it an error)."""
+    import warnings
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    finite = rate_limited_joints(_result(robot), robot)
+    res = _result(robot)
+    res.kj[..., 6] = np.inf
+    res.kj0[..., 6] = np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rigid = rate_limited_joints(res, robot)
+    for k in finite:
+        np.testing.assert_array_equal(rigid[k], finite[k])
+
+
 def test_figure_turning_is_drawn(tmp_path):
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     file = figure_turning(_result(robot), robot, tmp_path / "turning.png", "test", dpi=40)

@@ -59,3 +59,29 @@ def test_shape_q0_and_ik_give_the_same_message(lwr):
         jaxstiff.shape(lwr, jaxstiff.default_path(n=3), "f2", 5.0, q0=q0)
     with pytest.raises(ValueError, match=MSG):
         ik_position(lwr, np.array([0.45, -0.25, 0.35]), q_start=q0)
+
+
+def test_csc_rollout_gives_the_same_message(lwr):
+    """csc_rollout's q0 (it held the locked joint at its value without a word)."""
+    q0 = np.full(7, 0.3)
+    hold = np.asarray(lwr.fk(q0 * np.r_[np.ones(6), 0.0]))[:3, 3]
+    K_xd = np.diag([3000.0, 1000.0, 2000.0])
+    with pytest.raises(ValueError, match=MSG):
+        jaxstiff.csc_rollout(lwr, np.tile(hold, (3, 1)), K_xd, q0, task="xyz")
+    res = jaxstiff.csc_rollout(lwr, np.tile(hold, (3, 1)), K_xd, q0 * np.r_[np.ones(6), 0.0], task="xyz")
+    assert np.all(np.asarray(res.q)[..., 6] == 0.0)
+
+
+def test_a_float32_q_at_the_locked_value_passes():
+    """0.2 rounded to float32 is 0.2 + 3e-9, beyond the 1e-9 tolerance: a float32 q holding the
+    locked value must pass (csc_rollout casts q0 to JAX's default float32 and then refused it),
+    while a float32 q one float32 step per 1e-6 off is still refused."""
+    r = jaxstiff.Robot.from_urdf("planar_4r", locked={"joint_4": 0.2})
+    q = np.array([0.1, 0.2, 0.3, 0.2], dtype=np.float32)
+    assert abs(float(q[3]) - 0.2) > LOCKED_TOL  # the case: the rounding alone exceeds the tolerance
+    check_locked_values(r, q)
+    check_locked_values(r, jnp.asarray(q))
+    with pytest.raises(ValueError, match="locked at 0.2"):
+        check_locked_values(r, q + np.float32(1e-6) * np.array([0, 0, 0, 1], dtype=np.float32))
+    with pytest.raises(ValueError, match="locked at 0.2"):
+        check_locked_values(r, q.astype(np.float64) + np.array([0, 0, 0, 3e-9]))
