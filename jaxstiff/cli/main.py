@@ -9,25 +9,35 @@ code 2, never as a traceback.
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import signal
 import sys
 import warnings
 
 from ..runtime.io import interrupt_exit_code, interrupt_handlers, interrupt_pending, raise_if_interrupted
-from . import check_sim as _check_sim_command  # noqa: F401  (jaxstiff check-sim)
-from . import csc as _csc_command  # noqa: F401  (registers jaxstiff csc)
-from . import export as _export_command  # noqa: F401  (jaxstiff export)
-from . import plot as _plot_command  # noqa: F401  (jaxstiff plot)
-from . import reproduce as _reproduce_command  # noqa: F401  (jaxstiff reproduce)
-from . import robot as _robot_command  # noqa: F401  (jaxstiff robot)
-from . import shape as _shape_command  # noqa: F401  (jaxstiff shape)
-from . import sweep as _sweep_command  # noqa: F401  (jaxstiff sweep)
-from . import view as _view_command  # noqa: F401  (jaxstiff view)
 from .common import COMMANDS, join_negative_values
 
 #: the order of ``jaxstiff --help``
 COMMAND_ORDER = ("robot", "shape", "csc", "sweep", "reproduce", "check-sim", "view", "plot", "export")
+
+#: command -> its module in jaxstiff.cli (imported when the parser is built; it registers the command)
+COMMAND_MODULES = {name: name.replace("-", "_") for name in COMMAND_ORDER}
+
+
+def load_commands(names: list[str] | None = None) -> None:
+    """Import the modules of ``names`` (default: every command). ``jaxstiff view RESULT`` loads only
+    the view command: the others import JAX and the solvers, and the viewer starts without them."""
+    for name in COMMAND_MODULES if names is None else names:
+        importlib.import_module(f"jaxstiff.cli.{COMMAND_MODULES[name]}")
+
+
+def _command_in(argv: list[str]) -> str | None:
+    """The subcommand named by ``argv`` (its first word after the global flags), if it is one."""
+    i = 0
+    while i < len(argv) and argv[i].startswith("--"):
+        i += 2 if argv[i] == "--compile-cache" else 1  # the one global flag with a value
+    return argv[i] if i < len(argv) and argv[i] in COMMAND_MODULES else None
 
 
 class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
@@ -41,7 +51,9 @@ class _HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``jaxstiff`` parser with every subcommand, or with ``command``'s alone (its modules only)."""
+    load_commands(None if command is None else [command])
     parser = argparse.ArgumentParser(
         prog="jaxstiff",
         description="Stiffness-ellipsoid shaping and Configuration-based Stiffness Control for redundant arms.",
@@ -49,6 +61,20 @@ def build_parser() -> argparse.ArgumentParser:
     from jaxstiff.runtime.version import __version__
 
     parser.add_argument("--version", action="version", version=f"jaxstiff {__version__}")
+    cache = parser.add_mutually_exclusive_group()
+    cache.add_argument(
+        "--no-compile-cache",
+        dest="global_no_compile_cache",
+        action="store_true",
+        help="do not use the persistent compilation cache (also: JAXSTIFF_COMPILE_CACHE=0); every run compiles",
+    )
+    cache.add_argument(
+        "--compile-cache",
+        dest="global_compile_cache",
+        metavar="DIR",
+        help="keep compiled programs in DIR (also: JAXSTIFF_CACHE_DIR; default: the user cache folder, "
+        "e.g. ~/.cache/jaxstiff/xla; JAX_COMPILATION_CACHE_DIR, if set, wins)",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in sorted(COMMANDS, key=lambda c: COMMAND_ORDER.index(c) if c in COMMAND_ORDER else len(COMMAND_ORDER)):
         add, _, help_ = COMMANDS[name]
@@ -70,9 +96,41 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
         _default_showwarning(message, category, filename, lineno, file, line)
 
 
+#: commands that only read files (no JAX kernels): no compilation cache, no compile time line
+_NO_COMPILATION = ("view", "plot", "export")
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    """The command, with the compilation cache of the global flags turned on before it (so its first
+    compilation can use it), and its compile time on stderr afterwards (unless ``--quiet``)."""
+    if args.command in _NO_COMPILATION:
+        return int(args._run(args) or 0)
+    import time
+
+    from ..runtime.compile_cache import CompileClock, compile_cache_flags
+
+    t0 = time.perf_counter()
+    with compile_cache_flags(args.global_no_compile_cache, args.global_compile_cache) as cache_dir:
+        with CompileClock() as clock:
+            rc = int(args._run(args) or 0)
+    if clock.programs and not getattr(args, "quiet", False):
+        where = (
+            f"{clock.cache_hits} of {clock.programs} programs loaded from the cache {cache_dir}"
+            if cache_dir
+            else f"{clock.programs} programs, no compilation cache"
+        )
+        print(
+            f"jaxstiff: {args.command}: {time.perf_counter() - t0:.1f} s, of which JAX compilation "
+            f"{clock.seconds:.1f} s ({where})",
+            file=sys.stderr,
+        )
+    return rc
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else list(argv)))
+    words = join_negative_values(sys.argv[1:] if argv is None else list(argv))
+    parser = build_parser(_command_in(words))
+    args = parser.parse_args(words)
     if getattr(args, "_run", None) is None:
         parser.print_help()
         return 2
@@ -80,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings(), interrupt_handlers():
             warnings.showwarning = _show_warning
             raise_if_interrupted()  # a Ctrl-C while the command was starting up: stop before any work
-            rc = int(args._run(args) or 0)
+            rc = _run_command(args)
         sig = interrupt_pending()
         if sig is not None and rc == 0:  # swallowed inside JAX and not seen at a checkpoint: the work had finished
             print(

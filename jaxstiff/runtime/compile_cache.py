@@ -18,16 +18,30 @@ Where (first that applies):
   ``~/Library/Caches/jaxstiff/xla``; Windows: the local app data folder).
 
 A folder that cannot be created or written is skipped silently (the run compiles as before).
+The cache only takes effect for programs compiled after it is turned on; turning it on after an
+earlier compilation of the process re-arms JAX's cache (JAX decides once, at the first compilation,
+whether a cache is in use).
+
+:class:`CompileClock` measures how long JAX compiles while a block runs (what the commands print
+and ``meta["timing_s"]["compile"]`` records); why it measures what it does: docs/notes/speed.md.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import threading
+from collections.abc import Iterator
+from typing import Any
 
 __all__ = [
     "CACHE_ENV",
     "CACHE_DIR_ENV",
+    "COMPILE_EVENTS",
     "MIN_COMPILE_S",
+    "CompileClock",
+    "cache_dir_in_use",
+    "compile_cache_flags",
     "default_cache_dir",
     "enable_compile_cache",
     "ensure_compile_cache",
@@ -59,29 +73,161 @@ def default_cache_dir() -> str | None:
 def enable_compile_cache(path: str | None, min_compile_s: float = MIN_COMPILE_S) -> str | None:
     """Turn on JAX's persistent compilation cache in ``path`` (a process-wide setting, like x64).
 
-    Left alone if the caller already configured a cache (that folder is returned). Returns the folder
-    in use, or None (``path`` None, or the folder cannot be created or written).
+    Left alone if the caller configured a cache of their own (that folder is returned). ``path``
+    None turns off a cache that this module turned on. Returns the folder in use, or None
+    (``path`` None, or the folder cannot be created or written).
     """
     import jax
 
     current = getattr(jax.config, "jax_compilation_cache_dir", None)
-    if current:
-        return current
-    if not path:
+    if current and current != _state.get("set"):
+        return current  # the caller's own
+    if path and current == path:
+        return path
+    if path:
+        try:
+            os.makedirs(path, exist_ok=True)
+            if not os.access(path, os.W_OK):
+                path = None
+        except OSError:
+            path = None
+    if not path and not current:
         return None
-    try:
-        os.makedirs(path, exist_ok=True)
-        if not os.access(path, os.W_OK):
-            return None
-    except OSError:
-        return None
+    from jax.experimental.compilation_cache import compilation_cache
+
     jax.config.update("jax_compilation_cache_dir", path)
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", float(min_compile_s))
+    if path:
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", float(min_compile_s))
+    # JAX decides at a process's first compilation whether a cache is in use and keeps that
+    # answer: the folder changed, so let it decide again (the files on disk stay)
+    compilation_cache.reset_cache()
+    _state["set"] = path
     return path
 
 
 def ensure_compile_cache() -> str | None:
-    """:func:`enable_compile_cache` on :func:`default_cache_dir`, once per process (entry points call it)."""
-    if "dir" not in _state:
-        _state["dir"] = enable_compile_cache(default_cache_dir())
+    """:func:`enable_compile_cache` on :func:`default_cache_dir` (entry points call it; cheap when
+    nothing changed: two environment look-ups). Returns the folder in use or None."""
+    want = default_cache_dir()
+    if "dir" not in _state or _state.get("want") != want:
+        _state["want"] = want
+        _state["dir"] = enable_compile_cache(want)
     return _state["dir"]
+
+
+@contextlib.contextmanager
+def compile_cache_flags(off: bool = False, path: str | None = None) -> Iterator[str | None]:
+    """The commands' ``--no-compile-cache`` (``off``) and ``--compile-cache DIR`` (``path``) for the
+    duration of a command: :data:`CACHE_ENV` / :data:`CACHE_DIR_ENV` set (child processes, e.g. a
+    sweep's workers, inherit them; restored afterwards) and :func:`ensure_compile_cache` applied.
+    Yields the folder in use or None."""
+    saved = {k: os.environ.get(k) for k in (CACHE_ENV, CACHE_DIR_ENV)}
+    if off:
+        os.environ[CACHE_ENV] = "0"
+    if path:
+        os.environ[CACHE_DIR_ENV] = os.path.abspath(os.path.expanduser(path))
+    try:
+        yield ensure_compile_cache()
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def cache_dir_in_use() -> str | None:
+    """The persistent cache folder JAX writes to now (None: no cache), whoever configured it."""
+    import jax
+
+    return getattr(jax.config, "jax_compilation_cache_dir", None) or None
+
+
+#: the JAX events whose time spans make up compilation: tracing the Python function to a jaxpr,
+#: lowering the jaxpr to StableHLO, and XLA's compile (or the load from the persistent cache)
+COMPILE_EVENTS = (
+    "/jax/core/compile/jaxpr_trace_duration",
+    "/jax/core/compile/jaxpr_to_mlir_module_duration",
+    "/jax/core/compile/backend_compile_duration",
+)
+_BACKEND_EVENT = COMPILE_EVENTS[2]
+_HIT_EVENT = "/jax/compilation_cache/cache_hits"
+_MISS_EVENT = "/jax/compilation_cache/cache_misses"
+
+
+class CompileClock:
+    """Wall time JAX spends compiling while a ``with`` block runs, from JAX's own monitoring events.
+
+    ``seconds`` is the length of the union of the time spans of :data:`COMPILE_EVENTS` (tracing,
+    lowering, XLA compile or cache load): a jit traced inside another one's trace is counted once,
+    and compilations on other threads of the process count too. ``programs`` counts the XLA
+    compilations (each either compiled or loaded from the persistent cache), ``cache_hits`` those
+    loaded from it. Readable during and after the block; :meth:`seconds_between` gives the part of
+    ``seconds`` inside a window of ``time.time()`` stamps.
+
+    Example:
+        >>> with CompileClock() as clock:  # doctest: +SKIP
+        ...     f(x)
+        >>> clock.seconds, clock.programs  # doctest: +SKIP
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._spans: list[tuple[float, float]] = []
+        self.programs = 0
+        self.cache_hits = 0
+        self.cache_misses = 0
+
+    def _on_span(self, event: str, start_time: float, end_time: float, **kwargs: Any) -> None:
+        if event in COMPILE_EVENTS:
+            with self._lock:
+                self._spans.append((float(start_time), float(end_time)))
+                self.programs += event == _BACKEND_EVENT
+
+    def _on_event(self, event: str, **kwargs: Any) -> None:
+        if event in (_HIT_EVENT, _MISS_EVENT):
+            with self._lock:
+                if event == _HIT_EVENT:
+                    self.cache_hits += 1
+                else:
+                    self.cache_misses += 1
+
+    def __enter__(self) -> CompileClock:
+        from jax import monitoring
+
+        monitoring.register_event_time_span_listener(self._on_span)
+        monitoring.register_event_listener(self._on_event)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        from jax import monitoring
+
+        monitoring.unregister_event_time_span_listener(self._on_span)
+        monitoring.unregister_event_listener(self._on_event)
+
+    def seconds_between(self, t0: float = float("-inf"), t1: float = float("inf")) -> float:
+        """Seconds of compilation inside the window ``[t0, t1]`` (``time.time()`` stamps)."""
+        with self._lock:
+            spans = sorted((max(a, t0), min(b, t1)) for a, b in self._spans)
+        total, end = 0.0, float("-inf")
+        for a, b in spans:
+            if b <= a or b <= end:
+                continue
+            total += b - max(a, end)
+            end = b
+        return total
+
+    @property
+    def seconds(self) -> float:
+        """Seconds of compilation so far (union of the spans)."""
+        return self.seconds_between()
+
+    def meta(self) -> dict[str, Any]:
+        """Counts and the cache folder, for a result's ``meta`` (times go to ``meta["timing_s"]``)."""
+        return {
+            "programs": self.programs,
+            "cache_hits": self.cache_hits,
+            "cache_misses": self.cache_misses,
+            "cache_dir": cache_dir_in_use(),
+            "measured": "union of the time spans of JAX's monitoring events " + ", ".join(COMPILE_EVENTS),
+        }

@@ -1,0 +1,56 @@
+"""The global flags `--compile-cache DIR` / `--no-compile-cache` and JAXSTIFF_COMPILE_CACHE=0, each in a
+fresh process (JAX decides per process): files in the folder with the cache on, none with it off; the
+compile time apart on stderr and in meta["timing_s"] (a number, within the call's total)."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import jaxstiff
+
+
+@pytest.mark.slow
+def test_cache_flags_and_compile_time_reported(tmp_path):
+    p = jaxstiff.default_path()
+    csv = tmp_path / "small.csv"
+    jaxstiff.Path(p.points[:3], p.directions[:3]).to_csv(csv)
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COMPILATION_CACHE", "JAXSTIFF_"))}
+    shape = ["shape", "--path", str(csv), "--first-starts", "1"]
+    runs = {
+        "flag_on": (["--compile-cache", str(tmp_path / "on")], {}),
+        "flag_off": (["--no-compile-cache"], {"JAXSTIFF_CACHE_DIR": str(tmp_path / "off_flag")}),
+        "env_off": ([], {"JAXSTIFF_COMPILE_CACHE": "0", "JAXSTIFF_CACHE_DIR": str(tmp_path / "off_env")}),
+    }
+    procs = {
+        name: subprocess.Popen(
+            [sys.executable, "-m", "jaxstiff.cli", *flags, *shape, "--out", str(tmp_path / f"{name}.npz")],
+            env={**env, **extra},
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for name, (flags, extra) in runs.items()
+    }
+    outs = {name: pr.communicate(timeout=600) for name, pr in procs.items()}
+    for name, pr in procs.items():
+        assert pr.returncode == 0, outs[name][1]
+    assert len(os.listdir(tmp_path / "on")) >= 1
+    for d in ("off_flag", "off_env"):
+        assert not (tmp_path / d).exists() or os.listdir(tmp_path / d) == []
+    for name in runs:
+        err = outs[name][1]
+        assert "of which JAX compilation" in err, err
+        meta = json.loads(str(np.load(tmp_path / f"{name}.npz")["meta"]))
+        t = meta["timing_s"]
+        assert isinstance(t["compile"], float) and 0.0 < t["compile"] <= t["total"]
+        assert 0.0 <= t["compile_solve"] <= min(t["compile"], t["solve"]) + 1e-6
+        assert t["run"] == pytest.approx(t["total"] - t["compile"], abs=1e-6)
+        assert 0.0 <= t["compile_in_time_s"] <= t["compile_solve"] + 1e-9
+        assert meta["compilation"]["programs"] >= 1
+    cache_dirs = {n: json.loads(str(np.load(tmp_path / f"{n}.npz")["meta"]))["compilation"]["cache_dir"] for n in runs}
+    assert cache_dirs == {"flag_on": str(tmp_path / "on"), "flag_off": None, "env_off": None}
+    assert "no compilation cache" in outs["flag_off"][1]
