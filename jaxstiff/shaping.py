@@ -42,6 +42,8 @@ import numpy as np
 from jaxstiff.model.robot import Robot
 from jaxstiff.paths import Path
 from jaxstiff.results import files as R
+from jaxstiff.results.target import warn_missed_target
+from jaxstiff.runtime.compile_cache import CompileClock, ensure_compile_cache
 from jaxstiff.settings.robot import RobotSpec
 from jaxstiff.settings.shape import ShapeSettings
 from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
@@ -186,6 +188,8 @@ def shape(
     kj0: Any = None,
     dq: float | np.ndarray | None = None,
     dk: float | np.ndarray | None = None,
+    dq_per_m: float | np.ndarray | None = None,
+    dk_per_m: float | np.ndarray | None = None,
     kmin: float | None = None,
     kmax: float | None = None,
     c: float | None = None,
@@ -202,7 +206,7 @@ def shape(
 
     Every setting left out (None) comes from ``settings`` (default :class:`ShapeSettings()
     <jaxstiff.settings.ShapeSettings>`, whose defaults are given below); one given here wins over
-    ``settings``. Long only for its 24 documented parameters; the body is the named steps of the
+    ``settings``. Long only for its 26 documented parameters; the body is the named steps of the
     module docstring (:func:`check_inputs`, :func:`make_start_states`, solve, report, meta, result).
 
     Args:
@@ -236,6 +240,11 @@ def shape(
             or (B, n) per path and joint; ``inf`` = none. Default 2 deg.
         dk: stiffness rate limit per waypoint, Nm/rad: a number, (n,) or (B, n). Default 5.
             (n,) entries of rigid locked joints are ignored.
+        dq_per_m, dk_per_m: rate limits per metre of path instead of dq / dk (rad/m, m/m for
+            prismatic joints; Nm/rad/m): a number, (n,) or (B, n); each path's per-waypoint
+            limit is this times its shortest segment (:mod:`jaxstiff.settings.shape`), so the
+            result does not depend on the sampling density. Giving dq and dq_per_m (or dk and
+            dk_per_m) is a ValueError. Recorded in ``meta["settings"]``.
         kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax. Default 1, 100 (seed); not applied
             to rigid locked joints.
         c: f1's offset, deg (seed: 0.01), a number (the same for every path).
@@ -270,53 +279,81 @@ def shape(
     or a list of B numbers when the paths differ; ``meta["limits"]["dq"]``/``["dk"]`` n numbers,
     or B lists of n when the paths differ (see :func:`jaxstiff.results.path_parameters`).
     """
+    ensure_compile_cache()  # before the first compilation (cheap when already on)
     t_start = time.perf_counter()
-    base = settings if settings is not None else _DEFAULT_SETTINGS
-    if not isinstance(base, ShapeSettings):
-        raise ValueError(f"settings must be a jaxstiff.settings.ShapeSettings, got {type(base).__name__}")
-    given = {
-        "criterion": criterion,
-        "ratio": ratio,
-        "task": task,
-        "locked_joints": locked_joints,
-        "solver": solver,
-        "starts": starts,
-        "dq": dq,
-        "dk": dk,
-        "kmin": kmin,
-        "kmax": kmax,
-        "c": c,
-        "first_rate_limit": first_rate_limit,
-        "first_starts": first_starts,
-    }
-    values = {**dataclass_values(base), **{k: v for k, v in given.items() if v is not None}}
-    robot_, spec_meta, bpath = robot_and_path(robot, path)
-    inp = check_inputs(
-        robot_, bpath, values, base, cms_volume=cms_volume, cms_major=cms_major, options=options, pos_tol=pos_tol
-    )
-    inp.robot_spec = spec_meta
-    extra_starts = make_start_states(inp, q0, kj0)
-    t_solve = time.perf_counter()
-    problem, req, arrays, interrupted = _solve(inp, extra_starts, progress)
-    t_solved = time.perf_counter()
-    rep = report_at_solution(problem, inp, arrays, req.ratios)
-    cms = cms_factors(rep.K, inp)
-    warn_off_plane(rep.position, bpath, inp.task, stacklevel=3)
-    opts_meta = _options_meta(inp.solver, inp.starts, options)
-    use = _first_starts_use(inp.solver, opts_meta, inp.first_starts, inp.first_rate_limit)
-    timing = {
-        "setup": t_solve - t_start,
-        "solve": t_solved - t_solve,
-        "compile": arrays.get("compile_s"),
-        "total": time.perf_counter() - t_start,
-    }
-    meta = shape_meta(inp, arrays, opts_meta, use, timing, DEFAULTS, interrupted, cpu_async_dispatch())
-    if meta_extra:
-        meta.update(dict(meta_extra))
-    result = assemble_result(inp, arrays, rep, cms, meta)
+    with CompileClock() as clock:
+        base = settings if settings is not None else _DEFAULT_SETTINGS
+        if not isinstance(base, ShapeSettings):
+            raise ValueError(f"settings must be a jaxstiff.settings.ShapeSettings, got {type(base).__name__}")
+        given = {
+            "criterion": criterion,
+            "ratio": ratio,
+            "task": task,
+            "locked_joints": locked_joints,
+            "solver": solver,
+            "starts": starts,
+            "dq": dq,
+            "dk": dk,
+            "dq_per_m": dq_per_m,
+            "dk_per_m": dk_per_m,
+            "kmin": kmin,
+            "kmax": kmax,
+            "c": c,
+            "first_rate_limit": first_rate_limit,
+            "first_starts": first_starts,
+        }
+        values = {**dataclass_values(base), **{k: v for k, v in given.items() if v is not None}}
+        robot_, spec_meta, bpath = robot_and_path(robot, path)
+        inp = check_inputs(
+            robot_, bpath, values, base, cms_volume=cms_volume, cms_major=cms_major, options=options, pos_tol=pos_tol
+        )
+        inp.robot_spec = spec_meta
+        extra_starts = make_start_states(inp, q0, kj0)
+        marks = [time.perf_counter(), time.time()]  # the solve starts (perf_counter, wall clock)
+        problem, req, arrays, interrupted = _solve(inp, extra_starts, progress)
+        marks += [time.perf_counter(), time.time()]  # ... and ends
+        rep = report_at_solution(problem, inp, arrays, req.ratios)
+        cms = cms_factors(rep.K, inp)
+        warn_off_plane(rep.position, bpath, inp.task, stacklevel=3)
+        opts_meta = _options_meta(inp.solver, inp.starts, options)
+        use = _first_starts_use(inp.solver, opts_meta, inp.first_starts, inp.first_rate_limit)
+        timing = _timing(t_start, marks, clock, arrays.get("compile_s"))
+        meta = shape_meta(inp, arrays, opts_meta, use, timing, DEFAULTS, interrupted, cpu_async_dispatch())
+        meta["compilation"] = clock.meta()
+        if meta_extra:
+            meta.update(dict(meta_extra))
+        result = assemble_result(inp, arrays, rep, cms, meta)
     if interrupted:
         raise ShapeInterrupted(result)
+    warn_missed_target(result, stacklevel=3)  # usable waypoints off target: one warning, named
     return result
+
+
+def _timing(t_start: float, marks: list[float], clock: CompileClock, solver_compile: Any) -> dict[str, Any]:
+    """``meta["timing_s"]``: wall seconds of the call (``total``) and its phases (``setup``: inputs,
+    IK, start states; ``solve``; ``report``: report, CMS, meta), each with its compilation;
+    ``compile``: JAX compilation in the whole call (tracing, lowering, XLA compile or cache load:
+    :class:`~jaxstiff.runtime.compile_cache.CompileClock`), ``compile_solve`` the part in the solve,
+    ``run`` = ``total - compile``; ``solver_compile``: the solver's own measurement of what it
+    compiled before its first waypoint (kept out of the per-waypoint ``time_s``), None when the
+    solver reports none; ``compile_in_time_s``: compilation during the solve that the solver did
+    not keep apart (``compile_solve - solver_compile``, at least 0), an upper bound of the
+    compilation inside the per-waypoint ``time_s`` (0: ``time_s`` is run time only)."""
+    t_solve, w_solve, t_solved, w_solved = marks
+    now = time.perf_counter()
+    compile_s = clock.seconds
+    compile_solve = clock.seconds_between(w_solve, w_solved)
+    return {
+        "total": now - t_start,
+        "setup": t_solve - t_start,
+        "solve": t_solved - t_solve,
+        "report": now - t_solved,
+        "compile": compile_s,
+        "compile_solve": compile_solve,
+        "run": max(now - t_start - compile_s, 0.0),
+        "solver_compile": None if solver_compile is None else float(solver_compile),
+        "compile_in_time_s": max(compile_solve - float(solver_compile or 0.0), 0.0),
+    }
 
 
 def dataclass_values(s: ShapeSettings) -> dict[str, Any]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -19,7 +20,14 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.paths import Path
 from jaxstiff.settings.base import suggest
 from jaxstiff.settings.robot import RobotSpec
-from jaxstiff.settings.shape import ShapeSettings, limit_per_joint, ratio_per_path
+from jaxstiff.settings.shape import (
+    SEGMENT_SPREAD_WARN,
+    ShapeSettings,
+    limit_per_joint,
+    per_metre_limit,
+    ratio_per_path,
+    shortest_segments,
+)
 from jaxstiff.solvers.base import SOLVERS, check_options
 from jaxstiff.solvers.problem import content_seed
 from jaxstiff.stiffness.core import check_task_feasible, task_rows
@@ -266,6 +274,43 @@ def _locked_mode(value: Any) -> str:
     return str(value)
 
 
+def _rate_limits(
+    values: Mapping[str, Any], base: ShapeSettings, path: Path, n: int
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """Per-waypoint rate limits dq, dk ((n,) or (B, n)): given per waypoint, or per metre of path
+    times each path's shortest segment (:mod:`jaxstiff.settings.shape`); and the per-metre values
+    for the recorded settings (numbers only; arrays are recorded through dq/dk)."""
+    out, per_m = [], {}
+    default = ShapeSettings()
+    for key, unit in (("dq", "rad"), ("dk", "Nm/rad")):
+        pm = values.get(f"{key}_per_m")
+        if pm is None:
+            what = f"{key} ({'joint' if key == 'dq' else 'stiffness'} rate limit per waypoint)"
+            out.append(limit_per_joint(values[key], n, what, unit, path.B))
+            continue
+        # the per-waypoint value counts as given when it is not the settings' own or not the default
+        if values[key] is not getattr(base, key) or getattr(base, key) != getattr(default, key):
+            raise ValueError(
+                f"give {key} (per waypoint) or {key}_per_m (per metre of path), not both "
+                f"(command line: --{'dq-deg/--dq-m' if key == 'dq' else 'dk'} or --{key}-per-m)"
+            )
+        lo, hi = shortest_segments(path.points)
+        if np.any(hi > SEGMENT_SPREAD_WARN * lo) and not per_m.get("warned"):
+            b = int(np.argmax(hi / lo))
+            per_m["warned"] = True
+            warnings.warn(
+                f"rate limits per metre: the waypoints of path {b} are not evenly spaced (segments {1e3 * lo[b]:.3g} "
+                f"to {1e3 * hi[b]:.3g} mm); its per-waypoint limits use the shortest segment, so they are tighter "
+                "than asked on the longer ones (resample the path evenly by arc length for exact limits)",
+                stacklevel=4,
+            )
+        out.append(per_metre_limit(pm, lo, n, f"{key}_per_m", f"{unit} per metre of path"))
+        if np.ndim(pm) == 0:
+            per_m[f"{key}_per_m"] = float(pm)
+    per_m.pop("warned", None)
+    return out[0], out[1], per_m
+
+
 def check_inputs(
     robot: Robot,
     path: Path,
@@ -279,8 +324,8 @@ def check_inputs(
 ) -> ShapeInputs:
     """Step 1: check every input before any work (errors name the value, path and joint) and
     resolve the defaults. ``values`` holds every :class:`ShapeSettings` field, per-path arrays
-    allowed for ratio (B,), dq and dk ((n,) or (B, n)); ``base`` gives the settings recorded for
-    the rest."""
+    allowed for ratio (B,), dq, dk, dq_per_m, dk_per_m ((n,) or (B, n)); ``base`` gives the
+    settings recorded for the rest."""
     B, n, task, solver = path.B, robot.n, values["task"], values["solver"]
     locked = _locked_mode(values.get("locked_joints", "rigid"))
     if solver not in SOLVERS:
@@ -294,8 +339,7 @@ def check_inputs(
     ratio = ratio_per_path(values["ratio"], B)
     m = 2 if task == "xy" else 3
     kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)
-    dq = limit_per_joint(values["dq"], n, "dq (joint rate limit per waypoint)", "rad", B)
-    dk = limit_per_joint(values["dk"], n, "dk (stiffness rate limit per waypoint)", "Nm/rad", B)
+    dq, dk, per_m = _rate_limits(values, base, path, n)
     _check_planar(path, task)
     n_first = int(values["first_starts"])
     if n_first < 1:
@@ -314,6 +358,7 @@ def check_inputs(
         "first_rate_limit": bool(values["first_rate_limit"]),
         "first_starts": n_first,
         "cms_mean_axis": float(values["cms_mean_axis"]),
+        **per_m,
     }
     for key, one in (
         ("ratio", ratio if isinstance(ratio, float) else None),

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from jaxstiff.cli.common import check_out_file, command, robot_spec_from_args
 from jaxstiff.cli.shape_flags import EPILOG as EPILOG
 from jaxstiff.cli.shape_flags import add_shape_flags as add_shape_flags
+from jaxstiff.cli.shape_flags import limit_kwargs
 from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending, raise_if_interrupted
 from jaxstiff.runtime.progress import Progress, progress
 
@@ -72,28 +73,30 @@ class WaypointProgress:
 
 
 def summary_table(res: ShapeResult) -> str:
-    """Per path: waypoints, statuses, share with alpha < 1 deg, share with the ratio met, errors, time."""
+    """Per path: waypoints, statuses, share with alpha < 1 deg, share with the ratio met, share in
+    target (both; the one rule of :mod:`jaxstiff.results.target`), errors, time."""
     import numpy as np
 
     from jaxstiff.results.files import SOLVED, is_usable
+    from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL, ratio_targets, target_masks
 
-    r = float(res.meta["ratio"])
-    crit = res.meta["criterion"]
-    rlabel = f"rho>={0.98 * r:g}" if crit == "f1" else "|rho-r|<2%"
+    r_b = ratio_targets(res.meta, res.B)
+    crit = str(res.meta["criterion"])
+    tol = f"{100 * RATIO_REL_TOL:g}%"
+    rlabel = f"rho>={1 - RATIO_REL_TOL:g}r" if crit == "f1" else f"|rho-r|<{tol}"
     names = res.meta.get("path_files") or [res.meta.get("path", {}).get("name", "path")] * res.B
     lines = [
-        f"{'path':<24} {'P':>4} {'solved':>7} {'usable':>7} {'a<1deg':>7} {rlabel:>11} {'both':>6} "
-        f"{'max pos err (m)':>16} {'ms/waypoint':>12}"
+        f"{'path':<24} {'P':>4} {'solved':>7} {'usable':>7} {f'a<{ALPHA_TOL_DEG:g}deg':>7} {rlabel:>11} "
+        f"{'in target':>9} {'max pos err (m)':>16} {'ms/waypoint':>12}"
     ]
     for b in range(res.B):
-        a_ok = res.alpha_deg[b] < 1.0
-        r_ok = res.ratio[b] >= 0.98 * r if crit == "f1" else np.abs(res.ratio[b] - r) / r < 0.02
+        a_ok, r_ok = target_masks(res.alpha_deg[b], res.ratio[b], r_b[b], crit)
         usable = is_usable(res.status[b])
         perr = f"{float(res.pos_error[b][usable].max()):.2e}" if usable.any() else "n/a"
         name = os.path.basename(str(names[b])) if b < len(names) else f"path {b}"
         lines.append(
             f"{name[:24]:<24} {res.P:>4} {np.mean(res.status[b] == SOLVED):>7.0%} {np.mean(usable):>7.0%} "
-            f"{np.mean(a_ok):>7.0%} {np.mean(r_ok):>11.0%} {np.mean(a_ok & r_ok):>6.0%} {perr:>16} "
+            f"{np.mean(a_ok):>7.0%} {np.mean(r_ok):>11.0%} {np.mean(a_ok & r_ok):>9.0%} {perr:>16} "
             f"{1e3 * np.median(res.time_s[b]):>12.1f}"
         )
     return "\n".join(lines)
@@ -270,8 +273,7 @@ def run_shape(args: argparse.Namespace) -> int:
         starts=v["starts"],
         q0=None if q0 is None else np.asarray(q0),
         kj0=kj0,
-        dq=rate_limits(robot, v["dq_deg"], v["dq_m"]),
-        dk=v["dk"],
+        **limit_kwargs(args, rate_limits(robot, v["dq_deg"], v["dq_m"]), v["dk"]),
         kmin=v["kmin"],
         kmax=v["kmax"],
         c=v["c"],

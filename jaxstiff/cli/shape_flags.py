@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 import math
+from typing import Any
 
 from jaxstiff.cli.common import add_robot_flags, setting_help
 from jaxstiff.settings.shape import LOCKED_JOINT_MODES, TASKS, ShapeSettings
 
-__all__ = ["EPILOG", "add_shape_flags"]
+__all__ = ["EPILOG", "add_shape_flags", "limit_kwargs"]
 
 _S = ShapeSettings()
 EPILOG = (
@@ -67,7 +68,8 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
 
 
 def _add_limit_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
+    dq_group, dk_group = p.add_mutually_exclusive_group(), p.add_mutually_exclusive_group()
+    dq_group.add_argument(
         "--dq-deg",
         default=math.degrees(_S.dq),
         metavar="D",
@@ -80,7 +82,24 @@ def _add_limit_flags(p: argparse.ArgumentParser) -> None:
         help="rate limit of prismatic joints, m per waypoint (inf = none; default: the value of "
         "--dq-deg in radians read as metres, 2 -> 0.0349 m)",
     )
-    p.add_argument("--dk", default=_S.dk, metavar="K", help=setting_help(ShapeSettings, "dk", extra=" (inf = none)"))
+    dq_group.add_argument(
+        "--dq-per-m",
+        default=None,
+        metavar="RAD_PER_M",
+        help=setting_help(ShapeSettings, "dq_per_m", extra="; instead of --dq-deg and --dq-m")
+        + ": each path's limit per waypoint is this times its (shortest) segment length, so the result "
+        "does not depend on how densely the path is sampled",
+    )
+    dk_group.add_argument(
+        "--dk", default=_S.dk, metavar="K", help=setting_help(ShapeSettings, "dk", extra=" (inf = none)")
+    )
+    dk_group.add_argument(
+        "--dk-per-m",
+        default=None,
+        metavar="K_PER_M",
+        help=setting_help(ShapeSettings, "dk_per_m", extra="; instead of --dk")
+        + ": each path's limit per waypoint is this times its (shortest) segment length",
+    )
     p.add_argument("--kmin", default=_S.kmin, metavar="A", help=setting_help(ShapeSettings, "kmin", extra=", > 0"))
     p.add_argument("--kmax", default=_S.kmax, metavar="B", help=setting_help(ShapeSettings, "kmax", extra=", > kmin"))
     p.add_argument("--c", default=_S.c, metavar="C", help=setting_help(ShapeSettings, "c"))
@@ -143,3 +162,31 @@ def add_shape_flags(p: argparse.ArgumentParser) -> None:
     _add_problem_flags(p)
     _add_limit_flags(p)
     _add_solver_flags(p)
+
+
+def _per_metre(text: Any, flag: str) -> float | None:
+    if text is None:
+        return None
+    try:
+        x = float(text)
+    except (TypeError, ValueError):
+        raise ValueError(f"{flag}: expected a number, got {text!r}") from None
+    if math.isnan(x) or x < 0:
+        raise ValueError(f"{flag} must be >= 0 (per metre of path; inf = none), got {text}")
+    return x
+
+
+def limit_kwargs(args: argparse.Namespace, dq: Any, dk: Any) -> dict[str, Any]:
+    """The rate-limit arguments of :func:`jaxstiff.shape` from the flags: ``dq``/``dk`` per
+    waypoint (as read from --dq-deg/--dq-m and --dk), or, with --dq-per-m/--dk-per-m, the
+    per-metre ones as :class:`ShapeSettings` fields (``settings``) and that quantity's
+    per-waypoint argument left out. argparse refuses --dq-deg with --dq-per-m and --dk with
+    --dk-per-m; --dq-m with --dq-per-m is refused here."""
+    dq_pm = _per_metre(getattr(args, "dq_per_m", None), "--dq-per-m")
+    dk_pm = _per_metre(getattr(args, "dk_per_m", None), "--dk-per-m")
+    if dq_pm is not None and getattr(args, "dq_m", None) is not None:
+        raise ValueError("--dq-m (m per waypoint) and --dq-per-m (per metre of path) exclude each other")
+    out: dict[str, Any] = {"dq": None if dq_pm is not None else dq, "dk": None if dk_pm is not None else dk}
+    if dq_pm is not None or dk_pm is not None:
+        out["settings"] = ShapeSettings(dq_per_m=dq_pm, dk_per_m=dk_pm)
+    return out

@@ -31,6 +31,7 @@ meta            ()          JSON string: every input, default, solver setting, v
                             URDF path + sha256, base/tip link, locked joints, tcp
 ==============  ==========  ======================================================================
 
+Derived, not a file array: :attr:`ShapeResult.in_target` (B,P) (:mod:`jaxstiff.results.target`).
 Per-path parameters in ``meta``: ``ratio`` is a number (every path) or a list of B numbers;
 ``limits.dq`` / ``limits.dk`` are n numbers (every path) or B lists of n numbers; ``per_path``
 (newer files) names those given per path. :func:`path_parameters` reads either form (older
@@ -102,6 +103,7 @@ from jaxstiff.results.status import UNREACHABLE as UNREACHABLE
 from jaxstiff.results.status import USABLE as USABLE
 from jaxstiff.results.status import ShapeStatus as ShapeStatus
 from jaxstiff.results.status import is_usable as is_usable
+from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL, in_target, ratio_targets, target_masks
 from jaxstiff.runtime.io import file_sha256
 from jaxstiff.runtime.io import json_default as _json_default
 
@@ -168,6 +170,11 @@ class ShapeResult:
     @property
     def n(self) -> int:
         return int(self.q.shape[2])
+
+    @property
+    def in_target(self) -> np.ndarray:
+        """(B, P) bool: alpha and rho within the summary's tolerances (:mod:`jaxstiff.results.target`)."""
+        return in_target(self.alpha_deg, self.ratio, self.meta)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """All arrays by file key (``meta`` excluded)."""
@@ -262,25 +269,19 @@ class ShapeResult:
 
 
 # ---------------------------------------------------------------------- summaries
-def summary(res: ShapeResult, alpha_tol_deg: float = 1.0, ratio_rel_tol: float = 0.02) -> dict[str, Any]:
+def summary(res: ShapeResult, alpha_tol_deg: float = ALPHA_TOL_DEG, ratio_rel_tol: float = RATIO_REL_TOL) -> dict:
     """Headline numbers of a result (over all B x P waypoints).
 
     * ``share_alpha`` : share of waypoints with alpha < ``alpha_tol_deg``;
     * ``share_ratio`` : f2 and others: share with ``|rho - r| / r < ratio_rel_tol``; f1: share with
       ``rho >= (1 - ratio_rel_tol) r`` (f1 asks for *at least* r);
-    * ``share_both``  : both at once; ``share_usable``, ``share_solved``: status 0-2, status 0;
+    * ``share_both``  : both (:attr:`ShapeResult.in_target`); ``share_usable``, ``share_solved``: status 0-2, 0;
     * ``max_pos_error`` (m), ``median_time_s`` and ``mean_time_s`` per waypoint, ``total_time_s``.
     """
     r_raw = res.meta.get("ratio", np.nan)
-    r_raw = np.nan if r_raw is None else r_raw
-    r_b = np.broadcast_to(np.asarray(r_raw, float), (res.B,))
-    r = r_b[:, None]  # one target per path
+    r_b = ratio_targets(res.meta, res.B)  # one target per path; the rule: jaxstiff.results.target
     crit = str(res.meta.get("criterion", ""))
-    a_ok = res.alpha_deg < alpha_tol_deg
-    if crit == "f1":
-        r_ok = res.ratio >= (1.0 - ratio_rel_tol) * r
-    else:
-        r_ok = np.abs(res.ratio - r) / r < ratio_rel_tol
+    a_ok, r_ok = target_masks(res.alpha_deg, res.ratio, r_b[:, None], crit, alpha_tol_deg, ratio_rel_tol)
     usable = is_usable(res.status)
     return {
         "B": res.B,

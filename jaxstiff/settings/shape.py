@@ -9,6 +9,15 @@ their units (``meta["settings"]``).
 ``ratio``, ``dq`` and ``dk`` may also be given per path (and per joint) to :func:`jaxstiff.shape`;
 :func:`ratio_per_path` and :func:`limit_per_joint` check those arrays, naming the path and joint
 of a bad value.
+
+Rate limits per metre of path (``dq_per_m``, ``dk_per_m``; default None: the per-waypoint ``dq``
+and ``dk`` apply) make a result independent of how densely the path is sampled. Each path's
+per-waypoint limit is the per-metre limit times that path's segment length, its *shortest* one
+when the waypoints are not evenly spaced (so the per-metre limit holds on every segment; on longer
+segments the limit is then tighter than asked, and :func:`jaxstiff.shape` warns when they differ
+by more than :data:`SEGMENT_SPREAD_WARN`): :func:`per_metre_limit`. The same segment length
+serves the first waypoint when ``first_rate_limit`` is on. A per-metre limit and an explicit
+per-waypoint one for the same quantity are refused together.
 """
 
 from __future__ import annotations
@@ -31,12 +40,21 @@ __all__ = [
     "DEFAULT_DQ_DEG",
     "ratio_per_path",
     "limit_per_joint",
+    "per_metre_limit",
+    "shortest_segments",
+    "SEGMENT_SPREAD_WARN",
 ]
 
 CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
 TASKS = ("full", "xyz", "xy")  #: task rows of the stiffness (SPEC section 2)
 SOLVER_NAMES = ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory")  #: the shipped solvers
 DEFAULT_DQ_DEG = 2.0  #: joint rate limit, degrees per waypoint (the seed leaves it open)
+#: per-metre limits: warn when a path's longest segment exceeds its shortest by this factor
+SEGMENT_SPREAD_WARN = 1.1
+
+
+def _optional_non_negative(v: object) -> str | None:
+    return None if v is None else non_negative(v)
 
 
 def _ratio(v: object) -> str | None:
@@ -78,6 +96,18 @@ class ShapeSettings(Settings):
         unit="Nm/rad per waypoint (N/m for prismatic joints)",
         doc="joint stiffness rate limit (S0-13, S0-14)",
         check=non_negative,
+    )
+    dq_per_m: float | None = setting(
+        None,
+        unit="rad per metre of path (m per m for prismatic joints)",
+        doc="joint rate limit per metre of path instead of dq (None: dq per waypoint applies)",
+        check=_optional_non_negative,
+    )
+    dk_per_m: float | None = setting(
+        None,
+        unit="Nm/rad per metre of path",
+        doc="joint stiffness rate limit per metre of path instead of dk (None: dk per waypoint applies)",
+        check=_optional_non_negative,
     )
     kmin: float = setting(1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive)
     kmax: float = setting(100.0, unit="Nm/rad", doc="highest joint stiffness", check=positive)
@@ -123,6 +153,34 @@ def limit_per_joint(value: Any, n: int, what: str, unit: str, B: int = 1) -> np.
     if a.ndim == 2 and np.all(a == a[:1]):
         a = a[0].copy()
     return a
+
+
+def shortest_segments(points: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Per path of ``points`` (B, P, 3) (m): the shortest and the longest distance between
+    consecutive waypoints, each (B,) in m. Needs P >= 2 and no repeated waypoint (ValueError)."""
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 3 or pts.shape[1] < 2:
+        raise ValueError("rate limits per metre of path need paths of at least 2 waypoints")
+    seg = np.linalg.norm(np.diff(pts, axis=1), axis=-1)  # (B, P-1)
+    lo = seg.min(axis=1)
+    if np.any(~(lo > 0)):
+        b = int(np.flatnonzero(~(lo > 0))[0])
+        p = int(np.argmin(seg[b]))
+        raise ValueError(
+            f"rate limits per metre of path: path {b} repeats a waypoint ({p} and {p + 1} coincide), "
+            "so its per-waypoint limit would be 0"
+        )
+    return lo, seg.max(axis=1)
+
+
+def per_metre_limit(value: Any, segment_m: Any, n: int, what: str, unit: str) -> np.ndarray:
+    """A per-metre rate limit (a number, (n,) or (B, n); ``unit`` per metre) times each path's
+    segment length ``segment_m`` (B,) (m): the per-waypoint limit, (n,) when every path gets the
+    same row, else (B, n) (as :func:`limit_per_joint`). ``inf`` stays ``inf`` (no limit)."""
+    seg = np.asarray(segment_m, dtype=float).reshape(-1)
+    B = seg.shape[0]
+    per_m = limit_per_joint(value, n, what, unit, B)
+    return limit_per_joint(np.broadcast_to(per_m, (B, n)) * seg[:, None], n, what, unit, B)
 
 
 def ratio_per_path(value: Any, B: int) -> float | np.ndarray:

@@ -79,13 +79,11 @@ def shape_row_metrics(
 ) -> dict[str, float]:
     """Metrics of one shaped path from its per-waypoint arrays (each (P,)). See the module docstring."""
     from jaxstiff.results.files import SOLVED, UNREACHABLE, is_usable
+    from jaxstiff.results.target import target_masks
 
     usable = is_usable(status)
-    a_ok = alpha_deg < alpha_tol_deg
-    if criterion == "f1":
-        r_ok = ratio >= (1.0 - ratio_rel_tol) * ratio_target
-    else:
-        r_ok = np.abs(ratio - ratio_target) / ratio_target < ratio_rel_tol
+    # the one "in target" rule (jaxstiff.results.target), with the sweep's configured tolerances
+    a_ok, r_ok = target_masks(alpha_deg, ratio, ratio_target, criterion, alpha_tol_deg, ratio_rel_tol)
     u = usable
     return {
         "share_both": float(np.mean(u & a_ok & r_ok)),

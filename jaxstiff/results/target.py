@@ -1,0 +1,163 @@
+""" "In target": the one rule for whether a waypoint's ellipsoid meets the wanted shape.
+
+A waypoint is *in target* when its ellipsoid points along the desired direction and has the
+wanted axis ratio, within the tolerances every report uses:
+
+* alpha: ``alpha_deg < ALPHA_TOL_DEG`` (1 degree);
+* rho: criterion f1 asks for *at least* r: ``rho >= (1 - RATIO_REL_TOL) r``; f2 and any other
+  criterion ask for r itself: ``|rho - r| / r < RATIO_REL_TOL`` (2 %).
+
+A NaN alpha or rho is never in target. The flag is about the shape only; whether the point is
+feasible is its status (0-2 usable, :mod:`jaxstiff.results.status`). Status 0 keeps its meaning
+(feasible and, for SLSQP, the optimiser converged): a greedy solver can converge at every waypoint
+while the rate limits hold the ellipsoid away from the target, so :func:`missed_target_warning`
+names the usable waypoints that miss it.
+
+The flag is derived from the file's ``alpha_deg``, ``ratio`` and ``meta`` (``criterion``,
+``ratio``), not stored as an array: :attr:`jaxstiff.ShapeResult.in_target` computes it, so old
+files get it too and it cannot disagree with the arrays it comes from. With numpy alone:
+``(alpha_deg < 1) & (abs(ratio - r) / r < 0.02)`` (f2).
+
+Used by :func:`jaxstiff.results.summary` (``share_alpha``, ``share_ratio``, ``share_both``), the
+``jaxstiff shape`` summary table and the warning at the end of :func:`jaxstiff.shape`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from jaxstiff.results.status import is_usable
+
+__all__ = [
+    "ALPHA_TOL_DEG",
+    "RATIO_REL_TOL",
+    "GREEDY_SOLVERS",
+    "target_masks",
+    "ratio_targets",
+    "in_target",
+    "compress_ranges",
+    "missed_target_waypoints",
+    "missed_target_warning",
+    "MissedTargetWarning",
+    "warn_missed_target",
+]
+
+ALPHA_TOL_DEG = 1.0  #: largest orientation error of a waypoint in target, degrees (exclusive)
+RATIO_REL_TOL = 0.02  #: largest relative axis-ratio error of a waypoint in target (exclusive)
+#: solvers that go waypoint by waypoint (each waypoint's best within its rate box, never looking ahead)
+GREEDY_SOLVERS = ("slsqp", "slsqp-fd", "pgd")
+
+
+def target_masks(
+    alpha_deg: Any,
+    ratio: Any,
+    r: Any,
+    criterion: str,
+    alpha_tol_deg: float = ALPHA_TOL_DEG,
+    ratio_rel_tol: float = RATIO_REL_TOL,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(alpha_ok, ratio_ok)``, boolean arrays of the broadcast shape of ``alpha_deg``,
+    ``ratio`` and the wanted ratio ``r`` (the module docstring's rule)."""
+    alpha = np.asarray(alpha_deg, float)
+    rho = np.asarray(ratio, float)
+    r = np.asarray(r, float)
+    a_ok = alpha < alpha_tol_deg
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if criterion == "f1":
+            r_ok = rho >= (1.0 - ratio_rel_tol) * r
+        else:
+            r_ok = np.abs(rho - r) / r < ratio_rel_tol
+    return a_ok, r_ok
+
+
+def ratio_targets(meta: Mapping[str, Any], B: int) -> np.ndarray:
+    """The wanted ratio of each path (B,) from a result's ``meta["ratio"]`` (a number or B
+    numbers; missing: NaN, so nothing is in target)."""
+    raw = meta.get("ratio")
+    return np.broadcast_to(np.asarray(np.nan if raw is None else raw, float), (B,)).copy()
+
+
+def in_target(
+    alpha_deg: np.ndarray,
+    ratio: np.ndarray,
+    meta: Mapping[str, Any],
+    alpha_tol_deg: float = ALPHA_TOL_DEG,
+    ratio_rel_tol: float = RATIO_REL_TOL,
+) -> np.ndarray:
+    """Per waypoint (B, P) bool: alpha and rho both within the tolerances (module docstring), the
+    wanted ratio and criterion taken from ``meta``."""
+    B = np.shape(alpha_deg)[0]
+    r = ratio_targets(meta, B)[:, None]
+    a_ok, r_ok = target_masks(alpha_deg, ratio, r, str(meta.get("criterion", "")), alpha_tol_deg, ratio_rel_tol)
+    return a_ok & r_ok
+
+
+def compress_ranges(indices: Sequence[int] | np.ndarray) -> str:
+    """``[0, 1, 2, 5, 7, 8]`` -> ``"0-2, 5, 7-8"`` (sorted, duplicates dropped; ``""`` if empty)."""
+    idx = sorted({int(i) for i in np.asarray(indices).ravel()})
+    parts: list[str] = []
+    i = 0
+    while i < len(idx):
+        j = i
+        while j + 1 < len(idx) and idx[j + 1] == idx[j] + 1:
+            j += 1
+        parts.append(str(idx[i]) if i == j else f"{idx[i]}-{idx[j]}")
+        i = j + 1
+    return ", ".join(parts)
+
+
+def missed_target_waypoints(status: np.ndarray, flag: np.ndarray) -> dict[int, np.ndarray]:
+    """Per path b (only those with any): the usable waypoints (status 0-2) that are not in target."""
+    miss = is_usable(np.asarray(status)) & ~np.asarray(flag, bool)
+    return {int(b): np.flatnonzero(miss[b]) for b in range(miss.shape[0]) if miss[b].any()}
+
+
+def missed_target_warning(status: np.ndarray, flag: np.ndarray, meta: Mapping[str, Any]) -> str | None:
+    """The text of the one warning at the end of :func:`jaxstiff.shape`: which usable waypoints
+    miss the target (compressed ranges per path, 0-based) and what to try; None when none does."""
+    missed = missed_target_waypoints(status, flag)
+    if not missed:
+        return None
+    count = sum(len(v) for v in missed.values())
+    usable = int(is_usable(np.asarray(status)).sum())
+    where = "; ".join(f"path {b}: waypoints {compress_ranges(v)}" for b, v in missed.items())
+    crit = str(meta.get("criterion", ""))
+    rule = f"rho >= {1 - RATIO_REL_TOL:g} r" if crit == "f1" else f"|rho - r| / r < {RATIO_REL_TOL:g}"
+    solver = str(meta.get("solver", ""))
+    settings = meta.get("settings") or {}
+    per_m = "" if settings.get("dq_per_m") is not None else ", or limits per metre of path (dq_per_m / dk_per_m)"
+    if solver in GREEDY_SOLVERS:
+        advice = (
+            f"solver {solver!r} goes waypoint by waypoint and cannot look ahead, so its status 0 (solved: "
+            "feasible, optimiser converged) does not mean in target; try solver='trajectory' "
+            f"(--solver trajectory) or 'hybrid', or looser rate limits{per_m}"
+        )
+    else:
+        advice = (
+            "status 0 (solved) means feasible, not in target; the rate limits may be too tight for the "
+            f"path's turns: try looser limits{per_m}"
+            + ("" if solver == "trajectory" else ", or solver='trajectory' (--solver trajectory)")
+        )
+    return (
+        f"{count} of {usable} usable waypoints miss the target (alpha < {ALPHA_TOL_DEG:g} deg and {rule}): "
+        f"{where}; {advice}"
+    )
+
+
+class MissedTargetWarning(UserWarning):
+    """Usable waypoints whose ellipsoid misses the target (:func:`warn_missed_target`)."""
+
+
+def warn_missed_target(res: Any, stacklevel: int = 3) -> str | None:
+    """Warn once (:class:`MissedTargetWarning`) when usable waypoints of ``res`` (a
+    :class:`~jaxstiff.ShapeResult`; typed loosely: this module sits below it) miss the target;
+    returns the text (None: every usable waypoint is in target). Called at the end of
+    :func:`jaxstiff.shape` (``stacklevel`` 3 points at shape's caller)."""
+    text = missed_target_warning(res.status, res.in_target, res.meta)
+    if text is not None:
+        warnings.warn(text, MissedTargetWarning, stacklevel=stacklevel)
+    return text
