@@ -557,8 +557,8 @@ def test_every_joint_saturating_moves_to_the_limits_without_nan():
 @pytest.mark.slow
 def test_locked_joint_never_moves_lwr():
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.3, "lwr_a3": -0.2})
-    q0 = np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0])  # a3, a7 replaced by their locked values
-    x0 = numpy_fk(robot, np.where(robot.free, q0, robot.locked_values))[:3, 3]
+    q0 = np.where(robot.free, np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0]), robot.locked_values)
+    x0 = numpy_fk(robot, q0)[:3, 3]
     t = np.linspace(0.0, 1.0, 60)[:, None]
     path = x0 + 0.1 * np.hstack([np.sin(np.pi * t), t - t**2, 0.0 * t])
     K = np.diag([3000.0, 1000.0, 2000.0])

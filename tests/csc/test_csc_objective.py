@@ -160,12 +160,18 @@ def test_frobenius_rollout_gradient_matches_central_differences(locked_joints):
     lf = lambda b, q, s: float(loss(jnp.asarray(b), jnp.asarray(q), jnp.asarray(s)))  # noqa: E731
     fd_b = central_diff(lambda x: lf(x[0], q0, 1.0), np.array([2.0]), h=1e-5)[0, 0]
     fd_s = central_diff(lambda x: lf(2.0, q0, x[0]), np.array([1.0]), h=1e-6)[0, 0]
-    fd_q = central_diff(lambda x: lf(2.0, x, 1.0), q0, h=1e-6)[0]
+    free = robot.free
+
+    def with_free(x: np.ndarray) -> np.ndarray:  # a locked joint's q0 stays at its value (else refused)
+        q = q0.copy()
+        q[free] = x
+        return q
+
+    fd_q = central_diff(lambda x: lf(2.0, with_free(x), 1.0), q0[free], h=1e-6)[0]
     assert float(g[0]) == pytest.approx(fd_b, rel=1e-5, abs=1e-6)
     assert float(g[2]) == pytest.approx(fd_s, rel=1e-5, abs=1e-6)
-    free = robot.free
-    np.testing.assert_allclose(np.asarray(g[1])[free], fd_q[free], rtol=1e-5, atol=1e-5 * np.abs(fd_q).max())
-    assert np.all(np.asarray(g[1])[~free] == 0.0)  # q0 of a locked joint is replaced by its locked value
+    np.testing.assert_allclose(np.asarray(g[1])[free], fd_q, rtol=1e-5, atol=1e-5 * np.abs(fd_q).max())
+    assert np.all(np.asarray(g[1])[~free] == 0.0)  # a locked joint's q0 is held at its locked value
 
 
 @pytest.mark.slow
@@ -252,7 +258,8 @@ def test_locked_spring_is_the_former_behaviour():
     with np.load(os.path.join(HERE, "data", "csc_lwr_full_spring_before.npz")) as f:
         ref = dict(f)
     K6 = np.diag([3000.0, 1000.0, 2000.0, 100.0, 100.0, 100.0])
-    r = csc.csc_rollout(LWR_A7, ref["targets"], K6, ref["q0"], 2.0, locked_joints="spring")
+    # written with the former default newton=0 (no Newton correction inside a step)
+    r = csc.csc_rollout(LWR_A7, ref["targets"], K6, ref["q0"], 2.0, locked_joints="spring", newton=0)
     for name in ("q", "u", "frobenius", "kj", "K_C", "u_start", "frobenius_start", "null_step", "status"):
         np.testing.assert_allclose(np.asarray(getattr(r, name)), ref[name], rtol=1e-9, atol=1e-9, err_msg=name)
     rigid = csc.csc_rollout(LWR_A7, ref["targets"], K6, ref["q0"], 2.0)
