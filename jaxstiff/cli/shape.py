@@ -99,6 +99,12 @@ def summary_table(res: ShapeResult) -> str:
             f"{np.mean(a_ok):>7.0%} {np.mean(r_ok):>11.0%} {np.mean(a_ok & r_ok):>9.0%} {perr:>16} "
             f"{1e3 * np.median(res.time_s[b]):>12.1f}"
         )
+    inside = float((res.meta.get("timing_s") or {}).get("compile_in_time_s") or 0.0)
+    if inside > 0.05 * float(np.sum(res.time_s)):
+        lines.append(
+            f"(ms/waypoint includes up to {inside:.1f} s of JAX compilation inside solver "
+            f"{res.meta.get('solver')!r}'s timed calls; a second run with the compilation cache shows the run time)"
+        )
     return "\n".join(lines)
 
 
