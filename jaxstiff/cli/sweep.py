@@ -51,6 +51,7 @@ def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int
     def run(args: argparse.Namespace) -> int:
         # (looked up on the package at call time: tests replace jaxstiff.sweep.run_sweep)
         from jaxstiff.sweep import load_config, run_sweep
+        from jaxstiff.sweep.backends import ChunkLostError
 
         plan = load_config(args.config)
         if args.dry_run:
@@ -72,6 +73,9 @@ def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int
                 report=not args.no_report,
                 compile_cache=not args.no_compile_cache,
             )
+        except ChunkLostError as e:
+            print(f"jaxstiff: error: {e}", file=sys.stderr)
+            return 1
         except KeyboardInterrupt:
             print(
                 f"jaxstiff: interrupted; finished chunks are saved in {args.out}; "

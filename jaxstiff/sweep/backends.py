@@ -27,6 +27,8 @@ __all__ = [
     "Progress",
     "run_local",
     "run_ray",
+    "RAY_MAX_RETRIES",
+    "ChunkLostError",
     "ray_task",
     "import_ray",
     "default_cache_dir",
@@ -34,6 +36,13 @@ __all__ = [
 ]
 
 BACKENDS = ("local", "ray")
+#: how often Ray reruns a chunk whose worker process died (Ray's own default, made explicit)
+RAY_MAX_RETRIES = 3
+
+
+class ChunkLostError(RuntimeError):
+    """A chunk whose Ray worker died more than :data:`RAY_MAX_RETRIES` times; the committed chunks
+    stay, and ``--resume`` finishes the sweep."""
 
 OnCommit = Callable[[int], None] | None
 
@@ -136,14 +145,23 @@ def run_ray(
         started = True
     pending: dict = {}
     try:
-        task = ray.remote(num_cpus=1)(ray_task)
+        # a worker process that dies mid-chunk (killed, out of memory, node lost) is retried on
+        # another worker up to RAY_MAX_RETRIES times; the chunk's result is deterministic, so the table
+        # is that of an uninterrupted run (tests/sweep/test_sweep_ray_lost_worker.py)
+        task = ray.remote(num_cpus=1, max_retries=RAY_MAX_RETRIES)(ray_task)
         plan_ref = ray.put(plan)
         pending = {task.remote(plan_ref, c.id, cache_dir): c.id for c in todo}
         while pending:
             ready, _ = ray.wait(list(pending), num_returns=1)
             for ref in ready:
                 cid = pending.pop(ref)
-                payload = ray.get(ref)
+                try:
+                    payload = ray.get(ref)
+                except ray.exceptions.WorkerCrashedError as e:  # retries exhausted
+                    raise ChunkLostError(
+                        f"chunk {cid}: its Ray worker died {RAY_MAX_RETRIES + 1} times ({type(e).__name__}); "
+                        "the chunks committed so far are kept: run the same command with --resume to finish"
+                    ) from None
                 store.commit(payload)
                 prog.chunk_done(cid, len(payload["rows"]))
                 if on_commit is not None:
