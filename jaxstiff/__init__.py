@@ -1,45 +1,126 @@
 """jaxstiff: stiffness-ellipsoid shaping and Configuration-based Stiffness Control in JAX.
 
-The public names are re-exported here explicitly; see DESIGN.md for the contract and the layers.
+The public names (``__all__``; DESIGN.md has the contract and the layers) are loaded on first use
+(PEP 562 module ``__getattr__``): ``import jaxstiff`` imports neither JAX nor the solvers, so that
+commands which only read result files (``jaxstiff view``) start fast. ``jaxstiff.fk`` and the like
+import their module the first time they are used; ``from jaxstiff import fk`` works as before.
 """
-# ruff: noqa: E402  (the early-signal recorder must run before anything imports JAX)
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 # first, before JAX is imported: a Ctrl-C while the `jaxstiff` command starts up is remembered,
 # not lost (see jaxstiff.runtime.early_signals; nothing changes when imported as a library)
 from .runtime.early_signals import record_early_signals as _record_early_signals
+from .runtime.version import __version__ as __version__
 
 _record_early_signals()
 
-# the former module paths (jaxstiff.ellipsoid, ...) are loaded before the names that shadow them
-from .criteria import f1 as f1
-from .criteria import f2 as f2
-from .criteria import frobenius as frobenius
-from .criteria import get_criterion as get_criterion
-from .criteria import offdiag as offdiag
-from .criteria import register_criterion as register_criterion
-from .csc import CSCResult as CSCResult
-from .csc import csc_rollout as csc_rollout
-from .csc import csc_rollout_segments as csc_rollout_segments
-from .ellipsoid import Ellipsoid as Ellipsoid
-from .ellipsoid import ellipsoid as ellipsoid
-from .ellipsoid import orientation_error as orientation_error
-from .kinematics import fk as fk
-from .kinematics import fk_and_jacobian as fk_and_jacobian
-from .kinematics import jacobian as jacobian
-from .kinematics import position_and_jacobian as position_and_jacobian
-from .paths import Path as Path
-from .paths import default_path as default_path
-from .results import ShapeResult as ShapeResult
-from .robot import Robot as Robot
-from .robot import robot_path as robot_path
-from .robot import shipped_robots as shipped_robots
-from .runtime.version import __version__ as __version__
-from .settings import RobotSpec as RobotSpec
-from .settings import ShapeSettings as ShapeSettings
-from .shaping import shape as shape
-from .stiffness import cartesian_stiffness as cartesian_stiffness
-from .stiffness import cms_factor as cms_factor
-from .stiffness import cms_scale as cms_scale
-from .stiffness import compliance_condition as compliance_condition
-from .stiffness import joint_stiffness as joint_stiffness
-from .stiffness import translational_stiffness as translational_stiffness
+#: public name -> the module (relative to this package) that defines it. ``Ellipsoid``,
+#: ``ellipsoid`` and ``orientation_error`` come from ``stiffness.ellipsoid``, not from the former
+#: module path ``jaxstiff.ellipsoid``, whose import would rebind the name ``jaxstiff.ellipsoid``.
+_SOURCES = {
+    ".criteria": ("f1", "f2", "frobenius", "get_criterion", "offdiag", "register_criterion"),
+    ".csc": ("CSCResult", "csc_rollout", "csc_rollout_segments"),
+    ".stiffness.ellipsoid": ("Ellipsoid", "ellipsoid", "orientation_error"),
+    ".kinematics": ("fk", "fk_and_jacobian", "jacobian", "position_and_jacobian"),
+    ".paths": ("Path", "default_path"),
+    ".results": ("ShapeResult",),
+    ".robot": ("Robot", "robot_path", "shipped_robots"),
+    ".settings": ("RobotSpec", "ShapeSettings"),
+    ".shaping": ("shape",),
+    ".stiffness": (
+        "cartesian_stiffness",
+        "cms_factor",
+        "cms_scale",
+        "compliance_condition",
+        "joint_stiffness",
+        "translational_stiffness",
+    ),
+}
+_LAZY = {name: module for module, names in _SOURCES.items() for name in names}
+
+__all__ = [
+    "CSCResult",
+    "Ellipsoid",
+    "Path",
+    "Robot",
+    "RobotSpec",
+    "ShapeResult",
+    "ShapeSettings",
+    "__version__",
+    "cartesian_stiffness",
+    "cms_factor",
+    "cms_scale",
+    "compliance_condition",
+    "csc_rollout",
+    "csc_rollout_segments",
+    "default_path",
+    "ellipsoid",
+    "f1",
+    "f2",
+    "fk",
+    "fk_and_jacobian",
+    "frobenius",
+    "get_criterion",
+    "jacobian",
+    "joint_stiffness",
+    "offdiag",
+    "orientation_error",
+    "position_and_jacobian",
+    "register_criterion",
+    "robot_path",
+    "shape",
+    "shipped_robots",
+    "translational_stiffness",
+]  # the names of _SOURCES and the version
+
+
+def __getattr__(name: str) -> Any:
+    """Load a public name from its module on first use (and keep it here)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'jaxstiff' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:  # the names as the type checker and the IDE see them
+    from .criteria import f1 as f1
+    from .criteria import f2 as f2
+    from .criteria import frobenius as frobenius
+    from .criteria import get_criterion as get_criterion
+    from .criteria import offdiag as offdiag
+    from .criteria import register_criterion as register_criterion
+    from .csc import CSCResult as CSCResult
+    from .csc import csc_rollout as csc_rollout
+    from .csc import csc_rollout_segments as csc_rollout_segments
+    from .kinematics import fk as fk
+    from .kinematics import fk_and_jacobian as fk_and_jacobian
+    from .kinematics import jacobian as jacobian
+    from .kinematics import position_and_jacobian as position_and_jacobian
+    from .paths import Path as Path
+    from .paths import default_path as default_path
+    from .results import ShapeResult as ShapeResult
+    from .robot import Robot as Robot
+    from .robot import robot_path as robot_path
+    from .robot import shipped_robots as shipped_robots
+    from .settings import RobotSpec as RobotSpec
+    from .settings import ShapeSettings as ShapeSettings
+    from .shaping import shape as shape
+    from .stiffness import cartesian_stiffness as cartesian_stiffness
+    from .stiffness import cms_factor as cms_factor
+    from .stiffness import cms_scale as cms_scale
+    from .stiffness import compliance_condition as compliance_condition
+    from .stiffness import joint_stiffness as joint_stiffness
+    from .stiffness import translational_stiffness as translational_stiffness
+    from .stiffness.ellipsoid import Ellipsoid as Ellipsoid
+    from .stiffness.ellipsoid import ellipsoid as ellipsoid
+    from .stiffness.ellipsoid import orientation_error as orientation_error

@@ -19,6 +19,39 @@ from .view import add_result_flags
 FORMATS = (".png", ".svg", ".pdf")  #: by the suffix of --out (jaxstiff.plots.save_figure)
 
 
+def parse_waypoints(text: str, P: int) -> list[int]:
+    """``--waypoints``: a spacing ``N`` (every N-th waypoint from 0) or a pick list ``I,J,...`` of
+    0-based waypoint indices (sorted, repeats dropped); a ValueError for other text or an index
+    outside 0..P-1."""
+    parts = [t.strip() for t in str(text).split(",") if t.strip()]
+    try:
+        values = [int(t) for t in parts]
+    except ValueError:
+        raise ValueError(f"--waypoints {text!r}: give a spacing N or indices like 0,10,20") from None
+    if not values:
+        raise ValueError("--waypoints: give a spacing N or indices like 0,10,20")
+    if len(parts) == 1 and "," not in str(text):
+        if values[0] < 1:
+            raise ValueError(f"--waypoints {text}: a spacing must be a positive number of waypoints")
+        return list(range(0, P, values[0]))
+    bad = [v for v in values if not 0 <= v < P]
+    if bad:
+        raise ValueError(f"--waypoints {text}: index {bad[0]} is out of range; the path has {P} waypoints, 0..{P - 1}")
+    return sorted(set(values))
+
+
+def spacing_of(picks: list[int], P: int) -> int:
+    """The spacing N when ``picks`` are every N-th waypoint of the P (what the shape figure draws
+    today); a ValueError for other pick lists, which it cannot draw yet."""
+    step = max(picks[1] - picks[0], 1) if len(picks) > 1 else P
+    if picks == list(range(0, P, step)):
+        return step
+    raise ValueError(
+        f"--waypoints {','.join(map(str, picks))}: the shape figure draws every N-th waypoint from 0 to the "
+        f"end (of 0..{P - 1}), e.g. --waypoints 10; other pick lists need figure_shape_path(waypoints=...)"
+    )
+
+
 @command("plot", "draw a result's figure (shape: seed 000's panels; csc: u and Frobenius error)")
 def _add_plot(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
@@ -26,10 +59,10 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
     p.add_argument("--path", type=int, default=0, help="shape: which path of a batch (0-based)")
     p.add_argument(
         "--waypoints",
-        type=int,
-        default=5,
-        metavar="N",
-        help="shape: draw the ellipses of every N-th waypoint (the 3-D panel every 2N-th)",
+        default="5",
+        metavar="N|I,J,...",
+        help="shape: which waypoints' ellipses to draw: a spacing N (every N-th waypoint from 0, the 3-D panel "
+        "every 2N-th; the former form) or a pick list of 0-based indices, e.g. 0,10,20 (default: 5)",
     )
 
     def run(args: argparse.Namespace) -> int:
@@ -40,8 +73,6 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
         ext = os.path.splitext(args.out)[1].lower()
         if ext not in FORMATS:
             raise ValueError(f"--out {args.out}: write a .png, .svg or .pdf figure (got {ext or 'no suffix'!r})")
-        if args.waypoints < 1:
-            raise ValueError(f"--waypoints must be a positive number of waypoints, got {args.waypoints}")
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if data.kind == "shape":
             from jaxstiff.plots import figure_shape_path
@@ -59,7 +90,8 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
             else:
                 b = args.path
             title = f"{os.path.basename(data.source)}: {data.labels[0 if args.row is not None else b]}"
-            written = figure_shape_path(res, data.robot, args.out, title, every=args.waypoints, b=b)
+            every = spacing_of(parse_waypoints(args.waypoints, data.P), data.P)
+            written = figure_shape_path(res, data.robot, args.out, title, every=every, b=b)
         else:
             from jaxstiff.plots import figure_u_frobenius
 

@@ -49,7 +49,7 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         "--scale",
         type=float,
         default=None,
-        help="ellipsoid scale, N/m of stiffness per metre on screen (default: a round number that draws the largest semi-axis about 12 cm long)",
+        help="ellipsoid scale, N/m of stiffness per metre on screen (default: a round number that draws the largest semi-axis about 25 cm long)",
     )
     p.add_argument("--every", type=int, default=1, help="'all ellipsoids': draw every N-th waypoint's")
 

@@ -1,4 +1,9 @@
-"""URDF -> chain data (the fields of :class:`jaxstiff.model.chain.Chain`). Safe XML parsing (no entities, no network, no DTD), yourdfpy for the elements.
+"""URDF -> chain data (the fields of :class:`jaxstiff.model.chain.Chain`). Safe XML parsing (no entities, no network, no DTD).
+
+The elements a chain needs (links; joints with type, parent, child, origin, axis, limit, mimic) are
+read here into :class:`UrdfJoint` records, with the numbers yourdfpy gives bit for bit (origin
+``T(xyz) @ R(rpy)``, R = Rz(yaw) Ry(pitch) Rx(roll); ``tests/view/test_startup.py`` checks it):
+reading a URDF imports neither yourdfpy nor trimesh (about 2 s), so ``jaxstiff view`` starts fast.
 
 A URDF is untrusted input: the XML is parsed with entity resolution, DTD loading and network
 access switched off, and any document that declares a DOCTYPE with entities is refused before
@@ -57,7 +62,7 @@ def _float_attr(path: str, where: str, text: str) -> list[float]:
 
 
 def _check_joint_xml(path: str, elem: Any) -> None:
-    """Checks yourdfpy does not make (it would raise AttributeError or silently accept NaN)."""
+    """The joint element checked: name, known type, parent/child, finite origin, axis and limits."""
     name = elem.get("name")
     if not name:
         raise ValueError(f"{path}: a <joint> has no name attribute")
@@ -111,24 +116,82 @@ def _resolve_path(path: str | os.PathLike) -> str:
     return path
 
 
-def _parse_model(path: str) -> Any:
-    """The checked XML of ``path`` read into a ``yourdfpy`` robot model."""
-    import yourdfpy
+@dataclasses.dataclass(frozen=True)
+class UrdfLimit:
+    """A ``<limit>``: ``lower`` / ``upper`` (rad or m), None where the attribute is missing."""
 
+    lower: float | None
+    upper: float | None
+
+
+@dataclasses.dataclass(frozen=True)
+class UrdfJoint:
+    """The fields of a URDF ``<joint>`` a chain needs: ``origin`` a 4x4 transform (None without
+    ``<origin>``), ``axis`` (URDF default x), ``limit`` and ``mimic`` (the mimicked joint's name)."""
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    origin: np.ndarray | None
+    axis: np.ndarray
+    limit: UrdfLimit | None
+    mimic: str | None
+
+
+@dataclasses.dataclass(frozen=True)
+class UrdfModel:
+    """The robot's name, its link names (file order) and its joints (file order)."""
+
+    name: str
+    links: list[str]
+    joints: list[UrdfJoint]
+
+
+def urdf_origin(xyz: str, rpy: str) -> np.ndarray:
+    """4x4 transform of ``<origin xyz rpy>``: translation xyz, rotation Rz(yaw) Ry(pitch) Rx(roll)."""
+    t = [float(v) for v in xyz.split()]
+    r, p, y = (float(v) for v in rpy.split())
+    sr, sp, sy = math.sin(r), math.sin(p), math.sin(y)
+    cr, cp, cy = math.cos(r), math.cos(p), math.cos(y)
+    T = np.eye(4)
+    T[:3, :3] = [
+        [cp * cy, sp * (sr * cy) - cr * sy, sp * (cr * cy) + sr * sy],
+        [cp * sy, sp * (sr * sy) + cr * cy, sp * (cr * sy) - sr * cy],
+        [-sp, cp * sr, cp * cr],
+    ]
+    T[:3, 3] = t
+    return T
+
+
+def _joint(elem: Any) -> UrdfJoint:
+    """One checked ``<joint>`` element (:func:`_check_joint_xml` ran before)."""
+    origin, axis, limit, mimic = (elem.find(t) for t in ("origin", "axis", "limit", "mimic"))
+    bound = [None if limit is None or limit.get(a) is None else float(limit.get(a)) for a in ("lower", "upper")]
+    return UrdfJoint(
+        name=str(elem.get("name")),
+        type=str(elem.get("type")),
+        parent=str(elem.find("parent").get("link")),
+        child=str(elem.find("child").get("link")),
+        origin=None if origin is None else urdf_origin(origin.get("xyz", "0 0 0"), origin.get("rpy", "0 0 0")),
+        axis=np.array([float(v) for v in (axis.get("xyz", "1 0 0") if axis is not None else "1 0 0").split()]),
+        limit=None if limit is None else UrdfLimit(*bound),
+        mimic=None if mimic is None else mimic.get("joint"),
+    )
+
+
+def parse_urdf_model(path: str) -> UrdfModel:
+    """The checked XML of ``path`` read into a :class:`UrdfModel`."""
     root = _read_xml(path)
     for elem in root.findall("joint"):
         _check_joint_xml(path, elem)
     for elem in root.findall("link"):
         if not elem.get("name"):
             raise ValueError(f"{path}: a <link> has no name attribute")
-    if not root.get("name"):
-        # URDF requires <robot name=...>; yourdfpy fails with a bare KeyError without it. The name
-        # is only a label here: the file's name stands in for it (as Robot.name does below).
-        root.set("name", os.path.splitext(os.path.basename(path))[0])
-    try:
-        return yourdfpy.URDF._parse_robot(root)
-    except Exception as exc:  # yourdfpy raises bare KeyError/AttributeError on odd files
-        raise ValueError(f"{path}: cannot read the URDF: {type(exc).__name__}: {exc}") from None
+    # URDF requires <robot name=...>; the name is only a label here: the file's name stands in for it
+    name = root.get("name") or os.path.splitext(os.path.basename(path))[0]
+    links = [str(link.get("name")) for link in root.findall("link")]
+    return UrdfModel(name, links, [_joint(j) for j in root.findall("joint")])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -152,9 +215,9 @@ class _Tree:
         return chain[::-1]
 
 
-def _link_tree(path: str, model: Any) -> _Tree:
+def _link_tree(path: str, model: UrdfModel) -> _Tree:
     """The link tree of ``model``; a ValueError for duplicate names, unknown links, or a link with two parents."""
-    links = [l.name for l in model.links]
+    links = list(model.links)
     if len(set(links)) != len(links):
         dup = sorted({l for l in links if links.count(l) > 1})
         raise ValueError(f"{path}: duplicate link names: {', '.join(dup)}")
@@ -219,8 +282,8 @@ def _check_chain_joint(path: str, j: Any) -> None:
     """Refuse a mimic, floating or planar joint on the chain."""
     if j.mimic is not None:
         raise ValueError(
-            f"{path}: joint {j.name!r} mimics joint {j.mimic.joint!r}; mimic joints in the chain "
-            f"are not supported (its value is tied to {j.mimic.joint!r}, so locking it does not help): "
+            f"{path}: joint {j.name!r} mimics joint {j.mimic!r}; mimic joints in the chain "
+            f"are not supported (its value is tied to {j.mimic!r}, so locking it does not help): "
             f"choose a tip link above it (tip_link, command line: --tip-link)"
         )
     if j.type in ("floating", "planar"):
@@ -303,7 +366,7 @@ def parse_urdf_chain(
     of the URDF ``path`` (a file, or a shipped robot's name). Arguments and errors: see
     :meth:`jaxstiff.model.robot.Robot.from_urdf`."""
     path = _resolve_path(path)
-    model = _parse_model(path)
+    model = parse_urdf_model(path)
     tree = _link_tree(path, model)
     base_link = _pick_base(path, tree, base_link)
     tip_link = _pick_tip(path, tree, base_link, tip_link)

@@ -40,7 +40,7 @@ def _header(data: ViewData, scene: Scene) -> str:
     return (
         f"**{os.path.basename(data.source)}**: {what}; robot {data.robot.name} ({data.robot.n} joints, "
         f"locked joints: {data.locked_joints}). {scene.scale_text()}. Orange: "
-        + ("K_T after CMS" if data.kind == "shape" else "realised K_C; teal: desired K_xd")
+        + ("K_T after CMS" if data.kind == "shape" else "realised K_C at the TCP; teal, beside it: desired K_xd")
         + "; green: path; purple: desired direction; red: joint axes."
     )
 

@@ -1,10 +1,11 @@
 """What the viewer, the plot and the export commands read from a result: :class:`ViewData`.
 
-One loader for the three kinds of result a user holds: a ``jaxstiff shape`` file (read with
-:meth:`jaxstiff.ShapeResult.load`), a ``jaxstiff csc`` file, and one row of a sweep folder (its
-``chunks/*.json`` name the array file and the index of the row). Everything is numpy: the robot is
-rebuilt from the file's ``meta`` (URDF path, links, locks, tcp) and the stiffness ellipsoids come
-from :mod:`jaxstiff.view.kinematics`; nothing is compiled.
+One loader for the three kinds of result a user holds: a ``jaxstiff shape`` file (read with the
+results layer's :meth:`jaxstiff.results.ShapeResult.load`, which also names what is wrong with a
+file that is not a result), a ``jaxstiff csc`` file, and one row of a sweep folder (its
+``chunks/*.json`` name the array file and the index of the row). Everything is numpy: the chain is
+rebuilt from the file's ``meta`` (URDF path, links, locks, tcp; :func:`chain_from_meta`) and the
+stiffness ellipsoids come from :mod:`jaxstiff.view.kinematics`; JAX is not imported.
 
 Units: q in rad (m for prismatic joints), kj in Nm/rad (N/m for prismatic joints), positions in m,
 stiffness matrices in N/m, base frame throughout. A rigid locked joint (newer shape files,
@@ -26,7 +27,7 @@ from jaxstiff.view.kinematics import stiffness_T, tcp_position
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = ["ViewData", "load_view_data", "sweep_row_file", "format_kj"]
+__all__ = ["ViewData", "load_view_data", "sweep_row_file", "format_kj", "chain_from_meta"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -140,23 +141,27 @@ def sweep_row_file(folder: str, row: int) -> tuple[str, int]:
     raise ValueError(f"{folder}: no sweep row {row} (the folder has {seen} rows, row_id 0..{seen - 1})")
 
 
-def _read_npz(file: str) -> dict[str, np.ndarray]:
-    if not os.path.isfile(file):
-        raise FileNotFoundError(f"result file not found: {file}")
+def chain_from_meta(meta: dict[str, Any], urdf: str | None = None) -> Chain:
+    """The result's chain rebuilt from ``meta["robot"]`` (URDF path, links, locked joints, tcp) as
+    :func:`jaxstiff.results.robot_from_meta` does, but as a plain numpy :class:`Chain`: no JAX.
+
+    The URDF's sha256 is checked against the recorded one unless ``urdf`` is given (a moved file).
+    """
+    from jaxstiff.model.chain import Chain
+    from jaxstiff.model.urdf import parse_urdf_chain
+    from jaxstiff.runtime.io import file_sha256
+
+    rmeta = meta.get("robot") or {}
+    path = urdf if urdf is not None else str(rmeta.get("urdf", ""))
     try:
-        with np.load(file, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
-    except Exception as exc:  # zip / format errors of a file that is not an npz
-        raise ValueError(f"{file}: not a readable .npz result file ({exc})") from None
-
-
-def _robot(meta: dict[str, Any], urdf: str | None) -> Chain:
-    from jaxstiff.results.numpy_check import robot_from_meta
-
-    try:
-        return robot_from_meta(meta, urdf, check_sha=urdf is None)
+        if urdf is None and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
+            raise ValueError(f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...)")
+        tcp = np.asarray(rmeta["tcp"]) if rmeta.get("tcp") is not None else None
+        locked = rmeta.get("locked") or None
+        fields = parse_urdf_chain(path, rmeta.get("base_link") or None, rmeta.get("tip_link") or None, locked, tcp)
     except FileNotFoundError as exc:
         raise FileNotFoundError(f"{exc}; the result's URDF moved? give it with --urdf FILE") from None
+    return Chain(**fields)
 
 
 def _block3(K: np.ndarray) -> np.ndarray:
@@ -173,7 +178,7 @@ def _shape_data(file: str, urdf: str | None, index: int | None, source: str) -> 
 
     res = ShapeResult.load(file)
     sel = slice(None) if index is None else slice(index, index + 1)
-    robot = _robot(res.meta, urdf)
+    robot = chain_from_meta(res.meta, urdf)
     q, kj = res.q[sel], res.kj_scaled[sel]
     K = stiffness_T(robot, q, kj, str(res.meta.get("task", "full")))
     keys = ("alpha_deg", "ratio", "criterion", "status", "cms", "pos_error")
@@ -200,7 +205,7 @@ def _shape_data(file: str, urdf: str | None, index: int | None, source: str) -> 
 def _csc_data(file: str, data: dict[str, np.ndarray], urdf: str | None, index: int | None, source: str) -> ViewData:
     meta = json.loads(str(data["meta"]))
     sel = slice(None) if index is None else slice(index, index + 1)
-    robot = _robot(meta, urdf)
+    robot = chain_from_meta(meta, urdf)
     q = np.asarray(data["q"], float)
     if q.ndim == 2:  # a single rollout written without the batch axis
         data = {k: (v[None] if k not in ("meta", "joint_names") else v) for k, v in data.items()}
@@ -271,12 +276,19 @@ def load_view_data(file: str | os.PathLike, row: int | None = None, urdf: str | 
         file, index = sweep_row_file(file, row)
     elif row is not None:
         raise ValueError(f"--row {row} is for a sweep folder; {file} is a result file (use --path B to pick a path)")
-    data = _read_npz(file)
-    if "K_C" in data and "u" in data:
-        return _csc_data(file, data, urdf, index, source)
-    if "kj_scaled" in data:
-        return _shape_data(file, urdf, index, source)
-    raise ValueError(f"{file}: not a jaxstiff shape or csc result file (keys: {', '.join(sorted(data)[:8])}, ...)")
+    if not _is_csc(file):
+        return _shape_data(file, urdf, index, source)  # ShapeResult.load: its errors for other files
+    with np.load(file, allow_pickle=False) as z:
+        return _csc_data(file, {k: z[k] for k in z.files}, urdf, index, source)
+
+
+def _is_csc(file: str) -> bool:
+    """Whether ``file`` is a ``jaxstiff csc`` result (an npz with ``K_C`` and ``u``)."""
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            return {"K_C", "u"} <= set(z.files)
+    except Exception:  # not an npz: ShapeResult.load says what it is
+        return False
 
 
 def check_positions(data: ViewData) -> float:

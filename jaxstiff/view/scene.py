@@ -4,7 +4,7 @@
 its link meshes when the URDF names meshes that resolve, else as capsules between the joint origins
 (joint axes as red strokes); the waypoints as a green line; the desired direction at each waypoint
 as a purple stroke; the stiffness ellipsoid at the TCP (orange; csc: the realised ``K_C`` orange,
-the desired ``K_xd`` teal and translucent, at the same point). Semi-axes are drawn at a fixed scale
+the desired ``K_xd`` teal, beside it to the right on screen, both labelled). Semi-axes are drawn at a fixed scale
 for the whole file, ``n_per_m`` N/m per metre on screen (1 cm = ``n_per_m / 100`` N/m), stated in the
 panel and the page's label. Colours (RGB) are fixed so that tests can find them in a screenshot.
 """
@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.view.data import ViewData
+from jaxstiff.view.geometry import capsule, cylinder, icosphere
 from jaxstiff.view.kinematics import chain_frames, ellipsoid_axes, link_frames
 from jaxstiff.view.meshes import urdf_meshes
 
@@ -33,9 +34,14 @@ COLORS = {
     "desired": (0, 170, 170),
     "all": (255, 190, 90),
 }
-_LOOK: dict[str, dict[str, Any]] = {"ellipsoid": {}, "desired": {"wireframe": True}}
+_LOOK: dict[str, dict[str, Any]] = {"ellipsoid": {}, "desired": {"opacity": 0.9}}
 CAPSULE_RADIUS = 0.03  #: m
-SCREEN_SEMI_AXIS = 0.15  #: m on screen of the largest semi-axis along the path (before rounding the scale)
+PATH_THICKNESS = 0.005  #: m, the path's line (thinner than an ellipsoid's short axes, which it would hide)
+SCREEN_SEMI_AXIS = 0.25  #: m on screen of the largest semi-axis along the path (before rounding the scale)
+VIEW = np.array([0.75, -0.95, 0.8]) / np.linalg.norm([0.75, -0.95, 0.8])  #: from the scene's centre to the camera
+FOV_DEG, ASPECT = 75.0, 1.1  #: viser's vertical field of view; width / height of the page left of the panel
+CAMERA_MARGIN = 1.25  #: the camera this much further than the closest distance that shows everything
+CAMERA_SHIFT = 0.08  #: look this far (diagonals) right of the centre: the panel covers the page's right side
 
 
 def nice_scale(largest: float, screen: float = SCREEN_SEMI_AXIS) -> float:
@@ -114,8 +120,6 @@ class Scene:
     """
 
     def __init__(self, server: Any, data: ViewData, n_per_m: float | None = None, every: int = 1) -> None:
-        import trimesh
-
         self.server, self.data, self.every = server, data, max(1, int(every))
         big = [data.K] + ([data.K_desired] if data.K_desired is not None else [])
         self.n_per_m = (
@@ -131,7 +135,8 @@ class Scene:
                 stacklevel=2,
             )
             self.meshes = []
-        self.sphere = trimesh.creation.icosphere(subdivisions=3)
+        self.sphere = icosphere(3)  # (vertices, faces) of the unit sphere
+        self.beside = self._beside_offset()
         self.b, self.p = 0, 0
         self.capsules: dict[int, tuple[Any, float]] = {}
         self.all_handles: list[Any] = []
@@ -149,34 +154,32 @@ class Scene:
         sc, d = self.server.scene, self.data
         pts = d.target[b]
         seg = np.stack([pts[:-1], pts[1:]], axis=1) if d.P > 1 else np.stack([pts, pts], axis=1)
-        self.handles["path"] = sc.add_line_segments("/path", seg, COLORS["path"], thickness=0.012)
-        if d.direction is not None:
-            dd = d.direction[b] * 0.04
-            seg = np.stack([pts - dd, pts + dd], axis=1)
-            self.handles["directions"] = sc.add_line_segments("/directions", seg, COLORS["direction"], thickness=0.008)
+        self.handles["path"] = sc.add_line_segments("/path", seg, COLORS["path"], thickness=PATH_THICKNESS)
+        if d.direction is not None:  # about 15 strokes along the path: denser ones would hide the ellipsoid
+            k = max(1, d.P // 15)
+            dd = d.direction[b, ::k] * 0.04
+            seg = np.stack([pts[::k] - dd, pts[::k] + dd], axis=1)
+            self.handles["directions"] = sc.add_line_segments(
+                "/directions", seg, COLORS["direction"], thickness=0.5 * PATH_THICKNESS
+            )
 
     def _add_static_arm(self) -> None:
-        import trimesh
-
         sc = self.server.scene
         for k, m in enumerate(self.meshes):
             self.handles[f"mesh{k}"] = sc.add_mesh_simple(f"/arm/mesh{k}", m.vertices, m.faces, color=COLORS["arm"])
         self.handles["tcp"] = sc.add_frame("/tcp", axes_length=0.06, axes_radius=0.004)
         for key in ("ellipsoid", "desired") if self.data.K_desired is not None else ("ellipsoid",):
-            self.handles[key] = sc.add_mesh_simple(
-                f"/{key}", self.sphere.vertices, self.sphere.faces, color=COLORS[key], scale=0.01, **_LOOK[key]
-            )
+            self.handles[key] = sc.add_mesh_simple(f"/{key}", *self.sphere, color=COLORS[key], scale=0.01, **_LOOK[key])
+        if self.data.K_desired is not None:
+            self.handles["desired_label"] = sc.add_label("/desired_label", "desired K_xd", position=(0.0, 0.0, 0.0))
+            self.handles["realised_label"] = sc.add_label("/realised_label", "realised K_C", position=(0.0, 0.0, 0.0))
         n = self.data.robot.n
-        ball = trimesh.creation.icosphere(subdivisions=2, radius=1.6 * CAPSULE_RADIUS)
-        stick = trimesh.creation.cylinder(radius=0.2 * CAPSULE_RADIUS, height=0.16, sections=12)
+        ball = icosphere(2, radius=1.6 * CAPSULE_RADIUS)
+        stick = cylinder(radius=0.2 * CAPSULE_RADIUS, height=0.16, sections=12)
         for i in range(n):
             if not self.meshes:
-                self.handles[f"joint{i}"] = sc.add_mesh_simple(
-                    f"/arm/joint{i}", ball.vertices, ball.faces, color=COLORS["joint"]
-                )
-            self.handles[f"axis{i}"] = sc.add_mesh_simple(
-                f"/arm/axis{i}", stick.vertices, stick.faces, color=COLORS["axis"]
-            )
+                self.handles[f"joint{i}"] = sc.add_mesh_simple(f"/arm/joint{i}", *ball, color=COLORS["joint"])
+            self.handles[f"axis{i}"] = sc.add_mesh_simple(f"/arm/axis{i}", *stick, color=COLORS["axis"])
         self.handles["label"] = sc.add_label("/label", "", position=(0.0, 0.0, 0.0), anchor="bottom-left")
 
     def _pose_arm(self, b: int, p: int) -> None:
@@ -199,8 +202,6 @@ class Scene:
         self.handles["tcp"].position, self.handles["tcp"].wxyz = tcp[:3, 3], rotation_wxyz(tcp[:3, :3])
 
     def _pose_capsule(self, i: int, p0: np.ndarray, p1: np.ndarray) -> None:
-        import trimesh
-
         if np.linalg.norm(p1 - p0) < 1e-6:
             if i in self.capsules:
                 self.capsules[i][0].visible = False
@@ -208,8 +209,7 @@ class Scene:
         centre, wxyz, L = _segment_pose(p0, p1)
         h, L0 = self.capsules.get(i, (None, -1.0))
         if h is None or abs(L - L0) > 1e-9:  # new, or a prismatic joint changed the length
-            cap = trimesh.creation.capsule(height=L, radius=CAPSULE_RADIUS, count=[16, 16])
-            h = self.server.scene.add_mesh_simple(f"/arm/link{i}", cap.vertices, cap.faces, color=COLORS["arm"])
+            h = self.server.scene.add_mesh_simple(f"/arm/link{i}", *capsule(L, CAPSULE_RADIUS), color=COLORS["arm"])
             self.capsules[i] = (h, L)
         h.position, h.wxyz, h.visible = centre, wxyz, True
 
@@ -229,7 +229,10 @@ class Scene:
                 continue
             h = self.handles[key]
             h.wxyz, h.scale = ellipsoid_pose(K[b, p], self.n_per_m)
-            h.position = tcp
+            h.position = tcp if key == "ellipsoid" else tcp + self.beside
+        if d.K_desired is not None:
+            self.handles["desired_label"].position = tcp + self.beside + np.array([0.0, 0.0, self.beside_height])
+            self.handles["realised_label"].position = tcp + np.array([0.0, 0.0, self.beside_height])
         lab = self.handles["label"]
         lab.position = tcp + np.array([0.0, 0.0, 0.05])
         lab.text = f"{'waypoint' if d.kind == 'shape' else 'step'} {p}: " + ", ".join(
@@ -245,26 +248,52 @@ class Scene:
             return
         d, b = self.data, self.b
         for p in range(0, d.P, self.every):
-            verts = ellipsoid_vertices(self.sphere.vertices, d.K[b, p], self.n_per_m)
+            verts = ellipsoid_vertices(self.sphere[0], d.K[b, p], self.n_per_m)
             h = self.server.scene.add_mesh_simple(
                 f"/all/e{p}",
                 verts,
-                self.sphere.faces,
+                self.sphere[1],
                 color=COLORS["all"],
                 opacity=0.5,
                 position=self.frames[1][b, p, :3, 3],
             )
             self.all_handles.append(h)
 
-    def _camera(self) -> None:
+    def _beside_offset(self) -> np.ndarray:
+        """csc: where the desired ``K_xd`` ellipsoid sits relative to the TCP (the realised ``K_C`` is at
+        the TCP): to the right on screen, clear of both ellipsoids at their largest along the file."""
         d = self.data
-        pts = np.vstack([d.target.reshape(-1, 3), self.frames[0][..., :3, 3].reshape(-1, 3), np.zeros((1, 3))])
+        self.beside_height = 0.0
+        if d.K_desired is None:
+            return np.zeros(3)
+        sc, sd = (float(ellipsoid_axes(K)[0][..., 0].max()) / self.n_per_m for K in (d.K, d.K_desired))
+        self.beside_height = max(sc, sd) + 0.02
+        right = np.cross(-VIEW, [0.0, 0.0, 1.0])
+        return right / np.linalg.norm(right) * (sc + sd + 0.04)
+
+    def _camera(self) -> None:
+        """Frame the arm, the path and the ellipsoids (the largest semi-axis around every TCP): the
+        camera looks along ``-VIEW`` from just far enough that every such point is in the picture
+        (viser's vertical field of view, the width left of the panel), a little right of the centre."""
+        d = self.data
+        tcp = self.frames[1][..., :3, 3].reshape(-1, 3)
+        big = float(ellipsoid_axes(d.K)[0][..., 0].max()) / self.n_per_m
+        pts = np.vstack(
+            [d.target.reshape(-1, 3), self.frames[0][..., :3, 3].reshape(-1, 3), np.zeros((1, 3))]
+            + [tcp + big * e for e in np.vstack([np.eye(3), -np.eye(3)])]
+            + [tcp + self.beside + s * self.beside_height * e for e in np.eye(3) for s in (-1, 1)]
+        )
         lo, hi = pts.min(0), pts.max(0)
-        centre = 0.5 * (lo + hi)
-        r = max(float(np.linalg.norm(hi - lo)), 0.3)
+        right = np.cross(-VIEW, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        up = np.cross(right, -VIEW)
+        centre = 0.5 * (lo + hi) + CAMERA_SHIFT * float(np.linalg.norm(hi - lo)) * right
+        rel = pts - centre
+        tan_v = math.tan(math.radians(FOV_DEG) / 2)
+        need = rel @ VIEW + np.maximum(np.abs(rel @ up) / tan_v, np.abs(rel @ right) / (ASPECT * tan_v))
         cam = self.server.initial_camera
         cam.look_at = tuple(centre)
-        cam.position = tuple(centre + r * np.array([0.75, -0.95, 0.45]))
+        cam.position = tuple(centre + CAMERA_MARGIN * max(float(need.max()), 0.3) * VIEW)
         cam.up = (0.0, 0.0, 1.0)
 
     def scale_text(self) -> str:

@@ -38,12 +38,28 @@ def _counts(img: np.ndarray) -> dict[str, int]:
         "arm": int(np.sum((b > 140) & (r < 110) & (g < 140) & (b - r > 60))),
         "path": int(np.sum((g > 110) & (r < 110) & (b < 140) & (g - r > 40) & (g - b > 20))),
         "ellipsoid": int(np.sum((r > 190) & (g > 90) & (g < 215) & (b < 150) & (r - b > 90))),
+        "desired": int(np.sum((r < 90) & (g > 100) & (b > 100) & (np.abs(g - b) < 40) & (g - r > 60))),
     }
 
 
 def _check_scene(img: np.ndarray) -> None:
     c = _counts(img[150:, :])  # below the browser's notice in the top left
     assert c["arm"] > 1500 and c["path"] > 40 and c["ellipsoid"] > 40, c
+
+
+def _settled(page, check=_check_scene, seconds: float = 60.0) -> np.ndarray:
+    """A screenshot once ``check`` passes on it (software WebGL on a loaded machine can take many
+    seconds to draw the first frames); the last one, failing ``check``, after ``seconds``."""
+    t_end = time.time() + seconds
+    while True:
+        img = _pixels(page.screenshot())
+        try:
+            check(img)
+            return img
+        except AssertionError:
+            if time.time() > t_end:
+                raise
+            page.wait_for_timeout(2000)
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +77,17 @@ def browser():
         br = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
         yield br
         br.close()
+
+
+@pytest.fixture(scope="module")
+def csc_result(tmp_path_factory) -> str:
+    """A `jaxstiff csc` run on the LWR: hold the TCP where the start posture puts it, 60 steps (the
+    project's own case; seed 001 has no simulation example)."""
+    out = str(tmp_path_factory.mktemp("csc") / "csc.npz")
+    cmd = ["csc", "--hold", "0.6404,0.1129,0.4102", "--steps", "60", "--kxd", "3000,1000,2000@30", "--task", "xyz"]
+    cmd += ["--q0-deg", "10,40,0,-70,0,50,0", "--out", out]
+    subprocess.run([sys.executable, "-m", "jaxstiff", *cmd], check=True, capture_output=True)
+    return out
 
 
 def _start_viewer(file: str, port: int) -> subprocess.Popen:
@@ -83,15 +110,12 @@ def test_live_viewer(readme_result, browser) -> None:
         page = browser.new_page(viewport={"width": 1200, "height": 800})
         page.goto("http://127.0.0.1:8097")
         page.wait_for_selector("canvas")
-        page.wait_for_timeout(6000)
-        first = _pixels(page.screenshot())
-        _check_scene(first)
+        first = _settled(page)
         box = page.locator("input:visible").first  # the waypoint slider's number field
         box.fill("45")
         box.press("Enter")
         page.wait_for_timeout(3000)
-        second = _pixels(page.screenshot())
-        _check_scene(second)
+        second = _settled(page)
         assert np.mean(np.any(first != second, axis=-1)) > 0.002  # the arm moved
     finally:
         proc.send_signal(signal.SIGINT)
@@ -104,14 +128,81 @@ def test_static_html_page(readme_result, browser, tmp_path) -> None:
     page = browser.new_page(viewport={"width": 1200, "height": 800})
     page.goto("file://" + html)
     page.wait_for_selector("canvas")
-    page.wait_for_timeout(5000)
+    _settled(page)
     page.keyboard.press("Space")  # pause the animation where it is
-    first = _pixels(page.screenshot())
-    _check_scene(first)
+    first = _settled(page)
     page.mouse.click(1000, 780)  # the timeline: jump towards the end of the path
     t0 = time.time()
     page.wait_for_timeout(2000)
-    second = _pixels(page.screenshot())
-    assert time.time() - t0 < 60
-    _check_scene(second)
+    second = _settled(page)
+    assert time.time() - t0 < 90
     assert np.mean(np.any(first[:740] != second[:740], axis=-1)) > 0.002
+
+
+def _open(browser, port: int):
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.goto(f"http://127.0.0.1:{port}")
+    page.wait_for_selector("canvas")
+    return page
+
+
+def _check_csc(img: np.ndarray) -> None:
+    c = _counts(img[150:, :])
+    assert c["arm"] > 1500 and c["ellipsoid"] > 400 and c["desired"] > 400, c
+
+
+def test_live_viewer_csc(csc_result, browser) -> None:
+    """Realised K_C (orange, at the TCP) and desired K_xd (teal) side by side; the step slider moves."""
+    proc = _start_viewer(csc_result, 8098)
+    try:
+        page = _open(browser, 8098)
+        first = _settled(page, _check_csc)
+        text = page.inner_text("body")
+        assert "|K_xd - K_C|_F" in text and "u: " in text and "desired K_xd" in text
+        box = page.locator("input:visible").first  # the step slider's number field
+        box.fill("59")
+        box.press("Enter")
+        page.wait_for_timeout(3000)
+        second = _pixels(page.screenshot())
+        assert "step 59 of 59" in page.inner_text("body")
+        assert np.mean(np.any(first != second, axis=-1)) > 0.002  # the arm and the ellipsoid moved
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(20)
+
+
+def _batch_of_thirds(file: str, out: str) -> str:
+    """The README result cut into a B = 3 batch: waypoints 0-19, 20-39 and 40-59 as three paths
+    (real postures and stiffnesses, so every path's ellipsoids are drawn at one sensible scale)."""
+    import dataclasses
+
+    import jaxstiff
+
+    res = jaxstiff.ShapeResult.load(file)
+    cut = {}
+    for f in dataclasses.fields(res):
+        a = getattr(res, f.name)
+        if f.name in ("q0", "kj0"):
+            cut[f.name] = np.stack([res.q[0, k * 20] if f.name == "q0" else res.kj[0, k * 20] for k in range(3)])
+        elif f.name not in ("meta", "joint_names"):
+            cut[f.name] = np.asarray(a)[0].reshape(3, 20, *np.shape(a)[2:])
+    meta = dict(res.meta, path={"name": "first;middle;last"})
+    return jaxstiff.ShapeResult(joint_names=res.joint_names, meta=meta, **cut).save(out)
+
+
+def test_live_viewer_batch_path_selector(readme_result, tmp_path, browser) -> None:
+    """A B = 3 result: choosing path 2 in the selector changes the picture (another posture and path)."""
+    f = _batch_of_thirds(readme_result, str(tmp_path / "batch.npz"))
+    proc = _start_viewer(f, 8099)
+    try:
+        page = _open(browser, 8099)
+        first = _settled(page)
+        page.locator("input[value^='path 0']").first.click()
+        page.get_by_text("path 2: last").first.click()
+        page.wait_for_timeout(3000)
+        second = _settled(page)
+        assert "path 2: last" in page.inner_text("body")
+        assert np.mean(np.any(first[:, :850] != second[:, :850], axis=-1)) > 0.005  # the scene, not the panel
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(20)
