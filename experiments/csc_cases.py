@@ -117,8 +117,9 @@ def lwr_path(substeps: int = 10, joint_limits: str = "sum", jl_gain: float = 0.3
     setup = [
         "arm: `kuka_lwr4` with joint A7 (flange rotation) locked at 0, as in seed 000's reproduction: the TCP "
         "lies on the A7 axis, so A7 cannot move it; 6 free joints, task `xyz` (m = 3): 3 redundant degrees of "
-        "freedom. A7 keeps its spring: its position column of J is zero, so kj_7 = diag(J^T K_xd J)_7 = 0 is "
-        "clipped to kmin = 1 Nm/rad and adds nothing to the compliance",
+        "freedom. A7 is rigid (jaxstiff's default for a locked joint, SPEC section 1: no spring, kj_7 = +inf in "
+        "the result); as a spring it would add nothing to the translational compliance either (its position "
+        "column of J is zero)",
         f"path: the project's default path (`jaxstiff.paths.default_path`: a half-sine bump in the plane z = "
         f"{z:.2f} m, from (0.60, 0.25) to (0.60, -0.25) m through (0.70, 0) m, 60 waypoints about 9 mm apart), "
         f"refined to {substeps} CSC steps per segment ({len(pts)} steps); seed 000 gives no path",

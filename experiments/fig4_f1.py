@@ -104,6 +104,8 @@ def default_setup(criterion: str) -> str:
 
 def default_path_note(res, limits) -> list[str]:
     """What the default path's gentle turning means for the result (Markdown lines)."""
+    import numpy as np
+
     t, dq = limits["turning"], limits["dq_deg"]
     nq, nk = limits["wp_q_rate"], limits["wp_kj_rate"]
     below = "below" if float(t.max()) < dq else "not below"
@@ -113,13 +115,30 @@ def default_path_note(res, limits) -> list[str]:
     else:
         held = f"a joint reaches its rate limit at {nq} and a joint stiffness at {nk} of {res.P} waypoints"
         verdict = "the rate limits rarely hold the ellipsoid back"
-    curved = {"f1": "fig4_f1_curved", "f2": "fig5_f2_curved"}.get(res.meta["criterion"], "the `_curved` run")
-    return [
+    from fig4_f1_curved import hold_mask, where_it_holds  # the same rule and table as the curved run
+
+    crit = res.meta["criterion"]
+    curved = {"f1": "fig4_f1_curved", "f2": "fig5_f2_curved"}.get(crit, "the `_curved` run")
+    head = (
         f"The default path's tangent turns at most {float(t.max()):.2f} deg per waypoint ({below} the joint rate "
         f"limit of {dq:g} deg per waypoint; stiffness rate limit {limits['dk']:g} Nm/rad per waypoint), and {held}. "
-        f"On this path {verdict}, so an even alpha and ratio along the whole path is the expected result: it does "
-        f"not show where the criterion gives way. `{curved}` repeats this figure on a path whose tangent turns "
-        "faster than the limits can follow.",
+    )
+    ok = hold_mask(res)
+    if ok.all():
+        return [
+            head + f"On this path {verdict}, so an even alpha and ratio along the whole path is the expected result: "
+            f"it does not show where the criterion gives way. `{curved}` repeats this figure on a path whose "
+            "tangent turns faster than the limits can follow.",
+        ]
+    bound = int(np.count_nonzero(limits["per_wp"]["kj_bound"][~ok]))
+    return [
+        head + f"Even so, {crit} gives way at {int((~ok).sum())} of {res.P} waypoints: the turning alone does not "
+        f"explain it (the joint stiffness sits at kmin or kmax at {bound} of them, and {crit} "
+        + ("asks for a ratio of at least r, so the ratio is free to grow and the stiffness rate limit must then bring it "
+           "back)" if crit == "f1" else "asks for the ratio r exactly)")
+        + f". `{curved}` repeats this figure on a path whose tangent turns faster than the limits can follow.",
+        "",
+        *where_it_holds(res, limits),
     ]
 
 

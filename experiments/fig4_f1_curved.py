@@ -43,8 +43,8 @@ CURVED_PATH_SPEC = {
 QUICK_WAYPOINTS = 36  #: --quick: the first waypoints only (the apex is at 29-30)
 
 #: "holds": alpha below this (deg) and the ratio within 2% (f2) or at least 98% of r (f1), as in the table
-ALPHA_OK_DEG = 1.0
-RATIO_REL_TOL = 0.02
+from jaxstiff.results.target import ALPHA_TOL_DEG as ALPHA_OK_DEG  # noqa: E402  (the one "in target" rule)
+from jaxstiff.results.target import RATIO_REL_TOL, target_masks  # noqa: E402
 
 
 def curved_path(quick: bool = False):
@@ -103,14 +103,8 @@ def _ranges_text(runs) -> str:
 
 def hold_mask(res):
     """(P,) bool: the waypoints where the criterion holds (alpha and ratio as in the summary table)."""
-    import numpy as np
 
-    r = float(res.meta["ratio"])
-    a_ok = res.alpha_deg[0] < ALPHA_OK_DEG
-    if res.meta["criterion"] == "f1":
-        r_ok = res.ratio[0] >= (1 - RATIO_REL_TOL) * r
-    else:
-        r_ok = np.abs(res.ratio[0] - r) / r < RATIO_REL_TOL
+    a_ok, r_ok = target_masks(res.alpha_deg[0], res.ratio[0], float(res.meta["ratio"]), res.meta["criterion"])
     return a_ok & r_ok
 
 
