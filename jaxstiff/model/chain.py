@@ -12,12 +12,11 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
-
-from jaxstiff._numerics.batch import is_traced
 
 __all__ = [
     "Chain",
@@ -350,3 +349,13 @@ def check_locked_values(robot: Chain, q: Any, name: str = "q") -> None:
                 f"{v:g}; pass the locked value ({v:g}) there, or build the robot without locking the joint "
                 "(locked=... / --lock)"
             )
+
+
+def is_traced(x: object) -> bool:
+    """True inside a JAX trace (jit, grad, vmap). Without JAX loaded nothing is traced: the chain's
+    checks then import no JAX (``jaxstiff view`` reads a URDF and draws with numpy only)."""
+    if "jax" not in sys.modules:
+        return False
+    from jaxstiff._numerics.batch import is_traced as traced
+
+    return traced(x)
