@@ -40,18 +40,6 @@ def parse_waypoints(text: str, P: int) -> list[int]:
     return sorted(set(values))
 
 
-def spacing_of(picks: list[int], P: int) -> int:
-    """The spacing N when ``picks`` are every N-th waypoint of the P (what the shape figure draws
-    today); a ValueError for other pick lists, which it cannot draw yet."""
-    step = max(picks[1] - picks[0], 1) if len(picks) > 1 else P
-    if picks == list(range(0, P, step)):
-        return step
-    raise ValueError(
-        f"--waypoints {','.join(map(str, picks))}: the shape figure draws every N-th waypoint from 0 to the "
-        f"end (of 0..{P - 1}), e.g. --waypoints 10; other pick lists need figure_shape_path(waypoints=...)"
-    )
-
-
 @command("plot", "draw a result's figure (shape: seed 000's panels; csc: u and Frobenius error)")
 def _add_plot(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
@@ -90,8 +78,11 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
             else:
                 b = args.path
             title = f"{os.path.basename(data.source)}: {data.labels[0 if args.row is not None else b]}"
-            every = spacing_of(parse_waypoints(args.waypoints, data.P), data.P)
-            written = figure_shape_path(res, data.robot, args.out, title, every=every, b=b)
+            picks = parse_waypoints(args.waypoints, data.P)
+            if "," in str(args.waypoints):  # a pick list: those waypoints in (f) and (g)
+                written = figure_shape_path(res, data.robot, args.out, title, b=b, waypoints=picks)
+            else:  # a spacing N: every N-th in (g), every 2N-th in (f)
+                written = figure_shape_path(res, data.robot, args.out, title, every=int(args.waypoints), b=b)
         else:
             from jaxstiff.plots import figure_u_frobenius
 

@@ -4,6 +4,7 @@ the path against the turning rate of its tangent (:func:`figure_turning`)."""
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -107,20 +108,16 @@ def _scale_text(n_per_m: float) -> str:
 
 
 def _panel_ellipsoids_3d(
-    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int, n_per_m: float
+    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, idx3: np.ndarray, size: float, n_per_m: float
 ) -> None:
-    """(f): the path (m) with the CMS-scaled 3-D ellipsoids every ``2 * every`` waypoints, equal axes;
-    semi-axes drawn at ``n_per_m`` N/m per metre of the plot (stated in the title)."""
+    """(f): the path (m) with the CMS-scaled 3-D ellipsoids at waypoints ``idx3``, equal axes; the
+    stiffest semi-axis drawn ``size`` m long, i.e. ``n_per_m`` N/m per metre of the plot (in the title)."""
     from matplotlib.ticker import MaxNLocator
 
     pts = res.target[b]
-    P = res.P
     ax.plot(*pts.T, "k-", lw=1.5, label="path")
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
     sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1)
-    idx3 = np.arange(0, P, 2 * every)
-    size = 0.5 * 2 * every * spacing  # display semi-major axis (m) of the stiffest ellipsoid
-    n_per_m /= 2.0  # drawn twice as large as in (g)
     for k in idx3:
         E = sphere * (unit[k] * size) @ V[k].T + pts[k]
         ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.6, linewidth=0, shade=True)
@@ -143,16 +140,15 @@ def _panel_ellipsoids_3d(
 
 
 def _panel_projection_xy(
-    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, spacing: float, every: int, n_per_m: float
+    ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, idx: np.ndarray, size: float, n_per_m: float
 ) -> None:
-    """(g): outlines of the ellipsoids projected on the xy plane every ``every`` waypoints, with
-    their major axes and the path tangent; a scale bar in N/m (``n_per_m`` N/m per metre of the plot),
-    the legend below the axes (it would hide the path's apex or the y label inside)."""
+    """(g): outlines of the ellipsoids projected on the xy plane at waypoints ``idx`` (the stiffest
+    semi-axis ``size`` m long), with their major axes and the path tangent; a scale bar in N/m
+    (``n_per_m`` N/m per metre of the plot), the legend below the axes (it would hide the path's apex
+    or the y label inside)."""
     pts = res.target[b]
-    idx = np.arange(0, res.P, every)
     ax.plot(pts[:, 0], pts[:, 1], "k-", lw=1.5, label="path")
     t = np.linspace(0, 2 * np.pi, 100)
-    size = 0.5 * every * spacing
     semi = unit * size
     for j, k in enumerate(idx):
         M = (V[k] * semi[k])[:2]  # xy rows of the ellipsoid's axis matrix
@@ -183,8 +179,31 @@ def _panel_projection_xy(
     ax.grid(alpha=0.3)
 
 
+def _drawn_waypoints(P: int, every: int, waypoints: Sequence[int] | None) -> tuple[np.ndarray, np.ndarray, float]:
+    """Waypoints drawn in (g) and in (f), and their typical gap (waypoints) that sizes the ellipses."""
+    if waypoints is None:
+        if every < 1:
+            raise ValueError(f"every must be >= 1, got {every}")
+        return np.arange(0, P, every), np.arange(0, P, 2 * every), float(every)
+    idx = np.unique(np.asarray(list(waypoints), dtype=int))
+    if idx.size == 0:
+        raise ValueError("waypoints is empty: give at least one waypoint index")
+    if idx[0] < 0 or idx[-1] >= P:
+        bad = int(idx[0] if idx[0] < 0 else idx[-1])
+        raise ValueError(f"waypoint {bad} is outside 0..{P - 1} (the path has {P} waypoints)")
+    gap = float(np.median(np.diff(idx))) if idx.size > 1 else max(P / 10.0, 1.0)
+    return idx, idx, max(gap, 1.0)
+
+
 def figure_shape_path(
-    res: ShapeResult, robot: Chain, file: str | os.PathLike, title: str, every: int = 5, b: int = 0, dpi: int = 110
+    res: ShapeResult,
+    robot: Chain,
+    file: str | os.PathLike,
+    title: str,
+    every: int = 5,
+    b: int = 0,
+    dpi: int = 110,
+    waypoints: Sequence[int] | None = None,
 ) -> str:
     """Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result.
 
@@ -198,10 +217,17 @@ def figure_shape_path(
         robot: the robot it was computed for.
         file: PNG to write (cropped to the drawing).
         title: figure title.
-        every: waypoint spacing of the drawn ellipses.
+        every: waypoint spacing of the drawn ellipses: every ``every``-th in (g), every
+            ``2 every``-th in (f).
         b: which path of the batch.
         dpi: resolution, dots per inch.
+        waypoints: the waypoints whose ellipses are drawn, in (f) and (g) alike (instead of
+            ``every``); indices in ``0..P-1``.
+
+    Raises:
+        ValueError: if a waypoint index is outside ``0..P-1`` or the list is empty.
     """
+    idx, idx3, gap = _drawn_waypoints(res.P, every, waypoints)
     plt = pyplot()
     wp = np.arange(res.P)
     fig = plt.figure(figsize=(17, 14))
@@ -233,9 +259,10 @@ def figure_shape_path(
     lam, V = stiffness_axes(robot, res.q[b], res.kj_scaled[b], res.meta["task"])
     spacing = float(np.median(np.linalg.norm(np.diff(res.target[b], axis=0), axis=1)))
     unit = lam / lam[:, :1].max()  # axes relative to the largest major axis on the path
-    n_per_m = float(lam[:, 0].max()) / (0.5 * every * spacing)  # N/m per metre of drawing in (g)
-    _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:4], projection="3d"), res, b, unit, V, spacing, every, n_per_m)
-    _panel_projection_xy(fig.add_subplot(gs[2, 4:6]), res, b, unit, V, spacing, every, n_per_m)
+    size = 0.5 * gap * spacing  # the stiffest semi-axis in (g), m: half the gap between drawn waypoints
+    n_per_m = float(lam[:, 0].max()) / size  # N/m per metre of drawing in (g); (f) draws twice as large
+    _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:4], projection="3d"), res, b, unit, V, idx3, 2 * size, n_per_m / 2)
+    _panel_projection_xy(fig.add_subplot(gs[2, 4:6]), res, b, unit, V, idx, size, n_per_m)
 
     fig.suptitle(title, fontsize=13)
     return save_figure(fig, file, dpi=dpi)

@@ -67,6 +67,22 @@ def test_plot_and_html_every_kind(shape_file, batch_file, csc_file, tmp_path) ->
     assert not os.path.exists(tmp_path / "x.gif")
 
 
+def test_plot_pick_list_draws_those_waypoints(shape_file, tmp_path, capsys) -> None:
+    """--waypoints 0,3,5: those ellipses (an uneven list, which a spacing cannot express); the
+    picture differs from the spacing form's; an index past the end is a one-line error, no file."""
+    from matplotlib.image import imread
+
+    a, b = str(tmp_path / "picks.png"), str(tmp_path / "every.png")
+    assert main(["plot", shape_file, "--out", a, "--waypoints", "0,3,5"]) == 0
+    assert main(["plot", shape_file, "--out", b, "--waypoints", "2"]) == 0
+    ia, ib = imread(a), imread(b)
+    assert ia.shape != ib.shape or np.abs(ia - ib).max() > 0.1  # (cropped to the drawing: sizes may differ)
+    capsys.readouterr()
+    bad = str(tmp_path / "bad.png")
+    assert main(["plot", shape_file, "--out", bad, "--waypoints", "0,999"]) == 2
+    assert "index 999 is out of range" in capsys.readouterr().err and not os.path.exists(bad)
+
+
 def test_missing_meshes_capsules_one_warning(tmp_path) -> None:
     viser = pytest.importorskip("viser")
     from jaxstiff.view.scene import Scene

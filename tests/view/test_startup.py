@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from viewer_files import DATA, make_shape_result
 
-from jaxstiff.cli.plot import parse_waypoints, spacing_of
+from jaxstiff.cli.plot import parse_waypoints
 from jaxstiff.model.urdf import parse_urdf_model as parse_model
 from jaxstiff.view.data import load_view_data
 from jaxstiff.view.geometry import capsule, cylinder, icosphere
@@ -131,7 +131,6 @@ def test_csc_ellipsoids_side_by_side(csc_file) -> None:
 def test_waypoint_picks() -> None:
     assert parse_waypoints("5", 12) == [0, 5, 10]
     assert parse_waypoints("20,0,10,10", 30) == [0, 10, 20]
-    assert spacing_of([0, 10, 20], 30) == 10
     with pytest.raises(ValueError, match="index 30 is out of range.*0..29"):
         parse_waypoints("0,30", 30)
     with pytest.raises(ValueError, match="index -1"):
@@ -139,8 +138,6 @@ def test_waypoint_picks() -> None:
     for bad in ("0", "x", ""):
         with pytest.raises(ValueError, match="--waypoints"):
             parse_waypoints(bad, 30)
-    with pytest.raises(ValueError, match="every N-th"):
-        spacing_of([0, 7, 20], 30)
 
 
 def test_lazy_public_names() -> None:
