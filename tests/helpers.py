@@ -4,6 +4,7 @@ and an independent numpy forward kinematics (homogeneous 4x4 products, nothing s
 from __future__ import annotations
 
 import pathlib
+import textwrap
 
 import numpy as np
 
@@ -55,3 +56,25 @@ def numpy_fk(robot, q):
 TESTS_DIR = pathlib.Path(__file__).resolve().parent  #: tests/
 DATA_DIR = TESTS_DIR / "data"  #: tests/data (URDFs made for tests)
 REPO_ROOT = TESTS_DIR.parent  #: the repository (experiments/, urdf/, pyproject.toml)
+
+#: a tiny csc sweep: planar 3R holding two points, 2 x 2 settings, chunks of 2 (tests/sweep)
+CSC_TOML = textwrap.dedent("""\
+    [sweep]
+    kind = "csc"
+    name = "tiny-csc"
+    chunk_size = 2
+
+    [robot]
+    name = "planar_3r"
+
+    [[paths]]
+    generator = "point"
+    point = [[1.2, 1.0, 0.0], [1.0, 1.5, 0.0]]
+    n = 20
+
+    [axes]
+    task = "xy"
+    step = "constant"
+    beta = [0.002, 0.004]
+    kxd_angle_deg = [0.0, 30.0]
+    """)

@@ -12,13 +12,12 @@ import os
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 
 import numpy as np
 import pandas as pd
 import pytest
-from helpers import REPO_ROOT
+from helpers import CSC_TOML, REPO_ROOT
 
 import jaxstiff
 from jaxstiff.results.files import ShapeResult, is_usable, np_jacobian_rows, np_translational_stiffness, verify
@@ -44,27 +43,6 @@ SHAPE_CFG = {
     ],
     "axes": {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "dk": [5.0, 10.0], "first_starts": 2},
 }
-
-CSC_TOML = textwrap.dedent("""\
-    [sweep]
-    kind = "csc"
-    name = "tiny-csc"
-    chunk_size = 2
-
-    [robot]
-    name = "planar_3r"
-
-    [[paths]]
-    generator = "point"
-    point = [[1.2, 1.0, 0.0], [1.0, 1.5, 0.0]]
-    n = 20
-
-    [axes]
-    task = "xy"
-    step = "constant"
-    beta = [0.002, 0.004]
-    kxd_angle_deg = [0.0, 30.0]
-    """)
 
 
 def _frame_equal(a: pd.DataFrame, b: pd.DataFrame) -> None:

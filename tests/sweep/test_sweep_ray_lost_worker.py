@@ -8,36 +8,16 @@ from __future__ import annotations
 
 import os
 import signal
-import textwrap
 import threading
 import time
 
 import pandas as pd
 import pytest
-from helpers import REPO_ROOT
+from helpers import CSC_TOML, REPO_ROOT
 
 from jaxstiff.sweep.run import run_sweep
 
-TOML = textwrap.dedent("""\
-    [sweep]
-    kind = "csc"
-    name = "lost-worker"
-    chunk_size = 2
-
-    [robot]
-    name = "planar_3r"
-
-    [[paths]]
-    generator = "point"
-    point = [[1.2, 1.0, 0.0], [1.0, 1.5, 0.0]]
-    n = 400
-
-    [axes]
-    task = "xy"
-    step = "constant"
-    beta = [0.002, 0.004]
-    kxd_angle_deg = [0.0, 30.0]
-    """)
+TOML = CSC_TOML.replace("n = 20", "n = 400")  # long enough to be killed mid-chunk
 
 
 def _ray_task_pids() -> list[int]:
