@@ -44,6 +44,7 @@ from jaxstiff.paths import Path
 from jaxstiff.results import files as R
 from jaxstiff.results.target import warn_missed_target
 from jaxstiff.runtime.compile_cache import CompileClock, ensure_compile_cache
+from jaxstiff.runtime.dtypes import refuse_half_precision
 from jaxstiff.settings.robot import RobotSpec
 from jaxstiff.settings.shape import ShapeSettings
 from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
@@ -55,6 +56,7 @@ from jaxstiff.shaping_inputs import first_start_rng as first_start_rng
 from jaxstiff.shaping_inputs import make_start_states as make_start_states
 from jaxstiff.shaping_steps import (
     assemble_result,
+    check_shape_size,
     cms_factors,
     report_at_solution,
     shape_meta,
@@ -303,11 +305,13 @@ def shape(
             "first_starts": first_starts,
         }
         values = {**dataclass_values(base), **{k: v for k, v in given.items() if v is not None}}
+        refuse_half_precision("shape", q0=q0, kj0=kj0)  # (the path: Path refuses it)
         robot_, spec_meta, bpath = robot_and_path(robot, path)
         inp = check_inputs(
             robot_, bpath, values, base, cms_volume=cms_volume, cms_major=cms_major, options=options, pos_tol=pos_tol
         )
         inp.robot_spec = spec_meta
+        check_shape_size(inp)  # before any work: B x P waypoints that cannot fit are refused
         extra_starts = make_start_states(inp, q0, kj0)
         marks = [time.perf_counter(), time.time()]  # the solve starts (perf_counter, wall clock)
         problem, req, arrays, interrupted = _solve(inp, extra_starts, progress)

@@ -24,7 +24,9 @@ from jaxstiff.ik import NOMINAL_OFFSET_DEG, nominal_posture
 from jaxstiff.model.robot import Robot
 from jaxstiff.paths import DEFAULT_PATH_SPEC, Path
 from jaxstiff.results import files as R
+from jaxstiff.results.numpy_check import np_alpha_ratio, np_criterion
 from jaxstiff.runtime.io import deferred_interrupts
+from jaxstiff.runtime.plan_size import check_plan_size
 from jaxstiff.settings.robot import robot_meta, versions
 from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
 from jaxstiff.shaping_inputs import FIRST_STARTS_SPREAD_DEG as FIRST_STARTS_SPREAD_DEG
@@ -42,6 +44,8 @@ __all__ = [
     "first_start_postures",
     "make_start_states",
     "report_at_solution",
+    "not_run_report",
+    "check_shape_size",
     "cms_factors",
     "warn_off_plane",
     "shape_meta",
@@ -67,23 +71,91 @@ class Report:
 def report_at_solution(
     problem: WaypointProblem, inp: ShapeInputs, arrays: Mapping[str, np.ndarray], ratios: np.ndarray
 ) -> Report:
-    """Recompute the reported quantities at every solver's final points (a compile and B x P small
-    calls, seconds: the command line's Ctrl-C waits for them rather than lose the solve)."""
+    """Recompute the reported quantities at every solver's final points (a compile and one small
+    call per waypoint that was run, seconds: the command line's Ctrl-C waits for them rather than
+    lose the solve).
+
+    A waypoint with status NOT_RUN (an interrupted run) holds its path's reference state
+    unchanged, so its position, K_T and axis ratio are those of that state: they are computed
+    once per distinct state, and only alpha and the criterion, which depend on the waypoint's
+    direction, are evaluated per waypoint, in numpy (:func:`not_run_report`). An interrupt after a
+    few of 10^6 waypoints thus costs a few calls, not 10^6.
+    """
     B, P, m = inp.path.B, inp.path.P, inp.m
     pos, K, alpha, rho, f = (
-        np.zeros((B * P, 3)),
-        np.zeros((B * P, m, m)),
-        np.zeros(B * P),
-        np.zeros(B * P),
-        np.zeros(B * P),
+        np.zeros((B, P, 3)),
+        np.zeros((B, P, m, m)),
+        np.zeros((B, P)),
+        np.zeros((B, P)),
+        np.zeros((B, P)),
     )
+    not_run = np.asarray(arrays["status"]).reshape(B, P) == R.NOT_RUN
     with jax.enable_x64(True), deferred_interrupts():
         report = compiled_report(problem)
-        for i, (b, p) in enumerate(np.ndindex(B, P)):
+
+        def at(b: int, p: int) -> None:
             x = np.asarray(problem.x_of(arrays["q"][b, p], arrays["kj"][b, p]))
             prm = WaypointProblem.params(inp.path.points[b, p], inp.path.directions[b, p], float(ratios[b]), inp.c)
-            pos[i], K[i], alpha[i], rho[i], f[i] = problem.unpack_report(np.asarray(report(x, prm)))
-    return Report(pos.reshape(B, P, 3), K.reshape(B, P, m, m), alpha.reshape(B, P), rho.reshape(B, P), f.reshape(B, P))
+            pos[b, p], K[b, p], alpha[b, p], rho[b, p], f[b, p] = problem.unpack_report(np.asarray(report(x, prm)))
+
+        for b, p in np.argwhere(~not_run):
+            at(int(b), int(p))
+        for b in np.flatnonzero(not_run.any(axis=1)):
+            not_run_report(at, inp, arrays, ratios, int(b), np.flatnonzero(not_run[b]), (pos, K, alpha, rho, f))
+    return Report(pos, K, alpha, rho, f)
+
+
+def check_shape_size(inp: ShapeInputs) -> None:
+    """Refuse a run whose B x P waypoints cannot fit in memory, before the solve (the estimate,
+    the limit and what to lower): per waypoint the result arrays (q, kj, kj_scaled: n each; about
+    40 reported values) and each start's state (4 n values), float64, twice (solver and result).
+
+    Raises:
+        jaxstiff.runtime.plan_size.PlanTooLargeError: a ``ValueError`` naming the sizes.
+    """
+    B, P, n = inp.path.B, inp.path.P, inp.robot.n
+    starts = max(int(inp.starts or 1), int(inp.first_starts or 1))
+    check_plan_size(
+        f"shape: {B} path(s) x {P} waypoints ({n} joints, {starts} start(s))",
+        B * P,
+        2 * 8 * (3 * n + 40 + 4 * n * starts),
+        "the number of waypoints (--path rows) or paths",
+    )
+
+
+def not_run_report(
+    at: Any,
+    inp: ShapeInputs,
+    arrays: Mapping[str, np.ndarray],
+    ratios: np.ndarray,
+    b: int,
+    idx: np.ndarray,
+    out: tuple[np.ndarray, ...],
+) -> None:
+    """Fill ``out`` (position, K, alpha, ratio, criterion, each (B, P, ...)) at the NOT_RUN
+    waypoints ``idx`` of path ``b``: ``at(b, p)`` (the compiled report) once per distinct state,
+    the other waypoints of that state copy its position, K_T and ratio, and get alpha (S0-8) and
+    f1/f2 (S0-9, S0-15) from numpy; a custom criterion is evaluated by ``at`` per waypoint."""
+    pos, K, alpha, rho, f = out
+    states = np.concatenate([arrays["q"][b, idx], arrays["kj"][b, idx]], axis=1)
+    if np.all(states == states[0]):  # (the usual case: one reference state; np.unique of 10^6 rows takes 2 s)
+        first, group = np.array([0]), np.zeros(len(idx), dtype=int)
+    else:
+        _, first, group = np.unique(states, axis=0, return_index=True, return_inverse=True)
+    for g, i0 in enumerate(first):
+        p0, members = int(idx[i0]), idx[np.ravel(group) == g]
+        at(b, p0)
+        rest = members[members != p0]
+        if not rest.size:
+            continue
+        if inp.crit_name not in ("f1", "f2") or not isinstance(inp.criterion, str):
+            for p in rest:
+                at(b, int(p))
+            continue
+        pos[b, rest], K[b, rest], rho[b, rest] = pos[b, p0], K[b, p0], rho[b, p0]
+        a, _ = np_alpha_ratio(K[b, p0][None], inp.path.directions[b, rest])
+        alpha[b, rest] = a
+        f[b, rest] = np_criterion(inp.crit_name, a, rho[b, rest], float(ratios[b]), inp.c)
 
 
 def cms_factors(K: np.ndarray, inp: ShapeInputs) -> np.ndarray:

@@ -161,3 +161,21 @@ def robot_spec_from_args(args: argparse.Namespace) -> RobotSpec:
         return RobotSpec(urdf=args.robot, base_link=args.base_link, tip_link=args.tip_link, locked=locked, tcp=tcp)
     except ValueError as e:
         raise ValueError(str(e).replace("robot.tcp", "--tcp").replace("robot.locked", "--lock")) from None
+
+
+def rollout_row_bytes(n: int, task: str) -> int:
+    """Bytes one step of one CSC rollout holds until the file is written: the result row (q, kj:
+    n each; K_C: m x m for m = 2, 3, 6 task rows; position 3, target d; 7 scalars; float64)
+    twice (the finished segments and their concatenation) and its target (d = 2 for task xy, else 3)."""
+    m = {"xy": 2, "xyz": 3, "full": 6}[task]
+    d = 2 if task == "xy" else 3
+    return 2 * 8 * (2 * n + m * m + 3 + d + 7) + 8 * d
+
+
+def check_rollout_size(B: int, T: int, n: int, task: str, flag: str) -> None:
+    """Refuse B CSC rollouts of T steps (n joints) whose result cannot fit in memory, naming ``flag``.
+    The segments of a long run stream the work, not the result (the file holds it whole), so the
+    estimate is the result's; a run longer than a segment but with a result that fits is accepted."""
+    from jaxstiff.runtime.plan_size import check_plan_size
+
+    check_plan_size(f"{B} rollout(s) x {T} steps ({n} joints, task {task!r})", B * T, rollout_row_bytes(n, task), flag)

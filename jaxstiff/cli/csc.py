@@ -42,14 +42,14 @@ from typing import Any
 
 import numpy as np
 
-from jaxstiff.cli.common import add_robot_flags, check_out_file, command, robot_spec_from_args
+from jaxstiff.cli.common import add_robot_flags, check_out_file, check_rollout_size, command, robot_spec_from_args
 from jaxstiff.cli.csc_flags import M_TASK, parse_numbers
 from jaxstiff.cli.csc_flags import SETTING_FLAGS as SETTING_FLAGS
 from jaxstiff.cli.csc_flags import add_setting_flags as add_setting_flags
 from jaxstiff.cli.csc_flags import parse_kxd as parse_kxd
 from jaxstiff.cli.csc_flags import settings_from_args as settings_from_args
 from jaxstiff.csc.segments import StepProgress
-from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending
+from jaxstiff.runtime.io import check_regular_file, deferred_interrupts, interrupt_pending
 from jaxstiff.runtime.io import json_default as _json_default
 from jaxstiff.settings.csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
 from jaxstiff.settings.csc import CSCSettings
@@ -156,6 +156,7 @@ def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) ->
         x = parse_numbers(args.hold, "--hold")
         if len(x) not in (d, 3):
             raise ValueError(f"--hold needs {d} coordinates (m) for task {task!r}, got {len(x)}")
+        check_rollout_size(1, args.steps, robot.n, task, "--steps")
         points = np.tile(np.asarray(x), (1, args.steps, 1))
         sources = [f"hold {x}"]
     else:
@@ -163,13 +164,13 @@ def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) ->
 
         pts = []
         for f in args.path:
-            if not os.path.isfile(f):
-                raise FileNotFoundError(f"--path: no such file: {f}")
+            check_regular_file(f, "--path")
             # the points only: one step per row, repeated rows hold still, directions unused
             pts.append(read_csv(f)[0])
         lengths = {len(a) for a in pts}
         if len(lengths) != 1:
             raise ValueError(f"--path: all paths of one run need the same number of waypoints, got {sorted(lengths)}")
+        check_rollout_size(len(pts), len(pts[0]), robot.n, task, "--path (fewer rows or paths)")
         points = np.stack(pts)
         sources = [os.path.abspath(f) for f in args.path]
     if task == "xy" and points.shape[-1] == 3:

@@ -24,6 +24,7 @@ from jaxstiff._numerics.safe import safe_sqrt
 from jaxstiff.csc.step import StaticSettings
 from jaxstiff.model.chain import check_locked_values
 from jaxstiff.model.robot import Robot
+from jaxstiff.runtime.dtypes import refuse_half_precision
 from jaxstiff.settings.csc import (
     DEFAULT_JL_GAIN,
     JOINT_LIMIT_MODES,
@@ -206,6 +207,7 @@ def prepare_rollout(
     beta = s["beta"] if beta is None else beta
     _check_static(robot, s, chunk)
     _check_complex(path, K_xd, q0, beta)
+    refuse_half_precision("csc_rollout", path=getattr(path, "points", path), K_xd=K_xd, q0=q0, beta=beta)
     q0 = _start_posture(robot, q0)
     dtype = q0.dtype
     if q0.ndim == 0 or q0.shape[-1] != robot.n:

@@ -37,7 +37,9 @@ from .csv_io import format_csv as format_csv
 from .csv_io import read_csv as read_csv
 from .default import DEFAULT_PATH_SPEC as DEFAULT_PATH_SPEC
 from .default import default_path as default_path
+from .generators import WAYPOINT_BYTES as WAYPOINT_BYTES
 from .generators import arc as arc
+from .generators import check_waypoints as check_waypoints
 from .generators import circle as circle
 from .generators import ellipse_arc as ellipse_arc
 from .generators import ellipse_curvature as ellipse_curvature
@@ -58,6 +60,8 @@ __all__ = [
     "ellipse_arc",
     "ellipse_curvature",
     "turning_deg",
+    "check_waypoints",
+    "WAYPOINT_BYTES",
     "default_path",
     "DEFAULT_PATH_SPEC",
 ]

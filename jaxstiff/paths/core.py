@@ -15,9 +15,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from jaxstiff.runtime.dtypes import refuse_half_precision
 from jaxstiff.runtime.io import atomic_write_text
 
-from .csv_io import format_csv, read_csv
+from .csv_io import MAX_ABS_VALUE, format_csv, read_csv
 
 __all__ = ["Path", "tangents", "ZERO_SEGMENT_M"]
 
@@ -70,6 +71,7 @@ def tangents(points: ArrayLike, where: str = "path") -> np.ndarray:
 
 def _checked_points(points: ArrayLike, has_directions: bool, where: str) -> np.ndarray:
     """``points`` as a fresh float64 (P, 3) or (B, P, 3) array of finite values, P >= 2 (>= 1 with directions)."""
+    refuse_half_precision(where, points=points)
     pts = np.array(points, dtype=float, copy=True)
     if pts.ndim not in (2, 3) or pts.shape[-1] != 3:
         raise ValueError(f"{where}: points must have shape (P, 3) or (B, P, 3), got {pts.shape}")
@@ -82,7 +84,19 @@ def _checked_points(points: ArrayLike, has_directions: bool, where: str) -> np.n
         raise ValueError(f"{where}: empty batch of paths")
     if not np.all(np.isfinite(pts)):
         raise ValueError(f"{where}: points contain NaN or Inf")
+    _refuse_huge(pts, "points", where)
     return pts
+
+
+def _refuse_huge(a: np.ndarray, what: str, where: str) -> None:
+    """Refuse values beyond :data:`MAX_ABS_VALUE` (their squared lengths overflow float64), by index."""
+    big = np.argwhere(np.abs(a) > MAX_ABS_VALUE)
+    if big.size:
+        idx = big[0].tolist()
+        raise ValueError(
+            f"{where}: {what} value {a[tuple(idx)]:g} at waypoint {idx[-2]}, column {'xyz'[idx[-1]]} is beyond "
+            f"+-{MAX_ABS_VALUE:g}, where lengths overflow float64"
+        )
 
 
 def _unit_directions(directions: ArrayLike | None, pts: np.ndarray, where: str) -> np.ndarray:
@@ -91,11 +105,13 @@ def _unit_directions(directions: ArrayLike | None, pts: np.ndarray, where: str) 
         if pts.ndim == 2:
             return tangents(pts, where)
         return np.stack([tangents(p, f"{where}[{b}]") for b, p in enumerate(pts)])
+    refuse_half_precision(where, directions=directions)
     d = np.array(directions, dtype=float, copy=True)
     if d.shape != pts.shape:
         raise ValueError(f"{where}: directions must have the shape of points {pts.shape}, got {d.shape}")
     if not np.all(np.isfinite(d)):
         raise ValueError(f"{where}: directions contain NaN or Inf")
+    _refuse_huge(d, "directions", where)
     norm = np.linalg.norm(d, axis=-1)
     if np.any(norm <= 1e-12):
         idx = np.argwhere(norm <= 1e-12)[0].tolist()

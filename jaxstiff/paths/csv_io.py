@@ -13,10 +13,17 @@ import io
 import math
 import os
 import re
+from typing import Any
 
 import numpy as np
 
-__all__ = ["read_csv", "format_csv"]
+from jaxstiff.runtime.io import check_regular_file
+
+__all__ = ["read_csv", "format_csv", "MAX_ABS_VALUE"]
+
+#: the largest magnitude a coordinate or direction component may have: beyond it the squared
+#: length of a segment or direction (a sum of 3 squares of differences) overflows float64
+MAX_ABS_VALUE = 1e150
 
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|[+-]?(?:inf|infinity|nan)", re.IGNORECASE | re.ASCII)
 _HEADERS = (["x", "y", "z"], ["x", "y", "z", "dx", "dy", "dz"])
@@ -25,9 +32,8 @@ _HEADERS = (["x", "y", "z"], ["x", "y", "z", "dx", "dy", "dz"])
 def _content_lines(file: str) -> list[tuple[int, str]]:
     """``(line number, text)`` of the non-blank, non-comment lines of ``file`` (UTF-8, a BOM dropped)."""
     if os.path.isdir(file):
-        raise ValueError(f"path file {file} is a folder; give a CSV file")
-    if not os.path.isfile(file):
-        raise FileNotFoundError(f"path file not found: {file}")
+        raise ValueError(f"path file {file} is not a regular file: it is a folder; give a CSV file")
+    check_regular_file(file, "path file")
     try:
         with open(file, newline="", encoding="utf-8-sig") as fh:  # -sig: a BOM (spreadsheet export) is dropped
             text = fh.read()
@@ -72,6 +78,11 @@ def _parse_row(file: str, line_no: int, line: str, header: list[str], trailing: 
         v = float(cell)
         if not math.isfinite(v):
             raise ValueError(f"{file}:{line_no}: column {col}: value {cell.strip()!r} is not finite")
+        if abs(v) > MAX_ABS_VALUE:
+            raise ValueError(
+                f"{file}:{line_no}: column {col}: value {cell.strip()!r} is beyond +-{MAX_ABS_VALUE:g}, where "
+                "lengths overflow float64 (coordinates are metres)"
+            )
         row.append(v)
     return row
 
@@ -101,16 +112,32 @@ def read_csv(file: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray | Non
     return data[:, :3], (data[:, 3:6] if len(header) == 6 else None), numbers
 
 
-def format_csv(points: np.ndarray, directions: np.ndarray | None = None) -> str:
+def format_csv(points: Any, directions: np.ndarray | None = None) -> str:
     """The CSV text of one path: header ``x,y,z[,dx,dy,dz]`` and one row per waypoint.
 
     Args:
-        points: (P, 3) m, base frame.
+        points: (P, 3) m, base frame; or an unbatched :class:`~jaxstiff.paths.Path` (then its
+            points and, unless ``directions`` is given, its directions).
         directions: (P, 3) or None (then the file has no direction columns).
 
     Values are written as ``repr(float(v))`` (shortest round-trip), so :func:`read_csv` gives back
     the same float64 numbers.
+
+    Raises:
+        ValueError: points not (P, 3) with P >= 1, directions not of the points' shape.
     """
+    if hasattr(points, "points") and hasattr(points, "directions"):  # a Path (core imports this module)
+        if directions is None:
+            directions = np.asarray(points.directions)
+        points = points.points
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] < 1:
+        raise ValueError(f"format_csv writes one path: points of shape (P, 3), got {pts.shape}")
+    if directions is not None and np.shape(directions) != pts.shape:
+        raise ValueError(
+            f"format_csv: directions must have the shape of points {pts.shape}, got {np.shape(directions)}"
+        )
+    points = pts
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(_HEADERS[1] if directions is not None else _HEADERS[0])

@@ -13,9 +13,16 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from jaxstiff.runtime.plan_size import check_plan_size
+
 from .core import ZERO_SEGMENT_M, Path
 
 __all__ = ["line", "arc", "circle", "half_sine", "spline", "ellipse_arc", "ellipse_curvature", "turning_deg"]
+__all__ += ["WAYPOINT_BYTES", "check_waypoints"]
+
+#: bytes held at once per generated waypoint (parameter, points, directions and the Path's
+#: checked copies: about 20 float64 values), for :func:`check_waypoints`
+WAYPOINT_BYTES = 160
 
 
 def _vec3(v: ArrayLike, what: str) -> np.ndarray:
@@ -25,10 +32,17 @@ def _vec3(v: ArrayLike, what: str) -> np.ndarray:
     return a
 
 
-def _check_n(n: int) -> int:
+def check_waypoints(n: int, what: str = "path", bytes_per_waypoint: float = WAYPOINT_BYTES) -> int:
+    """``n`` as an int, >= 2, and small enough that ``n`` waypoints fit in memory.
+
+    Raises:
+        ValueError: fewer than 2 waypoints, or (:class:`~jaxstiff.runtime.plan_size.PlanTooLargeError`)
+            more than the available memory holds (the message gives the estimate and the limit).
+    """
     n = int(n)
     if n < 2:
         raise ValueError(f"a path needs at least 2 waypoints, got n = {n}")
+    check_plan_size(f"{what}: n = {n} waypoints", n, bytes_per_waypoint, "n")
     return n
 
 
@@ -49,7 +63,7 @@ def _plane_basis(normal: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 def line(start: ArrayLike, end: ArrayLike, n: int = 20) -> Path:
     """``n`` equally spaced waypoints on the segment ``start -> end`` ((3,) each, m); direction = the segment."""
     a, b = _vec3(start, "start"), _vec3(end, "end")
-    n = _check_n(n)
+    n = check_waypoints(n, "line")
     if np.linalg.norm(b - a) <= ZERO_SEGMENT_M:
         raise ValueError("line: start and end coincide")
     s = np.linspace(0.0, 1.0, n)[:, None]
@@ -82,7 +96,7 @@ def arc(
     c = _vec3(center, "center")
     if not radius > 0:
         raise ValueError(f"arc radius must be > 0 (m), got {radius}")
-    n = _check_n(n)
+    n = check_waypoints(n, "arc")
     if start_deg == end_deg:
         raise ValueError("arc: start and end angles coincide")
     e1, e2, _ = _plane_basis(normal)
@@ -95,7 +109,7 @@ def arc(
 
 def circle(center: ArrayLike, radius: float, n: int = 60, normal: ArrayLike = (0.0, 0.0, 1.0)) -> Path:
     """A full circle (``center`` (3,) m, ``radius`` m), ``n`` waypoints, the first point not repeated at the end."""
-    n = _check_n(n)
+    n = check_waypoints(n, "circle")
     p = arc(center, radius, 0.0, 360.0 * (n - 1) / n if n > 1 else 0.0, n, normal)
     return Path(p.points, p.directions, name="circle")
 
@@ -115,7 +129,7 @@ def half_sine(
     ``periods = 1`` is a half sine (one bump), ``2`` an S-curve. Direction = analytic tangent.
     """
     a, b = _vec3(start, "start"), _vec3(end, "end")
-    n = _check_n(n)
+    n = check_waypoints(n, "half_sine")
     chord = b - a
     L = np.linalg.norm(chord)
     if L <= ZERO_SEGMENT_M:
@@ -148,11 +162,14 @@ def spline(points: ArrayLike, n: int = 60) -> Path:
     seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     if np.any(seg <= ZERO_SEGMENT_M):
         raise ValueError("spline: two consecutive control points coincide")
-    n = _check_n(n)
+    n = check_waypoints(n, "spline")
     u = np.r_[0.0, np.cumsum(seg)]
     cs = CubicSpline(u, pts, axis=0, bc_type="natural" if pts.shape[0] > 2 else "not-a-knot")
     s = np.linspace(0.0, u[-1], n)
     return Path(cs(s), cs(s, 1), name="spline")
+
+
+_FINE_STEPS = 4096  #: parameter steps per waypoint of ellipse_arc's arc-length grid (6 float64 arrays)
 
 
 def ellipse_curvature(semi_x: float, semi_y: float, t_deg: ArrayLike) -> np.ndarray:
@@ -196,11 +213,11 @@ def ellipse_arc(
     for what, v in (("semi_x", semi_x), ("semi_y", semi_y)):
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"ellipse_arc {what} must be a finite number > 0 (m), got {v}")
-    n = _check_n(n)
+    n = check_waypoints(n, "ellipse_arc", WAYPOINT_BYTES + _FINE_STEPS * 48)
     if start_deg == end_deg:
         raise ValueError("ellipse_arc: start and end angles coincide")
     e1, e2, _ = _plane_basis(normal)
-    fine = np.deg2rad(np.linspace(start_deg, end_deg, 4096 * n + 1))
+    fine = np.deg2rad(np.linspace(start_deg, end_deg, _FINE_STEPS * n + 1))
     speed = np.hypot(semi_x * np.sin(fine), semi_y * np.cos(fine))  # |dx/dt|
     s = np.r_[0.0, np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.abs(np.diff(fine)))]  # trapezoid rule
     th = np.interp(np.linspace(0.0, s[-1], n), s, fine)

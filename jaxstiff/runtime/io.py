@@ -4,23 +4,46 @@ Every file jaxstiff writes goes through :func:`atomic_write`: a temporary file i
 folder, then ``os.replace`` (atomic on POSIX), so an interrupted run never leaves a partial file.
 The command line turns SIGTERM into the same ``KeyboardInterrupt`` as Ctrl-C
 (:func:`interrupt_handlers`), so the temporary file is removed on either.
+
+A SIGKILL (or a power cut) cannot be caught, and leaves the temporary file. The next
+:func:`atomic_write` into the same folder removes such leftovers (:func:`clean_stale_temporaries`):
+only names of our own pattern (``.tmp-`` + 8 characters of ``tempfile``'s alphabet + the target's
+suffix) that are at least :data:`STALE_TMP_S` seconds old AND that no process holds locked. Every
+writer holds an exclusive ``flock`` on its temporary file from creation to rename, and the kernel
+drops the lock when the process dies, so a live writer (a concurrent sweep, a second command into
+the same folder) is never disturbed however slow it is; the age only covers the instant between
+``mkstemp`` and ``flock``. Timing alone was rejected: a writer compressing a large array may not
+touch its file for many seconds.
+
+:func:`check_regular_file` is the one rule for every input file: missing -> ``FileNotFoundError``
+("not found"), present but not a regular file (a folder, FIFO, device such as ``/dev/zero``,
+socket; symlinks are followed) -> ``ValueError`` "is not a regular file".
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import hashlib
 import os
+import re
 import signal
+import stat
 import sys
 import tempfile
 import threading
+import time
 from collections.abc import Callable, Iterator
 from typing import IO, Any
 
 import numpy as np
 
 __all__ = [
+    "STALE_TMP_S",
+    "TMP_PREFIX",
+    "check_regular_file",
+    "clean_stale_temporaries",
+    "is_own_temporary",
     "atomic_write",
     "atomic_write_text",
     "json_default",
@@ -38,8 +61,103 @@ def _umask() -> int:
     return mask
 
 
+TMP_PREFIX = ".tmp-"  #: prefix of every temporary file of :func:`atomic_write`
+STALE_TMP_S = 2.0  #: s: a leftover temporary file younger than this is never removed
+#: tempfile.mkstemp's names: the prefix, 8 characters of its alphabet, the target's suffix
+_OWN_TMP = re.compile(re.escape(TMP_PREFIX) + r"[a-z0-9_]{8}(\.[A-Za-z0-9]{1,16})?")
+_CLEANED: set[str] = set()  # folders already cleaned by this process
+
+
+def is_own_temporary(name: str) -> bool:
+    """True if the file name ``name`` (no folder) is one of :func:`atomic_write`'s temporaries."""
+    return _OWN_TMP.fullmatch(name) is not None
+
+
+def _lock_held_elsewhere(path: str) -> bool:
+    """True if another open file description holds a ``flock`` on ``path`` (a live writer)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError:
+        return True  # (gone, or unreadable: leave it)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return True
+    finally:
+        os.close(fd)  # (closing releases the probe's lock)
+    return False
+
+
+def clean_stale_temporaries(folder: str | os.PathLike, min_age_s: float = STALE_TMP_S) -> list[str]:
+    """Remove the temporaries a killed writer left in ``folder`` (module docstring); the removed paths.
+
+    Only regular files whose names match :func:`is_own_temporary`, last modified at least
+    ``min_age_s`` seconds ago, and not ``flock``-ed by a live writer. Errors are ignored (a
+    read-only folder, a file removed meanwhile).
+    """
+    folder = os.fspath(folder)
+    removed: list[str] = []
+    now = time.time()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for e in entries:
+        if not is_own_temporary(e.name):
+            continue
+        try:
+            st = e.stat(follow_symlinks=False)
+            if not stat.S_ISREG(st.st_mode) or now - st.st_mtime < min_age_s or _lock_held_elsewhere(e.path):
+                continue
+            os.unlink(e.path)
+            removed.append(e.path)
+        except OSError:
+            continue
+    return removed
+
+
+def check_regular_file(path: str | os.PathLike, what: str) -> str:
+    """``path`` as a string if it names a regular file (symlinks followed), else a clear error.
+
+    Args:
+        path: the file to read.
+        what: its name in the message (a flag such as ``--path``, a config key, ``"path file"``).
+
+    Raises:
+        FileNotFoundError: nothing there (``"{what}: file not found: {path}"``).
+        ValueError: a folder, FIFO, device, socket (``"{what}: {path} is not a regular file: it is a FIFO"``).
+    """
+    path = os.fspath(path)
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{what}: file not found: {path}") from None
+    except OSError as e:
+        raise ValueError(f"{what}: cannot read {path}: {e.strerror or e}") from None
+    if stat.S_ISREG(mode):
+        return path
+    kind = (
+        "a folder"
+        if stat.S_ISDIR(mode)
+        else "a FIFO (named pipe)"
+        if stat.S_ISFIFO(mode)
+        else "a character device"
+        if stat.S_ISCHR(mode)
+        else "a block device"
+        if stat.S_ISBLK(mode)
+        else "a socket"
+        if stat.S_ISSOCK(mode)
+        else "not a file"
+    )
+    raise ValueError(f"{what}: {path} is not a regular file: it is {kind}; give a file")
+
+
 def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary: bool = False) -> str:
     """Call ``write(fh)`` on a temporary file beside ``file``, then rename it onto ``file``.
+
+    The temporary file is ``flock``-ed while it is written and removed on any exception (Ctrl-C
+    and SIGTERM under :func:`interrupt_handlers` included); leftovers of killed writers in the
+    folder are removed first, once per folder and process (:func:`clean_stale_temporaries`).
 
     Raises:
         FileNotFoundError: the target folder does not exist.
@@ -48,8 +166,13 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
     folder = os.path.dirname(os.path.abspath(file))
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"output folder does not exist: {folder}")
-    fd, tmp = tempfile.mkstemp(prefix=".tmp-", suffix=os.path.splitext(file)[1], dir=folder)
+    if folder not in _CLEANED:
+        clean_stale_temporaries(folder)
+        _CLEANED.add(folder)
+    fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=os.path.splitext(file)[1], dir=folder)
     try:
+        with contextlib.suppress(OSError):  # (a file system without locks: the age rule alone)
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         fh_ctx = os.fdopen(fd, "wb") if binary else os.fdopen(fd, "w", encoding="utf-8", newline="")
         with fh_ctx as fh:
             write(fh)

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from jaxstiff.runtime.io import json_default
+from jaxstiff.runtime.io import check_regular_file, json_default
 from jaxstiff.sweep.axes import AXES, axes_table, cross_checks, resolve_jl_gain
 from jaxstiff.sweep.robot_table import build_robot as build_robot
 from jaxstiff.sweep.schema import (
@@ -239,6 +239,19 @@ def _plan_hash(normalised: dict, robot: Any, trajectories: list[Trajectory]) -> 
     return h.hexdigest()
 
 
+def _check_chunk_size(rows: int, P: int, n: int, source: str) -> None:
+    """Refuse a chunk (rows x waypoints x joints, held at once; the sweep streams chunk by chunk)
+    that cannot fit in memory, naming ``sweep.chunk_size``."""
+    from jaxstiff.runtime.plan_size import PlanTooLargeError, check_plan_size
+
+    try:  # per waypoint and row: q, kj, their starts and bounds (n each) and ~30 reported values, float64
+        check_plan_size(
+            f"a chunk of {rows} rows x {P} waypoints ({n} joints)", rows * P, 8 * (6 * n + 30), "sweep.chunk_size"
+        )
+    except PlanTooLargeError as exc:
+        raise SweepConfigError("sweep.chunk_size", str(exc), source) from None
+
+
 # ---------------------------------------------------------------------------- entry points
 def load_config(file: str | os.PathLike) -> SweepPlan:
     """Read, validate and expand a sweep TOML file.
@@ -248,8 +261,9 @@ def load_config(file: str | os.PathLike) -> SweepPlan:
         SweepConfigError: anything wrong in it (the message names the key and the problem).
     """
     file = os.fspath(file)
-    if not os.path.isfile(file):
+    if not os.path.exists(file):
         raise FileNotFoundError(f"sweep config not found: {file}")
+    check_regular_file(file, "sweep config")  # (a folder, FIFO or device: "is not a regular file")
     try:
         import tomllib
     except ModuleNotFoundError:  # Python 3.10
@@ -301,6 +315,7 @@ def parse_config(
     n_rows = math.prod(len(v) for v in axes.values()) * len(trajectories)
     if n_rows > MAX_ROWS:
         raise SweepConfigError("axes", f"the sweep expands to {n_rows} rows; the limit is {MAX_ROWS}", source)
+    _check_chunk_size(min(chunk_size, n_rows), max(t.P for t in trajectories), robot.n, source)
     settings, rows, row_group, groups = expand_rows(kind, axes, trajectories)
     chunks = cut_chunks(kind, rows, row_group, len(groups), chunk_size)
     normalised = {

@@ -18,7 +18,7 @@ def build_robot(cfg: Mapping[str, Any], base_dir: str, source: str = "") -> tupl
     (a shipped robot gets its default locks, as in every command: kuka_lwr4 locks lwr_a7 = 0)."""
     from jaxstiff.model.robot import Robot
     from jaxstiff.model.shipped import robot_path, shipped_robots
-    from jaxstiff.runtime.io import file_sha256
+    from jaxstiff.runtime.io import check_regular_file, file_sha256
     from jaxstiff.settings.robot import RobotSpec
 
     if "robot" not in cfg:
@@ -36,8 +36,10 @@ def build_robot(cfg: Mapping[str, Any], base_dir: str, source: str = "") -> tupl
     else:
         given = str(tbl.urdf)
         urdf = given if os.path.isabs(given) else os.path.join(base_dir, given)
-        if not os.path.isfile(urdf):
-            raise SweepConfigError("robot.urdf", f"file not found: {urdf}", source)
+        try:
+            check_regular_file(urdf, "URDF")
+        except (FileNotFoundError, ValueError) as exc:
+            raise SweepConfigError("robot.urdf", str(exc), source) from None
     matrix = tbl.tcp is not None and isinstance(tbl.tcp[0], list)  # a 4x4 transform (RobotSpec takes 3 or 6 values)
     try:
         spec = RobotSpec(

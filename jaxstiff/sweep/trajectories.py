@@ -86,13 +86,12 @@ def format_value(x: Any) -> str:
 
 def _point_path(point: Any, n: int = 20, direction: Any = (1.0, 0.0, 0.0)) -> Any:
     """A path that holds one point for ``n`` waypoints (CSC "hold" studies); directions constant."""
-    from jaxstiff.paths import Path
+    from jaxstiff.paths import Path, check_waypoints
 
     p = np.asarray(point, dtype=float)
     d = np.asarray(direction, dtype=float)
-    if int(n) < 2:
-        raise ValueError(f"a path needs at least 2 waypoints, got n = {n}")
-    return Path(np.tile(p, (int(n), 1)), np.tile(d, (int(n), 1)), name="point")
+    n = check_waypoints(n, "point")
+    return Path(np.tile(p, (n, 1)), np.tile(d, (n, 1)), name="point")
 
 
 def _generator_fns() -> dict[str, Callable[..., Any]]:
@@ -170,13 +169,12 @@ def _csc_directions(points: np.ndarray, given: np.ndarray | None) -> np.ndarray:
 
 def _file_path(tbl: Mapping[str, Any], key: str, kind: str, base_dir: str, source: str) -> Trajectory:
     from jaxstiff.paths import Path, read_csv
-    from jaxstiff.runtime.io import file_sha256
+    from jaxstiff.runtime.io import check_regular_file, file_sha256
 
     entry = validate(PathFileTable, tbl, key, source)
     fp = entry.file if os.path.isabs(entry.file) else os.path.join(base_dir, entry.file)
-    if not os.path.isfile(fp):
-        raise SweepConfigError(f"{key}.file", f"path file not found: {fp}", source)
     try:
+        check_regular_file(fp, "path file")
         if kind == "csc":  # points only: a CSC rollout may hold still (repeated rows)
             pts, dirs, _ = read_csv(fp)
             dirs = _csc_directions(pts, dirs)
@@ -215,6 +213,7 @@ def _generated_paths(tbl: Mapping[str, Any], key: str, source: str) -> list[Traj
         combos = [tuple(v[i] if len(v) > 1 else v[0] for v in options.values()) for i in range(n_paths)]
     else:
         combos = list(itertools.product(*options.values()))
+    _check_paths_size(options, len(combos), key, source)
     fn = _generator_fns()[gen]
     out = []
     for combo in combos:
@@ -229,6 +228,21 @@ def _generated_paths(tbl: Mapping[str, Any], key: str, source: str) -> list[Traj
 
 
 _GENERATOR_MODELS = {g: _generator_model(g) for g in GENERATORS}
+
+
+def _check_paths_size(options: Mapping[str, list], n_paths: int, key: str, source: str) -> None:
+    """Refuse a generator table whose paths cannot fit in memory (before any is generated), naming ``key.n``."""
+    from jaxstiff.paths import WAYPOINT_BYTES
+    from jaxstiff.runtime.plan_size import PlanTooLargeError, check_plan_size
+
+    n_max = max((int(v) for v in options.get("n", [])), default=0)
+    if n_max < 2:  # (the default n of the generator; a bad n is the generator's to name)
+        return
+    what = f"{n_paths} path(s) of up to n = {n_max} waypoints" if n_paths > 1 else f"n = {n_max} waypoints"
+    try:
+        check_plan_size(what, n_paths * n_max, WAYPOINT_BYTES, f"{key}.n")
+    except PlanTooLargeError as exc:
+        raise SweepConfigError(f"{key}.n", str(exc), source) from None
 
 
 def _unique_names(paths: list[Trajectory]) -> list[Trajectory]:
