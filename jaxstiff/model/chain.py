@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from jaxstiff.runtime.dtypes import refuse_half_precision
+
 __all__ = [
     "Chain",
     "JointType",
@@ -288,6 +290,7 @@ def check_q(robot: Chain, q: Any, name: str = "q") -> Any:
         raise ValueError(
             f"{name} must have a floating dtype (float32 or float64), got {q.dtype}; convert with q.astype(float)"
         )
+    refuse_half_precision(f"robot {robot.name!r}", **{name: q})  # the one rule (jaxstiff.runtime.dtypes)
     if q.ndim == 0 or q.shape[-1] != robot.n:
         raise ValueError(
             f"{name} must have shape (..., {robot.n}) for robot {robot.name!r} "

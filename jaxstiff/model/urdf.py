@@ -24,6 +24,8 @@ import numpy as np
 
 from jaxstiff.model.chain import JOINT_PRISMATIC, JOINT_REVOLUTE, check_locked, mat_to_tuple, snap, tcp_matrix
 from jaxstiff.model.shipped import robot_path, shipped_robots
+from jaxstiff.runtime.io import check_regular_file
+from jaxstiff.runtime.messages import short_list, short_text
 
 _MOVABLE = {"revolute": JOINT_REVOLUTE, "continuous": JOINT_REVOLUTE, "prismatic": JOINT_PRISMATIC}
 _KNOWN = set(_MOVABLE) | {"fixed", "floating", "planar"}
@@ -58,7 +60,7 @@ def _float_attr(path: str, where: str, text: str) -> list[float]:
     try:
         return [float(v) for v in text.split()]
     except ValueError:
-        raise ValueError(f"{path}: {where}: cannot read numbers from {text!r}") from None
+        raise ValueError(f"{path}: {where}: cannot read numbers from {short_text(text)}") from None
 
 
 def _check_joint_xml(path: str, elem: Any) -> None:
@@ -79,7 +81,7 @@ def _check_joint_xml(path: str, elem: Any) -> None:
             if origin.get(attr) is not None:
                 vals = _float_attr(path, f"joint {name!r} origin {attr}", origin.get(attr))
                 if len(vals) != 3:
-                    raise ValueError(f"{path}: joint {name!r} origin {attr} needs 3 numbers, got {vals}")
+                    raise ValueError(f"{path}: joint {name!r} origin {attr} needs 3 numbers, got [{short_list(vals)}]")
                 if not all(math.isfinite(v) for v in vals):
                     raise ValueError(f"{path}: joint {name!r} origin {attr} has NaN or Inf: {vals}")
     axis = elem.find("axis")
@@ -111,9 +113,7 @@ def _resolve_path(path: str | os.PathLike) -> str:
             ) from None
     if not os.path.exists(path):
         raise FileNotFoundError(f"URDF file not found: {path}")
-    if not os.path.isfile(path):
-        raise ValueError(f"{path} is not a file")
-    return path
+    return check_regular_file(path, "URDF file")  # not a folder, FIFO or device
 
 
 @dataclasses.dataclass(frozen=True)
@@ -220,7 +220,7 @@ def _link_tree(path: str, model: UrdfModel) -> _Tree:
     links = list(model.links)
     if len(set(links)) != len(links):
         dup = sorted({l for l in links if links.count(l) > 1})
-        raise ValueError(f"{path}: duplicate link names: {', '.join(dup)}")
+        raise ValueError(f"{path}: duplicate link names: {short_list(dup)}")
     joints = {j.name: j for j in model.joints}
     if len(joints) != len(model.joints):
         raise ValueError(f"{path}: duplicate joint names")
@@ -245,10 +245,10 @@ def _pick_base(path: str, tree: _Tree, base_link: str | None) -> str:
         raise ValueError(f"{path}: the joints form a loop; no root link")
     if base_link is None:
         if len(roots) != 1:
-            raise ValueError(f"{path}: several root links ({', '.join(roots)}); pass base_link")
+            raise ValueError(f"{path}: several root links ({short_list(roots)}); pass base_link")
         return roots[0]
     if base_link not in tree.links:
-        raise ValueError(f"{path}: unknown base link {base_link!r}; links: {', '.join(tree.links)}")
+        raise ValueError(f"{path}: unknown base link {base_link!r}; links: {short_list(tree.links)}")
     return base_link
 
 
@@ -256,7 +256,7 @@ def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> s
     """``tip_link`` checked, or the one leaf below ``base_link`` reached through the most actuated joints."""
     if tip_link is not None:
         if tip_link not in tree.links:
-            raise ValueError(f"{path}: unknown tip link {tip_link!r}; links: {', '.join(tree.links)}")
+            raise ValueError(f"{path}: unknown tip link {tip_link!r}; links: {short_list(tree.links)}")
         return tip_link
     # leaves below the base link, ranked by the number of actuated joints on their chain
     below, stack = [], [base_link]
@@ -272,7 +272,7 @@ def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> s
         raise ValueError(f"{path}: no actuated joint below base link {base_link!r}; nothing to move")
     if len(tips) != 1:
         raise ValueError(
-            f"{path}: the tip link is ambiguous below {base_link!r}: leaves {', '.join(tips) or '(none)'} "
+            f"{path}: the tip link is ambiguous below {base_link!r}: leaves {short_list(tips) or '(none)'} "
             f"each have {best} actuated joints; pass tip_link (command line: --tip-link)"
         )
     return tips[0]

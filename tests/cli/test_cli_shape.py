@@ -139,7 +139,7 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--kj0", "500"], "outside"),
         (lambda t: ["--solver", "magic"], "unknown solver"),
         (lambda t: ["--robot", str(t / "typo.urdf")], "URDF file not found"),  # not "no shipped robot"
-        (lambda t: ["--robot", str(t)], "is not a file"),  # a folder
+        (lambda t: ["--robot", str(t)], "is not a regular file"),  # a folder
         (lambda t: ["--out", str(t / "no" / "dir" / "x.npz")], "folder does not exist"),
         (lambda t: ["--out", str(t)], "is a folder"),
         (

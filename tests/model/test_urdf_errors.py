@@ -64,7 +64,7 @@ def test_unknown_bare_name_lists_the_shipped_robots():
 
 
 def test_directory_is_not_a_file(tmp_path):
-    with raises(ValueError, str(tmp_path), "is not a file"):
+    with raises(ValueError, str(tmp_path), "is not a regular file"):
         jaxstiff.Robot.from_urdf(tmp_path)
 
 
@@ -417,3 +417,22 @@ def test_cli_prints_a_urdf_warning_as_one_line(write, capsys):
     lines = [ln for ln in err.splitlines() if "empty range" in ln]
     assert len(lines) == 1 and lines[0].startswith("jaxstiff: warning: ") and path in lines[0], err
     assert "UserWarning" not in err and ".py:" not in err, err
+
+
+def test_many_unconnected_links_give_a_short_message(tmp_path):
+    """200,000 unconnected links (the audit used 2,000,000: a 22.9 MB one-line error): the message
+    names a few roots and the count, and stays short."""
+    f = tmp_path / "many.urdf"
+    links = "".join(f'<link name="l{i}"/>' for i in range(200_000))
+    f.write_text(f'<robot name="many">{links}</robot>')
+    with pytest.raises(ValueError) as e:
+        jaxstiff.Robot.from_urdf(str(f))
+    msg = str(e.value)
+    assert "several root links (l0, l1" in msg and "(200000 in all)" in msg and len(msg) < 2000, msg[:300]
+
+
+def test_fifo_is_not_a_regular_file(tmp_path):
+    fifo = tmp_path / "robot.urdf"
+    os.mkfifo(fifo)
+    with raises(ValueError, str(fifo), "is not a regular file: it is a FIFO"):
+        jaxstiff.Robot.from_urdf(str(fifo))

@@ -1,0 +1,18 @@
+"""float16 joint values were accepted silently by Robot.fk/jacobian (FK off by 0.9 mm): refused,
+naming the argument, by the same rule as shape and csc_rollout (jaxstiff.runtime.dtypes)."""
+
+import numpy as np
+import pytest
+
+import jaxstiff
+
+
+@pytest.mark.parametrize("method", ["fk", "jacobian", "fk_and_jacobian"])
+def test_robot_methods_refuse_float16(method):
+    r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={})
+    q = np.full(7, 0.3)
+    with pytest.raises(ValueError, match=r"q has dtype float16 \(half precision\).*float32 or float64"):
+        getattr(r, method)(q.astype(np.float16))
+    ref = np.asarray(r.fk(q))  # float64 in, reference
+    got = np.asarray(r.fk(q.astype(np.float32)))  # float32 still allowed
+    assert np.abs(got - ref).max() < 1e-5
