@@ -37,6 +37,8 @@ _SOURCES = {
         "cms_scale",
         "compliance_condition",
         "joint_stiffness",
+        "translational_axes",
+        "translational_compliance",
         "translational_stiffness",
     ),
 }
@@ -74,6 +76,8 @@ __all__ = [
     "robot_path",
     "shape",
     "shipped_robots",
+    "translational_axes",
+    "translational_compliance",
     "translational_stiffness",
 ]  # the names of _SOURCES and the version
 
@@ -120,6 +124,8 @@ if TYPE_CHECKING:  # the names as the type checker and the IDE see them
     from .stiffness import cms_scale as cms_scale
     from .stiffness import compliance_condition as compliance_condition
     from .stiffness import joint_stiffness as joint_stiffness
+    from .stiffness import translational_axes as translational_axes
+    from .stiffness import translational_compliance as translational_compliance
     from .stiffness import translational_stiffness as translational_stiffness
     from .stiffness.ellipsoid import Ellipsoid as Ellipsoid
     from .stiffness.ellipsoid import ellipsoid as ellipsoid

@@ -11,4 +11,6 @@ from .core import compliance as compliance
 from .core import compliance_condition as compliance_condition
 from .core import joint_stiffness as joint_stiffness
 from .core import task_rows as task_rows
+from .core import translational_axes as translational_axes
+from .core import translational_compliance as translational_compliance
 from .core import translational_stiffness as translational_stiffness

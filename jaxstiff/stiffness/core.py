@@ -53,6 +53,7 @@ Example:
 from __future__ import annotations
 
 import functools
+import operator
 from collections.abc import Callable
 from typing import Any
 
@@ -72,6 +73,7 @@ from jaxstiff._numerics.cholesky import (
 from jaxstiff._numerics.eig import eigh_descending_primal
 from jaxstiff._numerics.linalg import fusion_boundary
 from jaxstiff.stiffness.cms import cms_factor, cms_scale
+from jaxstiff.stiffness.schur import axes_of_compliance, schur_compliance, stiffness_of_compliance
 from jaxstiff.stiffness.tasks import TASK_ROWS, check_task_feasible, select_task_rows, task_rows
 
 __all__ = [
@@ -82,13 +84,21 @@ __all__ = [
     "compliance_condition",
     "cartesian_stiffness",
     "translational_stiffness",
+    "translational_compliance",
+    "translational_axes",
     "joint_stiffness",
     "cms_factor",
     "cms_scale",
+    "UNROLLED_SUM_MAX",
     "damped_inverse_primal",
     "fusion_boundary",
     "select_task_rows",
 ]
+
+
+#: Chains up to this many joints sum the compliance in a fixed order (batch-size independent bits);
+#: longer ones use XLA's reduction (whose rounding may depend on the batch size, ~1e-16 relative).
+UNROLLED_SUM_MAX = 64
 
 
 def _joint_stiffness_array(kj: jax.Array, J: jax.Array) -> jax.Array:
@@ -141,7 +151,17 @@ def compliance(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
     m = Js.shape[-2]
     w = jax.lax.rsqrt(kj)  # C = (J diag(kj)^-1/2)(J diag(kj)^-1/2)^T: exactly symmetric
     rows = [Js[..., a, :] * w for a in range(m)]
-    C = {(a, b): jnp.sum(rows[a] * rows[b], axis=-1) for a in range(m) for b in range(a, m)}
+    if Js.shape[-1] <= UNROLLED_SUM_MAX:
+        # a fixed left-to-right sum over the joints: the same bits at every batch size (XLA's
+        # reduction of a batch of 1000 rounds differently from a batch of 1, issue 24)
+        cols = range(Js.shape[-1])
+        C = {
+            (a, b): functools.reduce(operator.add, (rows[a][..., i] * rows[b][..., i] for i in cols))
+            for a in range(m)
+            for b in range(a, m)
+        }
+    else:
+        C = {(a, b): jnp.sum(rows[a] * rows[b], axis=-1) for a in range(m) for b in range(a, m)}
     return sym_to_array(C, m, boundary=False)
 
 
@@ -197,18 +217,68 @@ def translational_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> 
     ``"xy"`` -> (..., 2, 2) and ``"xyz"`` -> (..., 3, 3): ``K_C`` itself (tool free to turn).
     ``"full"`` -> (..., 3, 3): the top-left block ``K_TT`` of the 6x6 ``K_C`` (S0-6, S0-7; tool
     orientation held), computed directly as the inverse of the Schur complement
-    ``C_TT - C_TR C_RR^-1 C_RT`` without forming the rest of ``K_C``.
+    ``S = C_TT - C_TR C_RR^-1 C_RT`` without forming the rest of ``K_C``.
 
-    A planar chain has no out-of-plane compliance at all: use ``"xy"`` for it; with ``"xyz"`` or
-    ``"full"`` its z direction is a lost (damped) direction, ~1e12 times stiffer than the others.
+    Singular postures (:mod:`jaxstiff.stiffness.schur`). ``K_T = V diag(1 / h(mu)) V^T`` from the
+    eigen-decomposition of the translational compliance ``S`` (:func:`translational_compliance`),
+    ``h(mu) = mu + a exp(-mu / a)``, ``a = 1e-8 trace(S) / t`` (1e-4 in float32). So ``K_T`` is the
+    exact inverse of ``S`` wherever every eigenvalue of ``S`` exceeds ``40 a`` (every posture not
+    within ~1e-6 of a singularity), symmetric positive definite with condition number below
+    ``t / 1e-8`` everywhere, and independent of the batch size. At a singular posture the axes
+    along which ``S`` has range are exact (the inverses of its eigenvalues there) and a lost
+    direction, whose true stiffness is infinite, reads ``1 / a`` (~1e8 times the mean
+    stiffness): use :func:`translational_axes` to get ``+inf`` there instead. A planar chain has
+    no out-of-plane compliance at all: use ``"xy"`` for it (with ``"xyz"`` or ``"full"`` its z
+    direction is such a lost direction). Values and gradients are finite everywhere; the JVP is
+    exact.
 
     Args:
         J: geometric Jacobian (..., 6, n), or its task rows.
         kj: joint stiffnesses (..., n), > 0.
         task: ``"xy"``, ``"xyz"`` or ``"full"``.
     """
-    C = compliance(J, kj, task)
-    return damped_inverse(C, C.shape[-1] == 6)
+    return stiffness_of_compliance(compliance(J, kj, task))
+
+
+@_positive_kj
+@functools.partial(jax.jit, static_argnames="task")
+def translational_compliance(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
+    """Translational compliance ``S`` (..., t, t), m/N, whose inverse is :func:`translational_stiffness`.
+
+    ``"xy"``/``"xyz"``: the compliance ``C`` itself; ``"full"``: the Schur complement
+    ``C_TT - C_TR C_RR^-1 C_RT`` (tool orientation held). Symmetric positive semi-definite and
+    well defined at singular postures too, where it loses rank (:mod:`jaxstiff.stiffness.schur`).
+
+    Args:
+        J: geometric Jacobian (..., 6, n), or its task rows.
+        kj: joint stiffnesses (..., n), > 0 (``inf``: a rigid joint).
+        task: ``"xy"``, ``"xyz"`` or ``"full"``.
+    """
+    return schur_compliance(compliance(J, kj, task))[0]
+
+
+@_positive_kj
+@functools.partial(jax.jit, static_argnames="task")
+def translational_axes(J: jax.Array, kj: jax.Array, task: str = "full") -> tuple[jax.Array, jax.Array]:
+    """Stiffness-ellipsoid axes (..., t), N/m, descending, and directions (..., t, t), undamped.
+
+    The axes are the inverses of the eigenvalues of :func:`translational_compliance`, accurate to
+    rounding also next to a singular posture, and ``+inf`` along a direction the posture cannot
+    yield in (an eigenvalue at or below ``1e-8`` of the mean compliance in float64, ``1e-4`` in
+    float32): a flag that the posture is singular for the task, never a made-up number.
+    :func:`translational_stiffness` gives the same axes except that an infinite one reads ~1e8
+    times the mean stiffness there (so that ``K_T`` stays a finite matrix). Directions are unit
+    columns (``[..., :, 0]`` belongs to the largest axis). Gradients are finite (zero for an
+    infinite axis).
+
+    Example:
+        >>> import jax.numpy as jnp, jaxstiff
+        >>> from jaxstiff.stiffness import translational_axes
+        >>> J = jaxstiff.Robot.from_urdf("planar_3r").jacobian(jnp.zeros(3))  # stretched: singular
+        >>> translational_axes(J, jnp.ones(3), task="xy")[0].tolist()[0]
+        inf
+    """
+    return axes_of_compliance(compliance(J, kj, task))
 
 
 def joint_stiffness(
