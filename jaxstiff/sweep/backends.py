@@ -44,6 +44,7 @@ class ChunkLostError(RuntimeError):
     """A chunk whose Ray worker died more than :data:`RAY_MAX_RETRIES` times; the committed chunks
     stay, and ``--resume`` finishes the sweep."""
 
+
 OnCommit = Callable[[int], None] | None
 
 
