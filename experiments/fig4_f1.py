@@ -134,8 +134,12 @@ def default_path_note(res, limits) -> list[str]:
     return [
         head + f"Even so, {crit} gives way at {int((~ok).sum())} of {res.P} waypoints: the turning alone does not "
         f"explain it (the joint stiffness sits at kmin or kmax at {bound} of them, and {crit} "
-        + ("asks for a ratio of at least r, so the ratio is free to grow and the stiffness rate limit must then bring it "
-           "back)" if crit == "f1" else "asks for the ratio r exactly)")
+        + (
+            "asks for a ratio of at least r, so the ratio is free to grow and the stiffness rate limit must then bring it "
+            "back)"
+            if crit == "f1"
+            else "asks for the ratio r exactly)"
+        )
         + f". `{curved}` repeats this figure on a path whose tangent turns faster than the limits can follow.",
         "",
         *where_it_holds(res, limits),
