@@ -50,7 +50,7 @@ from numpy.typing import ArrayLike
 from jaxstiff._numerics.batch import broadcast_batch, check_square, known_floats
 from jaxstiff._numerics.eig import eigh_descending
 from jaxstiff._numerics.safe import safe_ratio, safe_sqrt
-from jaxstiff.stiffness.ellipsoid import alpha_rad, check_direction
+from jaxstiff.stiffness.ellipsoid import alpha_rad, check_direction, refuse_indefinite
 
 __all__ = [
     "f1",
@@ -77,6 +77,7 @@ def alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
         ``(alpha, rho)``, each (...,), dtype of K.
     """
     K = check_square(K)
+    refuse_indefinite(K)
     return _alpha_and_ratio(K, check_direction(K, d))
 
 
@@ -109,6 +110,7 @@ def _check_offset(c: ArrayLike) -> None:
 
 def _inputs(K: ArrayLike, d: ArrayLike) -> tuple[jax.Array, jax.Array]:
     K = check_square(K)
+    refuse_indefinite(K)  # the rule of ellipsoid(): an indefinite K has no major axis or ratio
     return K, check_direction(K, d)
 
 

@@ -55,6 +55,7 @@ __all__ = [
     "axis_ratio",
     "volume",
     "JACOBI_SWEEPS",
+    "refuse_indefinite",
 ]
 
 
@@ -99,18 +100,46 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
         >>> e.axes.tolist(), float(e.ratio)
         ([4.0, 2.0], 2.0)
     """
-    e = _ellipsoid(check_square(K))
+    K = check_square(K)
+    e = _ellipsoid(K)
     if not is_traced(e.axes):  # concrete input: an indefinite K has no ellipsoid
-        w = np.asarray(e.axes)
-        # (a positive semi-definite K, e.g. rotated diag(3000, 1000, 0), has rounding-level negatives)
-        neg = w[..., -1] < -max(1e-9, 100 * np.finfo(w.dtype).eps) * np.abs(w[..., 0])
-        if np.any(neg):
-            at = np.argwhere(neg)[0]
-            where = f" at index {tuple(int(i) for i in at)}" if at.size else ""
-            raise ValueError(
-                f"K must be positive (semi-)definite (a stiffness); it has the eigenvalue {float(w[tuple(at)][-1]):g}{where}"
-            )
+        refuse_indefinite(K, np.asarray(e.axes))
     return e
+
+
+def refuse_indefinite(K: jax.Array, axes: np.ndarray | None = None) -> None:
+    """Raise ValueError for a concrete K (..., m, m) with an eigenvalue below ``-1e-9 lambda1``.
+
+    The one rule of :func:`ellipsoid`, :func:`orientation_error`, :func:`jaxstiff.f1`,
+    :func:`jaxstiff.f2` and :func:`jaxstiff.stiffness.criteria.alpha_and_ratio`: an indefinite
+    matrix is no stiffness, and its "major axis" or "ratio" would be made up (f2 gave 8.0 and alpha
+    0.0 for one that ellipsoid refused). A positive semi-definite K (e.g. rotated diag(3000, 1000,
+    0)) has rounding-level negatives and passes; NaN or Inf entries are left to the callers (they
+    give NaN). Inside ``jit``/``grad``/``vmap`` (a traced K) nothing is checked.
+
+    Args:
+        K: the matrices.
+        axes: their eigenvalues (..., m), descending, if already computed.
+    """
+    if is_traced(K):
+        return
+    if axes is None:
+        a = np.asarray(K, dtype=float)
+        ok = np.all(np.isfinite(a), axis=(-2, -1))
+        w = np.full(a.shape[:-1], np.nan)
+        w[ok] = np.linalg.eigvalsh(a[ok])[..., ::-1]
+    else:
+        w = np.asarray(axes, dtype=float)
+    # (a positive semi-definite K has rounding-level negatives)
+    tol = max(1e-9, 100 * np.finfo(np.asarray(K).dtype).eps if np.issubdtype(np.asarray(K).dtype, np.floating) else 0)
+    with np.errstate(invalid="ignore"):
+        neg = w[..., -1] < -tol * np.abs(w[..., 0])
+    if np.any(neg):
+        at = np.argwhere(neg)[0]
+        where = f" at index {tuple(int(i) for i in at)}" if at.size else ""
+        raise ValueError(
+            f"K must be positive (semi-)definite (a stiffness); it has the eigenvalue {float(w[tuple(at)][-1]):g}{where}"
+        )
 
 
 @jax.jit
@@ -168,6 +197,7 @@ def orientation_error(K: jax.Array, d: jax.Array) -> jax.Array:
         (...,) degrees, dtype of K.
     """
     K = check_square(K)
+    refuse_indefinite(K)
     return _orientation_error(K, check_direction(K, d))
 
 
