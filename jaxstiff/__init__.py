@@ -8,12 +8,12 @@ import their module the first time they are used; ``from jaxstiff import fk`` wo
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 # first, before JAX is imported: a Ctrl-C while the `jaxstiff` command starts up is remembered,
 # not lost (see jaxstiff.runtime.early_signals; nothing changes when imported as a library)
 from .runtime.early_signals import record_early_signals as _record_early_signals
+from .runtime.lazy import lazy_exports
 from .runtime.version import __version__ as __version__
 
 _record_early_signals()
@@ -42,7 +42,6 @@ _SOURCES = {
         "translational_stiffness",
     ),
 }
-_LAZY = {name: module for module, names in _SOURCES.items() for name in names}
 
 __all__ = [
     "CSCResult",
@@ -82,18 +81,7 @@ __all__ = [
 ]  # the names of _SOURCES and the version
 
 
-def __getattr__(name: str) -> Any:
-    """Load a public name from its module on first use (and keep it here)."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'jaxstiff' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _SOURCES)
 
 
 if TYPE_CHECKING:  # the names as the type checker and the IDE see them

@@ -4,29 +4,29 @@
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from jaxstiff.runtime.lazy import lazy_exports
 
 _SOURCES = {
     ".kinematics": ("fk", "fk_and_jacobian", "jacobian", "jacobian_tangent", "position_and_jacobian"),
     ".robot": ("JOINT_PRISMATIC", "JOINT_REVOLUTE", "Robot", "robot_path", "shipped_robots"),
 }
-_LAZY = {name: module for module, names in _SOURCES.items() for name in names}
-__all__ = sorted(_LAZY)
+__all__ = [  # the names of _SOURCES (pyright reads a literal list)
+    "JOINT_PRISMATIC",
+    "JOINT_REVOLUTE",
+    "Robot",
+    "fk",
+    "fk_and_jacobian",
+    "jacobian",
+    "jacobian_tangent",
+    "position_and_jacobian",
+    "robot_path",
+    "shipped_robots",
+]
 
 
-def __getattr__(name: str) -> Any:
-    """Load a public name from its module on first use (and keep it here)."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'jaxstiff.model' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _SOURCES)
 
 
 if TYPE_CHECKING:

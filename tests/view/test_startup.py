@@ -149,3 +149,8 @@ def test_lazy_public_names() -> None:
     assert callable(jaxstiff.ellipsoid) and jaxstiff.Robot.__name__ == "Robot"
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         _ = jaxstiff.nope  # pyright: ignore[reportAttributeAccessIssue]
+    import jaxstiff.model as model  # the same mechanism (jaxstiff.runtime.lazy)
+
+    assert set(model.__all__) <= set(dir(model)) and model.Robot is jaxstiff.Robot
+    with pytest.raises(AttributeError, match="module 'jaxstiff.model' has no attribute 'nope'"):
+        _ = model.nope  # pyright: ignore[reportAttributeAccessIssue]
