@@ -14,12 +14,12 @@ from jaxstiff.model.kinematics import jacobian_tangent, position_and_jacobian
 from jaxstiff.solvers.problem import WaypointProblem, rate_bounds
 from jaxstiff.stiffness.core import (
     compliance,
-    damped_inverse_primal,
     fusion_boundary,
     task_rows,
 )
 from jaxstiff.stiffness.criteria import f1 as _f1
 from jaxstiff.stiffness.criteria import f2 as _f2
+from jaxstiff.stiffness.schur import stiffness_of_compliance
 
 __all__ = [
     "WaypointOps",
@@ -167,14 +167,14 @@ class WaypointOps:
         """:meth:`lm_residual` (nr,) and its Jacobian (nr, nx), without differentiating the chain.
 
         The kinematics are evaluated once and their derivative along each free joint is the closed
-        form :func:`jaxstiff.kinematics.jacobian_tangent` (from J alone). The stiffness derivatives
-        are closed forms too: with ``C = J_s W J_s^T`` (``W = diag(1/kj)``), its (damped) inverse
-        ``K_C``, ``P`` the translational columns of ``K_C`` (``K_T`` their top block; ``dK_C = -K_C
-        dC K_C``), ``G = P^T J_s`` and ``H_j = P^T dJ_s/dq_j``:
-        ``dK_T/dq_j = -(H_j W G^T + G W H_j^T)`` and ``dK_T/dkj_i = g_i g_i^T / kj_i^2`` (g_i the
-        column i of G), the damping held fixed as in :func:`jaxstiff.stiffness.translational_stiffness`.
-        Only the tiny map ``K_T -> shape rows`` is differentiated by JAX. Several times cheaper
-        than ``jax.jacrev`` of :meth:`lm_residual` through the chain.
+        form :func:`jaxstiff.kinematics.jacobian_tangent` (from J alone). The compliance
+        ``C = J_s W J_s^T`` (``W = diag(1/kj)``) has the closed-form tangents
+        ``dC/dq_j = dJ_s W J_s^T + J_s W dJ_s^T`` and ``dC/dkj_i = -w_i^2 j_i j_i^T``; ``K_T`` and
+        its tangents come from the same map ``C -> K_T`` as :func:`jaxstiff.stiffness.translational_stiffness`
+        (:func:`jaxstiff.stiffness.schur.stiffness_of_compliance`, whose JVP is exact), so the LM
+        stage and the reported stiffness agree also next to a singular posture. Only the small maps
+        ``C -> K_T -> shape rows`` are differentiated by JAX. Several times cheaper than
+        ``jax.jacrev`` of :meth:`lm_residual` through the chain.
         """
         q, kj = self.pr.q_of(x), x[self.nf :]  # kj: the nk sprung joints' stiffnesses
         p, J6 = position_and_jacobian(self.pr.robot, q)
@@ -184,20 +184,14 @@ class WaypointOps:
         rows_t = list(task_rows(self.pr.task))
         Js, dJs = self.pr.spring_cols(J6[rows_t, :]), self.pr.spring_cols(dJ6[:, rows_t, :])  # (m, nk), (nf, m, nk)
         w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
-        m = Js.shape[0]
-        t = 3 if m == 6 else m
-        Kc = damped_inverse_primal(
-            compliance(Js, kj, self.pr.task), False
-        )  # the damped inverse, all of it (no AD through it here)
-        P = Kc[:, :t]  # (m, t)
-        K = Kc[:t, :t]
-        G = jnp.sum(P[:, :, None] * Js[:, None, :], axis=0)  # (t, n)
-        H = jnp.sum(P[None, :, :, None] * dJs[:, :, None, :], axis=1)  # (nf, t, n)
-        HWG = jnp.sum(H[:, :, None, :] * (G * w)[None, None, :, :], axis=-1)  # (nf, t, t)
-        dKq = -(HWG + jnp.swapaxes(HWG, -1, -2))
-        gw = G * w  # (t, n)
-        dKk = gw.T[:, :, None] * gw.T[:, None, :]  # (n, t, t)
-        dK = jnp.concatenate([dKq, dKk])  # (nx, t, t)
+        JW = Js * w  # (m, nk)
+        dCq = jnp.sum(dJs[:, :, None, :] * JW[None, None, :, :], axis=-1)  # (nf, m, m): dJs W Js^T
+        dCq = dCq + jnp.swapaxes(dCq, -1, -2)
+        dCk = -(JW.T[:, :, None] * JW.T[:, None, :])  # (nk, m, m): -w_i^2 j_i j_i^T
+        C = compliance(Js, kj, self.pr.task)
+        K, dK = jax.vmap(lambda T: jax.jvp(stiffness_of_compliance, (C,), (T,)), out_axes=(None, 0))(
+            jnp.concatenate([dCq, dCk])
+        )  # (t, t), (nx, t, t)
         shape = lambda K: self._shape_rows(K, d, r, kind, walign)  # noqa: E731
         e_shape, dshape = jax.vmap(lambda T: jax.jvp(shape, (K,), (T,)))(dK)
         ep = self._pos_rows(p, target, wpos)
