@@ -81,6 +81,7 @@ def make_kernel(robot: jaxstiff.Robot, task: str):
         K = stiffness(q, logkj)
         out = _scalars(K, d)
         for name, fn in (("f1", jaxstiff.f1), ("f2", jaxstiff.f2), ("alpha", None)):
+
             def loss(q_, k_, fn=fn):
                 Kq = stiffness(q_, k_)
                 return jaxstiff.orientation_error(Kq, d) if fn is None else fn(Kq, d, R)

@@ -152,7 +152,9 @@ def _stiffness_of_compliance_jvp(primals: tuple, tangents: tuple):
     F = -Dh / (h[..., :, None] * h[..., None, :])
     # a = delta (trace(S) + delta trace(C_TT)) / t: dh/da = e^(-mu/a) (1 + mu/a)
     delta = lost_axis_floor(S.dtype)
-    da = delta * sum(dS[..., i, i] + delta * dC[..., i, i] for i in range(t)) / t
+    diag_S = jnp.diagonal(dS, axis1=-2, axis2=-1)  # (..., t)
+    diag_C = jnp.diagonal(dC, axis1=-2, axis2=-1)[..., :t]  # C_TT's
+    da = delta * jnp.sum(diag_S + delta * diag_C, axis=-1) / t
     dk = -(_exp_neg(mu, a) * (1.0 + mu / a)) / (h * h) * da[..., None]
     inner = F * A + dk[..., :, None] * jnp.eye(t, dtype=A.dtype)
     dK = mm(mm(V, inner), Vt)
