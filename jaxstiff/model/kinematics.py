@@ -9,6 +9,13 @@ stays float32, float64 stays float64). For CPU batches the joint cosines and sin
 :func:`jaxstiff._numerics.trig.cos_sin` (one shared range reduction and two polynomials, within
 2 ulp of libm), which XLA vectorises and fuses (measurements: docs/notes/model.md).
 
+Long or dense chains switch to a loop: a chain of more than ``UNROLL_MAX_JOINTS`` (12) joints, or
+one with a joint whose axis or origin rotation is not axis-aligned, runs as one ``lax.scan`` over
+its joints (:mod:`jaxstiff.model.kinematics_scan`, same results to rounding: tested to 1e-12).
+Unrolled, such chains compile in time and memory that grow far faster than the chain (a dense
+7-joint chain over a batch: minutes and gigabytes); the scan compiles in about a second at any
+length (measurements and the crossover: docs/notes/model.md, ``scripts/bench_long_chain.py``).
+
 The Jacobian is the analytic geometric one, not autodiff of FK: for revolute joint i with world
 axis ``z_i`` through the point ``p_i``, column i is ``[z_i x (p_tcp - p_i); z_i]``; for a
 prismatic joint ``[z_i; 0]`` (rows ``[v; w]``, base frame, for the TCP point).
@@ -31,6 +38,7 @@ import jax.numpy as jnp
 
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain, check_locked_values
+from jaxstiff.model.kinematics_scan import UNROLL_MAX_JOINTS, scan_pose, scan_pose_and_jacobian, uses_scan
 
 __all__ = [
     "fk",
@@ -40,6 +48,7 @@ __all__ = [
     "jacobian_tangent",
     "cos_sin",
     "POLY_MIN_BATCH",
+    "UNROLL_MAX_JOINTS",
 ]
 
 Scalar = float | jax.Array  # a Python float is a compile-time constant
@@ -171,6 +180,13 @@ def _pose(R: Mat3, p: Vec3, q: jax.Array) -> jax.Array:
     return jnp.stack([jnp.stack(r, axis=-1) for r in rows], axis=-2)
 
 
+def _pose_array(R: jax.Array, p: jax.Array) -> jax.Array:
+    """(..., 4, 4) from R (..., 3, 3) and p (..., 3) arrays (the scan kernel's output)."""
+    top = jnp.concatenate([R, p[..., :, None]], axis=-1)
+    last = jnp.broadcast_to(jnp.asarray([0.0, 0.0, 0.0, 1.0], dtype=R.dtype), R.shape[:-2] + (1, 4))
+    return jnp.concatenate([top, last], axis=-2)
+
+
 def _jacobian_entries(p_tcp: Vec3, frames: list) -> list[list[Scalar]]:
     cols = []
     for kind, z, p_i in frames:
@@ -232,6 +248,8 @@ def fk(robot: Chain, q: jax.Array) -> jax.Array:
     """
     q = jnp.asarray(q)
     _check(robot, q)
+    if uses_scan(robot):
+        return _pose_array(*scan_pose(robot, q))
     R, p, _ = _chain(robot, q, want_jacobian=False)
     return _pose(R, p, q)
 
@@ -250,6 +268,8 @@ def jacobian(robot: Chain, q: jax.Array) -> jax.Array:
     """
     q = jnp.asarray(q)
     _check(robot, q)
+    if uses_scan(robot):
+        return scan_pose_and_jacobian(robot, q)[2]
     _, p, frames = _chain(robot, q, want_jacobian=True)
     return _jacobian_array(_jacobian_entries(p, frames), q)
 
@@ -263,7 +283,19 @@ def fk_and_jacobian(robot: Chain, q: jax.Array) -> tuple[jax.Array, jax.Array]:
     return fk_and_jacobian_raw(robot, q)
 
 
-def fk_and_jacobian_raw(robot: Chain, q: jax.Array, poly: bool | None = None) -> tuple[jax.Array, jax.Array]:
+def fk_and_jacobian_raw(
+    robot: Chain, q: jax.Array, poly: bool | None = None, kernel: str | None = None
+) -> tuple[jax.Array, jax.Array]:
+    """:func:`fk_and_jacobian` without checks or jit (to trace inside a caller's kernel).
+
+    ``kernel``: ``"unrolled"`` or ``"scan"`` forces one kernel (tests and benchmarks); None picks
+    by the chain's length (:func:`jaxstiff.model.kinematics_scan.uses_scan`).
+    """
+    if kernel not in (None, "unrolled", "scan"):
+        raise ValueError(f"kernel must be None, 'unrolled' or 'scan', got {kernel!r}")
+    if kernel == "scan" or (kernel is None and uses_scan(robot)):
+        R, p, J = scan_pose_and_jacobian(robot, q, poly)
+        return _pose_array(R, p), J
     R, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
     return _pose(R, p, q), _jacobian_array(_jacobian_entries(p, frames), q)
 
@@ -286,6 +318,10 @@ def position_and_jacobian(robot: Chain, q: jax.Array, rows: tuple[int, ...] = (0
 def position_and_jacobian_raw(
     robot: Chain, q: jax.Array, rows: Sequence[int] = (0, 1, 2, 3, 4, 5), poly: bool | None = None
 ) -> tuple[jax.Array, jax.Array]:
+    """:func:`position_and_jacobian` without checks or jit (to trace inside a caller's kernel)."""
+    if uses_scan(robot):
+        _, p, J = scan_pose_and_jacobian(robot, q, poly)
+        return p, J[..., list(rows), :]
     _, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
     return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)
