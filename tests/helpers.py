@@ -3,8 +3,11 @@ and an independent numpy forward kinematics (homogeneous 4x4 products, nothing s
 
 from __future__ import annotations
 
+import importlib.util
 import pathlib
+import sys
 import textwrap
+import types
 
 import numpy as np
 
@@ -56,6 +59,23 @@ def numpy_fk(robot, q):
 TESTS_DIR = pathlib.Path(__file__).resolve().parent  #: tests/
 DATA_DIR = TESTS_DIR / "data"  #: tests/data (URDFs made for tests)
 REPO_ROOT = TESTS_DIR.parent  #: the repository (experiments/, urdf/, pyproject.toml)
+
+
+def load_script(relpath: str) -> types.ModuleType:
+    """Import a script of the repository (``"scripts/x.py"``, ``"experiments/y.py"``) as a module, with its
+    own folder on ``sys.path`` while it loads (experiments import their siblings)."""
+    path = REPO_ROOT / relpath
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    assert spec is not None and spec.loader is not None, f"cannot load {path}"
+    mod = importlib.util.module_from_spec(spec)
+    folder = str(path.parent)
+    sys.path.insert(0, folder)
+    try:
+        spec.loader.exec_module(mod)
+    finally:
+        sys.path.remove(folder)
+    return mod
+
 
 #: a tiny csc sweep: planar 3R holding two points, 2 x 2 settings, chunks of 2 (tests/sweep)
 CSC_TOML = textwrap.dedent("""\

@@ -80,6 +80,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from jaxstiff.results.grid import PathGrid
 from jaxstiff.results.npz import atomic_save_npz as atomic_save_npz
 from jaxstiff.results.npz import path_parameters as path_parameters
 from jaxstiff.results.numpy_check import (
@@ -131,7 +132,7 @@ _INT_KEYS = ("status", "solver_code", "nit", "nfev")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class ShapeResult:
+class ShapeResult(PathGrid):
     """Per-waypoint solution of a shaping run; arrays as in the result file (module docstring).
 
     Use :meth:`save` / :meth:`load` for files, :func:`summary` for the headline numbers and
@@ -158,18 +159,6 @@ class ShapeResult:
     nfev: np.ndarray
     time_s: np.ndarray
     meta: dict[str, Any]
-
-    @property
-    def B(self) -> int:
-        return int(self.q.shape[0])
-
-    @property
-    def P(self) -> int:
-        return int(self.q.shape[1])
-
-    @property
-    def n(self) -> int:
-        return int(self.q.shape[2])
 
     @property
     def in_target(self) -> np.ndarray:

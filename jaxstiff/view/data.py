@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from jaxstiff.results.grid import PathGrid
 from jaxstiff.view.kinematics import stiffness_T, tcp_position
 
 if TYPE_CHECKING:
@@ -31,7 +32,7 @@ __all__ = ["ViewData", "load_view_data", "sweep_row_file", "format_kj", "chain_f
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class ViewData:
+class ViewData(PathGrid):
     """A result as the viewer draws it. B paths (or rollouts), P waypoints (or steps), n joints.
 
     Attributes:
@@ -64,18 +65,6 @@ class ViewData:
     arrays: dict[str, np.ndarray]
     meta: dict[str, Any]
     labels: list[str]
-
-    @property
-    def B(self) -> int:
-        return int(self.q.shape[0])
-
-    @property
-    def P(self) -> int:
-        return int(self.q.shape[1])
-
-    @property
-    def n(self) -> int:
-        return int(self.q.shape[2])
 
     @property
     def locked_joints(self) -> str:

@@ -5,12 +5,12 @@ The experiment is a plain script (not part of the package); it is loaded from it
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import sys
 
 import numpy as np
 import pytest
+from helpers import load_script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 EXPERIMENTS = os.path.join(os.path.dirname(os.path.dirname(HERE)), "experiments")
@@ -20,12 +20,7 @@ EXPERIMENTS = os.path.join(os.path.dirname(os.path.dirname(HERE)), "experiments"
 def props():
     sys.path.insert(0, EXPERIMENTS)  # the script imports csc_cases from its own folder
     try:
-        spec = importlib.util.spec_from_file_location(
-            "csc_propositions", os.path.join(EXPERIMENTS, "csc_propositions.py")
-        )
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        yield mod
+        yield load_script("experiments/csc_propositions.py")
     finally:
         sys.path.remove(EXPERIMENTS)
 

@@ -1,12 +1,11 @@
 """The elliptic-arc generator and the turning rate of a path, against closed forms; the curved path of
 the seed-000 ``_curved`` experiments is reachable by the LWR and turns faster than the rate limit."""
 
-import importlib.util
 import math
 
 import numpy as np
 import pytest
-from helpers import REPO_ROOT, assert_close, numpy_fk
+from helpers import assert_close, load_script, numpy_fk
 
 from jaxstiff import paths
 from jaxstiff.paths.generators import ellipse_arc, ellipse_curvature, turning_deg
@@ -77,10 +76,7 @@ def test_ellipse_arc_errors(args, match):
 
 
 def _curved_experiment():
-    spec = importlib.util.spec_from_file_location("fig4_f1_curved", REPO_ROOT / "experiments" / "fig4_f1_curved.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("experiments/fig4_f1_curved.py")
 
 
 @pytest.mark.slow

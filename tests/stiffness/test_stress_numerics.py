@@ -6,17 +6,12 @@ error, f1 and f2. ``python scripts/stress_numerics.py`` runs the same with 10^6.
 
 from __future__ import annotations
 
-import importlib.util
-
 import pytest
-from helpers import REPO_ROOT
+from helpers import load_script
 
 
 def _stress_module():
-    spec = importlib.util.spec_from_file_location("stress_numerics", REPO_ROOT / "scripts" / "stress_numerics.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("scripts/stress_numerics.py")
 
 
 @pytest.mark.slow
