@@ -129,7 +129,7 @@ def _walk(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None):
     (R, p), frames = jax.lax.scan(step, init, xs)
     p = p + _matvec(R, jnp.broadcast_to(g["tip_p"], batch + (3,)))
     R = _matmul(R, jnp.broadcast_to(g["tip_R"], batch + (3, 3)))
-    z, p_i = frames if want_jacobian else (None, None)
+    z, p_i = frames if frames is not None else (None, None)
     return R, p, z, p_i
 
 
@@ -159,4 +159,5 @@ def scan_pose_and_jacobian(
     """``(R (..., 3, 3), p (..., 3), J (..., 6, n))`` by the scan over joints; J's rows
     ``[vx, vy, vz, wx, wy, wz]`` in the base frame, as :func:`jaxstiff.model.kinematics.jacobian`."""
     R, p, z, p_i = _walk(robot, q, True, poly)
+    assert z is not None and p_i is not None  # want_jacobian=True returns the frames
     return R, p, _jacobian(robot, p, z, p_i)
