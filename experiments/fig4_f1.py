@@ -1,8 +1,8 @@
 """Seed 000, Fig. 4: shaping along a curved path with f1 (ratio at least 5), KUKA LWR 4, 7th joint locked.
 
 Setup (the seed gives neither the path nor the rate limits; jaxstiff's documented defaults):
-``urdf/kuka_lwr4.urdf`` with ``lwr_a7`` locked at 0 (as in the seed; how a locked joint enters K_C is
-jaxstiff.shape's default, SPEC section 1); the shipped default path (:func:`jaxstiff.paths.default_path`:
+``urdf/kuka_lwr4.urdf`` with ``lwr_a7`` locked at 0 (as in the seed) and rigid: it neither moves nor
+gives, so K_C sums over the 6 free joints (jaxstiff's default for a locked joint, SPEC section 1); the shipped default path (:func:`jaxstiff.paths.default_path`:
 a half-sine bump in the plane z = 0.30 m, 60 waypoints, 0.55 m, the tangent turning at most 1.9 deg
 per waypoint); desired direction = the path tangent; criterion f1 (S0-9) with r = 5, c = 0.01; task
 "full" (K_T = top-left 3x3 of the 6x6 K_C, S0-6/7); kj in [1, 100] Nm/rad; rate limits 2 deg and

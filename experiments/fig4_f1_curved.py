@@ -74,7 +74,8 @@ def setup_text(criterion: str) -> str:
     return (
         "(the seed gives neither the path nor the rate limits; this path is jaxstiff's own, chosen so the "
         "tangent turns faster than the rate limits follow) ``urdf/kuka_lwr4.urdf`` with ``lwr_a7`` locked at 0 "
-        "(as in the seed; how a locked joint enters K_C is jaxstiff.shape's default, SPEC section 1); path: an "
+        "(as in the seed) and rigid: it neither moves nor gives, so K_C sums over the 6 free joints (jaxstiff's "
+        "default for a locked joint, SPEC section 1); path: an "
         f"elliptic arc in the horizontal plane z = {s['center'][2]:.2f} m (`ellipse_arc`, centre "
         f"({s['center'][0]:.2f}, {s['center'][1]:.2f}) m, semi-axes {s['semi_x']:.2f} m along x and "
         f"{s['semi_y']:.2f} m along y, parameter {s['start_deg']:g} to {s['end_deg']:g} deg), {p.P} waypoints "
