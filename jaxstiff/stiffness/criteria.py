@@ -61,6 +61,9 @@ __all__ = [
     "register_criterion",
     "CRITERIA",
     "alpha_and_ratio",
+    "alpha_and_ratio_of_eig",
+    "f1_of",
+    "f2_of",
 ]
 
 Criterion = Callable[..., jax.Array]
@@ -83,9 +86,26 @@ def alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
 
 @jax.jit
 def _alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
-    w, V = eigh_descending(K)
+    return alpha_and_ratio_of_eig(*eigh_descending(K), d)
+
+
+def alpha_and_ratio_of_eig(w: jax.Array, V: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """:func:`alpha_and_ratio` from K's eigenvalues ``w`` (..., m), descending, and unit eigenvectors
+    ``V`` (..., m, m) as columns (traceable; no checks)."""
     alpha = alpha_rad(V[..., :, 0], d) * (180.0 / math.pi)
     return alpha, safe_ratio(w[..., 0], w[..., 1])
+
+
+def f1_of(alpha: jax.Array, rho: jax.Array, r: ArrayLike, c: ArrayLike) -> jax.Array:
+    """f1 (S0-9) from alpha (degrees) and rho: ``(alpha + c) r / min(rho, r)`` (traceable; no checks)."""
+    r = jnp.asarray(r, dtype=alpha.dtype)
+    return (alpha + c) * r / jnp.minimum(rho, r)
+
+
+def f2_of(alpha: jax.Array, rho: jax.Array, r: ArrayLike) -> jax.Array:
+    """f2 (S0-15) from alpha (degrees) and rho: ``(1 + alpha) (1 + |r - rho|)`` (traceable; no checks)."""
+    r = jnp.asarray(r, dtype=alpha.dtype)
+    return (1.0 + alpha) * (1.0 + jnp.abs(r - rho))
 
 
 def _check_ratio(r: ArrayLike, K: jax.Array | None = None, d: jax.Array | None = None) -> None:
@@ -116,16 +136,12 @@ def _inputs(K: ArrayLike, d: ArrayLike) -> tuple[jax.Array, jax.Array]:
 
 @jax.jit
 def _f1(K: jax.Array, d: jax.Array, r: ArrayLike, c: ArrayLike) -> jax.Array:
-    alpha, rho = _alpha_and_ratio(K, d)
-    r = jnp.asarray(r, dtype=alpha.dtype)
-    return (alpha + c) * r / jnp.minimum(rho, r)
+    return f1_of(*_alpha_and_ratio(K, d), r, c)
 
 
 @jax.jit
 def _f2(K: jax.Array, d: jax.Array, r: ArrayLike) -> jax.Array:
-    alpha, rho = _alpha_and_ratio(K, d)
-    r = jnp.asarray(r, dtype=alpha.dtype)
-    return (1.0 + alpha) * (1.0 + jnp.abs(r - rho))
+    return f2_of(*_alpha_and_ratio(K, d), r)
 
 
 def f1(K: jax.Array, d: jax.Array, r: ArrayLike, c: float = 0.01) -> jax.Array:

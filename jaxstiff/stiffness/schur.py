@@ -41,7 +41,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxstiff._numerics.cholesky import damped_cholesky, sym_entries, sym_to_array, tri_inverse
-from jaxstiff._numerics.eig import eigh_descending, eigh_descending_primal
+from jaxstiff._numerics.eig import eigh_descending, eigh_descending_primal, gap_tol
 from jaxstiff._numerics.linalg import mm
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "schur_compliance",
     "floor_of",
     "stiffness_of_compliance",
+    "stiffness_eig_of_compliance",
     "axes_of_compliance",
 ]
 
@@ -134,12 +135,7 @@ def _stiffness_of_compliance_jvp(primals: tuple, tangents: tuple):
     (C,), (dC,) = primals, tangents
     S, G, mu, V, a, h = _decompose(C)
     K = _outer_sum(V, 1.0 / h)
-    dC = 0.5 * (dC + jnp.swapaxes(dC, -1, -2))
-    if G is None:
-        dS = dC
-    else:
-        P = jnp.concatenate([jnp.broadcast_to(jnp.eye(3, dtype=G.dtype), G.shape), -G], axis=-1)  # (..., 3, 6)
-        dS = mm(mm(P, dC), jnp.swapaxes(P, -1, -2))
+    dC, dS = _tangent_of_S(C, G, dC)
     t = S.shape[-1]
     Vt = jnp.swapaxes(V, -1, -2)
     A = mm(mm(Vt, dS), V)
@@ -159,6 +155,52 @@ def _stiffness_of_compliance_jvp(primals: tuple, tangents: tuple):
     inner = F * A + dk[..., :, None] * jnp.eye(t, dtype=A.dtype)
     dK = mm(mm(V, inner), Vt)
     return K, 0.5 * (dK + jnp.swapaxes(dK, -1, -2))
+
+
+def _tangent_of_S(C: jax.Array, G: jax.Array | None, dC: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """``(dC sym, dS)``: the symmetric tangent of C and the tangent of S (``P dC P^T`` for full)."""
+    dC = 0.5 * (dC + jnp.swapaxes(dC, -1, -2))
+    if G is None:
+        return dC, dC
+    P = jnp.concatenate([jnp.broadcast_to(jnp.eye(3, dtype=G.dtype), G.shape), -G], axis=-1)  # (..., 3, 6)
+    return dC, mm(mm(P, dC), jnp.swapaxes(P, -1, -2))
+
+
+@jax.custom_jvp
+def stiffness_eig_of_compliance(C: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """Eigen-decomposition of ``K_T = stiffness_of_compliance(C)`` without forming ``K_T``.
+
+    Returns ``(lam, V)``: the eigenvalues ``1 / h(mu)`` (..., t), descending (N/m), and their unit
+    eigenvectors (..., t, t) as columns, which are those of ``S`` (``mu`` ascending). One
+    eigen-decomposition (of ``S``) instead of two (``S``, then ``K_T`` in :func:`jaxstiff.ellipsoid`):
+    the solvers' criterion f1/f2 reads its axes and major direction from here. The JVP is the
+    first-order perturbation of ``S``'s eigenpairs (``dS = P dC P^T``), with the eigenvector
+    coupling of eigenvalues closer than the relative gap tolerance of
+    :func:`jaxstiff._numerics.eig.eigh_descending` dropped (there the directions are not defined).
+    """
+    _, _, _, V, _, h = _decompose(C)
+    return (1.0 / h)[..., ::-1], V[..., :, ::-1]
+
+
+@stiffness_eig_of_compliance.defjvp
+def _stiffness_eig_of_compliance_jvp(primals: tuple, tangents: tuple):
+    (C,), (dC,) = primals, tangents
+    S, G, mu, V, a, h = _decompose(C)
+    dC, dS = _tangent_of_S(C, G, dC)
+    t = S.shape[-1]
+    A = mm(mm(jnp.swapaxes(V, -1, -2), dS), V)  # V^T dS V
+    dmu = jnp.diagonal(A, axis1=-2, axis2=-1)
+    delta = lost_axis_floor(S.dtype)
+    diag_C = jnp.diagonal(dC, axis1=-2, axis2=-1)[..., :t]
+    da = (delta * jnp.sum(dmu + delta * diag_C, axis=-1) / t)[..., None]  # trace(dS) = sum(dmu)
+    e = _exp_neg(mu, a)
+    dh = (1.0 - e) * dmu + e * (1.0 + mu / a) * da
+    dlam = -dh / (h * h)
+    gap = mu[..., None, :] - mu[..., :, None]  # gap[i, j] = mu_j - mu_i
+    scale = jnp.max(jnp.abs(mu), axis=-1)[..., None, None]
+    ok = jnp.abs(gap) > gap_tol(S.dtype) * scale + jnp.finfo(S.dtype).tiny
+    dV = mm(V, jnp.where(ok, 1.0 / jnp.where(ok, gap, 1.0), 0.0) * A)
+    return ((1.0 / h)[..., ::-1], V[..., :, ::-1]), (dlam[..., ::-1], dV[..., :, ::-1])
 
 
 def axes_of_compliance(C: jax.Array) -> tuple[jax.Array, jax.Array]:

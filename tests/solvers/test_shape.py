@@ -17,6 +17,7 @@ from helpers import assert_close, numpy_fk
 import jaxstiff
 from jaxstiff import paths
 from jaxstiff.results import files as R
+from jaxstiff.results.target import MissedTargetWarning
 from jaxstiff.solvers.problem import WaypointProblem, compiled
 
 LOCK = {"lwr_a7": 0.0}
@@ -356,6 +357,9 @@ def test_continuous_joint_runs_without_numpy_warnings(tmp_path):
     path = paths.arc([0.0, 0.0, 0.0], 1.5, 20.0, 40.0, n=3)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
+        # the greedy solver may end a later waypoint on its rate-limit box (10 deg, 20 Nm/rad per
+        # waypoint here) and say so; that is not what this test is about
+        warnings.filterwarnings("ignore", category=MissedTargetWarning)
         res = jaxstiff.shape(robot, path, "f2", 3.0, task="xy", first_starts=2, dq=math.radians(10), dk=20.0)
         roll = jaxstiff.csc_rollout(
             robot,
@@ -365,7 +369,8 @@ def test_continuous_joint_runs_without_numpy_warnings(tmp_path):
             1e-3,
             step="constant",
         )
-    assert np.all(R.is_usable(res.status)) and np.all(res.alpha_deg < 1.0)
+    assert np.all(R.is_usable(res.status)) and np.all(np.isfinite(res.criterion))
+    assert res.alpha_deg[0, 0] < 1.0  # the first waypoint has no rate limit
     assert np.all(np.isfinite(np.asarray(roll.q))) and np.all(np.isfinite(np.asarray(roll.u)))
 
 
