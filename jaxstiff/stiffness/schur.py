@@ -50,6 +50,7 @@ __all__ = [
     "floor_of",
     "stiffness_of_compliance",
     "stiffness_eig_of_compliance",
+    "stiffness_and_tangents",
     "axes_of_compliance",
 ]
 
@@ -134,9 +135,16 @@ def stiffness_of_compliance(C: jax.Array) -> jax.Array:
 def _stiffness_of_compliance_jvp(primals: tuple, tangents: tuple):
     (C,), (dC,) = primals, tangents
     S, G, mu, V, a, h = _decompose(C)
-    K = _outer_sum(V, 1.0 / h)
     dC, dS = _tangent_of_S(C, G, dC)
     t = S.shape[-1]
+    tr_dC = jnp.sum(jnp.diagonal(dC, axis1=-2, axis2=-1)[..., :t], axis=-1)  # trace of dC_TT
+    return _outer_sum(V, 1.0 / h), _stiffness_tangent(mu, V, a, h, dS, tr_dC)
+
+
+def _stiffness_tangent(mu, V, a, h, dS: jax.Array, tr_dC: jax.Array) -> jax.Array:
+    """``dK_T`` (..., t, t) for the tangent ``dS`` of S and the trace of the tangent of C_TT
+    (Daleckii-Krein with the divided differences of 1/h, plus the floor's dependence on traces)."""
+    t = mu.shape[-1]
     Vt = jnp.swapaxes(V, -1, -2)
     A = mm(mm(Vt, dS), V)
     # divided differences of h: (h_i - h_j) / (mu_i - mu_j) = 1 - e^(-lo/a) (1 - e^(-d)) / d, d = (hi - lo) / a
@@ -147,14 +155,23 @@ def _stiffness_of_compliance_jvp(primals: tuple, tangents: tuple):
     Dh = 1.0 - _exp_neg(lo, a[..., None]) * phi
     F = -Dh / (h[..., :, None] * h[..., None, :])
     # a = delta (trace(S) + delta trace(C_TT)) / t: dh/da = e^(-mu/a) (1 + mu/a)
-    delta = lost_axis_floor(S.dtype)
-    diag_S = jnp.diagonal(dS, axis1=-2, axis2=-1)  # (..., t)
-    diag_C = jnp.diagonal(dC, axis1=-2, axis2=-1)[..., :t]  # C_TT's
-    da = delta * jnp.sum(diag_S + delta * diag_C, axis=-1) / t
+    delta = lost_axis_floor(mu.dtype)
+    da = delta * (jnp.sum(jnp.diagonal(dS, axis1=-2, axis2=-1), axis=-1) + delta * tr_dC) / t
     dk = -(_exp_neg(mu, a) * (1.0 + mu / a)) / (h * h) * da[..., None]
     inner = F * A + dk[..., :, None] * jnp.eye(t, dtype=A.dtype)
     dK = mm(mm(V, inner), Vt)
-    return K, 0.5 * (dK + jnp.swapaxes(dK, -1, -2))
+    return 0.5 * (dK + jnp.swapaxes(dK, -1, -2))
+
+
+def stiffness_and_tangents(C: jax.Array, dS: jax.Array, tr_dC: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """``K_T`` (t, t) of one compliance C (m, m) and its tangents (T, t, t) for T given tangents of
+    S (``dS`` (T, t, t), symmetric) and of trace(C_TT) (``tr_dC`` (T,)): the JVP of
+    :func:`stiffness_of_compliance` for callers that form ``dS`` more cheaply than ``P dC P^T``
+    (pgd's LM stage: from ``P J`` and ``P dJ``). One decomposition for all T tangents."""
+    _, G, mu, V, a, h = _decompose(C)
+    del G
+    dK = jax.vmap(lambda dS1, tr1: _stiffness_tangent(mu, V, a, h, dS1, tr1))(dS, tr_dC)
+    return _outer_sum(V, 1.0 / h), dK
 
 
 def _tangent_of_S(C: jax.Array, G: jax.Array | None, dC: jax.Array) -> tuple[jax.Array, jax.Array]:
