@@ -86,7 +86,8 @@ def alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
 
 @jax.jit
 def _alpha_and_ratio(K: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
-    return alpha_and_ratio_of_eig(*eigh_descending(K), d)
+    w, V = eigh_descending(K)
+    return alpha_and_ratio_of_eig(w, V, d)
 
 
 def alpha_and_ratio_of_eig(w: jax.Array, V: jax.Array, d: jax.Array) -> tuple[jax.Array, jax.Array]:
@@ -98,7 +99,7 @@ def alpha_and_ratio_of_eig(w: jax.Array, V: jax.Array, d: jax.Array) -> tuple[ja
 
 def f1_of(alpha: jax.Array, rho: jax.Array, r: ArrayLike, c: ArrayLike) -> jax.Array:
     """f1 (S0-9) from alpha (degrees) and rho: ``(alpha + c) r / min(rho, r)`` (traceable; no checks)."""
-    r = jnp.asarray(r, dtype=alpha.dtype)
+    r, c = jnp.asarray(r, dtype=alpha.dtype), jnp.asarray(c, dtype=alpha.dtype)
     return (alpha + c) * r / jnp.minimum(rho, r)
 
 
@@ -136,12 +137,14 @@ def _inputs(K: ArrayLike, d: ArrayLike) -> tuple[jax.Array, jax.Array]:
 
 @jax.jit
 def _f1(K: jax.Array, d: jax.Array, r: ArrayLike, c: ArrayLike) -> jax.Array:
-    return f1_of(*_alpha_and_ratio(K, d), r, c)
+    alpha, rho = _alpha_and_ratio(K, d)
+    return f1_of(alpha, rho, r, c)
 
 
 @jax.jit
 def _f2(K: jax.Array, d: jax.Array, r: ArrayLike) -> jax.Array:
-    return f2_of(*_alpha_and_ratio(K, d), r)
+    alpha, rho = _alpha_and_ratio(K, d)
+    return f2_of(alpha, rho, r)
 
 
 def f1(K: jax.Array, d: jax.Array, r: ArrayLike, c: float = 0.01) -> jax.Array:
