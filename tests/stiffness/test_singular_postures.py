@@ -131,6 +131,32 @@ def test_random_elbow_straight_postures(task):
     assert_close(ax_k[exact], ref[exact], rtol=1e-6, what="ellipsoid(translational_stiffness)")
 
 
+@pytest.mark.slow
+def test_random_elbow_straight_postures_rigid_a7():
+    """lwr_a7 locked and rigid (6 sprung joints, J square and of rank 5), kj log-uniform over a
+    spread of 1e4: outside the floor region both readings match the J-based reference to 1e-6.
+    (With a spread of 1e6 about 0.1 % of such postures are up to 2e-4 off through an
+    ill-conditioned C_RR: docs/notes/stiffness_singular.md.)"""
+    rng = np.random.default_rng(2401)
+    r = lwr(True)
+    q = rng.uniform(np.asarray(r.lower), np.asarray(r.upper), size=(4000, 7))
+    q[:, 3] = 0.0
+    q[:, 6] = Q_CASE[6]
+    kj = 10.0 ** rng.uniform(-2.0, 2.0, size=(4000, 6))
+    J = np.asarray(r.jacobian(jnp.asarray(q)))[:, :, :6]
+    mu = reference_compliance_eigs(J, kj, "full")  # ascending
+    assert np.all(mu[:, 0] < 1e-12 * mu[:, 2])  # every posture loses one direction
+    a = 1e-8 * mu.sum(-1) / 3
+    ref = 1.0 / mu[:, 1:]  # the two finite axes, descending
+    axes = np.asarray(translational_axes(jnp.asarray(J), jnp.asarray(kj), "full")[0])
+    assert np.all(np.isinf(axes[:, 0]))
+    exact = mu[:, 1] > 40 * a  # the middle axis's compliance clear of the floor (schur's docstring)
+    assert exact.mean() > 0.99
+    assert_close(axes[exact, 1:], ref[exact], rtol=1e-6, what="translational_axes, rigid a7")
+    ell = jaxstiff.ellipsoid(jaxstiff.translational_stiffness(jnp.asarray(J), jnp.asarray(kj), "full"))
+    assert_close(np.asarray(ell.axes)[exact, 1:], ref[exact], rtol=1e-6, what="ellipsoid, rigid a7")
+
+
 def _criteria(q: jax.Array, kj: jax.Array, robot: jaxstiff.Robot) -> jax.Array:
     K = jaxstiff.translational_stiffness(robot.jacobian(q), kj, "full")
     d = jnp.array([0.3, -0.5, 0.8])
