@@ -181,7 +181,7 @@ class WaypointProblem:
 
         For the built-in f1 and f2 the axes and the major direction come from one eigen-decomposition
         of the translational compliance (:func:`jaxstiff.stiffness.schur.stiffness_eig_of_compliance`)
-        instead of forming ``K_T`` and decomposing it again: the same value to rounding (~1e-9
+        instead of forming ``K_T`` and decomposing it again: the same value to rounding (up to ~1e-7
         relative next to a singular posture, where ``K_T``'s own decomposition is the less accurate
         of the two) at a lower cost per evaluation and gradient."""
         if self.criterion is f1 or self.criterion is f2:
