@@ -54,6 +54,11 @@ class PGDKernel:
             lambda *a: self.one_start(*a, first=True), in_axes=(0, None, None, None, None, None, None, None, None, None)
         )
         self.tie = float(opts["tie_tol"])
+        # one traced program for every waypoint (the first too) where the first waypoint differs only
+        # in loop bounds and step constants: rollout mode (S1 = S), and the LM stage on or off alike
+        lm_on = tuple(self.kind is not None and n > 0 for n in self.lm_it)
+        self.one_program = self.mode == "rollout" and lm_on[0] == lm_on[1]
+        self.vany = jax.vmap(self.one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0, None))
 
     def starts_at(
         self,
@@ -95,16 +100,22 @@ class PGDKernel:
         kspan: jax.Array,
         pos_tol: jax.Array,
         rate: jax.Array,
-        first: bool = False,
+        first: bool | jax.Array = False,
     ):
         """One start's optimisation (:func:`~jaxstiff.solvers.pgd.stages.optimise`) and verdict
-        (:func:`~jaxstiff.solvers.pgd.stages.finish`): ``(x, f, err, usable, finite)``."""
+        (:func:`~jaxstiff.solvers.pgd.stages.finish`): ``(x, f, err, usable, finite)``. ``first``:
+        the first waypoint's settings, a Python bool or a traced bool (:attr:`one_program`)."""
         ops, nf = self.ops, self.nf
         x0 = ops.newton(x0, tgt, lb, ub, 8)
-        nlm = self.lm_it[0] if first else self.lm_it[1]
+        if isinstance(first, bool):
+            nlm: int | jax.Array = self.lm_it[0] if first else self.lm_it[1]
+            lm_on = nlm > 0
+        else:
+            nlm = jnp.where(first, self.lm_it[0], self.lm_it[1])
+            lm_on = self.lm_it[1] > 0  # the same for both kinds (one_program)
         lm: Callable[[jax.Array], jax.Array] | None = None
         kind = self.kind
-        if kind is not None and nlm > 0:
+        if kind is not None and lm_on:
 
             def lm_stage(x: jax.Array) -> jax.Array:
                 x = ops.lm(x, lb, ub, tgt, d, r, kind, nlm, self.wpos, self.walign, box_scales(lb, ub, nf, kspan))
@@ -148,15 +159,18 @@ class PGDKernel:
     def step(
         self,
         carry: tuple[jax.Array, jax.Array],
-        inp: tuple[jax.Array, jax.Array, jax.Array],
+        inp: tuple[jax.Array, ...],
         lims: tuple[jax.Array, ...],
     ) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
-        """One waypoint after the first (a ``lax.scan`` step): carry ``(xref (S, nx), at_start (S,))``,
-        input ``(target, direction, key)``, ``lims = (dq_f, dk, kmin, kmax, r, c, kspan, pos_tol)``."""
+        """One waypoint (a ``lax.scan`` step): carry ``(xref (S, nx), at_start (S,))``, input
+        ``(target, direction, key)`` for the waypoints after the first, or, in one-program mode
+        (:attr:`one_program`: the first waypoint is the scan's first step),
+        ``(target, direction, key, is_first, extra (E, nx))``;
+        ``lims = (dq_f, dk, kmin, kmax, r, c, kspan, pos_tol)``."""
         ops, S = self.ops, self.S
         dq_f, dk, kmin, kmax, r, c, kspan, pos_tol = lims
         xref, at_start = carry  # (S, nx), (S,)
-        tgt, d, kk = inp
+        tgt, d, kk = inp[:3]
         rate = (~at_start) | self.first_rate
         lb, ub = jax.vmap(lambda xr, rt: ops.box(xr, rt, dq_f, dk, kmin, kmax))(xref, rate)
         if self.mode == "best":
@@ -165,8 +179,17 @@ class PGDKernel:
             # rollouts: one start each, from its own state; before the first usable waypoint
             # rollout s takes the s-th distinct posture (all refs still equal x0 there)
             xs0 = self.starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
+            if len(inp) > 3:  # one program: at the first waypoint, given start states replace 1..E
+                is_first, extra = inp[3], inp[4]
+                E = min(extra.shape[0], S - 1)
+                if E > 0:
+                    injected = xs0.at[1 : 1 + E].set(clip_box(extra[:E], lb[0][None, :], ub[0][None, :]))
+                    xs0 = jnp.where(is_first, injected, xs0)
             xs = jnp.where(at_start[:, None], xs0, jax.vmap(clip_box)(xref, lb, ub))
-        x, fv, err, usable, finite = self.vstart(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate)
+        if len(inp) > 3:
+            x, fv, err, usable, finite = self.vany(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate, inp[3])
+        else:
+            x, fv, err, usable, finite = self.vstart(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate)
         if self.mode == "best":
             i = self.pick(x, fv, err, usable, finite, kmin, kmax)
             xw, fw, ew, uw, finw = x[i], fv[i], err[i], usable[i], finite[i]
@@ -227,9 +250,18 @@ class PGDKernel:
         lims = (dq_f, dk, kmin, kmax, r, c, kmax - kmin, pos_tol)
         P = targets.shape[0]
         keys = jax.random.split(key, P + 1)
-        first, carry0 = self.first(keys[P], x0, extra, targets[0], dirs[0], lims)
-        _, rest = jax.lax.scan(lambda cr, inp: self.step(cr, inp, lims), carry0, (targets[1:], dirs[1:], keys[1:P]))
-        X, F, E, ST, WIN = (jnp.concatenate([a[None], b], axis=0) for a, b in zip(first, rest, strict=True))
+        if self.one_program:
+            # the first waypoint as the scan's first step (its key, keys[P], first): one traced and
+            # compiled waypoint program instead of two, the same arithmetic
+            order = jnp.concatenate([keys[P:], keys[1:P]])
+            is_first = jnp.arange(P) == 0
+            carry0 = (jnp.broadcast_to(x0, (self.S, self.nx)), jnp.ones((self.S,), bool))
+            xs = (targets, dirs, order, is_first, jnp.broadcast_to(extra, (P,) + extra.shape))
+            _, (X, F, E, ST, WIN) = jax.lax.scan(lambda cr, inp: self.step(cr, inp, lims), carry0, xs)
+        else:
+            first, carry0 = self.first(keys[P], x0, extra, targets[0], dirs[0], lims)
+            _, rest = jax.lax.scan(lambda cr, inp: self.step(cr, inp, lims), carry0, (targets[1:], dirs[1:], keys[1:P]))
+            X, F, E, ST, WIN = (jnp.concatenate([a[None], b], axis=0) for a, b in zip(first, rest, strict=True))
         if self.mode == "rollout":
             # X (P, S, nx): keep the trajectory with fewest unusable waypoints, then lowest sum f
             bad = jnp.sum(ST != R.SOLVED, axis=0)

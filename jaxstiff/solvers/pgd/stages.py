@@ -12,41 +12,57 @@ from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, cl
 __all__ = ["optimise", "descend", "finish"]
 
 
-def optimise(ops: WaypointOps, x0, lb, ub, target, d, r, c, kspan, opts, first=False, lm=None):
+def optimise(ops: WaypointOps, x0, lb, ub, target, d, r, c, kspan, opts, first: bool | jax.Array = False, lm=None):
     """Surrogate phase, LM phase (``lm``: x -> x, f1/f2 only), then the criterion phase, from x0
     (on the path). Returns the best iterate of the criterion phase (its first iterate is the LM
     point, so the criterion phase never returns anything worse than LM's answer).
 
-    ``first``: the first waypoint's settings (``iters_first``, ``surrogate_first``, ``step0_first``).
+    ``first``: the first waypoint's settings (``iters_first``, ``surrogate_first``, ``step0_first``);
+    a Python bool, or a traced bool (one program for every waypoint: the iteration counts become
+    traced loop bounds, the step sizes and decays are selected from the same Python constants, so
+    either waypoint computes exactly what the static program computes).
     """
-    if first:
-        opts = {
-            **opts,
-            "iters": opts["iters_first"],
-            "surrogate": opts["surrogate_first"],
-            "step0": opts["step0_first"],
-        }
-    elif lm is not None:
-        opts = {**opts, "iters": opts["iters_lm"]}
-    iters = int(opts["iters"])
-    ns = int(round(float(opts["surrogate"]) * iters))
-    if ns > 0:
-        x0 = descend(ops, ops.surrogate, x0, lb, ub, target, d, r, c, kspan, opts, ns, track=False)
+    if isinstance(first, bool):
+        iters, ns, s0, decay_s, decay_f = _phase_constants(opts, first, lm is not None)
+    else:
+        a = _phase_constants(opts, True, lm is not None)
+        b = _phase_constants(opts, False, lm is not None)
+        iters, ns, s0, decay_s, decay_f = (jnp.where(first, u, v) for u, v in zip(a, b, strict=True))
+    if not (isinstance(ns, int) and ns == 0):
+        x0 = descend(ops, ops.surrogate, x0, lb, ub, target, d, r, c, kspan, opts, ns, False, s0, decay_s)
     if lm is not None:
         x0 = lm(x0)
-    return descend(ops, ops.f, x0, lb, ub, target, d, r, c, kspan, opts, max(iters - ns, 1), track=True)
+    return descend(ops, ops.f, x0, lb, ub, target, d, r, c, kspan, opts, iters, True, s0, decay_f)
 
 
-def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, iters, track):
-    """``iters`` projected Adam steps on ``obj``; with ``track`` the best acceptable iterate of the
-    criterion is returned, else the last iterate."""
+def _phase_constants(opts, first: bool, with_lm: bool) -> tuple[int, int, float, float, float]:
+    """``(criterion iterations, surrogate iterations, first step, surrogate decay, criterion decay)``
+    of one waypoint kind (Python numbers)."""
+    if first:
+        iters, frac, s0 = int(opts["iters_first"]), float(opts["surrogate_first"]), float(opts["step0_first"])
+    else:
+        iters = int(opts["iters_lm"] if with_lm else opts["iters"])
+        frac, s0 = float(opts["surrogate"]), float(opts["step0"])
+    ns = int(round(frac * iters))
+    nc = max(iters - ns, 1)
+    s1 = float(opts["step1"])
+    return nc, ns, s0, (s1 / s0) ** (1.0 / max(ns - 1, 1)), (s1 / s0) ** (1.0 / max(nc - 1, 1))
+
+
+def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, iters, track, s0=None, decay=None):
+    """``iters`` projected Adam steps on ``obj`` (a Python int or a traced loop bound); with
+    ``track`` the best acceptable iterate of the criterion is returned, else the last iterate.
+    ``s0``, ``decay``: the first step and its per-iteration decay (default: from ``opts`` and a
+    Python ``iters``)."""
     nn = int(opts["newton"])
-    s0, s1, acc = float(opts["step0"]), float(opts["step1"]), float(opts["accept_tol"])
+    acc = float(opts["accept_tol"])
+    if s0 is None or decay is None:
+        s0, s1 = float(opts["step0"]), float(opts["step1"])
+        decay = (s1 / s0) ** (1.0 / max(int(iters) - 1, 1))
     nf = ops.nf
     k = len(ops.rows)
     s = box_scales(lb, ub, nf, kspan)
     vg = jax.value_and_grad(obj)
-    decay = (s1 / s0) ** (1.0 / max(iters - 1, 1))
 
     def score(fv, err):
         ok = (err <= acc) & jnp.isfinite(fv)
