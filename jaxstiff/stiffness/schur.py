@@ -131,14 +131,19 @@ def stiffness_of_compliance(C: jax.Array) -> jax.Array:
     return _outer_sum(V, 1.0 / h)
 
 
-@stiffness_of_compliance.defjvp
-def _stiffness_of_compliance_jvp(primals: tuple, tangents: tuple):
+def _jvp_inputs(primals: tuple, tangents: tuple):
+    """``(mu, V, a, h, dS, diag_dC)`` of a JVP rule on C: the decomposition of S, the tangent of S and
+    the diagonal of the tangent of C_TT."""
     (C,), (dC,) = primals, tangents
     S, G, mu, V, a, h = _decompose(C)
     dC, dS = _tangent_of_S(C, G, dC)
-    t = S.shape[-1]
-    tr_dC = jnp.sum(jnp.diagonal(dC, axis1=-2, axis2=-1)[..., :t], axis=-1)  # trace of dC_TT
-    return _outer_sum(V, 1.0 / h), _stiffness_tangent(mu, V, a, h, dS, tr_dC)
+    return mu, V, a, h, dS, jnp.diagonal(dC, axis1=-2, axis2=-1)[..., : S.shape[-1]]
+
+
+@stiffness_of_compliance.defjvp
+def _stiffness_of_compliance_jvp(primals: tuple, tangents: tuple):
+    mu, V, a, h, dS, diag_dC = _jvp_inputs(primals, tangents)
+    return _outer_sum(V, 1.0 / h), _stiffness_tangent(mu, V, a, h, dS, jnp.sum(diag_dC, axis=-1))
 
 
 def _stiffness_tangent(mu, V, a, h, dS: jax.Array, tr_dC: jax.Array) -> jax.Array:
@@ -201,21 +206,18 @@ def stiffness_eig_of_compliance(C: jax.Array) -> tuple[jax.Array, jax.Array]:
 
 @stiffness_eig_of_compliance.defjvp
 def _stiffness_eig_of_compliance_jvp(primals: tuple, tangents: tuple):
-    (C,), (dC,) = primals, tangents
-    S, G, mu, V, a, h = _decompose(C)
-    dC, dS = _tangent_of_S(C, G, dC)
-    t = S.shape[-1]
+    mu, V, a, h, dS, diag_dC = _jvp_inputs(primals, tangents)
+    t = mu.shape[-1]
     A = mm(mm(jnp.swapaxes(V, -1, -2), dS), V)  # V^T dS V
     dmu = jnp.diagonal(A, axis1=-2, axis2=-1)
-    delta = lost_axis_floor(S.dtype)
-    diag_C = jnp.diagonal(dC, axis1=-2, axis2=-1)[..., :t]
-    da = (delta * jnp.sum(dmu + delta * diag_C, axis=-1) / t)[..., None]  # trace(dS) = sum(dmu)
+    delta = lost_axis_floor(mu.dtype)
+    da = (delta * jnp.sum(dmu + delta * diag_dC, axis=-1) / t)[..., None]  # trace(dS) = sum(dmu)
     e = _exp_neg(mu, a)
     dh = (1.0 - e) * dmu + e * (1.0 + mu / a) * da
     dlam = -dh / (h * h)
     gap = mu[..., None, :] - mu[..., :, None]  # gap[i, j] = mu_j - mu_i
     scale = jnp.max(jnp.abs(mu), axis=-1)[..., None, None]
-    ok = jnp.abs(gap) > gap_tol(S.dtype) * scale + jnp.finfo(S.dtype).tiny
+    ok = jnp.abs(gap) > gap_tol(mu.dtype) * scale + jnp.finfo(mu.dtype).tiny
     dV = mm(V, jnp.where(ok, 1.0 / jnp.where(ok, gap, 1.0), 0.0) * A)
     return ((1.0 / h)[..., ::-1], V[..., :, ::-1]), (dlam[..., ::-1], dV[..., :, ::-1])
 
