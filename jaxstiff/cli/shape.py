@@ -100,10 +100,12 @@ def summary_table(res: ShapeResult) -> str:
             f"{1e3 * np.median(res.time_s[b]):>12.1f}"
         )
     inside = float((res.meta.get("timing_s") or {}).get("compile_in_time_s") or 0.0)
-    if inside > 0.05 * float(np.sum(res.time_s)):
+    # worth a line when it is a visible share of the times and a visible time (a warm cache leaves
+    # a few hundredths of a second, which read as "up to 0.0 s")
+    if inside >= 0.1 and inside > 0.05 * float(np.sum(res.time_s)):
         lines.append(
-            f"(ms/waypoint includes up to {inside:.1f} s of JAX compilation inside solver "
-            f"{res.meta.get('solver')!r}'s timed calls; a second run with the compilation cache shows the run time)"
+            f"(ms/waypoint includes up to {inside:.1f} s of JAX compilation inside the timed calls of solver "
+            f"{res.meta.get('solver')!r}; a second run with the compilation cache shows the run time)"
         )
     return "\n".join(lines)
 

@@ -29,3 +29,6 @@ def test_footnote_when_compilation_is_inside_the_times():
     assert "includes up to 1.5 s of JAX compilation" in text and "'trajectory'" in text
     assert "compilation" not in summary_table(_res(0.0))
     assert "compilation" not in summary_table(_res(0.05))  # under 5% of 2 s: not worth a line
+    short = _res(0.06)
+    short.time_s = np.full((1, 4), 0.01)  # 6 % of 40 ms, but 0.06 s reads as "up to 0.1 s" at best: no line
+    assert "compilation" not in summary_table(short)
