@@ -37,6 +37,8 @@ eigenvalues (a sphere). Where every ``mu > 40 a`` it equals ``-K dS K``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
 
@@ -168,13 +170,16 @@ def _stiffness_tangent(mu, V, a, h, dS: jax.Array, tr_dC: jax.Array) -> jax.Arra
     return 0.5 * (dK + jnp.swapaxes(dK, -1, -2))
 
 
-def stiffness_and_tangents(C: jax.Array, dS: jax.Array, tr_dC: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """``K_T`` (t, t) of one compliance C (m, m) and its tangents (T, t, t) for T given tangents of
-    S (``dS`` (T, t, t), symmetric) and of trace(C_TT) (``tr_dC`` (T,)): the JVP of
-    :func:`stiffness_of_compliance` for callers that form ``dS`` more cheaply than ``P dC P^T``
-    (pgd's LM stage: from ``P J`` and ``P dJ``). One decomposition for all T tangents."""
+def stiffness_and_tangents(
+    C: jax.Array, tangents_of: Callable[[jax.Array | None], tuple[jax.Array, jax.Array]]
+) -> tuple[jax.Array, jax.Array]:
+    """``K_T`` (t, t) of one compliance C (m, m) and its tangents (T, t, t): the JVP of
+    :func:`stiffness_of_compliance` for callers that form the tangents of S more cheaply than
+    ``P dC P^T`` (pgd's LM stage: from ``P J`` and ``P dJ``). ``tangents_of(G)`` gets
+    ``G = C_TR C_RR^-1`` (None for m = 2 or 3; ``P = [I, -G]``) and returns the tangents of S
+    (T, t, t), symmetric, and of trace(C_TT) (T,). One decomposition for all T tangents."""
     _, G, mu, V, a, h = _decompose(C)
-    del G
+    dS, tr_dC = tangents_of(G)
     dK = jax.vmap(lambda dS1, tr1: _stiffness_tangent(mu, V, a, h, dS1, tr1))(dS, tr_dC)
     return _outer_sum(V, 1.0 / h), dK
 

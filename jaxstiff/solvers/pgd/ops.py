@@ -19,7 +19,7 @@ from jaxstiff.stiffness.core import (
 )
 from jaxstiff.stiffness.criteria import f1 as _f1
 from jaxstiff.stiffness.criteria import f2 as _f2
-from jaxstiff.stiffness.schur import schur_compliance, stiffness_and_tangents
+from jaxstiff.stiffness.schur import stiffness_and_tangents
 
 __all__ = [
     "WaypointOps",
@@ -185,21 +185,24 @@ class WaypointOps:
         Js, dJs = self.pr.spring_cols(J6[rows_t, :]), self.pr.spring_cols(dJ6[:, rows_t, :])  # (m, nk), (nf, m, nk)
         w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
         C = compliance(Js, kj, self.pr.task)
-        # tangents of S = P C P^T straight from P J_s and P dJ_s (P = [I, -C_TR C_RR^-1] for
-        # "full", I otherwise): dS_q = PdJ W PJ^T + sym, dS_k = -w_i^2 (P j_i)(P j_i)^T, and the
-        # traces of dC_TT that the eigenvalue floor reads; no (m, m) dC per tangent
-        _, G = schur_compliance(C)
-        t = 3 if G is not None else Js.shape[-2]
-        PJ = Js if G is None else Js[:3] - G @ Js[3:]  # (t, nk)
-        PdJ = dJs if G is None else dJs[:, :3] - jnp.einsum("ab,fbn->fan", G, dJs[:, 3:])  # (nf, t, nk)
-        PJW = PJ * w  # (t, nk)
-        dSq = jnp.einsum("fan,bn->fab", PdJ, PJW)
-        dSq = dSq + jnp.swapaxes(dSq, -1, -2)
-        dSk = -(PJW.T[:, :, None] * PJW.T[:, None, :])  # (nk, t, t)
-        JWt = Js[:t] * w
-        tr_q = 2.0 * jnp.sum(dJs[:, :t] * JWt[None], axis=(-2, -1))  # (nf,)
-        tr_k = -jnp.sum(JWt * JWt, axis=0)  # (nk,)
-        K, dK = stiffness_and_tangents(C, jnp.concatenate([dSq, dSk]), jnp.concatenate([tr_q, tr_k]))
+
+        def tangents_of(G):
+            # tangents of S = P C P^T straight from P J_s and P dJ_s (P = [I, -G] for "full", I
+            # otherwise): dS_q = PdJ W PJ^T + sym, dS_k = -w_i^2 (P j_i)(P j_i)^T, and the traces
+            # of dC_TT that the eigenvalue floor reads; no (m, m) dC per tangent
+            t = 3 if G is not None else Js.shape[-2]
+            PJ = Js if G is None else Js[:3] - G @ Js[3:]  # (t, nk)
+            PdJ = dJs if G is None else dJs[:, :3] - jnp.einsum("ab,fbn->fan", G, dJs[:, 3:])  # (nf, t, nk)
+            PJW = PJ * w  # (t, nk)
+            dSq = jnp.einsum("fan,bn->fab", PdJ, PJW)
+            dSq = dSq + jnp.swapaxes(dSq, -1, -2)
+            dSk = -(PJW.T[:, :, None] * PJW.T[:, None, :])  # (nk, t, t)
+            JWt = Js[:t] * w
+            tr_q = 2.0 * jnp.sum(dJs[:, :t] * JWt[None], axis=(-2, -1))  # (nf,)
+            tr_k = -jnp.sum(JWt * JWt, axis=0)  # (nk,)
+            return jnp.concatenate([dSq, dSk]), jnp.concatenate([tr_q, tr_k])
+
+        K, dK = stiffness_and_tangents(C, tangents_of)
         shape = lambda K: self._shape_rows(K, d, r, kind, walign)  # noqa: E731
         e_shape, dshape = jax.vmap(lambda T: jax.jvp(shape, (K,), (T,)))(dK)
         ep = self._pos_rows(p, target, wpos)

@@ -49,16 +49,13 @@ def _phase_constants(opts, first: bool, with_lm: bool) -> tuple[int, int, float,
     return nc, ns, s0, (s1 / s0) ** (1.0 / max(ns - 1, 1)), (s1 / s0) ** (1.0 / max(nc - 1, 1))
 
 
-def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, iters, track, s0=None, decay=None):
+def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, iters, track, s0, decay):
     """``iters`` projected Adam steps on ``obj`` (a Python int or a traced loop bound); with
     ``track`` the best acceptable iterate of the criterion is returned, else the last iterate.
-    ``s0``, ``decay``: the first step and its per-iteration decay (default: from ``opts`` and a
-    Python ``iters``)."""
+    ``s0``, ``decay``: the first step (fraction of the box width) and its per-iteration decay
+    (:func:`_phase_constants`)."""
     nn = int(opts["newton"])
     acc = float(opts["accept_tol"])
-    if s0 is None or decay is None:
-        s0, s1 = float(opts["step0"]), float(opts["step1"])
-        decay = (s1 / s0) ** (1.0 / max(int(iters) - 1, 1))
     nf = ops.nf
     k = len(ops.rows)
     s = box_scales(lb, ub, nf, kspan)
