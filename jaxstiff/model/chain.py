@@ -133,6 +133,15 @@ class Chain:
             object.__setattr__(self, "_hash", h)
         return h
 
+    def fingerprint(self) -> str:
+        """sha256 (hex) of the chain's content (every field but ``source``): equal for chains
+        that trace to the same kinematics in any process (a disk cache key; ``hash`` is
+        per-process)."""
+        import hashlib
+
+        key = tuple(getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source")
+        return hashlib.sha256(f"{type(self).__name__}{key!r}".encode()).hexdigest()
+
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
         state.pop("_hash", None)

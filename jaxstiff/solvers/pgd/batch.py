@@ -11,6 +11,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from jaxstiff.runtime.export_cache import compile_with_export_cache
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import PGDOptions
 from jaxstiff.solvers.base import SolveRequest
@@ -49,6 +50,7 @@ _SHARED = frozenset(
         "blocks",
         "mu0",
         "chain",
+        "polish_skip_tol",
     }
 )
 
@@ -124,7 +126,11 @@ def solve_batch(
     # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
     C = max(min(int(opts["chunk"]), B), 2)
     key_items = tuple(sorted((k, v) for k, v in opts.items() if k in DEFAULT_OPTIONS and k not in ("chunk", "seed")))
-    fn = compiled_kernel(problem, key_items, bool(limits.first_rate_limit))
+    first_rate = bool(limits.first_rate_limit)
+    fn = compiled_kernel(problem, key_items, first_rate)
+    fp = problem.fingerprint()
+    disk_key = None if fp is None else f"pgd|{fp}|{key_items!r}|{first_rate}"
+
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, list(problem.free_idx)]
     dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
@@ -134,7 +140,7 @@ def solve_batch(
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
     shared = (float(limits.kmin), float(limits.kmax), float(batch.c), float(pos_tol))
-    X, out, compile_s, run_s = _run_chunks(fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), C)
+    X, out, compile_s, run_s = _run_chunks(fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), C, disk_key)
     q = np.repeat(q0[:, None, :], P, axis=1)
     q[..., list(problem.free_idx)] = X[..., :nf]
     out["q"], out["kj"] = q, np.array(problem.kj_full(X[..., nf:]), copy=True)
@@ -159,9 +165,17 @@ def first_start_rows(
 
 
 def _run_chunks(
-    fn: Any, per_path: tuple[np.ndarray, ...], shared: tuple[float, float, float, float], base: jax.Array, C: int
+    fn: Any,
+    per_path: tuple[np.ndarray, ...],
+    shared: tuple[float, float, float, float],
+    base: jax.Array,
+    C: int,
+    disk_key: str | None = None,
 ) -> tuple[np.ndarray, dict[str, Any], float, float]:
     """The compiled kernel ``fn`` over the paths in chunks of C rows (the last one padded).
+
+    ``disk_key``: the kernel's key for the traced-program cache
+    (:func:`~jaxstiff.runtime.export_cache.compile_with_export_cache`; None: trace every time).
 
     ``per_path``: ``(targets, directions, x0, path_data, dq_f, dk, ratio, extra)``, B rows each;
     ``shared``: ``(kmin, kmax, c, pos_tol)``; ``base``: the seed's key, folded with each path's
@@ -183,6 +197,7 @@ def _run_chunks(
         )
     }
     compile_s, run_s = 0.0, 0.0
+    comp: Any = None
     with jax.enable_x64(True):
         for s in range(0, B, C):
             e = min(s + C, B)
@@ -202,20 +217,19 @@ def _run_chunks(
                 pos_tol,
                 pad_rows(extra[sl], C),
             )
-            if jax.local_device_count() > 1:  # split the batch across all local devices (jaxstiff._sharding)
+            sharded = jax.local_device_count() > 1
+            if sharded:  # split the batch across all local devices (jaxstiff._sharding)
                 from jaxstiff.runtime.sharding import shard_rows
 
                 placed, _ = shard_rows({str(i): args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
                 args = tuple(placed.get(str(i), a) for i, a in enumerate(args))
             t0 = time.perf_counter()
-            if s == 0:
-                lowered = fn.lower(*args)
-                comp = lowered.compile()
+            if comp is None:
+                # every chunk has the same shapes (padded): one compiled program for all of them
+                comp = compile_with_export_cache(fn, args, None if sharded else disk_key, kernel_compiler_options())
                 compile_s = time.perf_counter() - t0
                 t0 = time.perf_counter()
-                res = comp(*args)
-            else:
-                res = fn(*args)
+            res = comp(*args)
             res = jax.tree_util.tree_map(np.asarray, res)
             dt = time.perf_counter() - t0
             run_s += dt

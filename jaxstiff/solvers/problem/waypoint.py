@@ -63,6 +63,27 @@ class WaypointProblem:
                 f"locked_joints must be one of {', '.join(map(repr, LOCKED_JOINT_MODES))}, got {self.locked_joints!r}"
             )
 
+    def fingerprint(self) -> str | None:
+        """A content key of the problem that holds across processes (robot content, task, locked
+        joint mode, criterion), for disk caches of traced programs; None for a criterion other
+        than the built-in f1 and f2 (a user's function cannot be keyed by its content)."""
+        if self.criterion is f1:
+            crit = "f1"
+        elif self.criterion is f2:
+            crit = "f2"
+        else:
+            return None
+        return f"{self.robot.fingerprint()}|{self.task}|{self.locked_joints}|{crit}"
+
+    def criterion_minimum(self, c: float) -> float | None:
+        """The least value the criterion can take: 1 for f2 (alpha = 0, rho = r), ``c`` for f1
+        (alpha = 0, rho >= r); None for another criterion (unknown)."""
+        if self.criterion is f2:
+            return 1.0
+        if self.criterion is f1:
+            return float(c)
+        return None
+
     # ------------------------------------------------------------------ layout
     @property
     def n(self) -> int:

@@ -1,0 +1,147 @@
+"""Traced programs kept on disk, so that a second run skips tracing as well as compiling.
+
+JAX's persistent compilation cache (:mod:`jaxstiff.runtime.compile_cache`) skips XLA's compile,
+but not the Python tracing that comes before it: for pgd's batch kernel (a scan over waypoints,
+vmapped starts, unrolled kinematics) tracing and lowering take several seconds of every run, more
+than the solve of a few paths. :func:`compile_with_export_cache` keeps the traced program
+(``jax.export``'s serialized StableHLO) next to the compilation cache and, in a later process,
+deserializes it instead of tracing; XLA's compile of it then comes from the compilation cache.
+
+The file's name is a hash of everything the traced program depends on: the caller's key (the
+problem's content fingerprint, the solver's settings), jaxstiff's source code (every ``.py`` file
+of the package), the JAX and jaxlib versions, the backend, the input shapes and dtypes and the x64
+flag. A caller whose program depends on something it cannot put in the key (a user's own
+criterion function) passes ``key=None`` and gets the plain ``lower().compile()``. A file that
+cannot be read or deserialized is ignored (and replaced); a folder that cannot be written only
+costs the tracing. Off where the compilation cache is off (``--no-compile-cache``,
+``JAXSTIFF_COMPILE_CACHE=0``) and with ``JAXSTIFF_EXPORT_CACHE=0``.
+
+The exported program is the same computation, compiled by the same XLA; every call of a kernel
+goes through it while the cache is on (the first run too), so results do not depend on whether
+the file was there.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import os
+import tempfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from jaxstiff.runtime.compile_cache import cache_dir_in_use
+
+__all__ = ["EXPORT_ENV", "EXPORT_SUBDIR", "code_fingerprint", "compile_with_export_cache", "export_dir"]
+
+#: environment variable that turns the traced-program cache off (0, false, no, off)
+EXPORT_ENV = "JAXSTIFF_EXPORT_CACHE"
+#: sub-folder of the compilation cache folder that holds the traced programs
+EXPORT_SUBDIR = "jaxstiff-programs"
+
+_OFF = ("0", "false", "no", "off")
+
+
+@functools.cache
+def code_fingerprint() -> str:
+    """sha256 over jaxstiff's own source files (relative path and content, sorted by path)."""
+    root = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py")):
+        h.update(p.relative_to(root).as_posix().encode())
+        h.update(b"\0")
+        h.update(p.read_bytes())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def export_dir() -> str | None:
+    """The folder for traced programs (a sub-folder of the compilation cache in use), or None."""
+    if os.environ.get(EXPORT_ENV, "1").strip().lower() in _OFF:
+        return None
+    base = cache_dir_in_use()
+    if not base or "://" in str(base):  # a remote cache (gs://...) has no local sub-folder
+        return None
+    return os.path.join(os.fspath(base), EXPORT_SUBDIR)
+
+
+def _file_key(key: str, args: Sequence[Any]) -> str:
+    import importlib.metadata
+
+    import jax
+
+    leaves = jax.tree_util.tree_leaves(args)
+    shapes = [(tuple(getattr(a, "shape", ())), str(jax.numpy.result_type(a))) for a in leaves]
+    parts = (
+        key,
+        code_fingerprint(),
+        jax.__version__,
+        importlib.metadata.version("jaxlib"),
+        jax.default_backend(),
+        repr(getattr(jax.config, "jax_enable_x64")),  # noqa: B009 - typed stubs lack the flags
+        repr(getattr(jax.config, "jax_default_matmul_precision")),  # noqa: B009
+        repr(jax.tree_util.tree_structure(args)),
+        repr(shapes),
+    )
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+def _read(path: str) -> Any:
+    from jax import export
+
+    try:
+        with open(path, "rb") as f:
+            return export.deserialize(bytearray(f.read()))
+    except (FileNotFoundError, ImportError):  # ImportError: no flatbuffers, no serialization
+        return None
+    except Exception:  # noqa: BLE001 - a damaged or foreign file: trace again and replace it
+        return None
+
+
+def _write(path: str, data: bytes) -> None:
+    try:
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-", suffix=".jaxexp")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+            os.replace(tmp, path)  # atomic: a reader sees the old file, the new one or none
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+    except OSError:
+        pass  # an unwritable cache only costs the tracing next time
+
+
+def compile_with_export_cache(
+    fn: Any, args: Sequence[Any], key: str | None, compiler_options: dict[str, str] | None = None
+) -> Callable[..., Any]:
+    """``fn`` (a ``jax.jit``-wrapped function) compiled for ``args``, through the traced-program cache.
+
+    Args:
+        fn: the jitted function.
+        args: its positional arguments (arrays or numbers; their shapes and dtypes are in the key).
+        key: everything else the traced program depends on, as a string (module docstring); None:
+            no traced-program cache, ``fn.lower(*args).compile()``.
+        compiler_options: XLA compiler options for the compile of the exported program (pass
+            those ``fn`` was jitted with).
+
+    Returns:
+        The compiled function (call it with arguments of the same shapes and dtypes).
+    """
+    import jax
+    from jax import export
+
+    folder = export_dir() if key is not None else None
+    if folder is None or key is None:
+        return fn.lower(*args).compile()
+    path = os.path.join(folder, _file_key(key, args) + ".jaxexp")
+    exp = _read(path)
+    if exp is None:
+        exp = export.export(fn, platforms=[jax.default_backend()])(*args)
+        with contextlib.suppress(ImportError):  # no flatbuffers: run the exported program unsaved
+            _write(path, bytes(exp.serialize()))
+    return jax.jit(exp.call, compiler_options=compiler_options or None).lower(*args).compile()
