@@ -282,7 +282,7 @@ def shape(
     or B lists of n when the paths differ (see :func:`jaxstiff.results.path_parameters`).
     """
     ensure_compile_cache()  # before the first compilation (cheap when already on)
-    t_start = time.perf_counter()
+    t_start, w_start = time.perf_counter(), time.time()
     with CompileClock() as clock:
         base = settings if settings is not None else _DEFAULT_SETTINGS
         if not isinstance(base, ShapeSettings):
@@ -321,7 +321,7 @@ def shape(
         warn_off_plane(rep.position, bpath, inp.task, stacklevel=3)
         opts_meta = _options_meta(inp.solver, inp.starts, options)
         use = _first_starts_use(inp.solver, opts_meta, inp.first_starts, inp.first_rate_limit)
-        timing = _timing(t_start, marks, clock, arrays.get("compile_s"))
+        timing = _timing((t_start, w_start), marks, clock, arrays.get("compile_s"))
         meta = shape_meta(inp, arrays, opts_meta, use, timing, DEFAULTS, interrupted, cpu_async_dispatch())
         meta["compilation"] = clock.meta()
         if meta_extra:
@@ -333,7 +333,7 @@ def shape(
     return result
 
 
-def _timing(t_start: float, marks: list[float], clock: CompileClock, solver_compile: Any) -> dict[str, Any]:
+def _timing(start: tuple[float, float], marks: list[float], clock: CompileClock, solver_compile: Any) -> dict[str, Any]:
     """``meta["timing_s"]``: wall seconds of the call (``total``) and its phases (``setup``: inputs,
     IK, start states; ``solve``; ``report``: report, CMS, meta), each with its compilation;
     ``compile``: JAX compilation in the whole call (tracing, lowering, XLA compile or cache load:
@@ -343,10 +343,14 @@ def _timing(t_start: float, marks: list[float], clock: CompileClock, solver_comp
     solver reports none; ``compile_in_time_s``: compilation during the solve that the solver did
     not keep apart (``compile_solve - solver_compile``, at least 0), an upper bound of the
     compilation inside the per-waypoint ``time_s`` (0: ``time_s`` is run time only)."""
+    t_start, w_start = start
     t_solve, w_solve, t_solved, w_solved = marks
-    now = time.perf_counter()
-    compile_s = clock.seconds
-    compile_solve = clock.seconds_between(w_solve, w_solved)
+    now, w_now = time.perf_counter(), time.time()
+    # JAX stamps its spans with the wall clock (time.time), the phases here use perf_counter: the
+    # spans are cut to the call's window and the sums capped by the phases' lengths, so that a
+    # wall-clock step (clock sync on a loaded machine) cannot give more compilation than time
+    compile_s = min(clock.seconds_between(w_start, w_now), now - t_start)
+    compile_solve = min(clock.seconds_between(w_solve, w_solved), t_solved - t_solve, compile_s)
     return {
         "total": now - t_start,
         "setup": t_solve - t_start,
