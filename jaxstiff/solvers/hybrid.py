@@ -35,7 +35,14 @@ Two chainings (``options["chain"]``):
   not leave pgd's corridor.
 
 Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``chain``; ``polish_slsqp`` = ``"all"``
-(default) or ``"unusable"`` (only where pgd failed).
+(default) or ``"unusable"`` (only where pgd failed); ``polish_skip_tol`` (default 1e-9): where
+pgd's point is admissible and its criterion is within this (relative) of the criterion's least
+possible value (f2: 1, f1: c), SLSQP is not run there (it could only tie); 0 runs it everywhere.
+
+Speed: the B paths' polishes advance together (:mod:`jaxstiff.solvers.lockstep`): each path's
+sequential logic is a generator of SLSQP kernel requests, and each round evaluates all pending
+requests in one batched call. The per-waypoint ``time_s`` is pgd's plus an equal share of the
+polish's wall time.
 """
 
 from __future__ import annotations
@@ -43,8 +50,9 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.results import files as R
@@ -55,11 +63,20 @@ from jaxstiff.solvers.greedy import (
     Objective,
     PosAndJac,
     SolverOutput,
-    WaypointSolver,
     judge,
     kernel_objective,
 )
-from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, clip_to_box, jax_pos_and_jac
+from jaxstiff.solvers.lockstep import Steps, run_lockstep
+from jaxstiff.solvers.problem import (
+    WaypointBatch,
+    WaypointProblem,
+    clip_to_box,
+    compiled_scaled_rows,
+    jax_pos_and_jac,
+)
+
+if TYPE_CHECKING:
+    from jaxstiff.solvers.slsqp import SLSQPSolver
 
 __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 
@@ -86,7 +103,8 @@ class _Polish:
     ratios: np.ndarray  # (B,)
     base: dict[str, np.ndarray]
     mode: str  # option polish_slsqp
-    solver: WaypointSolver
+    skip_tol: float  # option polish_skip_tol
+    solver: SLSQPSolver
     pos_and_jac: PosAndJac
     objective: Objective
     pos_tol: float
@@ -135,6 +153,7 @@ def polish(
         batch.ratios,
         base,
         own["polish_slsqp"],
+        float(own["polish_skip_tol"]),
         solver,
         jax_pos_and_jac(problem),
         kernel_objective(problem),
@@ -142,11 +161,17 @@ def polish(
         first_starts,
     )
     out = {k: np.array(v, copy=True) for k, v in base.items() if isinstance(v, np.ndarray)}
-    for b in range(B):
-        if own["chain"] == "greedy":
-            _polish_greedy_path(ctx, b, out)
-        else:
-            _polish_path(ctx, b, "pgd", out)
+    t0 = time.perf_counter()
+    gens = [
+        _polish_greedy_path(ctx, b, out) if own["chain"] == "greedy" else _polish_path(ctx, b, "pgd", out)
+        for b in range(B)
+    ]
+    # the B paths' SLSQP solves advance together, their kernel calls batched (one call per round)
+    rows = compiled_scaled_rows(problem)
+    scale = jnp.asarray(solver.scale)
+    run_lockstep(gens, lambda Y, Pm: rows(Y, Pm, scale))
+    # the polish's wall time, shared equally by the waypoints (the paths ran interleaved)
+    out["time_s"] = out["time_s"] + (time.perf_counter() - t0) / max(out["time_s"].size, 1)
     return out
 
 
@@ -161,8 +186,9 @@ def _next_usable(usable: np.ndarray) -> np.ndarray:
     return nxt
 
 
-def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -> None:
-    """Polish path b along ``chain`` ("greedy" or "pgd", module docstring), writing into ``dst``."""
+def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -> Steps[None]:
+    """Polish path b along ``chain`` ("greedy" or "pgd", module docstring), writing into ``dst``
+    (a generator of SLSQP's kernel requests, :mod:`jaxstiff.solvers.lockstep`)."""
     problem = ctx.problem
     limits = ctx.batch.limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
     dx = np.r_[np.asarray(limits.dq, float)[list(problem.free_idx)], problem.spring_cols(np.asarray(limits.dk, float))]
@@ -172,14 +198,14 @@ def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -
     q_ref, kj_ref = np.asarray(ctx.batch.q0[b], float).copy(), np.asarray(ctx.batch.kj0[b], float).copy()
     at_start = True
     for p in range(ctx.batch.targets.shape[1]):
-        t0 = time.perf_counter()
         rate = limits.first_rate_limit or not at_start
         lb, ub = limits.box(problem, q_ref, kj_ref, rate)
         if chain == "pgd" and nxt[p] >= 0:
             xn = Xb[nxt[p]]
             lb, ub = np.maximum(lb, xn - dx), np.minimum(ub, xn + dx)
-        usable_now = _polish_waypoint(ctx, b, p, chain, dst, Xb, bool(usable_b[p]), lb, ub, rate, q_ref, kj_ref)
-        dst["time_s"][b, p] += time.perf_counter() - t0
+        usable_now = yield from _polish_waypoint(
+            ctx, b, p, chain, dst, Xb, bool(usable_b[p]), lb, ub, rate, q_ref, kj_ref
+        )
         if usable_now:
             q_ref = dst["q"][b, p].copy()
             kj_ref = dst["kj"][b, p].copy()
@@ -199,7 +225,7 @@ def _polish_waypoint(
     rate: bool,
     q_ref: np.ndarray,
     kj_ref: np.ndarray,
-) -> bool:
+) -> Steps[bool]:
     """Waypoint p of path b inside its box ``[lb, ub]``: pgd's point ``Xb[p]`` (clipped exactly
     into the box, in place) where it is admissible, replaced by a better usable SLSQP answer;
     written into ``dst``. Returns whether the waypoint is usable."""
@@ -216,7 +242,7 @@ def _polish_waypoint(
         dst["kj"][b, p] = ctx.problem.kj_full(Xb[p][nf:])
     take = None
     if np.all(lb <= ub) and (ctx.mode == "all" or not have):
-        take = _best_slsqp(ctx, b, p, chain, Xb[p], pgd_usable, have, lb, ub, rate, q_ref, kj_ref)
+        take = yield from _best_slsqp(ctx, b, p, chain, Xb[p], pgd_usable, have, lb, ub, rate, q_ref, kj_ref)
     if take is not None:
         x, status, err, sol = take
         dst["q"][b, p, free] = x[:nf]
@@ -256,7 +282,7 @@ def _best_slsqp(
     rate: bool,
     q_ref: np.ndarray,
     kj_ref: np.ndarray,
-) -> _Answer | None:
+) -> Steps[_Answer | None]:
     """SLSQP from pgd's point (where pgd's waypoint was usable), from the reference state (the
     seed's own start; greedy chain, or where pgd's point is not admissible) and, at a first
     waypoint without rate limit, from greedy SLSQP's other starts: the usable answer with the
@@ -269,11 +295,14 @@ def _best_slsqp(
         if chain == "greedy" and not rate and ctx.first_starts is not None:
             starts += [problem.x_of(qs, ks) for qs, ks in ctx.first_starts[b]]  # greedy SLSQP's others
     f_best = ctx.objective(x_pgd, params) if have else np.inf
+    f_min = problem.criterion_minimum(ctx.batch.c)
+    if have and f_min is not None and f_best - f_min <= ctx.skip_tol * max(1.0, abs(f_min)):
+        return None  # pgd's point is optimal to the tolerance: no SLSQP answer can be usefully lower
     take = None
     for xs in starts:
         x_start = clip_to_box(xs, lb, ub)
         try:
-            sol = ctx.solver(
+            sol = yield from ctx.solver.steps(
                 x_start.copy(), lb, ub, params, maxiter=None if rate else ctx.solver.options["first_maxiter"]
             )
         except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
@@ -298,7 +327,7 @@ def _path_key(ctx: _Polish, d: Mapping[str, np.ndarray], b: int) -> tuple[int, f
     return int((~u).sum()), tot
 
 
-def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> None:
+def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> Steps[None]:
     """Path b with the greedy chain, and again with the "pgd" chain where that ends worse than pgd.
 
     The greedy chain takes any better point per waypoint, which can undo pgd's trajectory-level
@@ -307,18 +336,16 @@ def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> Non
     corridor (chain "pgd": per waypoint never above pgd), and the better of the two is kept.
     """
     base = ctx.base
-    _polish_path(ctx, b, "greedy", out)
+    yield from _polish_path(ctx, b, "greedy", out)
     k_g, k_b = _path_key(ctx, out, b), _path_key(ctx, base, b)
     if k_g[0] > k_b[0] or (k_g[0] == k_b[0] and k_g[1] > k_b[1] * (1 + 1e-9) + 1e-12):
         greedy = {k: out[k][b].copy() for k in out}
         for k in out:
             out[k][b] = base[k][b]
-        _polish_path(ctx, b, "pgd", out)
-        t_both = greedy["time_s"] + out["time_s"][b] - 2 * base["time_s"][b]  # polish times
+        yield from _polish_path(ctx, b, "pgd", out)
         if not _path_key(ctx, out, b) < k_g:
             for k in out:
                 out[k][b] = greedy[k]
-        out["time_s"][b] = base["time_s"][b] + t_both  # both polishes were paid for
 
 
 def run_request(req: SolveRequest) -> dict[str, Any]:

@@ -19,8 +19,8 @@ and reusable by any per-waypoint solver.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
-from typing import Any, cast
+from collections.abc import Callable, Generator, Mapping
+from typing import Any, Protocol, cast
 
 import jax.numpy as jnp
 import numpy as np
@@ -41,6 +41,7 @@ from jaxstiff.solvers.greedy import greedy_path as greedy_path
 from jaxstiff.solvers.greedy import judge as judge
 from jaxstiff.solvers.greedy import not_run_outcomes as not_run_outcomes
 from jaxstiff.solvers.greedy import run_greedy as run_greedy
+from jaxstiff.solvers.lockstep import Steps, run_steps
 from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, compiled_position, compiled_scaled
 
 __all__ = [
@@ -49,6 +50,7 @@ __all__ = [
     "PathInterrupted",
     "greedy_path",
     "make_slsqp_solver",
+    "SLSQPSolver",
     "solve_path",
     "DEFAULT_OPTIONS",
     "run_request",
@@ -95,8 +97,23 @@ def _compile_now(problem: WaypointProblem, fused_s: Callable[..., Any]) -> float
     return time.perf_counter() - t0
 
 
-def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> WaypointSolver:
-    """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX derivatives."""
+class SLSQPSolver(WaypointSolver, Protocol):
+    """:func:`make_slsqp_solver`'s solver: a :class:`WaypointSolver` that can also be driven step by
+    step (``steps``, :mod:`jaxstiff.solvers.lockstep`), with its kernel's ``scale`` vector, the
+    seconds its kernels took to compile and its ``driver`` ("lean" or "scipy.optimize.minimize")."""
+
+    compile_s: float
+    driver: str
+    scale: np.ndarray
+
+    def steps(
+        self, x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
+    ) -> Steps[SolverOutput]: ...
+
+
+def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> SLSQPSolver:
+    """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX
+    derivatives (:class:`SLSQPSolver`)."""
     from scipy.optimize import Bounds, minimize
 
     opts = check_options(options)
@@ -115,12 +132,44 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
 
     lean = opts["driver"] == "lean" and _lean_driver_works()
 
+    def steps(
+        x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
+    ) -> Steps[SolverOutput]:
+        """The solve as a generator of kernel requests ``(y, params)`` (scaled point), sent back
+        ``fused_scaled(y, params, scale)`` (:mod:`jaxstiff.solvers.lockstep`); returns its
+        :class:`SolverOutput`. A point asked for twice in a row is evaluated once. The "scipy"
+        driver cannot be driven this way: it solves at once and yields nothing."""
+        iters = int(maxiter or opts["maxiter"])
+        if not lean:
+            return _solve_minimize(x0, lb, ub, params, iters)
+        prm = np.asarray(params, dtype=float)
+        last_key, out, count = b"", np.empty(0), 0
+        gen = _slsqp_lean_steps(x0 / scale, lb / scale, ub / scale, k, iters, float(opts["ftol"]))
+        try:
+            y = next(gen)
+            while True:
+                key = y.tobytes()
+                if key != last_key:
+                    last_key = key
+                    out = yield (y, prm)
+                    count += 1
+                y = gen.send((out[sl_f], out[sl_g], out[sl_c], out[sl_a].reshape(k, nx)))
+        except StopIteration as stop:
+            y, mode, nit = stop.value
+        return SolverOutput(y * scale, mode, mode == 0, nit, count)
+
     def solve(
         x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
     ) -> SolverOutput:
+        params_dev = jnp.asarray(params)  # on the device once per waypoint, not once per call
+        return run_steps(
+            steps(x0, lb, ub, params, maxiter), lambda req: np.asarray(fused_s(req[0], params_dev, svec_dev))
+        )
+
+    def _solve_minimize(x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, iters: int) -> SolverOutput:
         last: list[Any] = [b"", None]
         count = [0]
-        params_dev = jnp.asarray(params)  # on the device once per waypoint, not once per call
+        params_dev = jnp.asarray(params)
 
         def ev(y: np.ndarray) -> np.ndarray:
             key = y.tobytes()
@@ -129,16 +178,6 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
                 last[1] = np.asarray(fused_s(y, params_dev, svec_dev))
                 count[0] += 1
             return last[1]
-
-        iters = int(maxiter or opts["maxiter"])
-        if lean:
-
-            def fgca(y: np.ndarray) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
-                out = ev(y)
-                return out[sl_f], out[sl_g], out[sl_c], out[sl_a].reshape(k, nx)
-
-            y, mode, nit = _slsqp_lean(fgca, x0 / scale, lb / scale, ub / scale, k, iters, float(opts["ftol"]))
-            return SolverOutput(y * scale, mode, mode == 0, nit, count[0])
 
         def fun(y: np.ndarray) -> tuple[Any, np.ndarray]:
             out = ev(y)
@@ -163,20 +202,21 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
 
     solve.options = opts  # type: ignore[attr-defined]
     solve.compile_s = compile_s  # type: ignore[attr-defined]
+    solve.steps = steps  # type: ignore[attr-defined]
+    solve.scale = svec  # type: ignore[attr-defined]  # the kernel's scale vector, for batched evaluation
     solve.driver = "lean" if lean else "scipy.optimize.minimize"  # type: ignore[attr-defined]
-    return cast(WaypointSolver, solve)  # a function with its options attached
+    return cast(SLSQPSolver, solve)  # a function with its options attached
 
 
 # ---------------------------------------------------------------------- lean SLSQP driver
-def _slsqp_lean(
-    fgca: Callable[[np.ndarray], tuple[Any, np.ndarray, np.ndarray, np.ndarray]],
+def _slsqp_lean_steps(
     x0: np.ndarray,
     xl: np.ndarray,
     xu: np.ndarray,
     meq: int,
     maxiter: int,
     acc: float,
-) -> tuple[np.ndarray, int, int]:
+) -> Generator[np.ndarray, tuple[Any, np.ndarray, np.ndarray, np.ndarray], tuple[np.ndarray, int, int]]:
     """SLSQP with equality constraints only and finite bounds: scipy's own compiled routine
     (``scipy.optimize._slsqplib.slsqp``, the C port of Kraft's code in scipy >= 1.16), driven by
     the same reverse-communication loop as ``scipy.optimize.minimize(method="SLSQP")`` but without
@@ -184,8 +224,10 @@ def _slsqp_lean(
     is the same iterate sequence; for a per-waypoint solve with a ~50 us kernel the wrappers cost
     about as much as the kernel.
 
+    A generator: it yields each point ``y`` it needs and is sent ``(f, grad (n,), c (meq,),
+    A (meq, n))`` at that point (:func:`_slsqp_lean` drives it with a function).
+
     Args:
-        fgca: ``y -> (f, grad (n,), c (meq,), A (meq, n))``.
         x0, xl, xu: start and bounds (n,).
         meq: number of equality constraints.
         maxiter, acc: iteration limit and accuracy (scipy's ``maxiter``, ``ftol``).
@@ -227,7 +269,7 @@ def _slsqp_lean(
     xl = np.where(np.isfinite(xl), xl, np.nan)
     xu = np.where(np.isfinite(xu), xu, np.nan)
     x = np.clip(np.array(x0, dtype=float), np.nan_to_num(xl, nan=-np.inf), np.nan_to_num(xu, nan=np.inf))
-    f, g, c, A = fgca(x)
+    f, g, c, A = yield x
     g = np.array(g, dtype=float)
     C = np.zeros((max(1, m), n), order="F")
     d = np.zeros(max(1, m))
@@ -237,14 +279,33 @@ def _slsqp_lean(
         _kernel(state, float(f), g, C, d, x, mult, xl, xu, buffer, indices)
         mode = state["mode"]
         if mode == 1:
-            f, _, c, _ = fgca(x)
+            f, _, c, _ = yield x
             d[:m] = c
         elif mode == -1:
-            _, gg, _, A = fgca(x)
+            _, gg, _, A = yield x
             g[:] = gg
             C[:m] = A
         else:
             return x, int(mode), int(state["iter"])
+
+
+def _slsqp_lean(
+    fgca: Callable[[np.ndarray], tuple[Any, np.ndarray, np.ndarray, np.ndarray]],
+    x0: np.ndarray,
+    xl: np.ndarray,
+    xu: np.ndarray,
+    meq: int,
+    maxiter: int,
+    acc: float,
+) -> tuple[np.ndarray, int, int]:
+    """:func:`_slsqp_lean_steps` driven by ``fgca``: ``(x, exit mode, iterations)``."""
+    gen = _slsqp_lean_steps(x0, xl, xu, meq, maxiter, acc)
+    try:
+        x = next(gen)
+        while True:
+            x = gen.send(fgca(x))
+    except StopIteration as stop:
+        return stop.value
 
 
 _LEAN_OK: list[bool] = []

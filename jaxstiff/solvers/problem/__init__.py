@@ -61,5 +61,6 @@ from jaxstiff.solvers.problem.compiled import compiled_evaluate as compiled_eval
 from jaxstiff.solvers.problem.compiled import compiled_position as compiled_position
 from jaxstiff.solvers.problem.compiled import compiled_report as compiled_report
 from jaxstiff.solvers.problem.compiled import compiled_scaled as compiled_scaled
+from jaxstiff.solvers.problem.compiled import compiled_scaled_rows as compiled_scaled_rows
 from jaxstiff.solvers.problem.compiled import jax_pos_and_jac as jax_pos_and_jac
 from jaxstiff.solvers.problem.waypoint import WaypointProblem as WaypointProblem

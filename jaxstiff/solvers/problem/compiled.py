@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.model.kinematics import position_and_jacobian
+from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
 __all__ = [
@@ -18,6 +19,7 @@ __all__ = [
     "compiled_evaluate",
     "compiled_report",
     "compiled_scaled",
+    "compiled_scaled_rows",
     "compiled_position",
     "jax_pos_and_jac",
 ]
@@ -30,16 +32,28 @@ def compiled_scaled(problem: WaypointProblem) -> Callable[..., jax.Array]:
 
 
 @functools.lru_cache(maxsize=64)
+def compiled_scaled_rows(problem: WaypointProblem) -> Callable[..., jax.Array]:
+    """``fused_scaled`` over rows: ``(Y (R, nx), params (R, np), scale) -> (R, out)``, jitted with
+    jaxstiff's kernel compiler options (:mod:`jaxstiff.solvers.lockstep`'s batched evaluations;
+    with these options a row's result has the same bits at every R >= 2, measured on CPU)."""
+    return jax.jit(jax.vmap(problem.fused_scaled, in_axes=(0, 0, None)), compiler_options=kernel_compiler_options())
+
+
+@functools.lru_cache(maxsize=64)
 def compiled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
     """``fused(x, params)`` of a problem, unscaled, on the one jitted kernel of :func:`compiled_scaled`."""
     fs = compiled_scaled(problem)
     nx = problem.nx
+    ones: dict[np.dtype, jax.Array] = {}  # the unit scale on the device, once per dtype
 
     def fused(x, params):
         # the argument kinds the SLSQP driver uses (x numpy, the rest device arrays): jit's cache
         # keys numpy and device arrays apart, so mixing them would compile the kernel twice
         x = np.asarray(x)
-        return fs(x, jnp.asarray(params, dtype=x.dtype), jnp.ones(nx + 1, dtype=x.dtype))
+        unit = ones.get(x.dtype)
+        if unit is None:
+            unit = ones[x.dtype] = jnp.ones(nx + 1, dtype=x.dtype)
+        return fs(x, jnp.asarray(params, dtype=x.dtype), unit)
 
     fused._cache_size = fs._cache_size  # type: ignore[attr-defined]
     return fused

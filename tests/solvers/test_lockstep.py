@@ -1,0 +1,137 @@
+"""Solves advanced in lockstep with batched evaluations (jaxstiff.solvers.lockstep, issue 23):
+the same results as each solve run alone (toy Newton solves against numpy's closed form, and
+SLSQP waypoint solves against the same solver called directly), bucketed batch sizes, exceptions;
+and the hybrid on a batch: each path's result as when it is solved alone, and the polish skip
+(``polish_skip_tol``) against polishing everything."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff.results import files as R
+from jaxstiff.solvers import lockstep
+from jaxstiff.solvers.greedy import kernel_objective
+from jaxstiff.solvers.problem import WaypointProblem, compiled_scaled_rows
+from jaxstiff.solvers.slsqp import make_slsqp_solver
+
+
+def newton_sqrt(a: float, iters: int):
+    """sqrt(a) by Newton steps, each step's f(y) = y^2 - a and f'(y) asked for as a request."""
+    y = np.array([max(a, 1.0)])
+    for _ in range(iters):
+        out = yield (y.copy(), np.array([a]))
+        y = y - out[0] / out[1]
+    return float(y[0])
+
+
+def _evaluate(Y: np.ndarray, Pm: np.ndarray) -> np.ndarray:
+    return np.stack([Y[:, 0] ** 2 - Pm[:, 0], 2 * Y[:, 0]], axis=1)
+
+
+def test_lockstep_gives_each_solve_its_own_result():
+    a = [2.0, 9.0, 0.25, 1e4, 7.0]
+    iters = [3, 30, 12, 25, 1]  # different lengths: solves end in different rounds
+    sizes: list[int] = []
+
+    def evaluate(Y, Pm):
+        sizes.append(Y.shape[0])
+        return _evaluate(Y, Pm)
+
+    got = lockstep.run_lockstep([newton_sqrt(x, n) for x, n in zip(a, iters, strict=True)], evaluate)
+    alone = [
+        lockstep.run_steps(newton_sqrt(x, n), lambda r: _evaluate(r[0][None], r[1][None])[0])
+        for x, n in zip(a, iters, strict=True)
+    ]
+    assert got == alone
+    np.testing.assert_allclose(got[1:4], np.sqrt(a[1:4]), rtol=1e-12)
+    assert max(sizes) == 8 and min(sizes) == 2 and len(sizes) == max(iters)
+    assert all(s in (2, 8) for s in sizes)
+
+
+def test_bucket_sizes():
+    assert [lockstep.bucket_size(r) for r in (1, 2, 3, 8, 9, 32, 33, 1000)] == [2, 2, 8, 8, 32, 32, 128, 2048]
+
+
+def test_an_exception_in_one_solve_propagates_and_closes_the_others():
+    closed = []
+
+    def ok():
+        try:
+            yield (np.zeros(1), np.zeros(1))
+            yield (np.zeros(1), np.zeros(1))
+        finally:
+            closed.append("ok")
+        return 1
+
+    def bad():
+        yield (np.zeros(1), np.zeros(1))
+        raise FloatingPointError("from the solve")
+
+    with pytest.raises(FloatingPointError, match="from the solve"):
+        lockstep.run_lockstep([ok(), bad()], lambda Y, P: np.zeros((Y.shape[0], 1)))
+    assert closed == ["ok"]
+
+
+def test_slsqp_solves_in_lockstep_equal_the_solver_called_alone():
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    problem = WaypointProblem(robot, "full", jaxstiff.f2)
+    solver = make_slsqp_solver(problem)
+    q = np.radians([5.0, 35.0, -5.0, -70.0, 10.0, 50.0, 0.0])
+    rng = np.random.default_rng(1)
+    cases = []
+    for i in range(5):
+        qi = q + rng.uniform(-0.2, 0.2, 7) * [1, 1, 1, 1, 1, 1, 0]
+        target = np.asarray(robot.fk(qi))[:3, 3]
+        x0 = problem.x_of(qi + rng.uniform(-0.02, 0.02, 7) * [1, 1, 1, 1, 1, 1, 0], np.full(7, 30.0 + 5 * i))
+        box = np.r_[np.full(6, 0.1), np.full(6, 10.0)]  # a rate-limit box, as at a later waypoint
+        lb = np.maximum(x0 - box, np.r_[robot.lower[:6], np.full(6, 1.0)])
+        ub = np.minimum(x0 + box, np.r_[robot.upper[:6], np.full(6, 100.0)])
+        d = rng.normal(size=3)
+        params = WaypointProblem.params(target, d / np.linalg.norm(d), 5.0, 0.0)
+        cases.append((x0, lb, ub, params))
+    alone = [solver(*c) for c in cases]
+    rows = compiled_scaled_rows(problem)
+    together = lockstep.run_lockstep([solver.steps(*c) for c in cases], lambda Y, Pm: rows(Y, Pm, solver.scale))
+    objective = kernel_objective(problem)
+    for a, t, c in zip(alone, together, cases, strict=True):
+        # batched rows round differently in the last bits than the single-point kernel, and f2's
+        # optima are sets of postures: compare the criterion reached and the exit codes
+        assert t.code == a.code == 0
+        assert objective(t.x, c[3]) == pytest.approx(objective(a.x, c[3]), rel=1e-7, abs=1e-9)
+        assert objective(t.x, c[3]) < objective(c[0], c[3])
+    assert sum(t.nfev for t in together) > 5 * 3  # the solves really iterated
+
+
+@pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
+def test_hybrid_path_result_does_not_depend_on_its_batch():
+    from test_pgd import OPTS, planar_paths, run
+
+    path, q0 = planar_paths(3, 5, seed=2)
+    opts = {**OPTS, "polish_skip_tol": 0.0}
+    both = run(path, q0, solver="hybrid", options=opts)
+    alone = run(jaxstiff.Path(path.points[1:2], path.directions[1:2]), q0[1:2], solver="hybrid", options=opts)
+    for k in ("q", "kj", "criterion", "status"):
+        np.testing.assert_array_equal(getattr(both, k)[1], getattr(alone, k)[0], err_msg=k)
+
+
+@pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
+def test_polish_skip_keeps_the_criterion_and_saves_solves():
+    from test_pgd import OPTS, planar_paths, run
+
+    path, q0 = planar_paths(3, 6, seed=3)
+    pg = run(path, q0, options={**OPTS, "iters": 200, "iters_first": 400})
+    full = run(path, q0, solver="hybrid", options={**OPTS, "iters": 200, "iters_first": 400, "polish_skip_tol": 0.0})
+    skip = run(path, q0, solver="hybrid", options={**OPTS, "iters": 200, "iters_first": 400})
+    near = pg.criterion - 1.0 <= 1e-9
+    assert near.any() and not near.all()  # the case exercises the skip and the polish
+    # a path that pgd solved optimally everywhere is kept as it is, without a SLSQP solve
+    for b in np.flatnonzero(near.all(axis=1)):
+        np.testing.assert_array_equal(skip.criterion[b], pg.criterion[b])
+        np.testing.assert_array_equal(skip.nfev[b], pg.nfev[b])
+    # never worse than pgd per path (the greedy chain's guarantee), and fewer kernel evaluations
+    usable = R.is_usable(pg.status).all(axis=1)
+    assert np.all(skip.criterion.sum(axis=1)[usable] <= pg.criterion.sum(axis=1)[usable] * (1 + 1e-9) + 1e-12)
+    assert np.all(full.criterion.sum(axis=1)[usable] <= pg.criterion.sum(axis=1)[usable] * (1 + 1e-9) + 1e-12)
+    assert skip.nfev.sum() < full.nfev.sum()
