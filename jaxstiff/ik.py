@@ -28,6 +28,7 @@ from numpy.typing import ArrayLike
 from jaxstiff.model.chain import check_locked_values
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import JOINT_REVOLUTE, Robot
+from jaxstiff.runtime.export_cache import DiskJit
 
 __all__ = ["ik_position", "nominal_posture", "NOMINAL_OFFSET_DEG"]
 
@@ -48,11 +49,18 @@ def nominal_posture(robot: Robot) -> np.ndarray:
     return np.where(robot.free, q, np.nan_to_num(robot.locked_values))
 
 
-@functools.partial(jax.jit, static_argnums=(0, 3, 4))
+@functools.lru_cache(maxsize=64)
+def _ik_program(robot: Robot, iters: int, rows: tuple[int, ...]) -> DiskJit:
+    """:func:`_ik` jitted for one robot, iteration count and rows (its traced program kept on disk:
+    :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""
+    key = f"ik|{robot.fingerprint()}|{iters}|{rows}"
+    return DiskJit(functools.partial(_ik, robot, iters=iters, rows=rows), key)
+
+
 def _ik(
     robot: Robot, target: jax.Array, q_start: jax.Array, iters: int, rows: tuple[int, ...]
 ) -> tuple[jax.Array, jax.Array]:
-    """The jitted DLS/Gauss-Newton iteration: ``(q (n,), position error (m) over ``rows``)``; see :func:`ik_position`."""
+    """The DLS/Gauss-Newton iteration: ``(q (n,), position error (m) over ``rows``)``; see :func:`ik_position`."""
     free = np.asarray(robot.free)
     lo = jnp.asarray(np.where(free, robot.lower, -np.inf), dtype=q_start.dtype)
     hi = jnp.asarray(np.where(free, robot.upper, np.inf), dtype=q_start.dtype)
@@ -108,5 +116,6 @@ def ik_position(
             raise ValueError(f"q_start must be {robot.n} finite numbers (rad; m for prismatic joints), got {q0!r}")
         check_locked_values(robot, q0, "q_start")
     dtype = jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
-    q, err = _ik(robot, jnp.asarray(tgt, dtype), jnp.asarray(q0, dtype), int(iters), (0, 1) if planar else (0, 1, 2))
+    program = _ik_program(robot, int(iters), (0, 1) if planar else (0, 1, 2))
+    q, err = program(jnp.asarray(tgt, dtype), jnp.asarray(q0, dtype))
     return np.asarray(q, dtype=float), float(err)

@@ -32,9 +32,18 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from jaxstiff.runtime.compile_cache import cache_dir_in_use
 
-__all__ = ["EXPORT_ENV", "EXPORT_SUBDIR", "code_fingerprint", "compile_with_export_cache", "export_dir"]
+__all__ = [
+    "EXPORT_ENV",
+    "EXPORT_SUBDIR",
+    "DiskJit",
+    "code_fingerprint",
+    "compile_with_export_cache",
+    "export_dir",
+]
 
 #: environment variable that turns the traced-program cache off (0, false, no, off)
 EXPORT_ENV = "JAXSTIFF_EXPORT_CACHE"
@@ -116,6 +125,22 @@ def _write(path: str, data: bytes) -> None:
         pass  # an unwritable cache only costs the tracing next time
 
 
+def _exported(fn: Any, args: Sequence[Any], key: str) -> Any:
+    """The exported program of ``fn`` at ``args``: read from its file, or traced and written."""
+    import jax
+    from jax import export
+
+    folder = export_dir()
+    assert folder is not None
+    path = os.path.join(folder, _file_key(key, args) + ".jaxexp")
+    exp = _read(path)
+    if exp is None:
+        exp = export.export(fn, platforms=[jax.default_backend()])(*args)
+        with contextlib.suppress(ImportError):  # no flatbuffers: run the exported program unsaved
+            _write(path, bytes(exp.serialize()))
+    return exp
+
+
 def compile_with_export_cache(
     fn: Any, args: Sequence[Any], key: str | None, compiler_options: dict[str, str] | None = None
 ) -> Callable[..., Any]:
@@ -133,15 +158,64 @@ def compile_with_export_cache(
         The compiled function (call it with arguments of the same shapes and dtypes).
     """
     import jax
-    from jax import export
 
-    folder = export_dir() if key is not None else None
-    if folder is None or key is None:
+    if key is None or export_dir() is None:
         return fn.lower(*args).compile()
-    path = os.path.join(folder, _file_key(key, args) + ".jaxexp")
-    exp = _read(path)
-    if exp is None:
-        exp = export.export(fn, platforms=[jax.default_backend()])(*args)
-        with contextlib.suppress(ImportError):  # no flatbuffers: run the exported program unsaved
-            _write(path, bytes(exp.serialize()))
+    exp = _exported(fn, args, key)
     return jax.jit(exp.call, compiler_options=compiler_options or None).lower(*args).compile()
+
+
+class DiskJit:
+    """A jitted function whose traced programs go through the traced-program cache: one program per
+    argument signature (shapes, dtypes, numpy or JAX, x64), read from its file in a later process
+    instead of traced. Called like the function (positional array arguments); the per-call cost
+    is jit's own plus a signature look-up of about a microsecond per argument.
+
+    Args:
+        fn: the function (traceable; positional arguments only, arrays).
+        key: what the program depends on besides jaxstiff's code and the signature (module
+            docstring); None: a plain ``jax.jit``.
+        compiler_options: XLA compiler options of every program.
+    """
+
+    def __init__(self, fn: Callable[..., Any], key: str | None, compiler_options: dict[str, str] | None = None):
+        import jax
+
+        self._jit = jax.jit(fn, compiler_options=compiler_options or None)
+        self._key = key
+        self._opts = compiler_options or None
+        self._by_sig: dict[tuple, Any] = {}
+
+    def _signature(self, args: tuple) -> tuple:
+        import jax
+
+        sig: list[Any] = [getattr(jax.config, "jax_enable_x64")]  # noqa: B009
+        for a in args:
+            if isinstance(a, np.ndarray):
+                sig.append((0, a.shape, a.dtype))
+            elif isinstance(a, jax.Array):
+                sig.append((1, a.shape, a.dtype, a.weak_type))
+            else:
+                sig.append((2, type(a)))
+        return tuple(sig)
+
+    def __call__(self, *args: Any) -> Any:
+        if self._key is None:
+            return self._jit(*args)
+        sig = self._signature(args)
+        f = self._by_sig.get(sig)
+        if f is None:
+            import jax
+
+            if export_dir() is None:
+                f = self._jit
+            else:
+                f = jax.jit(_exported(self._jit, args, self._key).call, compiler_options=self._opts)
+            self._by_sig[sig] = f
+        return f(*args)
+
+    def _cache_size(self) -> int:
+        """Programs compiled so far (jit's ``_cache_size``, for tests that count compilations)."""
+        if self._key is None:
+            return getattr(self._jit, "_cache_size")()  # noqa: B009 - private in the stubs
+        return sum(f._cache_size() for f in {id(f): f for f in self._by_sig.values()}.values())

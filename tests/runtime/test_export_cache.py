@@ -145,7 +145,7 @@ def test_pgd_from_the_file_equals_pgd_traced(cache, monkeypatch):
         return np.concatenate([res.q.ravel(), res.kj.ravel(), res.criterion.ravel()])
 
     first = run()
-    assert len(_files(cache)) == 1
+    assert len(_files(cache)) >= 1  # pgd's kernel (and the IK's and the report's programs)
 
     def no_tracing(*a, **k):
         raise AssertionError("traced although the program is on disk")
@@ -158,3 +158,40 @@ def test_pgd_from_the_file_equals_pgd_traced(cache, monkeypatch):
     plain = run()
     np.testing.assert_allclose(plain, first, rtol=1e-12, atol=1e-12)
     assert np.all(np.isfinite(first))
+
+
+def test_disk_jit_one_program_per_signature_and_from_the_file(cache):
+    f = Counted()
+    fn = f.jit().__wrapped__  # the plain function (a new object: no trace cache shared with others)
+    x, a = np.linspace(-1.0, 2.0, 7), np.float64(1.5)
+    dj = ec.DiskJit(fn, "dj")
+    _check(dj, x, a)
+    _check(dj, x * 2.0, np.float64(-1.0))  # same signature: no new program
+    assert f.traces == 1 and dj._cache_size() == 1 and len(_files(cache)) == 1
+    _check(dj, jnp.asarray(x), a)  # a JAX array instead of numpy: another signature, same file
+    assert len(_files(cache)) == 1
+    x5 = np.linspace(0.0, 1.0, 5)
+    _check(dj, x5, a)  # another shape: another program and file
+    assert len(_files(cache)) == 2
+    traces = f.traces
+    _check(ec.DiskJit(fn, "dj"), x5, a)  # a new DiskJit (a later process): read, not traced
+    assert f.traces == traces
+    plain = ec.DiskJit(fn, None)  # no key: jax.jit, nothing written
+    _check(plain, np.linspace(0.0, 1.0, 11), a)
+    assert len(_files(cache)) == 2 and plain._cache_size() == 1
+
+
+def test_ik_and_solver_kernels_equal_with_and_without_the_file(cache, monkeypatch):
+    from jaxstiff.ik import _ik_program, ik_position
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    target = np.array([0.45, 0.1, 0.55])
+    _ik_program.cache_clear()
+    q1, e1 = ik_position(robot, target)
+    assert len(_files(cache)) == 1 and e1 < 1e-9
+    monkeypatch.setenv(ec.EXPORT_ENV, "0")
+    _ik_program.cache_clear()
+    q0, e0 = ik_position(robot, target)
+    np.testing.assert_array_equal(q1, q0)
+    # the independent check: forward kinematics puts the TCP on the target
+    np.testing.assert_allclose(np.asarray(robot.fk(q1))[:3, 3], target, atol=1e-9)

@@ -11,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.model.kinematics import position_and_jacobian
+from jaxstiff.runtime.export_cache import DiskJit
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
@@ -27,8 +28,10 @@ __all__ = [
 
 @functools.lru_cache(maxsize=64)
 def compiled_scaled(problem: WaypointProblem) -> Callable[..., jax.Array]:
-    """The jitted ``fused_scaled(y, params, scale)`` of a problem, compiled once per problem and dtype."""
-    return jax.jit(problem.fused_scaled)
+    """The jitted ``fused_scaled(y, params, scale)`` of a problem, compiled once per problem and dtype
+    (its traced program kept on disk for the built-in criteria: :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""
+    fp = problem.fingerprint()
+    return DiskJit(problem.fused_scaled, None if fp is None else f"fused_scaled|{fp}")
 
 
 @functools.lru_cache(maxsize=64)
@@ -61,8 +64,10 @@ def compiled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax
 
 @functools.lru_cache(maxsize=64)
 def compiled_report(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
-    """Jitted single-point :meth:`WaypointProblem.report_x` ``(x, params)``: one compilation per problem."""
-    return jax.jit(problem.report_x)
+    """Jitted single-point :meth:`WaypointProblem.report_x` ``(x, params)``: one compilation per problem
+    (kept on disk like :func:`compiled_scaled`)."""
+    fp = problem.fingerprint()
+    return DiskJit(problem.report_x, None if fp is None else f"report_x|{fp}")
 
 
 @functools.lru_cache(maxsize=64)
