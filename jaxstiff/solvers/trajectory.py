@@ -38,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.results import files as R
+from jaxstiff.runtime.export_cache import DiskJit
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
 from jaxstiff.settings.solvers import TrajectoryOptions
@@ -168,10 +169,13 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) ->
 @functools.lru_cache(maxsize=16)
 def _compiled(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
     traj = _kernel(problem, dict(opts_items), first_rate)
-    # per path: warm start, targets, directions, start state, rate limits (dq_f, dk) and ratio
-    return jax.jit(
+    # per path: warm start, targets, directions, start state, rate limits (dq_f, dk) and ratio;
+    # the traced program kept on disk for the built-in criteria (jaxstiff.runtime.export_cache)
+    fp = problem.fingerprint()
+    return DiskJit(
         jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None)),
-        compiler_options=kernel_compiler_options(),
+        None if fp is None else f"trajectory|{fp}|{opts_items!r}|{first_rate}",
+        kernel_compiler_options(),
     )
 
 
