@@ -50,7 +50,7 @@ def nominal_posture(robot: Robot) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=64)
-def _ik_program(robot: Robot, iters: int, rows: tuple[int, ...]) -> DiskJit:
+def ik_program(robot: Robot, iters: int, rows: tuple[int, ...]) -> DiskJit:
     """:func:`_ik` jitted for one robot, iteration count and rows (its traced program kept on disk:
     :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""
     key = f"ik|{robot.fingerprint()}|{iters}|{rows}"
@@ -116,6 +116,6 @@ def ik_position(
             raise ValueError(f"q_start must be {robot.n} finite numbers (rad; m for prismatic joints), got {q0!r}")
         check_locked_values(robot, q0, "q_start")
     dtype = jnp.float64 if jax.config.read("jax_enable_x64") else jnp.float32
-    program = _ik_program(robot, int(iters), (0, 1) if planar else (0, 1, 2))
+    program = ik_program(robot, int(iters), (0, 1) if planar else (0, 1, 2))
     q, err = program(jnp.asarray(tgt, dtype), jnp.asarray(q0, dtype))
     return np.asarray(q, dtype=float), float(err)

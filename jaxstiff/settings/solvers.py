@@ -203,6 +203,9 @@ class PGDOptions(SolverOptions):
         kind="nonnegative",
     )
     chunk: int = option(256, "trajectories per compiled call (memory bound)", kind="int", lo=1)
+    threads: int = option(
+        0, "compiled calls running at once on a CPU (0: one per usable core; 1 on a GPU)", kind="int", lo=0
+    )
     seed: int = option(0, "seed of the random starts", kind="int", lo=0)
 
 
@@ -248,6 +251,9 @@ class TrajectoryOptions(SolverOptions):
     newton: int = option(2, "Newton corrections after each step", kind="int", lo=0)
     polish: int = option(8, "Newton corrections of the final point", kind="int", lo=0)
     chunk: int = option(64, "trajectories per compiled call", kind="int", lo=1)
+    threads: int = option(
+        0, "compiled calls running at once on a CPU (0: one per usable core; 1 on a GPU)", kind="int", lo=0
+    )
 
 
 #: the option classes of the shipped solvers (the hybrid also reads pgd's and SLSQP's)

@@ -39,6 +39,7 @@ import numpy as np
 
 from jaxstiff.results import files as R
 from jaxstiff.runtime.export_cache import DiskJit
+from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
 from jaxstiff.settings.solvers import TrajectoryOptions
@@ -208,19 +209,19 @@ def refine_batch(
     # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
     # simplified away), so a lone path would differ from the same path in a batch in the last bits;
     # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
-    C = max(min(int(opts["chunk"]), B), 2)
-    items = tuple(sorted((k, v) for k, v in opts.items() if k not in ("chunk", "warm")))
+    threads = chunk_threads(int(opts["threads"]))
+    C = chunk_rows(B, int(opts["chunk"]), threads)
+    items = tuple(sorted((k, v) for k, v in opts.items() if k not in ("chunk", "warm", "threads")))
     fn = _compiled(problem, items, bool(limits.first_rate_limit))
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, free]
     dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
     out: dict[str, Any] = {k: np.array(v, copy=True) for k, v in warm.items() if isinstance(v, np.ndarray)}
     pad = pad_rows
-    with jax.enable_x64(True):
-        for s in range(0, B, C):
-            e = min(s + C, B)
-            sl = slice(s, e)
-            t0 = time.perf_counter()
+    chunks = [slice(s, min(s + C, B)) for s in range(0, B, C)]
+
+    def run(sl: slice) -> dict[str, np.ndarray]:
+        with jax.enable_x64(True):  # a thread-local setting: each worker thread sets its own
             res = fn(
                 pad(Xw[sl], C),
                 pad(targets[sl], C),
@@ -234,17 +235,22 @@ def refine_batch(
                 float(batch.c),
                 float(pos_tol),
             )
-            res = jax.tree_util.tree_map(np.asarray, res)
-            dt = time.perf_counter() - t0
-            m = e - s
-            q = out["q"][sl]
-            q[..., free] = res["x"][:m, :, :nf]
-            out["q"][sl] = q
-            out["kj"][sl] = problem.kj_full(res["x"][:m, :, nf:])
-            out["status"][sl] = res["status"][:m]
-            out["pos_error"][sl] = res["err"][:m]
-            out["time_s"][sl] += dt / ((e - s) * P)  # over the real waypoints (padding rows excluded)
-            out["nit"][sl] += int(opts["traj_iters"])
+            return jax.tree_util.tree_map(np.asarray, res)
+
+    t0 = time.perf_counter()
+    # the first chunk alone (it compiles), the others up to `threads` at once (runtime.threads)
+    results = [run(chunks[0])] + map_chunks(run, chunks[1:], threads)
+    dt = time.perf_counter() - t0
+    for sl, res in zip(chunks, results, strict=True):
+        m = sl.stop - sl.start
+        q = out["q"][sl]
+        q[..., free] = res["x"][:m, :, :nf]
+        out["q"][sl] = q
+        out["kj"][sl] = problem.kj_full(res["x"][:m, :, nf:])
+        out["status"][sl] = res["status"][:m]
+        out["pos_error"][sl] = res["err"][:m]
+        out["nit"][sl] += int(opts["traj_iters"])
+    out["time_s"] += dt / (B * P)  # the refinement's wall time over all waypoints (chunks ran concurrently)
     return out
 
 

@@ -182,15 +182,15 @@ def test_disk_jit_one_program_per_signature_and_from_the_file(cache):
 
 
 def test_ik_and_solver_kernels_equal_with_and_without_the_file(cache, monkeypatch):
-    from jaxstiff.ik import _ik_program, ik_position
+    from jaxstiff.ik import ik_position, ik_program
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     target = np.array([0.45, 0.1, 0.55])
-    _ik_program.cache_clear()
+    ik_program.cache_clear()
     q1, e1 = ik_position(robot, target)
     assert len(_files(cache)) == 1 and e1 < 1e-9
     monkeypatch.setenv(ec.EXPORT_ENV, "0")
-    _ik_program.cache_clear()
+    ik_program.cache_clear()
     q0, e0 = ik_position(robot, target)
     np.testing.assert_array_equal(q1, q0)
     # the independent check: forward kinematics puts the TCP on the target

@@ -12,6 +12,7 @@ import jax
 import numpy as np
 
 from jaxstiff.runtime.export_cache import compile_with_export_cache
+from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import PGDOptions
 from jaxstiff.solvers.base import SolveRequest
@@ -121,11 +122,14 @@ def solve_batch(
     nf = problem.n_free
     r_arr = batch.ratios
     x0 = np.asarray(problem.x_of(q0, np.asarray(batch.kj0, float)))
-    # at least 2 rows per compiled call: XLA compiles a batch of 1 differently (size-1 axes are
-    # simplified away), so a lone path would differ from the same path in a batch in the last bits;
-    # compiled batches of 2 or more rows give every row bit-identical results (measured on CPU)
-    C = max(min(int(opts["chunk"]), B), 2)
-    key_items = tuple(sorted((k, v) for k, v in opts.items() if k in DEFAULT_OPTIONS and k not in ("chunk", "seed")))
+    # chunks of at least 2 rows (XLA compiles a batch of 1 differently: a lone path would differ
+    # from the same path in a batch in the last bits; batches of 2 or more rows give every row
+    # bit-identical results, measured on CPU), at least one per thread (runtime.threads)
+    threads = chunk_threads(int(opts["threads"]))
+    C = chunk_rows(B, int(opts["chunk"]), threads)
+    key_items = tuple(
+        sorted((k, v) for k, v in opts.items() if k in DEFAULT_OPTIONS and k not in ("chunk", "seed", "threads"))
+    )
     first_rate = bool(limits.first_rate_limit)
     fn = compiled_kernel(problem, key_items, first_rate)
     fp = problem.fingerprint()
@@ -140,7 +144,9 @@ def solve_batch(
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
     shared = (float(limits.kmin), float(limits.kmax), float(batch.c), float(pos_tol))
-    X, out, compile_s, run_s = _run_chunks(fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), C, disk_key)
+    X, out, compile_s, run_s = _run_chunks(
+        fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
+    )
     q = np.repeat(q0[:, None, :], P, axis=1)
     q[..., list(problem.free_idx)] = X[..., :nf]
     out["q"], out["kj"] = q, np.array(problem.kj_full(X[..., nf:]), copy=True)
@@ -169,10 +175,11 @@ def _run_chunks(
     per_path: tuple[np.ndarray, ...],
     shared: tuple[float, float, float, float],
     base: jax.Array,
-    C: int,
+    chunking: tuple[int, int],
     disk_key: str | None = None,
 ) -> tuple[np.ndarray, dict[str, Any], float, float]:
-    """The compiled kernel ``fn`` over the paths in chunks of C rows (the last one padded).
+    """The compiled kernel ``fn`` over the paths in chunks of C rows (the last one padded), up to
+    ``threads`` chunks at once (``chunking = (C, threads)``; :mod:`jaxstiff.runtime.threads`).
 
     ``disk_key``: the kernel's key for the traced-program cache
     (:func:`~jaxstiff.runtime.export_cache.compile_with_export_cache`; None: trace every time).
@@ -180,28 +187,18 @@ def _run_chunks(
     ``per_path``: ``(targets, directions, x0, path_data, dq_f, dk, ratio, extra)``, B rows each;
     ``shared``: ``(kmin, kmax, c, pos_tol)``; ``base``: the seed's key, folded with each path's
     data. Returns ``X`` (B, P, nx), the (B, P) outputs ``status``, ``solver_code``, ``pos_error``,
-    ``criterion``, ``time_s``, and the first chunk's compile time and the run time (s).
+    ``criterion``, ``time_s`` (the run's wall time over all waypoints: chunks run concurrently),
+    and the compile time and the run time (s).
     """
     targets, directions, x0, path_data, dq_f, dk, r_arr, extra = per_path
     kmin, kmax, c, pos_tol = shared
+    C, threads = chunking
     B, P = targets.shape[:2]
-    X = np.zeros((B, P, x0.shape[-1]))
-    out: dict[str, Any] = {
-        k: np.zeros((B, P), dt)
-        for k, dt in (
-            ("status", np.int64),
-            ("solver_code", np.int64),
-            ("pos_error", float),
-            ("criterion", float),
-            ("time_s", float),
-        )
-    }
-    compile_s, run_s = 0.0, 0.0
-    comp: Any = None
+    sharded = jax.local_device_count() > 1
     with jax.enable_x64(True):
+        chunks = []
         for s in range(0, B, C):
-            e = min(s + C, B)
-            sl = slice(s, e)
+            sl = slice(s, min(s + C, B))
             keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(pad_rows(path_data[sl], C))
             args = (
                 pad_rows(targets[sl], C),
@@ -217,32 +214,33 @@ def _run_chunks(
                 pos_tol,
                 pad_rows(extra[sl], C),
             )
-            sharded = jax.local_device_count() > 1
             if sharded:  # split the batch across all local devices (jaxstiff._sharding)
                 from jaxstiff.runtime.sharding import shard_rows
 
                 placed, _ = shard_rows({str(i): args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
                 args = tuple(placed.get(str(i), a) for i, a in enumerate(args))
-            t0 = time.perf_counter()
-            if comp is None:
-                # every chunk has the same shapes (padded): one compiled program for all of them
-                comp = compile_with_export_cache(fn, args, None if sharded else disk_key, kernel_compiler_options())
-                compile_s = time.perf_counter() - t0
-                t0 = time.perf_counter()
-            res = comp(*args)
-            res = jax.tree_util.tree_map(np.asarray, res)
-            dt = time.perf_counter() - t0
-            run_s += dt
-            m = e - s
-            X[sl] = res["x"][:m]
-            out["status"][sl] = res["status"][:m]
-            out["solver_code"][sl] = res["start"][:m]
-            out["pos_error"][sl] = res["err"][:m]
-            out["criterion"][sl] = res["f"][:m]
-            out["time_s"][sl] = dt / (
-                (e - s) * P
-            )  # the chunk's wall time over its real waypoints (padding rows excluded)
-    return X, out, compile_s, run_s
+            chunks.append(args)
+        t0 = time.perf_counter()
+        # every chunk has the same shapes (padded): one compiled program for all of them
+        comp = compile_with_export_cache(fn, chunks[0], None if sharded else disk_key, kernel_compiler_options())
+        compile_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+
+        def run(a: tuple) -> dict[str, np.ndarray]:
+            with jax.enable_x64(True):  # a thread-local setting: each worker thread sets its own
+                return jax.tree_util.tree_map(np.asarray, comp(*a))
+
+        results = map_chunks(run, chunks, 1 if sharded else threads)
+        run_s = time.perf_counter() - t0
+    cat = {k: np.concatenate([r[k] for r in results], axis=0)[:B] for k in ("x", "status", "start", "err", "f")}
+    out: dict[str, Any] = {
+        "status": cat["status"].astype(np.int64),
+        "solver_code": cat["start"].astype(np.int64),
+        "pos_error": cat["err"].astype(float),
+        "criterion": cat["f"].astype(float),
+        "time_s": np.full((B, P), run_s / (B * P)),
+    }
+    return cat["x"].astype(float), out, compile_s, run_s
 
 
 def iteration_counts(

@@ -1,0 +1,60 @@
+"""Compiled chunks of a batch run on several CPU threads at once.
+
+XLA:CPU spreads one execution of jaxstiff's batched kernels over its thread pool poorly: the loops
+are short (a few hundred lanes of small-matrix arithmetic per operation), and a 2-core machine ran
+pgd's 64 x 50 batch in 1.6-1.7 s of wall time for 2.2 s of CPU time. Two executions of half the
+batch each, on two Python threads (JAX releases the GIL while a program runs), took 0.78 s for
+1.5 s of CPU time, with bit-identical rows (docs/notes/speed.md). So the batch solvers split a
+batch into at least as many chunks as there are threads and run them concurrently.
+
+The thread count: the solver option (``threads``; 0 = automatic), else the cores this process may
+use on a CPU backend, 1 on an accelerator (one device runs one program at a time) or when the
+batch is sharded across devices.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, TypeVar
+
+__all__ = ["usable_cores", "chunk_threads", "chunk_rows", "map_chunks"]
+
+T = TypeVar("T")
+
+
+def usable_cores() -> int:
+    """Cores this process may run on (its CPU affinity where the OS tells, else ``os.cpu_count``)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except (AttributeError, OSError):
+        return max(os.cpu_count() or 1, 1)
+
+
+def chunk_threads(requested: int = 0) -> int:
+    """Threads running chunks at once: ``requested`` if > 0, else :func:`usable_cores` on a CPU
+    backend with one local device, else 1."""
+    if requested > 0:
+        return int(requested)
+    import jax
+
+    if jax.default_backend() != "cpu" or jax.local_device_count() > 1:
+        return 1
+    return usable_cores()
+
+
+def chunk_rows(B: int, chunk: int, threads: int) -> int:
+    """Rows per compiled call: at most ``chunk`` (the memory bound), small enough that the B rows
+    make at least ``threads`` chunks, and at least 2 (XLA compiles a batch of 1 differently, so a
+    lone row would not have the bits it has in a batch)."""
+    return max(min(int(chunk), math.ceil(B / max(int(threads), 1))), 2)
+
+
+def map_chunks(fn: Callable[[Any], T], items: Sequence[Any], threads: int) -> list[T]:
+    """``[fn(item) for item in items]``, on up to ``threads`` threads at once (results in order)."""
+    if threads <= 1 or len(items) <= 1:
+        return [fn(it) for it in items]
+    with ThreadPoolExecutor(max_workers=min(threads, len(items)), thread_name_prefix="jaxstiff-chunk") as ex:
+        return list(ex.map(fn, items))

@@ -1,0 +1,50 @@
+"""Chunks of a batch run on several CPU threads at once (jaxstiff.runtime.threads, issue 23): the
+chunk sizes and thread counts, results in order, and pgd's and the trajectory solver's results
+bit-identical with one thread (one chunk) and with several (several chunks at once)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from test_pgd import OPTS, planar_paths, run
+
+from jaxstiff.runtime import threads as th
+
+
+def test_chunk_rows():
+    assert th.chunk_rows(1, 256, 2) == 2  # never a batch of 1
+    assert th.chunk_rows(3, 256, 2) == 2
+    assert th.chunk_rows(64, 256, 2) == 32
+    assert th.chunk_rows(1000, 256, 2) == 256  # the memory bound wins
+    assert th.chunk_rows(1000, 256, 16) == 63
+    assert th.chunk_rows(5, 256, 1) == 5
+    assert th.chunk_threads(3) == 3
+    assert th.chunk_threads(0) >= 1
+
+
+def test_map_chunks_keeps_order_and_runs_concurrently():
+    seen = set()
+
+    def slow(i):
+        seen.add(threading.current_thread().name)
+        time.sleep(0.05 * (5 - i))  # later items finish first
+        return i * i
+
+    assert th.map_chunks(slow, list(range(5)), 3) == [0, 1, 4, 9, 16]
+    assert len(seen) > 1
+    assert th.map_chunks(slow, [2], 4) == [4]
+
+
+@pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
+@pytest.mark.parametrize("solver", ["pgd", "trajectory"])
+def test_results_do_not_depend_on_the_thread_count(solver):
+    path, q0 = planar_paths(5, 4, seed=5)
+    opts = {**OPTS, **({"traj_iters": 40, "blocks": 2} if solver == "trajectory" else {})}
+    one = run(path, q0, solver=solver, options={**opts, "threads": 1})
+    many = run(path, q0, solver=solver, options={**opts, "threads": 3})  # chunks of 2: 3 at once
+    for k in ("q", "kj", "criterion", "status", "pos_error"):
+        np.testing.assert_array_equal(getattr(many, k), getattr(one, k), err_msg=k)
+    assert np.all(np.isfinite(one.criterion))
