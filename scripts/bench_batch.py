@@ -76,6 +76,12 @@ def main(argv=None) -> int:
         default=100,
         help="trajectories per compiled call (100 was faster than 250 on a 2-core CPU: 353 vs 307 wp/s, one run each, before the LM speed-up)",
     )
+    ap.add_argument(
+        "--threads",
+        type=int,
+        default=0,
+        help="compiled chunks at once on a CPU (0: one per usable core; pgd option threads)",
+    )
     ap.add_argument("--seed-paths", type=int, default=3, help="trajectories also solved with slsqp-fd")
     ap.add_argument("--criterion", default="f2")
     ap.add_argument("--json", default=None, help="also write the numbers to this JSON file")
@@ -95,7 +101,7 @@ def main(argv=None) -> int:
     limits = Limits(dq=np.full(n, np.radians(2.0)), dk=np.full(n, 5.0), kmin=1.0, kmax=100.0, first_rate_limit=False)
     prob = WaypointProblem(robot, "full", get_criterion(args.criterion))
     load0 = os.getloadavg()
-    opts = {"chunk": args.chunk}
+    opts = {"chunk": args.chunk, "threads": args.threads}
     if args.iters is not None:
         opts.update(iters=args.iters, iters_lm=args.iters, iters_first=5 * args.iters)
     # the first waypoint's extra IK start postures, as jaxstiff.shape() passes them (host side, timed apart)
@@ -141,6 +147,7 @@ def main(argv=None) -> int:
         "starts": args.starts,
         "iters": args.iters or "default",
         "chunk": args.chunk,
+        "threads": args.threads,
         "devices": str(jax.devices()),
         "compile_s": round(res["compile_s"], 2),
         "run_s": round(res["run_s"], 2),

@@ -142,7 +142,7 @@ def _exported(fn: Any, args: Sequence[Any], key: str) -> Any:
 
 
 def compile_with_export_cache(
-    fn: Any, args: Sequence[Any], key: str | None, compiler_options: dict[str, str] | None = None
+    fn: Any, args: Sequence[Any], key: str | None, compiler_options: dict[str, Any] | None = None
 ) -> Callable[..., Any]:
     """``fn`` (a ``jax.jit``-wrapped function) compiled for ``args``, through the traced-program cache.
 
@@ -178,7 +178,7 @@ class DiskJit:
         compiler_options: XLA compiler options of every program.
     """
 
-    def __init__(self, fn: Callable[..., Any], key: str | None, compiler_options: dict[str, str] | None = None):
+    def __init__(self, fn: Callable[..., Any], key: str | None, compiler_options: dict[str, Any] | None = None):
         import jax
 
         self._jit = jax.jit(fn, compiler_options=compiler_options or None)
