@@ -8,8 +8,9 @@ batch each, on two Python threads (JAX releases the GIL while a program runs), t
 batch into at least as many chunks as there are threads and run them concurrently.
 
 The thread count: the solver option (``threads``; 0 = automatic), else the cores this process may
-use on a CPU backend, 1 on an accelerator (one device runs one program at a time) or when the
-batch is sharded across devices.
+use on a CPU backend (:func:`usable_cores`: its CPU affinity, capped by ``$OMP_NUM_THREADS``), 1
+on an accelerator (one device runs one program at a time) or when the batch is sharded across
+devices.
 """
 
 from __future__ import annotations
@@ -26,11 +27,17 @@ T = TypeVar("T")
 
 
 def usable_cores() -> int:
-    """Cores this process may run on (its CPU affinity where the OS tells, else ``os.cpu_count``)."""
+    """Cores this process may run on: its CPU affinity where the OS tells (else ``os.cpu_count``),
+    capped by ``$OMP_NUM_THREADS`` when that is a positive number (Ray sets it to a task's CPUs,
+    and batch schedulers often do, so that worker processes sharing a host do not oversubscribe it)."""
     try:
-        return max(len(os.sched_getaffinity(0)), 1)
+        n = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
-        return max(os.cpu_count() or 1, 1)
+        n = os.cpu_count() or 1
+    omp = os.environ.get("OMP_NUM_THREADS", "").strip()
+    if omp.isdigit() and int(omp) > 0:
+        n = min(n, int(omp))
+    return max(n, 1)
 
 
 def chunk_threads(requested: int = 0) -> int:
@@ -56,5 +63,12 @@ def map_chunks(fn: Callable[[Any], T], items: Sequence[Any], threads: int) -> li
     """``[fn(item) for item in items]``, on up to ``threads`` threads at once (results in order)."""
     if threads <= 1 or len(items) <= 1:
         return [fn(it) for it in items]
-    with ThreadPoolExecutor(max_workers=min(threads, len(items)), thread_name_prefix="jaxstiff-chunk") as ex:
+    ex = ThreadPoolExecutor(max_workers=min(threads, len(items)), thread_name_prefix="jaxstiff-chunk")
+    try:
         return list(ex.map(fn, items))
+    except BaseException:
+        # an error or an interrupt: chunks not started yet are dropped, running ones finish
+        ex.shutdown(wait=True, cancel_futures=True)
+        raise
+    finally:
+        ex.shutdown(wait=True)

@@ -25,6 +25,31 @@ def test_chunk_rows():
     assert th.chunk_threads(0) >= 1
 
 
+def test_usable_cores_follows_omp_num_threads(monkeypatch):
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    n = th.usable_cores()
+    assert n >= 1
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    assert th.usable_cores() == 1
+    monkeypatch.setenv("OMP_NUM_THREADS", "not a number")
+    assert th.usable_cores() == n
+
+
+def test_map_chunks_stops_queued_chunks_after_an_error():
+    ran = []
+
+    def work(i):
+        ran.append(i)
+        if i == 0:
+            raise FloatingPointError("chunk 0")
+        time.sleep(0.2)
+        return i
+
+    with pytest.raises(FloatingPointError, match="chunk 0"):
+        th.map_chunks(work, list(range(8)), 2)
+    assert len(ran) < 8  # the queued chunks were dropped
+
+
 def test_map_chunks_keeps_order_and_runs_concurrently():
     seen = set()
 
