@@ -38,11 +38,12 @@ def run_steps(gen: Generator[Request, np.ndarray, T], evaluate: Callable[[Reques
 
 
 def bucket_size(rows: int) -> int:
-    """Rows of a batched call for ``rows`` requests: 2, 8, 32, 128, ... (padded: few compiled
-    sizes, and never 1, which XLA compiles differently; docs/notes/speed.md)."""
+    """Rows of a batched call for ``rows`` requests: 2, 16, 128, 1024, ... (padded: few compiled
+    sizes, each a few seconds of compilation, and never 1, which XLA compiles differently; a call
+    costs nearly the same at 2 and at 64 rows on a CPU: docs/notes/speed.md)."""
     size = 2
     while size < rows:
-        size *= 4
+        size *= 8
     return size
 
 

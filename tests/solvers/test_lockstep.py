@@ -46,12 +46,12 @@ def test_lockstep_gives_each_solve_its_own_result():
     ]
     assert got == alone
     np.testing.assert_allclose(got[1:4], np.sqrt(a[1:4]), rtol=1e-12)
-    assert max(sizes) == 8 and min(sizes) == 2 and len(sizes) == max(iters)
-    assert all(s in (2, 8) for s in sizes)
+    assert max(sizes) == 16 and min(sizes) == 2 and len(sizes) == max(iters)
+    assert all(s in (2, 16) for s in sizes)
 
 
 def test_bucket_sizes():
-    assert [lockstep.bucket_size(r) for r in (1, 2, 3, 8, 9, 32, 33, 1000)] == [2, 2, 8, 8, 32, 32, 128, 2048]
+    assert [lockstep.bucket_size(r) for r in (1, 2, 3, 16, 17, 128, 129, 1000)] == [2, 2, 16, 16, 128, 128, 1024, 1024]
 
 
 def test_an_exception_in_one_solve_propagates_and_closes_the_others():
