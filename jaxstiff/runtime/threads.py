@@ -60,12 +60,23 @@ def chunk_rows(B: int, chunk: int, threads: int) -> int:
 
 
 def map_chunks(fn: Callable[[Any], T], items: Sequence[Any], threads: int) -> list[T]:
-    """``[fn(item) for item in items]``, on up to ``threads`` threads at once (results in order)."""
+    """``[fn(item) for item in items]``, on up to ``threads`` threads at once (results in order).
+
+    JAX's x64 setting is thread-local (``jax.enable_x64`` in the caller does not reach a new
+    thread): each worker runs ``fn`` under the caller's setting."""
     if threads <= 1 or len(items) <= 1:
         return [fn(it) for it in items]
+    import jax
+
+    x64 = bool(getattr(jax.config, "jax_enable_x64"))  # noqa: B009 - the caller's (thread-local) value
+
+    def work(item: Any) -> T:
+        with jax.enable_x64(x64):
+            return fn(item)
+
     ex = ThreadPoolExecutor(max_workers=min(threads, len(items)), thread_name_prefix="jaxstiff-chunk")
     try:
-        return list(ex.map(fn, items))
+        return list(ex.map(work, items))
     except BaseException:
         # an error or an interrupt: chunks not started yet are dropped, running ones finish
         ex.shutdown(wait=True, cancel_futures=True)

@@ -23,12 +23,15 @@ __all__ = ["Request", "Steps", "run_steps", "run_lockstep", "bucket_size"]
 #: one evaluation request: the point and the waypoint's parameters
 Request = tuple[np.ndarray, np.ndarray]
 T = TypeVar("T")
+Q = TypeVar("Q")
+A = TypeVar("A")
 #: a solve written as a generator of requests (sent the kernel's output) returning ``T``
 Steps = Generator[Request, np.ndarray, T]
 
 
-def run_steps(gen: Generator[Request, np.ndarray, T], evaluate: Callable[[Request], np.ndarray]) -> T:
-    """Drive one generator to its end, evaluating each request with ``evaluate``; its result."""
+def run_steps(gen: Generator[Q, A, T], evaluate: Callable[[Q], A]) -> T:
+    """Drive one generator to its end, sending back ``evaluate(request)`` for each request it
+    yields; its result (any request/answer types: also SLSQP's own reverse-communication loop)."""
     try:
         req = next(gen)
         while True:

@@ -299,13 +299,7 @@ def _slsqp_lean(
     acc: float,
 ) -> tuple[np.ndarray, int, int]:
     """:func:`_slsqp_lean_steps` driven by ``fgca``: ``(x, exit mode, iterations)``."""
-    gen = _slsqp_lean_steps(x0, xl, xu, meq, maxiter, acc)
-    try:
-        x = next(gen)
-        while True:
-            x = gen.send(fgca(x))
-    except StopIteration as stop:
-        return stop.value
+    return run_steps(_slsqp_lean_steps(x0, xl, xu, meq, maxiter, acc), fgca)
 
 
 _LEAN_OK: list[bool] = []

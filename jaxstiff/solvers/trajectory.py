@@ -221,25 +221,25 @@ def refine_batch(
     chunks = [slice(s, min(s + C, B)) for s in range(0, B, C)]
 
     def run(sl: slice) -> dict[str, np.ndarray]:
-        with jax.enable_x64(True):  # a thread-local setting: each worker thread sets its own
-            res = fn(
-                pad(Xw[sl], C),
-                pad(targets[sl], C),
-                pad(directions[sl], C),
-                pad(x0[sl], C),
-                pad(dq_f[sl], C),
-                pad(dk[sl], C),
-                float(limits.kmin),
-                float(limits.kmax),
-                pad(r_arr[sl], C),
-                float(batch.c),
-                float(pos_tol),
-            )
-            return jax.tree_util.tree_map(np.asarray, res)
+        res = fn(
+            pad(Xw[sl], C),
+            pad(targets[sl], C),
+            pad(directions[sl], C),
+            pad(x0[sl], C),
+            pad(dq_f[sl], C),
+            pad(dk[sl], C),
+            float(limits.kmin),
+            float(limits.kmax),
+            pad(r_arr[sl], C),
+            float(batch.c),
+            float(pos_tol),
+        )
+        return jax.tree_util.tree_map(np.asarray, res)
 
     t0 = time.perf_counter()
-    # the first chunk alone (it compiles), the others up to `threads` at once (runtime.threads)
-    results = [run(chunks[0])] + map_chunks(run, chunks[1:], threads)
+    with jax.enable_x64(True):  # map_chunks runs its worker threads under this setting too
+        # the first chunk alone (it compiles), the others up to `threads` at once (runtime.threads)
+        results = [run(chunks[0])] + map_chunks(run, chunks[1:], threads)
     dt = time.perf_counter() - t0
     for sl, res in zip(chunks, results, strict=True):
         m = sl.stop - sl.start

@@ -73,3 +73,13 @@ def test_results_do_not_depend_on_the_thread_count(solver):
     for k in ("q", "kj", "criterion", "status", "pos_error"):
         np.testing.assert_array_equal(getattr(many, k), getattr(one, k), err_msg=k)
     assert np.all(np.isfinite(one.criterion))
+
+
+def test_map_chunks_runs_workers_under_the_callers_x64_setting():
+    import jax
+    import jax.numpy as jnp
+
+    for x64, want in ((False, "float32"), (True, "float64")):
+        with jax.enable_x64(x64):  # thread-local: a bare worker thread would see the global flag
+            got = th.map_chunks(lambda _: str(jnp.zeros(1, dtype=float).dtype), list(range(4)), 2)
+        assert got == [want] * 4

@@ -225,12 +225,7 @@ def _run_chunks(
         comp = compile_with_export_cache(fn, chunks[0], None if sharded else disk_key, kernel_compiler_options())
         compile_s = time.perf_counter() - t0
         t0 = time.perf_counter()
-
-        def run(a: tuple) -> dict[str, np.ndarray]:
-            with jax.enable_x64(True):  # a thread-local setting: each worker thread sets its own
-                return jax.tree_util.tree_map(np.asarray, comp(*a))
-
-        results = map_chunks(run, chunks, 1 if sharded else threads)
+        results = map_chunks(lambda a: jax.tree_util.tree_map(np.asarray, comp(*a)), chunks, 1 if sharded else threads)
         run_s = time.perf_counter() - t0
     cat = {k: np.concatenate([r[k] for r in results], axis=0)[:B] for k in ("x", "status", "start", "err", "f")}
     out: dict[str, Any] = {
