@@ -547,3 +547,34 @@ def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
     assert_close(
         jax.vjp(f, jnp.asarray(x))[1](jnp.asarray(ct))[0], ct @ L.astype(float), rtol=1e-14, atol=1e-14, what="VJP"
     )
+
+
+# ------------------------------------------------------------------ the host (numpy) Jacobian
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(joints=random_chains(), seed=st.integers(0, 2**31 - 1))
+def test_host_jacobian_matches_finite_differences_on_random_chains(joints, seed):
+    """The numpy Jacobian of the task rank check against finite differences of an FK built from
+    the drawn URDF numbers, revolute, prismatic, continuous and fixed joints mixed."""
+    from jaxstiff.model.host import host_jacobian
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "random.urdf")
+        with open(path, "w") as fh:
+            fh.write(_chain_urdf(joints))
+        robot = jaxstiff.Robot.from_urdf(path, tip_link=f"l{len(joints)}")
+    q = np.random.default_rng(seed).uniform(-3.0, 3.0, size=(2, robot.n))
+    J = host_jacobian(robot, q)
+    assert J.shape == (2, 6, robot.n)
+    for b in range(2):
+        T_fd = fd6(lambda x: _fk_from_parameters(joints, x), q[b])
+        J_fd = jacobian_from_pose_derivative(_fk_from_parameters(joints, q[b]), T_fd)
+        assert_close(J[b], J_fd, rtol=0, atol=1e-10, what="host J vs finite differences")
+
+
+@pytest.mark.parametrize("key", ROBOT_KEYS)
+def test_host_jacobian_matches_the_kernel(key):
+    from jaxstiff.model.host import host_jacobian
+
+    robot = get_robot(key)
+    q = random_q(robot, (5,), seed=3)
+    assert_close(host_jacobian(robot, q), jaxstiff.jacobian(robot, jnp.asarray(q)), rtol=0, atol=1e-12, what="J")
