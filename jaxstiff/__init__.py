@@ -12,11 +12,15 @@ from typing import TYPE_CHECKING
 
 # first, before JAX is imported: a Ctrl-C while the `jaxstiff` command starts up is remembered,
 # not lost (see jaxstiff.runtime.early_signals; nothing changes when imported as a library)
+from .runtime.allocator import tune_allocator as _tune_allocator
 from .runtime.early_signals import record_early_signals as _record_early_signals
 from .runtime.lazy import lazy_exports
 from .runtime.version import __version__ as __version__
 
 _record_early_signals()
+# large outputs reuse freed heap memory instead of fresh, page-faulting mmaps (glibc; opt out with
+# JAXSTIFF_MALLOC_TUNE=0; why and the cost: jaxstiff.runtime.allocator)
+_tune_allocator()
 
 #: public name -> the module (relative to this package) that defines it. ``Ellipsoid``,
 #: ``ellipsoid`` and ``orientation_error`` come from ``stiffness.ellipsoid``, not from the former

@@ -1,0 +1,72 @@
+"""glibc's allocator tuned for large arrays made again and again (Linux only).
+
+A jitted call returns new arrays every time. glibc's ``malloc`` serves a request above its mmap
+threshold (at most 32 MiB by default) with a fresh ``mmap`` and gives it back with ``munmap`` on
+free, so every call of, say, ``fk_and_jacobian`` on 1e5 configurations (a 34 MB Jacobian) pays
+a page fault and the kernel's zeroing for each 4 KiB page of its output: on a 2-core CPU about
+10 of its 21-26 ms (docs/notes/speed.md). With the mmap and trim thresholds raised to
+:data:`THRESHOLD_BYTES`, such blocks come from the heap and are reused by the next call. XLA's
+threads allocate too, and a thread's own arena gives a heap that held only one large block back
+to the system whatever the thresholds say, so the arenas are limited to one (small blocks still
+come from each thread's cache without a lock): FK + Jacobian at 1e5 in float64 then took
+12-14 ms in every run, against 14 or 24 ms (either, run to run) with the thresholds alone.
+
+The cost is that up to :data:`THRESHOLD_BYTES` of freed memory stays with the process instead of
+returning to the system at once (it is reused by later allocations). ``import jaxstiff`` applies
+the setting unless the environment variable ``JAXSTIFF_MALLOC_TUNE`` is ``0``; it changes nothing
+off glibc (macOS, Windows, musl) and nothing if the allocator is replaced (``LD_PRELOAD`` of
+tcmalloc or jemalloc, which keep freed memory by design).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import sys
+
+__all__ = ["THRESHOLD_BYTES", "tune_allocator"]
+
+#: mmap and trim thresholds set by :func:`tune_allocator` (256 MiB: the outputs of a 7-joint FK +
+#: Jacobian up to about 5e5 configurations in float64 come from the reused heap).
+THRESHOLD_BYTES = 256 * 1024 * 1024
+
+_M_TRIM_THRESHOLD = -1  # mallopt parameter numbers (glibc malloc.h)
+_M_MMAP_THRESHOLD = -3
+_M_ARENA_MAX = -8
+_applied: bool | None = None
+
+
+def tune_allocator(threshold: int = THRESHOLD_BYTES) -> bool:
+    """Raise glibc's mmap and trim thresholds to ``threshold`` bytes and limit it to one arena
+    (module docstring). Arenas that threads made before the call stay in use.
+
+    Returns:
+        True where glibc accepted both settings; False off Linux/glibc, where ``mallopt`` is
+        missing, or with ``JAXSTIFF_MALLOC_TUNE=0``. Idempotent and cheap (no JAX import).
+    """
+    global _applied
+    if os.environ.get("JAXSTIFF_MALLOC_TUNE", "1").strip() == "0" or not sys.platform.startswith("linux"):
+        return False
+    if _applied is not None and threshold == THRESHOLD_BYTES:
+        return _applied
+    try:
+        libc = ctypes.CDLL(None)
+        mallopt = libc.mallopt
+        if not hasattr(libc, "gnu_get_libc_version"):  # musl and others: their own allocator
+            raise AttributeError("not glibc")
+    except (OSError, AttributeError):
+        ok = False
+    else:
+        mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+        mallopt.restype = ctypes.c_int
+        ok = all(
+            mallopt(param, value)
+            for param, value in (
+                (_M_MMAP_THRESHOLD, int(threshold)),
+                (_M_TRIM_THRESHOLD, int(threshold)),
+                (_M_ARENA_MAX, 1),
+            )
+        )
+    if threshold == THRESHOLD_BYTES:
+        _applied = ok
+    return ok
