@@ -13,7 +13,8 @@ come from each thread's cache without a lock): FK + Jacobian at 1e5 in float64 t
 
 The cost is that up to :data:`THRESHOLD_BYTES` of freed memory stays with the process instead of
 returning to the system at once (it is reused by later allocations). ``import jaxstiff`` applies
-the setting unless the environment variable ``JAXSTIFF_MALLOC_TUNE`` is ``0``; it changes nothing
+the setting unless the environment variable ``JAXSTIFF_MALLOC_TUNE`` is ``0`` or the environment
+configures glibc's malloc itself (``MALLOC_ARENA_MAX`` and the like); it changes nothing
 off glibc (macOS, Windows, musl) and nothing if the allocator is replaced (``LD_PRELOAD`` of
 tcmalloc or jemalloc, which keep freed memory by design).
 """
@@ -34,6 +35,19 @@ _M_TRIM_THRESHOLD = -1  # mallopt parameter numbers (glibc malloc.h)
 _M_MMAP_THRESHOLD = -3
 _M_ARENA_MAX = -8
 _applied: bool | None = None
+_USER_KEYS = (
+    "MALLOC_MMAP_THRESHOLD_",
+    "MALLOC_TRIM_THRESHOLD_",
+    "MALLOC_ARENA_MAX",
+    "MALLOC_TOP_PAD_",
+    "MALLOC_MMAP_MAX_",
+)
+
+
+def _user_configured() -> bool:
+    """Whether the environment sets glibc's malloc itself (then it is left as the user set it)."""
+    env = os.environ
+    return any(k in env for k in _USER_KEYS) or "glibc.malloc." in env.get("GLIBC_TUNABLES", "")
 
 
 def tune_allocator(threshold: int = THRESHOLD_BYTES) -> bool:
@@ -41,11 +55,16 @@ def tune_allocator(threshold: int = THRESHOLD_BYTES) -> bool:
     (module docstring). Arenas that threads made before the call stay in use.
 
     Returns:
-        True where glibc accepted both settings; False off Linux/glibc, where ``mallopt`` is
-        missing, or with ``JAXSTIFF_MALLOC_TUNE=0``. Idempotent and cheap (no JAX import).
+        True where glibc accepted the settings; False off Linux/glibc, where ``mallopt`` is
+        missing, with ``JAXSTIFF_MALLOC_TUNE=0``, or where the environment configures glibc's
+        malloc itself (``MALLOC_ARENA_MAX``, ``MALLOC_MMAP_THRESHOLD_`` and the like, or
+        ``glibc.malloc.*`` in ``GLIBC_TUNABLES``: the user's choice is kept). Idempotent and cheap
+        (no JAX import).
     """
     global _applied
     if os.environ.get("JAXSTIFF_MALLOC_TUNE", "1").strip() == "0" or not sys.platform.startswith("linux"):
+        return False
+    if _user_configured():
         return False
     if _applied is not None and threshold == THRESHOLD_BYTES:
         return _applied

@@ -44,7 +44,7 @@ print(json.dumps({"tuned": tune_allocator(), "second_faults": faults() - f0}))
 
 
 def _probe(env_value: str | None) -> dict:
-    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_")}
+    env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k != "GLIBC_TUNABLES"}
     env.pop("JAXSTIFF_MALLOC_TUNE", None)
     if env_value is not None:
         env["JAXSTIFF_MALLOC_TUNE"] = env_value
@@ -68,11 +68,20 @@ def test_freed_large_block_is_reused_without_page_faults():
     assert on["second_faults"] < 0.1 * pages, on
 
 
-def test_opt_out_and_non_linux_are_no_ops(monkeypatch):
+def test_opt_out_user_settings_and_non_linux_are_no_ops(monkeypatch):
     from jaxstiff.runtime import allocator
 
+    for k in ("MALLOC_ARENA_MAX", "MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_", "GLIBC_TUNABLES"):
+        monkeypatch.delenv(k, raising=False)
     monkeypatch.setenv("JAXSTIFF_MALLOC_TUNE", "0")
     assert allocator.tune_allocator() is False
     monkeypatch.delenv("JAXSTIFF_MALLOC_TUNE")
+    # the user's own malloc settings are kept
+    monkeypatch.setenv("MALLOC_ARENA_MAX", "4")
+    assert allocator.tune_allocator() is False
+    monkeypatch.delenv("MALLOC_ARENA_MAX")
+    monkeypatch.setenv("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=65536")
+    assert allocator.tune_allocator() is False
+    monkeypatch.delenv("GLIBC_TUNABLES")
     monkeypatch.setattr(allocator.sys, "platform", "darwin")
     assert allocator.tune_allocator() is False
