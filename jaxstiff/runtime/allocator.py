@@ -6,13 +6,16 @@ free, so every call of, say, ``fk_and_jacobian`` on 1e5 configurations (a 34 MB 
 a page fault and the kernel's zeroing for each 4 KiB page of its output: on a 2-core CPU about
 10 of its 21-26 ms (docs/notes/speed.md). With the mmap and trim thresholds raised to
 :data:`THRESHOLD_BYTES`, such blocks come from the heap and are reused by the next call. XLA's
-threads allocate too, and a thread's own arena gives a heap that held only one large block back
-to the system whatever the thresholds say, so the arenas are limited to one (small blocks still
-come from each thread's cache without a lock): FK + Jacobian at 1e5 in float64 then took
-12-14 ms in every run, against 14 or 24 ms (either, run to run) with the thresholds alone.
+threads allocate from their own arenas, whose extra heaps (64 MiB each) go back to the system as
+soon as they are empty whatever the thresholds say; a top pad of :data:`TOP_PAD_BYTES` keeps them
+(FK + Jacobian at 1e5 in float64: 12.7-15 ms in every run, against 14 or 24 ms, either, run to
+run with the thresholds alone). Limiting glibc to one arena did the same for that call but made
+XLA's multi-threaded compiles about 20 % slower (one lock for every thread's allocations).
 
-The cost is that up to :data:`THRESHOLD_BYTES` of freed memory stays with the process instead of
-returning to the system at once (it is reused by later allocations). ``import jaxstiff`` applies
+The cost is that up to :data:`THRESHOLD_BYTES` of freed memory (and a pad of up to
+:data:`TOP_PAD_BYTES` per heap) stays with the process instead of returning to the system at once
+(it is reused by later allocations; peak RSS of ``scripts/bench_batch.py`` at 64 x 50 rose by
+about 50 MiB, 1.0 -> 1.06 GiB). ``import jaxstiff`` applies
 the setting unless the environment variable ``JAXSTIFF_MALLOC_TUNE`` is ``0`` or the environment
 configures glibc's malloc itself (``MALLOC_ARENA_MAX`` and the like); it changes nothing
 off glibc (macOS, Windows, musl) and nothing if the allocator is replaced (``LD_PRELOAD`` of
@@ -25,15 +28,18 @@ import ctypes
 import os
 import sys
 
-__all__ = ["THRESHOLD_BYTES", "tune_allocator"]
+__all__ = ["THRESHOLD_BYTES", "TOP_PAD_BYTES", "tune_allocator"]
 
 #: mmap and trim thresholds set by :func:`tune_allocator` (256 MiB: the outputs of a 7-joint FK +
 #: Jacobian up to about 5e5 configurations in float64 come from the reused heap).
 THRESHOLD_BYTES = 256 * 1024 * 1024
+#: top pad set by :func:`tune_allocator`: glibc's largest heap of a thread arena (64 MiB on 64-bit),
+#: so that an empty heap is kept for the next large block instead of unmapped
+TOP_PAD_BYTES = 64 * 1024 * 1024
 
 _M_TRIM_THRESHOLD = -1  # mallopt parameter numbers (glibc malloc.h)
+_M_TOP_PAD = -2
 _M_MMAP_THRESHOLD = -3
-_M_ARENA_MAX = -8
 _applied: bool | None = None
 _USER_KEYS = (
     "MALLOC_MMAP_THRESHOLD_",
@@ -51,8 +57,8 @@ def _user_configured() -> bool:
 
 
 def tune_allocator(threshold: int = THRESHOLD_BYTES) -> bool:
-    """Raise glibc's mmap and trim thresholds to ``threshold`` bytes and limit it to one arena
-    (module docstring). Arenas that threads made before the call stay in use.
+    """Raise glibc's mmap and trim thresholds to ``threshold`` bytes and its top pad to
+    :data:`TOP_PAD_BYTES` (module docstring).
 
     Returns:
         True where glibc accepted the settings; False off Linux/glibc, where ``mallopt`` is
@@ -83,7 +89,7 @@ def tune_allocator(threshold: int = THRESHOLD_BYTES) -> bool:
             for param, value in (
                 (_M_MMAP_THRESHOLD, int(threshold)),
                 (_M_TRIM_THRESHOLD, int(threshold)),
-                (_M_ARENA_MAX, 1),
+                (_M_TOP_PAD, TOP_PAD_BYTES),
             )
         )
     if threshold == THRESHOLD_BYTES:
