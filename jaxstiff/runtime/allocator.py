@@ -68,6 +68,8 @@ def tune_allocator(threshold: int = THRESHOLD_BYTES) -> bool:
         (no JAX import).
     """
     global _applied
+    if not 0 < int(threshold) < 2**31:  # mallopt takes a C int
+        raise ValueError(f"threshold must be between 1 and 2**31 - 1 bytes, got {threshold!r}")
     if os.environ.get("JAXSTIFF_MALLOC_TUNE", "1").strip() == "0" or not sys.platform.startswith("linux"):
         return False
     if _user_configured():

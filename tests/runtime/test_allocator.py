@@ -85,3 +85,11 @@ def test_opt_out_user_settings_and_non_linux_are_no_ops(monkeypatch):
     monkeypatch.delenv("GLIBC_TUNABLES")
     monkeypatch.setattr(allocator.sys, "platform", "darwin")
     assert allocator.tune_allocator() is False
+
+
+def test_threshold_out_of_range_is_refused():
+    from jaxstiff.runtime import allocator
+
+    for bad in (0, -1, 2**31):
+        with pytest.raises(ValueError, match="threshold"):
+            allocator.tune_allocator(bad)
