@@ -60,7 +60,7 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False, springs: st
     # Structural rank: sample postures within the limits (continuous joints in [-pi, pi]); a task
     # whose Jacobian rows lose rank at every sample (a planar chain asked for z, an axis parallel
     # to another ...) is not a singular posture but a wrong task for this robot.
-    from jaxstiff.model.host import host_jacobian
+    from jaxstiff.model.host import position_jacobian
 
     rng = np.random.default_rng(0)
     lo, hi = robot.lower, robot.upper  # a joint's own range; one turn where it is open
@@ -69,7 +69,7 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False, springs: st
     hi = np.where(hi_ok, hi, lo + 2 * np.pi)
     q = lo + (hi - lo) * rng.uniform(0.05, 0.95, size=(6, robot.n))
     q = np.where(robot.free, q, np.nan_to_num(robot.locked_values))
-    J = host_jacobian(robot, q)  # numpy: a JAX trace of the chain costs ~0.2 s per command
+    J = position_jacobian(robot, q)  # numpy: a JAX trace of the chain costs ~0.2 s per command
     Js = J[:, list(rows), :][:, :, cols]
     s = np.linalg.svd(Js, compute_uv=False)
     if np.any(s[:, -1] > 1e-9 * np.maximum(s[:, 0], 1e-300)):

@@ -549,13 +549,13 @@ def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
     )
 
 
-# ------------------------------------------------------------------ the host (numpy) Jacobian
+# ------------------------------------------------------------------ the host (numpy) Jacobian (jaxstiff.model.host)
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(joints=random_chains(), seed=st.integers(0, 2**31 - 1))
 def test_host_jacobian_matches_finite_differences_on_random_chains(joints, seed):
     """The numpy Jacobian of the task rank check against finite differences of an FK built from
     the drawn URDF numbers, revolute, prismatic, continuous and fixed joints mixed."""
-    from jaxstiff.model.host import host_jacobian
+    from jaxstiff.model.host import position_jacobian
 
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "random.urdf")
@@ -563,7 +563,7 @@ def test_host_jacobian_matches_finite_differences_on_random_chains(joints, seed)
             fh.write(_chain_urdf(joints))
         robot = jaxstiff.Robot.from_urdf(path, tip_link=f"l{len(joints)}")
     q = np.random.default_rng(seed).uniform(-3.0, 3.0, size=(2, robot.n))
-    J = host_jacobian(robot, q)
+    J = position_jacobian(robot, q)
     assert J.shape == (2, 6, robot.n)
     for b in range(2):
         T_fd = fd6(lambda x: _fk_from_parameters(joints, x), q[b])
@@ -573,8 +573,8 @@ def test_host_jacobian_matches_finite_differences_on_random_chains(joints, seed)
 
 @pytest.mark.parametrize("key", ROBOT_KEYS)
 def test_host_jacobian_matches_the_kernel(key):
-    from jaxstiff.model.host import host_jacobian
+    from jaxstiff.model.host import position_jacobian
 
     robot = get_robot(key)
     q = random_q(robot, (5,), seed=3)
-    assert_close(host_jacobian(robot, q), jaxstiff.jacobian(robot, jnp.asarray(q)), rtol=0, atol=1e-12, what="J")
+    assert_close(position_jacobian(robot, q), jaxstiff.jacobian(robot, jnp.asarray(q)), rtol=0, atol=1e-12, what="J")
