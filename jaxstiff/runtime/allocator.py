@@ -40,7 +40,6 @@ TOP_PAD_BYTES = 64 * 1024 * 1024
 _M_TRIM_THRESHOLD = -1  # mallopt parameter numbers (glibc malloc.h)
 _M_TOP_PAD = -2
 _M_MMAP_THRESHOLD = -3
-_applied: bool | None = None
 _USER_KEYS = (
     "MALLOC_MMAP_THRESHOLD_",
     "MALLOC_TRIM_THRESHOLD_",
@@ -64,36 +63,23 @@ def tune_allocator(threshold: int = THRESHOLD_BYTES) -> bool:
         True where glibc accepted the settings; False off Linux/glibc, where ``mallopt`` is
         missing, with ``JAXSTIFF_MALLOC_TUNE=0``, or where the environment configures glibc's
         malloc itself (``MALLOC_ARENA_MAX``, ``MALLOC_MMAP_THRESHOLD_`` and the like, or
-        ``glibc.malloc.*`` in ``GLIBC_TUNABLES``: the user's choice is kept). Idempotent and cheap
-        (no JAX import).
+        ``glibc.malloc.*`` in ``GLIBC_TUNABLES``: the user's choice is kept). Idempotent (calling
+        it again sets the same values) and cheap (no JAX import).
     """
-    global _applied
     if not 0 < int(threshold) < 2**31:  # mallopt takes a C int
         raise ValueError(f"threshold must be between 1 and 2**31 - 1 bytes, got {threshold!r}")
     if os.environ.get("JAXSTIFF_MALLOC_TUNE", "1").strip() == "0" or not sys.platform.startswith("linux"):
         return False
     if _user_configured():
         return False
-    if _applied is not None and threshold == THRESHOLD_BYTES:
-        return _applied
     try:
         libc = ctypes.CDLL(None)
-        mallopt = libc.mallopt
         if not hasattr(libc, "gnu_get_libc_version"):  # musl and others: their own allocator
-            raise AttributeError("not glibc")
+            return False
+        mallopt = libc.mallopt
     except (OSError, AttributeError):
-        ok = False
-    else:
-        mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
-        mallopt.restype = ctypes.c_int
-        ok = all(
-            mallopt(param, value)
-            for param, value in (
-                (_M_MMAP_THRESHOLD, int(threshold)),
-                (_M_TRIM_THRESHOLD, int(threshold)),
-                (_M_TOP_PAD, TOP_PAD_BYTES),
-            )
-        )
-    if threshold == THRESHOLD_BYTES:
-        _applied = ok
-    return ok
+        return False
+    mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
+    mallopt.restype = ctypes.c_int
+    settings = ((_M_MMAP_THRESHOLD, int(threshold)), (_M_TRIM_THRESHOLD, int(threshold)), (_M_TOP_PAD, TOP_PAD_BYTES))
+    return all(mallopt(param, value) for param, value in settings)
