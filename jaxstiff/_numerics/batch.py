@@ -51,7 +51,7 @@ def is_traced(x: object) -> bool:
     return isinstance(x, Tracer)
 
 
-def take_static(a: jax.Array, idx: Sequence[int], axis: int = -1) -> jax.Array:
+def take_static(a: jax.Array, idx: Sequence[int] | np.ndarray, axis: int = -1) -> jax.Array:
     """``jnp.take(a, idx, axis)`` for indices known while tracing, as static slices: one slice per
     run of consecutive indices, joined. XLA:CPU runs a gather as a kernel of its own (inside pgd's
     loops, one per call per iteration); a slice fuses with its consumers. Same values."""
