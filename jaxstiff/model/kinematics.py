@@ -43,6 +43,7 @@ from collections.abc import Sequence
 import jax
 import jax.numpy as jnp
 
+from jaxstiff._numerics.batch import take_static
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain, check_locked_values
 from jaxstiff.model.kinematics_scan import UNROLL_MAX_JOINTS, scan_pose, scan_pose_and_jacobian, uses_scan
@@ -338,28 +339,22 @@ def position_and_jacobian_raw(
     # rows picked outside the differentiable function: XLA drops the rows nobody reads when it is
     # not differentiated, and a row subset inside a custom_jvp under jit, vmap and grad together
     # hits a shape bug of JAX 0.10 (tests/model/test_kinematics.py covers the pattern)
-    return p, _pick_rows(J6, rows)
+    return p, take_static(J6, rows, axis=-2)  # static slices: a gather is a kernel of its own on the CPU
 
 
-def _pick_rows(J: jax.Array, rows: tuple[int, ...]) -> jax.Array:
-    """Rows of J (..., 6, n) by static slices (a gather is a kernel of its own on the CPU)."""
-    if rows == tuple(range(rows[0], rows[-1] + 1)):
-        return J[..., rows[0] : rows[-1] + 1, :]
-    return jnp.concatenate([J[..., r : r + 1, :] for r in rows], axis=-2)
-
-
-def _position_and_jacobian_chain(robot: Chain, q: jax.Array, rows: tuple[int, ...], poly: bool | None):
+def _position_and_jacobian_chain(robot: Chain, q: jax.Array, poly: bool | None):
+    """The chain kernel: TCP position (..., 3) and all six Jacobian rows (..., 6, n)."""
     if uses_scan(robot):
         _, p, J = scan_pose_and_jacobian(robot, q, poly)
-        return p, J[..., list(rows), :]
+        return p, J
     _, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
-    return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)
+    return pos, _jacobian_array(_jacobian_entries(p, frames), q)
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
 def _position_and_jacobian_d(robot: Chain, poly: bool | None, q: jax.Array):
-    return _position_and_jacobian_chain(robot, q, ALL_ROWS, poly)
+    return _position_and_jacobian_chain(robot, q, poly)
 
 
 @_position_and_jacobian_d.defjvp
