@@ -1,9 +1,8 @@
 """The rollout's kinematics with closed-form JVPs, and the held-orientation error (task ``"full"``).
 
 :func:`pos_jac` and :func:`pose_jac` are the chain kernel (:mod:`jaxstiff.model.kinematics`) with
-a JVP built from the Jacobian alone (the first is the kernel's own, the second adds the rotation),
-so differentiating a rollout never sweeps the chain kernel backwards. Positions in m, rotations and
-Jacobians in the base frame.
+a JVP built from the Jacobian alone, so differentiating a rollout never sweeps the chain kernel
+backwards. Positions in m, rotations and Jacobians in the base frame.
 """
 
 from __future__ import annotations
@@ -20,12 +19,23 @@ from jaxstiff.model.robot import Robot
 __all__ = ["pos_jac", "pose_jac", "orientation_error", "orientation_angle"]
 
 
+@functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
 def pos_jac(robot: Robot, poly: bool, q: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """``position_and_jacobian(robot, q)`` (all 6 rows); its JVP is the kernel's closed form
-    (:func:`jaxstiff.model.kinematics.position_and_jacobian_raw`), built from the Jacobian alone,
-    so reverse mode through a rollout never sweeps the chain kernel backwards: the backward pass
-    of a step costs a few cross products."""
+    """``position_and_jacobian(robot, q)`` (all 6 rows) with a closed-form JVP.
+
+    The JVP needs only the Jacobian itself (:func:`jacobian_tangent`), so reverse mode through a
+    rollout never differentiates the kinematics kernel's internals: the backward pass of a step
+    costs a few cross products instead of a reverse sweep through the chain.
+    """
     return position_and_jacobian_raw(robot, q, poly=poly)
+
+
+@pos_jac.defjvp
+def _pos_jac_jvp(robot: Robot, poly: bool, primals: tuple, tangents: tuple) -> tuple:
+    (q,), (qd,) = primals, tangents
+    p, J6 = pos_jac(robot, poly, q)
+    dp, dJ6, _ = jacobian_tangent(J6, qd)
+    return (p, J6), (dp, dJ6)
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))

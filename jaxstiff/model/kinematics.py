@@ -20,13 +20,6 @@ The Jacobian is the analytic geometric one, not autodiff of FK: for revolute joi
 axis ``z_i`` through the point ``p_i``, column i is ``[z_i x (p_tcp - p_i); z_i]``; for a
 prismatic joint ``[z_i; 0]`` (rows ``[v; w]``, base frame, for the TCP point).
 
-Derivatives: :func:`position_and_jacobian` (and its untraced twin) carries a closed-form JVP, the
-derivative of the position and of J built from J alone (:func:`jacobian_tangent`). Forward and
-reverse mode through it (every solver's gradient of a criterion of ``K(J)``) never differentiate
-the chain: a few cross products per joint instead of a reverse sweep through the unrolled chain
-(a gradient's traced program about half the size). :func:`fk`, :func:`jacobian` and
-:func:`fk_and_jacobian` are differentiated by autodiff of the chain.
-
 Example:
     >>> import jax.numpy as jnp, jaxstiff
     >>> robot = jaxstiff.Chain.from_urdf("planar_3r")
@@ -43,7 +36,6 @@ from collections.abc import Sequence
 import jax
 import jax.numpy as jnp
 
-from jaxstiff._numerics.batch import take_static
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain, check_locked_values
 from jaxstiff.model.kinematics_scan import UNROLL_MAX_JOINTS, scan_pose, scan_pose_and_jacobian, uses_scan
@@ -326,48 +318,13 @@ def position_and_jacobian(robot: Chain, q: jax.Array, rows: tuple[int, ...] = (0
 def position_and_jacobian_raw(
     robot: Chain, q: jax.Array, rows: Sequence[int] = (0, 1, 2, 3, 4, 5), poly: bool | None = None
 ) -> tuple[jax.Array, jax.Array]:
-    """:func:`position_and_jacobian` without checks or jit (to trace inside a caller's kernel).
-
-    Differentiable with a closed-form JVP (:func:`jacobian_tangent`, from the Jacobian alone):
-    ``jax.grad``, ``jax.jvp`` and ``jax.jacfwd`` through it never sweep the chain kernel itself,
-    so a gradient of anything computed from ``(p, J)`` costs a few cross products per joint
-    instead of a reverse pass through the unrolled chain (and compiles to far less code)."""
-    rows = tuple(int(r) for r in rows)
-    p, J6 = _position_and_jacobian_d(robot, poly, q)
-    if rows == ALL_ROWS:
-        return p, J6
-    # rows picked outside the differentiable function: XLA drops the rows nobody reads when it is
-    # not differentiated, and a row subset inside a custom_jvp under jit, vmap and grad together
-    # hits a shape bug of JAX 0.10 (tests/model/test_kinematics.py covers the pattern)
-    return p, take_static(J6, rows, axis=-2)  # static slices: a gather is a kernel of its own on the CPU
-
-
-def _position_and_jacobian_chain(robot: Chain, q: jax.Array, poly: bool | None):
-    """The chain kernel: TCP position (..., 3) and all six Jacobian rows (..., 6, n)."""
+    """:func:`position_and_jacobian` without checks or jit (to trace inside a caller's kernel)."""
     if uses_scan(robot):
         _, p, J = scan_pose_and_jacobian(robot, q, poly)
-        return p, J
+        return p, J[..., list(rows), :]
     _, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
-    return pos, _jacobian_array(_jacobian_entries(p, frames), q)
-
-
-@functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
-def _position_and_jacobian_d(robot: Chain, poly: bool | None, q: jax.Array):
-    return _position_and_jacobian_chain(robot, q, poly)
-
-
-@_position_and_jacobian_d.defjvp
-def _position_and_jacobian_jvp(robot: Chain, poly: bool | None, primals, tangents):
-    # calling the differentiable function keeps higher derivatives closed-form too
-    (q,), (qd,) = primals, tangents
-    p, J6 = _position_and_jacobian_d(robot, poly, q)
-    dp, dJ6, _ = jacobian_tangent(J6, qd)
-    return (p, J6), (dp, dJ6)
-
-
-#: every row of the geometric Jacobian, ``[vx, vy, vz, wx, wy, wz]``
-ALL_ROWS = (0, 1, 2, 3, 4, 5)
+    return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)
 
 
 # ------------------------------------------------------------------ derivatives from J alone

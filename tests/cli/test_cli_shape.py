@@ -81,8 +81,8 @@ def test_two_paths_one_file_and_options(tmp_path, small_csv, capsys):
     # --quiet: nothing at all, as long as no warning is due. With one first-waypoint start this
     # case is on a knife edge: SLSQP's first waypoint on path 0 ends at the optimum (f2 = 1) or
     # in a local minimum (f2 = 14.3, then the end-of-run warning) depending on gradients that
-    # differ in the 16th digit (seen when the kinematics' JVP became closed-form); two starts
-    # reach the optimum either way
+    # differ in the 16th digit (seen with a closed-form kinematics JVP, docs/notes/speed.md);
+    # two starts reach the optimum either way
     assert cap.out == "" and cap.err == ""
     res = jaxstiff.ShapeResult.load(out)
     assert res.B == 2 and res.meta["ratio"] == 4.0

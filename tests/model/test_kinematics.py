@@ -580,80 +580,12 @@ def test_host_jacobian_matches_the_kernel(key):
     assert_close(position_jacobian(robot, q), jaxstiff.jacobian(robot, jnp.asarray(q)), rtol=0, atol=1e-12, what="J")
 
 
-def _derivative_cases():
-    """(robot, rows) pairs: shipped robots, a locked joint with a rotated tool offset, a prismatic
-    branch, a dense 7-joint chain (the scan kernel), with the row subsets the solvers ask for."""
-    from jaxstiff.model.generate import serial_chain
-
-    robots = [get_robot(k) for k in ROBOT_KEYS] + [serial_chain(7, seed=3)]
-    rows = ((0, 1, 2, 3, 4, 5), (0, 1, 2), (0, 1), (3, 5), (0, 1, 2))
-    return list(zip(robots, rows, strict=True))
-
-
-@pytest.mark.parametrize("case", range(5))
-def test_position_and_jacobian_derivatives_equal_autodiff_of_the_chain(case):
-    """position_and_jacobian carries a closed-form JVP (built from J alone). Forward mode, reverse
-    mode, vmapped gradients and second derivatives through it equal autodiff of fk_and_jacobian,
-    which differentiates the chain kernel itself (float64, to rounding)."""
-    robot, rows = _derivative_cases()[case]
-    rng = np.random.default_rng(case)
-    q = jnp.asarray(np.clip(rng.uniform(-2.0, 2.0, robot.n), robot.lower, robot.upper))
-    for i, v in enumerate(robot.locked):
-        if v is not None:
-            q = q.at[i].set(v)
-    qd = jnp.asarray(rng.normal(size=robot.n))
-    W = jnp.asarray(rng.normal(size=(len(rows), robot.n)))
-    sel = list(rows)
-
-    def ours(x):
-        return jaxstiff.position_and_jacobian(robot, x, rows)
-
-    def ref(x):
-        T, J = jaxstiff.fk_and_jacobian(robot, x)
-        return T[..., :3, 3], J[..., sel, :]
-
-    def scalar(f):
-        return lambda x: jnp.sum(jnp.sin(W * f(x)[1])) + jnp.sum(f(x)[0] ** 3)
-
-    (p, J), (dp, dJ) = jax.jit(lambda x, t: jax.jvp(ours, (x,), (t,)))(q, qd)
-    (p_r, J_r), (dp_r, dJ_r) = jax.jit(lambda x, t: jax.jvp(ref, (x,), (t,)))(q, qd)
-    assert_close(p, p_r, rtol=0, atol=1e-14, what="p")
-    assert_close(J, J_r, rtol=0, atol=1e-14, what="J")
-    assert_close(dp, dp_r, rtol=0, atol=1e-12, what="JVP of p")
-    assert_close(dJ, dJ_r, rtol=0, atol=1e-12, what="JVP of J")
-    g, g_r = (jax.jit(jax.grad(scalar(f)))(q) for f in (ours, ref))
-    assert_close(g, g_r, rtol=0, atol=1e-11, what="gradient")
-    Q = jnp.stack([q, q + 0.1 * qd])  # batched, as the solvers call it under vmap
-    gb = jax.jit(jax.vmap(jax.grad(scalar(ours))))(Q)
-    assert_close(gb[0], g_r, rtol=0, atol=1e-11, what="vmapped gradient")
-    if case < 2:
-        H, H_r = (jax.jit(jax.hessian(scalar(f)))(q) for f in (ours, ref))
-        assert_close(H, H_r, rtol=0, atol=1e-10, what="Hessian")
-
-
-def test_position_and_jacobian_gradient_does_not_differentiate_the_chain():
-    """The reverse pass is the closed form: a gradient through position_and_jacobian evaluates the
-    joints' sines and cosines only once, in the forward pass (autodiff of the chain adds their
-    derivatives; fk_and_jacobian shows the difference)."""
-    robot = get_robot("lwr")
-    q = jnp.asarray(random_q(robot, seed=2))
-
-    def trig(f):
-        text = str(jax.make_jaxpr(f)(q))
-        return sum(text.count(f" {name}[") + text.count(f" {name} ") for name in ("sin", "cos"))
-
-    ours = lambda x: jnp.sum(jaxstiff.position_and_jacobian(robot, x)[1] ** 2)  # noqa: E731
-    ref = lambda x: jnp.sum(jaxstiff.fk_and_jacobian(robot, x)[1] ** 2)  # noqa: E731
-    assert trig(ours) > 0
-    assert trig(jax.grad(ours)) == trig(ours)
-    assert trig(jax.grad(ref)) > trig(ref)
-
-
 @pytest.mark.parametrize("rows", [(0, 1), (0, 1, 2), (3, 5), (0, 1, 2, 3, 4, 5)])
 def test_gradient_of_the_jacobian_alone_through_a_jit_under_vmap(rows):
-    """A pattern every batch solver uses: a jitted function returning (p, J), only J read, its
-    gradient inside vmap inside grad inside vmap (a custom JVP with a row subset inside it broke
-    this with JAX 0.10: wrong shapes at trace time)."""
+    """A pattern the batch solvers use: a jitted function returning (p, J), only one of them read,
+    its gradient inside vmap inside grad inside vmap, against the same through fk_and_jacobian (a
+    closed-form custom JVP with the row subset inside it traced wrong shapes here with JAX 0.10:
+    docs/notes/speed.md, 2026-12-03 fourth session)."""
     robot = get_robot("planar")
     Q = jnp.asarray(np.random.default_rng(3).uniform(-1.0, 1.0, (2, 4, robot.n)))
     for k in (0, 1):
