@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.core import Tracer
 from numpy.typing import ArrayLike
 
-__all__ = ["broadcast_batch", "known_floats", "check_square", "is_traced", "take_static"]
+__all__ = ["broadcast_batch", "known_floats", "check_square", "is_traced"]
 
 
 def broadcast_batch(*named_shapes: tuple[str, tuple[int, ...]]) -> tuple[int, ...]:
@@ -49,21 +47,3 @@ def check_square(K: ArrayLike, name: str = "K") -> jax.Array:
 def is_traced(x: object) -> bool:
     """True inside a trace (jit, grad, vmap): the value of ``x`` is not known here."""
     return isinstance(x, Tracer)
-
-
-def take_static(a: jax.Array, idx: Sequence[int] | np.ndarray, axis: int = -1) -> jax.Array:
-    """``jnp.take(a, idx, axis)`` for indices known while tracing, as static slices: one slice per
-    run of consecutive indices, joined. XLA:CPU runs a gather as a kernel of its own (inside pgd's
-    loops, one per call per iteration); a slice fuses with its consumers. Same values."""
-    idx = [int(i) % a.shape[axis] for i in idx]
-    if not idx:
-        raise ValueError("take_static needs at least one index")
-    runs: list[tuple[int, int]] = []
-    for i in idx:
-        if runs and i == runs[-1][1]:
-            runs[-1] = (runs[-1][0], i + 1)
-        else:
-            runs.append((i, i + 1))
-    if runs == [(0, a.shape[axis])]:
-        return a
-    return jnp.concatenate([jax.lax.slice_in_dim(a, lo, hi, axis=axis) for lo, hi in runs], axis=axis)

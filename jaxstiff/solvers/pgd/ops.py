@@ -10,7 +10,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff._numerics.batch import take_static
 from jaxstiff.model.kinematics import jacobian_tangent, position_and_jacobian
 from jaxstiff.solvers.problem import WaypointProblem, rate_bounds
 from jaxstiff.stiffness.core import (
@@ -68,7 +67,7 @@ class WaypointOps:
     def pos_jac(self, x):
         q = self.pr.q_of(x)
         p, J = position_and_jacobian(self.pr.robot, q, self.rows)
-        return p, take_static(J, self.free, axis=-1)
+        return p, J[:, self.free]
 
     def f(self, x, d, r, c):
         return self.pr.objective(self.pr.q_of(x), self.pr.kj_of(x), d, r, c)
@@ -77,13 +76,13 @@ class WaypointOps:
         """``steps`` box-respecting minimum-norm Gauss-Newton corrections of the joint part."""
         if steps == 0 or self.nf == 0:
             return x
-        rows = self.rows
-        k = len(rows)
+        rows = jnp.asarray(self.rows)
+        k = len(self.rows)
 
         def body(_, carry):
             x, active = carry
             p, J = self.pos_jac(x)
-            e = take_static(target, rows, 0) - take_static(p, rows, 0)
+            e = target[rows] - p[rows]
             Ja = jnp.where(active[None, :], 0.0, J)
             JJt = Ja @ Ja.T
             mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
@@ -141,7 +140,8 @@ class WaypointOps:
         return jnp.concatenate([self._pos_rows(p, target, wpos), self._shape_rows(K, d, r, kind, walign)])
 
     def _pos_rows(self, p, target, wpos):
-        return wpos * (take_static(p, self.rows, 0) - take_static(target, self.rows, 0))
+        rows = jnp.asarray(list(self.rows))
+        return wpos * (p[rows] - target[rows])
 
     @staticmethod
     def _shape_rows(K, d, r, kind: str, walign):
@@ -180,12 +180,9 @@ class WaypointOps:
         p, J6 = position_and_jacobian(self.pr.robot, q)
         n = self.nk  # the compliance sums over the sprung joints only (rigid locked joints add none)
         dt = x.dtype
-        dp, dJ6, _ = jacobian_tangent(J6, jnp.asarray(np.eye(self.n)[self.free], dt))  # (nf, 3), (nf, 6, n)
-        rows_t = task_rows(self.pr.task)
-        Js, dJs = (
-            self.pr.spring_cols(take_static(J6, rows_t, 0)),
-            self.pr.spring_cols(take_static(dJ6, rows_t, 1)),
-        )  # (m, nk), (nf, m, nk)
+        dp, dJ6, _ = jacobian_tangent(J6, jnp.eye(self.n, dtype=dt)[self.free])  # (nf, 3), (nf, 6, n)
+        rows_t = list(task_rows(self.pr.task))
+        Js, dJs = self.pr.spring_cols(J6[rows_t, :]), self.pr.spring_cols(dJ6[:, rows_t, :])  # (m, nk), (nf, m, nk)
         w = 1.0 / jnp.maximum(kj, jnp.sqrt(jnp.finfo(dt).tiny))  # compliance()'s own clamp of kj
         C = compliance(Js, kj, self.pr.task)
 

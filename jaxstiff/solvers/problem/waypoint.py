@@ -13,7 +13,6 @@ import jax.numpy as jnp
 import numpy as np
 from numpy.typing import ArrayLike
 
-from jaxstiff._numerics.batch import take_static
 from jaxstiff.model.chain import LOCKED_JOINT_MODES
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import Robot
@@ -128,9 +127,8 @@ class WaypointProblem:
         has a spring; numpy or JAX)."""
         if self.all_springs:
             return a
-        if isinstance(a, jax.Array):
-            return take_static(a, self.spring_idx, axis=axis)
-        return np.take(a, np.asarray(self.spring_idx, dtype=int), axis=axis)
+        xp = jnp if isinstance(a, jax.Array) else np
+        return xp.take(a, xp.asarray(self.spring_idx, dtype=int), axis=axis)
 
     def kj_full(self, kv: Any) -> Any:
         """Joint stiffnesses (..., n) from the stiffness variables (..., n_spring): rigid locked
