@@ -64,6 +64,22 @@ def random_reachable_paths(robot, B: int, P: int, seed: int = 0, span: float = 0
     return pts, dirs, q_a
 
 
+def bench_problem(B: int, P: int, criterion: str = "f2", seed: int = 0):
+    """The benchmark's robot and :class:`~jaxstiff.solvers.problem.WaypointBatch`: the LWR with its
+    7th joint locked, B x P :func:`random_reachable_paths`, kj0 50.5 Nm/rad, dq 2 deg, dk 5 Nm/rad,
+    stiffness 1-100 Nm/rad, ratio 5, c 0.01 (also :mod:`profile_pgd`)."""
+    import jaxstiff
+    from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
+    from jaxstiff.stiffness.criteria import get_criterion
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    n = robot.n
+    pts, dirs, q0 = random_reachable_paths(robot, B, P, seed=seed)
+    limits = Limits(dq=np.full(n, np.radians(2.0)), dk=np.full(n, 5.0), kmin=1.0, kmax=100.0, first_rate_limit=False)
+    prob = WaypointProblem(robot, "full", get_criterion(criterion))
+    return robot, WaypointBatch(prob, pts, dirs, q0, np.full((B, n), 50.5), limits, 5.0, 0.01)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--B", type=int, default=1000, help="trajectories")
@@ -91,15 +107,9 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff.solvers import pgd
-    from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
-    from jaxstiff.stiffness.criteria import get_criterion
 
-    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
-    n = robot.n
-    pts, dirs, q0 = random_reachable_paths(robot, args.B, args.P, seed=0)
-    kj0 = np.full((args.B, n), 50.5)
-    limits = Limits(dq=np.full(n, np.radians(2.0)), dk=np.full(n, 5.0), kmin=1.0, kmax=100.0, first_rate_limit=False)
-    prob = WaypointProblem(robot, "full", get_criterion(args.criterion))
+    robot, batch = bench_problem(args.B, args.P, args.criterion)
+    pts, dirs, q0, kj0 = batch.targets, batch.directions, batch.q0, batch.kj0
     load0 = os.getloadavg()
     opts = {"chunk": args.chunk, "threads": args.threads}
     if args.iters is not None:
@@ -113,7 +123,7 @@ def main(argv=None) -> int:
     ]
     t_ik = time.perf_counter() - t_ik
     res = pgd.solve_batch(
-        WaypointBatch(prob, pts, dirs, q0, kj0, limits, 5.0, 0.01),
+        batch,
         starts=args.starts,
         options=opts,
         return_timing=True,

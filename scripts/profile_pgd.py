@@ -6,11 +6,12 @@ the Newton corrections, the Jacobi sweeps, the per-waypoint scan body).
 
 Prints, per loop body (largest share of kernel time first): its trip count where XLA knows it, its
 fusions, the kernel launches in the profiled execution, their summed time and share, and the op
-name of the loop in the traced program. On a CPU the launch count matters as much as the arithmetic: at small
-batches a kernel runs for about a microsecond (docs/notes/speed.md, 2026-12-03 fourth session).
+name of the loop in the traced program. On a CPU the launch count matters as much as the
+arithmetic: at small batches a kernel runs for about a microsecond (docs/notes/speed.md,
+2026-12-03 fourth session).
 
-The paths are ``bench_batch.random_reachable_paths`` on the LWR with its 7th joint locked, f2,
-ratio 5, dq 2 deg, dk 5 Nm/rad (the settings of ``scripts/bench_batch.py``). The program is pgd's
+The problem is ``scripts/bench_batch.py``'s (``bench_problem``: random reachable paths on the LWR
+with its 7th joint locked, f2, ratio 5, dq 2 deg, dk 5 Nm/rad). The program is pgd's
 own (captured where pgd compiles it), compiled once more with XLA's per-kernel trace events on;
 one warm-up execution, then one profiled. Needs the CPU backend's profiler (jaxlib's, no extra
 package).
@@ -30,16 +31,12 @@ import tempfile
 import time
 
 import jax
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_batch import random_reachable_paths  # noqa: E402
+from bench_batch import bench_problem  # noqa: E402
 
-import jaxstiff  # noqa: E402
 from jaxstiff.runtime.xla import kernel_compiler_options  # noqa: E402
 from jaxstiff.solvers.pgd import batch as pgd_batch  # noqa: E402
-from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem  # noqa: E402
-from jaxstiff.stiffness.criteria import get_criterion  # noqa: E402
 
 
 class _Captured(Exception):
@@ -48,13 +45,7 @@ class _Captured(Exception):
 
 def capture_program(B: int, P: int, starts: int, seed: int = 0):
     """pgd's jitted chunk function and its first chunk's arguments for B x P random LWR paths."""
-    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
-    pts, dirs, q0 = random_reachable_paths(robot, B, P, seed=seed)
-    n = robot.n
-    limits = Limits(dq=np.full(n, np.radians(2.0)), dk=np.full(n, 5.0), kmin=1.0, kmax=100.0, first_rate_limit=False)
-    batch = WaypointBatch(
-        WaypointProblem(robot, "full", get_criterion("f2")), pts, dirs, q0, np.full((B, n), 50.5), limits, 5.0, 1.0
-    )
+    _, batch = bench_problem(B, P, seed=seed)
     got: dict = {}
 
     def hook(fn, args, key, options):

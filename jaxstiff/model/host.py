@@ -14,16 +14,11 @@ tests/model/test_kinematics.py).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-if TYPE_CHECKING:
-    from jaxstiff.model.chain import Chain
+from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
 __all__ = ["chain_frames", "link_frames", "tcp_transform", "tcp_position", "position_jacobian"]
-
-_PRISMATIC = 1  # JointType.PRISMATIC (jaxstiff.model.chain), kept as a literal: no import at run time
 
 
 def _joint_motion(axis: np.ndarray, prismatic: bool, q: np.ndarray) -> np.ndarray:
@@ -53,7 +48,7 @@ def _frames(chain: Chain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
         T = T @ chain.origin_matrix(i)
         before[:, i] = T
         axis = np.asarray(chain.axes[i], dtype=float)
-        T = T @ _joint_motion(axis, chain.joint_types[i] == _PRISMATIC, qf[:, i])
+        T = T @ _joint_motion(axis, chain.joint_types[i] == JOINT_PRISMATIC, qf[:, i])
         after[:, i] = T
     tcp = T @ chain.tip_matrix
     shape = (*lead, chain.n, 4, 4)
@@ -98,7 +93,7 @@ def position_jacobian(chain: Chain, q: np.ndarray, rows: int = 6) -> np.ndarray:
     z = np.einsum("...ij,...j->...i", joints[..., :3, :3], axes)  # (..., n, 3) world axes
     p = joints[..., :3, 3]
     lever = tcp[..., None, :3, 3] - p
-    pris = np.asarray(chain.joint_types) == _PRISMATIC
+    pris = np.asarray(chain.joint_types) == JOINT_PRISMATIC
     v = np.where(pris[:, None], z, np.cross(z, lever))
     w = np.where(pris[:, None], 0.0, z)
     J = np.concatenate([v, w], axis=-1)  # (..., n, 6)
