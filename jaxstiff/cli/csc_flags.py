@@ -106,14 +106,18 @@ def settings_from_args(args: argparse.Namespace) -> CSCSettings:
 
 
 def _flag_message(msg: str) -> str:
-    """``csc.kmin (Nm/rad) must be ...`` -> ``--kmin must be ... (Nm/rad)``."""
-    units: list[str] = []
-
-    def flag(m: re.Match) -> str:
-        if m.group(2):
-            units.append(m.group(2))
-        name = str(m.group(1))
-        return SETTING_FLAGS.get(name, "--" + name.replace("_", "-"))
-
-    out = re.sub(r"csc\.(\w+)(?: \(([^)]*)\))?", flag, msg)
-    return out + (f" ({units[0]})" if units else "")
+    """``csc.kmin (Nm/rad) must be ...`` -> ``--kmin must be ... (Nm/rad)``: a field's name becomes
+    its flag, and its unit, where the message gives it right after the name, moves to the end.
+    Parentheses that are not the field's unit (values, as in ``csc.kmax (5) must be >= csc.kmin
+    (10)``) stay where they are."""
+    units = {i.name: i.unit for i in CSCSettings.fields_info()}
+    moved: list[str] = []
+    for name in sorted(units, key=len, reverse=True):  # longest first: no name is cut by a prefix
+        flag = SETTING_FLAGS.get(name, "--" + name.replace("_", "-"))
+        with_unit = f"csc.{name} ({units[name]})"
+        if units[name] and with_unit in msg:
+            msg = msg.replace(with_unit, flag)
+            moved.append(units[name])
+        msg = re.sub(rf"csc\.{name}\b", flag, msg)
+    shown = [u for u in moved if u != "1"]  # "1": dimensionless, nothing to say
+    return msg + (f" ({shown[0]})" if shown else "")

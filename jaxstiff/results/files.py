@@ -311,8 +311,13 @@ def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, 
     return np.asarray(Q), np.asarray(KJ), np.asarray(RATE)
 
 
-def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike | None = None) -> dict[str, float]:
+def verify(
+    res: ShapeResult | str | os.PathLike, robot: Robot | None = None, urdf: str | os.PathLike | None = None
+) -> dict[str, float]:
     """Re-check a result with numpy only (no JAX): FK, bounds, rate limits, reported values.
+
+    ``res``: a :class:`ShapeResult` or the path of a result file (loaded with
+    :meth:`ShapeResult.load`).
 
     Uses the robot rebuilt from ``meta`` (or the one given), a plain numpy FK, and a numpy
     recomputation of ``K_T``, alpha, rho and f1/f2 (other criteria: criterion not re-checked).
@@ -324,6 +329,8 @@ def verify(res: ShapeResult, robot: Robot | None = None, urdf: str | os.PathLike
         ``max_alpha_mismatch`` (deg), ``max_ratio_mismatch`` (relative), ``max_criterion_mismatch``
         (relative), ``max_cms_mismatch`` (relative).
     """
+    if isinstance(res, (str, os.PathLike)):
+        res = ShapeResult.load(res)
     if robot is None:
         robot = robot_from_meta(res.meta, urdf)
     lim = res.meta["limits"]

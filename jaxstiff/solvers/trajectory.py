@@ -269,6 +269,12 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     elif warm_kind == "slsqp":
         from jaxstiff.solvers.base import SOLVERS, SolverInterrupted
 
+        if req.starts not in (None, 1):
+            raise ValueError(
+                f"solver 'trajectory' with option warm='slsqp' is single-start (its warm start is SLSQP's "
+                f"greedy chain from one state); got starts={req.starts}: give starts=1, or warm='pgd' or "
+                "'hybrid' for several starts"
+            )
         try:
             warm = SOLVERS["slsqp"](req)
         except SolverInterrupted:  # a partial warm start is no trajectory result: keep nothing

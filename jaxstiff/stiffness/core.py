@@ -118,8 +118,8 @@ def _positive_kj(fn: Callable[..., jax.Array]) -> Callable[..., jax.Array]:
     @functools.wraps(fn)
     def checked(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
         a = known_floats(kj)
-        if a is not None and np.any(a <= 0):
-            idx = tuple(int(i) for i in np.argwhere(a <= 0)[0])
+        if a is not None and not np.all(a > 0):  # also NaN, which compares false with everything
+            idx = tuple(int(i) for i in np.argwhere(~(a > 0))[0])
             raise ValueError(f"kj must be > 0 (Nm/rad; N/m for prismatic joints), got kj{list(idx)} = {a[idx]:g}")
         return fn(J, kj, task)
 

@@ -117,8 +117,8 @@ class _GeneratorBase(Table):
 
     @classmethod
     def missing_key(cls, key: str) -> str:
-        need = [k for k, f in cls.model_fields.items() if f.is_required()]
-        return f"missing: generator {cls.generator_name!r} needs {', '.join(need)}"
+        need = [k for k, f in cls.model_fields.items() if f.is_required() and k != "generator"]
+        return f"missing: generator {cls.generator_name!r} needs {key!r} (its required keys: {', '.join(need)})"
 
 
 def _generator_model(gen: str) -> type[_GeneratorBase]:

@@ -45,3 +45,27 @@ def test_cli_bad_choice_is_a_usage_error(tmp_path, capsys, flag, value):
     with pytest.raises(SystemExit) as e:
         cli_main(argv + [flag, value, "--out", str(tmp_path / "x.npz")])
     assert e.value.code == 2 and flag in capsys.readouterr().err and not (tmp_path / "x.npz").exists()
+
+
+@pytest.mark.parametrize(
+    "settings,expected",
+    [
+        ({"beta": -1.0}, "--beta must be a finite number >= 0, got -1.0 (1 (adaptive) or rad per step"),
+        ({"kmin": 10.0, "kmax": 5.0}, "--kmax (5) must be >= --kmin (10) (Nm/rad)"),
+        ({"damping": -1.0}, "--damping must be a finite number >= 0, got -1.0"),
+        ({"kmin": -3.0}, "--kmin must be a number > 0, got -3.0 (Nm/rad)"),
+    ],
+)
+def test_csc_settings_errors_read_as_flags(settings, expected):
+    """A settings error in `jaxstiff csc` names the flag, keeps values where they are and moves the
+    unit to the end; it read '--beta or rad per step (constant; ...)) must be ... (1 (adaptive)' and
+    '--kmax must be >= --kmin (Nm/rad) (5)' when units held parentheses or values looked like units;
+    dimensionless fields ('1') show no unit."""
+    from jaxstiff.cli.csc_flags import _flag_message
+    from jaxstiff.settings.csc import CSCSettings
+
+    with pytest.raises(ValueError) as e:
+        CSCSettings(**settings)
+    msg = _flag_message(str(e.value))
+    assert msg.startswith(expected), msg
+    assert "csc." not in msg and not msg.endswith("(1)"), msg

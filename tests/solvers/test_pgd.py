@@ -55,6 +55,7 @@ def check_file(res, tmp_path, name="r.npz"):
     res.save(f)
     back = jaxstiff.ShapeResult.load(f)
     v = R.verify(back)
+    assert R.verify(f) == v  # the file's path alone does too
     assert v["max_pos_error"] <= 1e-9
     assert v["max_bound_violation"] <= 0.0 and v["max_rate_violation"] <= 1e-15
     assert v["max_alpha_mismatch"] < 1e-8 and v["max_criterion_mismatch"] < 1e-8

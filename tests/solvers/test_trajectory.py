@@ -26,3 +26,11 @@ def test_trajectory_beats_or_keeps_warm_start(tmp_path):
             )
     check_file(traj, tmp_path)
     assert traj.meta["solver_code_meaning"].startswith("the warm start's (pgd): index of the start")
+
+
+def test_slsqp_warm_start_with_several_starts_names_the_trajectory_solver():
+    """warm='slsqp' takes one start: starts=2 is refused by a message about the solver the user
+    chose and its option (it named 'slsqp', a solver the user never asked for)."""
+    path, q0 = planar_paths(1, 3, seed=5)
+    with pytest.raises(ValueError, match=r"solver 'trajectory' with option warm='slsqp' is single-start.*starts=2"):
+        run(path, q0, solver="trajectory", starts=2, options={"warm": "slsqp"})

@@ -493,8 +493,8 @@ def test_task_check_counts_the_joints_with_a_spring():
 @pytest.mark.slow
 @pytest.mark.parametrize("fn", ["compliance", "cartesian_stiffness", "translational_stiffness", "compliance_condition"])
 def test_concrete_non_positive_kj_is_refused_by_name(fn):
-    """kj <= 0 given as numbers: a ValueError naming the entry (it came back as a matrix of ~1e-140
-    from the regularisation, for every direction); under a trace the clamp keeps a batch finite."""
+    """kj <= 0 or NaN given as numbers: a ValueError naming the entry (it came back as a matrix of
+    ~1e-140 from the regularisation, or of NaN); under a trace the clamp keeps a batch finite."""
     r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     J = jaxstiff.jacobian(r, jnp.full(7, 0.3).at[6].set(0.0))  # lwr_a7 at its locked value
     f = getattr(jaxstiff.stiffness, fn)
@@ -504,6 +504,7 @@ def test_concrete_non_positive_kj_is_refused_by_name(fn):
         (-kj, r"kj\[0\] = -50"),
         (np.where(np.arange(7) == 2, 0.0, kj), r"kj\[2\] = 0"),
         (np.tile(kj, (2, 1)) * [[1.0], [-1.0]], r"kj\[1, 0\] = -50"),
+        (np.where(np.arange(7) == 4, np.nan, kj), r"kj\[4\] = nan"),  # it gave an all-NaN matrix
     ):
         with pytest.raises(ValueError, match=r"kj must be > 0 .*" + where):
             f(J, bad, task="xyz")

@@ -144,7 +144,7 @@ CATALOGUE = [
         "missing generator parameter",
         lambda t: _set(base(), "paths.0.radius", _DELETE),
         "paths[0].radius",
-        ["missing", "radius"],
+        ["missing", "needs 'radius' (its required keys: ", "radius"],  # the key that is missing, then the list
     ),
     ("bad generator value", lambda t: _set(base(), "paths.0.radius", -1.0), "paths[0]", ["radius must be > 0"]),
     ("no paths", lambda t: {k: v for k, v in base().items() if k != "paths"}, "paths", ["missing", "[[paths]]"]),
