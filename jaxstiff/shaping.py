@@ -319,7 +319,7 @@ def shape(
         rep = report_at_solution(problem, inp, arrays, req.ratios)
         cms = cms_factors(rep.K, inp)
         warn_off_plane(rep.position, bpath, inp.task, stacklevel=3)
-        opts_meta = _options_meta(inp.solver, inp.starts, options)
+        opts_meta = _options_meta(inp.solver, inp.starts, inp.options)
         use = _first_starts_use(inp.solver, opts_meta, inp.first_starts, inp.first_rate_limit)
         timing = _timing((t_start, w_start), marks, clock, arrays.get("compile_s"))
         meta = shape_meta(inp, arrays, opts_meta, use, timing, DEFAULTS, interrupted, cpu_async_dispatch())

@@ -248,6 +248,20 @@ def _numbers(
     return kmin, kmax, c
 
 
+def _with_kj_unit(solver: str, options: Mapping[str, Any] | None, kmin: float, kmax: float) -> Mapping[str, Any] | None:
+    """``options`` with SLSQP's stiffness unit ``kj_scale`` filled in from the range where the
+    solver runs SLSQP (slsqp, slsqp-fd, hybrid, trajectory warm-started by one of them) and the
+    option is not given: the solver and the result's meta both get the number it works with."""
+    opts = dict(options or {})
+    greedy = str(opts.get("warm", "pgd")) if solver == "trajectory" else solver
+    if greedy not in ("slsqp", "slsqp-fd", "hybrid") or opts.get("kj_scale") is not None:
+        return options
+    from jaxstiff.solvers.slsqp import kj_unit
+
+    opts["kj_scale"] = kj_unit(None, kmin, kmax)
+    return opts
+
+
 def _check_planar(path: Path, task: str) -> None:
     if task == "xy" and np.any(np.abs(path.directions[..., 2]) > 1e-9):
         b, k = (int(i) for i in np.argwhere(np.abs(path.directions[..., 2]) > 1e-9)[0])
@@ -339,6 +353,7 @@ def check_inputs(
     ratio = ratio_per_path(values["ratio"], B)
     m = 2 if task == "xy" else 3
     kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)
+    options = _with_kj_unit(solver, options, kmin, kmax)
     dq, dk, per_m = _rate_limits(values, base, path, n)
     _check_planar(path, task)
     n_first = int(values["first_starts"])

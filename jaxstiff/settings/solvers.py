@@ -45,9 +45,12 @@ class OptionRule:
     kind: str
     lo: int = 0
     parse: bool = False
+    optional: bool = False  #: None is taken too (the option's "work it out" value)
 
     def normalise(self, label: str, name: str, v: Any) -> Any:
         """``v`` as int / float, or a ValueError naming ``label``'s option ``name``."""
+        if v is None and self.optional:
+            return None
         if self.kind == "int":
             ok = not isinstance(v, bool) and (
                 isinstance(v, (int, np.integer)) or (isinstance(v, (float, np.floating)) and float(v).is_integer())
@@ -86,12 +89,13 @@ def option(
     kind: str | None = None,
     lo: int = 0,
     parse: bool = False,
+    optional: bool = False,
     choices: Iterable[Any] | None = None,
 ) -> Any:
     """A solver option field: a :func:`~jaxstiff.settings.base.setting` with an :class:`OptionRule`."""
     if kind is not None and kind not in _KINDS:
         raise ValueError(f"option kind must be one of {_KINDS}, got {kind!r}")
-    rule = None if kind is None else OptionRule(kind, lo, parse)
+    rule = None if kind is None else OptionRule(kind, lo, parse, optional)
     return setting(default, unit=unit, doc=doc, choices=choices, check=rule)
 
 
@@ -146,7 +150,15 @@ class SLSQPOptions(SolverOptions):
     ftol: float = option(
         1e-8, "SLSQP's accuracy goal (objective change and constraint violation)", kind="positive", parse=True
     )
-    kj_scale: float = option(100.0, "stiffness unit inside SLSQP", unit="Nm/rad", kind="positive", parse=True)
+    kj_scale: float | None = option(
+        None,
+        "stiffness unit inside SLSQP (None: kmax, so that SLSQP sees kj / kmax in [kmin / kmax, 1] whatever "
+        "the range's units; 100 kmin where kmax is not finite)",
+        unit="Nm/rad",
+        kind="positive",
+        parse=True,
+        optional=True,
+    )
     f_scale: float = option(0.1, "factor on the criterion inside SLSQP", kind="positive", parse=True)
     driver: str = option(
         "lean",

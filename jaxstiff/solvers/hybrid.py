@@ -146,7 +146,7 @@ def polish(
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
     sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
     problem = batch.problem
-    solver = make_slsqp_solver(problem, sl_opts)
+    solver = make_slsqp_solver(problem, sl_opts, (batch.limits.kmin, batch.limits.kmax))
     B = batch.targets.shape[0]
     ctx = _Polish(
         batch,

@@ -18,6 +18,7 @@ and reusable by any per-waypoint solver.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Generator, Mapping
 from typing import Any, Protocol, cast
@@ -58,6 +59,7 @@ __all__ = [
     "check_single_start",
     "judge",
     "not_run_outcomes",
+    "kj_unit",
     "CODE_MEANING",
     "WaypointSolver",
     "REPAIR_POS",
@@ -73,6 +75,19 @@ __all__ = [
 #: (the same compiled Kraft algorithm that ``minimize(method="SLSQP")`` runs) from a minimal loop,
 #: ``"scipy"`` goes through ``scipy.optimize.minimize``; see :func:`_slsqp_lean`.
 DEFAULT_OPTIONS = SLSQPOptions.defaults()
+
+
+def kj_unit(kj_scale: float | None, kmin: float | None = None, kmax: float | None = None) -> float:
+    """The stiffness unit SLSQP works in (Nm/rad): ``kj_scale`` where given, else ``kmax`` (100
+    ``kmin`` where kmax is not finite; 100 where no range is known). With the range's top as the
+    unit SLSQP sees the same scaled problem for [1, 100] and [1e4, 1e6] Nm/rad (f1 and f2 depend
+    on the stiffnesses' ratios only); a fixed unit of 100 left a range of 1e4-1e6 at y ~ 1e4, where
+    SLSQP's steps hardly moved the stiffnesses (ratio 2.7 instead of 5 on the planar 3R)."""
+    if kj_scale is not None:
+        return float(kj_scale)
+    if kmax is not None and math.isfinite(kmax):
+        return float(kmax)
+    return 100.0 * float(kmin) if kmin is not None else 100.0
 
 
 def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -111,9 +126,14 @@ class SLSQPSolver(WaypointSolver, Protocol):
     ) -> Steps[SolverOutput]: ...
 
 
-def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> SLSQPSolver:
+def make_slsqp_solver(
+    problem: WaypointProblem,
+    options: Mapping[str, Any] | None = None,
+    kj_range: tuple[float, float] | None = None,
+) -> SLSQPSolver:
     """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX
-    derivatives (:class:`SLSQPSolver`)."""
+    derivatives (:class:`SLSQPSolver`). ``kj_range``: ``(kmin, kmax)``, for the stiffness unit
+    when the option ``kj_scale`` is None (:func:`kj_unit`)."""
     from scipy.optimize import Bounds, minimize
 
     opts = check_options(options)
@@ -125,7 +145,8 @@ def make_slsqp_solver(problem: WaypointProblem, options: Mapping[str, Any] | Non
 
     # SLSQP works on y = x / scale: stiffness in units of kj_scale (Nm/rad), joints in rad; the
     # scaling is applied inside the kernel, so each evaluation is one call and array views.
-    scale = np.r_[np.ones(problem.n_free), np.full(problem.n_spring, float(opts["kj_scale"]))]
+    unit = kj_unit(opts["kj_scale"], *(kj_range or (None, None)))
+    scale = np.r_[np.ones(problem.n_free), np.full(problem.n_spring, unit)]
     svec = np.r_[scale, float(opts["f_scale"])]
 
     svec_dev = jnp.asarray(svec)
@@ -353,7 +374,7 @@ def solve_path(
     progress: Callable[[int], None] | None = None,
 ) -> list[WaypointOutcome]:
     """Greedy SLSQP with JAX derivatives along path ``b`` of ``batch``; see :func:`greedy_path`."""
-    solver = make_slsqp_solver(batch.problem, options)
+    solver = make_slsqp_solver(batch.problem, options, (batch.limits.kmin, batch.limits.kmax))
     return greedy_path(
         batch,
         b,
@@ -366,4 +387,4 @@ def solve_path(
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers.base.SOLVERS` (``solver="slsqp"``)."""
     check_single_start(req, "slsqp")
-    return run_greedy(req, make_slsqp_solver(req.problem, req.options), {})
+    return run_greedy(req, make_slsqp_solver(req.problem, req.options, (req.limits.kmin, req.limits.kmax)), {})

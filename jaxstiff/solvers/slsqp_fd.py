@@ -27,7 +27,7 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.greedy import Objective, PosAndJac, SolverOutput, WaypointSolver, check_single_start, run_greedy
 from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.solvers.slsqp import check_options
+from jaxstiff.solvers.slsqp import check_options, kj_unit
 
 __all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain", "run_request"]
 
@@ -133,7 +133,9 @@ def numpy_pos_and_jac(problem: WaypointProblem) -> PosAndJac:
     return pos_and_jac
 
 
-def make_fd_solver(problem: WaypointProblem, options: Mapping[str, Any] | None = None) -> WaypointSolver:
+def make_fd_solver(
+    problem: WaypointProblem, options: Mapping[str, Any] | None = None, kj_range: tuple[float, float] | None = None
+) -> WaypointSolver:
     """Per-waypoint SLSQP ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, finite differences.
 
     Same options and the same variable/objective scaling as the JAX solver
@@ -147,7 +149,9 @@ def make_fd_solver(problem: WaypointProblem, options: Mapping[str, Any] | None =
     chain = NumpyChain(problem.robot)
     q_of, _ = _split(problem)
     rows = list(problem.pos_rows)
-    scale = np.r_[np.ones(problem.n_free), np.full(problem.n_spring, float(opts["kj_scale"]))]
+    scale = np.r_[
+        np.ones(problem.n_free), np.full(problem.n_spring, kj_unit(opts["kj_scale"], *(kj_range or (None, None))))
+    ]
     fscale = float(opts["f_scale"])
 
     def solve(
@@ -183,5 +187,5 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     numpy derivatives by finite differences."""
     check_single_start(req, "slsqp-fd")
     prob = req.problem
-    solver = make_fd_solver(prob, req.options)
+    solver = make_fd_solver(prob, req.options, (req.limits.kmin, req.limits.kmax))
     return run_greedy(req, solver, {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)})
