@@ -49,7 +49,7 @@ class OptionRule:
 
     def normalise(self, label: str, name: str, v: Any) -> Any:
         """``v`` as int / float, or a ValueError naming ``label``'s option ``name``."""
-        if v is None and self.optional:
+        if self.optional and _is_none(v):
             return None
         if self.kind == "int":
             ok = not isinstance(v, bool) and (
@@ -79,6 +79,10 @@ class OptionRule:
             msg = str(e)
             return msg[msg.index("must ") : msg.rindex(", got")]
         return None
+
+
+def _is_none(v: Any) -> bool:
+    return v is None
 
 
 def option(
