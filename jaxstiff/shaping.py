@@ -42,6 +42,7 @@ import numpy as np
 from jaxstiff.model.robot import Robot
 from jaxstiff.paths import Path
 from jaxstiff.results import files as R
+from jaxstiff.results.singular import singular_meta, singular_waypoints, warn_singular
 from jaxstiff.results.target import warn_missed_target
 from jaxstiff.runtime.compile_cache import CompileClock, ensure_compile_cache
 from jaxstiff.runtime.dtypes import refuse_half_precision
@@ -324,12 +325,15 @@ def shape(
         timing = _timing((t_start, w_start), marks, clock, arrays.get("compile_s"))
         meta = shape_meta(inp, arrays, opts_meta, use, timing, DEFAULTS, interrupted, cpu_async_dispatch())
         meta["compilation"] = clock.meta()
+        singular = singular_waypoints(rep.K, np.asarray(arrays["status"]).reshape(rep.K.shape[:2]))
+        meta["singular"] = singular_meta(singular)
         if meta_extra:
             meta.update(dict(meta_extra))
         result = assemble_result(inp, arrays, rep, cms, meta)
     if interrupted:
         raise ShapeInterrupted(result)
     warn_missed_target(result, stacklevel=3)  # usable waypoints off target: one warning, named
+    warn_singular(singular, inp.task, stacklevel=3)  # ... and those whose ratio is the regularisation's
     return result
 
 

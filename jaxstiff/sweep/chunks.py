@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from jaxstiff.results.singular import SingularPostureWarning
 from jaxstiff.results.target import MissedTargetWarning
 from jaxstiff.runtime.io import json_default
 from jaxstiff.sweep.axes import kxd_matrix
@@ -117,6 +118,7 @@ def _shape_call(
     with warnings.catch_warnings():
         # the sweep's table reports misses per row (share_both): a warning per chunk would be noise
         warnings.simplefilter("ignore", MissedTargetWarning)
+        warnings.simplefilter("ignore", SingularPostureWarning)  # meta["singular"] of each chunk keeps it
         res = shape(
             plan.robot,
             path,
