@@ -22,6 +22,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from jaxstiff.results import files as R
+from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL
 from jaxstiff.solvers.base import SolveRequest, SolverInterrupted, outcomes_to_arrays
 from jaxstiff.solvers.problem import (
     BOUND_TOL,
@@ -30,9 +31,11 @@ from jaxstiff.solvers.problem import (
     WaypointProblem,
     clip_to_box,
     compiled,
+    content_seed,
     jax_pos_and_jac,
     newton_project,
 )
+from jaxstiff.stiffness.criteria import f2
 
 __all__ = [
     "SolverOutput",
@@ -212,6 +215,55 @@ def _pick(problem: WaypointProblem, cands: Sequence[Candidate]) -> Candidate:
     return max(ties, key=margin)
 
 
+def _maybe_off_target(problem: WaypointProblem, cands: Sequence[Candidate], r: float, c: float) -> bool:
+    """False when a usable candidate's criterion value proves it in target (f1, f2: the criterion
+    alone bounds alpha and rho; :mod:`jaxstiff.results.target`), else True; always False for other
+    criteria (no such bound). With the tolerances a = 1 deg and tol = 2 %: f2 = (1 + alpha)(1 +
+    |r - rho|) < min(1 + a, 1 + tol r) gives alpha < a and |rho - r| < tol r; f1 = (alpha + c) r /
+    min(rho, r) < min(a + c, c / (1 - tol)) gives alpha < a and rho > (1 - tol) r."""
+    fmin = problem.criterion_minimum(c)
+    if fmin is None or problem.n_spring == 0:
+        return False
+    tol = RATIO_REL_TOL
+    a = ALPHA_TOL_DEG
+    bound = min(1.0 + a, 1.0 + tol * r) if problem.criterion is f2 else min(a + c, c / (1.0 - tol))
+    fbest = min((cd[4] for cd in cands if cd[1] in R.USABLE), default=np.inf)
+    return not fbest < bound
+
+
+def _rescue_starts(
+    problem: WaypointProblem,
+    count: int,
+    ref: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    target: np.ndarray,
+    direction: np.ndarray,
+) -> list[np.ndarray]:
+    """``count`` start states for a first waypoint the usual starts left off the criterion's
+    minimum: postures drawn uniformly over the joint ranges (continuous joints: one turn), each
+    brought onto the waypoint by position IK, and stiffnesses drawn log-uniformly in the box. The
+    usual starts are the nominal posture's neighbours with one shared mid-range stiffness; f1 and
+    f2's minima may lie in another IK branch, or have joints near kmin. Seeded by the waypoint's
+    own data (``ref``: the reference state), so a path gets the same starts anywhere in a batch."""
+    from jaxstiff.ik import ik_position
+
+    robot = problem.robot
+    rng = np.random.default_rng(content_seed(target, direction, ref))
+    nf = problem.n_free
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi)
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi)
+    klo = np.log(np.maximum(lb[nf:], 1e-300))
+    khi = np.log(np.maximum(ub[nf:], 1e-300))
+    out = []
+    for _ in range(count):
+        q = np.where(robot.free, rng.uniform(lo, hi), np.nan_to_num(robot.locked_values))
+        q, _ = ik_position(robot, target, q, planar=problem.task == "xy")
+        kj = np.exp(rng.uniform(klo, khi))
+        out.append(clip_to_box(np.r_[np.asarray(q, float)[list(problem.free_idx)], kj], lb, ub))
+    return out
+
+
 def _solve_starts(
     problem: WaypointProblem,
     solver: WaypointSolver,
@@ -306,6 +358,14 @@ def greedy_path(
             cands, nit, nfev = _solve_starts(
                 problem, solver, starts, lb, ub, targets[p], params, pj, fobj, pos_tol, None if rate else first_maxiter
             )
+            if not rate and _maybe_off_target(problem, cands, ratio, c):
+                # no start is provably in target: as many again, from postures and stiffnesses
+                # drawn over the whole ranges (not run where one start is in target)
+                more = _rescue_starts(problem, len(starts), starts[0], lb, ub, targets[p], directions[p])
+                extra, nit2, nfev2 = _solve_starts(
+                    problem, solver, more, lb, ub, targets[p], params, pj, fobj, pos_tol, first_maxiter
+                )
+                cands, nit, nfev = cands + extra, nit + nit2, nfev + nfev2
             x, status, err, code, _ = _pick(problem, cands)
             out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
             if status in R.USABLE:

@@ -191,7 +191,8 @@ def test_every_solver_honours_per_path_parameters(solver):
         assert meta["starts"] == 1 and meta["options"]["traj_iters"] == 4 and meta["options"]["mu0"] > 0
         assert meta["warm_options"]["maxiter"] == slsqp.DEFAULT_OPTIONS["maxiter"]
     else:
-        assert meta["starts"] == 1 and meta["options"] == slsqp.DEFAULT_OPTIONS
+        # the defaults, with SLSQP's stiffness unit resolved from the range (kmax; 100 here)
+        assert meta["starts"] == 1 and meta["options"] == {**slsqp.DEFAULT_OPTIONS, "kj_scale": 100.0}
     # what the solver did with the first waypoint's start postures (pgd: some of its own starts)
     use = meta["first_starts"]["use"]
     assert ("first-waypoint starts of pgd" in use) == (solver == "hybrid") and ("SLSQP solves" in use) == (

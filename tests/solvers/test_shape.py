@@ -590,3 +590,31 @@ def test_slsqp_result_does_not_depend_on_the_stiffness_units(solver):
     # the postures need not agree: f2's minimum set is a manifold and the greedy chain may drift
     # along it differently at the rounding level (4e-3 rad apart after 9 waypoints here)
     assert np.all((b.kj >= 1e4) & (b.kj <= 1e6))
+
+
+def test_first_waypoint_rescue_finds_the_minimum_the_usual_starts_miss(tmp_path, monkeypatch):
+    """The planar 3R with 3 m links on a line at (4.5..4.74, 1.5) (the CSV of an independent check,
+    whose rounding picks the random starts): the eight usual first-waypoint starts (the nominal
+    posture's neighbours, one mid-range stiffness) all end at a local minimum (f2 = 17.2, alpha
+    16 deg, status 0) while f2 = 1 is reachable. Where every start ends above the criterion's least
+    value, greedy SLSQP solves the first waypoint again from postures and stiffnesses drawn over
+    the whole ranges: f2 = 1 at every waypoint. (The rescue leaves a first waypoint at the minimum
+    alone: the README job's file was bit-identical with and without it.)"""
+    from jaxstiff.solvers import greedy
+
+    with open(jaxstiff.robot_path("planar_3r")) as fh:
+        text = fh.read().replace('<origin xyz="1 0 0"', '<origin xyz="3 0 0"')
+    urdf = tmp_path / "planar_3r_3m.urdf"
+    urdf.write_text(text)
+    robot = jaxstiff.Robot.from_urdf(str(urdf))
+    xs = [float(f"{3.0 * v:.6f}") for v in np.linspace(1.50, 1.58, 9)]  # as the CSV held them
+    path = jaxstiff.Path(np.c_[xs, np.full(9, 1.5), np.zeros(9)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MissedTargetWarning)
+        with monkeypatch.context() as mp:
+            mp.setattr(greedy, "_maybe_off_target", lambda *a: False)  # the usual starts alone
+            usual = jaxstiff.shape(robot, path, "f2", 5.0, task="xy")
+        res = jaxstiff.shape(robot, path, "f2", 5.0, task="xy")
+    assert usual.criterion[0, 0] > 10.0, "the case no longer needs the rescue: pick another"
+    assert np.all(R.is_usable(res.status))
+    assert np.max(res.criterion) < 1.001 and np.max(res.alpha_deg) < 0.5
