@@ -135,7 +135,8 @@ def polish(
     ``first_starts``: per path, the extra start states ``(q, kj)`` greedy SLSQP tries at a first
     waypoint without rate limit (:func:`jaxstiff.solvers.greedy.greedy_path`); with the greedy
     chain SLSQP runs from them there too, so the hybrid's first waypoint is never worse than
-    greedy SLSQP's.
+    greedy SLSQP's from those starts (greedy SLSQP's rescue starts, where none of them is in
+    target, are not run here: pgd's own random first-waypoint starts cover the ranges).
 
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
