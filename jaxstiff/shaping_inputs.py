@@ -31,7 +31,7 @@ from jaxstiff.settings.shape import (
 from jaxstiff.solvers.base import SOLVERS, check_options
 from jaxstiff.solvers.problem import content_seed
 from jaxstiff.stiffness.core import check_task_feasible, task_rows
-from jaxstiff.stiffness.criteria import get_criterion
+from jaxstiff.stiffness.criteria import f1, get_criterion
 
 __all__ = [
     "ShapeInputs",
@@ -353,6 +353,11 @@ def check_inputs(
     ratio = ratio_per_path(values["ratio"], B)
     m = 2 if task == "xy" else 3
     kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)
+    if crit_fn is f1 and c == 0.0:
+        raise ValueError(
+            "c must be > 0 for criterion f1: with c = 0, f1 = (alpha + c) r / min(rho, r) is 0 wherever "
+            "alpha = 0, whatever the ratio, so the ratio R would not be asked for (default c = 0.01)"
+        )
     options = _with_kj_unit(solver, options, kmin, kmax)
     dq, dk, per_m = _rate_limits(values, base, path, n)
     _check_planar(path, task)

@@ -72,7 +72,7 @@ def check_out_file(out: str, flag: str = "--out") -> str:
             f"{flag}: {os.path.abspath(out)} is a folder; give a file name inside it, like "
             f"{os.path.join(out, 'result.npz')}"
         )
-    name = out if out.endswith(".npz") else out + ".npz"
+    name = out if out.lower().endswith(".npz") else out + ".npz"  # o.NPZ is a file name already
     if not out.strip() or os.path.basename(name) == ".npz" or out.endswith(("/", os.sep)):
         raise ValueError(f"{flag}: expected a file name like result.npz, got {out!r}")
     path = os.path.abspath(name)

@@ -100,11 +100,28 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 _NO_COMPILATION = ("view", "plot", "export")
 
 
+def _check_jax_backend() -> None:
+    """A JAX that cannot start its backend (``JAX_PLATFORMS=cuda`` without a GPU plugin, say) fails
+    deep inside JAX with a bare AssertionError at the first array: say so in one line instead."""
+    import jax
+
+    try:
+        jax.devices()
+    except Exception as e:  # noqa: BLE001 - whatever JAX raises, the message below is the useful one
+        wanted = os.environ.get("JAX_PLATFORMS")
+        detail = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ValueError(
+            f"JAX could not start a backend (JAX_PLATFORMS={wanted!r}): {detail}; unset JAX_PLATFORMS to "
+            "run on the CPU, or install the JAX plugin for that platform (pip install 'jaxstiff[gpu]')"
+        ) from None
+
+
 def _run_command(args: argparse.Namespace) -> int:
     """The command, with the compilation cache of the global flags turned on before it (so its first
     compilation can use it), and its compile time on stderr afterwards (unless ``--quiet``)."""
     if args.command in _NO_COMPILATION:
         return int(args._run(args) or 0)
+    _check_jax_backend()
     import time
 
     from ..runtime.compile_cache import CompileClock, compile_cache_flags

@@ -37,7 +37,8 @@ def _num(text: Any, flag: str, cast: Any = float) -> Any:
     try:
         return cast(text)
     except (TypeError, ValueError):
-        raise ValueError(f"{flag}: expected a number, got {text!r}") from None
+        what = "an integer" if cast is int else "a number"
+        raise ValueError(f"{flag}: expected {what}, got {text!r}") from None
 
 
 def _nums(text: str | None, flag: str) -> list[float] | None:

@@ -33,7 +33,13 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         "0, in the order given, as the file's first axis). Default: the shipped "
         "default path (jaxstiff.paths.default_path)",
     )
-    p.add_argument("--criterion", default=_S.criterion, help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)")
+    p.add_argument(
+        "--criterion",
+        default=_S.criterion,
+        type=str.lower,  # F2 is f2
+        choices=("f1", "f2"),
+        help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)",
+    )
     p.add_argument("--ratio", default=_S.ratio, metavar="R", help=setting_help(ShapeSettings, "ratio", extra=", > 1"))
     p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)")
     p.add_argument(

@@ -20,7 +20,7 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
         FileNotFoundError: the target folder does not exist.
     """
     file = os.fspath(file)
-    if not file.endswith(".npz"):
+    if not file.lower().endswith(".npz"):  # x.NPZ is taken as it is (numpy would write x.NPZ.npz)
         file = file + ".npz"
     # numpy's stub lets **arrays bind savez's allow_pickle (bool); no result key has that name
     return atomic_write(file, lambda fh: np.savez(fh, **arrays), binary=True)  # pyright: ignore[reportArgumentType]

@@ -152,6 +152,9 @@ class Progress:
     def __exit__(
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
+        if exc_type is not None and self.n == 0 and self._bar is None:
+            # an error before any unit was done (a bad input): its message alone, no "0/60 in 0.0 s"
+            self._closed = True
         self.close()
 
 

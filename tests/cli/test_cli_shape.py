@@ -152,6 +152,8 @@ def _bad(tmp_path, name, text):
             "is a folder; give a CSV file",
         ),  # was "not found"  # was written beside it as <folder>.npz
         (lambda t: ["--out", "/proc/x.npz"], "cannot write into folder /proc"),  # found before the work
+        (lambda t: ["--criterion", "f1", "--c", "0"], "c must be > 0 for criterion f1"),  # ran, ignoring R
+        (lambda t: ["--solver", "pgd", "--starts", "2.5"], "--starts: expected an integer, got '2.5'"),
     ],
 )
 def test_bad_input_one_line_exit_2_no_file(tmp_path, capsys, args, match):
@@ -388,3 +390,37 @@ def test_a_signal_while_the_command_starts_up_stops_it():
         "assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL\n"
     )
     assert subprocess.run([sys.executable, "-c", lib], capture_output=True, timeout=120).returncode == 0
+
+
+def test_a_bad_input_prints_no_progress_line_and_npz_in_capitals_is_kept(tmp_path, small_csv, capsys):
+    """Without --quiet a refused input printed 'shape: 0/60 waypoints in 0.0 s' before its error;
+    --out r.NPZ wrote r.NPZ.npz (numpy's suffix test is case-sensitive); --criterion F2 is f2."""
+    assert main(["shape", "--kmin", "10", "--kmax", "5", "--out", str(tmp_path / "x.npz")]) == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == [
+        "jaxstiff: error: need finite 0 < kmin < kmax (Nm/rad), got kmin=10.0, kmax=5.0"
+    ]
+    (tmp_path / "o").mkdir()
+    out = tmp_path / "o" / "r.NPZ"
+    argv = ["shape", "--path", str(small_csv), "--criterion", "F2", "--out", str(out), "--quiet"]
+    assert main(argv) == 0
+    assert sorted(os.listdir(tmp_path / "o")) == ["r.NPZ"]
+    assert jaxstiff.ShapeResult.load(out).meta["criterion"] == "f2"
+
+
+def test_a_backend_jax_cannot_start_is_one_line(tmp_path):
+    """JAX_PLATFORMS naming a platform JAX cannot start gave a 59-line traceback ending in a bare
+    AssertionError from inside JAX (exit 1); now one line naming the setting, exit 2, no file."""
+    env = {**os.environ, "JAX_PLATFORMS": "nosuchplatform"}
+    out = tmp_path / "r.npz"
+    p = subprocess.run(
+        [sys.executable, "-m", "jaxstiff", "shape", "--out", str(out)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert p.returncode == 2, p.stderr
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 1 and "JAX could not start a backend (JAX_PLATFORMS='nosuchplatform')" in lines[0], p.stderr
+    assert not out.exists()
