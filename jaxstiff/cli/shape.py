@@ -240,12 +240,20 @@ def _report(args: argparse.Namespace, res: ShapeResult, written: str) -> int:
     # the first waypoint has no rate limit (unless --first-rate-limit): if it was reached and later
     # ones were not, the limits per waypoint are the likelier cause
     after_first = bool(np.all(usable[:, 0])) and not args.first_rate_limit
-    hint = (
-        "the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
-        "tight for the waypoint spacing, or the path leaves the robot's reach"
-        if after_first
-        else "check the path's units and the robot's reach"
-    )
+    if after_first:
+        hint = (
+            "the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
+            "tight for the waypoint spacing, or the path leaves the robot's reach"
+        )
+    elif args.first_rate_limit:
+        # the first waypoint is held within one rate step of the start state as well
+        hint = (
+            "with --first-rate-limit the first waypoint must be within one rate step (--dq-deg, --dk) of "
+            "the start state (--q0, or IK to the first waypoint): start on the path, or drop the flag; "
+            "else check the path's units and the robot's reach"
+        )
+    else:
+        hint = "check the path's units and the robot's reach"
     print(
         f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
         f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
