@@ -47,6 +47,8 @@ def parse_locks(items: list[str] | None) -> dict[str, float]:
         return out
     for item in items or []:
         name, sep, value = item.partition("=")
+        if item.strip().lower() == "none":
+            raise ValueError("--lock none (no joint locked) cannot be combined with other --lock JOINT=RAD")
         if not sep or not name:
             raise ValueError(f"--lock expects JOINT=RAD, got {item!r}")
         if name in out:

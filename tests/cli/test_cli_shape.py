@@ -139,6 +139,7 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--dk", "-2"], "--dk must be >= 0"),
         (lambda t: ["--lock", "elbow=0"], "unknown joint 'elbow'"),
         (lambda t: ["--lock", "lwr_a7"], "JOINT=RAD"),
+        (lambda t: ["--lock", "none", "--lock", "lwr_a7=0"], "--lock none (no joint locked) cannot be combined"),
         (lambda t: ["--q0", "0.1,0.2,0.3"], "--q0 needs 7 values"),
         (lambda t: ["--q0", "3.5,0,0,0,0,0,0"], "outside its limits"),
         (lambda t: ["--kj0", "500"], "outside"),
