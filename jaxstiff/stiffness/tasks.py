@@ -107,7 +107,8 @@ def check_task_feasible(robot: Chain, task: str, *, motion: bool = False, locked
         hint = (
             f"use task {ok[0]!r} ({'position only' if ok[0] == 'xyz' else 'the x and y rows only'})"
             if ok
-            else "task 'xy' needs a chain that moves in the base xy plane"
+            else "no smaller task fits either (task 'xy' needs at least 2 joints with a spring that move the "
+            "TCP in the base xy plane)"
         )
         if not robot.free.all():
             hint += ", or unlock joints"

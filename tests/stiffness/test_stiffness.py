@@ -510,3 +510,15 @@ def test_concrete_non_positive_kj_is_refused_by_name(fn):
             f(J, bad, task="xyz")
     traced = jax.jit(lambda k: f(J, k, task="xyz"))(jnp.asarray(np.where(np.arange(7) == 2, 0.0, kj)))
     assert np.all(np.isfinite(np.asarray(traced)))
+
+
+def test_task_check_hint_when_no_task_fits():
+    """Every joint locked (rigid): no task has a spring, so the hint must not send the user to task
+    'xy' as if it would work (it said "task 'xy' needs a chain that moves in the base xy plane"
+    for the planar 3R, which does move in that plane); it says no smaller task fits and why."""
+    from jaxstiff.stiffness.core import check_task_feasible
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r", locked={"joint_1": 0.0, "joint_2": 0.3, "joint_3": 0.2})
+    with pytest.raises(ValueError, match=r"only 0 joint\(s\) have a spring.*no smaller task fits either") as e:
+        check_task_feasible(robot, "xyz")
+    assert "use task" not in str(e.value)
