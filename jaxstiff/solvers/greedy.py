@@ -246,6 +246,8 @@ def _rescue_starts(
     usual starts are the nominal posture's neighbours with one shared mid-range stiffness; f1 and
     f2's minima may lie in another IK branch, or have joints near kmin. Seeded by the waypoint's
     own data (``ref``: the reference state), so a path gets the same starts anywhere in a batch."""
+    import jax
+
     from jaxstiff.ik import ik_position
 
     robot = problem.robot
@@ -258,7 +260,8 @@ def _rescue_starts(
     out = []
     for _ in range(count):
         q = np.where(robot.free, rng.uniform(lo, hi), np.nan_to_num(robot.locked_values))
-        q, _ = ik_position(robot, target, q, planar=problem.task == "xy")
+        with jax.enable_x64(True):  # as the usual starts' IK (shape runs the solvers so; a direct call may not)
+            q, _ = ik_position(robot, target, q, planar=problem.task == "xy")
         kj = np.exp(rng.uniform(klo, khi))
         out.append(clip_to_box(np.r_[np.asarray(q, float)[list(problem.free_idx)], kj], lb, ub))
     return out
