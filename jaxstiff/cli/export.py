@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from .common import command
@@ -18,12 +19,23 @@ def _add_export(p: argparse.ArgumentParser) -> Any:
 
     def run(args: argparse.Namespace) -> int:
         from jaxstiff.view.data import load_view_data
-        from jaxstiff.view.export import export_csv
+        from jaxstiff.view.export import export_csv, unusable_rows
 
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         print(
             f"wrote {export_csv(data, args.csv, path=args.path)} ({data.B if args.path is None else 1} x {data.P} rows)"
         )
+        bad = unusable_rows(data, args.path)
+        if bad:
+            from jaxstiff.results.target import compress_ranges
+
+            where = "; ".join(f"path {b}: waypoints {compress_ranges(v)}" for b, v in bad.items())
+            print(
+                f"jaxstiff: warning: {sum(len(v) for v in bad.values())} rows are not usable solutions (status "
+                f"3-5: unreachable, non-finite or not run; they hold the reference state): {where}; filter on "
+                "the status column before commanding a robot",
+                file=sys.stderr,
+            )
         return 0
 
     return run

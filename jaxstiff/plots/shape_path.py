@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from jaxstiff.plots.base import draw_scale_bar, nice_value, pyplot, save_figure
+from jaxstiff.results.status import is_usable
 
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
@@ -195,6 +196,29 @@ def _drawn_waypoints(P: int, every: int, waypoints: Sequence[int] | None) -> tup
     return idx, idx, max(gap, 1.0)
 
 
+def _usable_only(res: ShapeResult, b: int, ok: np.ndarray) -> ShapeResult:
+    """``res`` with path ``b``'s values at unusable waypoints (status 3-5: unreachable, non-finite,
+    not run) set to NaN, so the panels leave gaps there instead of drawing the reference state the
+    file holds for them as if it were a solution."""
+    out = {}
+    for key in ("q", "kj", "kj_scaled", "cms", "criterion", "alpha_deg", "ratio"):
+        a = np.array(getattr(res, key), dtype=float, copy=True)
+        a[b, ~ok] = np.nan
+        out[key] = a
+    return _Overlay(res, out)  # type: ignore[return-value]
+
+
+class _Overlay:
+    """``base`` with some attributes replaced (works for a ShapeResult and any look-alike)."""
+
+    def __init__(self, base: Any, values: dict[str, Any]):
+        self._base = base
+        self.__dict__.update(values)
+
+    def __getattr__(self, key: str) -> Any:
+        return getattr(self._base, key)
+
+
 def figure_shape_path(
     res: ShapeResult,
     robot: Chain,
@@ -213,7 +237,8 @@ def figure_shape_path(
     outlines projected on the xy plane every ``every`` waypoints.
 
     Args:
-        res: a :class:`jaxstiff.results.ShapeResult` of a task with a 3x3 K_T ("full" or "xyz").
+        res: a :class:`jaxstiff.results.ShapeResult` (task "xy": the ellipses lie in the path's
+            plane, drawn flat in (f)). Unusable waypoints (status 3-5) are left out of every panel.
         robot: the robot it was computed for.
         file: PNG to write (cropped to the drawing).
         title: figure title.
@@ -228,6 +253,11 @@ def figure_shape_path(
         ValueError: if a waypoint index is outside ``0..P-1`` or the list is empty.
     """
     idx, idx3, gap = _drawn_waypoints(res.P, every, waypoints)
+    status = getattr(res, "status", None)  # a hand-made look-alike may have none: all usable
+    ok = np.ones(res.P, bool) if status is None else is_usable(np.asarray(status)[b])
+    if not ok.any():
+        raise ValueError(f"path {b} has no usable waypoint (status codes 3-5 only): nothing to plot")
+    given, res = res, _usable_only(res, b, ok)
     plt = pyplot()
     wp = np.arange(res.P)
     fig = plt.figure(figsize=(17, 14))
@@ -256,11 +286,20 @@ def figure_shape_path(
     _panel_alpha_ratio(fig.add_subplot(row[0, 0]), wp, res, b, float(res.meta["ratio"]))
     _panel_cms(fig.add_subplot(row[0, 1]), wp, res, b)
 
-    lam, V = stiffness_axes(robot, res.q[b], res.kj_scaled[b], res.meta["task"])
+    lam, V = stiffness_axes(robot, given.q[b], given.kj_scaled[b], res.meta["task"])
+    if lam.shape[-1] == 2:
+        # task "xy": K_T is 2 x 2, an ellipse in the path's plane; drawn as a flat ellipsoid (third
+        # semi-axis 0, along z) so that (f) and (g) need no case of their own
+        lam = np.concatenate([lam, np.zeros_like(lam[:, :1])], axis=1)
+        V3 = np.zeros(V.shape[:-2] + (3, 3))
+        V3[:, :2, :2], V3[:, 2, 2] = V, 1.0
+        V = V3
+    lam = np.where(ok[:, None], lam, np.nan)  # no ellipse where no usable solution was found
     spacing = float(np.median(np.linalg.norm(np.diff(res.target[b], axis=0), axis=1)))
-    unit = lam / lam[:, :1].max()  # axes relative to the largest major axis on the path
+    unit = lam / np.nanmax(lam[:, :1])  # axes relative to the largest major axis on the path
     size = 0.5 * gap * spacing  # the stiffest semi-axis in (g), m: half the gap between drawn waypoints
-    n_per_m = float(lam[:, 0].max()) / size  # N/m per metre of drawing in (g); (f) draws twice as large
+    n_per_m = float(np.nanmax(lam[:, 0])) / size  # N/m per metre of drawing in (g); (f) draws twice as large
+    idx, idx3 = idx[ok[idx]], idx3[ok[idx3]]
     _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:4], projection="3d"), res, b, unit, V, idx3, 2 * size, n_per_m / 2)
     _panel_projection_xy(fig.add_subplot(gs[2, 4:6]), res, b, unit, V, idx, size, n_per_m)
 

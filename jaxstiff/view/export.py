@@ -9,7 +9,11 @@ One row per waypoint (shape) or step (csc) of every path; columns, in this order
   ``Nm_per_rad`` (``N_per_m`` for a prismatic joint); ``inf`` for a rigid locked joint;
 * ``kj_scaled_<joint>_<unit>`` (shape only): after CMS, what the controller should command;
 * ``tcp_x_m``, ``tcp_y_m``, ``tcp_z_m``: the stored TCP position, m, in the robot's base frame
-  (the URDF's base link), the TCP being the tip link plus the result's tcp offset.
+  (the URDF's base link), the TCP being the tip link plus the result's tcp offset;
+* ``status``: the waypoint's or step's status code (:mod:`jaxstiff.results.status`; csc: its
+  flags). A shape row with status 3-5 (unreachable, non-finite, not run) holds the path's
+  reference state, not a solution: a controller must not command it (:func:`unusable_rows`
+  names them; ``jaxstiff export`` warns).
 
 Values are written with 17 significant digits, so a round trip is exact.
 """
@@ -24,7 +28,7 @@ import numpy as np
 
 from jaxstiff.view.data import ViewData, load_view_data
 
-__all__ = ["export_csv", "read_csv", "csv_columns"]
+__all__ = ["export_csv", "read_csv", "csv_columns", "unusable_rows"]
 
 
 def _units(data: ViewData) -> tuple[list[str], list[str]]:
@@ -40,7 +44,19 @@ def csv_columns(data: ViewData) -> list[str]:
     cols += [f"kj_{j}_{u}" for j, u in zip(names, ku, strict=True)]
     if data.kind == "shape":
         cols += [f"kj_scaled_{j}_{u}" for j, u in zip(names, ku, strict=True)]
-    return cols + ["tcp_x_m", "tcp_y_m", "tcp_z_m"]
+    return cols + ["tcp_x_m", "tcp_y_m", "tcp_z_m", "status"]
+
+
+def unusable_rows(data: ViewData, path: int | None = None) -> dict[int, np.ndarray]:
+    """Shape results: per path (only those with any), the waypoints whose status is 3-5 (not a
+    usable solution); {} for csc results."""
+    if data.kind != "shape":
+        return {}
+    from jaxstiff.results.status import is_usable
+
+    bad = ~is_usable(np.asarray(data.arrays["status"]))
+    paths = range(data.B) if path is None else [path]
+    return {b: np.flatnonzero(bad[b]) for b in paths if bad[b].any()}
 
 
 def export_csv(result: ViewData | str | os.PathLike, out: str | os.PathLike, path: int | None = None) -> str:
@@ -64,7 +80,8 @@ def export_csv(result: ViewData | str | os.PathLike, out: str | os.PathLike, pat
     for b in paths:
         for p in range(data.P):
             vals = [*data.q[b, p], *kj_raw[b, p]] + ([*data.kj[b, p]] if data.kind == "shape" else [])
-            w.writerow([b, p, *(f"{v:.17g}" for v in [*vals, *data.position[b, p]])])
+            st = int(data.arrays["status"][b, p])
+            w.writerow([b, p, *(f"{v:.17g}" for v in [*vals, *data.position[b, p]]), st])
     return atomic_write_text(out, buf.getvalue())
 
 
@@ -75,4 +92,5 @@ def read_csv(file: str | os.PathLike) -> dict[str, np.ndarray]:
     if not rows:
         raise ValueError(f"{file}: empty CSV")
     head, body = rows[0], np.asarray(rows[1:], dtype=float).reshape(-1, len(rows[0]))
-    return {c: (body[:, i].astype(int) if c in ("path", "index") else body[:, i]) for i, c in enumerate(head)}
+    ints = ("path", "index", "status")
+    return {c: (body[:, i].astype(int) if c in ints else body[:, i]) for i, c in enumerate(head)}

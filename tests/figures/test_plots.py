@@ -211,3 +211,31 @@ def test_tables(tmp_path):
     with pytest.raises(ValueError, match="no rows"):
         plots.text_table([], width=4)
     assert sorted(os.listdir(tmp_path)) == ["summary.csv"]
+
+
+@pytest.mark.slow
+def test_figure_shape_path_planar_result_and_unusable_waypoints(tmp_path):
+    """A task 'xy' result (2 x 2 K_T) is drawn (its ellipses flat in the path's plane; it failed
+    with a broadcast error, found by an independent check); unusable waypoints are gaps in the
+    panels (NaN), not the reference state the file holds for them; a path without any usable
+    waypoint is refused by name."""
+    import jaxstiff
+    from jaxstiff.plots.shape_path import _usable_only
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    pts = np.c_[np.linspace(1.50, 1.58, 6), np.full(6, 0.5), np.zeros(6)]
+    res = jaxstiff.shape(robot, jaxstiff.Path(pts), "f2", 5.0, task="xy")
+    file = plots.figure_shape_path(res, robot, tmp_path / "xy.png", "xy", every=2, dpi=30)
+    from PIL import Image
+
+    img = np.asarray(Image.open(file).convert("L"), float)
+    assert img.std() > 10.0  # not blank
+    ok = np.array([True, True, False, True, False, True])
+    masked = _usable_only(res, 0, ok)
+    assert np.all(np.isnan(masked.alpha_deg[0, ~ok])) and np.array_equal(masked.alpha_deg[0, ok], res.alpha_deg[0, ok])
+    assert masked.target is res.target  # what is not masked is the result's own
+    bad = types.SimpleNamespace(**{k: getattr(res, k) for k in ("P", "n", "meta", "q", "kj", "kj_scaled", "cms")})
+    bad.status = np.full((1, 6), 3)
+    with pytest.raises(ValueError, match="path 0 has no usable waypoint"):
+        plots.figure_shape_path(bad, robot, tmp_path / "none.png", "none")
+    assert not (tmp_path / "none.png").exists()

@@ -25,7 +25,8 @@ def test_csv_round_trip_shape(shape_file, tmp_path, lwr) -> None:
     names = list(res.joint_names)
     assert list(table) == ["path", "index"] + [f"q_{j}_rad" for j in names] + [f"kj_{j}_Nm_per_rad" for j in names] + [
         f"kj_scaled_{j}_Nm_per_rad" for j in names
-    ] + ["tcp_x_m", "tcp_y_m", "tcp_z_m"]
+    ] + ["tcp_x_m", "tcp_y_m", "tcp_z_m", "status"]
+    np.testing.assert_array_equal(table["status"], res.status.reshape(-1))
     q = np.stack([table[f"q_{j}_rad"] for j in names], axis=-1)
     np.testing.assert_array_equal(q, res.q.reshape(-1, res.n))
     np.testing.assert_array_equal(np.stack([table[f"kj_scaled_{j}_Nm_per_rad"] for j in names], -1), res.kj_scaled[0])
@@ -113,3 +114,23 @@ def test_result_summaries_are_short(shape_file) -> None:
     fields.update(q=z["q"], kj=z["kj"], status=np.zeros((B, P), int), u_start=np.ones(B), frobenius_start=np.ones(B))
     text = str(jaxstiff.CSCResult(**fields))
     assert len(text.splitlines()) == 1 and f"{P} steps" in text and "ok" in text
+
+
+def test_export_names_unusable_rows(shape_file, tmp_path, capsys) -> None:
+    """Rows of waypoints without a usable solution (status 3-5) were written like solved ones, with
+    nothing to tell them apart (found by an independent check): the status column carries the code
+    and the command warns, naming them; a file without such rows gets no warning."""
+    res = jaxstiff.ShapeResult.load(shape_file)
+    status = np.array(res.status, copy=True)
+    status[0, 1:3] = (3, 5)
+    bad = tmp_path / "bad.npz"
+    fields = {f: getattr(res, f) for f in res.arrays()} | {"status": status, "meta": res.meta}
+    jaxstiff.ShapeResult(**fields).save(bad)
+    out = str(tmp_path / "bad.csv")
+    capsys.readouterr()
+    assert main(["export", str(bad), "--csv", out]) == 0
+    err = capsys.readouterr().err
+    assert "2 rows are not usable solutions" in err and "path 0: waypoints 1-2" in err, err
+    np.testing.assert_array_equal(read_csv(out)["status"], status.reshape(-1))
+    assert main(["export", shape_file, "--csv", str(tmp_path / "ok.csv")]) == 0
+    assert "warning" not in capsys.readouterr().err
