@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.model.chain import Chain
-from jaxstiff.results import ShapeResult, robot_from_meta
+from jaxstiff.results import ShapeResult, is_usable, robot_from_meta
 from jaxstiff.stiffness import task_rows
 
 __all__ = ["LOCKED_MODES", "locked_joint_mode", "spring_mask", "SimCase", "select_waypoints", "cases_from_result"]
@@ -116,7 +116,8 @@ def cases_from_result(
 
     Args:
         result: a :class:`ShapeResult` or its ``.npz`` file.
-        waypoints: see :func:`select_waypoints` (default: 5 evenly spaced per path).
+        waypoints: see :func:`select_waypoints` (default: 5 evenly spaced per path), taken among
+            the usable waypoints (status 0-2) only: a status 3-5 row holds no solution.
         scaled: use ``kj_scaled`` (after CMS) instead of ``kj``; CMS scales every spring by the same
             factor, so either checks the same mapping.
         urdf: the robot's URDF if the recorded path is not valid here (its sha256 must match).
@@ -132,8 +133,19 @@ def cases_from_result(
         raise ValueError("result meta has no 'task'; not a shape result?")
     mode = locked_joint_mode(meta)
     kj = res.kj_scaled if scaled else res.kj
-    return [
-        SimCase(robot, res.q[b, p], kj[b, p], str(task), mode, label=f"b{b} p{p}")
-        for b in range(res.B)
-        for p in select_waypoints(res.P, waypoints)
-    ]
+    usable = is_usable(np.asarray(res.status))
+    cases = []
+    for b in range(res.B):
+        good = np.flatnonzero(usable[b])
+        if isinstance(waypoints, (int, np.integer)) and not isinstance(waypoints, bool):
+            # N evenly spaced among the usable waypoints (a status 3-5 row holds no solution)
+            picks = [int(good[i]) for i in select_waypoints(len(good), waypoints)] if len(good) else []
+        else:
+            picks = [p for p in select_waypoints(res.P, waypoints) if usable[b, p]]
+        cases += [SimCase(robot, res.q[b, p], kj[b, p], str(task), mode, label=f"b{b} p{p}") for p in picks]
+    if not cases:
+        raise ValueError(
+            "no usable waypoint (status 0-2) among those selected: the check compares solutions, and "
+            "status 3-5 rows hold the reference state"
+        )
+    return cases

@@ -55,3 +55,23 @@ def testprobe_directions_are_unit_and_span_the_task():
         axes, extra = probe_directions(task)
         assert axes.shape == (k, 6) and np.linalg.matrix_rank(axes) == k
         assert np.allclose(np.linalg.norm(extra, axis=1), 1.0)
+
+
+def test_cases_skip_unusable_waypoints(tmp_path):
+    """A status 3-5 row holds the reference state, not a solution: check-sim picked such rows and
+    reported them as agreeing (found by an independent check). N evenly spaced cases are taken among
+    the usable waypoints, a given list loses its unusable entries, and none usable is an error."""
+    from jaxstiff.sim.setup import cases_from_result
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    pts = np.c_[np.linspace(1.50, 1.58, 6), np.full(6, 0.5), np.zeros(6)]
+    res = jaxstiff.shape(robot, jaxstiff.Path(pts), "f2", 5.0, task="xy")
+    fields = {f: getattr(res, f) for f in res.arrays()}
+    status = np.array(res.status, copy=True)
+    status[0, [0, 2, 5]] = (3, 4, 5)
+    bad = jaxstiff.ShapeResult(**(fields | {"status": status, "meta": res.meta}))
+    assert [c.label for c in cases_from_result(bad, 6)] == ["b0 p1", "b0 p3", "b0 p4"]
+    assert [c.label for c in cases_from_result(bad, 2)] == ["b0 p1", "b0 p4"]
+    assert [c.label for c in cases_from_result(bad, [0, 1, 5])] == ["b0 p1"]
+    with pytest.raises(ValueError, match="no usable waypoint"):
+        cases_from_result(bad, [0, 2])
