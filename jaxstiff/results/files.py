@@ -226,6 +226,8 @@ class ShapeResult(PathGrid):
         names = [f.name for f in dataclasses.fields(ShapeResult)]
         missing = [k for k in names if k not in data]
         if missing:
+            if {"frobenius", "tracking_error"} <= set(data):  # what a CSC rollout's file holds
+                raise ValueError(f"{file}: a CSC result (jaxstiff csc); this needs a shape result (jaxstiff shape)")
             raise ValueError(f"{file}: not a jaxstiff result file, missing keys: {', '.join(missing)}")
         try:
             meta = json.loads(str(data["meta"]))

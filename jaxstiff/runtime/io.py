@@ -166,6 +166,8 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
     folder = os.path.dirname(os.path.abspath(file))
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"output folder does not exist: {folder}")
+    if os.path.isdir(file):  # before any work on the temporary file, whose name would show in the error
+        raise IsADirectoryError(f"{os.path.abspath(file)} is a folder; give a file name inside it")
     if folder not in _CLEANED:
         clean_stale_temporaries(folder)
         _CLEANED.add(folder)

@@ -134,3 +134,21 @@ def test_export_names_unusable_rows(shape_file, tmp_path, capsys) -> None:
     np.testing.assert_array_equal(read_csv(out)["status"], status.reshape(-1))
     assert main(["export", shape_file, "--csv", str(tmp_path / "ok.csv")]) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+def test_wrong_kind_of_file_and_output_folders_are_named(shape_file, csc_file, tmp_path, capsys) -> None:
+    """A CSC file where a shape result is needed says so (it listed 12 missing keys); an output
+    that is a folder is named without the temporary file's name (it showed '[Errno 21] ...
+    .tmp-xxxx -> out'); check-sim's --json folder is checked before the simulation runs."""
+    with pytest.raises(ValueError, match=r"a CSC result \(jaxstiff csc\); this needs a shape result"):
+        jaxstiff.ShapeResult.load(csc_file)
+    folder = tmp_path / "out"
+    folder.mkdir()
+    capsys.readouterr()
+    assert main(["export", shape_file, "--csv", str(folder)]) == 2
+    err = capsys.readouterr().err
+    assert f"{folder} is a folder; give a file name inside it" in err and ".tmp" not in err, err
+    assert main(["check-sim", shape_file, "--json", str(tmp_path / "nodir" / "x.json")]) == 2
+    err = capsys.readouterr().err
+    assert "is in a folder that does not exist" in err and "agree" not in capsys.readouterr().out
+    assert os.listdir(folder) == []
