@@ -13,7 +13,15 @@ import numpy as np
 from jaxstiff.cli.common import parse_floats
 from jaxstiff.settings.csc import CSCSettings
 
-__all__ = ["M_TASK", "SETTING_FLAGS", "parse_numbers", "parse_kxd", "add_setting_flags", "settings_from_args"]
+__all__ = [
+    "M_TASK",
+    "SETTING_FLAGS",
+    "parse_numbers",
+    "parse_kxd",
+    "add_setting_flags",
+    "settings_from_args",
+    "flag_message",
+]
 
 M_TASK = {2: "xy", 3: "xyz", 6: "full"}  #: the task of an m x m K_xd when --task is not given
 
@@ -102,10 +110,10 @@ def settings_from_args(args: argparse.Namespace) -> CSCSettings:
     try:
         return CSCSettings(**{name: getattr(args, name) for name in SETTING_FLAGS})
     except ValueError as e:
-        raise ValueError(_flag_message(str(e))) from None
+        raise ValueError(flag_message(str(e))) from None
 
 
-def _flag_message(msg: str) -> str:
+def flag_message(msg: str) -> str:
     """``csc.kmin (Nm/rad) must be ...`` -> ``--kmin must be ... (Nm/rad)``: a field's name becomes
     its flag, and its unit, where the message gives it right after the name, moves to the end.
     Parentheses that are not the field's unit (values, as in ``csc.kmax (5) must be >= csc.kmin

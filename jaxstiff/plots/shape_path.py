@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
     from jaxstiff.results.files import ShapeResult
 
-__all__ = ["stiffness_axes", "figure_shape_path", "rate_limited_joints", "figure_turning"]
+__all__ = ["stiffness_axes", "figure_shape_path", "rate_limited_joints", "figure_turning", "usable_only"]
 
 
 def stiffness_axes(
@@ -196,7 +196,7 @@ def _drawn_waypoints(P: int, every: int, waypoints: Sequence[int] | None) -> tup
     return idx, idx, max(gap, 1.0)
 
 
-def _usable_only(res: ShapeResult, b: int, ok: np.ndarray) -> ShapeResult:
+def usable_only(res: ShapeResult, b: int, ok: np.ndarray) -> ShapeResult:
     """``res`` with path ``b``'s values at unusable waypoints (status 3-5: unreachable, non-finite,
     not run) set to NaN, so the panels leave gaps there instead of drawing the reference state the
     file holds for them as if it were a solution."""
@@ -257,7 +257,7 @@ def figure_shape_path(
     ok = np.ones(res.P, bool) if status is None else is_usable(np.asarray(status)[b])
     if not ok.any():
         raise ValueError(f"path {b} has no usable waypoint (status codes 3-5 only): nothing to plot")
-    given, res = res, _usable_only(res, b, ok)
+    given, res = res, usable_only(res, b, ok)
     plt = pyplot()
     wp = np.arange(res.P)
     fig = plt.figure(figsize=(17, 14))

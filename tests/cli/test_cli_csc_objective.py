@@ -61,11 +61,11 @@ def test_csc_settings_errors_read_as_flags(settings, expected):
     unit to the end; it read '--beta or rad per step (constant; ...)) must be ... (1 (adaptive)' and
     '--kmax must be >= --kmin (Nm/rad) (5)' when units held parentheses or values looked like units;
     dimensionless fields ('1') show no unit."""
-    from jaxstiff.cli.csc_flags import _flag_message
+    from jaxstiff.cli.csc_flags import flag_message
     from jaxstiff.settings.csc import CSCSettings
 
     with pytest.raises(ValueError) as e:
         CSCSettings(**settings)
-    msg = _flag_message(str(e.value))
+    msg = flag_message(str(e.value))
     assert msg.startswith(expected), msg
     assert "csc." not in msg and not msg.endswith("(1)"), msg

@@ -220,7 +220,7 @@ def test_figure_shape_path_planar_result_and_unusable_waypoints(tmp_path):
     panels (NaN), not the reference state the file holds for them; a path without any usable
     waypoint is refused by name."""
     import jaxstiff
-    from jaxstiff.plots.shape_path import _usable_only
+    from jaxstiff.plots.shape_path import usable_only
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     pts = np.c_[np.linspace(1.50, 1.58, 6), np.full(6, 0.5), np.zeros(6)]
@@ -231,7 +231,7 @@ def test_figure_shape_path_planar_result_and_unusable_waypoints(tmp_path):
     img = np.asarray(Image.open(file).convert("L"), float)
     assert img.std() > 10.0  # not blank
     ok = np.array([True, True, False, True, False, True])
-    masked = _usable_only(res, 0, ok)
+    masked = usable_only(res, 0, ok)
     assert np.all(np.isnan(masked.alpha_deg[0, ~ok])) and np.array_equal(masked.alpha_deg[0, ok], res.alpha_deg[0, ok])
     assert masked.target is res.target  # what is not masked is the result's own
     bad = types.SimpleNamespace(**{k: getattr(res, k) for k in ("P", "n", "meta", "q", "kj", "kj_scaled", "cms")})
