@@ -100,20 +100,27 @@ def _show_warning(message, category, filename, lineno, file=None, line=None):
 _NO_COMPILATION = ("view", "plot", "export")
 
 
-def _check_jax_backend() -> None:
-    """A JAX that cannot start its backend (``JAX_PLATFORMS=cuda`` without a GPU plugin, say) fails
-    deep inside JAX with a bare AssertionError at the first array: say so in one line instead."""
-    import jax
-
-    try:
-        jax.devices()
-    except Exception as e:  # noqa: BLE001 - whatever JAX raises, the message below is the useful one
-        wanted = os.environ.get("JAX_PLATFORMS")
-        detail = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-        raise ValueError(
-            f"JAX could not start a backend (JAX_PLATFORMS={wanted!r}): {detail}; unset JAX_PLATFORMS to "
-            "run on the CPU, or install the JAX plugin for that platform (pip install 'jaxstiff[gpu]')"
-        ) from None
+def _backend_failure(exc: BaseException) -> str | None:
+    """The one-line message for an exception raised while JAX started its backend (a platform in
+    ``JAX_PLATFORMS`` it cannot start, say ``cuda`` without the plugin: a bare AssertionError from
+    deep inside JAX), else None. Found from the traceback, not by starting the backend early: the
+    commands choose backend settings (synchronous CPU dispatch) before it starts."""
+    tb = exc.__traceback__
+    while tb is not None:
+        code = tb.tb_frame.f_code
+        if code.co_filename.endswith(os.path.join("jax", "_src", "xla_bridge.py")) and code.co_name in (
+            "backends",
+            "_init_backend",
+            "get_backend",
+        ):
+            wanted = os.environ.get("JAX_PLATFORMS")
+            detail = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            return (
+                f"JAX could not start a backend (JAX_PLATFORMS={wanted!r}): {detail}; unset JAX_PLATFORMS to "
+                "run on the CPU, or install the JAX plugin for that platform (pip install 'jaxstiff[gpu]')"
+            )
+        tb = tb.tb_next
+    return None
 
 
 def _run_command(args: argparse.Namespace) -> int:
@@ -121,7 +128,6 @@ def _run_command(args: argparse.Namespace) -> int:
     compilation can use it), and its compile time on stderr afterwards (unless ``--quiet``)."""
     if args.command in _NO_COMPILATION:
         return int(args._run(args) or 0)
-    _check_jax_backend()
     import time
 
     from ..runtime.compile_cache import CompileClock, compile_cache_flags
@@ -172,6 +178,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except (ValueError, FileNotFoundError, OSError) as exc:
         print(f"jaxstiff: error: {exc}", file=sys.stderr)
+        return 2
+    except (RuntimeError, AssertionError) as exc:
+        msg = _backend_failure(exc)
+        if msg is None:
+            raise
+        print(f"jaxstiff: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         code = interrupt_exit_code()

@@ -409,6 +409,22 @@ def test_a_bad_input_prints_no_progress_line_and_npz_in_capitals_is_kept(tmp_pat
     assert jaxstiff.ShapeResult.load(out).meta["criterion"] == "f2"
 
 
+def test_the_shape_command_runs_jax_with_synchronous_cpu_dispatch(tmp_path, small_csv):
+    """`jaxstiff shape` sets synchronous CPU dispatch before JAX starts its backend (SLSQP's tiny
+    kernels cost twice as much per waypoint with async dispatch); a backend check that started
+    the backend earlier for every command silently undid it (the README job 3.4 -> 6.7-10 ms per
+    waypoint). In a fresh process, as a user runs it: meta records the setting in force."""
+    out = tmp_path / "r.npz"
+    p = subprocess.run(
+        [sys.executable, "-m", "jaxstiff", "shape", "--path", str(small_csv), "--out", str(out), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert p.returncode == 0, p.stderr
+    assert jaxstiff.ShapeResult.load(out).meta["jax_cpu_async_dispatch"] is False
+
+
 def test_a_backend_jax_cannot_start_is_one_line(tmp_path):
     """JAX_PLATFORMS naming a platform JAX cannot start gave a 59-line traceback ending in a bare
     AssertionError from inside JAX (exit 1); now one line naming the setting, exit 2, no file."""
