@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 from typing import Any
 
-from .common import command, parse_floats
+from .common import check_out_path, command, parse_floats
 
 
 def _waypoints(text: str) -> int | list[int]:
@@ -65,10 +64,7 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
         if not 0 < args.tol < 1:
             raise ValueError(f"--tol must be in (0, 1), got {args.tol}")
         if args.json:  # the output's folder before the simulation, not after it
-            folder = os.path.dirname(os.path.abspath(args.json))
-            if os.path.isdir(args.json) or not os.path.isdir(folder):
-                what = "is a folder" if os.path.isdir(args.json) else f"is in a folder that does not exist ({folder})"
-                raise ValueError(f"--json {args.json}: {what}")
+            check_out_path(args.json, "--json")
         enable_x64()
         waypoints = None if args.waypoints.strip().lower() == "all" else _waypoints(args.waypoints)
         cases = cases_from_result(args.result, waypoints, scaled=args.scaled, urdf=args.urdf)

@@ -77,11 +77,16 @@ def check_out_file(out: str, flag: str = "--out") -> str:
     name = out if out.lower().endswith(".npz") else out + ".npz"  # o.NPZ is a file name already
     if not out.strip() or os.path.basename(name) == ".npz" or out.endswith(("/", os.sep)):
         raise ValueError(f"{flag}: expected a file name like result.npz, got {out!r}")
-    path = os.path.abspath(name)
+    return check_out_path(os.path.abspath(name), flag, like=os.path.join(out, "result.npz"))
+
+
+def check_out_path(path: str, flag: str, like: str = "") -> str:
+    """An output file's path (as it will be written), checked before any work: not an existing
+    folder, in an existing folder that can be written into. Returns the absolute path.
+    ``like``: an example file name for the message when ``path`` is a folder."""
+    path = os.path.abspath(path)
     if os.path.isdir(path):
-        raise ValueError(
-            f"{flag}: {path} is a folder; give a file name inside it, like {os.path.join(out, 'result.npz')}"
-        )
+        raise ValueError(f"{flag}: {path} is a folder; give a file name inside it" + (f", like {like}" if like else ""))
     folder = os.path.dirname(path)
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"{flag}: folder does not exist: {folder}")
