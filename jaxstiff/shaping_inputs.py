@@ -28,6 +28,7 @@ from jaxstiff.settings.shape import (
     ratio_per_path,
     shortest_segments,
 )
+from jaxstiff.settings.solvers import OPTIONS_OF, SLSQPOptions
 from jaxstiff.solvers.base import SOLVERS, check_options
 from jaxstiff.solvers.problem import content_seed
 from jaxstiff.stiffness.core import check_task_feasible, task_rows
@@ -254,7 +255,7 @@ def _with_kj_unit(solver: str, options: Mapping[str, Any] | None, kmin: float, k
     option is not given: the solver and the result's meta both get the number it works with."""
     opts = dict(options or {})
     greedy = str(opts.get("warm", "pgd")) if solver == "trajectory" else solver
-    if greedy not in ("slsqp", "slsqp-fd", "hybrid") or opts.get("kj_scale") is not None:
+    if SLSQPOptions not in OPTIONS_OF.get(greedy, ()) or opts.get("kj_scale") is not None:
         return options
     from jaxstiff.solvers.slsqp import kj_unit
 

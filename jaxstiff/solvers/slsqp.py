@@ -60,6 +60,7 @@ __all__ = [
     "judge",
     "not_run_outcomes",
     "kj_unit",
+    "variable_scale",
     "CODE_MEANING",
     "WaypointSolver",
     "REPAIR_POS",
@@ -88,6 +89,15 @@ def kj_unit(kj_scale: float | None, kmin: float | None = None, kmax: float | Non
     if kmax is not None and math.isfinite(kmax):
         return float(kmax)
     return 100.0 * float(kmin) if kmin is not None else 100.0
+
+
+def variable_scale(
+    problem: WaypointProblem, kj_scale: float | None, kj_range: tuple[float, float] | None = None
+) -> np.ndarray:
+    """The scale (nx,) of the variables SLSQP sees, ``y = x / scale``: joints in rad (1), stiffnesses
+    in :func:`kj_unit` (``kj_range`` = ``(kmin, kmax)``); shared by both SLSQP solvers."""
+    unit = kj_unit(kj_scale, *(kj_range or (None, None)))
+    return np.r_[np.ones(problem.n_free), np.full(problem.n_spring, unit)]
 
 
 def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -145,8 +155,7 @@ def make_slsqp_solver(
 
     # SLSQP works on y = x / scale: stiffness in units of kj_scale (Nm/rad), joints in rad; the
     # scaling is applied inside the kernel, so each evaluation is one call and array views.
-    unit = kj_unit(opts["kj_scale"], *(kj_range or (None, None)))
-    scale = np.r_[np.ones(problem.n_free), np.full(problem.n_spring, unit)]
+    scale = variable_scale(problem, opts["kj_scale"], kj_range)
     svec = np.r_[scale, float(opts["f_scale"])]
 
     svec_dev = jnp.asarray(svec)
@@ -213,7 +222,7 @@ def make_slsqp_solver(
             fun,
             x0 / scale,
             jac=True,
-            bounds=Bounds(lb / scale, ub / scale),
+            bounds=Bounds(lb / scale, ub / scale),  # pyright: ignore[reportArgumentType] (stub: float; arrays are documented)
             constraints=[cons],
             method="SLSQP",
             options={"maxiter": iters, "ftol": float(opts["ftol"])},

@@ -27,7 +27,7 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.greedy import Objective, PosAndJac, SolverOutput, WaypointSolver, check_single_start, run_greedy
 from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.solvers.slsqp import check_options, kj_unit
+from jaxstiff.solvers.slsqp import check_options, variable_scale
 
 __all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain", "run_request"]
 
@@ -149,9 +149,7 @@ def make_fd_solver(
     chain = NumpyChain(problem.robot)
     q_of, _ = _split(problem)
     rows = list(problem.pos_rows)
-    scale = np.r_[
-        np.ones(problem.n_free), np.full(problem.n_spring, kj_unit(opts["kj_scale"], *(kj_range or (None, None))))
-    ]
+    scale = variable_scale(problem, opts["kj_scale"], kj_range)
     fscale = float(opts["f_scale"])
 
     def solve(
@@ -169,7 +167,7 @@ def make_fd_solver(
         res = minimize(
             fun,
             x0 / scale,
-            bounds=Bounds(lb / scale, ub / scale),
+            bounds=Bounds(lb / scale, ub / scale),  # pyright: ignore[reportArgumentType] (stub: float; arrays are documented)
             constraints=[{"type": "eq", "fun": con}],
             method="SLSQP",
             options={"maxiter": int(maxiter or opts["maxiter"]), "ftol": float(opts["ftol"])},
