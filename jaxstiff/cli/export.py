@@ -27,9 +27,9 @@ def _add_export(p: argparse.ArgumentParser) -> Any:
         )
         bad = unusable_rows(data, args.path)
         if bad:
-            from jaxstiff.results.target import compress_ranges
+            from jaxstiff.results.target import waypoints_text
 
-            where = "; ".join(f"path {b}: waypoints {compress_ranges(v)}" for b, v in bad.items())
+            where = waypoints_text(bad)
             print(
                 f"jaxstiff: warning: {sum(len(v) for v in bad.values())} rows are not usable solutions (status "
                 f"3-5: unreachable, non-finite or not run; they hold the reference state): {where}; filter on "

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.results.status import is_usable
-from jaxstiff.results.target import compress_ranges
+from jaxstiff.results.target import compress_ranges, waypoints_by_path, waypoints_text
 
 __all__ = ["SINGULAR_COND", "singular_waypoints", "singular_meta", "SingularPostureWarning", "warn_singular"]
 
@@ -43,11 +43,10 @@ def singular_waypoints(K: np.ndarray, status: np.ndarray) -> np.ndarray:
 def singular_meta(mask: np.ndarray) -> dict[str, Any]:
     """meta's ``singular`` record: the threshold, the count and the waypoints per path (0-based
     ranges, only paths with any)."""
-    mask = np.asarray(mask, bool)
     return {
         "cond_threshold": SINGULAR_COND,
-        "count": int(mask.sum()),
-        "waypoints": {str(b): compress_ranges(np.flatnonzero(mask[b])) for b in range(mask.shape[0]) if mask[b].any()},
+        "count": int(np.sum(mask)),
+        "waypoints": {str(b): compress_ranges(v) for b, v in waypoints_by_path(mask).items()},
     }
 
 
@@ -57,12 +56,12 @@ class SingularPostureWarning(UserWarning):
 
 def warn_singular(mask: np.ndarray, task: str, stacklevel: int = 3) -> str | None:
     """Warn once when any waypoint of ``mask`` (B, P) is singular; returns the text (None: none)."""
-    rec = singular_meta(mask)
-    if not rec["count"]:
+    per_path = waypoints_by_path(mask)
+    if not per_path:
         return None
-    where = "; ".join(f"path {b}: waypoints {v}" for b, v in rec["waypoints"].items())
+    where = waypoints_text(per_path)
     text = (
-        f"{rec['count']} usable waypoints are at a singular posture for task {task!r} (stiffness condition "
+        f"{int(np.sum(mask))} usable waypoints are at a singular posture for task {task!r} (stiffness condition "
         f"number above {SINGULAR_COND:g}): {where}; there the stiffness along the lost direction is set "
         "by the regularisation, not by the robot, so their ratio and criterion are not the robot's (the path "
         "touches the workspace's edge or a singularity: move it inside, or leave out those waypoints)"

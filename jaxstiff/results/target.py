@@ -40,6 +40,8 @@ __all__ = [
     "ratio_targets",
     "in_target",
     "compress_ranges",
+    "waypoints_by_path",
+    "waypoints_text",
     "missed_target_waypoints",
     "missed_target_warning",
     "MissedTargetWarning",
@@ -110,10 +112,21 @@ def compress_ranges(indices: Sequence[int] | np.ndarray) -> str:
     return ", ".join(parts)
 
 
+def waypoints_by_path(mask: np.ndarray) -> dict[int, np.ndarray]:
+    """Per path b (only those with any), the waypoints where ``mask`` (B, P) is true."""
+    mask = np.asarray(mask, bool)
+    return {int(b): np.flatnonzero(mask[b]) for b in range(mask.shape[0]) if mask[b].any()}
+
+
+def waypoints_text(per_path: Mapping[int, Sequence[int] | np.ndarray]) -> str:
+    """``{0: [1, 2, 3], 2: [5]}`` -> ``"path 0: waypoints 1-3; path 2: waypoints 5"`` (the way every
+    warning names waypoints)."""
+    return "; ".join(f"path {b}: waypoints {compress_ranges(v)}" for b, v in per_path.items())
+
+
 def missed_target_waypoints(status: np.ndarray, flag: np.ndarray) -> dict[int, np.ndarray]:
     """Per path b (only those with any): the usable waypoints (status 0-2) that are not in target."""
-    miss = is_usable(np.asarray(status)) & ~np.asarray(flag, bool)
-    return {int(b): np.flatnonzero(miss[b]) for b in range(miss.shape[0]) if miss[b].any()}
+    return waypoints_by_path(is_usable(np.asarray(status)) & ~np.asarray(flag, bool))
 
 
 def missed_target_warning(status: np.ndarray, flag: np.ndarray, meta: Mapping[str, Any]) -> str | None:
@@ -124,7 +137,7 @@ def missed_target_warning(status: np.ndarray, flag: np.ndarray, meta: Mapping[st
         return None
     count = sum(len(v) for v in missed.values())
     usable = int(is_usable(np.asarray(status)).sum())
-    where = "; ".join(f"path {b}: waypoints {compress_ranges(v)}" for b, v in missed.items())
+    where = waypoints_text(missed)
     crit = str(meta.get("criterion", ""))
     rule = f"rho >= {1 - RATIO_REL_TOL:g} r" if crit == "f1" else f"|rho - r| / r < {RATIO_REL_TOL:g}"
     solver = str(meta.get("solver", ""))

@@ -53,10 +53,10 @@ def unusable_rows(data: ViewData, path: int | None = None) -> dict[int, np.ndarr
     if data.kind != "shape":
         return {}
     from jaxstiff.results.status import is_usable
+    from jaxstiff.results.target import waypoints_by_path
 
-    bad = ~is_usable(np.asarray(data.arrays["status"]))
-    paths = range(data.B) if path is None else [path]
-    return {b: np.flatnonzero(bad[b]) for b in paths if bad[b].any()}
+    bad = waypoints_by_path(~is_usable(np.asarray(data.arrays["status"])))
+    return bad if path is None else {b: v for b, v in bad.items() if b == path}
 
 
 def export_csv(result: ViewData | str | os.PathLike, out: str | os.PathLike, path: int | None = None) -> str:
