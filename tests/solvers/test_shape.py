@@ -582,8 +582,10 @@ def test_slsqp_result_does_not_depend_on_the_stiffness_units(solver):
         b = jaxstiff.shape(robot, path, "f2", 5.0, kmin=1e4, kmax=1e6, dk=5e4, **kw)
     assert a.meta["options"]["kj_scale"] == 100.0 and b.meta["options"]["kj_scale"] == 1e6
     # SLSQP's own accuracy (ftol 1e-8; finite differences: the seed's method, about 1 %) sets the
-    # tolerances: the two runs round differently
-    tol, atol_deg = (1e-4, 0.01) if solver == "slsqp" else (0.02, 1.0)
+    # tolerances: the two runs round differently, and by CPU (an AMD EPYC without AVX-512 stopped
+    # one scaled waypoint at ratio 5.00054, f2 1.00054, where another CPU gave 5 to 1e-5); the
+    # defect this guards against ended at 2.7
+    tol, atol_deg = (1e-3, 0.01) if solver == "slsqp" else (0.02, 1.0)
     np.testing.assert_allclose(a.ratio, 5.0, rtol=tol)
     np.testing.assert_allclose(b.ratio, 5.0, rtol=tol)
     assert np.max(a.alpha_deg) < atol_deg and np.max(b.alpha_deg) < atol_deg
