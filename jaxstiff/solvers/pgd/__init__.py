@@ -2,7 +2,7 @@
 
 The waypoint problem of :mod:`jaxstiff.solvers.problem` (SPEC section 5, S0-10 ... S0-14) solved
 for B trajectories x S starts at once in one jitted JAX function: ``vmap`` over trajectories,
-``vmap`` over starts, ``lax.scan`` over the P waypoints (the rate limits chain waypoint p to the
+``vmap`` over starts, a loop over the P waypoints (the rate limits chain waypoint p to the
 last usable waypoint before it, exactly as :func:`jaxstiff.results.reference_states` rebuilds it),
 ``lax.fori_loop`` over a fixed number of gradient iterations. No Python loop runs over problems;
 one compilation serves every chunk of the same shape (chunks are padded to the chunk size).
@@ -70,7 +70,7 @@ run's wall time spread evenly over all waypoints.
 
 Modules: :mod:`.ops` (the traceable pieces of one waypoint problem: box, Newton, LM, Adam),
 :mod:`.stages` (one start's optimisation: surrogate, LM, projected Adam, final verdict),
-:mod:`.kernel` (one trajectory: starts, rollouts/best, scan over waypoints), :mod:`.batch`
+:mod:`.kernel` (one trajectory: starts, rollouts/best, the loop over waypoints), :mod:`.batch`
 (options, compiled chunks over many paths, the :data:`~jaxstiff.solvers.base.SOLVERS` adapter).
 """
 

@@ -25,6 +25,7 @@ __all__ = [
     "check_options",
     "compiled_kernel",
     "pad_rows",
+    "waypoint_capacity",
     "solve_batch",
     "CODE_MEANING",
     "run_request",
@@ -73,9 +74,18 @@ def compiled_kernel(problem: WaypointProblem, opts_items: tuple[tuple[str, Any],
     ``(name, value)`` pairs) and first-waypoint rate limit."""
     opts = dict(opts_items)
     traj = make_kernel(problem, opts, first_rate)
-    # per path: targets, directions, start state, key, rate limits (dq_f, dk) and ratio
-    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None, 0))
+    # per path: targets, directions, start state, key, rate limits (dq_f, dk) and ratio; shared:
+    # kmin, kmax, c, pos_tol and the number of waypoints solved (the rest of the P rows is capacity)
+    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None, 0, None))
     return jax.jit(batched, compiler_options=kernel_compiler_options())
+
+
+def waypoint_capacity(P: int) -> int:
+    """The P a compiled pgd program is built for: the next power of two from 8 up (P <= it). Paths of
+    any length up to it run in the same program (the waypoint loop's bound is traced; the rows after
+    the path's own are never computed), so a second run on a path of another length loads the
+    program from the cache instead of compiling it again."""
+    return max(8, 1 << max(int(P) - 1, 0).bit_length())
 
 
 def pad_rows(a: np.ndarray, C: int) -> np.ndarray:
@@ -194,6 +204,11 @@ def _run_chunks(
     kmin, kmax, c, pos_tol = shared
     C, threads = chunking
     B, P = targets.shape[:2]
+    # the waypoint axis padded to the program's capacity (its last waypoint repeated; never solved)
+    cap = waypoint_capacity(P)
+    targets, directions = (
+        np.concatenate([a, np.repeat(a[:, -1:], cap - P, axis=1)], axis=1) for a in (targets, directions)
+    )
     sharded = jax.local_device_count() > 1
     with jax.enable_x64(True):
         chunks = []
@@ -213,6 +228,7 @@ def _run_chunks(
                 c,
                 pos_tol,
                 pad_rows(extra[sl], C),
+                np.int32(P),
             )
             if sharded:  # split the batch across all local devices (jaxstiff._sharding)
                 from jaxstiff.runtime.sharding import shard_rows
@@ -227,7 +243,7 @@ def _run_chunks(
         t0 = time.perf_counter()
         results = map_chunks(lambda a: jax.tree_util.tree_map(np.asarray, comp(*a)), chunks, 1 if sharded else threads)
         run_s = time.perf_counter() - t0
-    cat = {k: np.concatenate([r[k] for r in results], axis=0)[:B] for k in ("x", "status", "start", "err", "f")}
+    cat = {k: np.concatenate([r[k] for r in results], axis=0)[:B, :P] for k in ("x", "status", "start", "err", "f")}
     out: dict[str, Any] = {
         "status": cat["status"].astype(np.int64),
         "solver_code": cat["start"].astype(np.int64),

@@ -1,4 +1,4 @@
-"""One pgd trajectory as a traceable function: the starts of every waypoint, ``lax.scan`` over the
+"""One pgd trajectory as a traceable function: the starts of every waypoint, a loop over the
 waypoints, the "rollout" and "best" modes (:mod:`jaxstiff.solvers.pgd`)."""
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ class PGDKernel:
     """The pieces of one pgd trajectory (settings fixed at construction, everything else traced):
     :meth:`starts_at` (start points), :meth:`one_start` (one start's optimisation), :meth:`pick`
     (the kept start), :meth:`first` (the first waypoint), :meth:`step` (one later waypoint, a
-    ``lax.scan`` step) and :meth:`traj` (the whole trajectory)."""
+    step of the loop over waypoints) and :meth:`traj` (the whole trajectory)."""
 
     def __init__(self, problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
         self.ops = ops = WaypointOps(problem)
@@ -162,9 +162,9 @@ class PGDKernel:
         inp: tuple[jax.Array, ...],
         lims: tuple[jax.Array, ...],
     ) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
-        """One waypoint (a ``lax.scan`` step): carry ``(xref (S, nx), at_start (S,))``, input
+        """One waypoint (a step of the loop over waypoints): carry ``(xref (S, nx), at_start (S,))``, input
         ``(target, direction, key)`` for the waypoints after the first, or, in one-program mode
-        (:attr:`one_program`: the first waypoint is the scan's first step),
+        (:attr:`one_program`: the first waypoint is the loop's first step),
         ``(target, direction, key, is_first, extra (E, nx))``;
         ``lims = (dq_f, dk, kmin, kmax, r, c, kspan, pos_tol)``."""
         ops, S = self.ops, self.S
@@ -209,7 +209,7 @@ class PGDKernel:
     ) -> tuple[Waypoint, tuple[jax.Array, jax.Array]]:
         """The first waypoint, apart: more starts and iterations (its box is usually the whole
         range); given start states ``extra`` (greedy SLSQP's IK postures) replace random starts
-        1..E. Returns its outputs and the scan's initial carry."""
+        1..E. Returns its outputs and the loop's initial carry."""
         ops, S, nx = self.ops, self.S, self.nx
         dq_f, dk, kmin, kmax, r, c, kspan, pos_tol = lims
         rate0 = jnp.asarray(self.first_rate)
@@ -244,30 +244,71 @@ class PGDKernel:
         c: jax.Array,
         pos_tol: jax.Array,
         extra: jax.Array,
+        n_valid: jax.Array | int | None = None,
     ) -> dict[str, jax.Array]:
         """One trajectory (see :func:`make_kernel`): ``x`` (P, nx), ``f``, ``err``, ``status``,
-        ``start`` (P,)."""
+        ``start`` (P,).
+
+        ``n_valid``: the waypoints actually solved, the first ``n_valid`` of the P rows (None: all).
+        The rows after them are capacity: one compiled program serves every path length up to P
+        (a traced loop bound), and their outputs are zeros that the caller drops. Waypoint p's
+        random starts come from ``fold_in(key, p)``, so a waypoint's result does not depend on P."""
         lims = (dq_f, dk, kmin, kmax, r, c, kmax - kmin, pos_tol)
         P = targets.shape[0]
-        keys = jax.random.split(key, P + 1)
+        n = jnp.asarray(P if n_valid is None else n_valid, jnp.int32)
+        keys = jax.vmap(lambda i: jax.random.fold_in(key, i))(jnp.arange(P))
         if self.one_program:
-            # the first waypoint as the scan's first step (its key, keys[P], first): one traced and
-            # compiled waypoint program instead of two, the same arithmetic
-            order = jnp.concatenate([keys[P:], keys[1:P]])
-            is_first = jnp.arange(P) == 0
+            # the first waypoint as the loop's first step (is_first): one traced and compiled
+            # waypoint program instead of two, the same arithmetic
             carry0 = (jnp.broadcast_to(x0, (self.S, self.nx)), jnp.ones((self.S,), bool))
-            xs = (targets, dirs, order, is_first, jnp.broadcast_to(extra, (P,) + extra.shape))
-            _, (X, F, E, ST, WIN) = jax.lax.scan(lambda cr, inp: self.step(cr, inp, lims), carry0, xs)
+
+            def inp(p):
+                return (targets[p], dirs[p], keys[p], p == 0, extra)
+
+            X, F, E, ST, WIN = self._waypoints(carry0, inp, lims, 0, n, P)
         else:
-            first, carry0 = self.first(keys[P], x0, extra, targets[0], dirs[0], lims)
-            _, rest = jax.lax.scan(lambda cr, inp: self.step(cr, inp, lims), carry0, (targets[1:], dirs[1:], keys[1:P]))
-            X, F, E, ST, WIN = (jnp.concatenate([a[None], b], axis=0) for a, b in zip(first, rest, strict=True))
+            first, carry0 = self.first(keys[0], x0, extra, targets[0], dirs[0], lims)
+            X, F, E, ST, WIN = self._waypoints(carry0, lambda p: (targets[p], dirs[p], keys[p]), lims, 1, n, P, first)
         if self.mode == "rollout":
             # X (P, S, nx): keep the trajectory with fewest unusable waypoints, then lowest sum f
-            bad = jnp.sum(ST != R.SOLVED, axis=0)
-            tot = jnp.sum(jnp.where(ST == R.SOLVED, F, 0.0), axis=0)
+            valid = (jnp.arange(P) < n)[:, None]
+            bad = jnp.sum(valid & (ST != R.SOLVED), axis=0)
+            tot = jnp.sum(jnp.where(valid & (ST == R.SOLVED), F, 0.0), axis=0)
             sc = bad * 1e12 + jnp.where(jnp.isfinite(tot), tot, 1e11)
             i = jnp.argmin(sc)
             X, F, E, ST = X[:, i], F[:, i], E[:, i], ST[:, i]
             WIN = jnp.full((P,), i)
         return {"x": X, "f": F, "err": E, "status": ST, "start": WIN}
+
+    def _waypoints(
+        self,
+        carry0: tuple[jax.Array, jax.Array],
+        inp: Callable[[jax.Array], tuple[jax.Array, ...]],
+        lims: tuple[jax.Array, ...],
+        p0: int,
+        n: jax.Array,
+        P: int,
+        first: Waypoint | None = None,
+    ) -> Waypoint:
+        """Waypoints ``p0 .. n - 1`` by :meth:`step` in a loop with a traced bound, written into
+        (P, ...) outputs (row 0 from ``first`` when given; rows from n on stay zero)."""
+        xref = carry0[0]
+        lead = (P,) if self.mode == "best" else (P, self.S)  # best: the kept start's; rollout: every start's
+        ft, it = xref.dtype, jnp.int32
+        outs = (
+            jnp.zeros(lead + (self.nx,), ft),
+            jnp.zeros(lead, ft),
+            jnp.zeros(lead, ft),
+            jnp.zeros(lead, it),
+            jnp.zeros(lead, it),
+        )
+        if first is not None:
+            outs = tuple(o.at[0].set(f.astype(o.dtype)) for o, f in zip(outs, first, strict=True))
+
+        def body(p, state):
+            carry, outs = state
+            carry, w = self.step(carry, inp(p), lims)
+            return carry, tuple(o.at[p].set(v.astype(o.dtype)) for o, v in zip(outs, w, strict=True))
+
+        _, outs = jax.lax.fori_loop(p0, n, body, (carry0, outs))
+        return outs
