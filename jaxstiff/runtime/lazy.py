@@ -5,6 +5,7 @@ importing the package imports neither JAX nor the solvers (``jaxstiff view`` sta
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from collections.abc import Callable, Mapping, MutableMapping
 from typing import Any
 
@@ -30,6 +31,11 @@ def lazy_exports(
     def getattr_(name: str) -> Any:
         module = where.get(name)
         if module is None:
+            # a submodule not imported yet (``jaxstiff.paths.line(...)`` right after ``import jaxstiff``)
+            if not name.startswith("_") and importlib.util.find_spec(f"{package}.{name}") is not None:
+                sub = importlib.import_module(f"{package}.{name}")
+                namespace[name] = sub
+                return sub
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         value = getattr(importlib.import_module(module, package), name)
         namespace[name] = value

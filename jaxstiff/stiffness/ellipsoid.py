@@ -125,6 +125,7 @@ def refuse_indefinite(K: jax.Array, axes: np.ndarray | None = None) -> None:
         return
     if axes is None:
         a = np.asarray(K, dtype=float)
+        a = 0.5 * (a + np.swapaxes(a, -1, -2))  # what the computations read (eigvalsh alone reads one triangle)
         ok = np.all(np.isfinite(a), axis=(-2, -1))
         w = np.full(a.shape[:-1], np.nan)
         w[ok] = np.linalg.eigvalsh(a[ok])[..., ::-1]

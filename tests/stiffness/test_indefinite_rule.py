@@ -37,3 +37,12 @@ def test_semidefinite_passes_and_traced_is_not_checked(name):
     psd = R @ np.diag([3000.0, 1000.0, 0.0]) @ R.T  # rounding-level negative eigenvalue
     CALLS[name](psd)
     jax.jit(lambda K: jax.tree_util.tree_leaves(CALLS[name](K))[0])(INDEFINITE)
+
+
+@pytest.mark.parametrize("name", sorted(CALLS))
+def test_a_non_symmetric_k_is_judged_by_its_symmetric_part(name):
+    # eigvalsh reads one triangle: [[1, -3], [0, 1]] looked like the identity, while the
+    # computations read its symmetric part, eigenvalues 2.5 and -0.5 (f2 gave 4e17, f1 90)
+    K = np.array([[1.0, -3.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    with pytest.raises(ValueError, match=r"eigenvalue -0.5"):
+        CALLS[name](K)
