@@ -186,6 +186,18 @@ class Chain:
         """Locked value per joint, NaN for free joints, shape (n,)."""
         return np.asarray([np.nan if v is None else v for v in self.locked], dtype=float)
 
+    @property
+    def length_scale(self) -> float:
+        """The chain's size (m): the distances between consecutive joint frames and to the TCP, plus
+        the spans of bounded prismatic joints (the base's offset to the first joint not counted);
+        1.0 for a chain without any. Solvers that weigh position errors against dimensionless
+        terms divide by it, so that a robot built ten times larger is solved alike."""
+        size = sum(float(np.linalg.norm(self.origin_matrix(i)[:3, 3])) for i in range(1, self.n))
+        size += float(np.linalg.norm(self.tip_matrix[:3, 3]))
+        span = np.asarray(self.upper_limits, float) - np.asarray(self.lower_limits, float)
+        size += float(np.sum(np.where(self.prismatic & np.isfinite(span), span, 0.0)))
+        return size if size > 0 else 1.0
+
     def origin_matrix(self, i: int) -> np.ndarray:
         """Constant 4x4 transform into joint ``i``'s frame (fixed joints folded in)."""
         return tuple_to_mat(self.origins[i])

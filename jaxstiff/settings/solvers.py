@@ -211,7 +211,12 @@ class PGDOptions(SolverOptions):
         20, "Levenberg-Marquardt steps on the f1/f2 residuals before the gradient stage", kind="int", lo=0
     )
     lm_iters_first: int = option(25, "the same at the first waypoint", kind="int", lo=0)
-    lm_wpos: float = option(1e3, "weight of the position rows in the LM residual", unit="1/m", kind="positive")
+    lm_wpos: float = option(
+        1e3,
+        "weight of the position rows in the LM residual, per length unit of the robot (the power of two "
+        "nearest its size, Robot.length_scale: 1 m for the LWR, 4 m for the planar 3R)",
+        kind="positive",
+    )
     lm_walign: float = option(100.0, "weight of the alignment rows against the log-ratio row", kind="positive")
     tie_tol: float = option(
         1e-7,

@@ -15,7 +15,7 @@ from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
 from jaxstiff.solvers.pgd.stages import finish, optimise
 from jaxstiff.solvers.problem import WaypointProblem
 
-__all__ = ["make_kernel", "PGDKernel"]
+__all__ = ["make_kernel", "PGDKernel", "length_unit"]
 
 #: per waypoint: ``(x, criterion, position error, status, winning start)``
 Waypoint = tuple[jax.Array, jax.Array, jax.Array, jax.Array, jax.Array]
@@ -28,6 +28,11 @@ def make_kernel(
     kmax, r, c, pos_tol, extra (E, nx)) -> dict`` (traceable, vmappable over trajectories);
     ``extra``: given first-waypoint start states (E may be 0). :meth:`PGDKernel.traj`."""
     return PGDKernel(problem, opts, first_rate).traj
+
+
+def length_unit(size: float) -> float:
+    """The power of two nearest a robot's size (m) in log scale (:attr:`Chain.length_scale`)."""
+    return float(2.0 ** round(np.log2(size)))
 
 
 class PGDKernel:
@@ -47,7 +52,12 @@ class PGDKernel:
         self.nf, self.nx = ops.nf, ops.nx
         self.kind = lm_kind(problem)
         self.lm_it = int(opts["lm_iters_first"]), int(opts["lm_iters"])
-        self.wpos, self.walign = float(opts["lm_wpos"]), float(opts["lm_walign"])
+        # the position rows' weight per length unit of the robot (a power of two near its size, so
+        # that a robot of 0.71-1.41 m, the LWR among them, keeps lm_wpos exactly): position errors
+        # in metres against dimensionless shape rows would otherwise tip the LM damping as the
+        # robot grows (a planar 4R with 10 m links ended at ratio 3 instead of 5 with status 0)
+        self.wpos = float(opts["lm_wpos"]) / length_unit(problem.robot.length_scale)
+        self.walign = float(opts["lm_walign"])
         self.vstart = jax.vmap(self.one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0))
         self.S1 = max(self.S, int(opts["starts_first"])) if self.mode == "best" else self.S
         self.vfirst = jax.vmap(
