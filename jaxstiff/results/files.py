@@ -296,6 +296,15 @@ def summary(res: ShapeResult, alpha_tol_deg: float = ALPHA_TOL_DEG, ratio_rel_to
 
 
 # ---------------------------------------------------------------------- verification
+def _stiffness_or_nan(robot: Robot, q: np.ndarray, kj: np.ndarray, task: str) -> np.ndarray:
+    """numpy ``K_T`` at one waypoint, NaN where its compliance is exactly singular (no error)."""
+    try:
+        return np_translational_stiffness(robot, q, kj, task)
+    except np.linalg.LinAlgError:
+        m = 2 if task == "xy" else 3
+        return np.full((m, m), np.nan)
+
+
 def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per waypoint of path b: the reference state (q_ref (P,n), kj_ref (P,n)) its box refers to,
     and whether rate limits apply (P,) bool (False only before the first usable waypoint when the
@@ -329,7 +338,11 @@ def verify(
         limits, all waypoints), ``max_rate_violation`` (rad or Nm/rad, against each waypoint's
         reference state), ``max_position_mismatch`` (reported vs recomputed position),
         ``max_alpha_mismatch`` (deg), ``max_ratio_mismatch`` (relative), ``max_criterion_mismatch``
-        (relative), ``max_cms_mismatch`` (relative).
+        (relative; NaN where the criterion is one of the user's own, which is not re-checked),
+        ``max_cms_mismatch`` (relative), ``max_kj_scaled_mismatch`` (relative: ``kj_scaled`` against
+        ``cms * kj``, what a controller is commanded with). A non-finite joint position, or a NaN
+        stiffness, makes the checks it enters ``inf`` (never an error). The file's ``joint_names``
+        must be the robot's, in chain order (ValueError otherwise).
     """
     if isinstance(res, (str, os.PathLike)):
         res = ShapeResult.load(res)
@@ -340,6 +353,11 @@ def verify(
     kmin, kmax = float(lim["kmin"]), float(lim["kmax"])
     task = res.meta["task"]
     c = prm["c"]
+    names = [str(x) for x in np.asarray(res.joint_names).ravel()]
+    if names != list(robot.joint_names):
+        raise ValueError(
+            f"the result's joint_names {names} are not the robot's joints in chain order {list(robot.joint_names)}"
+        )
     out = dict(
         max_pos_error=0.0,
         max_bound_violation=0.0,
@@ -350,18 +368,30 @@ def verify(
         max_ratio_mismatch=0.0,
         max_criterion_mismatch=0.0,
         max_cms_mismatch=0.0,
+        max_kj_scaled_mismatch=0.0,
     )
+    if res.meta["criterion"] not in ("f1", "f2"):
+        out["max_criterion_mismatch"] = float("nan")  # a criterion of the user's own: not re-checked
     locked = robot.locked_values
+    inf = float("inf")
     lmask = ~np.isnan(locked)
     for b in range(res.B):
         q, kj = res.q[b], res.kj[b]
+        # a corrupt waypoint (NaN or inf joint position, NaN stiffness): computed at a harmless
+        # stand-in so that nothing raises, and every check it enters reads inf
+        bad = ~np.all(np.isfinite(q), axis=-1) | np.any(np.isnan(kj), axis=-1)
+        if bad.any():
+            q = np.where(bad[:, None], 0.5 * (np.nan_to_num(robot.lower) + np.nan_to_num(robot.upper)), q)
+            kj = np.where(bad[:, None] & np.isnan(kj), 0.5 * (kmin + kmax), kj)
+            for k in ("max_bound_violation", "max_position_mismatch", "max_alpha_mismatch", "max_ratio_mismatch"):
+                out[k] = inf
         # a rigid locked joint (SPEC section 1) has kj = +inf: no spring, so no stiffness bounds or
         # rate limit apply to it; +inf anywhere else is a violation
         rigid = lmask[None, :] & (kj == np.inf)
         kjb = np.where(rigid, 0.5 * (kmin + kmax), kj)
         pos = np_fk_position(robot, q)
         usable = is_usable(res.status[b])
-        err = np.linalg.norm(pos - res.target[b], axis=-1)
+        err = np.where(bad, inf, np.linalg.norm(pos - res.target[b], axis=-1))
         if usable.any():
             out["max_pos_error"] = max(out["max_pos_error"], float(err[usable].max()))
         out["max_position_mismatch"] = max(out["max_position_mismatch"], float(np.abs(pos - res.position[b]).max()))
@@ -382,8 +412,13 @@ def verify(
                 out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0]))
             )
         # reported stiffness quantities, recomputed in numpy
-        K = np.stack([np_translational_stiffness(robot, q[p], kj[p], task) for p in range(res.P)])
-        alpha, rho = np_alpha_ratio(K, res.direction[b])
+        K = np.stack([_stiffness_or_nan(robot, q[p], kj[p], task) for p in range(res.P)])
+        if np.isnan(K).any():  # an exactly singular compliance: its reported values cannot be re-checked
+            out["max_alpha_mismatch"] = out["max_ratio_mismatch"] = inf
+        ok = np.all(np.isfinite(K), axis=(-2, -1))
+        alpha, rho = np.full(res.P, np.nan), np.full(res.P, np.nan)
+        if ok.any():
+            alpha[ok], rho[ok] = np_alpha_ratio(K[ok], res.direction[b][ok])
         out["max_alpha_mismatch"] = max(out["max_alpha_mismatch"], float(np.abs(alpha - res.alpha_deg[b]).max()))
         out["max_ratio_mismatch"] = max(out["max_ratio_mismatch"], float((np.abs(rho - res.ratio[b]) / rho).max()))
         crit = res.meta["criterion"]
@@ -392,6 +427,15 @@ def verify(
             out["max_criterion_mismatch"] = max(
                 out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max())
             )
-        cms_ref = np_cms(K, res.meta["cms"])
+        cms_ref = np.full(res.P, np.nan)
+        if ok.any():
+            cms_ref[ok] = np_cms(K[ok], res.meta["cms"])
         out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))
+        # what the controller is commanded with: cms * kj (a rigid joint's inf stays inf)
+        want = res.cms[b][:, None] * res.kj[b]
+        got = res.kj_scaled[b]
+        same = (want == got) | (np.isnan(want) & np.isnan(got))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rel = np.where(same, 0.0, np.abs(got - want) / np.abs(want))
+        out["max_kj_scaled_mismatch"] = max(out["max_kj_scaled_mismatch"], float(np.nan_to_num(rel, nan=inf).max()))
     return out
