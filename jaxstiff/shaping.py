@@ -322,7 +322,7 @@ def shape(
         warn_off_plane(rep.position, bpath, inp.task, stacklevel=3)
         opts_meta = _options_meta(inp.solver, inp.starts, inp.options)
         use = _first_starts_use(inp.solver, opts_meta, inp.first_starts, inp.first_rate_limit)
-        timing = _timing((t_start, w_start), marks, clock, arrays.get("compile_s"))
+        timing = _timing((t_start, w_start), marks, clock, arrays.get("compile_s"), bool(arrays.get("time_s_run_only")))
         meta = shape_meta(inp, arrays, opts_meta, use, timing, DEFAULTS, interrupted, cpu_async_dispatch())
         meta["compilation"] = clock.meta()
         singular = singular_waypoints(rep.K, np.asarray(arrays["status"]).reshape(rep.K.shape[:2]))
@@ -337,7 +337,9 @@ def shape(
     return result
 
 
-def _timing(start: tuple[float, float], marks: list[float], clock: CompileClock, solver_compile: Any) -> dict[str, Any]:
+def _timing(
+    start: tuple[float, float], marks: list[float], clock: CompileClock, solver_compile: Any, run_only: bool = False
+) -> dict[str, Any]:
     """``meta["timing_s"]``: wall seconds of the call (``total``) and its phases (``setup``: inputs,
     IK, start states; ``solve``; ``report``: report, CMS, meta), each with its compilation;
     ``compile``: JAX compilation in the whole call (tracing, lowering, XLA compile or cache load:
@@ -346,7 +348,8 @@ def _timing(start: tuple[float, float], marks: list[float], clock: CompileClock,
     compiled before its first waypoint (kept out of the per-waypoint ``time_s``), None when the
     solver reports none; ``compile_in_time_s``: compilation during the solve that the solver did
     not keep apart (``compile_solve - solver_compile``, at least 0), an upper bound of the
-    compilation inside the per-waypoint ``time_s`` (0: ``time_s`` is run time only)."""
+    compilation inside the per-waypoint ``time_s`` (0: ``time_s`` is run time only; ``run_only``:
+    the solver's ``time_s`` times its compiled programs' runs alone, as pgd's does)."""
     t_start, w_start = start
     t_solve, w_solve, t_solved, w_solved = marks
     now, w_now = time.perf_counter(), time.time()
@@ -364,7 +367,7 @@ def _timing(start: tuple[float, float], marks: list[float], clock: CompileClock,
         "compile_solve": compile_solve,
         "run": max(now - t_start - compile_s, 0.0),
         "solver_compile": None if solver_compile is None else float(solver_compile),
-        "compile_in_time_s": max(compile_solve - float(solver_compile or 0.0), 0.0),
+        "compile_in_time_s": 0.0 if run_only else max(compile_solve - float(solver_compile or 0.0), 0.0),
     }
 
 

@@ -75,7 +75,10 @@ class WaypointProgress:
 
 def summary_table(res: ShapeResult) -> str:
     """Per path: waypoints, statuses, share with alpha < 1 deg, share with the ratio met, share in
-    target (both; the one rule of :mod:`jaxstiff.results.target`), errors, time."""
+    target (both; the one rule of :mod:`jaxstiff.results.target`), errors, time. The three shape
+    shares count usable waypoints only (status 0-2, shares of all the path's waypoints): an
+    unreachable waypoint's ellipsoid is that of a posture off the path (an independent check read
+    "usable 17 %, in target 67 %")."""
     import numpy as np
 
     from jaxstiff.results.files import SOLVED, is_usable
@@ -93,6 +96,7 @@ def summary_table(res: ShapeResult) -> str:
     for b in range(res.B):
         a_ok, r_ok = target_masks(res.alpha_deg[b], res.ratio[b], r_b[b], crit)
         usable = is_usable(res.status[b])
+        a_ok, r_ok = a_ok & usable, r_ok & usable
         perr = f"{float(res.pos_error[b][usable].max()):.2e}" if usable.any() else "n/a"
         name = os.path.basename(str(names[b])) if b < len(names) else f"path {b}"
         lines.append(
@@ -193,6 +197,8 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
     try:
         with progress(total, "shape", "waypoints", enabled=not args.quiet) as bar:
             res = shape(progress=WaypointProgress(bar), **kw)
+            # the batch solvers tick no waypoint: the line says what was done ("60/60", not "0/60")
+            bar.update(int(np.sum(res.status != R.NOT_RUN)) - bar.n)
     except ShapeInterrupted as e:  # keep what was finished, then stop as interrupted
         st = e.result.status
         if np.all(st == R.NOT_RUN):

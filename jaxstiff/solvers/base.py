@@ -62,7 +62,8 @@ class SolveRequest(WaypointBatch):
 
 #: A solver maps a :class:`SolveRequest` to a dict of arrays: ``q``, ``kj`` (B,P,n), ``status``,
 #: ``pos_error``, ``solver_code``, ``nit``, ``nfev``, ``time_s`` (B,P), and optionally ``compile_s``
-#: (float, compilation time kept out of ``time_s``). Every point with a usable
+#: (float, compilation time kept out of ``time_s``) and ``time_s_run_only`` (True: ``time_s`` is the
+#: run of compiled programs alone, no compilation in it). Every point with a usable
 #: status (0-2) must satisfy the box of its reference state exactly and the position within
 #: ``pos_tol``; the reported quantities are recomputed by :func:`shape`.
 SOLVERS: dict[str, Callable[[SolveRequest], dict[str, Any]]] = {}

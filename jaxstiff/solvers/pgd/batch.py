@@ -286,4 +286,5 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     )
     res.pop("criterion", None)
     res["code_meaning"] = CODE_MEANING
+    res["time_s_run_only"] = True  # time_s: the compiled program's run over all waypoints, nothing else
     return res
