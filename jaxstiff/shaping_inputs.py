@@ -32,7 +32,7 @@ from jaxstiff.settings.solvers import OPTIONS_OF, SLSQPOptions
 from jaxstiff.solvers.base import SOLVERS, check_options
 from jaxstiff.solvers.problem import content_seed
 from jaxstiff.stiffness.core import check_task_feasible, task_rows
-from jaxstiff.stiffness.criteria import f1, get_criterion
+from jaxstiff.stiffness.criteria import check_criterion_call, f1, f2, get_criterion
 
 __all__ = [
     "ShapeInputs",
@@ -354,6 +354,8 @@ def check_inputs(
     ratio = ratio_per_path(values["ratio"], B)
     m = 2 if task == "xy" else 3
     kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)
+    if crit_fn is not f1 and crit_fn is not f2:
+        check_criterion_call(crit_fn, crit_name, m)
     if crit_fn is f1 and c == 0.0:
         raise ValueError(
             "c must be > 0 for criterion f1: with c = 0, f1 = (alpha + c) r / min(rho, r) is 0 wherever "

@@ -41,6 +41,7 @@ import functools
 import inspect
 import math
 from collections.abc import Callable
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -58,6 +59,7 @@ __all__ = [
     "frobenius",
     "offdiag",
     "get_criterion",
+    "check_criterion_call",
     "register_criterion",
     "CRITERIA",
     "alpha_and_ratio",
@@ -307,6 +309,25 @@ def register_criterion(name: str, fn: Criterion, *, overwrite: bool = False) -> 
     if name in CRITERIA and not overwrite:
         raise ValueError(f"criterion {name!r} is already registered; pass overwrite=True to replace it")
     CRITERIA[name] = _normalise(fn)
+
+
+def check_criterion_call(fn: Criterion, name: str, m: int, dtype: Any = "float64") -> None:
+    """Raise ValueError, naming the criterion, unless ``fn(K (m, m), d (m,), r, c=c)`` (as
+    :func:`get_criterion` returns it) traces to one real number. Abstract evaluation only (nothing
+    runs); a wrong signature or output shape otherwise surfaces as a TypeError deep inside the
+    solver's gradient."""
+    K = jax.ShapeDtypeStruct((m, m), jnp.dtype(dtype))
+    d = jax.ShapeDtypeStruct((m,), jnp.dtype(dtype))
+    want = f"a criterion takes K ({m}, {m}), d ({m},), r and optionally c, and returns one real number to minimise"
+    try:
+        out = jax.eval_shape(lambda K, d: fn(K, d, 5.0, c=0.01), K, d)
+    except Exception as exc:  # the user's function: any error it raises is its own
+        raise ValueError(f"criterion {name!r} failed on a {m}x{m} K ({type(exc).__name__}: {exc}); {want}") from None
+    shape = getattr(out, "shape", None)
+    kind = getattr(getattr(out, "dtype", None), "kind", "")
+    if shape != () or kind not in "fiub" or not kind:
+        got = f"shape {shape}, dtype {getattr(out, 'dtype', type(out).__name__)}"
+        raise ValueError(f"criterion {name!r} must return one real number per K ({got}); {want}")
 
 
 def get_criterion(criterion: str | Criterion) -> Criterion:

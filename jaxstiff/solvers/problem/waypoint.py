@@ -213,9 +213,13 @@ class WaypointProblem:
             return f1_of(alpha, rho, r, c) if self.criterion is f1 else f2_of(alpha, rho, r)
         K = self.stiffness(q, kj)
         dd = jnp.asarray(d, dtype=K.dtype)[..., : self.m]
-        if _accepts_c(self.criterion):
-            return self.criterion(K, dd, r, c=c)
-        return self.criterion(K, dd, r)
+        return self.criterion_value(K, dd, r, c)
+
+    def criterion_value(self, K: jax.Array, dd: jax.Array, r, c) -> jax.Array:
+        """The criterion at ``K`` (..., m, m) as an array (...,) of K's dtype (a user's criterion may
+        return a Python number, or take no ``c``)."""
+        out = self.criterion(K, dd, r, c=c) if _accepts_c(self.criterion) else self.criterion(K, dd, r)
+        return jnp.broadcast_to(jnp.asarray(out, K.dtype), K.shape[:-2])
 
     def position(self, q: jax.Array) -> jax.Array:
         """TCP position (..., 3), m, base frame."""
@@ -234,11 +238,7 @@ class WaypointProblem:
         K = self.stiffness_of(J, kj)
         dd = jnp.asarray(d, dtype=K.dtype)[..., : self.m]
         alpha, rho = alpha_and_ratio(K, dd)
-        if _accepts_c(self.criterion):
-            f = self.criterion(K, dd, r, c=c)
-        else:
-            f = self.criterion(K, dd, r)
-        return p, K, alpha, rho, f
+        return p, K, alpha, rho, self.criterion_value(K, dd, r, c)
 
     # ------------------------------------------------------------------ flat x/params interface
     # params = [target (3), d (3), r, c]
