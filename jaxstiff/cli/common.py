@@ -40,13 +40,13 @@ def parse_floats(text: str, what: str) -> list[float]:
 
 
 def parse_locks(items: list[str] | None) -> dict[str, float]:
-    """``["JOINT=RAD", ...]`` -> dict (``["none"]``: no joint locked, {}); raises ValueError naming a
-    malformed item."""
+    """``["JOINT=VALUE", ...]`` -> dict (``["none"]``: no joint locked, {}); raises ValueError naming a
+    malformed item. The value follows the last "=" (a joint's name may contain "=")."""
     out: dict[str, float] = {}
     if items and [x.strip().lower() for x in items] == ["none"]:
         return out
     for item in items or []:
-        name, sep, value = item.partition("=")
+        name, sep, value = item.rpartition("=")
         if item.strip().lower() == "none":
             raise ValueError("--lock none (no joint locked) cannot be combined with other --lock JOINT=RAD")
         if not sep or not name:
@@ -56,7 +56,7 @@ def parse_locks(items: list[str] | None) -> dict[str, float]:
         try:
             out[name] = float(value)
         except ValueError:
-            raise ValueError(f"--lock {item!r}: {value!r} is not a number (radians)") from None
+            raise ValueError(f"--lock {item!r}: {value!r} is not a number (rad, or m for a prismatic joint)") from None
     return out
 
 

@@ -80,6 +80,20 @@ def _warn_ignored_z(robot: Any, q0: np.ndarray, z: np.ndarray, flag: str) -> Non
         )
 
 
+def power_of_ten_text(n: int) -> str:
+    """``50_000`` -> ``"5 x 10^4"`` (``"10^4"``, ``"1.5 x 10^4"``; below 1000, or not a few digits
+    times a power of ten, the plain number: ``"300"``, ``"12,345"``): how the help and the README
+    write :data:`SEGMENT_WORK`."""
+    n = int(n)
+    k = len(str(abs(n))) - 1
+    mantissa = n / 10**k
+    if abs(n) < 1000 or len(f"{mantissa:g}") > 4:  # (more than 3 digits: the plain number reads better)
+        return f"{n:,}"
+    return f"10^{k}" if mantissa == 1 else f"{mantissa:g} x 10^{k}"
+
+
+#: the epilog of ``jaxstiff csc --help``; ``{segment_work}`` is :data:`SEGMENT_WORK`, filled in when
+#: the parser is built (so the help cannot drift from the code)
 _EPILOG = (
     "Result file (--out, .npz, numpy.load(..., allow_pickle=False)); B paths (1 for --hold), T steps, n joints, "
     "m task rows, d target coordinates: q (B,T,n), u (B,T), frobenius (B,T), tracking_error (B,T), "
@@ -88,7 +102,7 @@ _EPILOG = (
     "K_xd (m,m), and meta (JSON: every input and default, settings with units (objective, locked_joints too), "
     "units per array, status bits, versions). A rigid locked joint (--locked-joints rigid, the default) has no "
     "spring: its kj is +inf (infinite stiffness) and K_C sums over the free joints. Row k is the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m "
-    "for prismatic joints), N/m, m. A long run (paths x steps over 5 x 10^5) runs in segments with a progress line "
+    "for prismatic joints), N/m, m. A long run (paths x steps over {segment_work}) runs in segments with a progress line "
     "after each; Ctrl-C or SIGTERM then writes the steps finished so far (meta 'interrupted' true, 'steps' = rows "
     "written, 'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 130 / 143 interrupted by "
     "Ctrl-C / SIGTERM."
@@ -97,7 +111,7 @@ _EPILOG = (
 
 @command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
 def _add_csc(p: argparse.ArgumentParser):
-    p.epilog = _EPILOG
+    p.epilog = _EPILOG.replace("{segment_work}", power_of_ten_text(SEGMENT_WORK))
     add_robot_flags(p)
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument(
@@ -127,13 +141,11 @@ def _add_csc(p: argparse.ArgumentParser):
 
 def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, str]:
     """q0 (n,) in rad (m for prismatic joints) from --q0 or --q0-deg, locked joints checked; and the flag."""
-    if args.q0 is not None:
-        q0 = np.asarray(parse_numbers(args.q0, "--q0"))
-    else:
-        q0 = np.asarray(parse_numbers(args.q0_deg, "--q0-deg"), dtype=float)
-        if q0.shape == (robot.n,):  # degrees for revolute joints; a prismatic joint's value is a length
-            q0 = np.where(robot.prismatic, q0, np.deg2rad(q0))
     flag = "--q0" if args.q0 is not None else "--q0-deg"
+    typed = np.asarray(parse_numbers(args.q0 if args.q0 is not None else args.q0_deg, flag), dtype=float)
+    q0 = typed
+    if args.q0 is None and typed.shape == (robot.n,):
+        q0 = np.where(robot.prismatic, typed, np.deg2rad(typed))  # degrees for revolute joints; prismatic: m
     if q0.shape != (robot.n,):
         raise ValueError(
             f"{flag} needs {robot.n} values for {robot.name!r} ({', '.join(robot.joint_names)}), got {q0.size}"
@@ -148,7 +160,34 @@ def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, st
                 f"{flag} gives joint {robot.joint_names[i]!r} {given:.10g} {unit}, but it is locked at "
                 f"{want:.10g} {unit}: give the locked value there (or change --lock)"
             )
+    _check_q0_limits(robot, q0, flag, typed)
     return np.where(robot.free, q0, np.nan_to_num(lv)), flag
+
+
+#: slack of the q0 limit check (rad or m): the library's (:func:`jaxstiff.csc.inputs`)
+Q0_LIMIT_TOL = 1e-9
+
+
+def _check_q0_limits(robot: Any, q0: np.ndarray, flag: str, typed: np.ndarray) -> None:
+    """Refuse a free joint of ``q0`` (rad; m for prismatic joints) outside its limits, in the unit of
+    ``flag`` (``typed``: the values as given, degrees for ``--q0-deg``), before any work; the
+    library's own check of ``q0`` says rad."""
+    bad = robot.free & ((q0 < robot.lower - Q0_LIMIT_TOL) | (q0 > robot.upper + Q0_LIMIT_TOL))
+    if not bad.any():
+        return
+    i = int(np.argmax(bad))
+    deg = flag == "--q0-deg" and not robot.prismatic[i]
+    unit = "m" if robot.prismatic[i] else ("deg" if deg else "rad")
+    lo, hi = (np.rad2deg(robot.lower[i]), np.rad2deg(robot.upper[i])) if deg else (robot.lower[i], robot.upper[i])
+    value = float(typed[i])
+    edge = float(lo if value < lo else hi)
+    digits = 6  # as `jaxstiff shape`'s q0 message; more where the value and the limit would read alike
+    while digits < 15 and f"{value:.{digits}g}" == f"{edge:.{digits}g}":
+        digits += 1
+    raise ValueError(
+        f"{flag}: joint {robot.joint_names[i]!r} (q0[{i}]) = {value:.{digits}g} {unit} is outside its limits "
+        f"[{lo:.{digits}g}, {hi:.{digits}g}] {unit}"
+    )
 
 
 def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) -> tuple[np.ndarray, list[str]]:

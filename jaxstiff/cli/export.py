@@ -11,6 +11,22 @@ from .common import command
 from .view import add_result_flags
 
 
+def csc_status_note(meta: dict[str, Any]) -> str:
+    """What the ``status`` column of a csc file's CSV means: a bit mask per step, each bit named as
+    the file's ``meta["status_bits"]`` names it (:class:`jaxstiff.csc.CSCStatus`; the library's
+    names for a file without them), not the shape codes 0-5."""
+    bits = meta.get("status_bits")
+    if not isinstance(bits, dict) or not bits:
+        from jaxstiff.csc.result import STATUS_NAMES
+
+        bits = STATUS_NAMES
+    named = ", ".join(f"{k} {v}" for k, v in sorted((int(k), str(v)) for k, v in bits.items()))
+    return (
+        f"status column (csc file): a bit mask per step, not the shape codes 0-5: 0 a plain step; {named}; "
+        "a step with several flags has their sum (test a flag with status & bit)"
+    )
+
+
 @command("export", "write a result's joint trajectory (q, kj, TCP) as CSV for a controller")
 def _add_export(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
@@ -25,6 +41,8 @@ def _add_export(p: argparse.ArgumentParser) -> Any:
         print(
             f"wrote {export_csv(data, args.csv, path=args.path)} ({data.B if args.path is None else 1} x {data.P} rows)"
         )
+        if data.kind == "csc":
+            print(csc_status_note(data.meta))
         bad = unusable_rows(data, args.path)
         if bad:
             from jaxstiff.results.target import waypoints_text

@@ -51,7 +51,7 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         default=None,
         help="ellipsoid scale, N/m of stiffness per metre on screen (default: a round number that draws the largest semi-axis about 25 cm long)",
     )
-    p.add_argument("--every", type=int, default=1, help="'all ellipsoids': draw every N-th waypoint's")
+    p.add_argument("--every", type=int, default=1, help="'all ellipsoids': draw every N-th waypoint's (N >= 1)")
 
     def run(args: argparse.Namespace) -> int:
         from jaxstiff.view.data import load_view_data
@@ -59,6 +59,8 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         viser_or_error()
         if args.scale is not None and not args.scale > 0:
             raise ValueError(f"--scale must be a positive number (N/m per m), got {args.scale}")
+        if args.every < 1:
+            raise ValueError(f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {args.every}")
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if not 0 <= args.path < data.B:
             raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")

@@ -13,7 +13,7 @@ import dataclasses
 import enum
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -250,15 +250,32 @@ class Chain:
 
 
 def check_locked(
-    joint_names: Sequence[str], lower: Sequence[float], upper: Sequence[float], locked: Mapping[str, float] | None
+    joint_names: Sequence[str],
+    lower: Sequence[float],
+    upper: Sequence[float],
+    locked: Mapping[str, float] | None,
+    *,
+    off_chain: Collection[str] = (),
+    ends: tuple[str, str] | None = None,
 ) -> tuple[float | None, ...]:
-    """Per joint, the locked value (checked: a known joint, finite, within its limits) or None."""
+    """Per joint, the locked value (checked: a known joint, finite, within its limits) or None.
+
+    ``off_chain``: the URDF's joints that are not on the chain (another branch, or above the base), and
+    ``ends``: the chain's ``(base_link, tip_link)``; locking one of those joints is refused with a
+    message that says so, not "unknown joint" (``parse_urdf_chain`` passes them)."""
     values: list[float | None] = [None] * len(joint_names)
     if not locked:
         return tuple(values)
     if not isinstance(locked, Mapping):
         raise ValueError(f"locked must be a mapping {{joint_name: value}}, got {type(locked).__name__}")
     for name, value in locked.items():
+        if name not in joint_names and name in off_chain:
+            chain = f"from {ends[0]!r} to {ends[1]!r}" if ends else "of the robot"
+            raise ValueError(
+                f"cannot lock joint {name!r}: it is in the URDF but not on the chain {chain}, whose actuated "
+                f"joints are {', '.join(joint_names)} (only those can be locked; for a chain through "
+                f"{name!r}, choose base_link / tip_link, command line: --base-link / --tip-link)"
+            )
         if name not in joint_names:
             raise ValueError(
                 f"cannot lock unknown joint {name!r}; actuated joints of the chain: {', '.join(joint_names)}"

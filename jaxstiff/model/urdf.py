@@ -383,7 +383,11 @@ def parse_urdf_chain(
 
     tip = f["after_tip"] @ tcp_matrix(tcp)
     axes = [tuple(snap(a) for a in ax) for ax in f["axes"]]
-    lock_values = check_locked(tuple(names), f["lower"], f["upper"], locked)
+    on_chain = {j.name for j in chain}
+    off_chain = {j.name for j in model.joints if j.name not in on_chain}
+    lock_values = check_locked(
+        tuple(names), f["lower"], f["upper"], locked, off_chain=off_chain, ends=(base_link, tip_link)
+    )
     return dict(
         name=model.name or os.path.basename(path),
         joint_names=tuple(names),

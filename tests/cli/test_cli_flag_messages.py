@@ -1,0 +1,215 @@
+"""Flag messages an independent tester found wrong: `--lock` split at the last '=' and its unit, a
+locked joint that is in the URDF but off the chain, `csc --help`'s segment size from SEGMENT_WORK,
+`--q0-deg` limits in degrees, `view --every` < 1 refused, and `export`'s note on a csc file's status
+bit mask. Every case stops at argument checking or reads a file built from arrays: no solver runs."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff.cli import main
+from jaxstiff.cli.common import parse_locks
+
+DATA = os.path.join(os.path.dirname(__file__), "..", "data")
+BRANCHED = os.path.join(DATA, "branched_tree.urdf")
+README = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
+
+#: two revolute joints, the first named with an '=' in it (XML allows it)
+EQ_URDF = """<?xml version="1.0"?>
+<robot name="eq">
+  <link name="base"/><link name="l1"/><link name="l2"/>
+  <joint name="j=1" type="revolute"><parent link="base"/><child link="l1"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def _one_error(capsys, argv: list[str]) -> str:
+    """Run the command, which must fail with exit 2 and one line ``jaxstiff: error: ...``; that line."""
+    rc = main(argv)
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and lines[0].startswith("jaxstiff: error: "), err
+    return lines[0]
+
+
+def _words(text: str) -> str:
+    return " ".join(text.split())
+
+
+# ------------------------------------------------------------------ 1. --lock NAME=VALUE
+def test_lock_splits_at_the_last_equals_sign(tmp_path, capsys):
+    assert parse_locks(["j=1=0.1", "j2=-0.2"]) == {"j=1": 0.1, "j2": -0.2}
+    urdf = tmp_path / "eq.urdf"
+    urdf.write_text(EQ_URDF)
+    out = tmp_path / "x.npz"
+    base = ["csc", "--robot", str(urdf), "--hold", "1,0", "--kxd", "1000,500", "--out", str(out)]
+    # the lock is taken (the robot is built with joint 'j=1' locked); the run stops at --q0's count
+    err = _one_error(capsys, [*base, "--lock", "j=1=0.1", "--q0", "0.1"])
+    assert "--q0 needs 2 values for 'eq' (j=1, j2), got 1" in err, err
+    err = _one_error(capsys, [*base, "--lock", "j=1=0.1", "--q0", "0.2,0"])
+    assert "gives joint 'j=1' 0.2 rad, but it is locked at 0.1 rad" in err, err
+    assert not out.exists()
+
+
+def test_lock_value_that_is_not_a_number_names_both_units(capsys):
+    err = _one_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "j=1=abc"])
+    assert "--lock 'j=1=abc': 'abc' is not a number (rad, or m for a prismatic joint)" in err, err
+    with pytest.raises(ValueError, match="expects JOINT=RAD"):
+        parse_locks(["=0.1"])
+
+
+# ------------------------------------------------------------------ 2. a joint off the chain
+@pytest.mark.parametrize("joint", ["side_joint", "camera_joint"])  # another branch: revolute, fixed
+def test_lock_of_a_urdf_joint_off_the_chain_says_so(capsys, joint):
+    err = _one_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", f"{joint}=0"])
+    assert f"cannot lock joint {joint!r}: it is in the URDF but not on the chain from 'world' to 'tool'" in err
+    assert "actuated joints are j1, j2, j3, j4" in err and "unknown" not in err, err
+
+
+def test_lock_of_a_joint_unknown_to_the_urdf_still_says_unknown(capsys):
+    err = _one_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "elbow=0"])
+    assert "cannot lock unknown joint 'elbow'; actuated joints of the chain: j1, j2, j3, j4" in err, err
+    with pytest.raises(ValueError, match="not on the chain from 'world' to 'side_link'"):  # the API too
+        jaxstiff.Robot.from_urdf(BRANCHED, tip_link="side_link", locked={"j2": 0.1})
+
+
+# ------------------------------------------------------------------ 3. csc --help: SEGMENT_WORK
+def test_csc_help_states_segment_work_from_the_constant(capsys, monkeypatch):
+    import jaxstiff.cli.csc as cli_csc
+
+    assert cli_csc.power_of_ten_text(cli_csc.SEGMENT_WORK) == "5 x 10^4"
+    with pytest.raises(SystemExit):
+        main(["csc", "--help"])
+    assert "(paths x steps over 5 x 10^4) runs in segments" in _words(capsys.readouterr().out)
+    assert "than 5 x 10^4 rollout-steps (paths x steps) goes in segments" in _words(open(README).read())
+    monkeypatch.setattr(cli_csc, "SEGMENT_WORK", 200_000)  # the help follows the constant
+    with pytest.raises(SystemExit):
+        main(["csc", "--help"])
+    assert "(paths x steps over 2 x 10^5) runs in segments" in _words(capsys.readouterr().out)
+    assert [cli_csc.power_of_ten_text(n) for n in (10_000, 15_000, 12_345, 300)] == [
+        "10^4",
+        "1.5 x 10^4",
+        "12,345",
+        "300",
+    ]
+
+
+# ------------------------------------------------------------------ 4. csc --q0 / --q0-deg limits
+@pytest.mark.parametrize(
+    "robot, q0, message",
+    [
+        (
+            ["planar_3r"],
+            ["--q0-deg", "30,60,400"],
+            "--q0-deg: joint 'joint_3' (q0[2]) = 400 deg is outside its limits [-180, 180] deg",
+        ),
+        (
+            ["planar_3r"],
+            ["--q0-deg", "-181,60,30"],
+            "--q0-deg: joint 'joint_1' (q0[0]) = -181 deg is outside its limits [-180, 180] deg",
+        ),
+        (
+            ["planar_3r"],
+            ["--q0", "0.5,1,7"],
+            "--q0: joint 'joint_3' (q0[2]) = 7 rad is outside its limits [-3.14159, 3.14159] rad",
+        ),
+        (  # a prismatic joint's value is a length, with either flag
+            [BRANCHED, "--tip-link", "tool"],
+            ["--q0-deg", "30,0.7,0,0"],
+            "--q0-deg: joint 'j2' (q0[1]) = 0.7 m is outside its limits [0, 0.5] m",
+        ),
+    ],
+)
+def test_csc_q0_outside_limits_in_the_flags_unit(tmp_path, capsys, robot, q0, message):
+    out = tmp_path / "x.npz"
+    hold, kxd = ("1.5,0", "3000,1000") if robot == ["planar_3r"] else ("0.5,0,0.5", "3000,1000,2000")
+    err = _one_error(capsys, ["csc", "--robot", *robot, "--hold", hold, "--kxd", kxd, *q0, "--out", str(out)])
+    assert err == f"jaxstiff: error: {message}", err
+    assert not out.exists()
+
+
+def test_csc_q0_limit_message_tells_value_and_limit_apart():
+    """A value just past a limit is shown with the digits that tell them apart."""
+    from jaxstiff.cli.csc import _check_q0_limits
+
+    robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
+    typed = np.array([2.5 + 1e-7, 0.1, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"= 2\.5000001 rad is outside its limits \[-2\.5, 2\.5\] rad"):
+        _check_q0_limits(robot, typed, "--q0", typed)
+    _check_q0_limits(robot, np.array([2.5 + 1e-10, 0.1, 0.0, 0.0]), "--q0", typed)  # the library's slack: accepted
+
+
+# ------------------------------------------------------------------ 5./6. view --every, export of a csc file
+def _csc_file(tmp_path, status: list[int], meta_bits: bool = True) -> str:
+    """A csc result file of planar_3r in the layout `jaxstiff csc` writes (built from arrays)."""
+    from jaxstiff.csc import STATUS_NAMES
+    from jaxstiff.settings.robot import robot_meta
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    T = len(status)
+    q = np.linspace([0.3, 0.6, 0.9], [0.4, 0.5, 0.8], T)[None]
+    pos = np.asarray(jaxstiff.fk(robot, q))[..., :3, 3]
+    z = np.zeros((1, T))
+    arrays = dict(
+        q=q,
+        u=z + 3.0,
+        frobenius=z + 4.0,
+        tracking_error=z,
+        orientation_error=z,
+        kj=np.full((1, T, 3), 20.0),
+        K_C=np.broadcast_to(np.diag([1000.0, 500.0]), (1, T, 2, 2)),
+        position=pos,
+        target=pos[..., :2],
+        isotropy=z + 0.5,
+        null_step=z,
+        status=np.asarray([status], dtype=np.int64),
+        u_start=np.full(1, 3.0),
+        frobenius_start=np.full(1, 4.0),
+        joint_names=np.asarray(robot.joint_names),
+        q0=q[0, 0],
+        K_xd=np.diag([3000.0, 1000.0]),
+    )
+    meta = {"kind": "csc", "robot": robot_meta(robot), "task": "xy", "paths": ["hold"]}
+    if meta_bits:
+        meta["status_bits"] = {str(k): v for k, v in STATUS_NAMES.items()}  # as jaxstiff csc writes it
+    file = str(tmp_path / "csc.npz")
+    np.savez(file, meta=np.asarray(json.dumps(meta)), **arrays)  # pyright: ignore[reportArgumentType]
+    return file
+
+
+@pytest.mark.parametrize("every", ["0", "-2"])
+def test_view_every_below_one_is_refused(tmp_path, capsys, every):
+    pytest.importorskip("viser")
+    html = tmp_path / "v.html"
+    err = _one_error(capsys, ["view", _csc_file(tmp_path, [0, 0]), "--html", str(html), "--every", every])
+    assert f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {every}" in err, err
+    assert not html.exists()
+
+
+@pytest.mark.parametrize("meta_bits", [True, False])  # the file's meta["status_bits"], or the library's
+def test_export_of_a_csc_file_explains_the_status_bit_mask(tmp_path, capsys, meta_bits):
+    from jaxstiff.view.export import read_csv
+
+    out = str(tmp_path / "c.csv")
+    assert main(["export", _csc_file(tmp_path, [0, 10, 2], meta_bits), "--csv", out]) == 0
+    text = _words(capsys.readouterr().out)
+    assert "status column (csc file): a bit mask per step, not the shape codes 0-5: 0 a plain step; " in text
+    assert (
+        "1 damped (near singular), 2 joint limit reached, 4 NaN guard (step dropped), "
+        "8 null-space gradient below null_eps; a step with several flags has their sum" in text
+    ), text
+    assert read_csv(out)["status"].tolist() == [0, 10, 2]  # the column itself is unchanged
+
+
+def test_readme_csv_section_tells_shape_and_csc_status_apart():
+    text = _words(open(README).read())
+    assert "From a shape file, command the arm with `kj_scaled` (after CMS), and only rows with status 0-2" in text
+    assert "In a csc file `status` is a bit mask, not those codes" in text
