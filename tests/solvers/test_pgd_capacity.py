@@ -12,7 +12,7 @@ from test_pgd import OPTS, PLANAR, STARTS, planar_paths, run
 import jaxstiff
 from jaxstiff.settings.solvers import PGDOptions
 from jaxstiff.solvers.pgd import batch as pgd_batch
-from jaxstiff.solvers.pgd.kernel import PGDKernel
+from jaxstiff.solvers.pgd.kernel import PGDKernel, waypoint_keys
 from jaxstiff.solvers.problem import WaypointProblem
 
 
@@ -33,7 +33,7 @@ def _kernel_args(problem, path, q0, P):
         jnp.asarray(pad(pts)),
         jnp.asarray(pad(dirs)),
         x0,
-        jax.random.PRNGKey(7),
+        jnp.asarray(pad(np.asarray(waypoint_keys(jax.random.PRNGKey(7), n)))),  # the path's own keys, padded
         jnp.full((problem.n_free,), 0.1),
         jnp.asarray(5.0),
         jnp.asarray(1.0),

@@ -9,6 +9,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.runtime.export_cache import compile_with_export_cache
@@ -16,7 +17,7 @@ from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import PGDOptions
 from jaxstiff.solvers.base import SolveRequest
-from jaxstiff.solvers.pgd.kernel import make_kernel
+from jaxstiff.solvers.pgd.kernel import make_kernel, waypoint_keys
 from jaxstiff.solvers.pgd.ops import lm_kind
 from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem, content_seed
 
@@ -214,7 +215,11 @@ def _run_chunks(
         chunks = []
         for s in range(0, B, C):
             sl = slice(s, min(s + C, B))
-            keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(pad_rows(path_data[sl], C))
+            path_keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(pad_rows(path_data[sl], C))
+            # the waypoints' keys of the path's own length P, padded to the capacity: the same
+            # random starts whatever program runs the path
+            keys = jax.vmap(lambda k: waypoint_keys(k, P))(path_keys)
+            keys = jnp.concatenate([keys, jnp.repeat(keys[:, -1:], cap - P, axis=1)], axis=1)
             args = (
                 pad_rows(targets[sl], C),
                 pad_rows(directions[sl], C),

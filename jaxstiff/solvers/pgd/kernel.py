@@ -15,7 +15,7 @@ from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
 from jaxstiff.solvers.pgd.stages import finish, optimise
 from jaxstiff.solvers.problem import WaypointProblem
 
-__all__ = ["make_kernel", "PGDKernel", "length_unit"]
+__all__ = ["make_kernel", "PGDKernel", "length_unit", "waypoint_keys"]
 
 #: per waypoint: ``(x, criterion, position error, status, winning start)``
 Waypoint = tuple[jax.Array, jax.Array, jax.Array, jax.Array, jax.Array]
@@ -28,6 +28,13 @@ def make_kernel(
     kmax, r, c, pos_tol, extra (E, nx)) -> dict`` (traceable, vmappable over trajectories);
     ``extra``: given first-waypoint start states (E may be 0). :meth:`PGDKernel.traj`."""
     return PGDKernel(problem, opts, first_rate).traj
+
+
+def waypoint_keys(key: jax.Array, P: int) -> jax.Array:
+    """The P waypoints' random keys (P, 2) of a path whose key is ``key``: the first waypoint's is
+    the last of ``split(key, P + 1)``, waypoint p's (p >= 1) the p-th."""
+    k = jax.random.split(key, P + 1)
+    return jnp.concatenate([k[P:], k[1:P]])
 
 
 def length_unit(size: float) -> float:
@@ -259,14 +266,15 @@ class PGDKernel:
         """One trajectory (see :func:`make_kernel`): ``x`` (P, nx), ``f``, ``err``, ``status``,
         ``start`` (P,).
 
-        ``n_valid``: the waypoints actually solved, the first ``n_valid`` of the P rows (None: all).
-        The rows after them are capacity: one compiled program serves every path length up to P
-        (a traced loop bound), and their outputs are zeros that the caller drops. Waypoint p's
-        random starts come from ``fold_in(key, p)``, so a waypoint's result does not depend on P."""
+        ``key``: the path's key, or its waypoints' keys (P, 2) (:func:`waypoint_keys` of the path's
+        own length: then the rows after ``n_valid`` change nothing). ``n_valid``: the waypoints
+        actually solved, the first ``n_valid`` of the P rows (None: all). The rows after them are
+        capacity: one compiled program serves every path length up to P (a traced loop bound), and
+        their outputs are zeros that the caller drops."""
         lims = (dq_f, dk, kmin, kmax, r, c, kmax - kmin, pos_tol)
         P = targets.shape[0]
         n = jnp.asarray(P if n_valid is None else n_valid, jnp.int32)
-        keys = jax.vmap(lambda i: jax.random.fold_in(key, i))(jnp.arange(P))
+        keys = key if key.ndim == 2 else waypoint_keys(key, P)
         if self.one_program:
             # the first waypoint as the loop's first step (is_first): one traced and compiled
             # waypoint program instead of two, the same arithmetic
