@@ -26,8 +26,8 @@ def stiffness_axes(
 
     Args:
         robot: the chain.
-        q: (P, n) joint values, rad.
-        kj_scaled: (P, n) joint stiffnesses (after CMS), Nm/rad.
+        q: (P, n) joint values, rad (m for prismatic joints).
+        kj_scaled: (P, n) joint stiffnesses (after CMS), Nm/rad (N/m for prismatic joints).
         task: ``"full"`` or ``"xyz"`` (a 3x3 ``K_T``).
 
     Returns:
@@ -42,24 +42,97 @@ def stiffness_axes(
     return w[:, ::-1], V[:, :, ::-1]
 
 
+def _prismatic(robot: Any, n: int) -> np.ndarray:
+    """(n,) bool: which actuated joints are prismatic (values in m, stiffness in N/m); from the
+    robot (:attr:`jaxstiff.model.chain.Chain.prismatic`), all revolute for a look-alike without it."""
+    pris = getattr(robot, "prismatic", None)
+    if pris is None:
+        return np.zeros(n, bool)
+    pris = np.asarray(pris, dtype=bool)
+    if pris.shape != (n,):
+        raise ValueError(
+            f"the robot has {pris.size} actuated joints, the result {n}: not the robot it was computed for"
+        )
+    return pris
+
+
 def _panel_joints(
-    ax: Any, wp: np.ndarray, values: np.ndarray, res: ShapeResult, colors: Any, ylabel: str, title: str
+    ax: Any,
+    wp: np.ndarray,
+    values: np.ndarray,
+    res: ShapeResult,
+    colors: Any,
+    ylabel: str,
+    title: str,
+    suffix: Sequence[str] | None = None,
+    right: tuple[np.ndarray, str] | None = None,
 ) -> None:
     """(a)/(b): one curve a joint over the waypoints, legend below. A joint whose values are all
-    ``+inf`` (a rigid locked joint's kj, SPEC section 1) has no curve; its legend entry says "rigid"."""
+    ``+inf`` (a rigid locked joint's kj, SPEC section 1) has no curve; its legend entry says "rigid".
+
+    ``suffix``: per joint, text added to its legend entry (a unit); ``right``: ``(mask, ylabel)``,
+    the joints in ``mask`` drawn on a twin axis on the right with that label (another unit)."""
+    ax_r = ax.twinx() if right is not None and right[0].any() else None
+    handles = []
     for i in range(res.n):
         rigid = bool(np.all(np.isposinf(values[:, i])))
         label = f"{res.joint_names[i]} (rigid, kj = inf)" if rigid else str(res.joint_names[i])
-        ax.plot(wp, np.where(np.isfinite(values[:, i]), values[:, i], np.nan), color=colors[i], label=label)
+        if suffix is not None and suffix[i]:
+            label = f"{label} {suffix[i]}"
+        target = ax_r if ax_r is not None and right[0][i] else ax  # type: ignore[index]
+        y = np.where(np.isfinite(values[:, i]), values[:, i], np.nan)
+        handles += target.plot(wp, y, color=colors[i], label=label)
     ax.set(xlabel="waypoint p", ylabel=ylabel, title=title)
-    ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    if ax_r is None:
+        ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    else:  # both axes' curves, in chain order
+        ax_r.set_ylabel(right[1])  # type: ignore[index]
+        labels = [h.get_label() for h in handles]
+        ax.legend(handles, labels, fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
     ax.grid(alpha=0.3)
+
+
+def _joint_panels(fig: Any, gs: Any, wp: np.ndarray, res: ShapeResult, b: int, colors: Any, pris: np.ndarray) -> None:
+    """(a) joint stiffness, (b) joint positions: revolute joints in Nm/rad and deg, prismatic
+    joints in N/m and mm ((b): on a right axis when the robot has both kinds)."""
+    ax_a, ax_b = fig.add_subplot(gs[0, 0:2]), fig.add_subplot(gs[0, 2:4])
+    title_a, title_b = "(a) joint stiffness (before CMS)", "(b) joint positions"
+    if not pris.any():
+        _panel_joints(ax_a, wp, res.kj[b], res, colors, "joint stiffness k_j (Nm/rad)", title_a)
+        _panel_joints(ax_b, wp, np.degrees(res.q[b]), res, colors, "joint position q (deg)", title_b)
+        return
+    q_shown = np.where(pris, 1e3 * res.q[b], np.degrees(res.q[b]))  # mm for prismatic joints, deg otherwise
+    if pris.all():
+        _panel_joints(ax_a, wp, res.kj[b], res, colors, "joint stiffness k_j (N/m)", title_a)
+        _panel_joints(ax_b, wp, q_shown, res, colors, "joint position q (mm)", title_b)
+        return
+    _panel_joints(
+        ax_a,
+        wp,
+        res.kj[b],
+        res,
+        colors,
+        "joint stiffness k_j (Nm/rad)\n(N/m for prismatic joints)",
+        title_a,
+        suffix=["(prismatic, N/m)" if p else "" for p in pris],
+    )
+    _panel_joints(
+        ax_b,
+        wp,
+        q_shown,
+        res,
+        colors,
+        "revolute joint position q (deg)",
+        title_b,
+        suffix=["(prismatic, mm, right axis)" if p else "" for p in pris],
+        right=(pris, "prismatic joint q (mm)"),
+    )
 
 
 def _panel_criterion(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
     """(c): the criterion's distance to its lowest possible value, log scale."""
     crit = res.meta["criterion"]
-    fmin = {"f1": float(res.meta["c"]), "f2": 1.0}.get(crit)
+    fmin = float(res.meta["c"]) if crit == "f1" else 1.0 if crit == "f2" else None  # meta["c"]: f1's only
     if fmin is not None:  # distance to the criterion's lowest possible value, log scale
         ax.plot(wp, np.maximum(res.criterion[b] - fmin, 1e-12), "k.-", label=f"{crit} - {fmin:g}")
         ax.set(ylabel=f"{crit} - min {crit} (-)")
@@ -174,10 +247,51 @@ def _panel_projection_xy(
         )
     ax.set(xlabel="x (m)", ylabel="y (m)", title=f"(g) projection on the xy plane\n{_scale_text(n_per_m)}")
     ax.set_aspect("equal")
+    ax.xaxis.set_major_locator(_FittingLocator())  # a narrow x range: fewer ticks, labels apart
     value = nice_value(size * n_per_m)  # a round stiffness near the largest drawn semi-axis
     draw_scale_bar(ax, value / n_per_m, f"{value:g} N/m")
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     ax.grid(alpha=0.3)
+
+
+def _fitting_locator_class() -> type:
+    from matplotlib.ticker import MaxNLocator
+
+    class FittingLocator(MaxNLocator):
+        """Matplotlib's default x ticks (``AutoLocator``), with fewer of them where their labels
+        would run into each other: an equal-aspect panel of a path that is narrow in x has room for
+        few labels, and the default's estimate (three font sizes a label) wrote "0.490.500.51"."""
+
+        def __init__(self) -> None:
+            super().__init__(nbins="auto", steps=[1, 2, 2.5, 5, 10])
+
+        def __call__(self) -> Any:
+            axis = self.axis
+            vmin, vmax = sorted(axis.get_view_interval())
+            width_pt = axis.axes.bbox.width * 72.0 / axis.axes.figure.dpi
+            font = axis.get_major_ticks(1)[0].label1.get_fontsize()
+            nbins = max(min(axis.get_tick_space(), 9), 1)  # what nbins="auto" gives
+            while True:
+                self.set_params(nbins=nbins, min_n_ticks=2 if nbins > 1 else 1)  # one tick if two do not fit
+                locs = self.tick_values(vmin, vmax)
+                shown = locs[(locs >= vmin - 1e-12 * abs(vmax - vmin)) & (locs <= vmax + 1e-12 * abs(vmax - vmin))]
+                if nbins == 1 or shown.size < 2:
+                    break
+                labels = axis.major.formatter.format_ticks(shown)
+                gap_pt = width_pt * float(np.min(np.diff(shown))) / (vmax - vmin)
+                need_pt = font * (0.65 * max(len(t) for t in labels) + 0.6)  # a label's width, and a space
+                if gap_pt >= need_pt:
+                    break
+                nbins -= 1
+            self.set_params(nbins="auto", min_n_ticks=2)
+            return self.raise_if_exceeds(locs)
+
+    return FittingLocator
+
+
+def _FittingLocator() -> Any:
+    """A :class:`FittingLocator` (matplotlib is imported only when a figure is drawn)."""
+    return _fitting_locator_class()()
 
 
 def _drawn_waypoints(P: int, every: int, waypoints: Sequence[int] | None) -> tuple[np.ndarray, np.ndarray, float]:
@@ -231,7 +345,8 @@ def figure_shape_path(
 ) -> str:
     """Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result.
 
-    (a) joint stiffness kj (Nm/rad), (b) joint positions (deg), (c) the criterion's distance to its
+    (a) joint stiffness kj (Nm/rad; N/m for prismatic joints), (b) joint positions (deg; prismatic
+    joints in mm, on a right axis when the robot has revolute joints too), (c) the criterion's distance to its
     minimum (log scale), (d) orientation error alpha (deg) and axis ratio, (e) CMS factor, (f) the
     path (m) with the CMS-scaled 3-D stiffness ellipsoids every ``2 * every`` waypoints, (g) their
     outlines projected on the xy plane every ``every`` waypoints.
@@ -263,25 +378,12 @@ def figure_shape_path(
     fig = plt.figure(figsize=(17, 14))
     gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.45, wspace=0.9)
     colors = plt.cm.tab10(np.arange(res.n))
-    _panel_joints(
-        fig.add_subplot(gs[0, 0:2]),
-        wp,
-        res.kj[b],
-        res,
-        colors,
-        "joint stiffness k_j (Nm/rad)",
-        "(a) joint stiffness (before CMS)",
-    )
-    _panel_joints(
-        fig.add_subplot(gs[0, 2:4]),
-        wp,
-        np.degrees(res.q[b]),
-        res,
-        colors,
-        "joint position q (deg)",
-        "(b) joint positions",
-    )
-    _panel_criterion(fig.add_subplot(gs[0, 4:6]), wp, res, b)
+    pris = _prismatic(robot, res.n)
+    _joint_panels(fig, gs, wp, res, b, colors, pris)
+    spec_c = gs[0, 4:6]
+    if pris.any() and not pris.all():  # (b) has a second y axis on its right: (c) moves right to make room
+        spec_c = spec_c.subgridspec(1, 2, width_ratios=[0.3, 1], wspace=0)[0, 1]
+    _panel_criterion(fig.add_subplot(spec_c), wp, res, b)
     row = gs[1, :].subgridspec(1, 2, wspace=0.3)  # room between (d)'s right axis label and (e)'s left one
     _panel_alpha_ratio(fig.add_subplot(row[0, 0]), wp, res, b, float(res.meta["ratio"]))
     _panel_cms(fig.add_subplot(row[0, 1]), wp, res, b)
@@ -340,14 +442,37 @@ def rate_limited_joints(res: ShapeResult, robot: Chain, b: int = 0, rtol: float 
     }
 
 
-def _turning_overlay(ax: Any, wp: np.ndarray, turning: np.ndarray, dq_deg: float) -> Any:
-    """A twin axis with the tangent's turning per waypoint (deg) and the joint rate limit line."""
+def _turning_overlay(ax: Any, wp: np.ndarray, turning: np.ndarray, dq_deg: float | None, which: str = "") -> Any:
+    """A twin axis with the tangent's turning per waypoint (deg) and the joint rate limit line
+    (none when ``dq_deg`` is None: no revolute joint, no rate limit in degrees); ``which`` names
+    the joints the limit is of ("revolute " when the robot has prismatic joints too)."""
     ax2 = ax.twinx()
     ax2.plot(wp[1:], turning, color="0.45", lw=2, alpha=0.8, label="path tangent turns (deg per waypoint)")
-    ax2.axhline(dq_deg, color="0.25", ls="--", lw=1, label=f"joint rate limit dq = {dq_deg:g} deg per waypoint")
+    if dq_deg is not None:
+        ax2.axhline(
+            dq_deg, color="0.25", ls="--", lw=1, label=f"{which}joint rate limit dq = {dq_deg:g} deg per waypoint"
+        )
     ax2.set_ylabel("turning of the path tangent (deg per waypoint)", color="0.3")
-    ax2.set_ylim(0, 1.15 * max(float(turning.max()), dq_deg))
+    ax2.set_ylim(0, 1.15 * max(float(turning.max()), dq_deg or 0.0) or 1.0)
     return ax2
+
+
+def _limit_texts(dq: np.ndarray, dk: np.ndarray, pris: np.ndarray) -> tuple[float | None, str, str]:
+    """The largest revolute rate limit dq in deg (None without revolute joints) and the legend
+    texts of the joint and stiffness rate limits: deg and Nm/rad for revolute joints, mm and N/m
+    for prismatic ones (the limits of a robot of both kinds are given for each kind)."""
+    rev = ~pris
+    dq_deg = float(np.degrees(dq[rev].max())) if rev.any() else None
+    if not pris.any():
+        return dq_deg, f"{dq_deg:g} deg", f"{float(dk.max()):g} Nm/rad"
+    dq_mm, dk_n = f"{1e3 * float(dq[pris].max()):g} mm", f"{float(dk[pris].max()):g} N/m"
+    if not rev.any():
+        return None, dq_mm, dk_n
+    return (
+        dq_deg,
+        f"{dq_deg:g} deg (revolute), {dq_mm} (prismatic)",
+        f"{float(dk[rev].max()):g} Nm/rad (revolute), {dk_n} (prismatic)",
+    )
 
 
 def figure_turning(
@@ -367,7 +492,9 @@ def figure_turning(
     :func:`jaxstiff.paths.generators.turning_deg`) on a twin axis with the joint rate limit ``dq``;
     (c) the number of free joints at the joint rate limit ``dq`` and at the stiffness rate limit
     ``dk`` (:func:`rate_limited_joints`). Waypoints where the tangent turns faster than ``dq`` are
-    shaded in every panel.
+    shaded in every panel. The turning is compared with the revolute joints' ``dq`` (deg) only: a
+    prismatic joint's limit is a length (mm in the legend, its stiffness limit in N/m); a robot
+    without revolute joints has no such line and no shading.
 
     Args:
         res: a :class:`jaxstiff.results.ShapeResult` (criterion f1 or f2: rho's target line is ``r``).
@@ -386,9 +513,12 @@ def figure_turning(
     wp = np.arange(res.P)
     turning = turning_deg(Path(res.target[b], res.direction[b]))
     prm = path_parameters(res.meta, res.B, res.n)
-    dq_deg = float(np.degrees(prm["dq"][b].max()))
+    pris = _prismatic(robot, res.n)
+    dq_deg, dq_text, dk_text = _limit_texts(np.asarray(prm["dq"][b]), np.asarray(prm["dk"][b]), pris)
+    which = "revolute " if pris.any() else ""
     r = float(prm["ratio"][b])
-    fast = np.r_[False, turning > dq_deg]  # waypoint p is reached by a turn faster than dq
+    # waypoint p is reached by a turn faster than dq (revolute joints: a prismatic one turns nothing)
+    fast = np.r_[False, turning > dq_deg] if dq_deg is not None else np.zeros(res.P, bool)
     fig, axes = plt.subplots(3, 1, figsize=(11, 11), sharex=True, gridspec_kw={"height_ratios": [1.2, 1.2, 0.8]})
     for ax in axes:
         for k in np.flatnonzero(fast):
@@ -399,7 +529,7 @@ def figure_turning(
     ax.set(ylabel="alpha (deg, log scale)", title="(a) orientation error alpha and the turning of the path")
     ax.set_ylim(1e-9, 10 ** np.ceil(np.log10(max(90.0, float(res.alpha_deg[b].max())))))
     ax.grid(alpha=0.3, which="major")
-    ax2 = _turning_overlay(ax, wp, turning, dq_deg)
+    ax2 = _turning_overlay(ax, wp, turning, dq_deg, which)
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left", bbox_to_anchor=(1.09, 1.0))
@@ -409,20 +539,21 @@ def figure_turning(
     ax.set(ylabel="axis ratio rho (-)", title="(b) axis ratio rho and the turning of the path")
     ax.set_ylim(0, max(2 * r, 1.1 * float(res.ratio[b].max())))
     ax.grid(alpha=0.3)
-    ax2 = _turning_overlay(ax, wp, turning, dq_deg)
+    ax2 = _turning_overlay(ax, wp, turning, dq_deg, which)
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left", bbox_to_anchor=(1.09, 1.0))
     ax = axes[2]
     lim = rate_limited_joints(res, robot, b)
-    ax.step(wp, lim["q_rate"], "C4", where="mid", label=f"joints at the rate limit dq = {dq_deg:g} deg")
-    dk = float(prm["dk"][b].max())
-    ax.step(wp, lim["kj_rate"], "C2--", where="mid", label=f"joint stiffnesses at the rate limit dk = {dk:g} Nm/rad")
+    sep = "\n" if which else " "  # the limits of both kinds on a line of their own: the legend no wider
+    ax.step(wp, lim["q_rate"], "C4", where="mid", label=f"joints at the rate limit dq ={sep}{dq_text}")
+    ax.step(wp, lim["kj_rate"], "C2--", where="mid", label=f"joint stiffnesses at the rate limit dk ={sep}{dk_text}")
     ax.set(xlabel="waypoint p", ylabel="free joints (count)", title="(c) joints held by the rate limits")
     ax.set_ylim(-0.2, max(1, int(np.max([lim["q_rate"], lim["kj_rate"]]))) + 0.5)
-    ax.fill_between(
-        [], [], color="C1", alpha=0.12, label=f"waypoints the tangent reaches turning faster than {dq_deg:g} deg"
-    )
+    if dq_deg is not None:
+        ax.fill_between(
+            [], [], color="C1", alpha=0.12, label=f"waypoints the tangent reaches turning faster than {dq_deg:g} deg"
+        )
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.09, 1.0))
     ax.grid(alpha=0.3)
     fig.suptitle(title, fontsize=12)
