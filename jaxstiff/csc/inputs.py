@@ -111,6 +111,20 @@ def _start_posture(robot: Robot, q0: Any) -> jax.Array:
     return q0.astype(dtype)
 
 
+def _refuse_planar_path_for_3d_kxd(path: Any, K_xd: jax.Array, task: str | None) -> None:
+    """A path of (x, y) points with a 3x3 or 6x6 K_xd and no task: the task follows K_xd's size, so
+    say that the two disagree (the task check below would blame the robot's rows instead)."""
+    pts = getattr(path, "points", path)
+    if task is not None or np.ndim(pts) < 1 or np.shape(pts)[-1] != 2 or K_xd.ndim < 2:
+        return
+    m = K_xd.shape[-1]
+    if m in TASK_BY_SIZE and m != 2:
+        raise ValueError(
+            f"K_xd is {m}x{m}, so the task is {TASK_BY_SIZE[m]!r}, but the path has 2 coordinates per point "
+            "(x, y): give a 2x2 K_xd for task 'xy', or points with x, y, z"
+        )
+
+
 def _task_of(robot: Robot, K_xd: jax.Array, task: str | None) -> str:
     """The task rows, checked against K_xd's size and the robot (S1: m rows need m free joints)."""
     if K_xd.ndim < 2 or K_xd.shape[-1] != K_xd.shape[-2] or K_xd.shape[-1] not in TASK_BY_SIZE:
@@ -213,6 +227,7 @@ def prepare_rollout(
     if q0.ndim == 0 or q0.shape[-1] != robot.n:
         raise ValueError(f"q0 must have shape (..., {robot.n}) for robot {robot.name!r}, got {tuple(q0.shape)}")
     K_xd = jnp.asarray(K_xd, dtype=dtype)
+    _refuse_planar_path_for_3d_kxd(path, K_xd, s["task"])
     task = _task_of(robot, K_xd, s["task"])
     m = K_xd.shape[-1]
     targets = _targets(path, task, dtype)

@@ -224,8 +224,10 @@ def csc_rollout(
             columns. To hold a point, repeat it T times.
         K_xd: desired Cartesian stiffness, (*B, m, m) constant or (*B, T, m, m) along the path;
             N/m (translational rows), m = 2 (``"xy"``), 3 (``"xyz"``) or 6 (``"full"``). Symmetric.
-        q0: start posture (*B, n), rad; locked joints are set to their locked values. It need not
-            be on the path: the first steps pull the TCP onto it.
+        q0: start posture (*B, n), rad; a locked joint's entry must be its locked value (another
+            value is refused, ValueError naming the joint; a traced q0 inside ``jit`` is not
+            checked and the locked value is used). It need not be on the path: the first steps pull
+            the TCP onto it.
         beta: (*B,) step multiplier >= 0 (default ``settings.beta``, 1). ``"adaptive"``: the null
             step is ``beta`` times as long as the primary step (S1-22; zero when the path stands
             still). ``"constant"``: the null step is ``beta`` rad long (for holding a point).

@@ -39,11 +39,13 @@ Choices where the seed is silent (SPEC section 6 lets us choose):
   with joints at their limits the arm can stall (status 2 + 8 on every step), or the TCP can fall
   behind the path (the tracking error says so). Start inside the limits, or use
   ``joint_limits="priority"`` to keep the arm off them.
-* **Locked joints** never move: their Jacobian columns are zeroed for motion and their entries of
-  ``q0`` are replaced by the locked values. ``locked_joints="rigid"`` (default, SPEC section 1):
+* **Locked joints** never move: their Jacobian columns are zeroed for motion and, in this traced
+  kernel, their entries of ``q0`` are replaced by the locked values (:func:`jaxstiff.csc_rollout`
+  refuses a concrete ``q0`` that gives them another value, naming the joint). ``locked_joints="rigid"`` (default, SPEC section 1):
   they have no spring either, so their columns are zeroed for the stiffness too: ``u`` and its
   gradient, the realised joint stiffness and ``K_C = (J_f K_f^-1 J_f^T)^-1`` run over the free
-  joints only, and a locked joint's reported ``kj`` is 0 (no spring, not a variable).
+  joints only, and a locked joint's reported ``kj`` is ``+inf`` (no spring: infinitely stiff,
+  not a variable; :class:`jaxstiff.CSCResult`).
   ``"spring"``: they keep their springs, ``u``, ``kj`` and ``K_C`` use the full Jacobian.
 * **Objective.** ``objective="offdiag"`` (default): the seed's ``u(q)`` (S1-19, closed-form
   gradient, :mod:`~jaxstiff.csc.offdiag`). ``"frobenius"`` (this project's own): ``|K_xd - K_C(q)|_F``

@@ -1418,3 +1418,14 @@ def test_cli_tcp_flag_is_accepted_and_recorded(tmp_path):
         )
         == 2
     )
+
+
+def test_a_planar_path_with_a_3d_kxd_names_the_disagreement():
+    # the task follows K_xd's size: a 3x3 K_xd with (x, y) points blamed the robot's vz row ("a
+    # planar chain? use task 'xy'") instead of the K_xd / path mismatch (an independent check)
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    path = np.zeros((3, 2)) + [1.5, 0.5]
+    with pytest.raises(ValueError, match=r"K_xd is 3x3, so the task is 'xyz', but the path has 2 coordinates"):
+        jaxstiff.csc_rollout(robot, path, np.eye(3) * 1000.0, np.radians([30.0, 60.0, 30.0]))
+    out = jaxstiff.csc_rollout(robot, path, np.eye(2) * 1000.0, np.radians([30.0, 60.0, 30.0]))  # 2x2: runs
+    assert np.all(np.isfinite(np.asarray(out.q)))
