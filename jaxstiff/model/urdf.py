@@ -266,6 +266,24 @@ def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> s
             below.append(link)
         stack.extend(j.child for j in tree.children[link])
     counts = {l: sum(j.type in _MOVABLE for j in tree.chain_to(base_link, l)) for l in below}
+    # a chain through a mimic, floating or planar joint cannot be used: such a leaf is never picked,
+    # and when it has as many actuated joints as the best other leaf, the choice is the user's
+    behind = {l: next((j for j in tree.chain_to(base_link, l) if _unsupported(j)), None) for l in below}
+    usable = {l: c for l, c in counts.items() if behind[l] is None}
+    if any(usable.values()):
+        top = max(usable.values())
+        rivals = sorted(l for l, c in counts.items() if behind[l] is not None and c >= top)
+        if rivals:
+            best_usable = sorted(l for l, c in usable.items() if c == top)
+            why = ", ".join(
+                f"{l!r} (behind {behind[l].type if behind[l].mimic is None else 'mimic'} joint {behind[l].name!r})"
+                for l in rivals[:4]
+            )
+            raise ValueError(
+                f"{path}: the tip link is ambiguous below {base_link!r}: {short_list(best_usable)} with {top} actuated "
+                f"joints, and {why}, which cannot end a chain; pass tip_link (command line: --tip-link)"
+            )
+        counts = usable
     best = max(counts.values()) if counts else 0
     tips = sorted(l for l, c in counts.items() if c == best)
     if best == 0:
@@ -278,6 +296,11 @@ def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> s
     return tips[0]
 
 
+def _unsupported(j: Any) -> bool:
+    """A joint a chain cannot hold: a mimic, floating or planar joint."""
+    return j.mimic is not None or j.type in ("floating", "planar")
+
+
 def _check_chain_joint(path: str, j: Any) -> None:
     """Refuse a mimic, floating or planar joint on the chain."""
     if j.mimic is not None:
@@ -288,7 +311,9 @@ def _check_chain_joint(path: str, j: Any) -> None:
         )
     if j.type in ("floating", "planar"):
         raise ValueError(
-            f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported"
+            f"{path}: joint {j.name!r} is {j.type}; only revolute, continuous, prismatic and fixed joints are supported: "
+            f"choose a base link below it ({j.child!r} or further down; base_link, command line: --base-link) "
+            "or a tip link above it (tip_link, --tip-link)"
         )
 
 

@@ -436,3 +436,25 @@ def test_fifo_is_not_a_regular_file(tmp_path):
     os.mkfifo(fifo)
     with raises(ValueError, str(fifo), "is not a regular file: it is a FIFO"):
         jaxstiff.Robot.from_urdf(str(fifo))
+
+
+def test_a_leaf_behind_a_mimic_joint_is_never_the_default_tip(write):
+    # an independent check: the default tip was the side branch with the most joints, through a mimic
+    # joint, and the error was about the mimic joint although the main chain was fine
+    side = (
+        f'<link name="s1"/><link name="s2"/>'
+        f'<joint name="m1" type="revolute"><parent link="l1"/><child link="s1"/><origin xyz="0 1 0"/>'
+        f'<axis xyz="0 0 1"/>{LIMIT}<mimic joint="j1"/></joint>'
+        f'<joint name="m2" type="revolute"><parent link="s1"/><child link="s2"/><origin xyz="1 0 0"/>'
+        f'<axis xyz="0 0 1"/>{LIMIT}</joint>'
+    )
+    path = write(two_joint_urdf(extra=side))
+    with raises(ValueError, "tip link is ambiguous", "'s2' (behind mimic joint 'm1')", "--tip-link"):
+        jaxstiff.Robot.from_urdf(path)
+    assert jaxstiff.Robot.from_urdf(path, tip_link="l2").joint_names == ("j1", "j2")
+
+
+def test_a_floating_joint_names_the_base_link_to_choose(write):
+    path = write(two_joint_urdf().replace('name="j1" type="revolute"', 'name="j1" type="floating"'))
+    with raises(ValueError, "joint 'j1' is floating", "choose a base link below it ('l1'", "--base-link"):
+        jaxstiff.Robot.from_urdf(path)
