@@ -160,7 +160,7 @@ def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, st
                 f"{flag} gives joint {robot.joint_names[i]!r} {given:.10g} {unit}, but it is locked at "
                 f"{want:.10g} {unit}: give the locked value there (or change --lock)"
             )
-    _check_q0_limits(robot, q0, flag, typed)
+    check_q0_limits(robot, q0, flag, typed)
     return np.where(robot.free, q0, np.nan_to_num(lv)), flag
 
 
@@ -168,7 +168,7 @@ def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, st
 Q0_LIMIT_TOL = 1e-9
 
 
-def _check_q0_limits(robot: Any, q0: np.ndarray, flag: str, typed: np.ndarray) -> None:
+def check_q0_limits(robot: Any, q0: np.ndarray, flag: str, typed: np.ndarray) -> None:
     """Refuse a free joint of ``q0`` (rad; m for prismatic joints) outside its limits, in the unit of
     ``flag`` (``typed``: the values as given, degrees for ``--q0-deg``), before any work; the
     library's own check of ``q0`` says rad."""

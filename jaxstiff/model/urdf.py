@@ -275,9 +275,9 @@ def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> s
         rivals = sorted(l for l, c in counts.items() if behind[l] is not None and c >= top)
         if rivals:
             best_usable = sorted(l for l, c in usable.items() if c == top)
+            blockers = [(l, j) for l in rivals[:4] if (j := behind[l]) is not None]
             why = ", ".join(
-                f"{l!r} (behind {behind[l].type if behind[l].mimic is None else 'mimic'} joint {behind[l].name!r})"
-                for l in rivals[:4]
+                f"{l!r} (behind {j.type if j.mimic is None else 'mimic'} joint {j.name!r})" for l, j in blockers
             )
             raise ValueError(
                 f"{path}: the tip link is ambiguous below {base_link!r}: {short_list(best_usable)} with {top} actuated "

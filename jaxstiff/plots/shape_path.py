@@ -266,7 +266,7 @@ def _fitting_locator_class() -> type:
             super().__init__(nbins="auto", steps=[1, 2, 2.5, 5, 10])
 
         def __call__(self) -> Any:
-            axis = self.axis
+            axis: Any = self.axis  # (set by matplotlib when the locator is attached)
             vmin, vmax = sorted(axis.get_view_interval())
             width_pt = axis.axes.bbox.width * 72.0 / axis.axes.figure.dpi
             font = axis.get_major_ticks(1)[0].label1.get_fontsize()
@@ -277,7 +277,7 @@ def _fitting_locator_class() -> type:
                 shown = locs[(locs >= vmin - 1e-12 * abs(vmax - vmin)) & (locs <= vmax + 1e-12 * abs(vmax - vmin))]
                 if nbins == 1 or shown.size < 2:
                     break
-                labels = axis.major.formatter.format_ticks(shown)
+                labels = [str(t) for t in axis.major.formatter.format_ticks(shown)]
                 gap_pt = width_pt * float(np.min(np.diff(shown))) / (vmax - vmin)
                 need_pt = font * (0.65 * max(len(t) for t in labels) + 0.6)  # a label's width, and a space
                 if gap_pt >= need_pt:

@@ -138,13 +138,13 @@ def test_csc_q0_outside_limits_in_the_flags_unit(tmp_path, capsys, robot, q0, me
 
 def test_csc_q0_limit_message_tells_value_and_limit_apart():
     """A value just past a limit is shown with the digits that tell them apart."""
-    from jaxstiff.cli.csc import _check_q0_limits
+    from jaxstiff.cli.csc import check_q0_limits
 
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
     typed = np.array([2.5 + 1e-7, 0.1, 0.0, 0.0])
     with pytest.raises(ValueError, match=r"= 2\.5000001 rad is outside its limits \[-2\.5, 2\.5\] rad"):
-        _check_q0_limits(robot, typed, "--q0", typed)
-    _check_q0_limits(robot, np.array([2.5 + 1e-10, 0.1, 0.0, 0.0]), "--q0", typed)  # the library's slack: accepted
+        check_q0_limits(robot, typed, "--q0", typed)
+    check_q0_limits(robot, np.array([2.5 + 1e-10, 0.1, 0.0, 0.0]), "--q0", typed)  # the library's slack: accepted
 
 
 # ------------------------------------------------------------------ 5./6. view --every, export of a csc file
