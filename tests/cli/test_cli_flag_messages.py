@@ -5,7 +5,6 @@ bit mask. Every case stops at argument checking or reads a file built from array
 
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
@@ -147,68 +146,8 @@ def test_csc_q0_limit_message_tells_value_and_limit_apart():
     check_q0_limits(robot, np.array([2.5 + 1e-10, 0.1, 0.0, 0.0]), "--q0", typed)  # the library's slack: accepted
 
 
-# ------------------------------------------------------------------ 5./6. view --every, export of a csc file
-def _csc_file(tmp_path, status: list[int], meta_bits: bool = True) -> str:
-    """A csc result file of planar_3r in the layout `jaxstiff csc` writes (built from arrays)."""
-    from jaxstiff.csc import STATUS_NAMES
-    from jaxstiff.settings.robot import robot_meta
-
-    robot = jaxstiff.Robot.from_urdf("planar_3r")
-    T = len(status)
-    q = np.linspace([0.3, 0.6, 0.9], [0.4, 0.5, 0.8], T)[None]
-    pos = np.asarray(jaxstiff.fk(robot, q))[..., :3, 3]
-    z = np.zeros((1, T))
-    arrays = dict(
-        q=q,
-        u=z + 3.0,
-        frobenius=z + 4.0,
-        tracking_error=z,
-        orientation_error=z,
-        kj=np.full((1, T, 3), 20.0),
-        K_C=np.broadcast_to(np.diag([1000.0, 500.0]), (1, T, 2, 2)),
-        position=pos,
-        target=pos[..., :2],
-        isotropy=z + 0.5,
-        null_step=z,
-        status=np.asarray([status], dtype=np.int64),
-        u_start=np.full(1, 3.0),
-        frobenius_start=np.full(1, 4.0),
-        joint_names=np.asarray(robot.joint_names),
-        q0=q[0, 0],
-        K_xd=np.diag([3000.0, 1000.0]),
-    )
-    meta = {"kind": "csc", "robot": robot_meta(robot), "task": "xy", "paths": ["hold"]}
-    if meta_bits:
-        meta["status_bits"] = {str(k): v for k, v in STATUS_NAMES.items()}  # as jaxstiff csc writes it
-    file = str(tmp_path / "csc.npz")
-    np.savez(file, meta=np.asarray(json.dumps(meta)), **arrays)  # pyright: ignore[reportArgumentType]
-    return file
-
-
-@pytest.mark.parametrize("every", ["0", "-2"])
-def test_view_every_below_one_is_refused(tmp_path, capsys, every):
-    pytest.importorskip("viser")
-    html = tmp_path / "v.html"
-    err = _one_error(capsys, ["view", _csc_file(tmp_path, [0, 0]), "--html", str(html), "--every", every])
-    assert f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {every}" in err, err
-    assert not html.exists()
-
-
-@pytest.mark.parametrize("meta_bits", [True, False])  # the file's meta["status_bits"], or the library's
-def test_export_of_a_csc_file_explains_the_status_bit_mask(tmp_path, capsys, meta_bits):
-    from jaxstiff.view.export import read_csv
-
-    out = str(tmp_path / "c.csv")
-    assert main(["export", _csc_file(tmp_path, [0, 10, 2], meta_bits), "--csv", out]) == 0
-    text = _words(capsys.readouterr().out)
-    assert "status column (csc file): a bit mask per step, not the shape codes 0-5: 0 a plain step; " in text
-    assert (
-        "1 damped (near singular), 2 joint limit reached, 4 NaN guard (step dropped), "
-        "8 null-space gradient below null_eps; a step with several flags has their sum" in text
-    ), text
-    assert read_csv(out)["status"].tolist() == [0, 10, 2]  # the column itself is unchanged
-
-
+# ------------------------------------------------------------------ 6. the README's CSV section
+# (5. view --every and the export of a csc file: tests/view/test_export_and_cli.py)
 def test_readme_csv_section_tells_shape_and_csc_status_apart():
     text = _words(open(README).read())
     assert "From a shape file, command the arm with `kj_scaled` (after CMS), and only rows with status 0-2" in text

@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 import pytest
-from viewer_files import MISSING_MESHES_URDF, make_shape_result
+from viewer_files import MISSING_MESHES_URDF, make_csc_file, make_shape_result
 
 import jaxstiff
 from jaxstiff.cli.main import main
@@ -152,3 +152,33 @@ def test_wrong_kind_of_file_and_output_folders_are_named(shape_file, csc_file, t
     cap = capsys.readouterr()  # out and err of the same call: the simulation never ran
     assert "--json: folder does not exist: " in cap.err and "agree" not in cap.out, cap
     assert os.listdir(folder) == []
+
+
+@pytest.mark.parametrize("every", ["0", "-2"])
+def test_view_every_below_one_is_refused(csc_file, tmp_path, capsys, every) -> None:
+    """``--every 0`` was clamped to 1 without a word (an independent check)."""
+    pytest.importorskip("viser")
+    html = tmp_path / "v.html"
+    assert main(["view", csc_file, "--html", str(html), "--every", every]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"jaxstiff: error: --every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {every}"
+    assert not html.exists()
+
+
+@pytest.mark.parametrize("meta_bits", [True, False])  # the file's meta["status_bits"], or the library's
+def test_export_of_a_csc_file_explains_the_status_bit_mask(lwr, tmp_path, capsys, meta_bits) -> None:
+    """A csc file's status is a bit mask, not the shape codes: export says so (an independent check
+    read status 10 as a shape code)."""
+    from jaxstiff.csc import STATUS_NAMES
+
+    bits = {str(k): v for k, v in STATUS_NAMES.items()} if meta_bits else {}  # as jaxstiff csc writes it
+    src = make_csc_file(lwr, str(tmp_path / "c.npz"), T=3, status=np.array([[0, 10, 2]]), status_bits=bits)
+    out = str(tmp_path / "c.csv")
+    assert main(["export", src, "--csv", out]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "status column (csc file): a bit mask per step, not the shape codes 0-5: 0 a plain step; " in text
+    assert (
+        "1 damped (near singular), 2 joint limit reached, 4 NaN guard (step dropped), "
+        "8 null-space gradient below null_eps; a step with several flags has their sum" in text
+    ), text
+    assert read_csv(out)["status"].tolist() == [0, 10, 2]  # the column itself is unchanged

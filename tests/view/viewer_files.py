@@ -63,8 +63,19 @@ def make_shape_result(
     )
 
 
-def make_csc_file(robot: jaxstiff.Robot, file: str, B: int = 1, T: int = 12, seed: int = 1) -> str:
-    """A csc result file in the ``jaxstiff csc`` layout (K_C from the numpy stiffness of q, kj)."""
+def make_csc_file(
+    robot: jaxstiff.Robot,
+    file: str,
+    B: int = 1,
+    T: int = 12,
+    seed: int = 1,
+    status: np.ndarray | None = None,
+    status_bits: dict[str, str] | None = None,
+) -> str:
+    """A csc result file in the ``jaxstiff csc`` layout (K_C from the numpy stiffness of q, kj).
+
+    ``status``: the (B, T) status bit masks (default 0); ``status_bits``: meta's names of the bits
+    (default one of them; ``{}``: none in meta, as in files written before they were recorded)."""
     from jaxstiff.view.kinematics import stiffness_T
 
     rng = np.random.default_rng(seed)
@@ -85,7 +96,7 @@ def make_csc_file(robot: jaxstiff.Robot, file: str, B: int = 1, T: int = 12, see
         target=pos,
         isotropy=z + 0.5,
         null_step=z,
-        status=np.zeros((B, T), dtype=np.int64),
+        status=np.zeros((B, T), dtype=np.int64) if status is None else np.asarray(status, dtype=np.int64),
         u_start=np.full(B, 3.0),
         frobenius_start=np.full(B, 4.0),
         joint_names=np.asarray(robot.joint_names),
@@ -98,8 +109,10 @@ def make_csc_file(robot: jaxstiff.Robot, file: str, B: int = 1, T: int = 12, see
         "task": "xyz",
         "step": "adaptive",
         "beta": 1.0,
-        "status_bits": {"1": "damped (near singular)"},
+        "status_bits": {"1": "damped (near singular)"} if status_bits is None else status_bits,
         "paths": [f"p{b}.csv" for b in range(B)],
     }
+    if not meta["status_bits"]:
+        del meta["status_bits"]
     np.savez(file, meta=np.asarray(json.dumps(meta)), **arrays)  # pyright: ignore[reportArgumentType]
     return file
