@@ -16,6 +16,7 @@ import types
 import numpy as np
 import pytest
 from helpers import DATA_DIR
+from test_turning_figure import arc_result
 
 import jaxstiff
 from jaxstiff.plots import shape_path
@@ -180,25 +181,7 @@ def test_turning_figure_compares_the_turning_with_the_revolute_rate_limit_only(c
     q = np.tile([0.1, 0.2, 0.3, 0.4], (P, 1)) + np.linspace(0, 0.01, P)[:, None]
     kj = np.full((P, n), 50.0)
     path = jaxstiff.paths.arc([0.0, 0.0, 0.3], 0.6, 0.0, 27.0, n=P)  # turns 3 deg per waypoint
-    res = types.SimpleNamespace(
-        P=P,
-        n=n,
-        B=1,
-        meta={
-            "ratio": 5.0,
-            "criterion": "f2",
-            "limits": {"dq": dq, "dk": dk, "kmin": 1.0, "kmax": 100.0, "first_rate_limit": False},
-        },
-        q=q[None],
-        kj=kj[None],
-        q0=q[:1].copy(),
-        kj0=kj[:1].copy(),
-        status=np.zeros((1, P), int),
-        target=path.points[None],
-        direction=path.directions[None],
-        alpha_deg=np.full((1, P), 1e-6),
-        ratio=np.full((1, P), 5.0),
-    )
+    res = arc_result(q, kj, path, dq, dk, np.full(P, 1e-6))
     shape_path.figure_turning(res, robot, tmp_path / "turning.png", "t")
     (fig,) = caught
     ax, twins = _panel(fig, "(a) orientation error alpha")

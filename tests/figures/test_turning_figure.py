@@ -28,6 +28,15 @@ def _result(robot, P=12):
     kj = 50.0 + np.cumsum(ksteps, axis=0)
     kj[:, 3] = 100.0
     path = jaxstiff.paths.arc([0.0, 0.0, 0.3], 0.6, 0.0, 44.0, n=P)  # turns 4 deg per waypoint
+    alpha = np.r_[np.full(4, 1e-7), np.linspace(2, 30, 4), np.full(P - 8, 1e-6)]
+    return arc_result(q, kj, path, DQ, DK, alpha)
+
+
+def arc_result(q, kj, path, dq, dk, alpha_deg) -> types.SimpleNamespace:
+    """A hand-made one-path f2 result (r = 5) for the turning figure: joint values ``q`` and
+    stiffnesses ``kj`` (P, n) along ``path``, rate limits ``dq``, ``dk`` (numbers or per joint), the
+    orientation error ``alpha_deg`` (P,) and ratio 5 at every waypoint, all solved."""
+    P, n = q.shape
     return types.SimpleNamespace(
         P=P,
         n=n,
@@ -35,7 +44,7 @@ def _result(robot, P=12):
         meta={
             "ratio": 5.0,
             "criterion": "f2",
-            "limits": {"dq": DQ, "dk": DK, "kmin": 1.0, "kmax": 100.0, "first_rate_limit": False},
+            "limits": {"dq": dq, "dk": dk, "kmin": 1.0, "kmax": 100.0, "first_rate_limit": False},
         },
         q=q[None],
         kj=kj[None],
@@ -44,7 +53,7 @@ def _result(robot, P=12):
         status=np.zeros((1, P), int),
         target=path.points[None],
         direction=path.directions[None],
-        alpha_deg=np.r_[np.full(4, 1e-7), np.linspace(2, 30, 4), np.full(P - 8, 1e-6)][None],
+        alpha_deg=np.asarray(alpha_deg, float)[None],
         ratio=np.full((1, P), 5.0),
     )
 
