@@ -164,15 +164,13 @@ def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, st
     return np.where(robot.free, q0, np.nan_to_num(lv)), flag
 
 
-#: slack of the q0 limit check (rad or m): the library's (:func:`jaxstiff.csc.inputs`)
-Q0_LIMIT_TOL = 1e-9
-
-
 def check_q0_limits(robot: Any, q0: np.ndarray, flag: str, typed: np.ndarray) -> None:
     """Refuse a free joint of ``q0`` (rad; m for prismatic joints) outside its limits, in the unit of
     ``flag`` (``typed``: the values as given, degrees for ``--q0-deg``), before any work; the
     library's own check of ``q0`` says rad."""
-    bad = robot.free & ((q0 < robot.lower - Q0_LIMIT_TOL) | (q0 > robot.upper + Q0_LIMIT_TOL))
+    from jaxstiff.csc.inputs import joints_outside_limits
+
+    bad = joints_outside_limits(robot, q0)  # the library's rule; here reported in the flag's unit
     if not bad.any():
         return
     i = int(np.argmax(bad))

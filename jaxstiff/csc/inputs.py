@@ -36,10 +36,30 @@ from jaxstiff.settings.csc import (
 )
 from jaxstiff.stiffness.core import TASK_ROWS, check_task_feasible
 
-__all__ = ["rollout_settings", "prepare_rollout", "validate_values", "path_points", "is_concrete", "SCALAR_SETTINGS"]
+__all__ = [
+    "rollout_settings",
+    "prepare_rollout",
+    "validate_values",
+    "path_points",
+    "is_concrete",
+    "joints_outside_limits",
+    "SCALAR_SETTINGS",
+]
 
 #: the numeric settings that reach the compiled rollout as (differentiable) scalars
 SCALAR_SETTINGS = ("kmin", "kmax", "nu0", "damping", "jl_gain")
+
+
+#: rad (m for prismatic joints): how far a start posture may lie outside a joint's limits (rounding)
+Q0_LIMIT_SLACK = 1e-9
+
+
+def joints_outside_limits(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """(n,) bool: the free joints with a value of ``q`` (..., n) outside their limits by more than
+    :data:`Q0_LIMIT_SLACK` (the rule for a rollout's start posture)."""
+    qn = np.asarray(q, float).reshape(-1, robot.n)
+    lo, hi = robot.lower - Q0_LIMIT_SLACK, robot.upper + Q0_LIMIT_SLACK
+    return robot.free & (np.any(qn < lo, axis=0) | np.any(qn > hi, axis=0))
 
 
 def is_concrete(x: Any) -> bool:
@@ -354,7 +374,7 @@ def validate_values(
         check_locked_values(robot, q0, "q0")  # the one rule (SPEC section 1), in q0's own dtype
         qn = qn.reshape(-1, robot.n)
         lo, hi = robot.lower, robot.upper
-        bad = robot.free & (np.any(qn < lo - 1e-9, axis=0) | np.any(qn > hi + 1e-9, axis=0))
+        bad = joints_outside_limits(robot, qn)
         if bad.any():
             i = int(np.argmax(bad))
             raise ValueError(
