@@ -26,6 +26,7 @@ from typing import Any, Protocol, cast
 import jax.numpy as jnp
 import numpy as np
 
+from jaxstiff.runtime.export_cache import DiskJit
 from jaxstiff.settings.solvers import SLSQPOptions
 from jaxstiff.solvers.base import SolveRequest
 
@@ -105,7 +106,7 @@ def check_options(options: Mapping[str, Any] | None) -> dict[str, Any]:
     return SLSQPOptions.check_values({**DEFAULT_OPTIONS, **(options or {})})
 
 
-def _compile_now(problem: WaypointProblem, fused_s: Callable[..., Any]) -> float:
+def _compile_now(problem: WaypointProblem, fused_s: DiskJit) -> float:
     """Compile the solver's kernels now (once per problem and dtype), so that waypoint timings
     exclude compilation; return the seconds it took."""
     t0 = time.perf_counter()
@@ -192,8 +193,10 @@ def make_slsqp_solver(
         x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
     ) -> SolverOutput:
         params_dev = jnp.asarray(params)  # on the device once per waypoint, not once per call
+        # every request of a solve has one signature: look the jitted kernel up once, not per call
+        kernel = fused_s.specialize(np.asarray(x0, float), params_dev, svec_dev)
         return run_steps(
-            steps(x0, lb, ub, params, maxiter), lambda req: np.asarray(fused_s(req[0], params_dev, svec_dev))
+            steps(x0, lb, ub, params, maxiter), lambda req: np.asarray(kernel(req[0], params_dev, svec_dev))
         )
 
     def _solve_minimize(x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, iters: int) -> SolverOutput:

@@ -181,6 +181,21 @@ def test_disk_jit_one_program_per_signature_and_from_the_file(cache):
     assert len(_files(cache)) == 2 and plain._cache_size() == 1
 
 
+def test_disk_jit_specialize_is_the_program_it_calls(cache):
+    f = Counted()
+    fn = f.jit().__wrapped__
+    x, a = np.linspace(-1.0, 2.0, 7), np.float64(1.5)
+    dj = ec.DiskJit(fn, "spec")
+    kernel = dj.specialize(x, a)  # traced (and written) here, not at the first call
+    assert f.traces == 1 and len(_files(cache)) == 1
+    _check(kernel, x * 3.0, np.float64(0.25))  # the direct call computes what the function does
+    assert dj.specialize(x + 1.0, a) is kernel  # one lookup per signature, the same program
+    _check(dj, x, a)
+    assert f.traces == 1 and dj._cache_size() == 1
+    assert dj.specialize(np.linspace(0.0, 1.0, 5), a) is not kernel  # another shape, another program
+    assert ec.DiskJit(fn, None).specialize(x, a) is not None
+
+
 def test_ik_and_solver_kernels_equal_with_and_without_the_file(cache, monkeypatch):
     from jaxstiff.ik import ik_position, ik_program
 

@@ -27,7 +27,7 @@ __all__ = [
 
 
 @functools.lru_cache(maxsize=64)
-def compiled_scaled(problem: WaypointProblem) -> Callable[..., jax.Array]:
+def compiled_scaled(problem: WaypointProblem) -> DiskJit:
     """The jitted ``fused_scaled(y, params, scale)`` of a problem, compiled once per problem and dtype
     (its traced program kept on disk for the built-in criteria: :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""
     fp = problem.fingerprint()
