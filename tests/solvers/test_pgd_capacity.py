@@ -81,3 +81,16 @@ def test_paths_of_other_lengths_reuse_the_compiled_program(monkeypatch):
     assert seen[0][0][1] == 8  # the waypoint axis at its capacity
     assert r5.P == 5 and r7.P == 7 and r5.q.shape[1] == 5 and r7.q.shape[1] == 7
     assert np.all(r5.status == 0) and np.all(r7.status == 0)
+
+
+def test_chunk_keys_are_each_paths_own_split_padded_with_its_last_key():
+    base = jax.random.PRNGKey(3)
+    data = np.array([11, 12, 13], dtype=np.uint32)
+    P, cap = 5, 8
+    got = np.asarray(pgd_batch.chunk_keys(base, data, P, cap))
+    assert got.shape == (3, cap, 2)
+    for i, d in enumerate(data):
+        # independent of waypoint_keys: split(fold_in(base, d), P + 1), the first waypoint the last key
+        k = np.asarray(jax.random.split(jax.random.fold_in(base, d), P + 1))
+        want = np.concatenate([k[P:], k[1:P], np.repeat(k[P - 1 : P], cap - P, axis=0)])
+        np.testing.assert_array_equal(got[i], want)

@@ -89,6 +89,18 @@ def waypoint_capacity(P: int) -> int:
     return max(8, 1 << max(int(P) - 1, 0).bit_length())
 
 
+@functools.partial(jax.jit, static_argnums=(2, 3))
+def chunk_keys(base: jax.Array, path_data: Any, P: int, cap: int) -> jax.Array:
+    """The waypoints' random keys (C, cap, 2) of a chunk of paths: each path's key is ``base``
+    folded with its data (C,), its waypoints' keys those of its own length P
+    (:func:`~jaxstiff.solvers.pgd.kernel.waypoint_keys`), padded to the capacity with the last one:
+    the same random starts whatever program runs the path. One program (its steps run eagerly
+    were nine small compilations, ~0.25 s of every run)."""
+    path_keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(path_data)
+    keys = jax.vmap(lambda k: waypoint_keys(k, P))(path_keys)
+    return jnp.concatenate([keys, jnp.repeat(keys[:, -1:], cap - P, axis=1)], axis=1)
+
+
 def pad_rows(a: np.ndarray, C: int) -> np.ndarray:
     """``a`` (m, ...) padded to C rows by repeating its last row (m <= C)."""
     if a.shape[0] == C:
@@ -215,11 +227,7 @@ def _run_chunks(
         chunks = []
         for s in range(0, B, C):
             sl = slice(s, min(s + C, B))
-            path_keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(pad_rows(path_data[sl], C))
-            # the waypoints' keys of the path's own length P, padded to the capacity: the same
-            # random starts whatever program runs the path
-            keys = jax.vmap(lambda k: waypoint_keys(k, P))(path_keys)
-            keys = jnp.concatenate([keys, jnp.repeat(keys[:, -1:], cap - P, axis=1)], axis=1)
+            keys = chunk_keys(base, pad_rows(path_data[sl], C), P, cap)
             args = (
                 pad_rows(targets[sl], C),
                 pad_rows(directions[sl], C),
