@@ -181,9 +181,37 @@ def curved_extra(tag: str):
         figure_turning(
             res, robot, os.path.join(out, name), f"{crit} on the curved path: alpha and rho against the turning rate"
         )
-        return [f"![{tag} turning]({name})", "", *where_it_holds(res, limits)]
+        return [f"![{tag} turning]({name})", "", *where_it_holds(res, limits), "", *rounding_spread(res, robot)]
 
     return extra
+
+
+#: shifts of the path (m, along x) for :func:`rounding_spread`: far below every tolerance
+ROUNDING_SHIFTS = (1e-13, -1e-13, 2e-13, -2e-13)
+
+
+def rounding_spread(res, robot) -> list[str]:
+    """Markdown: the same run on the path moved by :data:`ROUNDING_SHIFTS`, and where the criterion
+    holds in each (jaxstiff's own check of how much the count owes to rounding)."""
+    import numpy as np
+
+    import jaxstiff
+
+    crit, r = res.meta["criterion"], float(res.meta["ratio"])
+    runs = []
+    for s in ROUNDING_SHIFTS:
+        moved = jaxstiff.Path(res.target[0] + np.array([s, 0.0, 0.0]), res.direction[0], name="moved")
+        ok = hold_mask(jaxstiff.shape(robot, moved, crit, r))
+        gives = _ranges_text(_runs(~ok)) if (~ok).any() else "nowhere"
+        runs.append(f"{s:+.0e} m: holds at {int(ok.sum())} (gives way at {gives})")
+    return [
+        f"**How much of the count is rounding** (jaxstiff's own check; the seed has none): the same run on the "
+        f"path moved along x by {'; '.join(runs)} of {res.P} waypoints (this run: {int(hold_mask(res).sum())}). "
+        f"The first waypoint is not rate-limited and {crit} is equally good on a whole set of postures; which of "
+        "them the multi-start SLSQP ends at is decided by rounding, and the greedy chain inherits it: another CPU, "
+        "or a path moved by 1e-13 m, gives another count, in a range like the one above. Where the criterion "
+        "gives way first and whether it recovers after the apex depend on that first posture.",
+    ]
 
 
 def curved_main(criterion: str, tag: str, title: str, argv=None) -> int:

@@ -105,3 +105,42 @@ def test_curved_experiment_path_turns_faster_than_the_rate_limit_and_is_reachabl
             q, _ = ik_position(robot, p.points[k], q)
             assert np.linalg.norm(numpy_fk(robot, q)[:3, 3] - p.points[k]) < 1e-9
             assert np.all(q >= robot.lower) and np.all(q <= robot.upper) and q[6] == 0.0
+
+
+def test_rounding_spread_reruns_the_moved_paths_and_reports_each_count(monkeypatch):
+    """The curved figures' rounding check runs the same criterion and ratio on the path moved by each
+    shift and reports where each holds (a stand-in shape whose count encodes the shift it was given)."""
+    from types import SimpleNamespace
+
+    import jaxstiff
+
+    mod = _curved_experiment()
+    P = 30
+    target = np.column_stack([np.linspace(0.4, 0.6, P), np.zeros(P), np.full(P, 0.3)])
+
+    def result(k, crit="f2", r=5.0):
+        alpha = np.where(np.arange(P) < k, 0.1, 5.0)
+        return SimpleNamespace(
+            alpha_deg=alpha[None],
+            ratio=np.full((1, P), r),
+            meta={"criterion": crit, "ratio": r},
+            P=P,
+            target=target[None],
+            direction=np.tile([1.0, 0.0, 0.0], (1, P, 1)),
+        )
+
+    calls = []
+
+    def fake_shape(robot, path, crit, r):
+        shift = float(path.points[0, 0] - target[0, 0])
+        calls.append((crit, r, shift))
+        return result(10 + round(shift * 1e13), crit, r)
+
+    monkeypatch.setattr(jaxstiff, "shape", fake_shape)
+    text = " ".join(mod.rounding_spread(result(7), robot=None))
+    assert [c[:2] for c in calls] == [("f2", 5.0)] * len(mod.ROUNDING_SHIFTS)
+    np.testing.assert_allclose([c[2] for c in calls], mod.ROUNDING_SHIFTS, rtol=1e-3)
+    for s in mod.ROUNDING_SHIFTS:
+        k = 10 + round(s * 1e13)
+        assert f"{s:+.0e} m: holds at {k} (gives way at {k}-{P - 1})" in text
+    assert "(this run: 7)" in text
