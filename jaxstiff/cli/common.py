@@ -80,6 +80,19 @@ def check_out_file(out: str, flag: str = "--out") -> str:
     return check_out_path(os.path.abspath(name), flag, like=os.path.join(out, "result.npz"))
 
 
+def check_not_an_input(out: str, flag: str, inputs: dict[str, str | None]) -> None:
+    """Refuse an output file that is one of the command's input files (``inputs``: the input's flag
+    or name -> its path): writing it would replace the input before anything else reads it."""
+    if not os.path.exists(out):
+        return
+    for name, path in inputs.items():
+        if path and os.path.isfile(path) and os.path.samefile(out, path):
+            raise ValueError(
+                f"{flag}: {os.path.abspath(out)} is the {name} file itself; writing it would replace that input. "
+                "Choose another file name"
+            )
+
+
 def check_out_path(path: str, flag: str, like: str = "") -> str:
     """An output file's path (as it will be written), checked before any work: not an existing
     folder, in an existing folder that can be written into. Returns the absolute path.

@@ -109,6 +109,10 @@ _EPILOG = (
 )
 
 
+#: steps of ``--hold`` when ``--steps`` is not given
+HOLD_STEPS = 1000
+
+
 @command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
 def _add_csc(p: argparse.ArgumentParser):
     p.epilog = _EPILOG.replace("{segment_work}", power_of_ten_text(SEGMENT_WORK))
@@ -121,7 +125,12 @@ def _add_csc(p: argparse.ArgumentParser):
         help="path CSV (header x,y,z[,dx,dy,dz]; m, base frame; directions unused), one step per row (a repeated row holds still); repeat for a batch",
     )
     src.add_argument("--hold", metavar="X,Y[,Z]", help="hold the TCP at this point (m) for --steps steps")
-    p.add_argument("--steps", type=int, default=1000, help="steps with --hold")
+    p.add_argument(
+        "--steps",
+        type=int,
+        default=None,
+        help=f"steps with --hold (default {HOLD_STEPS}; a --path has one step per row)",
+    )
     p.add_argument(
         "--kxd",
         required=True,
@@ -195,8 +204,9 @@ def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) ->
         x = parse_numbers(args.hold, "--hold")
         if len(x) not in (d, 3):
             raise ValueError(f"--hold needs {d} coordinates (m) for task {task!r}, got {len(x)}")
-        check_rollout_size(1, args.steps, robot.n, task, "--steps")
-        points = np.tile(np.asarray(x), (1, args.steps, 1))
+        steps = HOLD_STEPS if args.steps is None else args.steps
+        check_rollout_size(1, steps, robot.n, task, "--steps")
+        points = np.tile(np.asarray(x), (1, steps, 1))
         sources = [f"hold {x}"]
     else:
         from jaxstiff.paths import read_csv
@@ -401,7 +411,9 @@ def run_csc(args: argparse.Namespace) -> int:
     from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
-    if args.steps < 1:
+    if args.steps is not None and args.path:
+        raise ValueError("--steps applies to --hold; a --path has one step per row (repeat a row to hold it still)")
+    if args.steps is not None and args.steps < 1:
         raise ValueError(f"--steps must be >= 1, got {args.steps}")
     settings = settings_from_args(args)  # the numeric flags first (named as flags), before any work or warning
     out = check_out_file(args.out)

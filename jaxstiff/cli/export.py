@@ -7,7 +7,7 @@ import argparse
 import sys
 from typing import Any
 
-from .common import command
+from .common import check_not_an_input, command
 from .view import add_result_flags
 
 
@@ -37,6 +37,7 @@ def _add_export(p: argparse.ArgumentParser) -> Any:
         from jaxstiff.view.data import load_view_data
         from jaxstiff.view.export import export_csv, unusable_rows
 
+        check_not_an_input(args.csv, "--csv", {"RESULT": args.result, "--urdf": args.urdf})
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         print(
             f"wrote {export_csv(data, args.csv, path=args.path)} ({data.B if args.path is None else 1} x {data.P} rows)"

@@ -17,7 +17,7 @@ import argparse
 import sys
 from typing import Any
 
-from .common import command
+from .common import check_not_an_input, command
 
 
 def add_result_flags(p: argparse.ArgumentParser) -> None:
@@ -61,6 +61,8 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
             raise ValueError(f"--scale must be a positive number (N/m per m), got {args.scale}")
         if args.every < 1:
             raise ValueError(f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {args.every}")
+        if args.html:
+            check_not_an_input(args.html, "--html", {"RESULT": args.result, "--urdf": args.urdf})
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if not 0 <= args.path < data.B:
             raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")

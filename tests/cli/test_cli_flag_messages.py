@@ -152,3 +152,14 @@ def test_readme_csv_section_tells_shape_and_csc_status_apart():
     text = _words(open(README).read())
     assert "From a shape file, command the arm with `kj_scaled` (after CMS), and only rows with status 0-2" in text
     assert "In a csc file `status` is a bit mask, not those codes" in text
+
+
+def test_csc_steps_with_a_path_is_refused(tmp_path, capsys):
+    """--steps sets the length of a --hold; with --path it used to be ignored without a word."""
+    path = tmp_path / "p.csv"
+    jaxstiff.Path(np.array([[1.5, 0.0, 0.0], [1.49, 0.01, 0.0], [1.48, 0.02, 0.0]])).to_csv(path)
+    out = tmp_path / "x.npz"
+    base = ["csc", "--robot", "planar_3r", "--path", str(path), "--kxd", "3000,1000@30", "--q0-deg", "30,60,-60"]
+    err = _one_error(capsys, [*base, "--steps", "10", "--out", str(out)])
+    assert err == "jaxstiff: error: --steps applies to --hold; a --path has one step per row (repeat a row to hold it still)"
+    assert not out.exists()

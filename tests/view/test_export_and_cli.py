@@ -182,3 +182,18 @@ def test_export_of_a_csc_file_explains_the_status_bit_mask(lwr, tmp_path, capsys
         "8 null-space gradient below null_eps; a step with several flags has their sum" in text
     ), text
     assert read_csv(out)["status"].tolist() == [0, 10, 2]  # the column itself is unchanged
+
+
+@pytest.mark.parametrize("command", [["export", "--csv"], ["view", "--html"]])
+def test_an_output_that_is_the_input_file_is_refused_and_the_input_kept(shape_file, tmp_path, capsys, command) -> None:
+    import shutil
+
+    src = str(tmp_path / "mine.npz")
+    shutil.copy(shape_file, src)
+    before = open(src, "rb").read()
+    same = os.path.join(str(tmp_path), ".", "mine.npz")  # another spelling of the same file
+    assert main([command[0], src, command[1], same]) == 2
+    err = capsys.readouterr().err
+    assert "is the RESULT file itself" in err and "mine.npz" in err
+    assert open(src, "rb").read() == before  # not overwritten
+    assert load_view_data(src).kind == "shape"
