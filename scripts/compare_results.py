@@ -11,7 +11,6 @@ records that were added on purpose; those are listed, not judged).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 import numpy as np
@@ -48,7 +47,9 @@ def compare(old: str, new: str, timing: tuple[str, ...] = ("time_s",)) -> int:
                 diff = f", max |diff| {np.nanmax(np.abs(x.astype(float) - y.astype(float))):.3g}"
             print(f"array {key}: DIFFERS ({x.dtype}{x.shape} vs {y.dtype}{y.shape}{diff})")
     if "meta" in a.files and "meta" in b.files:
-        ma, mb = _flatten(json.loads(str(a["meta"]))), _flatten(json.loads(str(b["meta"])))
+        from jaxstiff.runtime.io import meta_loads
+
+        ma, mb = _flatten(meta_loads(str(a["meta"]))), _flatten(meta_loads(str(b["meta"])))
         for k in sorted(set(ma) | set(mb)):
             if ma.get(k, "<absent>") != mb.get(k, "<absent>"):
                 print(f"meta {k}: {ma.get(k, '<absent>')!r} -> {mb.get(k, '<absent>')!r}"[:300])

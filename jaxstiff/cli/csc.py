@@ -33,7 +33,6 @@ line after each, and Ctrl-C or SIGTERM writes the finished steps (``meta["interr
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import sys
@@ -49,8 +48,7 @@ from jaxstiff.cli.csc_flags import add_setting_flags as add_setting_flags
 from jaxstiff.cli.csc_flags import parse_kxd as parse_kxd
 from jaxstiff.cli.csc_flags import settings_from_args as settings_from_args
 from jaxstiff.csc.segments import StepProgress
-from jaxstiff.runtime.io import check_regular_file, deferred_interrupts, interrupt_pending
-from jaxstiff.runtime.io import json_default as _json_default
+from jaxstiff.runtime.io import check_regular_file, deferred_interrupts, interrupt_pending, meta_dumps
 from jaxstiff.settings.csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
 from jaxstiff.settings.csc import CSCSettings
 
@@ -339,7 +337,7 @@ def _write(out: str, res: Any, robot: Any, q0: np.ndarray, K: np.ndarray, meta: 
         arrays["joint_names"] = np.asarray(robot.joint_names, dtype=str)
         arrays["q0"] = q0
         arrays["K_xd"] = K
-        arrays["meta"] = np.asarray(json.dumps(meta, sort_keys=True, default=_json_default))
+        arrays["meta"] = np.asarray(meta_dumps(meta))
         return atomic_save_npz(out, arrays)
 
 

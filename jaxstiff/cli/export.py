@@ -51,7 +51,8 @@ def _add_export(p: argparse.ArgumentParser) -> Any:
             where = waypoints_text(bad)
             print(
                 f"jaxstiff: warning: {sum(len(v) for v in bad.values())} rows are not usable solutions (status "
-                f"3-5: unreachable, non-finite or not run; they hold the reference state): {where}; filter on "
+                f"3-5: an unreachable waypoint's row is the solver's closest point inside its box, the TCP off the "
+                f"path; a not-run or non-finite one mostly the reference state): {where}; filter on "
                 "the status column before commanding a robot",
                 file=sys.stderr,
             )

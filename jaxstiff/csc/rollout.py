@@ -227,7 +227,11 @@ def csc_rollout(
         q0: start posture (*B, n), rad; a locked joint's entry must be its locked value (another
             value is refused, ValueError naming the joint; a traced q0 inside ``jit`` is not
             checked and the locked value is used). It need not be on the path: the first steps pull
-            the TCP onto it.
+            the TCP onto it, with the full step ``J+ (x_d - x)`` (S1-13, uncapped). Near the path that
+            converges in a step or two; from far off (on the planar 4R, a start 1 m from the path
+            did not, 0.5 m did) that step can throw joints onto their limits or fold the arm into a
+            singular posture it does not leave, and ``tracking_error`` stays large. Start on the
+            path (IK, e.g. :func:`jaxstiff.ik.ik_position`) or near it.
         beta: (*B,) step multiplier >= 0 (default ``settings.beta``, 1). ``"adaptive"``: the null
             step is ``beta`` times as long as the primary step (S1-22; zero when the path stands
             still). ``"constant"``: the null step is ``beta`` rad long (for holding a point).

@@ -105,8 +105,7 @@ from jaxstiff.results.status import USABLE as USABLE
 from jaxstiff.results.status import ShapeStatus as ShapeStatus
 from jaxstiff.results.status import is_usable as is_usable
 from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL, in_target, ratio_targets, target_masks
-from jaxstiff.runtime.io import file_sha256
-from jaxstiff.runtime.io import json_default as _json_default
+from jaxstiff.runtime.io import file_sha256, meta_dumps, meta_loads
 
 if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
@@ -196,7 +195,7 @@ class ShapeResult(PathGrid):
             else:
                 a = a.astype(np.float64)
             arrays[k] = a
-        arrays["meta"] = np.asarray(json.dumps(self.meta, sort_keys=True, default=_json_default))
+        arrays["meta"] = np.asarray(meta_dumps(self.meta))
         return atomic_save_npz(file, arrays)
 
     @staticmethod
@@ -230,7 +229,7 @@ class ShapeResult(PathGrid):
                 raise ValueError(f"{file}: a CSC result (jaxstiff csc); this needs a shape result (jaxstiff shape)")
             raise ValueError(f"{file}: not a jaxstiff result file, missing keys: {', '.join(missing)}")
         try:
-            meta = json.loads(str(data["meta"]))
+            meta = meta_loads(str(data["meta"]))
         except json.JSONDecodeError as exc:
             raise ValueError(f"{file}: meta is not valid JSON ({exc})") from None
         kwargs = {k: data[k] for k in names if k != "meta"}

@@ -25,6 +25,8 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import hashlib
+import json
+import math
 import os
 import re
 import signal
@@ -47,6 +49,8 @@ __all__ = [
     "atomic_write",
     "atomic_write_text",
     "json_default",
+    "meta_dumps",
+    "meta_loads",
     "interrupt_handlers",
     "interrupt_pending",
     "raise_if_interrupted",
@@ -196,6 +200,47 @@ def atomic_write_text(file: str | os.PathLike, text: str) -> str:
         fh.write(text)
 
     return atomic_write(file, write)
+
+
+#: how :func:`meta_dumps` writes a number that is not finite (strict JSON has no such numbers)
+NONFINITE_TEXT = {"Infinity": math.inf, "-Infinity": -math.inf, "NaN": math.nan}
+
+
+def _strict(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        o = o.tolist()
+    elif isinstance(o, (np.floating, np.integer, np.bool_)):
+        o = o.item()
+    if isinstance(o, float) and not math.isfinite(o):
+        return "NaN" if o != o else ("Infinity" if o > 0 else "-Infinity")
+    if isinstance(o, dict):
+        return {k: _strict(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_strict(v) for v in o]
+    return o
+
+
+def _unstrict(o: Any) -> Any:
+    if isinstance(o, str):
+        return NONFINITE_TEXT.get(o, o)
+    if isinstance(o, dict):
+        return {k: _unstrict(v) for k, v in o.items()}
+    if isinstance(o, list):
+        return [_unstrict(v) for v in o]
+    return o
+
+
+def meta_dumps(meta: dict[str, Any]) -> str:
+    """A result file's ``meta`` as strict JSON (RFC 8259, readable by any JSON parser): a number that
+    is not finite (a continuous joint's limits, a rigid joint's stiffness) is written as the string
+    ``"Infinity"``, ``"-Infinity"`` or ``"NaN"``; numpy arrays and scalars as lists and numbers."""
+    return json.dumps(_strict(meta), sort_keys=True, allow_nan=False, default=json_default)
+
+
+def meta_loads(text: str) -> dict[str, Any]:
+    """:func:`meta_dumps`'s inverse (the strings ``"Infinity"``, ``"-Infinity"``, ``"NaN"`` back to
+    floats); also reads the files of older versions, which wrote bare ``Infinity`` tokens."""
+    return _unstrict(json.loads(text))
 
 
 def json_default(o: object) -> object:

@@ -200,7 +200,9 @@ def _pick(problem: WaypointProblem, cands: Sequence[Candidate]) -> Candidate:
     free = list(problem.free_idx)
     nf = problem.n_free
     span = (hi - lo)[free]
-    finite = np.isfinite(span)  # a continuous joint has no limit to keep away from
+    # a continuous joint has no limit to keep away from, and a joint whose range is one value
+    # no room to keep (its margin would be 0 / 0): neither counts
+    finite = np.isfinite(span) & (span > 0)
     span = np.where(finite, span, 1.0)
 
     def margin(c: Candidate) -> float:

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from jaxstiff.results.grid import PathGrid
+from jaxstiff.runtime.io import meta_loads
 from jaxstiff.view.kinematics import stiffness_T, tcp_position
 
 if TYPE_CHECKING:
@@ -192,7 +193,7 @@ def _shape_data(file: str, urdf: str | None, index: int | None, source: str) -> 
 
 
 def _csc_data(file: str, data: dict[str, np.ndarray], urdf: str | None, index: int | None, source: str) -> ViewData:
-    meta = json.loads(str(data["meta"]))
+    meta = meta_loads(str(data["meta"]))
     sel = slice(None) if index is None else slice(index, index + 1)
     robot = chain_from_meta(meta, urdf)
     q = np.asarray(data["q"], float)

@@ -11,9 +11,9 @@ One row per waypoint (shape) or step (csc) of every path; columns, in this order
 * ``tcp_x_m``, ``tcp_y_m``, ``tcp_z_m``: the stored TCP position, m, in the robot's base frame
   (the URDF's base link), the TCP being the tip link plus the result's tcp offset;
 * ``status``: the waypoint's or step's status code (:mod:`jaxstiff.results.status`; csc: its
-  flags). A shape row with status 3-5 (unreachable, non-finite, not run) holds the path's
-  reference state, not a solution: a controller must not command it (:func:`unusable_rows`
-  names them; ``jaxstiff export`` warns).
+  flags). A shape row with status 3-5 is not a solution (unreachable: the solver's closest point
+  inside its box, the TCP off the path; not run and, mostly, non-finite: the reference state): a
+  controller must not command it (:func:`unusable_rows` names them; ``jaxstiff export`` warns).
 
 Values are written with 17 significant digits, so a round trip is exact.
 """

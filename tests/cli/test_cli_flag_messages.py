@@ -161,5 +161,8 @@ def test_csc_steps_with_a_path_is_refused(tmp_path, capsys):
     out = tmp_path / "x.npz"
     base = ["csc", "--robot", "planar_3r", "--path", str(path), "--kxd", "3000,1000@30", "--q0-deg", "30,60,-60"]
     err = _one_error(capsys, [*base, "--steps", "10", "--out", str(out)])
-    assert err == "jaxstiff: error: --steps applies to --hold; a --path has one step per row (repeat a row to hold it still)"
+    assert (
+        err
+        == "jaxstiff: error: --steps applies to --hold; a --path has one step per row (repeat a row to hold it still)"
+    )
     assert not out.exists()

@@ -152,3 +152,28 @@ def test_reference_states_skip_unusable_waypoints(first_rate_limit):
     np.testing.assert_array_equal(Q[1], res.q0[1])  # waypoint 0 unusable: the start state
     np.testing.assert_array_equal(K[1], res.kj0[1])
     np.testing.assert_array_equal(rate, [first_rate_limit, first_rate_limit, True, True])
+
+
+def test_meta_is_strict_json_and_non_finite_numbers_come_back(tmp_path):
+    """A continuous joint's limits (+-inf) and a NaN in meta: the file's meta parses with a strict
+    JSON parser (no bare Infinity/NaN tokens, which JavaScript's JSON.parse and jq refuse), and
+    ShapeResult.load gives the same floats back."""
+    import math
+
+    res = make_result()
+    res.meta["robot"] = {"lower": [-1.0, -math.inf], "upper": [1.0, math.inf], "name": "Infinity-arm"}
+    res.meta["limits"]["kmax"] = math.inf
+    res.meta["extra_nan"] = [float("nan"), np.float64(2.5)]
+    f = res.save(tmp_path / "r.npz")
+    with np.load(f, allow_pickle=False) as z:
+        text = str(z["meta"])
+
+    def refuse(token):
+        raise ValueError(f"bare {token} in meta")
+
+    raw = json.loads(text, parse_constant=refuse)  # strict: RFC 8259 numbers only
+    assert raw["robot"]["lower"][1] == "-Infinity" and raw["limits"]["kmax"] == "Infinity"
+    back = R.ShapeResult.load(f).meta
+    assert back["robot"]["lower"] == [-1.0, -math.inf] and back["robot"]["upper"] == [1.0, math.inf]
+    assert back["limits"]["kmax"] == math.inf and math.isnan(back["extra_nan"][0]) and back["extra_nan"][1] == 2.5
+    assert back["robot"]["name"] == "Infinity-arm"  # only the exact spellings are numbers

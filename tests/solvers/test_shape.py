@@ -626,3 +626,26 @@ def test_first_waypoint_rescue_finds_the_minimum_the_usual_starts_miss(tmp_path,
     assert usual.criterion[0, 0] > 10.0, "the case no longer needs the rescue: pick another"
     assert np.all(R.is_usable(res.status))
     assert np.max(res.criterion) < 1.001 and np.max(res.alpha_deg) < 0.5
+
+
+def test_a_joint_with_a_one_value_range_leaves_the_tie_break_finite(tmp_path):
+    """A URDF joint limited to one value (lower == upper): the first waypoint's tie-break (room to
+    the joint limits) divided by its zero span, printed numpy's 'invalid value encountered in
+    divide' and compared NaN margins (the first candidate won whatever its room)."""
+    import warnings
+
+    src = open(jaxstiff.Robot.from_urdf("planar_4r").source).read()
+    marker = '<joint name="joint_2" type="revolute">'
+    head, tail = src.split(marker)
+    tail = tail.replace('lower="-3.141592653589793" upper="3.141592653589793"', 'lower="0.5" upper="0.5"', 1)
+    urdf = tmp_path / "stuck.urdf"
+    urdf.write_text(head + marker + tail)
+    robot = jaxstiff.Robot.from_urdf(str(urdf))
+    q = np.array([0.3, 0.5, 0.6, 0.4])
+    start = np.asarray(robot.fk(q))[:3, 3]
+    pts = start + np.linspace(0.0, 0.03, 4)[:, None] * np.array([1.0, 0.5, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # numpy's divide warning is a RuntimeWarning
+        warnings.simplefilter("ignore", UserWarning)  # the robot's own notes (empty range, target)
+        res = jaxstiff.shape(robot, pts, "f2", 3.0, task="xy", q0=q)
+    assert np.all(res.status[0] <= 2) and np.allclose(res.q[0, :, 1], 0.5)
