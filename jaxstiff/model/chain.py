@@ -293,8 +293,30 @@ def check_locked(
     return tuple(values)
 
 
+def tcp_transform(tcp: Sequence[float]) -> np.ndarray:
+    """4x4 tool transform of ``(x, y, z[, roll, pitch, yaw])`` (m, rad; R = Rz(yaw) Ry(pitch) Rx(roll))."""
+    v = [float(x) for x in tcp]
+    if len(v) not in (3, 6):
+        raise ValueError(f"tcp must be 3 values x,y,z or 6 values x,y,z,roll,pitch,yaw, got {len(v)}")
+    T = np.eye(4)
+    T[:3, 3] = v[:3]
+    if len(v) == 6:
+        r, p, y = v[3:]
+        cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+        T[:3, :3] = np.array(
+            [
+                [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                [-sp, cp * sr, cp * cr],
+            ]
+        )
+    return T
+
+
 def tcp_matrix(tcp: Sequence[float] | np.ndarray | None) -> np.ndarray:
-    """A tool offset as a 4x4 transform: None (identity), a 3-vector (m) or a 4x4 transform (checked)."""
+    """A tool offset as a 4x4 transform: None (identity), a 3-vector (m), a 6-vector ``(x, y, z,
+    roll, pitch, yaw)`` (m, rad; :func:`tcp_transform`, as the commands' ``--tcp``) or a 4x4
+    transform (checked)."""
     if tcp is None:
         return np.eye(4)
     try:
@@ -302,10 +324,14 @@ def tcp_matrix(tcp: Sequence[float] | np.ndarray | None) -> np.ndarray:
     except (TypeError, ValueError):
         T = None
     shown = np.asarray(tcp).tolist() if isinstance(tcp, np.ndarray) else tcp  # (one line, not numpy's repr)
-    if T is None or T.shape not in ((3,), (4, 4)):
-        raise ValueError(f"tcp must be a 3-vector (m) or a 4x4 transform, got {shown!r}")
+    if T is None or T.shape not in ((3,), (6,), (4, 4)):
+        raise ValueError(
+            f"tcp must be a 3-vector (m), a 6-vector x,y,z,roll,pitch,yaw (m, rad) or a 4x4 transform, got {shown!r}"
+        )
     if not np.all(np.isfinite(T)):
         raise ValueError(f"tcp contains NaN or Inf: {shown!r}")
+    if T.shape == (6,):
+        return tcp_transform(T.tolist())
     if T.shape == (3,):
         M = np.eye(4)
         M[:3, 3] = T

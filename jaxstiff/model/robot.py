@@ -58,7 +58,8 @@ class Robot(Chain):
             locked: ``{joint_name: value}`` joints held at a value (rad or m). A locked joint
                 stays in ``q`` and in the joint list but is not free for the position task
                 (seed 000 locks the LWR's 7th joint at 0).
-            tcp: tool offset after the tip link: a 3-vector (m, in the tip frame) or a 4x4
+            tcp: tool offset after the tip link: a 3-vector (m, in the tip frame), a 6-vector
+                ``(x, y, z, roll, pitch, yaw)`` (m, rad; as the commands' ``--tcp``) or a 4x4
                 homogeneous transform.
 
         Fixed joints fold into the next joint's origin (or the tool transform after the tip);

@@ -13,11 +13,12 @@ import math
 import os
 import platform
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from jaxstiff.model.chain import tcp_transform as tcp_transform
 from jaxstiff.model.robot import Robot
 from jaxstiff.model.shipped import robot_path
 from jaxstiff.runtime.io import file_sha256
@@ -137,26 +138,6 @@ def shipped_name(urdf: str) -> str | None:
         except OSError:
             continue
     return None
-
-
-def tcp_transform(tcp: Sequence[float]) -> np.ndarray:
-    """4x4 tool transform of ``(x, y, z[, roll, pitch, yaw])`` (m, rad; R = Rz(yaw) Ry(pitch) Rx(roll))."""
-    v = [float(x) for x in tcp]
-    if len(v) not in (3, 6):
-        raise ValueError(f"tcp must be 3 values x,y,z or 6 values x,y,z,roll,pitch,yaw, got {len(v)}")
-    T = np.eye(4)
-    T[:3, 3] = v[:3]
-    if len(v) == 6:
-        r, p, y = v[3:]
-        cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-        T[:3, :3] = np.array(
-            [
-                [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-                [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-                [-sp, cp * sr, cp * cr],
-            ]
-        )
-    return T
 
 
 def robot_meta(robot: Robot) -> dict[str, Any]:

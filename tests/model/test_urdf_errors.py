@@ -332,8 +332,8 @@ def test_bad_locks(locked, message):
 @pytest.mark.parametrize(
     "tcp,message",
     [
-        ([0.0, 0.1], "tcp must be a 3-vector (m) or a 4x4 transform"),
-        ("0 0 0.1", "tcp must be a 3-vector (m) or a 4x4 transform"),
+        ([0.0, 0.1], "tcp must be a 3-vector (m), a 6-vector x,y,z,roll,pitch,yaw (m, rad) or a 4x4 transform"),
+        ("0 0 0.1", "tcp must be a 3-vector (m), a 6-vector x,y,z,roll,pitch,yaw (m, rad) or a 4x4 transform"),
         ([0.0, np.nan, 0.1], "tcp contains NaN or Inf"),
         (np.diag([2.0, 1.0, 1.0, 1.0]), "orthonormal rotation block"),
     ],
@@ -341,6 +341,27 @@ def test_bad_locks(locked, message):
 def test_bad_tcp(tcp, message):
     with raises(ValueError, message):
         jaxstiff.Robot.from_urdf("kuka_lwr4", tcp=tcp)
+
+
+def test_tcp_six_values_as_the_command_line_takes_them():
+    """Robot.from_urdf takes tcp=(x, y, z, roll, pitch, yaw) like --tcp: the same tip transform as
+    the 4x4 built independently here, R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    x, y, z, r, p, w = 0.01, -0.02, 0.1, 0.3, -0.2, 0.5
+
+    def rot(axis, a):
+        c, s = np.cos(a), np.sin(a)
+        i, j = [(1, 2), (0, 2), (0, 1)][axis]
+        R = np.eye(3)
+        R[i, i], R[j, j] = c, c
+        R[i, j], R[j, i] = (-s, s) if axis != 1 else (s, -s)
+        return R
+
+    T = np.eye(4)
+    T[:3, :3] = rot(2, w) @ rot(1, p) @ rot(0, r)
+    T[:3, 3] = [x, y, z]
+    six = jaxstiff.Robot.from_urdf("kuka_lwr4", tcp=(x, y, z, r, p, w))
+    mat = jaxstiff.Robot.from_urdf("kuka_lwr4", tcp=T)
+    np.testing.assert_allclose(six.tip_matrix, mat.tip_matrix, atol=1e-15)
 
 
 # ------------------------------------------------------------------ q at the call
