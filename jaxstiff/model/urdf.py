@@ -280,8 +280,10 @@ def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> s
                 f"{l!r} (behind {j.type if j.mimic is None else 'mimic'} joint {j.name!r})" for l, j in blockers
             )
             raise ValueError(
-                f"{path}: the tip link is ambiguous below {base_link!r}: {short_list(best_usable)} with {top} actuated "
-                f"joints, and {why}, which cannot end a chain; pass tip_link (command line: --tip-link)"
+                f"{path}: the tip link is ambiguous below {base_link!r}: {short_list(best_usable)} has the most "
+                f"actuated joints ({top}) of the leaves a chain can end at, but {why} has as many; a chain cannot "
+                "end behind such a joint, so the default would silently pick the other branch (e.g. one finger "
+                f"of a gripper); pass tip_link (command line: --tip-link), e.g. {best_usable[0]!r}"
             )
         counts = usable
     best = max(counts.values()) if counts else 0
