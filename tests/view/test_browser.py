@@ -141,6 +141,9 @@ def test_static_html_page(readme_result, browser, tmp_path) -> None:
 
 def _open(browser, port: int):
     page = browser.new_page(viewport={"width": 1200, "height": 800})
+    # playwright's 30 s default for each action: under the full suite (4 workers on 2 cores, software
+    # WebGL) a click on the path selector once timed out; 90 s, as _settled's drawing allowance grows
+    page.set_default_timeout(90_000)
     page.goto(f"http://127.0.0.1:{port}")
     page.wait_for_selector("canvas")
     return page
