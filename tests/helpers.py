@@ -98,3 +98,17 @@ CSC_TOML = textwrap.dedent("""\
     beta = [0.002, 0.004]
     kxd_angle_deg = [0.0, 30.0]
     """)
+
+
+def one_value_joint_urdf(folder) -> str:
+    """The shipped planar 4R with joint_2 limited to [0.5, 0.5] (a range of one value), written into
+    ``folder``; its path."""
+    import jaxstiff
+
+    src = open(jaxstiff.Robot.from_urdf("planar_4r").source).read()
+    marker = '<joint name="joint_2" type="revolute">'
+    head, tail = src.split(marker)
+    tail = tail.replace('lower="-3.141592653589793" upper="3.141592653589793"', 'lower="0.5" upper="0.5"', 1)
+    path = pathlib.Path(folder) / "one_value_joint.urdf"
+    path.write_text(head + marker + tail)
+    return str(path)

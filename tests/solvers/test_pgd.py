@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import numpy_fk
+from helpers import numpy_fk, one_value_joint_urdf
 
 import jaxstiff
 from jaxstiff.results import files as R
@@ -298,3 +298,27 @@ def test_lm_stage_never_raises_the_residual_and_stays_in_the_box(robot_name, tas
             assert nk <= prev * (1 + 1e-12), (k, nk, prev)
             prev = nk
         assert norm(lm(x0, 30)) < 1e-6
+
+
+def test_pick_leaves_out_a_joint_whose_range_is_one_value(tmp_path):
+    """pgd's kept start (mode "best"): the room to the limits of a joint limited to [a, a] is 0 / 0;
+    it made every start's room 0, so the first tied start won whatever its room on other joints."""
+    import jax.numpy as jnp
+
+    from jaxstiff.settings.solvers import PGDOptions
+    from jaxstiff.solvers.pgd.kernel import PGDKernel
+    from jaxstiff.solvers.problem import WaypointProblem
+
+    urdf = one_value_joint_urdf(tmp_path)
+    with pytest.warns(UserWarning, match="empty range"):
+        robot = jaxstiff.Robot.from_urdf(str(urdf))
+    problem = WaypointProblem(robot, "xy", jaxstiff.f2)
+    opts = {f: getattr(PGDOptions(), f) for f in PGDOptions.__dataclass_fields__}
+    kernel = PGDKernel(problem, {**opts, "mode": "best"}, False)
+    k = np.full(problem.n_spring, 10.0)  # the middle of [1, 100] in log scale
+    near_limit = problem.x_of(np.array([3.0, 0.5, 0.0, 0.0]), k)  # joint 1 0.14 rad from its limit
+    middle = problem.x_of(np.array([0.2, 0.5, 0.1, -0.1]), k)
+    x = jnp.asarray(np.stack([near_limit, middle]))
+    both = jnp.array([True, True])
+    i = kernel.pick(x, jnp.array([1.0, 1.0]), jnp.zeros(2), both, both, jnp.asarray(1.0), jnp.asarray(100.0))
+    assert int(i) == 1

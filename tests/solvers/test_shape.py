@@ -12,7 +12,7 @@ from typing import Any
 import jax
 import numpy as np
 import pytest
-from helpers import assert_close, numpy_fk
+from helpers import assert_close, numpy_fk, one_value_joint_urdf
 
 import jaxstiff
 from jaxstiff import paths
@@ -634,12 +634,7 @@ def test_a_joint_with_a_one_value_range_leaves_the_tie_break_finite(tmp_path):
     divide' and compared NaN margins (the first candidate won whatever its room)."""
     import warnings
 
-    src = open(jaxstiff.Robot.from_urdf("planar_4r").source).read()
-    marker = '<joint name="joint_2" type="revolute">'
-    head, tail = src.split(marker)
-    tail = tail.replace('lower="-3.141592653589793" upper="3.141592653589793"', 'lower="0.5" upper="0.5"', 1)
-    urdf = tmp_path / "stuck.urdf"
-    urdf.write_text(head + marker + tail)
+    urdf = one_value_joint_urdf(tmp_path)
     robot = jaxstiff.Robot.from_urdf(str(urdf))
     q = np.array([0.3, 0.5, 0.6, 0.4])
     start = np.asarray(robot.fk(q))[:3, 3]

@@ -169,7 +169,10 @@ class PGDKernel:
             [jnp.asarray(np.where(np.isfinite(qhi), qhi, np.pi), dt), jnp.full((ops.nk,), jnp.log(kmax))]
         )
         y = jnp.concatenate([x[:, :nf], jnp.log(jnp.maximum(x[:, nf:], 1e-300))], axis=1)
-        room = jnp.min(jnp.minimum(y - lo, hi - y) / jnp.maximum(hi - lo, 1e-300), axis=1)
+        # a variable whose range is one value (a joint limited to [a, a], kmin = kmax) has no room
+        # to keep: left out, as in the greedy solvers' tie-break (it made every start's room 0)
+        span = hi - lo
+        room = jnp.min(jnp.where(span > 0, jnp.minimum(y - lo, hi - y) / jnp.maximum(span, 1e-300), jnp.inf), axis=1)
         i_near = jnp.argmax(jnp.where(near, room, -jnp.inf))
         return jnp.where(jnp.any(usable), i_near, jnp.argmin(jnp.where(finite, err, jnp.inf)))
 
