@@ -203,12 +203,13 @@ def make_slsqp_solver(
         last: list[Any] = [b"", None]
         count = [0]
         params_dev = jnp.asarray(params)
+        kernel = fused_s.specialize(np.asarray(x0, float), params_dev, svec_dev)  # as in solve
 
         def ev(y: np.ndarray) -> np.ndarray:
             key = y.tobytes()
             if key != last[0]:
                 last[0] = key
-                last[1] = np.asarray(fused_s(y, params_dev, svec_dev))
+                last[1] = np.asarray(kernel(y, params_dev, svec_dev))
                 count[0] += 1
             return last[1]
 
