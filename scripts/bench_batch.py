@@ -138,17 +138,23 @@ def main(argv=None) -> int:
         f"{nwp / res['run_s']:.0f} waypoints/s, peak RSS {peak_mib:.0f} MiB, usable {usable.mean():.4f}",
         flush=True,
     )
-    # seed method on the first few of the same trajectories
+    # seed method on the first few of the same trajectories (--seed-paths 0: pgd alone, no ratio)
     k = min(args.seed_paths, args.B)
-    t0 = time.perf_counter()
-    ref = jaxstiff.shape(
-        robot, jaxstiff.Path(pts[:k], dirs[:k]), args.criterion, 5.0, solver="slsqp-fd", q0=q0[:k], kj0=kj0[:k]
-    )
-    t_fd = time.perf_counter() - t0
-    fd_wps = k * args.P / ref.meta["timing_s"]["solve"]
     pgd_wps = nwp / res["run_s"]
-    f_pgd, f_fd = res["criterion"][:k], ref.criterion
-    ok = np.isin(ref.status, (0, 1, 2)) & usable[:k]
+    if k > 0:
+        t0 = time.perf_counter()
+        ref = jaxstiff.shape(
+            robot, jaxstiff.Path(pts[:k], dirs[:k]), args.criterion, 5.0, solver="slsqp-fd", q0=q0[:k], kj0=kj0[:k]
+        )
+        t_fd = time.perf_counter() - t0
+        fd_wps = k * args.P / ref.meta["timing_s"]["solve"]
+        f_pgd, f_fd, fd_status = res["criterion"][:k], ref.criterion, ref.status
+        fd_solve = ref.meta["timing_s"]["solve"]
+        ok = np.isin(ref.status, (0, 1, 2)) & usable[:k]
+    else:
+        t_fd = fd_wps = fd_solve = float("nan")
+        f_pgd = f_fd = fd_status = np.zeros((0, args.P))
+        ok = np.zeros((0, args.P), bool)
     out = {
         "B": args.B,
         "P": args.P,
@@ -168,14 +174,14 @@ def main(argv=None) -> int:
         "pgd_mean_criterion_all": float(res["criterion"][usable].mean()),
         "pgd_median_criterion_all": float(np.median(res["criterion"][usable])),
         "slsqp_fd_paths": k,
-        "slsqp_fd_solve_s": round(ref.meta["timing_s"]["solve"], 2),
+        "slsqp_fd_solve_s": round(fd_solve, 2),
         "slsqp_fd_total_s": round(t_fd, 2),
         "slsqp_fd_waypoints_per_s": round(fd_wps, 2),
-        "speedup_per_waypoint": round(pgd_wps / fd_wps, 1),
+        "speedup_per_waypoint": round(pgd_wps / fd_wps, 1) if k > 0 else None,
         "same_paths_mean_criterion_pgd": float(f_pgd[ok].mean()) if ok.any() else None,
         "same_paths_mean_criterion_slsqp_fd": float(f_fd[ok].mean()) if ok.any() else None,
         "same_paths_frac_pgd_le_fd": float(np.mean(f_pgd[ok] <= f_fd[ok] + 1e-6)) if ok.any() else None,
-        "slsqp_fd_usable_fraction": float(np.isin(ref.status, (0, 1, 2)).mean()),
+        "slsqp_fd_usable_fraction": float(np.isin(fd_status, (0, 1, 2)).mean()) if k > 0 else None,
         "loadavg_before": [round(x, 2) for x in load0],
         "loadavg_after": [round(x, 2) for x in os.getloadavg()],
         "cpu_count": os.cpu_count(),
