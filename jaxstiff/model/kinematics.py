@@ -316,10 +316,18 @@ def position_and_jacobian(robot: Chain, q: jax.Array, rows: tuple[int, ...] = (0
 
 
 def position_and_jacobian_raw(
-    robot: Chain, q: jax.Array, rows: Sequence[int] = (0, 1, 2, 3, 4, 5), poly: bool | None = None
+    robot: Chain,
+    q: jax.Array,
+    rows: Sequence[int] = (0, 1, 2, 3, 4, 5),
+    poly: bool | None = None,
+    kernel: str | None = None,
 ) -> tuple[jax.Array, jax.Array]:
-    """:func:`position_and_jacobian` without checks or jit (to trace inside a caller's kernel)."""
-    if uses_scan(robot):
+    """:func:`position_and_jacobian` without checks or jit (to trace inside a caller's kernel).
+
+    ``kernel``: as in :func:`fk_and_jacobian_raw` (None: by :func:`jaxstiff.model.kinematics_scan.uses_scan`)."""
+    if kernel not in (None, "unrolled", "scan"):
+        raise ValueError(f"kernel must be None, 'unrolled' or 'scan', got {kernel!r}")
+    if kernel == "scan" or (kernel is None and uses_scan(robot)):
         _, p, J = scan_pose_and_jacobian(robot, q, poly)
         return p, J[..., list(rows), :]
     _, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)

@@ -30,7 +30,16 @@ import numpy as np
 from jaxstiff._numerics.trig import joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
-__all__ = ["UNROLL_MAX_JOINTS", "axis_aligned", "uses_scan", "chain_arrays", "scan_pose", "scan_pose_and_jacobian"]
+__all__ = [
+    "UNROLL_MAX_JOINTS",
+    "SOLVER_UNROLL_MAX_JOINTS",
+    "axis_aligned",
+    "uses_scan",
+    "solver_uses_scan",
+    "chain_arrays",
+    "scan_pose",
+    "scan_pose_and_jacobian",
+]
 
 #: Axis-aligned chains (:func:`axis_aligned`) with at most this many joints use the unrolled
 #: kernel; longer ones, and every chain with a joint that is not axis-aligned, use the scan
@@ -51,6 +60,24 @@ def uses_scan(robot: Chain) -> bool:
     :data:`UNROLL_MAX_JOINTS` joints, or a joint that is not :func:`axis_aligned` (the unrolled
     kernel of a dense 7-joint chain is slower to run and, over a batch, takes minutes to compile)."""
     return robot.n > UNROLL_MAX_JOINTS or not axis_aligned(robot)
+
+
+#: In the solvers' programs (pgd's batch program, SLSQP's kernels, the reports) an axis-aligned
+#: chain with more joints than this uses the scan too (:func:`solver_uses_scan`).
+SOLVER_UNROLL_MAX_JOINTS = 4
+
+
+def solver_uses_scan(robot: Chain) -> bool:
+    """Whether the solvers' programs compute the kinematics of ``robot`` by the scan: wherever
+    :func:`uses_scan` says so, and for every chain of more than :data:`SOLVER_UNROLL_MAX_JOINTS`
+    joints. A solver program traces the kinematics several times (pgd: position and Jacobian in its
+    LM stage, gradient steps and Newton corrections), so unrolled they are 38 % of pgd's traced
+    equations for the LWR and most of its compile time, while they are a small share of its run
+    time. Measured on a 2-core Xeon, pgd 1000 x 100 waypoints on the LWR (6 free joints): compile
+    26.6 -> 16.3 s, run 33.0 -> 29.5 s, the same share of waypoints in target up to the chain's
+    rounding chaos (docs/notes/speed.md, 2026-12-04). Short chains (the planar arms) keep the
+    unrolled kernel: it is small to compile and several times faster to run there (docs/notes/model.md)."""
+    return uses_scan(robot) or robot.n > SOLVER_UNROLL_MAX_JOINTS
 
 
 @functools.lru_cache(maxsize=64)

@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.model.kinematics import jacobian_tangent, position_and_jacobian
+from jaxstiff.model.kinematics import jacobian_tangent
 from jaxstiff.solvers.problem import WaypointProblem, rate_bounds
 from jaxstiff.stiffness.core import (
     compliance,
@@ -66,7 +66,7 @@ class WaypointOps:
 
     def pos_jac(self, x):
         q = self.pr.q_of(x)
-        p, J = position_and_jacobian(self.pr.robot, q, self.rows)
+        p, J = self.pr.kinematics(q, self.rows)
         return p, J[:, self.free]
 
     def f(self, x, d, r, c):
@@ -131,7 +131,7 @@ class WaypointOps:
         smoothed square root, so the residuals are smooth everywhere (spheres included).
         """
         q = self.pr.q_of(x)
-        p, J6 = position_and_jacobian(self.pr.robot, q)
+        p, J6 = self.pr.kinematics(q)
         return self._residual_of(p, J6, self.pr.kj_of(x), target, d, r, kind, wpos, walign)
 
     def _residual_of(self, p, J6, kj, target, d, r, kind: str, wpos, walign):
@@ -177,7 +177,7 @@ class WaypointOps:
         ``jax.jacrev`` of :meth:`lm_residual` through the chain.
         """
         q, kj = self.pr.q_of(x), x[self.nf :]  # kj: the nk sprung joints' stiffnesses
-        p, J6 = position_and_jacobian(self.pr.robot, q)
+        p, J6 = self.pr.kinematics(q)
         n = self.nk  # the compliance sums over the sprung joints only (rigid locked joints add none)
         dt = x.dtype
         dp, dJ6, _ = jacobian_tangent(J6, jnp.eye(self.n, dtype=dt)[self.free])  # (nf, 3), (nf, 6, n)

