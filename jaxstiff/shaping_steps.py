@@ -34,7 +34,7 @@ from jaxstiff.shaping_inputs import ShapeInputs as ShapeInputs
 from jaxstiff.shaping_inputs import first_start_postures as first_start_postures
 from jaxstiff.shaping_inputs import first_start_rng as first_start_rng
 from jaxstiff.shaping_inputs import make_start_states as make_start_states
-from jaxstiff.solvers.problem import WaypointProblem, compiled_report
+from jaxstiff.solvers.problem import WaypointProblem, report_rows
 from jaxstiff.stiffness.criteria import CRITERIA
 
 __all__ = [
@@ -44,7 +44,7 @@ __all__ = [
     "first_start_postures",
     "make_start_states",
     "report_at_solution",
-    "not_run_report",
+    "not_run_groups",
     "check_shape_size",
     "cms_factors",
     "warn_off_plane",
@@ -71,15 +71,15 @@ class Report:
 def report_at_solution(
     problem: WaypointProblem, inp: ShapeInputs, arrays: Mapping[str, np.ndarray], ratios: np.ndarray
 ) -> Report:
-    """Recompute the reported quantities at every solver's final points (a compile and one small
-    call per waypoint that was run, seconds: the command line's Ctrl-C waits for them rather than
-    lose the solve).
+    """Recompute the reported quantities at every solver's final points with one compiled program
+    over rows (:func:`jaxstiff.solvers.problem.report_rows`: a compile, then about a millisecond
+    per 128 waypoints; the command line's Ctrl-C waits for it rather than lose the solve).
 
     A waypoint with status NOT_RUN (an interrupted run) holds its path's reference state
     unchanged, so its position, K_T and axis ratio are those of that state: they are computed
     once per distinct state, and only alpha and the criterion, which depend on the waypoint's
-    direction, are evaluated per waypoint, in numpy (:func:`not_run_report`). An interrupt after a
-    few of 10^6 waypoints thus costs a few calls, not 10^6.
+    direction, are evaluated per waypoint, in numpy (:func:`not_run_groups`). An interrupt after a
+    few of 10^6 waypoints thus reports a few rows, not 10^6.
     """
     B, P, m = inp.path.B, inp.path.P, inp.m
     pos, K, alpha, rho, f = (
@@ -90,18 +90,43 @@ def report_at_solution(
         np.zeros((B, P)),
     )
     not_run = np.asarray(arrays["status"]).reshape(B, P) == R.NOT_RUN
-    with jax.enable_x64(True), deferred_interrupts():
-        report = compiled_report(problem)
-
-        def at(b: int, p: int) -> None:
-            x = np.asarray(problem.x_of(arrays["q"][b, p], arrays["kj"][b, p]))
-            prm = WaypointProblem.params(inp.path.points[b, p], inp.path.directions[b, p], float(ratios[b]), inp.c)
-            pos[b, p], K[b, p], alpha[b, p], rho[b, p], f[b, p] = problem.unpack_report(np.asarray(report(x, prm)))
-
-        for b, p in np.argwhere(~not_run):
-            at(int(b), int(p))
-        for b in np.flatnonzero(not_run.any(axis=1)):
-            not_run_report(at, inp, arrays, ratios, int(b), np.flatnonzero(not_run[b]), (pos, K, alpha, rho, f))
+    groups = {
+        int(b): not_run_groups(inp, arrays, int(b), np.flatnonzero(not_run[b]))
+        for b in np.flatnonzero(not_run.any(axis=1))
+    }
+    # the waypoints computed by the compiled report: every one that was run, and per NOT_RUN
+    # group its first waypoint (all of them for a criterion numpy cannot evaluate)
+    wanted = [np.argwhere(~not_run)]
+    for b, gs in groups.items():
+        for p0, rest, numpy_rest in gs:
+            wanted.append(np.array([[b, p0]]))
+            if not numpy_rest and rest.size:
+                wanted.append(np.stack([np.full(rest.size, b), rest], axis=1))
+    bp = np.concatenate(wanted).astype(int)
+    if len(bp):
+        bb, pp = bp[:, 0], bp[:, 1]
+        X = np.asarray(problem.x_of(arrays["q"][bb, pp], arrays["kj"][bb, pp]), dtype=np.float64)
+        prm = np.concatenate(
+            [
+                inp.path.points[bb, pp],
+                inp.path.directions[bb, pp],
+                np.asarray(ratios, dtype=np.float64)[bb, None],
+                np.full((len(bb), 1), float(inp.c)),
+            ],
+            axis=1,
+        )
+        with jax.enable_x64(True), deferred_interrupts():
+            out = report_rows(problem, X, prm)
+        pos[bb, pp], K[bb, pp] = out[:, :3], out[:, 3 : 3 + m * m].reshape(-1, m, m)
+        alpha[bb, pp], rho[bb, pp], f[bb, pp] = out[:, 3 + m * m], out[:, 4 + m * m], out[:, 5 + m * m]
+    for b, gs in groups.items():
+        for p0, rest, numpy_rest in gs:
+            if not (numpy_rest and rest.size):
+                continue
+            pos[b, rest], K[b, rest], rho[b, rest] = pos[b, p0], K[b, p0], rho[b, p0]
+            a, _ = np_alpha_ratio(K[b, p0][None], inp.path.directions[b, rest])
+            alpha[b, rest] = a
+            f[b, rest] = np_criterion(inp.crit_name, a, rho[b, rest], float(ratios[b]), inp.c)
     return Report(pos, K, alpha, rho, f)
 
 
@@ -123,39 +148,25 @@ def check_shape_size(inp: ShapeInputs) -> None:
     )
 
 
-def not_run_report(
-    at: Any,
-    inp: ShapeInputs,
-    arrays: Mapping[str, np.ndarray],
-    ratios: np.ndarray,
-    b: int,
-    idx: np.ndarray,
-    out: tuple[np.ndarray, ...],
-) -> None:
-    """Fill ``out`` (position, K, alpha, ratio, criterion, each (B, P, ...)) at the NOT_RUN
-    waypoints ``idx`` of path ``b``: ``at(b, p)`` (the compiled report) once per distinct state,
-    the other waypoints of that state copy its position, K_T and ratio, and get alpha (S0-8) and
-    f1/f2 (S0-9, S0-15) from numpy; a custom criterion is evaluated by ``at`` per waypoint."""
-    pos, K, alpha, rho, f = out
+def not_run_groups(
+    inp: ShapeInputs, arrays: Mapping[str, np.ndarray], b: int, idx: np.ndarray
+) -> list[tuple[int, np.ndarray, bool]]:
+    """The NOT_RUN waypoints ``idx`` of path ``b`` grouped by their state (q, kj): per group
+    ``(p0, rest, numpy_rest)``, its first waypoint ``p0`` (computed by the compiled report), the
+    other waypoints ``rest``, and whether those copy p0's position, K_T and ratio and get alpha
+    (S0-8) and f1/f2 (S0-9, S0-15) from numpy (False: a custom criterion, each waypoint of
+    ``rest`` goes through the compiled report)."""
     states = np.concatenate([arrays["q"][b, idx], arrays["kj"][b, idx]], axis=1)
     if np.all(states == states[0]):  # (the usual case: one reference state; np.unique of 10^6 rows takes 2 s)
         first, group = np.array([0]), np.zeros(len(idx), dtype=int)
     else:
         _, first, group = np.unique(states, axis=0, return_index=True, return_inverse=True)
+    numpy_rest = inp.crit_name in ("f1", "f2") and isinstance(inp.criterion, str)
+    out = []
     for g, i0 in enumerate(first):
         p0, members = int(idx[i0]), idx[np.ravel(group) == g]
-        at(b, p0)
-        rest = members[members != p0]
-        if not rest.size:
-            continue
-        if inp.crit_name not in ("f1", "f2") or not isinstance(inp.criterion, str):
-            for p in rest:
-                at(b, int(p))
-            continue
-        pos[b, rest], K[b, rest], rho[b, rest] = pos[b, p0], K[b, p0], rho[b, p0]
-        a, _ = np_alpha_ratio(K[b, p0][None], inp.path.directions[b, rest])
-        alpha[b, rest] = a
-        f[b, rest] = np_criterion(inp.crit_name, a, rho[b, rest], float(ratios[b]), inp.c)
+        out.append((p0, members[members != p0], numpy_rest))
+    return out
 
 
 def cms_factors(K: np.ndarray, inp: ShapeInputs) -> np.ndarray:

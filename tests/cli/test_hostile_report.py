@@ -16,20 +16,16 @@ from jaxstiff.results import files as R
 
 
 def _counting(monkeypatch) -> list[int]:
-    calls = [0]
-    original = steps.compiled_report
+    """Counts the waypoints the compiled report is asked for (rows, not calls: it is one batched call)."""
+    rows = [0]
+    original = steps.report_rows
 
-    def counted(problem):
-        fn = original(problem)
+    def counted(problem, X, params):
+        rows[0] += len(X)
+        return original(problem, X, params)
 
-        def call(x, prm):
-            calls[0] += 1
-            return fn(x, prm)
-
-        return call
-
-    monkeypatch.setattr(steps, "compiled_report", counted)
-    return calls
+    monkeypatch.setattr(steps, "report_rows", counted)
+    return rows
 
 
 @pytest.mark.parametrize(
@@ -54,7 +50,7 @@ def test_report_only_for_waypoints_run(monkeypatch, robot_name, criterion, task,
     res = info.value.result
     not_run = res.status[0] == R.NOT_RUN
     assert not_run.sum() == 28 and R.is_usable(res.status[0, :2]).all()
-    # 2 waypoints run, and the 28 NOT_RUN ones share one reference state: 3 calls, not 30
+    # 2 waypoints run, and the 28 NOT_RUN ones share one reference state: 3 rows, not 30
     assert calls[0] == 3
     # the values at the NOT_RUN waypoints are what a full recomputation gives
     check = R.verify(res, robot)

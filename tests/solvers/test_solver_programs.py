@@ -12,7 +12,8 @@ from helpers import numpy_fk
 
 import jaxstiff
 from jaxstiff.model.kinematics_scan import SOLVER_UNROLL_MAX_JOINTS, solver_uses_scan
-from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers.problem import WaypointProblem, compiled_report, report_rows
+from jaxstiff.solvers.problem.compiled import REPORT_ROWS
 from jaxstiff.stiffness.criteria import f2
 
 
@@ -34,3 +35,26 @@ def test_solver_kinematics_match_numpy_fk_and_finite_differences(name):
             dq[i] = h
             dp = (numpy_fk(robot, q[k] + dq)[:3, 3] - numpy_fk(robot, q[k] - dq)[:3, 3]) / (2 * h)
             np.testing.assert_allclose(np.asarray(J[k, :3, i]), dp, atol=1e-8)
+
+
+def test_batched_report_equals_the_single_point_report_and_does_not_depend_on_the_batch():
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    prob = WaypointProblem(robot, "full", f2)
+    rng = np.random.default_rng(7)
+    N = REPORT_ROWS + 37  # two calls, the second padded
+    q = rng.uniform(robot.lower * 0.8, robot.upper * 0.8, size=(N, robot.n))
+    q[:, 6] = 0.0
+    kj = rng.uniform(1.0, 100.0, size=(N, robot.n))
+    X = prob.x_of(q, kj)
+    d = rng.normal(size=(N, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    prm = np.stack([WaypointProblem.params(rng.normal(size=3), d[i], 5.0, 0.01) for i in range(N)])
+    with jax.enable_x64(True):
+        out = report_rows(prob, X, prm)
+        single = compiled_report(prob)
+        ref = np.stack([np.asarray(single(X[i], prm[i])) for i in range(N)])
+        alone = report_rows(prob, X[40:43], prm[40:43])
+    assert out.shape == ref.shape and np.all(np.isfinite(out))
+    np.testing.assert_allclose(out, ref, rtol=1e-11, atol=1e-9)
+    np.testing.assert_array_equal(alone, out[40:43])  # a row's bits whatever else is reported with it
+    assert report_rows(prob, X[:0], prm[:0]).shape == (0, out.shape[1])
