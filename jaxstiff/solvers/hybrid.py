@@ -66,7 +66,7 @@ from jaxstiff.solvers.greedy import (
     judge,
     kernel_objective,
 )
-from jaxstiff.solvers.lockstep import Steps, run_lockstep
+from jaxstiff.solvers.lockstep import RowsProgram, Steps, run_lockstep
 from jaxstiff.solvers.problem import (
     WaypointBatch,
     WaypointProblem,
@@ -168,9 +168,7 @@ def polish(
         for b in range(B)
     ]
     # the B paths' SLSQP solves advance together, their kernel calls batched (one call per round)
-    rows = compiled_scaled_rows(problem)
-    scale = jnp.asarray(solver.scale)
-    run_lockstep(gens, lambda Y, Pm: rows(Y, Pm, scale))
+    run_lockstep(gens, RowsProgram(compiled_scaled_rows(problem), jnp.asarray(solver.scale)))
     # the polish's wall time, shared equally by the waypoints (the paths ran interleaved)
     out["time_s"] = out["time_s"] + (time.perf_counter() - t0) / max(out["time_s"].size, 1)
     return out
@@ -295,7 +293,7 @@ def _best_slsqp(
         starts.append(problem.x_of(q_ref, kj_ref))  # the seed's own start
         if chain == "greedy" and not rate and ctx.first_starts is not None:
             starts += [problem.x_of(qs, ks) for qs, ks in ctx.first_starts[b]]  # greedy SLSQP's others
-    f_best = ctx.objective(x_pgd, params) if have else np.inf
+    f_best = (yield from _criterion(ctx, x_pgd, params)) if have else np.inf
     f_min = problem.criterion_minimum(ctx.batch.c)
     if have and f_min is not None and f_best - f_min <= ctx.skip_tol * max(1.0, abs(f_min)):
         return None  # pgd's point is optimal to the tolerance: no SLSQP answer can be usefully lower
@@ -312,19 +310,28 @@ def _best_slsqp(
             problem, sol, x_start, lb, ub, ctx.batch.targets[b, p], params, ctx.pos_and_jac, ctx.objective, ctx.pos_tol
         )
         if status in R.USABLE:
-            f_new = ctx.objective(x, params)
+            f_new = yield from _criterion(ctx, x, params)
             if f_new < f_best:
                 take, f_best = (x, status, err, sol), f_new
     return take
 
 
-def _path_key(ctx: _Polish, d: Mapping[str, np.ndarray], b: int) -> tuple[int, float]:
-    """(unusable waypoints, total criterion of the usable ones) of path b in result d."""
+def _criterion(ctx: _Polish, x: np.ndarray, params: np.ndarray) -> Steps[float]:
+    """The criterion at ``x`` as a kernel request like SLSQP's (:mod:`jaxstiff.solvers.lockstep`:
+    batched with the other paths' requests instead of a kernel call of its own)."""
+    nx = ctx.problem.nx
+    out = yield (x / ctx.solver.scale[:nx], params)
+    return float(out[0]) / float(ctx.solver.scale[nx])
+
+
+def _path_key(ctx: _Polish, d: Mapping[str, np.ndarray], b: int) -> Steps[tuple[int, float]]:
+    """(unusable waypoints, total criterion of the usable ones) of path b in result d (the criterion
+    values as kernel requests, :func:`_criterion`: one kernel call per waypoint was 4 s of a 64 x 50
+    polish)."""
     u = R.is_usable(d["status"][b])
     tot = 0.0
     for p in np.flatnonzero(u):
-        x = ctx.problem.x_of(d["q"][b, p], d["kj"][b, p])
-        tot += ctx.objective(x, ctx.params(b, int(p)))
+        tot += yield from _criterion(ctx, ctx.problem.x_of(d["q"][b, p], d["kj"][b, p]), ctx.params(b, int(p)))
     return int((~u).sum()), tot
 
 
@@ -338,13 +345,15 @@ def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> Ste
     """
     base = ctx.base
     yield from _polish_path(ctx, b, "greedy", out)
-    k_g, k_b = _path_key(ctx, out, b), _path_key(ctx, base, b)
+    k_g = yield from _path_key(ctx, out, b)
+    k_b = yield from _path_key(ctx, base, b)
     if k_g[0] > k_b[0] or (k_g[0] == k_b[0] and k_g[1] > k_b[1] * (1 + 1e-9) + 1e-12):
         greedy = {k: out[k][b].copy() for k in out}
         for k in out:
             out[k][b] = base[k][b]
         yield from _polish_path(ctx, b, "pgd", out)
-        if not _path_key(ctx, out, b) < k_g:
+        k_p = yield from _path_key(ctx, out, b)
+        if not k_p < k_g:
             for k in out:
                 out[k][b] = greedy[k]
 
