@@ -68,7 +68,7 @@ from jaxstiff.solvers.base import first_starts_use as _first_starts_use
 from jaxstiff.solvers.base import options_for_solver as options_for_solver  # re-exported (sweep)
 from jaxstiff.solvers.base import options_meta as _options_meta
 from jaxstiff.solvers.base import solver_option_names as solver_option_names  # re-exported (sweep)
-from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem
+from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, warm_report
 
 __all__ = [
     "shape",
@@ -169,6 +169,7 @@ def _solve(
             progress=progress,
             first_starts=extra_starts,
         )
+        warm_report(problem)  # the report program compiles beside the solve (a core that tracing leaves idle)
         try:
             return problem, req, SOLVERS[inp.solver](req), False
         except SolverInterrupted as e:  # the finished waypoints are kept, the others are NOT_RUN

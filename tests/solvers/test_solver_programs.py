@@ -12,7 +12,7 @@ from helpers import numpy_fk
 
 import jaxstiff
 from jaxstiff.model.kinematics_scan import SOLVER_UNROLL_MAX_JOINTS, solver_uses_scan
-from jaxstiff.solvers.problem import WaypointProblem, compiled_report, report_rows
+from jaxstiff.solvers.problem import WaypointProblem, compiled_report, report_rows, warm_report
 from jaxstiff.solvers.problem.compiled import REPORT_ROWS
 from jaxstiff.stiffness.criteria import f2
 
@@ -58,3 +58,32 @@ def test_batched_report_equals_the_single_point_report_and_does_not_depend_on_th
     np.testing.assert_allclose(out, ref, rtol=1e-11, atol=1e-9)
     np.testing.assert_array_equal(alone, out[40:43])  # a row's bits whatever else is reported with it
     assert report_rows(prob, X[:0], prm[:0]).shape == (0, out.shape[1])
+
+
+def test_report_warm_up_gives_the_same_report_and_survives_any_robot():
+    """warm_report compiles the report program on a thread while the solve runs: report_rows then
+    waits for it and gives the bits it gives without a warm-up; a chain with continuous joints
+    (infinite limits) and prismatic ones, and a criterion of the user's own, warm up without error."""
+    from jaxstiff.model.generate import serial_chain
+    from jaxstiff.solvers.problem.compiled import _warming
+
+    robot = serial_chain(5, seed=4)  # joint 3 continuous, joints 2 and 4 prismatic
+    assert np.isinf(robot.lower[3]) and 1 in robot.joint_types
+
+    def mine(K, d, r):
+        return f2(K, d, r)
+
+    for crit in (f2, mine):
+        prob = WaypointProblem(robot, "full", crit)
+        rng = np.random.default_rng(1)
+        q = np.clip(rng.normal(size=(9, robot.n)), np.maximum(robot.lower, -2), np.minimum(robot.upper, 2))
+        X = prob.x_of(q, rng.uniform(1.0, 50.0, size=(9, robot.n)))
+        prm = np.stack([WaypointProblem.params(rng.normal(size=3), [0.0, 0.0, 1.0], 3.0, 0.01) for _ in range(9)])
+        with jax.enable_x64(True):
+            plain = report_rows(prob, X, prm)
+            warm_report(prob)
+            assert prob in _warming
+            warmed = report_rows(prob, X, prm)
+        assert prob not in _warming
+        np.testing.assert_array_equal(warmed, plain)
+        assert np.all(np.isfinite(plain))

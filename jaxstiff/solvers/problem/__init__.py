@@ -64,4 +64,5 @@ from jaxstiff.solvers.problem.compiled import compiled_scaled as compiled_scaled
 from jaxstiff.solvers.problem.compiled import compiled_scaled_rows as compiled_scaled_rows
 from jaxstiff.solvers.problem.compiled import jax_pos_and_jac as jax_pos_and_jac
 from jaxstiff.solvers.problem.compiled import report_rows as report_rows
+from jaxstiff.solvers.problem.compiled import warm_report as warm_report
 from jaxstiff.solvers.problem.waypoint import WaypointProblem as WaypointProblem

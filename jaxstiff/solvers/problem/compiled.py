@@ -4,6 +4,7 @@ problem (cached), and their numpy wrappers (:mod:`jaxstiff.solvers.problem`)."""
 from __future__ import annotations
 
 import functools
+import threading
 from collections.abc import Callable
 
 import jax
@@ -20,6 +21,7 @@ __all__ = [
     "compiled_report",
     "compiled_report_rows",
     "report_rows",
+    "warm_report",
     "REPORT_ROWS",
     "compiled_scaled",
     "compiled_scaled_rows",
@@ -87,11 +89,49 @@ def compiled_report_rows(problem: WaypointProblem) -> DiskJit:
     return DiskJit(jax.vmap(problem.report_x), None if fp is None else f"report_rows|{fp}", kernel_compiler_options())
 
 
+#: report programs being compiled on a background thread (:func:`warm_report`), by problem
+_warming: dict[WaypointProblem, threading.Thread] = {}
+
+
+def warm_report(problem: WaypointProblem) -> None:
+    """Start compiling the report program of ``problem`` on a background thread, so that it is ready
+    when the solve ends: a solver that traces a program of its own (pgd: seconds of Python on one
+    core) leaves the other core idle meanwhile, and the report's compile (1.4 s on a 2-core CPU)
+    fits there. :func:`report_rows` waits for it. Any error is left to the real call to raise."""
+    if problem in _warming:
+        return
+    lo, hi = problem.robot.lower, problem.robot.upper
+    fin = np.isfinite(lo) & np.isfinite(hi)
+    q = np.clip(np.zeros(problem.n), lo, hi)
+    q[fin] = 0.5 * (lo[fin] + hi[fin])
+    q = np.where(np.isnan(problem.robot.locked_values), q, np.nan_to_num(problem.robot.locked_values))
+    X = np.asarray(problem.x_of(q, np.ones(problem.n)), dtype=np.float64)[None, :]
+    prm = WaypointProblem.params(np.zeros(3), np.array([1.0, 0.0, 0.0]), 2.0, 0.01)[None, :]
+
+    def work() -> None:
+        try:
+            with jax.enable_x64(True):
+                _report_rows(problem, X, prm)
+        except Exception:  # noqa: BLE001 - the real call raises it where the user sees it
+            pass
+
+    t = threading.Thread(target=work, name="jaxstiff-report-warm-up", daemon=True)
+    _warming[problem] = t
+    t.start()
+
+
 def report_rows(problem: WaypointProblem, X: np.ndarray, params: np.ndarray) -> np.ndarray:
     """:meth:`WaypointProblem.report_x` at every row of ``X`` (N, nx) with ``params`` (N, np) ->
     (N, out) float64, in calls of :data:`REPORT_ROWS` rows (one compiled program; a call costs
     about what one single-point call costs, so 10^5 waypoints take under a second, not the
     half minute of one call each). Call it with x64 enabled."""
+    t = _warming.pop(problem, None)
+    if t is not None:
+        t.join()
+    return _report_rows(problem, X, params)
+
+
+def _report_rows(problem: WaypointProblem, X: np.ndarray, params: np.ndarray) -> np.ndarray:
     X, params = np.asarray(X, dtype=np.float64), np.asarray(params, dtype=np.float64)
     N = len(X)
     if N == 0:
