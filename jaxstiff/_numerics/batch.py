@@ -8,7 +8,7 @@ import numpy as np
 from jax.core import Tracer
 from numpy.typing import ArrayLike
 
-__all__ = ["broadcast_batch", "known_floats", "check_square", "is_traced"]
+__all__ = ["broadcast_batch", "known_floats", "check_square", "is_traced", "batched_like"]
 
 
 def broadcast_batch(*named_shapes: tuple[str, tuple[int, ...]]) -> tuple[int, ...]:
@@ -47,3 +47,18 @@ def check_square(K: ArrayLike, name: str = "K") -> jax.Array:
 def is_traced(x: object) -> bool:
     """True inside a trace (jit, grad, vmap): the value of ``x`` is not known here."""
     return isinstance(x, Tracer)
+
+
+def batched_like(tree, ref: jax.Array):
+    """``tree`` (a loop's initial carry) unchanged in value, but batched wherever ``ref`` is: under
+    ``vmap`` a carry built from constants (zeros, an identity, a step size) starts unbatched, and
+    JAX's batching rule for ``fori_loop`` / ``scan`` then batches the whole loop body twice (once
+    to find that the carry becomes batched, again with it batched), and a loop inside that body
+    is batched once per pass of every loop around it. pgd's chunk program traced in about twice
+    the time for that (docs/notes/speed.md, 2026-12-04). ``select(p, v, v)`` is ``v`` whatever ``p``
+    is (NaN included), and XLA removes it: the compiled program computes the same."""
+    if jnp.size(ref) == 0:  # (an empty batch: nothing to batch by)
+        return tree
+    r = jnp.ravel(ref)[0]
+    p = r == r
+    return jax.tree.map(lambda v: jax.lax.select(jnp.broadcast_to(p, jnp.shape(v)), v, v), tree)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from jaxstiff._numerics.batch import batched_like
 from jaxstiff._numerics.linalg import mm
 
 __all__ = ["eigh_descending", "eigh_descending_inline", "eigh_descending_primal", "JACOBI_SWEEPS", "gap_tol"]
@@ -101,7 +102,7 @@ def _eig3(K: jax.Array, sweeps: int = JACOBI_SWEEPS):
     zero = jnp.zeros_like(one)
     v = tuple(one if i == k else zero for k in range(3) for i in range(3))
     # a loop over sweeps (not unrolled): 4x faster to compile, and as fast or faster to run
-    a, v = jax.lax.fori_loop(0, sweeps, _jacobi_sweep3, (a, v))
+    a, v = jax.lax.fori_loop(0, sweeps, _jacobi_sweep3, batched_like((a, v), a[0]))
     A = dict(zip(_KEYS3, a, strict=True))
     w = [A[0, 0], A[1, 1], A[2, 2]]
     cols = [[v[3 * k + i] for k in range(3)] for i in range(3)]

@@ -27,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxstiff._numerics.batch import batched_like
 from jaxstiff._numerics.trig import joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
@@ -153,7 +154,7 @@ def _walk(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None):
         return (R, p), out
 
     init = (jnp.broadcast_to(eye, batch + (3, 3)), jnp.zeros(batch + (3,), q.dtype))
-    (R, p), frames = jax.lax.scan(step, init, xs)
+    (R, p), frames = jax.lax.scan(step, batched_like(init, q), xs)
     p = p + _matvec(R, jnp.broadcast_to(g["tip_p"], batch + (3,)))
     R = _matmul(R, jnp.broadcast_to(g["tip_R"], batch + (3, 3)))
     z, p_i = frames if frames is not None else (None, None)

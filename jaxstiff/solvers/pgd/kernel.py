@@ -10,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxstiff._numerics.batch import batched_like
 from jaxstiff.results import files as R
 from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
 from jaxstiff.solvers.pgd.stages import finish, optimise
@@ -331,5 +332,5 @@ class PGDKernel:
             carry, w = self.step(carry, inp(p), lims)
             return carry, tuple(o.at[p].set(v.astype(o.dtype)) for o, v in zip(outs, w, strict=True))
 
-        _, outs = jax.lax.fori_loop(p0, n, body, (carry0, outs))
+        _, outs = jax.lax.fori_loop(p0, n, body, batched_like((carry0, outs), xref))
         return outs

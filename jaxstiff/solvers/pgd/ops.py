@@ -10,6 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxstiff._numerics.batch import batched_like
 from jaxstiff.model.kinematics import jacobian_tangent
 from jaxstiff.solvers.problem import WaypointProblem, rate_bounds
 from jaxstiff.stiffness.core import (
@@ -93,7 +94,7 @@ class WaypointOps:
             active = active | (new != raw)
             return x.at[: self.nf].set(new), active
 
-        x, _ = jax.lax.fori_loop(0, steps, body, (x, jnp.zeros(self.nf, bool)))
+        x, _ = jax.lax.fori_loop(0, steps, body, batched_like((x, jnp.zeros(self.nf, bool)), x))
         return x
 
     def surrogate(self, x, d, r, c):
@@ -255,7 +256,7 @@ class WaypointOps:
 
         nr0 = jnp.zeros((nr,), x.dtype)
         init = (x, jnp.asarray(1e-3, x.dtype), nr0, jnp.zeros((nr, x.shape[0]), x.dtype))
-        x, _, _, _ = jax.lax.fori_loop(0, iters + 1, body, init)
+        x, _, _, _ = jax.lax.fori_loop(0, iters + 1, body, batched_like(init, x))
         return x
 
 

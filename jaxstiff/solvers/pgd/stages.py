@@ -7,6 +7,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
+from jaxstiff._numerics.batch import batched_like
 from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, spd_solve
 
 __all__ = ["optimise", "descend", "finish"]
@@ -94,7 +95,8 @@ def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, ite
         return xn, bx, bf, m1, m2
 
     z = jnp.zeros_like(x0)
-    x, bx, bf, _, _ = jax.lax.fori_loop(0, iters, body, (x0, x0, jnp.asarray(jnp.inf, x0.dtype), z, z))
+    init = batched_like((x0, x0, jnp.asarray(jnp.inf, x0.dtype), z, z), x0)
+    x, bx, bf, _, _ = jax.lax.fori_loop(0, iters, body, init)
     if not track:
         return x
     # the last iterate has not been scored yet
