@@ -17,7 +17,7 @@ import argparse
 import sys
 from typing import Any
 
-from .common import check_not_an_input, command
+from .common import check_not_an_input, check_out_path, command
 
 
 def add_result_flags(p: argparse.ArgumentParser) -> None:
@@ -62,6 +62,8 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         if args.every < 1:
             raise ValueError(f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {args.every}")
         if args.html:
+            # before anything starts (viser's server, the scene): a folder or a missing folder is refused here
+            check_out_path(args.html, "--html", like="shape.html")
             check_not_an_input(args.html, "--html", {"RESULT": args.result, "--urdf": args.urdf})
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if not 0 <= args.path < data.B:

@@ -197,3 +197,23 @@ def test_an_output_that_is_the_input_file_is_refused_and_the_input_kept(shape_fi
     assert "is the RESULT file itself" in err and "mine.npz" in err
     assert open(src, "rb").read() == before  # not overwritten
     assert load_view_data(src).kind == "shape"
+
+
+def test_view_html_into_a_folder_or_a_missing_folder_is_refused_before_viser_starts(
+    shape_file, tmp_path, capsys, monkeypatch
+) -> None:
+    """``view --html DIR`` started viser's server and built the scene before the write failed
+    (stop 34's review); now the target is checked first, like every other output flag."""
+    viser = pytest.importorskip("viser")
+
+    def no_server(*a, **k):
+        raise AssertionError("viser's server was started")
+
+    monkeypatch.setattr(viser, "ViserServer", no_server)
+    folder = tmp_path / "pages"
+    folder.mkdir()
+    assert main(["view", shape_file, "--html", str(folder)]) == 2
+    assert f"--html: {folder} is a folder; give a file name inside it, like shape.html" in capsys.readouterr().err
+    assert main(["view", shape_file, "--html", str(tmp_path / "nodir" / "v.html")]) == 2
+    assert "--html: folder does not exist: " in capsys.readouterr().err
+    assert os.listdir(folder) == []
