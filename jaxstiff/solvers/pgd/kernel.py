@@ -13,7 +13,7 @@ import numpy as np
 from jaxstiff._numerics.batch import batched_like
 from jaxstiff.results import files as R
 from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
-from jaxstiff.solvers.pgd.stages import finish, optimise
+from jaxstiff.solvers.pgd.stages import judge, optimise
 from jaxstiff.solvers.problem import WaypointProblem
 
 __all__ = ["make_kernel", "PGDKernel", "length_unit", "waypoint_keys"]
@@ -124,7 +124,6 @@ class PGDKernel:
         (:func:`~jaxstiff.solvers.pgd.stages.finish`): ``(x, f, err, usable, finite)``. ``first``:
         the first waypoint's settings, a Python bool or a traced bool (:attr:`one_program`)."""
         ops, nf = self.ops, self.nf
-        x0 = ops.newton(x0, tgt, lb, ub, 8)
         if isinstance(first, bool):
             nlm: int | jax.Array = self.lm_it[0] if first else self.lm_it[1]
             lm_on = nlm > 0
@@ -136,12 +135,13 @@ class PGDKernel:
         if kind is not None and lm_on:
 
             def lm_stage(x: jax.Array) -> jax.Array:
-                x = ops.lm(x, lb, ub, tgt, d, r, kind, nlm, self.wpos, self.walign, box_scales(lb, ub, nf, kspan))
-                return ops.newton(x, tgt, lb, ub, 3)
+                return ops.lm(x, lb, ub, tgt, d, r, kind, nlm, self.wpos, self.walign, box_scales(lb, ub, nf, kspan))
 
             lm = lm_stage
-        xb = optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, self.opts, first, lm=lm)
-        return finish(ops, xb, lb, ub, tgt, d, r, c, pos_tol, self.polish)
+        # Newton onto the path first, 3 corrections after the LM stage, the polish last
+        steps = (8, 3 if lm is not None else 0, self.polish)
+        x, fv, err = optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, self.opts, first, lm=lm, newton_steps=steps)
+        return judge(x, fv, err, pos_tol)
 
     def pick(
         self,

@@ -73,9 +73,10 @@ class WaypointOps:
     def f(self, x, d, r, c):
         return self.pr.objective(self.pr.q_of(x), self.pr.kj_of(x), d, r, c)
 
-    def newton(self, x, target, lb, ub, steps: int):
-        """``steps`` box-respecting minimum-norm Gauss-Newton corrections of the joint part."""
-        if steps == 0 or self.nf == 0:
+    def newton(self, x, target, lb, ub, steps: int | jax.Array):
+        """``steps`` box-respecting minimum-norm Gauss-Newton corrections of the joint part (a
+        Python int or a traced loop bound)."""
+        if (isinstance(steps, int) and steps == 0) or self.nf == 0:
             return x
         rows = jnp.asarray(self.rows)
         k = len(self.rows)
@@ -104,13 +105,59 @@ class WaypointOps:
         eigen-decomposition, so no kinks or eigenvalue-ordering jumps: it pulls a poor start
         into the basin of the criterion's minimum before the criterion itself is optimised.
         """
-        K = self.pr.stiffness(self.pr.q_of(x), self.pr.kj_of(x))
+        _, J = self.pr.kinematics(self.pr.q_of(x), task_rows(self.pr.task))
+        return self.surrogate_of(J, self.pr.kj_of(x), d, r)
+
+    def surrogate_of(self, J, kj, d, r):
+        """:meth:`surrogate` from the task-row Jacobian and the joint stiffnesses."""
+        K = self.pr.stiffness_of(J, kj)
         m = K.shape[-1]
         dd = d[:m] / jnp.linalg.norm(d[:m])
         D = (r - 1.0) * jnp.outer(dd, dd) + jnp.eye(m, dtype=K.dtype)
         Kn = K / jnp.sqrt(jnp.sum(K * K))
         Dn = D / jnp.sqrt(jnp.sum(D * D))
         return jnp.sum((Kn - Dn) ** 2)
+
+    def f_and_err(self, x, d, r, c, target):
+        """The criterion and the position error at x (:meth:`f`, :meth:`pos_err`), from one
+        evaluation of the kinematics."""
+        pr = self.pr
+        t_rows = list(task_rows(pr.task))
+        rows = tuple(sorted(set(t_rows) | set(self.rows)))
+        p, J = pr.kinematics(pr.q_of(x), rows)
+        Jt = _take_rows(J, [rows.index(i) for i in t_rows])
+        return pr.objective_of(Jt, pr.kj_of(x), d, r, c), jnp.linalg.norm(p - target)
+
+    def descent_terms(self, x, d, r, c, surrogate: bool | jax.Array):
+        """What one projected gradient step needs at x, from one evaluation of the kinematics:
+        ``(value, gradient (nx,), TCP position (3,), position-row Jacobian of the free joints)``
+        of the criterion, or of the :meth:`surrogate` where ``surrogate`` (a Python bool, or a
+        traced one that is not batched: then a real branch, one objective runs). The same values
+        as :meth:`f` with ``jax.value_and_grad``, :meth:`pos_err` and :meth:`pos_jac`, which would
+        evaluate the kinematics three times."""
+        pr = self.pr
+        t_rows, p_rows = list(task_rows(pr.task)), list(self.rows)
+        rows = tuple(sorted(set(t_rows) | set(p_rows)))
+
+        def kin(x):
+            p, J = pr.kinematics(pr.q_of(x), rows)
+            return _take_rows(J, [rows.index(i) for i in t_rows]), (p, _take_rows(J, [rows.index(i) for i in p_rows]))
+
+        Jt, back, (p, Jp) = jax.vjp(kin, x, has_aux=True)
+
+        def f_of(Jt, x):
+            return pr.objective_of(Jt, pr.kj_of(x), d, r, c)
+
+        def s_of(Jt, x):
+            return self.surrogate_of(Jt, pr.kj_of(x), d, r)
+
+        vg_f, vg_s = jax.value_and_grad(f_of, (0, 1)), jax.value_and_grad(s_of, (0, 1))
+        if isinstance(surrogate, bool):
+            v, (gJ, gx) = (vg_s if surrogate else vg_f)(Jt, x)
+        else:
+            v, (gJ, gx) = jax.lax.cond(surrogate, vg_s, vg_f, Jt, x)
+        (gq,) = back(gJ)
+        return v, gq + gx, p, Jp[:, self.free]
 
     def pos_err(self, x, target):
         p, _ = self.pos_jac(x)
@@ -240,9 +287,19 @@ class WaypointOps:
             # residual and its Jacobian in the program: about a tenth fewer kernels to compile)
             x, lam, e, Jy = carry
             start = i == 0
-            dy = solve(Jy, e, lam)
-            out = ((x <= lb) & (dy < 0)) | ((x >= ub) & (dy > 0)) | (s <= 0)
-            dy = solve(jnp.where(out[None, :], 0.0, Jy), e, lam)
+
+            # the step, then again without the coordinates it pushes out of the box: one solve in
+            # the program, run twice (the loop's counter is not batched; its trip count is
+            # hidden from XLA, which would unroll it into two copies)
+            def active_set_pass(k, carry):
+                out, _ = carry
+                dy = solve(jnp.where(out[None, :], 0.0, Jy), e, lam)
+                new = ((x <= lb) & (dy < 0)) | ((x >= ub) & (dy > 0)) | (s <= 0)
+                return jnp.where(k == 0, new, out), dy
+
+            none_out = jnp.zeros(x.shape, bool)
+            two = jax.lax.optimization_barrier(jnp.int32(2))
+            out, dy = jax.lax.fori_loop(0, two, active_set_pass, batched_like((none_out, x), x))
             dy = jnp.where(out, 0.0, dy)
             xn = jnp.where(start, x, clip_box(x + s * dy, lb, ub))
             en, Jn = ev(xn)
@@ -258,6 +315,13 @@ class WaypointOps:
         init = (x, jnp.asarray(1e-3, x.dtype), nr0, jnp.zeros((nr, x.shape[0]), x.dtype))
         x, _, _, _ = jax.lax.fori_loop(0, iters + 1, body, batched_like(init, x))
         return x
+
+
+def _take_rows(J: jax.Array, idx: list[int]) -> jax.Array:
+    """Rows ``idx`` of J: a slice where they are consecutive (no gather in the program)."""
+    if idx == list(range(idx[0], idx[0] + len(idx))):
+        return J[idx[0] : idx[0] + len(idx)]
+    return J[np.asarray(idx)]
 
 
 def spd_solve(A: jax.Array, b: jax.Array) -> jax.Array:

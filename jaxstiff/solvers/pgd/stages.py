@@ -10,18 +10,43 @@ import jax.numpy as jnp
 from jaxstiff._numerics.batch import batched_like
 from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, spd_solve
 
-__all__ = ["optimise", "descend", "finish"]
+__all__ = ["optimise", "finish", "verdict", "judge"]
 
 
-def optimise(ops: WaypointOps, x0, lb, ub, target, d, r, c, kspan, opts, first: bool | jax.Array = False, lm=None):
-    """Surrogate phase, LM phase (``lm``: x -> x, f1/f2 only), then the criterion phase, from x0
-    (on the path). Returns the best iterate of the criterion phase (its first iterate is the LM
-    point, so the criterion phase never returns anything worse than LM's answer).
+def optimise(
+    ops: WaypointOps,
+    x0,
+    lb,
+    ub,
+    target,
+    d,
+    r,
+    c,
+    kspan,
+    opts,
+    first: bool | jax.Array = False,
+    lm=None,
+    newton_steps: tuple[int, int, int] = (0, 0, 0),
+):
+    """One start from x0: Newton onto the path, the surrogate phase, the LM phase (``lm``: x -> x,
+    f1/f2 only), Newton, the criterion phase, Newton polish. Returns the final point (in the box),
+    its criterion value and its position error (:func:`judge`). The criterion phase returns its
+    best iterate, and its first iterate is the LM point, so it never returns anything worse than
+    LM's answer.
 
-    ``first``: the first waypoint's settings (``iters_first``, ``surrogate_first``, ``step0_first``);
-    a Python bool, or a traced bool (one program for every waypoint: the iteration counts become
-    traced loop bounds, the step sizes and decays are selected from the same Python constants, so
-    either waypoint computes exactly what the static program computes).
+    ``newton_steps``: the Newton corrections before the surrogate phase, between the LM and the
+    criterion phase, and of the final polish. ``first``: the first waypoint's settings
+    (``iters_first``, ``surrogate_first``, ``step0_first``); a Python bool, or a traced bool (one
+    program for every waypoint: the iteration counts become traced loop bounds, the step sizes and
+    decays are selected from the same Python constants, so either waypoint computes exactly what
+    the static program computes).
+
+    The three phases are one loop in the program, run three times: each pass is Newton, projected
+    Adam (the surrogate's gradient, the criterion's, none) and what follows it (the LM stage; the
+    best iterate; the final point's criterion and position error, from the same branch). The pass is the loop's own counter, never batched, so the conditionals
+    on it stay real branches under vmap (one branch runs), and the Adam loop with its projection
+    and Newton corrections, and the Newton loop, are each compiled once instead of two or four
+    times (a third fewer equations to trace in pgd's program).
     """
     if isinstance(first, bool):
         iters, ns, s0, decay_s, decay_f = _phase_constants(opts, first, lm is not None)
@@ -29,11 +54,38 @@ def optimise(ops: WaypointOps, x0, lb, ub, target, d, r, c, kspan, opts, first: 
         a = _phase_constants(opts, True, lm is not None)
         b = _phase_constants(opts, False, lm is not None)
         iters, ns, s0, decay_s, decay_f = (jnp.where(first, u, v) for u, v in zip(a, b, strict=True))
-    if not (isinstance(ns, int) and ns == 0):
-        x0 = descend(ops, ops.surrogate, x0, lb, ub, target, d, r, c, kspan, opts, ns, False, s0, decay_s)
-    if lm is not None:
-        x0 = lm(x0)
-    return descend(ops, ops.f, x0, lb, ub, target, d, r, c, kspan, opts, iters, True, s0, decay_f)
+
+    def by_pass(ph, values):
+        return (
+            jnp.asarray(values[0]) if len(values) == 1 else jnp.where(ph == 0, values[0], by_pass(ph - 1, values[1:]))
+        )
+
+    def one_pass(ph, carry):
+        surr = ph == 0
+        x = ops.newton(clip_box(carry[0], lb, ub), target, lb, ub, by_pass(ph, newton_steps))
+        n_it = by_pass(ph, (ns, iters, 0))
+        last, bx, bf = _adam(
+            ops, surr, x, lb, ub, target, d, r, c, kspan, opts, n_it, s0, jnp.where(surr, decay_s, decay_f)
+        )
+
+        def after_surrogate(last, bx, bf):
+            return (last if lm is None else lm(last)), carry[1], carry[2]
+
+        def judged(last, bx, bf):
+            # the last iterate is in the box (each Adam step is clipped, Newton keeps to the box)
+            fv, err = ops.f_and_err(last, d, r, c, target)
+            sc = _score(fv, err, opts)
+            best = jnp.where(sc < bf, last, bx)
+            # nothing acceptable seen: the last iterate (the polish may still bring it onto the path)
+            best = jnp.where(jnp.isinf(jnp.minimum(bf, sc)), last, best)
+            return jnp.where(ph == 1, best, last), fv, err
+
+        return jax.lax.cond(surr, after_surrogate, judged, last, bx, bf)
+
+    z = jnp.zeros((), x0.dtype)
+    # the trip count hidden from XLA, which would otherwise unroll a short loop (copies again)
+    n_pass = jax.lax.optimization_barrier(jnp.int32(3))
+    return jax.lax.fori_loop(0, n_pass, one_pass, batched_like((x0, z, z), x0))
 
 
 def _phase_constants(opts, first: bool, with_lm: bool) -> tuple[int, int, float, float, float]:
@@ -50,27 +102,29 @@ def _phase_constants(opts, first: bool, with_lm: bool) -> tuple[int, int, float,
     return nc, ns, s0, (s1 / s0) ** (1.0 / max(ns - 1, 1)), (s1 / s0) ** (1.0 / max(nc - 1, 1))
 
 
-def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, iters, track, s0, decay):
-    """``iters`` projected Adam steps on ``obj`` (a Python int or a traced loop bound); with
-    ``track`` the best acceptable iterate of the criterion is returned, else the last iterate.
-    ``s0``, ``decay``: the first step (fraction of the box width) and its per-iteration decay
-    (:func:`_phase_constants`)."""
+def _score(fv, err, opts):
+    """The criterion value of an iterate that may be kept as the best (position error within
+    ``accept_tol``, finite), else inf."""
+    ok = (err <= float(opts["accept_tol"])) & jnp.isfinite(fv)
+    return jnp.where(ok, fv, jnp.inf)
+
+
+def _adam(ops: WaypointOps, surrogate, x0, lb, ub, target, d, r, c, kspan, opts, iters, s0, decay):
+    """``iters`` projected Adam steps (a Python int or a traced loop bound) on the criterion, or on
+    the surrogate where ``surrogate`` (:meth:`WaypointOps.descent_terms`). ``s0``, ``decay``: the
+    first step (fraction of the box width) and its per-iteration decay (:func:`_phase_constants`).
+    Returns the last iterate, the best acceptable one and its score (by the objective's own
+    values: the best is only used with the criterion)."""
     nn = int(opts["newton"])
-    acc = float(opts["accept_tol"])
     nf = ops.nf
     k = len(ops.rows)
     s = box_scales(lb, ub, nf, kspan)
-    vg = jax.value_and_grad(obj)
-
-    def score(fv, err):
-        ok = (err <= acc) & jnp.isfinite(fv)
-        return jnp.where(ok, fv, jnp.inf)
 
     def body(t, carry):
         x, bx, bf, m1, m2 = carry
-        fv, g = vg(x, d, r, c)
-        err = ops.pos_err(x, target)
-        sc = score(fv, err)
+        fv, g, p, J = ops.descent_terms(x, d, r, c, surrogate)
+        err = jnp.linalg.norm(p - target)
+        sc = _score(fv, err, opts)
         better = sc < bf
         bx = jnp.where(better, x, bx)
         bf = jnp.where(better, sc, bf)
@@ -81,7 +135,6 @@ def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, ite
         free_c = ~(((x <= lb) & (u > 0)) | ((x >= ub) & (u < 0))) & (s > 0)
         u = jnp.where(free_c, u, 0.0)
         if nf:
-            _, J = ops.pos_jac(x)
             Jy = J * s[None, :nf] * free_c[None, :nf]
             JJt = Jy @ Jy.T
             mu = 1e-12 * jnp.maximum(jnp.trace(JJt), 1e-300)
@@ -97,24 +150,23 @@ def descend(ops: WaypointOps, obj, x0, lb, ub, target, d, r, c, kspan, opts, ite
     z = jnp.zeros_like(x0)
     init = batched_like((x0, x0, jnp.asarray(jnp.inf, x0.dtype), z, z), x0)
     x, bx, bf, _, _ = jax.lax.fori_loop(0, iters, body, init)
-    if not track:
-        return x
-    # the last iterate has not been scored yet
-    fv = ops.f(x, d, r, c)
-    sc = score(fv, ops.pos_err(x, target))
-    better = sc < bf
-    bx = jnp.where(better, x, bx)
-    # nothing acceptable seen: keep the last iterate (the polish may still bring it onto the path)
-    bx = jnp.where(jnp.isinf(jnp.minimum(bf, sc)), x, bx)
-    return bx
+    return x, bx, bf
 
 
 def finish(ops: WaypointOps, x, lb, ub, target, d, r, c, pos_tol, polish):
     """Final Newton polish and the verdict: (x, f, err, usable, finite)."""
     x = ops.newton(clip_box(x, lb, ub), target, lb, ub, polish)
-    x = clip_box(x, lb, ub)
-    fv = ops.f(x, d, r, c)
-    err = ops.pos_err(x, target)
+    return verdict(ops, clip_box(x, lb, ub), target, d, r, c, pos_tol)
+
+
+def verdict(ops: WaypointOps, x, target, d, r, c, pos_tol):
+    """``(x, f, err, usable, finite)`` of a final point x (in the box)."""
+    fv, err = ops.f_and_err(x, d, r, c, target)
+    return judge(x, fv, err, pos_tol)
+
+
+def judge(x, fv, err, pos_tol):
+    """``(x, f, err, usable, finite)`` from a final point's criterion and position error."""
     finite = jnp.all(jnp.isfinite(x)) & jnp.isfinite(fv) & jnp.isfinite(err)
     usable = finite & (err <= pos_tol)
     return x, fv, err, usable, finite

@@ -214,13 +214,17 @@ class WaypointProblem:
         instead of forming ``K_T`` and decomposing it again: the same value to rounding (up to ~1e-7
         relative next to a singular posture, where ``K_T``'s own decomposition is the less accurate
         of the two) at a lower cost per evaluation and gradient."""
+        _, J = self.kinematics(q, task_rows(self.task))
+        return self.objective_of(J, kj, d, r, c)
+
+    def objective_of(self, J: jax.Array, kj: jax.Array, d: jax.Array, r, c) -> jax.Array:
+        """:meth:`objective` from the task-row Jacobian (..., m_task, n) and ``kj`` (..., n)."""
         if self.criterion is f1 or self.criterion is f2:
-            _, J = self.kinematics(q, task_rows(self.task))
             C = compliance(self.spring_cols(J), self.spring_cols(kj), task=self.task)
             w, V = stiffness_eig_of_compliance(C)
             alpha, rho = alpha_and_ratio_of_eig(w, V, jnp.asarray(d, dtype=w.dtype)[..., : self.m])
             return f1_of(alpha, rho, r, c) if self.criterion is f1 else f2_of(alpha, rho, r)
-        K = self.stiffness(q, kj)
+        K = self.stiffness_of(J, kj)
         dd = jnp.asarray(d, dtype=K.dtype)[..., : self.m]
         return self.criterion_value(K, dd, r, c)
 
