@@ -17,7 +17,7 @@ from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import PGDOptions
 from jaxstiff.solvers.base import SolveRequest
-from jaxstiff.solvers.pgd.kernel import make_kernel, waypoint_keys
+from jaxstiff.solvers.pgd.kernel import PGDKernel, waypoint_keys
 from jaxstiff.solvers.pgd.ops import lm_kind
 from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem, content_seed
 
@@ -71,13 +71,13 @@ def check_options(options: Mapping[str, Any] | None, starts: int | None = None) 
 
 @functools.lru_cache(maxsize=32)
 def compiled_kernel(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
-    """:func:`make_kernel` vmapped over paths and jitted, cached per problem, settings (sorted
-    ``(name, value)`` pairs) and first-waypoint rate limit."""
+    """:meth:`PGDKernel.traj_batch <jaxstiff.solvers.pgd.kernel.PGDKernel.traj_batch>` (the
+    kernel over a batch of paths) jitted, cached per problem, settings (sorted ``(name, value)``
+    pairs) and first-waypoint rate limit."""
     opts = dict(opts_items)
-    traj = make_kernel(problem, opts, first_rate)
     # per path: targets, directions, start state, key, rate limits (dq_f, dk) and ratio; shared:
     # kmin, kmax, c, pos_tol and the number of waypoints solved (the rest of the P rows is capacity)
-    batched = jax.vmap(traj, in_axes=(0, 0, 0, 0, 0, 0, None, None, 0, None, None, 0, None))
+    batched = PGDKernel(problem, opts, first_rate).traj_batch
     return jax.jit(batched, compiler_options=kernel_compiler_options())
 
 

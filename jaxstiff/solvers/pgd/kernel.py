@@ -44,10 +44,13 @@ def length_unit(size: float) -> float:
 
 
 class PGDKernel:
-    """The pieces of one pgd trajectory (settings fixed at construction, everything else traced):
-    :meth:`starts_at` (start points), :meth:`one_start` (one start's optimisation), :meth:`pick`
-    (the kept start), :meth:`first` (the first waypoint), :meth:`step` (one later waypoint, a
-    step of the loop over waypoints) and :meth:`traj` (the whole trajectory)."""
+    """The pieces of pgd trajectories (settings fixed at construction, everything else traced):
+    per path :meth:`starts_at` (start points), :meth:`one_start` (one start's optimisation),
+    :meth:`pick` (the kept start), :meth:`step_pre` / :meth:`step_post` (a waypoint's starts and
+    boxes / its outputs and the next carry); over a batch of paths :meth:`starts_batch` (every
+    start of every path as one vmapped axis), :meth:`first` (the first waypoint), :meth:`step`
+    (one waypoint, a step of the loop over waypoints) and :meth:`traj_batch` (the whole
+    trajectories); :meth:`traj` is one trajectory (a batch of one)."""
 
     def __init__(self, problem: WaypointProblem, opts: dict[str, Any], first_rate: bool):
         self.ops = ops = WaypointOps(problem)
@@ -66,17 +69,12 @@ class PGDKernel:
         # robot grows (a planar 4R with 10 m links ended at ratio 3 instead of 5 with status 0)
         self.wpos = float(opts["lm_wpos"]) / length_unit(problem.robot.length_scale)
         self.walign = float(opts["lm_walign"])
-        self.vstart = jax.vmap(self.one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0))
         self.S1 = max(self.S, int(opts["starts_first"])) if self.mode == "best" else self.S
-        self.vfirst = jax.vmap(
-            lambda *a: self.one_start(*a, first=True), in_axes=(0, None, None, None, None, None, None, None, None, None)
-        )
         self.tie = float(opts["tie_tol"])
         # one traced program for every waypoint (the first too) where the first waypoint differs only
         # in loop bounds and step constants: rollout mode (S1 = S), and the LM stage on or off alike
         lm_on = tuple(self.kind is not None and n > 0 for n in self.lm_it)
         self.one_program = self.mode == "rollout" and lm_on[0] == lm_on[1]
-        self.vany = jax.vmap(self.one_start, in_axes=(0, 0, 0, None, None, None, None, None, None, 0, None))
 
     def starts_at(
         self,
@@ -177,40 +175,46 @@ class PGDKernel:
         i_near = jnp.argmax(jnp.where(near, room, -jnp.inf))
         return jnp.where(jnp.any(usable), i_near, jnp.argmin(jnp.where(finite, err, jnp.inf)))
 
-    def step(
-        self,
-        carry: tuple[jax.Array, jax.Array],
-        inp: tuple[jax.Array, ...],
-        lims: tuple[jax.Array, ...],
-    ) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
-        """One waypoint (a step of the loop over waypoints): carry ``(xref (S, nx), at_start (S,))``, input
-        ``(target, direction, key)`` for the waypoints after the first, or, in one-program mode
-        (:attr:`one_program`: the first waypoint is the loop's first step),
-        ``(target, direction, key, is_first, extra (E, nx))``;
+    def step_pre(
+        self, carry: tuple[jax.Array, jax.Array], inp: tuple[jax.Array, ...], lims: tuple[jax.Array, ...]
+    ) -> tuple[jax.Array, jax.Array, jax.Array, jax.Array]:
+        """One path's start points of a waypoint and their boxes ``(xs, lb, ub, rate)`` (S, ...):
+        carry ``(xref (S, nx), at_start (S,))``, input ``(target, direction, key)`` for the
+        waypoints after the first, or, in one-program mode (:attr:`one_program`: the first
+        waypoint is the loop's first step), ``(target, direction, key, is_first, extra (E, nx))``;
         ``lims = (dq_f, dk, kmin, kmax, r, c, kspan, pos_tol)``."""
         ops, S = self.ops, self.S
-        dq_f, dk, kmin, kmax, r, c, kspan, pos_tol = lims
+        dq_f, dk, kmin, kmax = lims[:4]
         xref, at_start = carry  # (S, nx), (S,)
-        tgt, d, kk = inp[:3]
+        kk = inp[2]
         rate = (~at_start) | self.first_rate
         lb, ub = jax.vmap(lambda xr, rt: ops.box(xr, rt, dq_f, dk, kmin, kmax))(xref, rate)
         if self.mode == "best":
-            xs = self.starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
-        else:
-            # rollouts: one start each, from its own state; before the first usable waypoint
-            # rollout s takes the s-th distinct posture (all refs still equal x0 there)
-            xs0 = self.starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
-            if len(inp) > 3:  # one program: at the first waypoint, given start states replace 1..E
-                is_first, extra = inp[3], inp[4]
-                E = min(extra.shape[0], S - 1)
-                if E > 0:
-                    injected = xs0.at[1 : 1 + E].set(clip_box(extra[:E], lb[0][None, :], ub[0][None, :]))
-                    xs0 = jnp.where(is_first, injected, xs0)
-            xs = jnp.where(at_start[:, None], xs0, jax.vmap(clip_box)(xref, lb, ub))
-        if len(inp) > 3:
-            x, fv, err, usable, finite = self.vany(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate, inp[3])
-        else:
-            x, fv, err, usable, finite = self.vstart(xs, lb, ub, tgt, d, r, c, kspan, pos_tol, rate)
+            return self.starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax), lb, ub, rate
+        # rollouts: one start each, from its own state; before the first usable waypoint
+        # rollout s takes the s-th distinct posture (all refs still equal x0 there)
+        xs0 = self.starts_at(kk, xref[0], lb[0], ub[0], rate[0], kmin, kmax)
+        if len(inp) > 3:  # one program: at the first waypoint, given start states replace 1..E
+            is_first, extra = inp[3], inp[4]
+            E = min(extra.shape[0], S - 1)
+            if E > 0:
+                injected = xs0.at[1 : 1 + E].set(clip_box(extra[:E], lb[0][None, :], ub[0][None, :]))
+                xs0 = jnp.where(is_first, injected, xs0)
+        return jnp.where(at_start[:, None], xs0, jax.vmap(clip_box)(xref, lb, ub)), lb, ub, rate
+
+    def step_post(
+        self,
+        carry: tuple[jax.Array, jax.Array],
+        lb: jax.Array,
+        ub: jax.Array,
+        res: tuple[jax.Array, ...],
+        lims: tuple[jax.Array, ...],
+    ) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
+        """One path's waypoint outputs and next carry from its starts' results ``res = (x, f,
+        err, usable, finite)`` (S, ...) (:meth:`one_start`) in the boxes ``lb``, ``ub``."""
+        kmin, kmax = lims[2], lims[3]
+        xref, at_start = carry
+        x, fv, err, usable, finite = res
         if self.mode == "best":
             i = self.pick(x, fv, err, usable, finite, kmin, kmax)
             xw, fw, ew, uw, finw = x[i], fv[i], err[i], usable[i], finite[i]
@@ -223,33 +227,83 @@ class PGDKernel:
         carry = (newref, at_start & ~usable)
         status = jnp.where(usable, R.SOLVED, jnp.where(finite, R.UNREACHABLE, R.NONFINITE))
         xo = jnp.where(finite[:, None], x, jax.vmap(clip_box)(xref, lb, ub))
-        return carry, (xo, fv, err, status, jnp.arange(S))
+        return carry, (xo, fv, err, status, jnp.arange(self.S))
+
+    def starts_batch(self, xs, lb, ub, rate, tgt, d, r, lims, first: bool | jax.Array):
+        """:meth:`one_start` for every start of every path of a batch as one vmapped axis (C * S
+        lanes): ``xs``, ``lb``, ``ub`` (C, S, nx), ``rate`` (C, S), ``tgt``, ``d`` (C, 3), ``r``
+        (C,). Results (C, S, ...). Under two nested vmaps (starts inside, paths outside) JAX
+        batches every loop body in a start once per level; here once."""
+        c, kspan, pos_tol = lims[5], lims[6], lims[7]
+        C, S = xs.shape[:2]
+
+        def flat(a):
+            return a.reshape((C * S,) + a.shape[2:])
+
+        def rep(a):
+            return jnp.repeat(a, S, axis=0)
+
+        one = jax.vmap(
+            lambda x0, lb, ub, tgt, d, r, rate: self.one_start(x0, lb, ub, tgt, d, r, c, kspan, pos_tol, rate, first)
+        )
+        out = one(flat(xs), flat(lb), flat(ub), rep(tgt), rep(d), rep(r), flat(rate))
+        return tuple(o.reshape((C, S) + o.shape[1:]) for o in out)
+
+    def step(
+        self,
+        carry: tuple[jax.Array, jax.Array],
+        inp: tuple[jax.Array, ...],
+        lims: tuple[jax.Array, ...],
+    ) -> tuple[tuple[jax.Array, jax.Array], Waypoint]:
+        """One waypoint of a batch of C paths (a step of the loop over waypoints): carry
+        ``(xref (C, S, nx), at_start (C, S))``; ``inp`` and ``lims`` as :meth:`step_pre`'s with a
+        leading C axis on the per-path entries (targets, directions, keys, extra; dq_f, dk, r)."""
+        per_path = (0, 0, None, None, 0, None, None, None)
+        inp_axes = (0, 0, 0) + ((None, 0) if len(inp) > 3 else ())
+        xs, lb, ub, rate = jax.vmap(self.step_pre, in_axes=(0, inp_axes, per_path))(carry, inp, lims)
+        first = inp[3] if len(inp) > 3 else False
+        res = self.starts_batch(xs, lb, ub, rate, inp[0], inp[1], lims[4], lims, first)
+        return jax.vmap(self.step_post, in_axes=(0, 0, 0, 0, per_path))(carry, lb, ub, res, lims)
 
     def first(
         self, key: jax.Array, x0: jax.Array, extra: jax.Array, tgt: jax.Array, d: jax.Array, lims: tuple[jax.Array, ...]
     ) -> tuple[Waypoint, tuple[jax.Array, jax.Array]]:
-        """The first waypoint, apart: more starts and iterations (its box is usually the whole
-        range); given start states ``extra`` (greedy SLSQP's IK postures) replace random starts
+        """The first waypoint of a batch of C paths, apart (C leading on every argument but the
+        shared ``lims``): more starts and iterations (its box is usually the whole range); given
+        start states ``extra`` (C, E, nx) (greedy SLSQP's IK postures) replace random starts
         1..E. Returns its outputs and the loop's initial carry."""
         ops, S, nx = self.ops, self.S, self.nx
-        dq_f, dk, kmin, kmax, r, c, kspan, pos_tol = lims
+        per_path = (0, 0, None, None, 0, None, None, None)
         rate0 = jnp.asarray(self.first_rate)
-        lb0, ub0 = ops.box(x0, rate0, dq_f, dk, kmin, kmax)
-        xs0 = self.starts_at(key, x0, lb0, ub0, rate0, kmin, kmax, S=self.S1)
-        E = min(extra.shape[0], self.S1 - 1)
-        if E > 0:
-            xs0 = xs0.at[1 : 1 + E].set(clip_box(extra[:E], lb0[None, :], ub0[None, :]))
-        x1, f1, e1, u1, fin1 = self.vfirst(xs0, lb0, ub0, tgt, d, r, c, kspan, pos_tol, rate0)
-        st1 = jnp.where(u1, R.SOLVED, jnp.where(fin1, R.UNREACHABLE, R.NONFINITE))
-        x1 = jnp.where(fin1[:, None], x1, clip_box(x0, lb0, ub0)[None, :])
-        if self.mode == "best":
-            i1 = self.pick(x1, f1, e1, u1, fin1, kmin, kmax)
-            first = (x1[i1], f1[i1], e1[i1], st1[i1], jnp.where(jnp.any(u1), i1, -1))
-            carry0 = (jnp.broadcast_to(jnp.where(u1[i1], x1[i1], x0), (S, nx)), jnp.broadcast_to(~u1[i1], (S,)))
-        else:
-            first = (x1, f1, e1, st1, jnp.arange(S))
-            carry0 = (jnp.where(u1[:, None], x1, x0[None, :]), ~u1)
-        return first, carry0
+
+        def pre(key, x0, extra, lims):
+            dq_f, dk, kmin, kmax = lims[:4]
+            lb0, ub0 = ops.box(x0, rate0, dq_f, dk, kmin, kmax)
+            xs0 = self.starts_at(key, x0, lb0, ub0, rate0, kmin, kmax, S=self.S1)
+            E = min(extra.shape[0], self.S1 - 1)
+            if E > 0:
+                xs0 = xs0.at[1 : 1 + E].set(clip_box(extra[:E], lb0[None, :], ub0[None, :]))
+            S1 = self.S1
+            return xs0, jnp.broadcast_to(lb0, (S1, nx)), jnp.broadcast_to(ub0, (S1, nx)), jnp.broadcast_to(rate0, (S1,))
+
+        xs0, lb0, ub0, rates = jax.vmap(pre, in_axes=(0, 0, 0, per_path))(key, x0, extra, lims)
+        res = self.starts_batch(xs0, lb0, ub0, rates, tgt, d, lims[4], lims, True)
+
+        def post(x0, lb0, ub0, res, lims):
+            x1, f1, e1, u1, fin1 = res
+            kmin, kmax = lims[2], lims[3]
+            st1 = jnp.where(u1, R.SOLVED, jnp.where(fin1, R.UNREACHABLE, R.NONFINITE))
+            x1 = jnp.where(fin1[:, None], x1, clip_box(x0, lb0[0], ub0[0])[None, :])
+            if self.mode == "best":
+                i1 = self.pick(x1, f1, e1, u1, fin1, kmin, kmax)
+                first = (x1[i1], f1[i1], e1[i1], st1[i1], jnp.where(jnp.any(u1), i1, -1))
+                carry0 = (jnp.broadcast_to(jnp.where(u1[i1], x1[i1], x0), (S, nx)), jnp.broadcast_to(~u1[i1], (S,)))
+            else:
+                first = (x1, f1, e1, st1, jnp.arange(S))
+                carry0 = (jnp.where(u1[:, None], x1, x0[None, :]), ~u1)
+            return first, carry0
+
+        return jax.vmap(post, in_axes=(0, 0, 0, 0, per_path))(x0, lb0, ub0, res, lims)
 
     def traj(
         self,
@@ -268,38 +322,74 @@ class PGDKernel:
         n_valid: jax.Array | int | None = None,
     ) -> dict[str, jax.Array]:
         """One trajectory (see :func:`make_kernel`): ``x`` (P, nx), ``f``, ``err``, ``status``,
-        ``start`` (P,).
+        ``start`` (P,). :meth:`traj_batch` of a batch of one.
 
         ``key``: the path's key, or its waypoints' keys (P, 2) (:func:`waypoint_keys` of the path's
         own length: then the rows after ``n_valid`` change nothing). ``n_valid``: the waypoints
         actually solved, the first ``n_valid`` of the P rows (None: all). The rows after them are
         capacity: one compiled program serves every path length up to P (a traced loop bound), and
         their outputs are zeros that the caller drops."""
+        one = [jnp.asarray(a)[None] for a in (targets, dirs, x0, key, dq_f, dk, r, extra)]
+        out = self.traj_batch(*one[:6], kmin, kmax, one[6], c, pos_tol, one[7], n_valid)
+        return {k: v[0] for k, v in out.items()}
+
+    def traj_batch(
+        self,
+        targets: jax.Array,
+        dirs: jax.Array,
+        x0: jax.Array,
+        key: jax.Array,
+        dq_f: jax.Array,
+        dk: jax.Array,
+        kmin: jax.Array,
+        kmax: jax.Array,
+        r: jax.Array,
+        c: jax.Array,
+        pos_tol: jax.Array,
+        extra: jax.Array,
+        n_valid: jax.Array | int | None = None,
+    ) -> dict[str, jax.Array]:
+        """C trajectories at once: the arguments of :meth:`traj` with a leading C axis on the
+        per-path ones (``targets``, ``dirs``, ``x0``, ``key``, ``dq_f``, ``dk``, ``r``, ``extra``);
+        ``kmin``, ``kmax``, ``c``, ``pos_tol`` and ``n_valid`` shared. Outputs (C, P, ...).
+
+        The loop over waypoints runs over the whole batch, and each waypoint's starts of every
+        path are one vmapped axis (:meth:`starts_batch`): JAX batches the loops inside a start
+        once, where a vmap of :meth:`traj` over paths around the vmap over starts batched them
+        twice (pgd's program traced in about a third more time)."""
         lims = (dq_f, dk, kmin, kmax, r, c, kmax - kmin, pos_tol)
-        P = targets.shape[0]
+        C, P = targets.shape[:2]
         n = jnp.asarray(P if n_valid is None else n_valid, jnp.int32)
-        keys = key if key.ndim == 2 else waypoint_keys(key, P)
+        keys = key if key.ndim == 3 else jax.vmap(lambda k: waypoint_keys(k, P))(key)
         if self.one_program:
             # the first waypoint as the loop's first step (is_first): one traced and compiled
             # waypoint program instead of two, the same arithmetic
-            carry0 = (jnp.broadcast_to(x0, (self.S, self.nx)), jnp.ones((self.S,), bool))
+            xref0 = jnp.broadcast_to(x0[:, None, :], (C, self.S, self.nx))
+            carry0 = (xref0, jnp.ones((C, self.S), bool))
 
             def inp(p):
-                return (targets[p], dirs[p], keys[p], p == 0, extra)
+                return (targets[:, p], dirs[:, p], keys[:, p], p == 0, extra)
 
             X, F, E, ST, WIN = self._waypoints(carry0, inp, lims, 0, n, P)
         else:
-            first, carry0 = self.first(keys[0], x0, extra, targets[0], dirs[0], lims)
-            X, F, E, ST, WIN = self._waypoints(carry0, lambda p: (targets[p], dirs[p], keys[p]), lims, 1, n, P, first)
+            first, carry0 = self.first(keys[:, 0], x0, extra, targets[:, 0], dirs[:, 0], lims)
+            X, F, E, ST, WIN = self._waypoints(
+                carry0, lambda p: (targets[:, p], dirs[:, p], keys[:, p]), lims, 1, n, P, first
+            )
         if self.mode == "rollout":
-            # X (P, S, nx): keep the trajectory with fewest unusable waypoints, then lowest sum f
-            valid = (jnp.arange(P) < n)[:, None]
-            bad = jnp.sum(valid & (ST != R.SOLVED), axis=0)
-            tot = jnp.sum(jnp.where(valid & (ST == R.SOLVED), F, 0.0), axis=0)
+            # X (C, P, S, nx): keep each path's trajectory with fewest unusable waypoints, then
+            # lowest sum f
+            valid = (jnp.arange(P) < n)[None, :, None]
+            bad = jnp.sum(valid & (ST != R.SOLVED), axis=1)
+            tot = jnp.sum(jnp.where(valid & (ST == R.SOLVED), F, 0.0), axis=1)
             sc = bad * 1e12 + jnp.where(jnp.isfinite(tot), tot, 1e11)
-            i = jnp.argmin(sc)
-            X, F, E, ST = X[:, i], F[:, i], E[:, i], ST[:, i]
-            WIN = jnp.full((P,), i)
+            i = jnp.argmin(sc, axis=1)  # (C,)
+
+            def kept(A):
+                return jnp.take_along_axis(A, i.reshape((C, 1, 1) + (1,) * (A.ndim - 3)), axis=2)[:, :, 0]
+
+            X, F, E, ST = kept(X), kept(F), kept(E), kept(ST)
+            WIN = jnp.broadcast_to(i[:, None], (C, P))
         return {"x": X, "f": F, "err": E, "status": ST, "start": WIN}
 
     def _waypoints(
@@ -312,10 +402,13 @@ class PGDKernel:
         P: int,
         first: Waypoint | None = None,
     ) -> Waypoint:
-        """Waypoints ``p0 .. n - 1`` by :meth:`step` in a loop with a traced bound, written into
-        (P, ...) outputs (row 0 from ``first`` when given; rows from n on stay zero)."""
+        """Waypoints ``p0 .. n - 1`` of a batch by :meth:`step` in a loop with a traced bound,
+        written into (C, P, ...) outputs (row 0 from ``first`` when given; rows from n on stay
+        zero)."""
         xref = carry0[0]
-        lead = (P,) if self.mode == "best" else (P, self.S)  # best: the kept start's; rollout: every start's
+        C = xref.shape[0]
+        # best: the kept start's; rollout: every start's
+        lead = (C, P) if self.mode == "best" else (C, P, self.S)
         ft, it = xref.dtype, jnp.int32
         outs = (
             jnp.zeros(lead + (self.nx,), ft),
@@ -325,12 +418,13 @@ class PGDKernel:
             jnp.zeros(lead, it),
         )
         if first is not None:
-            outs = tuple(o.at[0].set(f.astype(o.dtype)) for o, f in zip(outs, first, strict=True))
+            outs = tuple(o.at[:, 0].set(f.astype(o.dtype)) for o, f in zip(outs, first, strict=True))
 
         def body(p, state):
             carry, outs = state
             carry, w = self.step(carry, inp(p), lims)
-            return carry, tuple(o.at[p].set(v.astype(o.dtype)) for o, v in zip(outs, w, strict=True))
+            return carry, tuple(o.at[:, p].set(v.astype(o.dtype)) for o, v in zip(outs, w, strict=True))
 
+        # (a caller's vmap around this batch: the carry starts batched, see batched_like)
         _, outs = jax.lax.fori_loop(p0, n, body, batched_like((carry0, outs), xref))
         return outs
