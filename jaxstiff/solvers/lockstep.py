@@ -104,8 +104,11 @@ class RowsProgram:
             self._compile(R, nx, n_params, x64)
             return R
         if start:
+            # not a daemon: the interpreter waits for it at exit (a daemon thread stopped by the
+            # interpreter's finalisation inside JAX's lowering or XLA's compiler aborted the
+            # process, exit status 134, after a script's cold hybrid solve)
             threading.Thread(
-                target=self._background, args=(R, nx, n_params, x64), name=f"RowsProgram-{R}", daemon=True
+                target=self._background, args=(R, nx, n_params, x64), name=f"RowsProgram-{R}", daemon=False
             ).start()
         return larger[0]
 

@@ -88,3 +88,32 @@ def test_report_warm_up_gives_the_same_report_and_survives_any_robot():
         assert not [t for t in threading.enumerate() if t.name == "jaxstiff-report-warm-up" and t.is_alive()]
         np.testing.assert_array_equal(warmed, plain)
         assert np.all(np.isfinite(plain))
+
+
+_WARM_EXIT_SCRIPT = """
+import atexit
+import threading
+
+import jaxstiff
+from jaxstiff.solvers.problem import WaypointProblem, warm_report
+from jaxstiff.stiffness.criteria import f2
+
+robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+warm_report(WaypointProblem(robot, "full", f2))
+names = lambda: sorted(t.name for t in threading.enumerate() if t.name.startswith("jaxstiff-report"))
+print("started", names(), flush=True)
+atexit.register(lambda: print("at exit", names(), flush=True))
+"""
+
+
+def test_the_report_warm_up_is_waited_for_at_exit():
+    """A process that ends while the report's warm-up compiles waits for it (a daemon thread stopped
+    by the interpreter's finalisation inside JAX can abort the process): by the time the exit
+    handlers run, the warm-up thread has ended."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-c", _WARM_EXIT_SCRIPT], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, (r.returncode, r.stderr[-3000:])
+    assert "started ['jaxstiff-report-warm-up']" in r.stdout, r.stdout
+    assert "at exit []" in r.stdout, r.stdout

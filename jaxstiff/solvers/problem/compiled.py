@@ -115,7 +115,8 @@ def warm_report(problem: WaypointProblem) -> None:
         except Exception:  # noqa: BLE001 - the real call raises it where the user sees it
             pass
 
-    t = threading.Thread(target=work, name="jaxstiff-report-warm-up", daemon=True)
+    # not a daemon: a process that ends during the compile waits for it (see lockstep.RowsProgram)
+    t = threading.Thread(target=work, name="jaxstiff-report-warm-up", daemon=False)
     _warming[problem] = t
     t.start()
 
