@@ -193,7 +193,6 @@ def test_rows_program_builds_smaller_row_counts_without_holding_the_run_up():
     np.testing.assert_allclose(got, np.sqrt(a), rtol=1e-12)
 
 
-
 _EXIT_SCRIPT = """
 import atexit
 
