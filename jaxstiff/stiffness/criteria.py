@@ -60,6 +60,7 @@ __all__ = [
     "offdiag",
     "get_criterion",
     "check_criterion_call",
+    "accepts_c",
     "register_criterion",
     "CRITERIA",
     "alpha_and_ratio",
@@ -257,7 +258,11 @@ CRITERIA: dict[str, Criterion] = {"f1": f1, "f2": f2}
 _BUILTIN = frozenset(CRITERIA)
 
 
-def _accepts_c(fn: Callable) -> bool:
+def accepts_c(fn: Callable) -> bool:
+    """Whether a criterion takes the ``c`` keyword (a parameter named ``c`` or ``**kwargs``); a
+    callable whose signature Python cannot read is called with it (the one rule of every caller:
+    :func:`get_criterion`'s wrapper and :meth:`WaypointProblem.criterion_value
+    <jaxstiff.solvers.problem.WaypointProblem.criterion_value>`)."""
     try:
         params = inspect.signature(fn).parameters.values()
     except (TypeError, ValueError):
@@ -271,7 +276,7 @@ _WRAPPED: dict = {}
 def _normalise(fn: Callable) -> Criterion:
     """``fn`` itself if it takes ``c``, else one cached wrapper that drops ``c`` (the same object
     on every call, so a solver that jits with the criterion as a static argument compiles once)."""
-    if _accepts_c(fn):
+    if accepts_c(fn):
         return fn
     try:
         return _WRAPPED[fn]

@@ -458,3 +458,45 @@ def test_shape_mismatches_name_the_arguments():
     # broadcasting that is allowed still works
     assert jaxstiff.translational_stiffness(J, jnp.full(7, 50.0)).shape == (2, 3, 3)
     assert jaxstiff.frobenius(jnp.ones((2, 3, 3)), jnp.eye(3)).shape == (2,)
+
+
+class _NoSignature:
+    """A criterion whose signature Python cannot read, that takes c and depends on it."""
+
+    __signature__ = "unreadable"  # inspect.signature raises TypeError
+
+    def __call__(self, K, d, r, c=0.01):
+        return jnp.trace(K) * 0.0 + c
+
+
+def _takes_c(K, d, r, c=0.01):
+    return jnp.trace(K) * 0.0 + 10.0 * c
+
+
+def _no_c(K, d, r):
+    return jnp.trace(K) * 0.0 + r
+
+
+def _kwargs(K, d, r, **kw):
+    return jnp.trace(K) * 0.0 + 100.0 * kw["c"]
+
+
+@pytest.mark.parametrize(
+    "fn,expected", [(_NoSignature(), 0.05), (_takes_c, 0.5), (_no_c, 3.0), (_kwargs, 5.0)], ids=lambda v: str(v)[:20]
+)
+def test_every_caller_passes_c_by_one_rule(fn, expected):
+    """get_criterion's wrapper and the solvers' WaypointProblem decide alike whether a user's
+    criterion gets c (a c parameter, **kwargs, or a signature Python cannot read: it is passed),
+    so the value does not depend on which path called the criterion. The two rules differed for
+    an unreadable signature: the solvers called it without c (its default 0.01, silently)."""
+    from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.stiffness.criteria import accepts_c, get_criterion
+
+    K = jnp.eye(3) * 2.0
+    d = jnp.array([1.0, 0.0, 0.0])
+    assert accepts_c(fn) == (fn is not _no_c)
+    via_registry = get_criterion(fn)(K, d, 3.0, c=0.05)
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    via_solver = WaypointProblem(robot, "full", fn).criterion_value(K, d, 3.0, 0.05)
+    np.testing.assert_allclose(float(via_registry), expected)  # at c = 0.05, r = 3
+    np.testing.assert_allclose(float(via_solver), float(via_registry))

@@ -4,7 +4,6 @@ pure, traceable building blocks (SPEC section 5, S0-10; :mod:`jaxstiff.solvers.p
 from __future__ import annotations
 
 import dataclasses
-import inspect
 from collections.abc import Callable
 from typing import Any, overload
 
@@ -18,19 +17,10 @@ from jaxstiff.model.kinematics import position_and_jacobian, position_and_jacobi
 from jaxstiff.model.kinematics_scan import solver_uses_scan
 from jaxstiff.model.robot import Robot
 from jaxstiff.stiffness.core import compliance, task_rows, translational_stiffness
-from jaxstiff.stiffness.criteria import alpha_and_ratio, alpha_and_ratio_of_eig, f1, f1_of, f2, f2_of
+from jaxstiff.stiffness.criteria import accepts_c, alpha_and_ratio, alpha_and_ratio_of_eig, f1, f1_of, f2, f2_of
 from jaxstiff.stiffness.schur import stiffness_eig_of_compliance
 
 __all__ = ["WaypointProblem"]
-
-
-def _accepts_c(fn: Callable) -> bool:
-    try:
-        sig = inspect.signature(fn)
-    except (TypeError, ValueError):
-        return False
-    params = sig.parameters
-    return "c" in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
 
 
 @dataclasses.dataclass(frozen=True)
@@ -231,7 +221,7 @@ class WaypointProblem:
     def criterion_value(self, K: jax.Array, dd: jax.Array, r, c) -> jax.Array:
         """The criterion at ``K`` (..., m, m) as an array (...,) of K's dtype (a user's criterion may
         return a Python number, or take no ``c``)."""
-        out = self.criterion(K, dd, r, c=c) if _accepts_c(self.criterion) else self.criterion(K, dd, r)
+        out = self.criterion(K, dd, r, c=c) if accepts_c(self.criterion) else self.criterion(K, dd, r)
         return jnp.broadcast_to(jnp.asarray(out, K.dtype), K.shape[:-2])
 
     def position(self, q: jax.Array) -> jax.Array:
