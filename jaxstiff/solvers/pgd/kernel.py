@@ -259,10 +259,11 @@ class PGDKernel:
         ``(xref (C, S, nx), at_start (C, S))``; ``inp`` and ``lims`` as :meth:`step_pre`'s with a
         leading C axis on the per-path entries (targets, directions, keys, extra; dq_f, dk, r)."""
         per_path = (0, 0, None, None, 0, None, None, None)
-        inp_axes = (0, 0, 0) + ((None, 0) if len(inp) > 3 else ())
+        tgt, d = inp[0], inp[1]
+        one_program = len(inp) > 3
+        inp_axes = (0, 0, 0) + ((None, 0) if one_program else ())
         xs, lb, ub, rate = jax.vmap(self.step_pre, in_axes=(0, inp_axes, per_path))(carry, inp, lims)
-        first = inp[3] if len(inp) > 3 else False
-        res = self.starts_batch(xs, lb, ub, rate, inp[0], inp[1], lims[4], lims, first)
+        res = self.starts_batch(xs, lb, ub, rate, tgt, d, lims[4], lims, inp[3] if one_program else False)
         return jax.vmap(self.step_post, in_axes=(0, 0, 0, 0, per_path))(carry, lb, ub, res, lims)
 
     def first(
@@ -329,8 +330,8 @@ class PGDKernel:
         actually solved, the first ``n_valid`` of the P rows (None: all). The rows after them are
         capacity: one compiled program serves every path length up to P (a traced loop bound), and
         their outputs are zeros that the caller drops."""
-        one = [jnp.asarray(a)[None] for a in (targets, dirs, x0, key, dq_f, dk, r, extra)]
-        out = self.traj_batch(*one[:6], kmin, kmax, one[6], c, pos_tol, one[7], n_valid)
+        t, dr, x, k, dq, dkk, rr, ex = (jnp.asarray(a)[None] for a in (targets, dirs, x0, key, dq_f, dk, r, extra))
+        out = self.traj_batch(t, dr, x, k, dq, dkk, kmin, kmax, rr, c, pos_tol, ex, n_valid)
         return {k: v[0] for k, v in out.items()}
 
     def traj_batch(
