@@ -27,6 +27,7 @@ from jaxstiff.settings.shape import (
     per_metre_limit,
     ratio_per_path,
     shortest_segments,
+    task_dim,
 )
 from jaxstiff.settings.solvers import OPTIONS_OF, SLSQPOptions
 from jaxstiff.solvers.base import SOLVERS, check_options
@@ -89,7 +90,7 @@ class ShapeInputs:
     @property
     def m(self) -> int:
         """Rows of the task stiffness: 2 for task "xy", else 3."""
-        return 2 if self.task == "xy" else 3
+        return task_dim(self.task)
 
 
 def first_start_rng(seed: int, target: np.ndarray, direction: np.ndarray, q0: np.ndarray) -> np.random.Generator:
@@ -352,7 +353,7 @@ def check_inputs(
     task_rows(task)
     check_task_feasible(robot, task, locked_joints=locked)
     ratio = ratio_per_path(values["ratio"], B)
-    m = 2 if task == "xy" else 3
+    m = task_dim(task)
     kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)
     if crit_fn is not f1 and crit_fn is not f2:
         check_criterion_call(crit_fn, crit_name, m)

@@ -188,7 +188,9 @@ def rollout_row_bytes(n: int, task: str) -> int:
     n each; K_C: m x m for m = 2, 3, 6 task rows; position 3, target d; 7 scalars; float64)
     twice (the finished segments and their concatenation) and its target (d = 2 for task xy, else 3)."""
     m = {"xy": 2, "xyz": 3, "full": 6}[task]
-    d = 2 if task == "xy" else 3
+    from jaxstiff.settings.shape import task_dim
+
+    d = task_dim(task)
     return 2 * 8 * (2 * n + m * m + 3 + d + 7) + 8 * d
 
 

@@ -51,6 +51,7 @@ from jaxstiff.csc.segments import StepProgress
 from jaxstiff.runtime.io import check_regular_file, deferred_interrupts, interrupt_pending, meta_dumps
 from jaxstiff.settings.csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
 from jaxstiff.settings.csc import CSCSettings
+from jaxstiff.settings.shape import task_dim
 
 TRACKING_WARN_M = 1e-3  #: a path ending further than this (m) from its last waypoint gets a warning on stderr
 #: rollout-steps per segment of a long run: a progress line after each, an interrupt keeps the
@@ -197,7 +198,7 @@ def check_q0_limits(robot: Any, q0: np.ndarray, flag: str, typed: np.ndarray) ->
 
 def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) -> tuple[np.ndarray, list[str]]:
     """The (B, T, d) targets of --hold or --path, and their sources for meta."""
-    d = 2 if task == "xy" else 3
+    d = task_dim(task)
     if args.hold is not None:
         x = parse_numbers(args.hold, "--hold")
         if len(x) not in (d, 3):

@@ -34,6 +34,7 @@ from jaxstiff.settings.csc import (
     TASK_BY_SIZE,
     CSCSettings,
 )
+from jaxstiff.settings.shape import task_dim
 from jaxstiff.stiffness.core import TASK_ROWS, check_task_feasible
 
 __all__ = [
@@ -172,7 +173,7 @@ def _targets(path: Any, task: str, dtype: Any) -> jax.Array:
     targets = jnp.asarray(path_points(path), dtype=dtype)
     if targets.ndim < 2 or targets.shape[-1] not in (2, 3) or targets.shape[-2] < 1:
         raise ValueError(f"path points must have shape (..., T, 2 or 3) with T >= 1, got {tuple(targets.shape)}")
-    d = 2 if task == "xy" else 3
+    d = task_dim(task)
     if targets.shape[-1] < d:
         raise ValueError(f"task {task!r} needs 3-D path points (x, y, z), got shape {tuple(targets.shape)}")
     return targets[..., :d]

@@ -43,10 +43,19 @@ __all__ = [
     "per_metre_limit",
     "shortest_segments",
     "SEGMENT_SPREAD_WARN",
+    "task_dim",
 ]
 
 CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
 TASKS = ("full", "xyz", "xy")  #: task rows of the stiffness (SPEC section 2)
+
+
+def task_dim(task: str) -> int:
+    """The Cartesian dimension of a task's translational part: 2 for ``"xy"`` (the plane), else 3;
+    the size of its translational stiffness ``K_T`` and of its position targets."""
+    return 2 if task == "xy" else 3
+
+
 SOLVER_NAMES = ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory")  #: the shipped solvers
 DEFAULT_DQ_DEG = 2.0  #: joint rate limit, degrees per waypoint (the seed leaves it open)
 #: per-metre limits: warn when a path's longest segment exceeds its shortest by this factor

@@ -29,6 +29,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from jaxstiff.settings.shape import task_dim
 from jaxstiff.sim.build import build_model
 from jaxstiff.sim.measure import probe_compliance
 from jaxstiff.sim.predict import (
@@ -160,7 +161,7 @@ def _stiffness_part(case: SimCase, sim: object, force: float | None, deflection:
 def cct_load(case: SimCase) -> np.ndarray:
     """The finite load (6,) of the CCT check: a force along the axis with the largest ``|K_G|``."""
     springs = case.springs
-    n_axes = 2 if case.task == "xy" else 3
+    n_axes = task_dim(case.task)
     norms = [np.linalg.norm(cct_term(case.robot, case.q, np.eye(6)[a], springs), 2) for a in range(n_axes)]
     a = int(np.argmax(norms))
     size = CCT_FRACTION * float(np.min(case.kj[springs])) / max(norms[a], 1e-300)

@@ -275,3 +275,14 @@ def test_progress_on_a_terminal_draws_a_bar():
                 bar.update(1, note=f"path {b}")
     text = f.getvalue()
     assert "\r" in text and "6/6 waypoints" in text and "path 1" in text and text.endswith("\n")
+
+
+def test_task_dim_is_the_size_of_the_task_translational_rows():
+    """settings.shape.task_dim, the one rule for the size of K_T and of a task's position targets,
+    against the task's Jacobian rows: the translational ones among them (rows 0-2)."""
+    from jaxstiff.settings.shape import TASKS, task_dim
+    from jaxstiff.stiffness.tasks import task_rows
+
+    for task in TASKS:
+        assert task_dim(task) == len([i for i in task_rows(task) if i < 3])
+    assert [task_dim(t) for t in ("xy", "xyz", "full")] == [2, 3, 3]

@@ -16,6 +16,7 @@ from jaxstiff.model.chain import LOCKED_JOINT_MODES
 from jaxstiff.model.kinematics import position_and_jacobian, position_and_jacobian_raw
 from jaxstiff.model.kinematics_scan import solver_uses_scan
 from jaxstiff.model.robot import Robot
+from jaxstiff.settings.shape import task_dim
 from jaxstiff.stiffness.core import compliance, task_rows, translational_stiffness
 from jaxstiff.stiffness.criteria import accepts_c, alpha_and_ratio, alpha_and_ratio_of_eig, f1, f1_of, f2, f2_of
 from jaxstiff.stiffness.schur import stiffness_eig_of_compliance
@@ -153,7 +154,7 @@ class WaypointProblem:
     @property
     def m(self) -> int:
         """Dimension of K_T: 2 for "xy", else 3."""
-        return 2 if self.task == "xy" else 3
+        return task_dim(self.task)
 
     def q_of(self, x: jax.Array) -> jax.Array:
         """Full joint vector (..., n) from ``x`` (..., nx): free entries from x, locked ones constant."""
