@@ -43,10 +43,11 @@ def optimise(
 
     The three phases are one loop in the program, run three times: each pass is Newton, projected
     Adam (the surrogate's gradient, the criterion's, none) and what follows it (the LM stage; the
-    best iterate; the final point's criterion and position error, from the same branch). The pass is the loop's own counter, never batched, so the conditionals
-    on it stay real branches under vmap (one branch runs), and the Adam loop with its projection
-    and Newton corrections, and the Newton loop, are each compiled once instead of two or four
-    times (a third fewer equations to trace in pgd's program).
+    best iterate; the final point's criterion and position error, from the same branch). The pass
+    is the loop's own counter, never batched, so the conditionals on it stay real branches under
+    vmap (one branch runs), and the Adam loop with its projection and Newton corrections, and the
+    Newton loop, are each compiled once instead of two or four times (a third fewer equations to
+    trace in pgd's program; docs/notes/speed.md, ninth session).
     """
     if isinstance(first, bool):
         iters, ns, s0, decay_s, decay_f = _phase_constants(opts, first, lm is not None)
