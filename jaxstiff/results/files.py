@@ -106,7 +106,6 @@ from jaxstiff.results.status import ShapeStatus as ShapeStatus
 from jaxstiff.results.status import is_usable as is_usable
 from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL, in_target, ratio_targets, target_masks
 from jaxstiff.runtime.io import file_sha256, meta_dumps, meta_loads
-from jaxstiff.settings.shape import task_dim
 
 if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
@@ -301,6 +300,8 @@ def _stiffness_or_nan(robot: Robot, q: np.ndarray, kj: np.ndarray, task: str) ->
     try:
         return np_translational_stiffness(robot, q, kj, task)
     except np.linalg.LinAlgError:
+        from jaxstiff.settings.shape import task_dim  # (here: the settings package imports JAX)
+
         m = task_dim(task)
         return np.full((m, m), np.nan)
 
