@@ -64,15 +64,19 @@ def random_reachable_paths(robot, B: int, P: int, seed: int = 0, span: float = 0
     return pts, dirs, q_a
 
 
-def bench_problem(B: int, P: int, criterion: str = "f2", seed: int = 0):
+def bench_problem(B: int, P: int, criterion: str = "f2", seed: int = 0, robot_name: str | None = None):
     """The benchmark's robot and :class:`~jaxstiff.solvers.problem.WaypointBatch`: the LWR with its
-    7th joint locked, B x P :func:`random_reachable_paths`, kj0 50.5 Nm/rad, dq 2 deg, dk 5 Nm/rad,
-    stiffness 1-100 Nm/rad, ratio 5, c 0.01 (also :mod:`profile_pgd`)."""
+    7th joint locked (or ``robot_name``, a shipped robot or a URDF file, no joint locked), B x P
+    :func:`random_reachable_paths`, kj0 50.5 Nm/rad, dq 2 deg, dk 5 Nm/rad, stiffness 1-100 Nm/rad,
+    ratio 5, c 0.01 (also :mod:`profile_pgd`, :mod:`profile_compile`)."""
     import jaxstiff
     from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
     from jaxstiff.stiffness.criteria import get_criterion
 
-    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    if robot_name is None:
+        robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    else:
+        robot = jaxstiff.Robot.from_urdf(robot_name)
     n = robot.n
     pts, dirs, q0 = random_reachable_paths(robot, B, P, seed=seed)
     limits = Limits(dq=np.full(n, np.radians(2.0)), dk=np.full(n, 5.0), kmin=1.0, kmax=100.0, first_rate_limit=False)

@@ -43,9 +43,10 @@ class _Captured(Exception):
     """Raised by the capture hook once pgd hands over its program and first chunk."""
 
 
-def capture_program(B: int, P: int, starts: int, seed: int = 0):
-    """pgd's jitted chunk function and its first chunk's arguments for B x P random LWR paths."""
-    _, batch = bench_problem(B, P, seed=seed)
+def capture_program(B: int, P: int, starts: int, seed: int = 0, robot: str | None = None):
+    """pgd's jitted chunk function and its first chunk's arguments for B x P random paths of the
+    LWR (or ``robot``: :func:`bench_batch.bench_problem`)."""
+    _, batch = bench_problem(B, P, seed=seed, robot_name=robot)
     got: dict = {}
 
     def hook(fn, args, key, options):
