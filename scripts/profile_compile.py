@@ -31,7 +31,7 @@ os.environ["JAXSTIFF_COMPILE_CACHE"] = "0"  # a cold compile, whatever the user'
 import jax  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from profile_pgd import capture_program  # noqa: E402
+from profile_pgd import capture_program, hlo_computations  # noqa: E402
 
 from jaxstiff.runtime.xla import kernel_compiler_options  # noqa: E402
 
@@ -52,20 +52,11 @@ def jaxpr_equations(jaxpr) -> int:
 def hlo_tree(hlo: str) -> dict:
     """The compiled program's entry computation with its loop bodies and conditional branches as a
     tree: ``{"name", "kind", "op_name", "own_fusions", "fusions" (own + inside), "children"}``."""
-    comps: dict[str, list[str]] = {}
-    entry = None
-    cur = None
-    for line in hlo.split("\n"):
-        m = re.match(r"^(ENTRY )?%?([\w.\-]+) .*\{$", line)
-        if m and not line.startswith(" "):
-            cur = m.group(2)
-            comps[cur] = []
-            if m.group(1):
-                entry = cur
-        elif cur is not None and " = " in line:
-            comps[cur].append(line)
-    if entry is None:
+    comps = hlo_computations(hlo)
+    m = re.search(r"^ENTRY %?([\w.\-]+) ", hlo, re.M)
+    if m is None:
         raise RuntimeError("no ENTRY computation in the compiled program's text")
+    entry = m.group(1)
 
     def kids(name: str) -> list[tuple[str, str, str]]:
         out = []

@@ -66,7 +66,8 @@ def capture_program(B: int, P: int, starts: int, seed: int = 0, robot: str | Non
     return got["fn"], got["args"]
 
 
-def _computations(hlo: str) -> dict[str, list[str]]:
+def hlo_computations(hlo: str) -> dict[str, list[str]]:
+    """The computations of a compiled program's HLO text, by name: their instruction lines."""
     comps: dict[str, list[str]] = {}
     cur = None
     for line in hlo.split("\n"):
@@ -97,7 +98,7 @@ def profile(B: int, P: int, starts: int) -> dict:
             with gzip.open(files[0]) as fh:
                 trace = json.load(fh)
     events = trace["traceEvents"] if isinstance(trace, dict) else trace
-    comps = _computations(comp.as_text())
+    comps = hlo_computations(comp.as_text())
     owner = {}
     loops = {}
     for name, lines in comps.items():

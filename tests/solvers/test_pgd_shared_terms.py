@@ -32,6 +32,12 @@ CASES = [
 ]
 
 
+def _ops(robot_name: str, task: str, locked, crit):
+    robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)
+    criterion = get_criterion(crit) if isinstance(crit, str) else crit
+    return robot, pgd.WaypointOps(WaypointProblem(robot, task, criterion))
+
+
 def _points(ops: pgd.WaypointOps, robot, rng, k: int):
     for _ in range(k):
         q = rng.uniform(robot.lower * 0.8, robot.upper * 0.8)
@@ -44,9 +50,7 @@ def _points(ops: pgd.WaypointOps, robot, rng, k: int):
 
 @pytest.mark.parametrize("robot_name,task,locked,crit", CASES)
 def test_descent_terms_equal_the_separate_evaluations(robot_name, task, locked, crit):
-    robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)
-    criterion = get_criterion(crit) if isinstance(crit, str) else crit
-    ops = pgd.WaypointOps(WaypointProblem(robot, task, criterion))
+    robot, ops = _ops(robot_name, task, locked, crit)
     rng = np.random.default_rng(5)
     r, c = 4.0, 0.01
     with jax.enable_x64(True):
@@ -75,9 +79,7 @@ def test_descent_terms_equal_the_separate_evaluations(robot_name, task, locked, 
 
 @pytest.mark.parametrize("robot_name,task,locked,crit", CASES)
 def test_f_and_err_equal_the_separate_evaluations(robot_name, task, locked, crit):
-    robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)
-    criterion = get_criterion(crit) if isinstance(crit, str) else crit
-    ops = pgd.WaypointOps(WaypointProblem(robot, task, criterion))
+    robot, ops = _ops(robot_name, task, locked, crit)
     rng = np.random.default_rng(9)
     with jax.enable_x64(True):
         for x, tgt, d in _points(ops, robot, rng, 3):

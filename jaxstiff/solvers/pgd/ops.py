@@ -121,12 +121,18 @@ class WaypointOps:
     def f_and_err(self, x, d, r, c, target):
         """The criterion and the position error at x (:meth:`f`, :meth:`pos_err`), from one
         evaluation of the kinematics."""
+        Jt, (p, _) = self._kinematics_rows(x)
+        return self.pr.objective_of(Jt, self.pr.kj_of(x), d, r, c), jnp.linalg.norm(p - target)
+
+    def _kinematics_rows(self, x):
+        """``(J_task, (p, J_pos))`` at x from one evaluation of the kinematics over the union of
+        the task rows and the position rows: the task-row Jacobian (all joints), the TCP position
+        and the position-row Jacobian (all joints)."""
         pr = self.pr
-        t_rows = list(task_rows(pr.task))
-        rows = tuple(sorted(set(t_rows) | set(self.rows)))
+        t_rows, p_rows = list(task_rows(pr.task)), list(self.rows)
+        rows = tuple(sorted(set(t_rows) | set(p_rows)))
         p, J = pr.kinematics(pr.q_of(x), rows)
-        Jt = _take_rows(J, [rows.index(i) for i in t_rows])
-        return pr.objective_of(Jt, pr.kj_of(x), d, r, c), jnp.linalg.norm(p - target)
+        return _take_rows(J, [rows.index(i) for i in t_rows]), (p, _take_rows(J, [rows.index(i) for i in p_rows]))
 
     def descent_terms(self, x, d, r, c, surrogate: bool | jax.Array):
         """What one projected gradient step needs at x, from one evaluation of the kinematics:
@@ -136,14 +142,7 @@ class WaypointOps:
         as :meth:`f` with ``jax.value_and_grad``, :meth:`pos_err` and :meth:`pos_jac`, which would
         evaluate the kinematics three times."""
         pr = self.pr
-        t_rows, p_rows = list(task_rows(pr.task)), list(self.rows)
-        rows = tuple(sorted(set(t_rows) | set(p_rows)))
-
-        def kin(x):
-            p, J = pr.kinematics(pr.q_of(x), rows)
-            return _take_rows(J, [rows.index(i) for i in t_rows]), (p, _take_rows(J, [rows.index(i) for i in p_rows]))
-
-        Jt, back, (p, Jp) = jax.vjp(kin, x, has_aux=True)
+        Jt, back, (p, Jp) = jax.vjp(self._kinematics_rows, x, has_aux=True)
 
         def f_of(Jt, x):
             return pr.objective_of(Jt, pr.kj_of(x), d, r, c)
