@@ -9,12 +9,16 @@ stays float32, float64 stays float64). For CPU batches the joint cosines and sin
 :func:`jaxstiff._numerics.trig.cos_sin` (one shared range reduction and two polynomials, within
 2 ulp of libm), which XLA vectorises and fuses (measurements: docs/notes/model.md).
 
-Long or dense chains switch to a loop: a chain of more than ``UNROLL_MAX_JOINTS`` (12) joints, or
-one with a joint whose axis or origin rotation is not axis-aligned, runs as one ``lax.scan`` over
-its joints (:mod:`jaxstiff.model.kinematics_scan`, same results to rounding: tested to 1e-12).
-Unrolled, such chains compile in time and memory that grow far faster than the chain (a dense
-7-joint chain over a batch: minutes and gigabytes); the scan compiles in about a second at any
-length (measurements and the crossover: docs/notes/model.md, ``scripts/bench_long_chain.py``).
+A chain with rotated joint frames (a joint axis or an origin rotation that is not axis-aligned:
+almost every real URDF) is walked unrolled in frames aligned with its joint axes, with the
+constant rotations folded at trace time (:mod:`jaxstiff.model.kinematics_framed`); walked as
+written, its dense constants made XLA's program minutes to compile. Long chains run as one
+``lax.scan`` over their joints (:mod:`jaxstiff.model.kinematics_scan`): more than
+``UNROLL_MAX_JOINTS`` (12) axis-aligned joints or ``FRAMED_MAX_JOINTS`` (8) other ones, where an
+unrolled program compiles in time that grows far faster than the chain; the scan compiles in
+about a second at any length. :func:`jaxstiff.model.kinematics_scan.kernel_for` makes the choice,
+from the chain only (all three agree to rounding: tested to 1e-12; measurements:
+docs/notes/model.md, ``scripts/bench_kinematics.py``, ``scripts/bench_long_chain.py``).
 
 The Jacobian is the analytic geometric one, not autodiff of FK: for revolute joint i with world
 axis ``z_i`` through the point ``p_i``, column i is ``[z_i x (p_tcp - p_i); z_i]``; for a
@@ -38,7 +42,17 @@ import jax.numpy as jnp
 
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain, check_locked_values
-from jaxstiff.model.kinematics_scan import UNROLL_MAX_JOINTS, scan_pose, scan_pose_and_jacobian, uses_scan
+from jaxstiff.model.kinematics_framed import framed_chain
+from jaxstiff.model.kinematics_scan import UNROLL_MAX_JOINTS, kernel_for, scan_pose, scan_pose_and_jacobian
+from jaxstiff.model.scalars import Mat3, Scalar, Vec3
+from jaxstiff.model.scalars import add as _add
+from jaxstiff.model.scalars import cross as _cross
+from jaxstiff.model.scalars import dot3 as _dot3
+from jaxstiff.model.scalars import is_const as _is_const
+from jaxstiff.model.scalars import matmul3 as _matmul3
+from jaxstiff.model.scalars import matvec3 as _matvec3
+from jaxstiff.model.scalars import mul as _mul
+from jaxstiff.model.scalars import sub as _sub
 
 __all__ = [
     "fk",
@@ -51,65 +65,7 @@ __all__ = [
     "UNROLL_MAX_JOINTS",
 ]
 
-Scalar = float | jax.Array  # a Python float is a compile-time constant
-Vec3 = Sequence[Scalar]
-Mat3 = Sequence[Sequence[Scalar]]
-
-
-# ---------------------------------------------------------------- constant-aware scalar algebra
-def _is_const(a: Scalar) -> bool:
-    return isinstance(a, float)
-
-
-def _mul(a: Scalar, b: Scalar) -> Scalar:
-    if _is_const(a):
-        if a == 0.0:
-            return 0.0
-        if _is_const(b):
-            return a * b
-        if a == 1.0:
-            return b
-        if a == -1.0:
-            return -b
-        return a * b
-    if _is_const(b):
-        return _mul(b, a)
-    return a * b
-
-
-def _add(a: Scalar, b: Scalar) -> Scalar:
-    if _is_const(a) and a == 0.0:
-        return b
-    if _is_const(b) and b == 0.0:
-        return a
-    return a + b
-
-
-def _sub(a: Scalar, b: Scalar) -> Scalar:
-    return _add(a, _mul(-1.0, b))
-
-
-def _dot3(a: Vec3, b: Vec3) -> Scalar:
-    return _add(_add(_mul(a[0], b[0]), _mul(a[1], b[1])), _mul(a[2], b[2]))
-
-
-def _matmul3(A: Mat3, B: Mat3) -> list[list[Scalar]]:
-    """3x3 @ 3x3, both nested lists/tuples of scalars."""
-    return [[_dot3(A[i], [B[0][j], B[1][j], B[2][j]]) for j in range(3)] for i in range(3)]
-
-
-def _matvec3(A: Mat3, v: Vec3) -> list[Scalar]:
-    return [_dot3(A[i], v) for i in range(3)]
-
-
-def _cross(a: Vec3, b: Vec3) -> list[Scalar]:
-    return [
-        _sub(_mul(a[1], b[2]), _mul(a[2], b[1])),
-        _sub(_mul(a[2], b[0]), _mul(a[0], b[2])),
-        _sub(_mul(a[0], b[1]), _mul(a[1], b[0])),
-    ]
-
-
+# ---------------------------------------------------------------- the kernels
 def _axis_rotation(axis: Sequence[float], c: jax.Array, s: jax.Array) -> list[list[Scalar]]:
     """Rodrigues: R = c I + s [a]x + (1 - c) a a^T, with constant unit axis a."""
     ax, ay, az = axis
@@ -130,7 +86,6 @@ def _axis_rotation(axis: Sequence[float], c: jax.Array, s: jax.Array) -> list[li
     return R
 
 
-# ---------------------------------------------------------------- the kernel
 def _chain(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None = None):
     """Walk the chain. Returns (R_tcp 3x3, p_tcp 3, [(kind, z_i, p_i)]) as scalar entries.
 
@@ -165,6 +120,23 @@ def _chain(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None = 
     p = [_add(p[k], v) for k, v in enumerate(_matvec3(R, pt))]
     R = _matmul3(R, Rt)
     return R, p, frames
+
+
+_KERNELS = (None, "unrolled", "framed", "scan")
+
+
+def _pick(robot: Chain, kernel: str | None) -> str:
+    """The kernel to trace: ``kernel`` if given (tests, benchmarks), else :func:`kernel_for`."""
+    if kernel not in _KERNELS:
+        raise ValueError(f"kernel must be None, 'unrolled', 'framed' or 'scan', got {kernel!r}")
+    return kernel if kernel is not None else kernel_for(robot)
+
+
+def _walk(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None, kernel: str):
+    """The unrolled walk of ``kernel`` ("unrolled" or "framed"): (R, p, frames) as scalar entries."""
+    if kernel == "framed":
+        return framed_chain(robot, q, want_jacobian, poly)
+    return _chain(robot, q, want_jacobian, poly)
 
 
 def _full(x: Scalar, like: jax.Array) -> jax.Array:
@@ -248,9 +220,10 @@ def fk(robot: Chain, q: jax.Array) -> jax.Array:
     """
     q = jnp.asarray(q)
     _check(robot, q)
-    if uses_scan(robot):
+    kernel = kernel_for(robot)
+    if kernel == "scan":
         return _pose_array(*scan_pose(robot, q))
-    R, p, _ = _chain(robot, q, want_jacobian=False)
+    R, p, _ = _walk(robot, q, False, None, kernel)
     return _pose(R, p, q)
 
 
@@ -268,9 +241,10 @@ def jacobian(robot: Chain, q: jax.Array) -> jax.Array:
     """
     q = jnp.asarray(q)
     _check(robot, q)
-    if uses_scan(robot):
+    kernel = kernel_for(robot)
+    if kernel == "scan":
         return scan_pose_and_jacobian(robot, q)[2]
-    _, p, frames = _chain(robot, q, want_jacobian=True)
+    _, p, frames = _walk(robot, q, True, None, kernel)
     return _jacobian_array(_jacobian_entries(p, frames), q)
 
 
@@ -288,15 +262,14 @@ def fk_and_jacobian_raw(
 ) -> tuple[jax.Array, jax.Array]:
     """:func:`fk_and_jacobian` without checks or jit (to trace inside a caller's kernel).
 
-    ``kernel``: ``"unrolled"`` or ``"scan"`` forces one kernel (tests and benchmarks); None picks
-    by the chain's length (:func:`jaxstiff.model.kinematics_scan.uses_scan`).
+    ``kernel``: ``"unrolled"``, ``"framed"`` or ``"scan"`` forces one kernel (tests and benchmarks);
+    None picks by the chain (:func:`jaxstiff.model.kinematics_scan.kernel_for`).
     """
-    if kernel not in (None, "unrolled", "scan"):
-        raise ValueError(f"kernel must be None, 'unrolled' or 'scan', got {kernel!r}")
-    if kernel == "scan" or (kernel is None and uses_scan(robot)):
+    kernel = _pick(robot, kernel)
+    if kernel == "scan":
         R, p, J = scan_pose_and_jacobian(robot, q, poly)
         return _pose_array(R, p), J
-    R, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
+    R, p, frames = _walk(robot, q, True, poly, kernel)
     return _pose(R, p, q), _jacobian_array(_jacobian_entries(p, frames), q)
 
 
@@ -324,13 +297,12 @@ def position_and_jacobian_raw(
 ) -> tuple[jax.Array, jax.Array]:
     """:func:`position_and_jacobian` without checks or jit (to trace inside a caller's kernel).
 
-    ``kernel``: as in :func:`fk_and_jacobian_raw` (None: by :func:`jaxstiff.model.kinematics_scan.uses_scan`)."""
-    if kernel not in (None, "unrolled", "scan"):
-        raise ValueError(f"kernel must be None, 'unrolled' or 'scan', got {kernel!r}")
-    if kernel == "scan" or (kernel is None and uses_scan(robot)):
+    ``kernel``: as in :func:`fk_and_jacobian_raw` (None: by :func:`jaxstiff.model.kinematics_scan.kernel_for`)."""
+    kernel = _pick(robot, kernel)
+    if kernel == "scan":
         _, p, J = scan_pose_and_jacobian(robot, q, poly)
         return p, J[..., list(rows), :]
-    _, p, frames = _chain(robot, q, want_jacobian=True, poly=poly)
+    _, p, frames = _walk(robot, q, True, poly, kernel)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
     return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)
 

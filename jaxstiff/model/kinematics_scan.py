@@ -8,9 +8,10 @@ position ``p`` of the current frame (batch axes leading). One joint's work is tr
 compiled program's size, and its compile time and memory, no longer grow with the number of
 joints; the price is the loop (one iteration per joint) and the arithmetic on structural zeros
 that the unrolled kernel drops at trace time. :mod:`jaxstiff.model.kinematics` calls this kernel
-for chains of more than :data:`UNROLL_MAX_JOINTS` joints and for chains with a joint whose axis
-or origin rotation is not axis-aligned (:func:`uses_scan`; measurements and the choice of the
-crossover: docs/notes/model.md, ``scripts/bench_long_chain.py``).
+for long chains: more than :data:`UNROLL_MAX_JOINTS` joints, or more than
+:data:`FRAMED_MAX_JOINTS` for a chain with a joint whose axis or origin rotation is not
+axis-aligned (:func:`kernel_for`; measurements and the choice of the crossover:
+docs/notes/model.md, ``scripts/bench_long_chain.py``).
 
 Per joint i: ``p += R p0_i``, ``M = R R0_i``, ``z_i = M a_i``; a revolute joint then turns,
 ``R = M (A_i + (I - A_i) cos q_i + S_i sin q_i)`` (Rodrigues with ``A_i = a_i a_i^T`` and
@@ -33,9 +34,11 @@ from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
 __all__ = [
     "UNROLL_MAX_JOINTS",
+    "FRAMED_MAX_JOINTS",
     "SOLVER_UNROLL_MAX_JOINTS",
     "axis_aligned",
     "uses_scan",
+    "kernel_for",
     "solver_uses_scan",
     "chain_arrays",
     "scan_pose",
@@ -43,8 +46,7 @@ __all__ = [
 ]
 
 #: Axis-aligned chains (:func:`axis_aligned`) with at most this many joints use the unrolled
-#: kernel; longer ones, and every chain with a joint that is not axis-aligned, use the scan
-#: (measured crossover: docs/notes/model.md, ``scripts/bench_long_chain.py``).
+#: kernel; longer ones use the scan (other chains: :data:`FRAMED_MAX_JOINTS`) (measured crossover: docs/notes/model.md, ``scripts/bench_long_chain.py``).
 UNROLL_MAX_JOINTS = 12
 
 
@@ -56,11 +58,30 @@ def axis_aligned(robot: Chain) -> bool:
     return all(v in (0.0, 1.0, -1.0) for row in (*rotations, *robot.axes) for v in row)
 
 
+#: Chains that are not :func:`axis_aligned` are walked unrolled in joint-axis frames
+#: (:mod:`jaxstiff.model.kinematics_framed`) up to this many joints, and by the scan beyond: the
+#: framed program's compile time grows with its length (a generic 7-joint chain, every axis and
+#: frame rotated, about 2.5 s on a 2-core CPU; 12 joints about 10 s; docs/notes/model.md).
+FRAMED_MAX_JOINTS = 8
+
+
+def kernel_for(robot: Chain) -> str:
+    """Which kinematics kernel runs ``robot``: ``"unrolled"`` (an :func:`axis_aligned` chain of at
+    most :data:`UNROLL_MAX_JOINTS` joints: the constant geometry is 0 and +-1 and folds away),
+    ``"framed"`` (any other chain of at most :data:`FRAMED_MAX_JOINTS` joints: rotated frames,
+    folded in joint-axis frames, :mod:`jaxstiff.model.kinematics_framed`) or ``"scan"`` (longer
+    chains: one ``lax.scan`` over the joints, whose compile time does not grow with the chain).
+    The choice depends on the chain only, never on the batch."""
+    if axis_aligned(robot):
+        return "unrolled" if robot.n <= UNROLL_MAX_JOINTS else "scan"
+    return "framed" if robot.n <= FRAMED_MAX_JOINTS else "scan"
+
+
 def uses_scan(robot: Chain) -> bool:
-    """Whether the kinematics of ``robot`` run as the scan over joints: more than
-    :data:`UNROLL_MAX_JOINTS` joints, or a joint that is not :func:`axis_aligned` (the unrolled
-    kernel of a dense 7-joint chain is slower to run and, over a batch, takes minutes to compile)."""
-    return robot.n > UNROLL_MAX_JOINTS or not axis_aligned(robot)
+    """Whether the kinematics of ``robot`` run as the scan over joints (:func:`kernel_for`): an
+    axis-aligned chain of more than :data:`UNROLL_MAX_JOINTS` joints, any other of more than
+    :data:`FRAMED_MAX_JOINTS`."""
+    return kernel_for(robot) == "scan"
 
 
 #: In the solvers' programs (pgd's batch program, SLSQP's kernels, the reports) an axis-aligned

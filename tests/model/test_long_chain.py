@@ -14,7 +14,7 @@ from helpers import assert_close, numpy_fk
 import jaxstiff
 from jaxstiff.model.generate import GENERATED_TIP_LINK, serial_chain, serial_chain_urdf
 from jaxstiff.model.kinematics import fk_and_jacobian_raw, jacobian_tangent
-from jaxstiff.model.kinematics_scan import UNROLL_MAX_JOINTS, uses_scan
+from jaxstiff.model.kinematics_scan import FRAMED_MAX_JOINTS, UNROLL_MAX_JOINTS, kernel_for, uses_scan
 
 
 def _q(robot: jaxstiff.Robot, size: tuple[int, ...], seed: int) -> np.ndarray:
@@ -51,12 +51,17 @@ def _numpy_jacobian(robot: jaxstiff.Robot, q: np.ndarray, h: float = 1e-6) -> np
 def _check_against_unrolled(robot: jaxstiff.Robot, q: np.ndarray) -> None:
     unrolled = jax.jit(lambda x: fk_and_jacobian_raw(robot, x, kernel="unrolled"))
     scan = jax.jit(lambda x: fk_and_jacobian_raw(robot, x, kernel="scan"))
+    framed = jax.jit(lambda x: fk_and_jacobian_raw(robot, x, kernel="framed"))
     for qi in q:  # one configuration per call: the unrolled kernel compiles fastest unbatched
         T_u, J_u = unrolled(jnp.asarray(qi))
         T_s, J_s = scan(jnp.asarray(qi))
         assert_close(T_s, T_u, rtol=0, atol=1e-12, what="T scan vs unrolled")
         assert_close(J_s, J_u, rtol=0, atol=1e-12, what="J scan vs unrolled")
         assert_close(T_s, numpy_fk(robot, qi), rtol=0, atol=1e-12, what="T scan vs numpy_fk")
+        if robot.n <= FRAMED_MAX_JOINTS:  # the joint-axis-frame kernel too
+            T_f, J_f = framed(jnp.asarray(qi))
+            assert_close(T_f, T_u, rtol=0, atol=1e-12, what="T framed vs unrolled")
+            assert_close(J_f, J_u, rtol=0, atol=1e-12, what="J framed vs unrolled")
     T_b, J_b = scan(jnp.asarray(q))  # the batched scan equals its own single calls
     for k, qi in enumerate(q):
         T_s, J_s = scan(jnp.asarray(qi))
@@ -90,7 +95,9 @@ def test_scan_equals_unrolled_at_30_joints():
     # axis-aligned: a dense chain this long takes minutes to compile unrolled (docs/notes/model.md)
     robot = _locked(30, 5, aligned=True)
     assert uses_scan(robot) and not uses_scan(serial_chain(UNROLL_MAX_JOINTS, seed=5, aligned=True))
-    assert uses_scan(serial_chain(7, seed=5))  # a dense chain runs as the scan at any length
+    # a chain with rotated frames runs unrolled in joint-axis frames up to FRAMED_MAX_JOINTS, then as the scan
+    assert kernel_for(serial_chain(FRAMED_MAX_JOINTS, seed=5)) == "framed"
+    assert uses_scan(serial_chain(FRAMED_MAX_JOINTS + 1, seed=5))
     _check_against_unrolled(robot, _q(robot, (2,), seed=2))
     # the public entry points pick the scan here and agree with the forced kernels
     q = jnp.asarray(_q(robot, (4,), seed=3))
