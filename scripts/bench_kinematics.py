@@ -1,7 +1,8 @@
-"""Benchmark: FK + geometric Jacobian of the 7-DOF KUKA LWR 4, jaxstiff vs pytorch-kinematics.
+"""Benchmark: FK + geometric Jacobian of the shipped KUKA LWR 4 and of the third-party arms of
+tests/data/robots, jaxstiff vs pytorch-kinematics.
 
 Both libraries run side by side in one process on the same joint values (uniform inside the
-joint limits), for each batch size and dtype:
+joint limits), for each robot, batch size and dtype (the LWR first, as the yardstick):
 
 * jaxstiff: ``jaxstiff.fk_and_jacobian(robot, q)`` (one jit-compiled pass, the pose (B, 4, 4) and
   J (B, 6, 7)) on JAX's default device.
@@ -11,12 +12,16 @@ joint limits), for each batch size and dtype:
 Compilation is timed apart from running: "first" is the first call (tracing + compilation + one
 run; for pytorch-kinematics its warm-up call), "run" the median (and best) of repeated calls,
 each ended with ``block_until_ready`` (JAX) - torch on the CPU is synchronous. Throughput is
-configurations per second from the median; "ratio" is jaxstiff / pytorch-kinematics. Each row
+configurations per second from the median; "vs pk" is jaxstiff / pytorch-kinematics and "vs LWR"
+jaxstiff's throughput on the robot / on the LWR at the same batch and dtype; "kernel" the
+kinematics kernel jaxstiff picks for the chain (``kernel_for``: unrolled, framed, scan). Each row
 also records the largest difference between the two results (pytorch-kinematics parses URDF
 numbers in float32, so ~1e-7 is agreement).
 
 Usage:
-    python scripts/bench_kinematics.py                          # sizes 1, 1e3, 1e5, 1e6; float32 and float64
+    python scripts/bench_kinematics.py --sizes 1e5             # every arm, float32 and float64
+    python scripts/bench_kinematics.py --robot lwr              # the LWR alone (sizes 1, 1e3, 1e5, 1e6)
+    python scripts/bench_kinematics.py --robot tests/data/robots/ur10.urdf --tip-link tool0
     python scripts/bench_kinematics.py --sizes 1,1000 --dtypes float64 --json out.json
     python scripts/bench_kinematics.py --no-torch               # jaxstiff only
 """
@@ -33,6 +38,15 @@ import tempfile
 import time
 
 DEFAULT_SIZES = (1, 1_000, 100_000, 1_000_000)
+ROBOTS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "tests", "data", "robots")
+#: the arm's end link of each file of tests/data/robots (not a finger: the automatic choice may differ)
+TIP_LINKS = {
+    "kinova_j2s6s200.urdf": "j2s6s200_end_effector",
+    "ur10.urdf": "tool0",
+    "z1.urdf": "link06",
+    "talos_left_arm.urdf": "arm_left_7_link",
+    "so101.urdf": "gripper_frame_link",
+}
 
 
 def _sizes(text: str) -> list[int]:
@@ -56,16 +70,26 @@ def _time_calls(call, first_seconds: float, min_time: float, max_repeats: int) -
     return out
 
 
-def bench_jaxstiff(robot, q_np, dtype_name, min_time, max_repeats):
+def bench_jaxstiff(robot, q_np, dtype_name, min_time, max_repeats, kernel=None):
     import jax
     import jax.numpy as jnp
 
     import jaxstiff
+    from jaxstiff.model.kinematics import fk_and_jacobian_raw
 
     q = jax.block_until_ready(jnp.asarray(q_np, dtype=getattr(jnp, dtype_name)))
+    if kernel is None:
+        fn = jaxstiff.fk_and_jacobian
+    else:  # a forced kernel, jitted as fk_and_jacobian is (before/after comparisons)
+        forced = jax.jit(
+            lambda x: fk_and_jacobian_raw(robot, x, kernel=kernel), compiler_options=kernel_compiler_options()
+        )
+
+        def fn(_robot, x):
+            return forced(x)
 
     def call():
-        return jax.block_until_ready(jaxstiff.fk_and_jacobian(robot, q))
+        return jax.block_until_ready(fn(robot, q))
 
     t0 = time.perf_counter()
     T, J = call()
@@ -161,17 +185,19 @@ def _fmt_s(x):
 
 
 HEADER = (
-    f"{'batch':>9} {'dtype':>7} | {'jx first':>9} {'jx run':>9} {'jx cfg/s':>9} | "
-    f"{'pk first':>9} {'pk run':>9} {'pk cfg/s':>9} | {'ratio':>7} {'max|diff|':>9}"
+    f"{'robot':<16} {'n':>2} {'kernel':>8} {'batch':>7} {'dtype':>7} | {'jx first':>9} {'jx run':>9} "
+    f"{'jx cfg/s':>9} {'vs LWR':>6} | {'pk first':>9} {'pk run':>9} {'pk cfg/s':>9} | {'vs pk':>7} {'max|diff|':>9}"
 )
 
 
 def format_row(r: dict) -> str:
     ratio = "-" if r["ratio"] is None else f"{r['ratio']:.1f}x"
     diff = "-" if r["max_abs_diff"] is None else f"{r['max_abs_diff']:.1e}"
+    lwr = "-" if r.get("vs_lwr") is None else f"{r['vs_lwr']:.2f}"
     return (
-        f"{r['batch']:>9} {r['dtype']:>7} | {_fmt_s(r['jaxstiff_first_s']):>9} "
-        f"{_fmt_s(r['jaxstiff_run_median_s']):>9} {_fmt_rate(r['jaxstiff_configs_per_s']):>9} | "
+        f"{r['robot']:<16} {r['n']:>2} {r['kernel']:>8} {r['batch']:>7} {r['dtype']:>7} | "
+        f"{_fmt_s(r['jaxstiff_first_s']):>9} "
+        f"{_fmt_s(r['jaxstiff_run_median_s']):>9} {_fmt_rate(r['jaxstiff_configs_per_s']):>9} {lwr:>6} | "
         f"{_fmt_s(r['torch_first_s']):>9} {_fmt_s(r['torch_run_median_s']):>9} "
         f"{_fmt_rate(r['torch_configs_per_s']):>9} | {ratio:>7} {diff:>9}"
     )
@@ -194,6 +220,18 @@ def _write_json(path: str, payload: dict) -> None:
 def _parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[str]]:
     """The command line and the list of dtype names it asks for."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument(
+        "--robot",
+        default="all",
+        help='"all" (the LWR and every URDF of tests/data/robots), "lwr", or a URDF file (then also the LWR)',
+    )
+    ap.add_argument(
+        "--kernel",
+        default="auto",
+        choices=("auto", "unrolled", "framed", "scan"),
+        help="force this kinematics kernel on the robots other than the LWR (scan: the kernel before issue 37)",
+    )
+    ap.add_argument("--tip-link", default=None, help="tip link of --robot FILE (default: the table in the script)")
     ap.add_argument("--sizes", type=_sizes, default=list(DEFAULT_SIZES), help="comma-separated batch sizes")
     ap.add_argument("--dtypes", default="float32,float64", help="comma-separated: float32, float64")
     ap.add_argument("--min-time", type=float, default=1.0, help="seconds of timed calls per cell (at least 3 calls)")
@@ -207,8 +245,9 @@ def _parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[str]]:
     return args, dtypes
 
 
-def _torch_chain(robot_file: str):
-    """pytorch-kinematics' serial chain of the LWR (torch on all cores), or None if it is not installed."""
+def _torch_chain(robot):
+    """pytorch-kinematics' serial chain of ``robot`` (same base and tip links; torch on all cores), or
+    None if it is not installed."""
     try:
         import pytorch_kinematics as pk
         import torch
@@ -216,18 +255,54 @@ def _torch_chain(robot_file: str):
         print("pytorch-kinematics/torch not installed: jaxstiff only (pip install '.[ref]')", file=sys.stderr)
         return None
     torch.set_num_threads(os.cpu_count() or 1)
-    with open(robot_file) as fh:
-        return pk.build_serial_chain_from_urdf(fh.read(), "lwr_flange", "lwr_base")
+    import contextlib
+    import io
+
+    with (
+        open(robot.source, "rb") as fh,
+        contextlib.redirect_stdout(io.StringIO()),
+        contextlib.redirect_stderr(io.StringIO()),
+    ):
+        return pk.build_serial_chain_from_urdf(
+            fh.read(), robot.tip_link, robot.base_link
+        )  # (its parser's warnings muted)
+
+
+def _robots(which: str, tip_link: str | None) -> list[tuple[str, object]]:
+    """(label, Robot) to measure: the LWR first, then the chosen URDF(s)."""
+    import jaxstiff
+
+    out = [("kuka_lwr4", jaxstiff.Robot.from_urdf("kuka_lwr4"))]
+    if which == "lwr":
+        return out
+    if which == "all":
+        files = [os.path.join(ROBOTS_DIR, f) for f in sorted(os.listdir(ROBOTS_DIR)) if f.endswith(".urdf")]
+    else:
+        if not os.path.isfile(which):
+            raise SystemExit(f"--robot: no such URDF file {which!r} (or use 'all' / 'lwr')")
+        files = [which]
+    for path in files:
+        base = os.path.basename(path)
+        tip = tip_link if (tip_link and which != "all") else TIP_LINKS.get(base)
+        robot = jaxstiff.Robot.from_urdf(path, **({"tip_link": tip} if tip else {}))
+        out.append((base.removesuffix(".urdf"), robot))
+    return out
 
 
 def _measure_cell(robot, pk_chain, q_np, dtype_name: str, args: argparse.Namespace) -> dict:
     """One row: jaxstiff (and pytorch-kinematics if ``pk_chain``) at one batch size and dtype."""
     import numpy as np
 
+    from jaxstiff.model.kinematics_scan import kernel_for
+
     size = q_np.shape[0]
-    first, times, (T, J) = bench_jaxstiff(robot, q_np, dtype_name, args.min_time, args.max_repeats)
+    kernel = None if args.kernel == "auto" or robot.name == "kuka_lwr4" else args.kernel
+    first, times, (T, J) = bench_jaxstiff(robot, q_np, dtype_name, args.min_time, args.max_repeats, kernel)
     med = statistics.median(times)
     row = {
+        "n": robot.n,
+        "tip_link": robot.tip_link,
+        "kernel": kernel_for(robot) if args.kernel == "auto" or robot.name == "kuka_lwr4" else args.kernel,
         "batch": size,
         "dtype": dtype_name,
         "jaxstiff_first_s": first,
@@ -271,43 +346,48 @@ def main(argv: list[str] | None = None) -> int:
     enable_x64()  # float64 available; float32 inputs stay float32 (the kernel keeps the dtype)
     import numpy as np
 
-    import jaxstiff
-
-    robot = jaxstiff.Robot.from_urdf("kuka_lwr4")
-    chain = None if args.no_torch else _torch_chain(jaxstiff.robot_path("kuka_lwr4"))
+    robots = _robots(args.robot, args.tip_link)
 
     dev = _device()
     print(
-        f"FK + Jacobian, KUKA LWR 4 (7 DOF); jaxstiff on {dev['jax_backend']} ({dev['jax_device']}), "
+        f"FK + Jacobian; jaxstiff on {dev['jax_backend']} ({dev['jax_device']}), "
         f"pytorch-kinematics on CPU ({os.cpu_count()} threads); {dev['cpu']}"
     )
     print("first = first call (trace + compile + run); run = median of repeats; cfg/s from the median\n")
-    rng = np.random.default_rng(0)
     rows = []
     print(HEADER)
     print("-" * len(HEADER), flush=True)
-    for dtype_name in dtypes:
-        pk_chain = None
-        if chain is not None:
-            import torch
+    lwr_rate: dict[tuple[int, str], float] = {}
+    for label, robot in robots:
+        chain = None if args.no_torch else _torch_chain(robot)
+        rng = np.random.default_rng(0)
+        for dtype_name in dtypes:
+            pk_chain = None
+            if chain is not None:
+                import torch
 
-            pk_chain = chain.to(dtype=getattr(torch, dtype_name))
-        for size in args.sizes:
-            q_np = rng.uniform(robot.lower, robot.upper, size=(size, robot.n))
-            row = _measure_cell(robot, pk_chain, q_np, dtype_name, args)
-            rows.append(row)
-            print(format_row(row), flush=True)
+                pk_chain = chain.to(dtype=getattr(torch, dtype_name))
+            for size in args.sizes:
+                lo, hi = np.maximum(robot.lower, -np.pi), np.minimum(robot.upper, np.pi)
+                q_np = rng.uniform(lo, hi, size=(size, robot.n))
+                row = {"robot": label, **_measure_cell(robot, pk_chain, q_np, dtype_name, args)}
+                if label == "kuka_lwr4":
+                    lwr_rate[(size, dtype_name)] = row["jaxstiff_configs_per_s"]
+                base = lwr_rate.get((size, dtype_name))
+                row["vs_lwr"] = None if base is None else row["jaxstiff_configs_per_s"] / base
+                rows.append(row)
+                print(format_row(row), flush=True)
     if args.json:
         _write_json(
             args.json,
             {
-                "benchmark": "fk_and_jacobian, KUKA LWR 4",
+                "benchmark": "fk_and_jacobian, " + ", ".join(label for label, _ in robots),
                 "sizes": args.sizes,
                 "dtypes": dtypes,
                 "min_time_s": args.min_time,
                 "device": dev,
                 "versions": _versions(),
-                "torch_threads": (os.cpu_count() or 1) if chain is not None else None,
+                "torch_threads": None if args.no_torch else (os.cpu_count() or 1),
                 "rows": rows,
             },
         )

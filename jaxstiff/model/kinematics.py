@@ -47,7 +47,6 @@ from jaxstiff.model.kinematics_scan import UNROLL_MAX_JOINTS, kernel_for, scan_p
 from jaxstiff.model.scalars import Mat3, Scalar, Vec3
 from jaxstiff.model.scalars import add as _add
 from jaxstiff.model.scalars import cross as _cross
-from jaxstiff.model.scalars import dot3 as _dot3
 from jaxstiff.model.scalars import is_const as _is_const
 from jaxstiff.model.scalars import matmul3 as _matmul3
 from jaxstiff.model.scalars import matvec3 as _matvec3
@@ -64,6 +63,7 @@ __all__ = [
     "POLY_MIN_BATCH",
     "UNROLL_MAX_JOINTS",
 ]
+
 
 # ---------------------------------------------------------------- the kernels
 def _axis_rotation(axis: Sequence[float], c: jax.Array, s: jax.Array) -> list[list[Scalar]]:

@@ -117,7 +117,7 @@ class UrdfChain:
 
 
 def reference(robot: jaxstiff.Robot, urdf: UrdfChain, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    T, frames = urdf.frames(dict(zip(robot.joint_names, q)))
+    T, frames = urdf.frames(dict(zip(robot.joint_names, q, strict=True)))
     J = np.zeros((6, robot.n))
     for i, (kind, z, p) in enumerate(frames):
         J[:, i] = np.r_[z, 0, 0, 0] if kind == "prismatic" else np.r_[np.cross(z, T[:3, 3] - p), z]
@@ -147,7 +147,10 @@ def test_kernel_equals_the_urdf_product_and_finite_differences(case):
         e = np.zeros(robot.n)
         e[i] = h
         names = robot.joint_names
-        dp = (urdf.frames(dict(zip(names, q0 + e)))[0] - urdf.frames(dict(zip(names, q0 - e)))[0])[:3, 3] / (2 * h)
+        dp = (
+            urdf.frames(dict(zip(names, q0 + e, strict=True)))[0]
+            - urdf.frames(dict(zip(names, q0 - e, strict=True)))[0]
+        )[:3, 3] / (2 * h)
         assert_close(J[0, 0, 0, :3, i], dp, rtol=0, atol=1e-8, what=f"{case} dp/dq{i}")
 
 
