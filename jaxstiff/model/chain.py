@@ -79,7 +79,7 @@ def tuple_to_mat(t: tuple[tuple[float, ...], ...]) -> np.ndarray:
     return T
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)
 class Chain:
     """A serial chain with n actuated joints, static and hashable.
 
@@ -132,6 +132,18 @@ class Chain:
             h = hash(self._key())
             object.__setattr__(self, "_hash", h)
         return h
+
+    def __repr__(self) -> str:
+        """One line: name, joints (abbreviated past four), base and tip links, locks, TCP offset;
+        :meth:`describe` gives the table, the fields give the numbers."""
+        names = self.joint_names
+        shown = ", ".join(names) if len(names) <= 4 else f"{names[0]}, {names[1]}, ..., {names[-1]}"
+        locks = ", ".join(f"{n}={v:g}" for n, v in zip(names, self.locked, strict=True) if v is not None)
+        tcp = self.tip_matrix[:3, 3]
+        return (
+            f"{type(self).__name__}({self.name!r}, {self.n} joints [{shown}], {self.base_link!r} -> "
+            f"{self.tip_link!r}, locked: {locks or 'none'}, tip offset ({tcp[0]:.4g}, {tcp[1]:.4g}, {tcp[2]:.4g}) m)"
+        )
 
     def fingerprint(self) -> str:
         """sha256 (hex) of the chain's content (every field but ``source``): equal for chains

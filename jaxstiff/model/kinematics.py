@@ -35,10 +35,12 @@ Example:
 from __future__ import annotations
 
 import functools
+import warnings
 from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain, check_locked_values
@@ -183,14 +185,42 @@ def _check(robot: Chain, q: jax.Array) -> None:
         raise ValueError(f"q must have a floating dtype, got {q.dtype}")
 
 
+_warned_float32 = False
+
+
+def warn_if_float32(q: object) -> None:
+    """Warn once per process when float64 joint values (numpy, lists) will be computed in float32
+    because JAX's x64 mode is off: JAX then rounds every input to float32 silently (results to
+    about 1e-7 relative). A float32 ``q`` given as such is the caller's choice and draws nothing;
+    the kinematics keep the dtype they compute in (float32 in, float32 out)."""
+    global _warned_float32
+    if _warned_float32 or isinstance(q, jax.Array) or jax.dtypes.canonicalize_dtype(np.float64) == np.float64:
+        return
+    dt = getattr(q, "dtype", None)
+    if dt is None and isinstance(q, (list, tuple, float)):
+        dt = np.asarray(q).dtype
+    if dt is not None and np.dtype(dt) == np.float64:
+        _warned_float32 = True
+        warnings.warn(
+            "jaxstiff kinematics: JAX's x64 mode is off, so these float64 joint values are computed in float32 "
+            "(about 1e-7 relative; the results are float32). For float64, call "
+            "jax.config.update('jax_enable_x64', True) at startup or set JAX_ENABLE_X64=1 "
+            "(this warning is shown once)",
+            UserWarning,
+            stacklevel=3,
+        )
+
+
 def _locked_checked(fn):
     """A jitted kinematics function that first refuses a concrete ``q`` whose locked joints are not at
-    their locked values (:func:`jaxstiff.model.chain.check_locked_values`; a tracer is not checked)."""
+    their locked values (:func:`jaxstiff.model.chain.check_locked_values`; a tracer is not checked),
+    and warns once if float64 values will be computed in float32 (:func:`warn_if_float32`)."""
 
     @functools.wraps(fn)
     def checked(robot: Chain, q: jax.Array, *args, **kwargs):
         if isinstance(robot, Chain):  # anything else: the kernel's own check says what is wrong
             check_locked_values(robot, q)
+        warn_if_float32(q)
         return fn(robot, q, *args, **kwargs)
 
     for attr in ("lower", "trace", "eval_shape", "clear_cache", "_cache_size"):  # the jitted function's API

@@ -32,7 +32,7 @@ from jaxstiff.model.urdf import parse_urdf_chain
 __all__ = ["Robot", "robot_path", "shipped_robots", "JOINT_REVOLUTE", "JOINT_PRISMATIC"]
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+@dataclasses.dataclass(frozen=True, eq=False, repr=False)  # (Chain's one-line repr)
 class Robot(Chain):
     """A :class:`~jaxstiff.model.chain.Chain` read from a URDF, with FK and Jacobian methods.
 

@@ -9,6 +9,7 @@ import os
 import shutil
 import subprocess
 import sys
+import warnings
 
 import jax.numpy as jnp
 import numpy as np
@@ -321,3 +322,36 @@ def test_out_must_be_a_file_name_checked_before_any_work(tmp_path, capsys, monke
         err = capsys.readouterr().err
         assert match in err and "Traceback" not in err and ".tmp" not in err, err
     assert sorted(os.listdir(tmp_path)) == ["adir.npz"] and os.listdir(tmp_path / "adir.npz") == []
+
+
+def test_repr_is_one_short_line_with_name_joints_links_and_locks():
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    text = repr(robot)
+    assert "\n" not in text and len(text) < 200
+    for part in ("kuka_lwr4", "7 joints", "lwr_a1", "lwr_a7", "lwr_flange", "lwr_a7=0"):
+        assert part in text, part
+    assert "lwr_a4" not in text  # joint names past four are abbreviated
+    free = jaxstiff.Robot.from_urdf("planar_3r")
+    assert "locked: none" in repr(free) and "joint_1, joint_2, joint_3" in repr(free)
+    assert hash(robot) == hash(jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0}))  # identity untouched
+
+
+def test_float64_values_without_x64_warn_once_and_give_float32(monkeypatch):
+    import jax
+
+    from jaxstiff.model import kinematics
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    monkeypatch.setattr(kinematics, "_warned_float32", False)
+    with jax.enable_x64(False):
+        with pytest.warns(UserWarning, match=r"x64 mode is off.*float32.*jax_enable_x64"):
+            T = robot.fk(np.zeros(3))
+        assert T.dtype == np.float32
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            robot.fk(np.zeros(3))  # once per process
+            monkeypatch.setattr(kinematics, "_warned_float32", False)
+            jaxstiff.fk(robot, np.zeros(3, dtype=np.float32))  # float32 asked for: no warning
+    with jax.enable_x64(True), warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert jaxstiff.fk(robot, np.zeros(3)).dtype == np.float64  # x64 on: float64, no warning
