@@ -36,6 +36,7 @@ import statistics
 import sys
 import tempfile
 import time
+from typing import Any
 
 DEFAULT_SIZES = (1, 1_000, 100_000, 1_000_000)
 ROBOTS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, "tests", "data", "robots")
@@ -81,9 +82,7 @@ def bench_jaxstiff(robot, q_np, dtype_name, min_time, max_repeats, kernel=None):
     if kernel is None:
         fn = jaxstiff.fk_and_jacobian
     else:  # a forced kernel, jitted as fk_and_jacobian is (before/after comparisons)
-        forced = jax.jit(
-            lambda x: fk_and_jacobian_raw(robot, x, kernel=kernel), compiler_options=kernel_compiler_options()
-        )
+        forced = jax.jit(lambda x: fk_and_jacobian_raw(robot, x, kernel=kernel))
 
         def fn(_robot, x):
             return forced(x)
@@ -268,7 +267,7 @@ def _torch_chain(robot):
         )  # (its parser's warnings muted)
 
 
-def _robots(which: str, tip_link: str | None) -> list[tuple[str, object]]:
+def _robots(which: str, tip_link: str | None) -> list[tuple[str, Any]]:
     """(label, Robot) to measure: the LWR first, then the chosen URDF(s)."""
     import jaxstiff
 
@@ -284,7 +283,7 @@ def _robots(which: str, tip_link: str | None) -> list[tuple[str, object]]:
     for path in files:
         base = os.path.basename(path)
         tip = tip_link if (tip_link and which != "all") else TIP_LINKS.get(base)
-        robot = jaxstiff.Robot.from_urdf(path, **({"tip_link": tip} if tip else {}))
+        robot = jaxstiff.Robot.from_urdf(path, tip_link=tip)
         out.append((base.removesuffix(".urdf"), robot))
     return out
 
