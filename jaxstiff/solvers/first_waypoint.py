@@ -80,7 +80,8 @@ def exact_first_answers(
         f = objective(x, params) if status in R.USABLE else np.inf
         return x, status, err, sol.code, f
 
-    boxes, starts = [], []
+    boxes: list[tuple[np.ndarray, np.ndarray]] = []
+    starts: list[list[np.ndarray]] = []
     for b in range(B):
         lim = limits.for_path(b)
         q0, kj0 = np.asarray(batch.q0[b], float), np.asarray(batch.kj0[b], float)
@@ -100,7 +101,7 @@ def exact_first_answers(
         for b in range(B)
         if maybe_off_target(problem, cands[b], float(batch.ratios[b]), batch.c)
         for x in rescue_starts(
-            problem, len(starts[b]), starts[b][0], *boxes[b], batch.targets[b, 0], batch.directions[b, 0]
+            problem, len(starts[b]), starts[b][0], boxes[b][0], boxes[b][1], batch.targets[b, 0], batch.directions[b, 0]
         )
     ]
     if rescue:
