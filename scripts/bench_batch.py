@@ -37,7 +37,8 @@ def random_reachable_paths(robot, B: int, P: int, seed: int = 0, span: float = 0
     Each path is the TCP trace of a smooth (cosine-eased) joint-space motion from a random posture
     (uniform inside the limits shrunk by ``margin`` rad) by a random offset of up to ``span`` rad
     per free joint; locked joints stay at their values. Waypoints closer than 1 mm apart in
-    average are not rejected (the rate limits then have little to do).
+    average are not rejected (the rate limits then have little to do). A joint without limits
+    (continuous) draws from [-pi, pi].
     """
     import jax
 
@@ -45,7 +46,8 @@ def random_reachable_paths(robot, B: int, P: int, seed: int = 0, span: float = 0
 
     rng = np.random.default_rng(seed)
     n = robot.n
-    lo, hi = robot.lower + margin, robot.upper - margin
+    lo = np.where(np.isfinite(robot.lower), robot.lower, -np.pi) + margin
+    hi = np.where(np.isfinite(robot.upper), robot.upper, np.pi) - margin
     lv = robot.locked_values
     q_a = rng.uniform(lo, hi, size=(B, n))
     q_b = np.clip(q_a + rng.uniform(-span, span, size=(B, n)), lo, hi)

@@ -43,6 +43,8 @@ __all__ = [
     "waypoints_by_path",
     "waypoints_text",
     "missed_target_waypoints",
+    "first_free_waypoints",
+    "first_waypoint_cause",
     "missed_target_warning",
     "MissedTargetWarning",
     "warn_missed_target",
@@ -129,9 +131,58 @@ def missed_target_waypoints(status: np.ndarray, flag: np.ndarray) -> dict[int, n
     return waypoints_by_path(is_usable(np.asarray(status)) & ~np.asarray(flag, bool))
 
 
-def missed_target_warning(status: np.ndarray, flag: np.ndarray, meta: Mapping[str, Any]) -> str | None:
+def first_free_waypoints(status: np.ndarray, meta: Mapping[str, Any]) -> np.ndarray:
+    """(B,) per path the first usable waypoint when it was solved without rate limit (the whole
+    joint and stiffness ranges: ``meta["limits"]["first_rate_limit"]`` false, the default), else
+    -1 (a path with no usable waypoint, or a rate-limited first waypoint)."""
+    usable = is_usable(np.asarray(status))
+    limits = meta.get("limits") or {}
+    first = np.where(usable.any(axis=1), np.argmax(usable, axis=1), -1)
+    return np.full(usable.shape[0], -1) if limits.get("first_rate_limit", False) else first
+
+
+def first_waypoint_cause(
+    kj: np.ndarray | None, meta: Mapping[str, Any], joint_names: Sequence[str] | None = None, rtol: float = 1e-6
+) -> str:
+    """Why an unconstrained first waypoint (``kj`` (n,) its joint stiffnesses, rigid locked joints
+    inf or NaN) misses the target, as far as its state tells: f1 and f2 depend only on the
+    stiffnesses' ratios, so the stiffness range binds where some joint sits at kmin and another at
+    kmax (within ``rtol``); otherwise the search ended in a local optimum (no bound holds it)."""
+    limits = meta.get("limits") or {}
+    kmin, kmax = limits.get("kmin"), limits.get("kmax")
+    rest = (
+        "the solver's starts ended in a local optimum: more first-waypoint starts (first_starts, "
+        "--first-starts) or solver 'slsqp' or 'hybrid' may reach it"
+    )
+    if kj is None or kmin is None or kmax is None:
+        return rest
+    k = np.asarray(kj, float)
+    names = list(joint_names) if joint_names is not None else [str(i) for i in range(k.size)]
+    finite = np.isfinite(k)
+    lo = np.flatnonzero(finite & (k <= float(kmin) * (1 + rtol)))
+    hi = np.flatnonzero(finite & (k >= float(kmax) * (1 - rtol)))
+    if lo.size and hi.size:
+        return (
+            f"its joint stiffnesses span the whole range [{float(kmin):g}, {float(kmax):g}] Nm/rad "
+            f"({', '.join(names[i] for i in lo)} at kmin; {', '.join(names[i] for i in hi)} at kmax): the "
+            "range binds, a wider one (kmin/kmax, --kmin/--kmax) may reach the target"
+        )
+    return f"its joint stiffnesses lie inside [{float(kmin):g}, {float(kmax):g}] Nm/rad, so {rest}"
+
+
+def missed_target_warning(
+    status: np.ndarray,
+    flag: np.ndarray,
+    meta: Mapping[str, Any],
+    kj: np.ndarray | None = None,
+    joint_names: Sequence[str] | None = None,
+) -> str | None:
     """The text of the one warning at the end of :func:`jaxstiff.shape`: which usable waypoints
-    miss the target (compressed ranges per path, 0-based) and what to try; None when none does."""
+    miss the target (compressed ranges per path, 0-based) and what to try; None when none does.
+
+    A path's first usable waypoint solved without rate limit (:func:`first_free_waypoints`) gets
+    its own cause: nothing before it binds it, so "cannot look ahead" does not apply; from its
+    stiffnesses ``kj`` (B, P, n) where given (:func:`first_waypoint_cause`)."""
     missed = missed_target_waypoints(status, flag)
     if not missed:
         return None
@@ -143,6 +194,17 @@ def missed_target_warning(status: np.ndarray, flag: np.ndarray, meta: Mapping[st
     solver = str(meta.get("solver", ""))
     settings = meta.get("settings") or {}
     per_m = "" if settings.get("dq_per_m") is not None else ", or limits per metre of path (dq_per_m / dk_per_m)"
+    first = first_free_waypoints(status, meta)
+    firsts = {b: int(first[b]) for b, v in missed.items() if first[b] >= 0 and first[b] in v}
+    causes = [
+        f"path {b}: waypoint {p} has no rate limit (nothing before it binds it), and "
+        + first_waypoint_cause(None if kj is None else np.asarray(kj)[b, p], meta, joint_names)
+        for b, p in firsts.items()
+    ]
+    head = f"{count} of {usable} usable waypoints miss the target (alpha < {ALPHA_TOL_DEG:g} deg and {rule}): {where}; "
+    if len(firsts) == count:  # only first waypoints miss: their own causes, nothing about looking ahead
+        return head + "; ".join(causes)
+    lead = ("; ".join(causes) + "; the others: ") if causes else ""
     if solver in GREEDY_SOLVERS:
         advice = (
             f"solver {solver!r} goes waypoint by waypoint and cannot look ahead, so its status 0 (solved: "
@@ -155,10 +217,7 @@ def missed_target_warning(status: np.ndarray, flag: np.ndarray, meta: Mapping[st
             f"path's turns: try looser limits{per_m}"
             + ("" if solver == "trajectory" else ", or solver='trajectory' (--solver trajectory)")
         )
-    return (
-        f"{count} of {usable} usable waypoints miss the target (alpha < {ALPHA_TOL_DEG:g} deg and {rule}): "
-        f"{where}; {advice}"
-    )
+    return head + lead + advice
 
 
 class MissedTargetWarning(UserWarning):
@@ -170,7 +229,7 @@ def warn_missed_target(res: Any, stacklevel: int = 3) -> str | None:
     :class:`~jaxstiff.ShapeResult`; typed loosely: this module sits below it) miss the target;
     returns the text (None: every usable waypoint is in target). Called at the end of
     :func:`jaxstiff.shape` (``stacklevel`` 3 points at shape's caller)."""
-    text = missed_target_warning(res.status, res.in_target, res.meta)
+    text = missed_target_warning(res.status, res.in_target, res.meta, res.kj, res.joint_names)
     if text is not None:
         warnings.warn(text, MissedTargetWarning, stacklevel=stacklevel)
     return text

@@ -228,6 +228,12 @@ class PGDOptions(SolverOptions):
         0, "compiled calls running at once on a CPU (0: one per usable core; 1 on a GPU)", kind="int", lo=0
     )
     seed: int = option(0, "seed of the random starts", kind="int", lo=0)
+    first_exact: str = option(
+        "slsqp",
+        "first waypoint without rate limit: slsqp: its starts are greedy SLSQP's answers there "
+        "(jaxstiff.solvers.first_waypoint); none: pgd's own stages alone",
+        choices=("slsqp", "none"),
+    )
 
 
 @dataclasses.dataclass(frozen=True)

@@ -53,6 +53,9 @@ __all__ = [
     "greedy_path",
     "check_single_start",
     "run_greedy",
+    "Candidate",
+    "maybe_off_target",
+    "rescue_starts",
 ]
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
@@ -217,7 +220,7 @@ def _pick(problem: WaypointProblem, cands: Sequence[Candidate]) -> Candidate:
     return max(ties, key=margin)
 
 
-def _maybe_off_target(problem: WaypointProblem, cands: Sequence[Candidate], r: float, c: float) -> bool:
+def maybe_off_target(problem: WaypointProblem, cands: Sequence[Candidate], r: float, c: float) -> bool:
     """False when a usable candidate's criterion value proves it in target (f1, f2: the criterion
     alone bounds alpha and rho; :mod:`jaxstiff.results.target`), else True; always False for other
     criteria (no such bound). With the tolerances a = 1 deg and tol = 2 %: f2 = (1 + alpha)(1 +
@@ -233,7 +236,7 @@ def _maybe_off_target(problem: WaypointProblem, cands: Sequence[Candidate], r: f
     return not fbest < bound
 
 
-def _rescue_starts(
+def rescue_starts(
     problem: WaypointProblem,
     count: int,
     ref: np.ndarray,
@@ -363,10 +366,10 @@ def greedy_path(
             cands, nit, nfev = _solve_starts(
                 problem, solver, starts, lb, ub, targets[p], params, pj, fobj, pos_tol, None if rate else first_maxiter
             )
-            if not rate and _maybe_off_target(problem, cands, ratio, c):
+            if not rate and maybe_off_target(problem, cands, ratio, c):
                 # no start is provably in target: as many again, from postures and stiffnesses
                 # drawn over the whole ranges (not run where one start is in target)
-                more = _rescue_starts(problem, len(starts), starts[0], lb, ub, targets[p], directions[p])
+                more = rescue_starts(problem, len(starts), starts[0], lb, ub, targets[p], directions[p])
                 extra, nit2, nfev2 = _solve_starts(
                     problem, solver, more, lb, ub, targets[p], params, pj, fobj, pos_tol, first_maxiter
                 )

@@ -627,7 +627,7 @@ def test_first_waypoint_rescue_finds_the_minimum_the_usual_starts_miss(tmp_path,
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", MissedTargetWarning)
             with monkeypatch.context() as mp:
-                mp.setattr(greedy, "_maybe_off_target", lambda *a: False)  # the given start alone
+                mp.setattr(greedy, "maybe_off_target", lambda *a: False)  # the given start alone
                 usual = jaxstiff.shape(robot, path, "f2", 5.0, task="xy", q0=q0, first_starts=1)
             res = jaxstiff.shape(robot, path, "f2", 5.0, task="xy", q0=q0, first_starts=1)
         assert np.all(R.is_usable(res.status))

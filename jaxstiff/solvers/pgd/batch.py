@@ -31,6 +31,7 @@ __all__ = [
     "CODE_MEANING",
     "run_request",
     "first_start_rows",
+    "exact_first_starts",
     "iteration_counts",
 ]
 
@@ -151,7 +152,11 @@ def solve_batch(
     threads = chunk_threads(int(opts["threads"]))
     C = chunk_rows(B, int(opts["chunk"]), threads)
     key_items = tuple(
-        sorted((k, v) for k, v in opts.items() if k in DEFAULT_OPTIONS and k not in ("chunk", "seed", "threads"))
+        sorted(
+            (k, v)
+            for k, v in opts.items()
+            if k in DEFAULT_OPTIONS and k not in ("chunk", "seed", "threads", "first_exact")
+        )
     )
     first_rate = bool(limits.first_rate_limit)
     fn = compiled_kernel(problem, key_items, first_rate)
@@ -161,6 +166,9 @@ def solve_batch(
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, list(problem.free_idx)]
     dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
+    if not first_rate and opts["first_exact"] == "slsqp":
+        S1 = max(int(opts["starts"]), int(opts["starts_first"])) if opts["mode"] == "best" else int(opts["starts"])
+        first_starts = exact_first_starts(batch, first_starts, options, pos_tol, S1)
     extra = first_start_rows(problem, first_starts, B)
     # each path's key from the seed and the path's own data, never from its index: a path's result
     # does not depend on its position in the batch or on the chunk size
@@ -176,6 +184,38 @@ def solve_batch(
     out["nit"], out["nfev"] = iteration_counts(problem, opts, B, P)
     if return_timing:
         out["compile_s"], out["run_s"] = compile_s, run_s
+    return out
+
+
+def exact_first_starts(
+    batch: WaypointBatch,
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
+    options: Mapping[str, Any] | None,
+    pos_tol: float,
+    S: int,
+) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """Per path, the first waypoint's start states for pgd's starts 1..S-1: greedy SLSQP's usable
+    answers there, best first (:func:`jaxstiff.solvers.first_waypoint.exact_first_answers`, from
+    ``(q0, kj0)``, ``first_starts`` and its rescue starts), then the given ``first_starts``
+    themselves, at most S - 1 in all (option ``first_exact``)."""
+    from jaxstiff.solvers.first_waypoint import exact_first_answers
+
+    problem = batch.problem
+    answers = exact_first_answers(batch, first_starts, options, pos_tol)
+    out = []
+    for b, xs in enumerate(answers):
+        q0 = np.asarray(batch.q0[b], float)
+        states = []
+        for x in xs:
+            q = q0.copy()
+            q[list(problem.free_idx)] = x[: problem.n_free]
+            states.append((q, np.asarray(problem.kj_full(x[problem.n_free :]), float)))
+        given = list(first_starts[b]) if first_starts else []
+        out.append((states + given)[: max(S - 1, 0)])
+    # every path the same count (the kernel's rows): a path with fewer repeats its start state
+    E = max((len(o) for o in out), default=0)
+    for b, o in enumerate(out):
+        o += [(np.asarray(batch.q0[b], float), np.asarray(batch.kj0[b], float))] * (E - len(o))
     return out
 
 

@@ -139,6 +139,17 @@ class PGDKernel:
         # Newton onto the path first, 3 corrections after the LM stage, the polish last
         steps = (8, 3 if lm is not None else 0, self.polish)
         x, fv, err = optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, self.opts, first, lm=lm, newton_steps=steps)
+        # a start already on the path that the stages did not improve is kept: a first-waypoint
+        # start given by the exact solver (:mod:`jaxstiff.solvers.first_waypoint`) is often
+        # optimal, and the surrogate and LM stages can leave its basin. Starts of later
+        # waypoints lie on the previous target, not on this one, so this never picks them
+        # (unless the path stands still, where keeping the previous state is right too)
+        xs = clip_box(x0, lb, ub)
+        fs, es = ops.f_and_err(xs, d, r, c, tgt)
+        start_ok = (es <= pos_tol) & jnp.isfinite(fs) & jnp.all(jnp.isfinite(xs))
+        keep = start_ok & ~((err <= pos_tol) & (fv <= fs))
+        x = jnp.where(keep, xs, x)
+        fv, err = jnp.where(keep, fs, fv), jnp.where(keep, es, err)
         return judge(x, fv, err, pos_tol)
 
     def pick(

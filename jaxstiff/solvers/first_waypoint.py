@@ -1,0 +1,115 @@
+"""The first waypoint without a rate limit, solved by the exact solver (SLSQP) for the batch solvers.
+
+Why: that waypoint's box is the whole joint and stiffness range, and its problem is non-convex and
+non-smooth (f2's ``|r - rho|`` and ``|alpha|``; rho's second axis is the larger of two eigenvalues,
+whose crossing is a kink), with its optimum often on the stiffness bounds (some joints at
+``kmin``, others at ``kmax``). pgd's fixed budget of surrogate, Levenberg-Marquardt and projected
+Adam steps stalls there in poorer local optima than SLSQP reaches from the very same IK starts:
+measured on the UR10 (tip tool0), one straight-line waypoint, the 8 starts greedy SLSQP uses
+(q0 and 7 IK postures, kj0 mid-range): SLSQP reached f2 = 1.0012 (rho 4.9988, alpha 0) from 2 of
+them, pgd's stages from none (best f2 14.4, rho 1.54). The arms differ in scale and frame, not
+in this: the LWR's first waypoints are easier, not different (docs/notes/solvers.md, issue 37).
+
+What: :func:`exact_first_answers` runs greedy SLSQP's own first-waypoint search (its starts, its
+iteration budget ``first_maxiter``, its rescue starts drawn over the whole ranges when no start
+is provably in target: :func:`jaxstiff.solvers.greedy.greedy_path`) for every path at once, the
+SLSQP solves advancing in lockstep with their kernel calls batched
+(:mod:`jaxstiff.solvers.lockstep`). Its usable answers, best first, become pgd's first-waypoint
+starts; pgd keeps a start that its own stages do not improve, so its first waypoint is at least
+as good as the best answer it was given (:meth:`jaxstiff.solvers.pgd.kernel.PGDKernel.one_start`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from jaxstiff.results import files as R
+from jaxstiff.solvers.greedy import (
+    Candidate,
+    SolverOutput,
+    judge,
+    kernel_objective,
+    maybe_off_target,
+    rescue_starts,
+)
+from jaxstiff.solvers.lockstep import RowsProgram, Steps, run_lockstep
+from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
+
+__all__ = ["exact_first_answers", "SLSQP_OPTION_NAMES"]
+
+#: the SLSQP options a batch solver's options may carry for this stage
+SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver")
+
+
+def exact_first_answers(
+    batch: WaypointBatch,
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
+    options: Mapping[str, Any] | None = None,
+    pos_tol: float = 1e-9,
+) -> list[list[np.ndarray]]:
+    """Per path, the usable SLSQP answers (decision vectors ``x = [q_free, kj]``) of its first
+    waypoint, lowest criterion first, from greedy SLSQP's starts: the start state ``(q0, kj0)``,
+    the given ``first_starts`` and, where none of those answers is provably in target, as many
+    rescue starts again (:func:`jaxstiff.solvers.greedy.greedy_path`'s first waypoint, for every
+    path in lockstep). The first waypoint's box is the whole range (no rate limit: the caller
+    runs this only then). A path with no usable answer gets an empty list.
+    """
+    from jaxstiff.solvers.slsqp import make_slsqp_solver
+
+    problem, limits = batch.problem, batch.limits
+    sl_opts = {k: v for k, v in (options or {}).items() if k in SLSQP_OPTION_NAMES}
+    solver = make_slsqp_solver(problem, sl_opts, (limits.kmin, limits.kmax))
+    maxiter = int(solver.options["first_maxiter"])
+    pos_and_jac, objective = jax_pos_and_jac(problem), kernel_objective(problem)
+    B = batch.targets.shape[0]
+    program = RowsProgram(compiled_scaled_rows(problem), jnp.asarray(solver.scale))
+
+    def one(b: int, x_start: np.ndarray, lb: np.ndarray, ub: np.ndarray) -> Steps[Candidate]:
+        params = WaypointProblem.params(batch.targets[b, 0], batch.directions[b, 0], float(batch.ratios[b]), batch.c)
+        try:
+            sol = yield from solver.steps(x_start.copy(), lb, ub, params, maxiter=maxiter)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+            sol = SolverOutput(x_start.copy(), -1, False, 0, 0)
+        x, status, err = judge(
+            problem, sol, x_start, lb, ub, batch.targets[b, 0], params, pos_and_jac, objective, pos_tol
+        )
+        f = objective(x, params) if status in R.USABLE else np.inf
+        return x, status, err, sol.code, f
+
+    boxes: list[tuple[np.ndarray, np.ndarray]] = []
+    starts: list[list[np.ndarray]] = []
+    for b in range(B):
+        lim = limits.for_path(b)
+        q0, kj0 = np.asarray(batch.q0[b], float), np.asarray(batch.kj0[b], float)
+        lb, ub = lim.box(problem, q0, kj0, False)
+        boxes.append((lb, ub))
+        given = first_starts[b] if first_starts else ()
+        xs = [problem.x_of(q0, kj0)] + [problem.x_of(np.asarray(q, float), np.asarray(k, float)) for q, k in given]
+        starts.append([clip_to_box(x, lb, ub) for x in xs])
+    jobs = [(b, x) for b in range(B) for x in starts[b]]
+    answers = run_lockstep([one(b, x, *boxes[b]) for b, x in jobs], program)
+    cands: list[list[Candidate]] = [[] for _ in range(B)]
+    for (b, _), cand in zip(jobs, answers, strict=True):
+        cands[b].append(cand)
+    # no start provably in target: as many again from the whole ranges (greedy SLSQP's rescue)
+    rescue = [
+        (b, x)
+        for b in range(B)
+        if maybe_off_target(problem, cands[b], float(batch.ratios[b]), batch.c)
+        for x in rescue_starts(
+            problem, len(starts[b]), starts[b][0], boxes[b][0], boxes[b][1], batch.targets[b, 0], batch.directions[b, 0]
+        )
+    ]
+    if rescue:
+        more = run_lockstep([one(b, x, *boxes[b]) for b, x in rescue], program)
+        for (b, _), cand in zip(rescue, more, strict=True):
+            cands[b].append(cand)
+    out = []
+    for b in range(B):
+        usable = sorted((c for c in cands[b] if c[1] in R.USABLE), key=lambda c: c[4])
+        out.append([np.asarray(c[0], float) for c in usable])
+    return out

@@ -1,0 +1,94 @@
+"""Issue 37, item 2: the first waypoint (no rate limit) reaches the exact solver's optimum with pgd
+and the hybrid, on a third-party arm with rotated joint frames (UR10, tip tool0) and on the
+shipped LWR; and the missed-target warning names the first waypoint's own cause.
+
+The reference is greedy SLSQP run in the same test (an independent solver: scipy's SLSQP on exact
+JAX derivatives), never a stored number."""
+
+import os
+import warnings
+
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff.model.kinematics import fk
+from jaxstiff.results.target import MissedTargetWarning, first_free_waypoints, missed_target_warning
+
+UR10 = os.path.join(os.path.dirname(__file__), "..", "data", "robots", "ur10.urdf")
+
+
+def _line(robot, q, direction, length=0.0167, P=2):
+    """P waypoints from the TCP at q along ``direction`` (m), the tangent as desired direction."""
+    p0 = np.asarray(fk(robot, np.asarray(q, float)))[:3, 3]
+    return jaxstiff.Path(p0 + np.linspace(0.0, length, P)[:, None] * np.asarray(direction, float)[None])
+
+
+def _shape(robot, path, solver):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", MissedTargetWarning)
+        return jaxstiff.shape(robot, path, "f2", 5.0, solver=solver)
+
+
+def _check_first_waypoint(robot, path, solvers):
+    ref = _shape(robot, path, "slsqp")
+    assert ref.status[0, 0] == 0
+    assert ref.in_target[0, 0], "the case is meant to be one slsqp solves in target"
+    for solver in solvers:
+        res = _shape(robot, path, solver)
+        assert res.status[0, 0] == 0
+        rho, rho_ref = res.ratio[0, 0], ref.ratio[0, 0]
+        assert abs(rho - rho_ref) <= 0.02 * rho_ref, (solver, rho, rho_ref)
+        # the same optimum, not only the same ratio: f2 within 2 % of slsqp's
+        assert res.criterion[0, 0] <= 1.02 * ref.criterion[0, 0], (solver, res.criterion[0, 0], ref.criterion[0, 0])
+
+
+@pytest.mark.slow
+def test_first_waypoint_ur10_tool0_matches_slsqp():
+    """A straight line on the UR10 (tip tool0, rotated joint frames). Before the fix pgd ended at
+    rho 1.54 (alpha 2.2 deg) at waypoint 0 where slsqp reached rho 5.0 (alpha 0)."""
+    robot = jaxstiff.Robot.from_urdf(UR10, tip_link="tool0")
+    q = np.clip(0.5 * (robot.lower + robot.upper) + 0.4, robot.lower, robot.upper)
+    _check_first_waypoint(robot, _line(robot, q, [0.0, 1.0, 0.0]), ("pgd", "hybrid"))
+
+
+@pytest.mark.slow
+def test_first_waypoint_lwr_matches_slsqp():
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    q = np.radians([20.0, 40.0, -10.0, -70.0, 15.0, 30.0, 0.0])
+    _check_first_waypoint(robot, _line(robot, q, [1.0, 0.0, 0.0]), ("pgd",))
+
+
+# ---------------------------------------------------------------------- the warning's cause
+META = {"criterion": "f2", "solver": "pgd", "limits": {"kmin": 1.0, "kmax": 100.0, "first_rate_limit": False}}
+NAMES = ["a1", "a2", "a3"]
+
+
+def test_first_waypoint_miss_names_its_own_cause_not_look_ahead():
+    status = np.zeros((1, 3), int)
+    flag = np.array([[False, True, True]])  # only waypoint 0 misses
+    kj = np.full((1, 3, 3), 50.0)
+    kj[0, 0] = [1.0, 100.0, 37.0]  # the stiffness range is used end to end
+    text = missed_target_warning(status, flag, META, kj, NAMES)
+    assert text is not None and "path 0: waypoints 0" in text
+    assert "look ahead" not in text
+    assert "no rate limit" in text and "range binds" in text and "a1 at kmin" in text and "a2 at kmax" in text
+    kj[0, 0] = [1.0, 60.0, 37.0]  # only kmin reached: the ratios are free, no bound holds the shape
+    text = missed_target_warning(status, flag, META, kj, NAMES)
+    assert text is not None and "local optimum" in text and "range binds" not in text and "look ahead" not in text
+
+
+def test_later_waypoints_keep_the_look_ahead_advice_and_first_gets_its_own():
+    status = np.array([[3, 0, 0, 0]])  # waypoint 0 unusable: waypoint 1 is the first solved without rate limit
+    flag = np.array([[False, False, True, False]])
+    kj = np.full((1, 4, 3), 50.0)
+    assert first_free_waypoints(status, META).tolist() == [1]
+    text = missed_target_warning(status, flag, META, kj, NAMES)
+    assert text is not None and "path 0: waypoints 1, 3" in text
+    assert "path 0: waypoint 1 has no rate limit" in text and "local optimum" in text
+    assert "cannot look ahead" in text  # waypoint 3 follows a rate-limited chain
+    # a rate-limited first waypoint is one of the chain: the usual advice only
+    limited = {**META, "limits": {**META["limits"], "first_rate_limit": True}}
+    assert first_free_waypoints(status, limited).tolist() == [-1]
+    text = missed_target_warning(status, flag, limited, kj, NAMES)
+    assert text is not None and "no rate limit" not in text and "cannot look ahead" in text
