@@ -10,9 +10,10 @@ stiffness semi-axis along the path drawn ``0.21 L`` long (about 25 cm on the LWR
 The camera (:func:`choose_view`) looks at the box around the arm's postures, the path and the
 ellipsoids from the direction (out of about 400 with an elevation of 5 to 70 degrees) that best
 shows, in this order of weight: the ellipsoid unhidden by the links (no link sample outside the
-ellipsoid in the corridor from the TCP towards the camera), the ellipsoid's largest cross-section
-(looking along its shortest axis), the path's plane face on and its longest extent broadside, an
-elevation near 30 degrees, and the arm from the side of the work away from its base.
+ellipsoid in the corridor from the TCP towards the camera), a large cross-section of the ellipsoid
+(half of its largest is enough), the path's plane seen from at least 33 degrees off edge-on and its
+longest extent broadside, an elevation near 30 degrees, and the arm from the side of the work away
+from its base.
 """
 
 from __future__ import annotations
@@ -28,6 +29,10 @@ __all__ = ["ArmSizes", "arm_sizes", "arm_length", "nice_scale", "screen_semi_axi
 MANTISSAS = (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
 SEMI_AXIS_PER_LENGTH = 0.21  #: largest semi-axis on screen / arm length (0.25 m on the 1.18 m LWR)
 RADIUS_PER_LENGTH = 0.025  #: link radius / arm length (0.03 m on the LWR)
+#: a view that shows the ellipsoid's cross-section at half its largest (pi a b), or the path's plane
+#: at 0.3 of face on (33 degrees above a horizontal plane), scores full marks: looking straight along
+#: the shortest axis of a flat ellipsoid or at a horizontal path from overhead loses the arm's depth
+ELLIPSOID_ENOUGH, PLANE_ENOUGH = 0.5, 0.3
 
 
 def nice_scale(largest: float, screen: float) -> float:
@@ -92,7 +97,7 @@ def arm_sizes(joints: np.ndarray, tcp: np.ndarray) -> ArmSizes:
         d = d[d > 1e-6]
         if d.size:
             ball[i] = min(ball[i], 0.45 * float(d.min()))
-    ball = np.maximum(ball, 0.6 * r)  # never thinner than the links (0.6 r: the hand's link)
+    ball = np.maximum(ball, 0.3 * r)  # still visible where joint origins nearly meet
     link = np.full(n + 1, r)
     link[-1] = 0.6 * r  # the hand: from the last joint to the TCP, where the ellipsoid sits
     return ArmSizes(
@@ -151,7 +156,8 @@ def choose_view(
     # the ellipsoid's cross-section seen along v, / its largest (pi a b): 1 looking along the shortest axis
     a, b, c = (np.maximum(semi[:, k], 1e-9) for k in range(3))
     ve = np.einsum("kd,nde->kne", v, axes)  # (K, N, 3) v in each ellipsoid's axes
-    s_ell = np.sqrt((c / a) ** 2 * ve[..., 0] ** 2 + (c / b) ** 2 * ve[..., 1] ** 2 + ve[..., 2] ** 2).mean(-1)
+    area = np.sqrt((c / a) ** 2 * ve[..., 0] ** 2 + (c / b) ** 2 * ve[..., 1] ** 2 + ve[..., 2] ** 2)
+    s_ell = np.minimum(area / ELLIPSOID_ENOUGH, 1.0).mean(-1)
 
     # links between the TCP and the camera: samples along every link, outside the ellipsoid's smallest semi-axis
     t = np.linspace(0.0, 1.0, 9)
@@ -160,9 +166,9 @@ def choose_view(
     dist = np.linalg.norm(u, axis=-1)
     along = np.einsum("kd,nsd->kns", v, u)
     perp = np.sqrt(np.maximum(dist[None] ** 2 - along**2, 0.0))
-    corridor = (np.maximum(semi[:, 1], 2.0 * radius) + radius)[None, :, None]
+    corridor = (np.maximum(semi[:, 1], 2.0 * radius) + 2.0 * radius)[None, :, None]
     outside = (dist > c[:, None] + radius)[None]
-    clear = np.where((along > 0) & outside, np.clip(perp / corridor, 0.0, 1.0), 1.0)
+    clear = np.where((along > 0) & outside, np.clip(perp / corridor, 0.0, 1.0) ** 2, 1.0)
     s_vis = clear.min(-1).mean(-1)
 
     # the path: its plane face on (adjugate of the covariance) and its longest extent broadside
@@ -174,7 +180,7 @@ def choose_view(
         adj = E @ np.diag([w[1] * w[2], w[0] * w[2], w[0] * w[1]]) @ E.T
         top = float(np.linalg.eigvalsh(adj)[-1])
         face = np.einsum("kd,de,ke->k", v, adj, v) / top if top > 1e-18 * w[2] ** 2 else broad
-        s_path = 0.5 * broad + 0.5 * face
+        s_path = 0.5 * broad + 0.5 * np.minimum(face / PLANE_ENOUGH, 1.0)
 
     elev = np.degrees(np.arcsin(np.clip(v[:, 2], -1, 1)))
     s_elev = 1.0 - np.abs(elev - 30.0) / 60.0
