@@ -43,7 +43,7 @@ def _result(name: str, out: str) -> jaxstiff.ShapeResult:
     urdf, tip, locked = ARMS[name]
     robot = jaxstiff.Robot.from_urdf(urdf, tip_link=tip, locked=locked)
     lo, hi = np.maximum(robot.lower, -2.0), np.minimum(robot.upper, 2.0)
-    q = lo + 0.55 * (hi - lo)
+    q = np.clip(0.5 * (lo + hi) + 0.7 * (-1.0) ** np.arange(robot.n), lo, hi)  # bent at every joint: not singular
     q[~robot.free] = robot.locked_values[~robot.free]
     p0 = np.asarray(jaxstiff.fk(robot, q))[:3, 3]
     path = p0 + np.linspace(-0.5, 0.5, 4)[:, None] * np.array([0.0, 0.04, 0.02])
@@ -122,4 +122,4 @@ def test_png_timeout_writes_nothing(shape_file, tmp_path) -> None:
     out = str(tmp_path / "p.png")
     with pytest.raises(TimeoutError, match=r"did not finish .* within 1 s; nothing written"):
         screenshot(html, out, timeout=1.0)
-    assert not os.path.exists(out) and os.listdir(tmp_path) == ["p.html"]
+    assert not os.path.exists(out) and sorted(os.listdir(tmp_path)) == ["p.html", "shape.npz"]
