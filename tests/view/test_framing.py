@@ -61,7 +61,7 @@ def _scene(angle: float) -> tuple[np.ndarray, ...]:
     chain = np.stack([[[0, 0, 0], [0, 0, 0.3], [0.3, 0.5 * t[1], 0.6], [0.55, t[1], 0.5], t] for t in tcp])
     path = tcp + np.array([0.0, 0.0, 0.05]) * np.sin(np.linspace(0, 3, 7))[:, None]
     semi = np.tile([0.25, 0.05, 0.01], (7, 1))
-    axes = np.tile(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]).T, (7, 1, 1))  # columns y, z, x
+    axes = np.tile(np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]), (7, 1, 1))  # columns y, z, x
     return path @ R.T, chain @ R.T, semi, np.einsum("ij,njk->nik", R, axes), R
 
 
