@@ -1,6 +1,5 @@
-"""The viewer: a viser server with the scene and its panel (:func:`open_viewer`), and the static
-page (:func:`write_html`, viser's own standalone export: the scene and a recorded animation over
-the waypoints, one self-contained HTML file that opens from disk without a server).
+"""The live viewer: a viser server with the scene and its panel (:func:`open_viewer`). The static
+page with the same panel is :func:`jaxstiff.view.static.write_html`.
 
 The panel: a path selector (B > 1), the waypoint slider, play/pause and the speed, "all ellipsoids
 along the path", and the numbers at the current waypoint (shape: alpha, rho, criterion, status,
@@ -18,7 +17,7 @@ from typing import Any
 from jaxstiff.view.data import ViewData
 from jaxstiff.view.scene import Scene
 
-__all__ = ["open_viewer", "write_html", "panel_markdown", "Viewer"]
+__all__ = ["open_viewer", "panel_markdown", "Viewer", "serve_forever"]
 
 
 def panel_markdown(data: ViewData, b: int, p: int) -> str:
@@ -67,6 +66,15 @@ class Viewer:
         self.panel = gui.add_markdown(panel_markdown(data, 0, 0))
         self.lock = threading.Lock()
 
+    def start_at(self, b: int = 0, p: int = 0, all_on: bool = False) -> None:
+        """Show path b, waypoint p, and "all ellipsoids" when ``all_on`` (the panel follows)."""
+        if self.path is not None:
+            self.path.value = self.data.labels[b]
+        self.slider.value = min(max(int(p), 0), self.data.P - 1)
+        self.all.value = bool(all_on)
+        self.refresh()
+        self.scene.show_all(bool(all_on))
+
     def _b(self) -> int:
         return 0 if self.path is None else self.data.labels.index(str(self.path.value))
 
@@ -97,33 +105,3 @@ def serve_forever(viewer: Viewer) -> None:
     """Play loop until Ctrl-C."""
     while True:
         time.sleep(viewer.step())
-
-
-def write_html(
-    data: ViewData, out: str, b: int = 0, n_per_m: float | None = None, seconds_per_waypoint: float = 0.1
-) -> str:
-    """A standalone HTML page of path b: the scene, animated over the waypoints (viser's player)."""
-    import viser
-
-    from jaxstiff.runtime.io import atomic_write_text
-
-    server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
-    try:
-        scene = Scene(server, data, n_per_m)
-        scene.show(b, 0)
-        rec = server.get_scene_serializer()
-        for p in range(data.P):
-            scene.show(b, p)
-            rec.insert_sleep(seconds_per_waypoint)
-        html = rec.as_html()
-    finally:
-        server.stop()
-    return atomic_write_text(out, html)
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])

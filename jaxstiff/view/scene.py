@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.view.data import ViewData
+from jaxstiff.view.framing import arm_sizes, choose_view, nice_scale, screen_semi_axis
 from jaxstiff.view.geometry import capsule, cylinder, icosphere
 from jaxstiff.view.kinematics import chain_frames, ellipsoid_axes, link_frames
 from jaxstiff.view.meshes import urdf_meshes
@@ -35,22 +36,10 @@ COLORS = {
     "all": (255, 190, 90),
 }
 _LOOK: dict[str, dict[str, Any]] = {"ellipsoid": {}, "desired": {"opacity": 0.9}}
-CAPSULE_RADIUS = 0.03  #: m
-PATH_THICKNESS = 0.005  #: m, the path's line (thinner than an ellipsoid's short axes, which it would hide)
-SCREEN_SEMI_AXIS = 0.25  #: m on screen of the largest semi-axis along the path (before rounding the scale)
-VIEW = np.array([0.75, -0.95, 0.8]) / np.linalg.norm([0.75, -0.95, 0.8])  #: from the scene's centre to the camera
+NEAR_OPACITY = 0.35  #: links and joints that can come between the camera and the ellipsoid are see-through
 FOV_DEG, ASPECT = 75.0, 1.1  #: viser's vertical field of view; width / height of the page left of the panel
 CAMERA_MARGIN = 1.25  #: the camera this much further than the closest distance that shows everything
 CAMERA_SHIFT = 0.08  #: look this far (diagonals) right of the centre: the panel covers the page's right side
-
-
-def nice_scale(largest: float, screen: float = SCREEN_SEMI_AXIS) -> float:
-    """N/m per metre on screen: ``largest / screen`` rounded up to 1, 2 or 5 x 10^k."""
-    if not np.isfinite(largest) or largest <= 0:
-        return 1.0
-    raw = largest / screen
-    e = 10 ** math.floor(math.log10(raw))
-    return float(next(m * e for m in (1, 2, 5, 10) if m * e >= raw * (1 - 1e-12)))
 
 
 def rotation_wxyz(R: np.ndarray) -> np.ndarray:
@@ -115,18 +104,25 @@ class Scene:
     Args:
         server: a ``viser.ViserServer``.
         data: the result (:func:`jaxstiff.view.data.load_view_data`).
-        n_per_m: ellipsoid scale, N/m per metre on screen (default: :func:`nice_scale` of the file).
+        n_per_m: ellipsoid scale, N/m per metre on screen (default: :func:`nice_scale` of the file's
+            largest semi-axis, drawn at :func:`~jaxstiff.view.framing.screen_semi_axis` of the arm's length).
         every: with "all ellipsoids", draw every ``every``-th waypoint's.
+
+    Sizes follow the arm (:func:`~jaxstiff.view.framing.arm_sizes`); the links and joints that can
+    come between the camera and the ellipsoid (within the largest drawn semi-axis of a TCP along
+    the file) are drawn see-through (opacity :data:`NEAR_OPACITY`): viser draws see-through meshes
+    after the solid ones, so the solid ellipsoid shows through them, and it has no per-mesh "draw on
+    top" (depth test) switch. The camera: :func:`~jaxstiff.view.framing.choose_view`.
     """
 
     def __init__(self, server: Any, data: ViewData, n_per_m: float | None = None, every: int = 1) -> None:
         self.server, self.data, self.every = server, data, max(1, int(every))
-        big = [data.K] + ([data.K_desired] if data.K_desired is not None else [])
-        self.n_per_m = (
-            float(n_per_m) if n_per_m else nice_scale(max(float(ellipsoid_axes(k)[0][..., 0].max()) for k in big))
-        )
         self.frames = chain_frames(data.robot, data.q)  # (B, P, n, 4, 4), (B, P, 4, 4)
         self.links = link_frames(data.robot, data.q) if data.robot.n else None
+        self.sizes = arm_sizes(*self.frames)
+        big = [data.K] + ([data.K_desired] if data.K_desired is not None else [])
+        largest = max(float(ellipsoid_axes(k)[0][..., 0].max()) for k in big)
+        self.n_per_m = float(n_per_m) if n_per_m else nice_scale(largest, screen_semi_axis(self.sizes.length))
         self.meshes, missing = urdf_meshes(data.robot)
         if missing:
             warnings.warn(
@@ -136,50 +132,99 @@ class Scene:
             )
             self.meshes = []
         self.sphere = icosphere(3)  # (vertices, faces) of the unit sphere
+        self.points = self._chain_points()  # (B, P, n + 2, 3)
+        self.near = self._near_tcp()
+        self.view = self._choose_view()
         self.beside = self._beside_offset()
         self.b, self.p = 0, 0
         self.capsules: dict[int, tuple[Any, float]] = {}
         self.all_handles: list[Any] = []
         sc = server.scene
         sc.set_up_direction("+z")
-        sc.add_grid("/grid", width=1.6, height=1.6, cell_size=0.1, position=(0.0, 0.0, 0.0))
+        self._add_grid()
         self.handles: dict[str, Any] = {}
         self._add_path(0)
         self._add_static_arm()
         self.show(0, 0)
         self._camera()
 
+    # ------------------------------------------------------------------ geometry
+    def _chain_points(self) -> np.ndarray:
+        joints, tcp = self.frames
+        base = np.zeros(joints.shape[:-3] + (1, 3))
+        return np.concatenate([base, joints[..., :3, 3], tcp[..., None, :3, 3]], axis=-2)
+
+    def _semi(self, K: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Drawn semi-axes (m) and directions of stiffness matrices K."""
+        w, V = ellipsoid_axes(K)
+        return w / self.n_per_m, V
+
+    def _near_tcp(self) -> np.ndarray:
+        """(n + 2,) bool per point of the chain (base, joints, TCP): the link from it to the next
+        point, or its joint ball, comes within the largest drawn semi-axis (+ a link radius) of
+        the TCP at some waypoint."""
+        pts = self.points.reshape(-1, self.points.shape[-2], 3)
+        tcp = pts[:, -1:]
+        reach = float(self._semi(self.data.K)[0][..., 0].max()) + 2.0 * self.sizes.radius
+        t = np.linspace(0.0, 1.0, 9)[:, None, None, None]
+        seg = pts[None, :, :-1] * (1 - t) + pts[None, :, 1:] * t  # (9, N, n + 1, 3)
+        link_near = (np.linalg.norm(seg - tcp[None], axis=-1) < reach).any(axis=(0, 1))
+        ball_near = (np.linalg.norm(pts - tcp, axis=-1) < reach + 1.5 * self.sizes.radius).any(axis=0)
+        return np.append(link_near, True) | ball_near
+
+    def _choose_view(self) -> np.ndarray:
+        d = self.data
+        semi, V = self._semi(d.K)
+        N = d.B * d.P
+        path = d.target.reshape(-1, 3)
+        chain = self.points.reshape(N, -1, 3)
+        return choose_view(path, chain, semi.reshape(N, 3), V.reshape(N, 3, 3), self.sizes.radius)
+
     # ------------------------------------------------------------------ nodes
+    def _add_grid(self) -> None:
+        """A floor grid at z = 0 under the whole scene, cells of 10 cm (5 cm for arms under 0.6 m)."""
+        cell = self.sizes.grid_cell
+        pts = np.vstack([self.points.reshape(-1, 3), self.data.target.reshape(-1, 3)])
+        half = float(np.abs(pts[:, :2]).max()) + 2 * cell
+        width = 2 * cell * math.ceil(half / cell)
+        self.server.scene.add_grid("/grid", width=width, height=width, cell_size=cell, position=(0.0, 0.0, 0.0))
+
     def _add_path(self, b: int) -> None:
-        sc, d = self.server.scene, self.data
+        sc, d, s = self.server.scene, self.data, self.sizes
         pts = d.target[b]
         seg = np.stack([pts[:-1], pts[1:]], axis=1) if d.P > 1 else np.stack([pts, pts], axis=1)
-        self.handles["path"] = sc.add_line_segments("/path", seg, COLORS["path"], thickness=PATH_THICKNESS)
+        self.handles["path"] = sc.add_line_segments("/path", seg, COLORS["path"], thickness=s.path_thickness)
         if d.direction is not None:  # about 15 strokes along the path: denser ones would hide the ellipsoid
             k = max(1, d.P // 15)
-            dd = d.direction[b, ::k] * 0.04
+            dd = d.direction[b, ::k] * s.stroke
             seg = np.stack([pts[::k] - dd, pts[::k] + dd], axis=1)
             self.handles["directions"] = sc.add_line_segments(
-                "/directions", seg, COLORS["direction"], thickness=0.5 * PATH_THICKNESS
+                "/directions", seg, COLORS["direction"], thickness=0.5 * s.path_thickness
             )
 
+    def _look(self, near: bool) -> dict[str, Any]:
+        return {"opacity": NEAR_OPACITY, "cast_shadow": False} if near else {}
+
     def _add_static_arm(self) -> None:
-        sc = self.server.scene
+        sc, s = self.server.scene, self.sizes
         for k, m in enumerate(self.meshes):
-            self.handles[f"mesh{k}"] = sc.add_mesh_simple(f"/arm/mesh{k}", m.vertices, m.faces, color=COLORS["arm"])
-        self.handles["tcp"] = sc.add_frame("/tcp", axes_length=0.06, axes_radius=0.004)
+            near = bool(self.near[m.anchor + 1])
+            self.handles[f"mesh{k}"] = sc.add_mesh_simple(
+                f"/arm/mesh{k}", m.vertices, m.faces, color=COLORS["arm"], **self._look(near)
+            )
+        self.handles["tcp"] = sc.add_frame("/tcp", axes_length=s.tcp_axes, axes_radius=0.08 * s.tcp_axes)
         for key in ("ellipsoid", "desired") if self.data.K_desired is not None else ("ellipsoid",):
             self.handles[key] = sc.add_mesh_simple(f"/{key}", *self.sphere, color=COLORS[key], scale=0.01, **_LOOK[key])
         if self.data.K_desired is not None:
             self.handles["desired_label"] = sc.add_label("/desired_label", "desired K_xd", position=(0.0, 0.0, 0.0))
             self.handles["realised_label"] = sc.add_label("/realised_label", "realised K_C", position=(0.0, 0.0, 0.0))
-        n = self.data.robot.n
-        ball = icosphere(2, radius=1.6 * CAPSULE_RADIUS)
-        stick = cylinder(radius=0.2 * CAPSULE_RADIUS, height=0.16, sections=12)
-        for i in range(n):
+        stick = cylinder(radius=0.2 * s.radius, height=s.axis_length, sections=12)
+        for i in range(self.data.robot.n):
+            look = self._look(bool(self.near[i + 1]))
             if not self.meshes:
-                self.handles[f"joint{i}"] = sc.add_mesh_simple(f"/arm/joint{i}", *ball, color=COLORS["joint"])
-            self.handles[f"axis{i}"] = sc.add_mesh_simple(f"/arm/axis{i}", *stick, color=COLORS["axis"])
+                ball = icosphere(2, radius=float(s.ball[i]))
+                self.handles[f"joint{i}"] = sc.add_mesh_simple(f"/arm/joint{i}", *ball, color=COLORS["joint"], **look)
+            self.handles[f"axis{i}"] = sc.add_mesh_simple(f"/arm/axis{i}", *stick, color=COLORS["axis"], **look)
         self.handles["label"] = sc.add_label("/label", "", position=(0.0, 0.0, 0.0), anchor="bottom-left")
 
     def _pose_arm(self, b: int, p: int) -> None:
@@ -189,16 +234,17 @@ class Scene:
             T = (np.eye(4) if m.anchor < 0 or self.links is None else self.links[b, p, m.anchor]) @ m.offset
             h = self.handles[f"mesh{k}"]
             h.position, h.wxyz = T[:3, 3], rotation_wxyz(T[:3, :3])
-        pts = np.vstack([np.zeros(3), joints[:, :3, 3], tcp[:3, 3]])
+        pts = self.points[b, p]
         if not self.meshes:
             for i in range(len(pts) - 1):
                 self._pose_capsule(i, pts[i], pts[i + 1])
         z = np.einsum("nij,nj->ni", joints[:, :3, :3], np.asarray(d.robot.axes, dtype=float))
+        half = 0.5 * self.sizes.axis_length
         for i in range(d.robot.n):
             if not self.meshes:
                 self.handles[f"joint{i}"].position = pts[i + 1]
             h = self.handles[f"axis{i}"]
-            h.position, h.wxyz = pts[i + 1], _segment_pose(pts[i + 1] - z[i], pts[i + 1] + z[i])[1]
+            h.position, h.wxyz = pts[i + 1], _segment_pose(pts[i + 1] - half * z[i], pts[i + 1] + half * z[i])[1]
         self.handles["tcp"].position, self.handles["tcp"].wxyz = tcp[:3, 3], rotation_wxyz(tcp[:3, :3])
 
     def _pose_capsule(self, i: int, p0: np.ndarray, p1: np.ndarray) -> None:
@@ -209,7 +255,12 @@ class Scene:
         centre, wxyz, L = _segment_pose(p0, p1)
         h, L0 = self.capsules.get(i, (None, -1.0))
         if h is None or abs(L - L0) > 1e-9:  # new, or a prismatic joint changed the length
-            h = self.server.scene.add_mesh_simple(f"/arm/link{i}", *capsule(L, CAPSULE_RADIUS), color=COLORS["arm"])
+            h = self.server.scene.add_mesh_simple(
+                f"/arm/link{i}",
+                *capsule(L, float(self.sizes.link[i])),
+                color=COLORS["arm"],
+                **self._look(bool(self.near[i])),
+            )
             self.capsules[i] = (h, L)
         h.position, h.wxyz, h.visible = centre, wxyz, True
 
@@ -234,7 +285,7 @@ class Scene:
             self.handles["desired_label"].position = tcp + self.beside + np.array([0.0, 0.0, self.beside_height])
             self.handles["realised_label"].position = tcp + np.array([0.0, 0.0, self.beside_height])
         lab = self.handles["label"]
-        lab.position = tcp + np.array([0.0, 0.0, 0.05])
+        lab.position = tcp + np.array([0.0, 0.0, self.sizes.label_lift])
         lab.text = f"{'waypoint' if d.kind == 'shape' else 'step'} {p}: " + ", ".join(
             f"{k} {v}" for k, v in d.info(b, p)[:2]
         )
@@ -248,13 +299,14 @@ class Scene:
             return
         d, b = self.data, self.b
         for p in range(0, d.P, self.every):
-            verts = ellipsoid_vertices(self.sphere[0], d.K[b, p], self.n_per_m)
+            wxyz, semi = ellipsoid_pose(d.K[b, p], self.n_per_m)
             h = self.server.scene.add_mesh_simple(
                 f"/all/e{p}",
-                verts,
-                self.sphere[1],
+                *self.sphere,
                 color=COLORS["all"],
                 opacity=0.5,
+                scale=semi,
+                wxyz=wxyz,
                 position=self.frames[1][b, p, :3, 3],
             )
             self.all_handles.append(h)
@@ -268,32 +320,36 @@ class Scene:
             return np.zeros(3)
         sc, sd = (float(ellipsoid_axes(K)[0][..., 0].max()) / self.n_per_m for K in (d.K, d.K_desired))
         self.beside_height = max(sc, sd) + 0.02
-        right = np.cross(-VIEW, [0.0, 0.0, 1.0])
+        right = np.cross(-self.view, [0.0, 0.0, 1.0])
         return right / np.linalg.norm(right) * (sc + sd + 0.04)
 
     def _camera(self) -> None:
         """Frame the arm, the path and the ellipsoids (the largest semi-axis around every TCP): the
-        camera looks along ``-VIEW`` from just far enough that every such point is in the picture
-        (viser's vertical field of view, the width left of the panel), a little right of the centre."""
+        camera looks along ``-self.view`` (:func:`~jaxstiff.view.framing.choose_view`) at the centre
+        of their box, from just far enough that every such point is in the picture (viser's vertical
+        field of view, the width left of the panel), a little right of the centre."""
         d = self.data
         tcp = self.frames[1][..., :3, 3].reshape(-1, 3)
         big = float(ellipsoid_axes(d.K)[0][..., 0].max()) / self.n_per_m
         pts = np.vstack(
-            [d.target.reshape(-1, 3), self.frames[0][..., :3, 3].reshape(-1, 3), np.zeros((1, 3))]
+            [d.target.reshape(-1, 3), self.points.reshape(-1, 3)]
             + [tcp + big * e for e in np.vstack([np.eye(3), -np.eye(3)])]
             + [tcp + self.beside + s * self.beside_height * e for e in np.eye(3) for s in (-1, 1)]
         )
+        view = self.view
         lo, hi = pts.min(0), pts.max(0)
-        right = np.cross(-VIEW, [0.0, 0.0, 1.0])
+        right = np.cross(-view, [0.0, 0.0, 1.0])
         right /= np.linalg.norm(right)
-        up = np.cross(right, -VIEW)
+        up = np.cross(right, -view)
         centre = 0.5 * (lo + hi) + CAMERA_SHIFT * float(np.linalg.norm(hi - lo)) * right
         rel = pts - centre
         tan_v = math.tan(math.radians(FOV_DEG) / 2)
-        need = rel @ VIEW + np.maximum(np.abs(rel @ up) / tan_v, np.abs(rel @ right) / (ASPECT * tan_v))
+        need = rel @ view + np.maximum(np.abs(rel @ up) / tan_v, np.abs(rel @ right) / (ASPECT * tan_v))
+        self.look_at = centre
+        self.position = centre + CAMERA_MARGIN * max(float(need.max()), 0.25 * self.sizes.length) * view
         cam = self.server.initial_camera
-        cam.look_at = tuple(centre)
-        cam.position = tuple(centre + CAMERA_MARGIN * max(float(need.max()), 0.3) * VIEW)
+        cam.look_at = tuple(self.look_at)
+        cam.position = tuple(self.position)
         cam.up = (0.0, 0.0, 1.0)
 
     def scale_text(self) -> str:

@@ -1,6 +1,7 @@
 """`jaxstiff view` and its `--html` page in a real headless Chromium (the Debian package, driven by
 playwright with ``executable_path``): the screenshot shows the arm, the path and the ellipsoid in
-their colours, and moving the waypoint slider (the page's timeline) changes the picture.
+their colours, and moving the waypoint slider (the live panel's, or the static page's own panel)
+changes the picture. `--png` on several arms: tests/view/test_png_arms.py.
 
 Skipped, saying why, where Chromium or playwright is missing; ``.ci/run`` installs both."""
 
@@ -122,21 +123,41 @@ def test_live_viewer(readme_result, browser) -> None:
         proc.wait(20)
 
 
+def _pale(img: np.ndarray) -> int:
+    """Pixels of "all ellipsoids" (COLORS["all"] at opacity 0.5 over the white page)."""
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    return int(np.sum((r > 235) & (g > 195) & (g < 240) & (b > 120) & (b < 215) & (r - b > 35)))
+
+
 def test_static_html_page(readme_result, browser, tmp_path) -> None:
+    """The --html page opened from disk has the live viewer's panel: the waypoint field moves the
+    arm and the numbers, "all ellipsoids" draws them, Space plays."""
     html = str(tmp_path / "shape.html")
     subprocess.run([sys.executable, "-m", "jaxstiff", "view", readme_result, "--html", html], check=True)
     page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.set_default_timeout(90_000)
     page.goto("file://" + html)
-    page.wait_for_selector("canvas")
-    _settled(page)
-    page.keyboard.press("Space")  # pause the animation where it is
+    page.wait_for_function("window.__jaxstiffView && window.__jaxstiffView.ready")
     first = _settled(page)
-    page.mouse.click(1000, 780)  # the timeline: jump towards the end of the path
-    t0 = time.time()
+    assert "waypoint 0 of 59" in page.inner_text("#jx-numbers") and "lwr_a7: rigid" in page.inner_text("#jx-numbers")
+    page.fill("#jx-waypoint-number", "45")
+    page.press("#jx-waypoint-number", "Enter")
     page.wait_for_timeout(2000)
     second = _settled(page)
-    assert time.time() - t0 < 90
-    assert np.mean(np.any(first[:740] != second[:740], axis=-1)) > 0.002
+    assert "waypoint 45 of 59" in page.inner_text("#jx-numbers")
+    assert page.evaluate("window.__jaxstiffView.slot") == 45
+    assert np.mean(np.any(first[:, :850] != second[:, :850], axis=-1)) > 0.002  # the arm moved
+    page.check("#jx-all")
+    page.wait_for_timeout(2000)
+    third = _settled(page)
+    assert page.evaluate("window.__jaxstiffView.slot") == 60 + 45  # the slot of "all ellipsoids", same waypoint
+    assert _pale(third[:, :850]) > _pale(second[:, :850]) + 2000, (_pale(second), _pale(third))
+    page.evaluate("document.activeElement && document.activeElement.blur()")
+    page.keyboard.press("Space")  # our player (viser's own would run on into the next slots)
+    page.wait_for_timeout(3000)
+    page.keyboard.press("Space")
+    state = page.evaluate("window.__jaxstiffView.state")
+    assert state["waypoint"] != 45 and state["all"] is True and not state["playing"]
 
 
 def _open(browser, port: int):
