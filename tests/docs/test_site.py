@@ -46,10 +46,15 @@ ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"
 pytestmark = pytest.mark.skipif(
     bool(MISSING), reason=f"mkdocs is not installed ({', '.join(MISSING)} missing): pip install '.[docs]'"
 )
-browser = pytest.mark.skipif(
+browser_deps = pytest.mark.skipif(
     CHROMIUM is None or importlib.util.find_spec("playwright") is None,
     reason="no Chromium (apt-get install chromium) or no playwright (the test extra) for the browser test",
 )
+
+
+def browser(fn):
+    """A browser test: slow (Chromium starts, the site is served), like the viewer's browser tests."""
+    return pytest.mark.slow(browser_deps(fn))
 
 
 @pytest.fixture(scope="module")
