@@ -32,7 +32,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "scripts"))
 
 def main(argv: list[str] | None = None) -> int:
     """Run the study and write its tables and figure. One function (~110 lines) on purpose: an
-    experiment is a short script read top to bottom (STYLE.md), parse -> paths -> solvers -> table."""
+    experiment is a short script read top to bottom, parse -> paths -> solvers -> table."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="2 random paths (unless --paths), fewer settings")
     ap.add_argument("--paths", type=int, default=None, help="random paths besides the default path")

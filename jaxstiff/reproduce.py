@@ -10,7 +10,7 @@ are run here as **subprocesses**, one after another:
 * a failing or hanging experiment (``timeout``) cannot take the others or the report down: it is
   marked failed in the report with the end of its log, and the command exits with code 1;
 * each gets a fresh interpreter (no state, JIT caches or x64 flags leak between experiments);
-* the scripts stay plain scripts (STYLE.md: each experiment is a short script that calls the
+* the scripts stay plain scripts (each experiment is a short script that calls the
   library), and the library does not import them.
 
 ``experiments/`` is not part of the installed package, so ``reproduce`` needs a source checkout: it

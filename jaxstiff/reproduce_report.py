@@ -250,7 +250,7 @@ def write_report(
     md += [f"- total wall time: {wall:.0f} s", "", "| experiment | status | wall time (s) |", "|---|---|---|"]
     for r in runs:
         status = "ok" if r.ok else ("timed out" if r.code is None else f"FAILED (exit {r.code})")
-        md.append(f"| [{r.name}](#{r.name.replace('_', '-').lower()}) | {status} | {r.wall_s:.1f} |")
+        md.append(f"| [{r.name}](#{r.name.lower()}) | {status} | {r.wall_s:.1f} |")
     md.append("")
     for r in runs:
         md += [f"## {r.name}", ""]

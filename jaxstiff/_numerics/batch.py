@@ -55,7 +55,7 @@ def batched_like(tree, ref: jax.Array):
     JAX's batching rule for ``fori_loop`` / ``scan`` then batches the whole loop body twice (once
     to find that the carry becomes batched, again with it batched), and a loop inside that body
     is batched once per pass of every loop around it. pgd's chunk program traced in about twice
-    the time for that (docs/notes/speed.md, 2026-12-04). ``select(p, v, v)`` is ``v`` whatever ``p``
+    the time for that (docs/notes/speed.md). ``select(p, v, v)`` is ``v`` whatever ``p``
     is (NaN included), and XLA removes it: the compiled program computes the same."""
     if jnp.size(ref) == 0:  # (an empty batch: nothing to batch by)
         return tree

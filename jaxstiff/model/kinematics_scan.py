@@ -95,9 +95,8 @@ def solver_uses_scan(robot: Chain) -> bool:
     joints. A solver program traces the kinematics several times (pgd: position and Jacobian in its
     LM stage, gradient steps and Newton corrections), so unrolled they are 38 % of pgd's traced
     equations for the LWR and most of its compile time, while they are a small share of its run
-    time. Measured on a 2-core Xeon, pgd 1000 x 100 waypoints on the LWR (6 free joints): compile
-    26.6 -> 16.3 s, run 33.0 -> 29.5 s, the same share of waypoints in target up to the chain's
-    rounding chaos (docs/notes/speed.md, 2026-12-04). Short chains (the planar arms) keep the
+    time (the measured compile and run times, pgd 1000 x 100 waypoints on the LWR: docs/benchmarks.md
+    and docs/notes/speed.md). Short chains (the planar arms) keep the
     unrolled kernel: it is small to compile and several times faster to run there (docs/notes/model.md)."""
     return uses_scan(robot) or robot.n > SOLVER_UNROLL_MAX_JOINTS
 

@@ -5,7 +5,7 @@ callback runs often during it: with Python's default handler, a Ctrl-C in that s
 KeyboardInterrupt inside the callback, where it was printed and dropped, and the command then ran
 to the end. When the process was started as the command (``jaxstiff ...`` or ``python -m
 jaxstiff ...``), the package's first import installs handlers that only remember the signal; the
-command line (:func:`jaxstiff._io.interrupt_handlers`) takes it over and stops before any work.
+command line (:func:`jaxstiff.runtime.io.interrupt_handlers`) takes it over and stops before any work.
 Imported as a library, nothing changes. Standard library only, so that it is in place before the
 heavy imports.
 """

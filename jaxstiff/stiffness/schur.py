@@ -11,7 +11,7 @@ every posture, singular ones included:
 
 At a singular posture ``S`` loses rank: the stiffness along the lost direction is infinite and
 the others are the inverses of the eigenvalues of ``S`` on its range. Inverting ``S`` (or ``C``)
-with a damping on the pivots of a factorisation, as before (issue 24), mixes the lost direction
+with a damping on the pivots of a factorisation (an earlier version did) mixes the lost direction
 with the others: the minor axes came out wrong (114 N/m instead of 37), changed with the batch
 size (rounding of ``C`` at 1e-17 was amplified by a 1e-18 pivot) and could even turn negative.
 Here the damping acts on the eigenvalues of ``S`` instead, so no rounding is amplified:

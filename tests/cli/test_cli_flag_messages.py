@@ -16,7 +16,10 @@ from jaxstiff.cli.common import parse_locks
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data")
 BRANCHED = os.path.join(DATA, "branched_tree.urdf")
-README = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
+DOCS = os.path.join(os.path.dirname(__file__), "..", "..", "docs")
+#: the user documentation that states the csc segment size and the CSV format (moved out of README.md)
+CSC_PAGE = os.path.join(DOCS, "csc.md")
+CSV_PAGE = os.path.join(DOCS, "howto", "view-plot-export.md")
 
 #: two revolute joints, the first named with an '=' in it (XML allows it)
 EQ_URDF = """<?xml version="1.0"?>
@@ -88,7 +91,7 @@ def test_csc_help_states_segment_work_from_the_constant(capsys, monkeypatch):
     with pytest.raises(SystemExit):
         main(["csc", "--help"])
     assert "(paths x steps over 5 x 10^4) runs in segments" in _words(capsys.readouterr().out)
-    assert "than 5 x 10^4 rollout-steps (paths x steps) goes in segments" in _words(open(README).read())
+    assert "than 5 x 10^4 rollout-steps (paths x steps) goes in segments" in _words(open(CSC_PAGE).read())
     monkeypatch.setattr(cli_csc, "SEGMENT_WORK", 200_000)  # the help follows the constant
     with pytest.raises(SystemExit):
         main(["csc", "--help"])
@@ -146,10 +149,10 @@ def test_csc_q0_limit_message_tells_value_and_limit_apart():
     check_q0_limits(robot, np.array([2.5 + 1e-10, 0.1, 0.0, 0.0]), "--q0", typed)  # the library's slack: accepted
 
 
-# ------------------------------------------------------------------ 6. the README's CSV section
+# ------------------------------------------------------------------ 6. the documentation's CSV section
 # (5. view --every and the export of a csc file: tests/view/test_export_and_cli.py)
-def test_readme_csv_section_tells_shape_and_csc_status_apart():
-    text = _words(open(README).read())
+def test_docs_csv_section_tells_shape_and_csc_status_apart():
+    text = _words(open(CSV_PAGE).read())
     assert "From a shape file, command the arm with `kj_scaled` (after CMS), and only rows with status 0-2" in text
     assert "In a csc file `status` is a bit mask, not those codes" in text
 

@@ -283,7 +283,7 @@ def _run_chunks(
                 pad_rows(extra[sl], C),
                 np.int32(P),
             )
-            if sharded:  # split the batch across all local devices (jaxstiff._sharding)
+            if sharded:  # split the batch across all local devices (jaxstiff.runtime.sharding)
                 from jaxstiff.runtime.sharding import shard_rows
 
                 placed, _ = shard_rows({str(i): args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})

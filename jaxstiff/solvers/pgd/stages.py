@@ -47,7 +47,7 @@ def optimise(
     is the loop's own counter, never batched, so the conditionals on it stay real branches under
     vmap (one branch runs), and the Adam loop with its projection and Newton corrections, and the
     Newton loop, are each compiled once instead of two or four times (a third fewer equations to
-    trace in pgd's program; docs/notes/speed.md, ninth session).
+    trace in pgd's program; docs/notes/speed.md).
     """
     if isinstance(first, bool):
         iters, ns, s0, decay_s, decay_f = _phase_constants(opts, first, lm is not None)

@@ -38,7 +38,7 @@ class WaypointProblem:
         locked_joints: ``"rigid"`` (default, SPEC section 1): a locked joint has no spring, adds no
             compliance and has no stiffness variable; its ``kj`` entry reads ``+inf``.
             ``"spring"``: a locked joint keeps its spring, whose stiffness is a variable like the
-            free joints' (the behaviour before issue 21). Without locked joints both are the same.
+            free joints'. Without locked joints both are the same.
     """
 
     robot: Robot
