@@ -229,10 +229,11 @@ class PGDOptions(SolverOptions):
     )
     seed: int = option(0, "seed of the random starts", kind="int", lo=0)
     first_exact: str = option(
-        "slsqp",
-        "first waypoint without rate limit: slsqp: its starts are greedy SLSQP's answers there "
-        "(jaxstiff.solvers.first_waypoint); none: pgd's own stages alone",
-        choices=("slsqp", "none"),
+        "retry",
+        "first waypoint without rate limit: retry: paths whose first waypoint pgd leaves out of "
+        "target are solved again from greedy SLSQP's answers there (jaxstiff.solvers.first_waypoint), "
+        "the better rollout kept; slsqp: every path starts from those answers; none: pgd's own stages alone",
+        choices=("retry", "slsqp", "none"),
     )
 
 

@@ -3,6 +3,7 @@ padded to the chunk size, and the :data:`~jaxstiff.solvers.base.SOLVERS` adapter
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
 from collections.abc import Mapping, Sequence
@@ -12,6 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxstiff.results import files as R
 from jaxstiff.runtime.export_cache import compile_with_export_cache
 from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
@@ -166,8 +168,8 @@ def solve_batch(
     dq_all, dk = limits.rows(B)  # (B, n) each: per-path rate limits
     dq_f = dq_all[:, list(problem.free_idx)]
     dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
+    S1 = max(int(opts["starts"]), int(opts["starts_first"])) if opts["mode"] == "best" else int(opts["starts"])
     if not first_rate and opts["first_exact"] == "slsqp":
-        S1 = max(int(opts["starts"]), int(opts["starts_first"])) if opts["mode"] == "best" else int(opts["starts"])
         first_starts = exact_first_starts(batch, first_starts, options, pos_tol, S1)
     extra = first_start_rows(problem, first_starts, B)
     # each path's key from the seed and the path's own data, never from its index: a path's result
@@ -178,6 +180,21 @@ def solve_batch(
     X, out, compile_s, run_s = _run_chunks(
         fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
     )
+    if not first_rate and opts["first_exact"] == "retry":
+        X, run_s = _retry_first(
+            batch,
+            first_starts,
+            options,
+            pos_tol,
+            S1,
+            (X, out, run_s),
+            per_path,
+            shared,
+            opts,
+            fn,
+            (C, threads),
+            disk_key,
+        )
     q = np.repeat(q0[:, None, :], P, axis=1)
     q[..., list(problem.free_idx)] = X[..., :nf]
     out["q"], out["kj"] = q, np.array(problem.kj_full(X[..., nf:]), copy=True)
@@ -185,6 +202,96 @@ def solve_batch(
     if return_timing:
         out["compile_s"], out["run_s"] = compile_s, run_s
     return out
+
+
+def first_off_target(
+    problem: WaypointProblem, status: np.ndarray, f: np.ndarray, r: np.ndarray, c: float
+) -> np.ndarray:
+    """(B,) True where a path's first waypoint is not provably in target: unusable, or a criterion
+    value that does not bound alpha and rho inside the in-target tolerances (the rule of
+    :func:`jaxstiff.solvers.greedy.maybe_off_target`). Always False for a criterion without such
+    a bound (a user's own) or without stiffness variables."""
+    from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL
+    from jaxstiff.stiffness.criteria import f2 as _f2
+
+    B = status.shape[0]
+    if problem.criterion_minimum(c) is None or problem.n_spring == 0:
+        return np.zeros(B, bool)
+    r = np.broadcast_to(np.asarray(r, float), (B,))
+    a, tol = ALPHA_TOL_DEG, RATIO_REL_TOL
+    if problem.criterion is _f2:
+        bound = np.minimum(1.0 + a, 1.0 + tol * r)
+    else:
+        bound = np.full(B, min(a + c, c / (1.0 - tol)))
+    usable = np.isin(status[:, 0], list(R.USABLE))
+    return ~(usable & (f[:, 0] < bound))
+
+
+def _path_score(status: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Per path, the rollout's own ranking (:meth:`PGDKernel.traj_batch`): fewest waypoints that
+    are not solved first, then the lowest sum of the criterion over the solved ones."""
+    solved = status == R.SOLVED
+    tot = np.sum(np.where(solved, f, 0.0), axis=1)
+    return np.sum(~solved, axis=1) * 1e12 + np.where(np.isfinite(tot), tot, 1e11)
+
+
+def _retry_first(
+    batch: WaypointBatch,
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
+    options: Mapping[str, Any] | None,
+    pos_tol: float,
+    S1: int,
+    done: tuple[np.ndarray, dict[str, Any], float],
+    per_path: tuple[np.ndarray, ...],
+    shared: tuple[float, float, float, float],
+    opts: Mapping[str, Any],
+    fn: Any,
+    chunking: tuple[int, int],
+    disk_key: str | None,
+) -> tuple[np.ndarray, float]:
+    """Option ``first_exact="retry"`` (the default): the paths whose first waypoint (no rate
+    limit) pgd left out of target are solved again, their first-waypoint starts replaced by greedy
+    SLSQP's answers there (:func:`exact_first_starts`); a path keeps the rerun only where the
+    rollout ranking prefers it. Paths already in target are untouched, so the cost is paid only
+    where pgd's own stages stalled (measured: most first waypoints of third-party arms such as the
+    UR10, few of the LWR's). ``out`` is updated in place; returns the new ``X`` and run time."""
+    X, out, run_s = done
+    problem = batch.problem
+    redo = np.flatnonzero(first_off_target(problem, out["status"], out["criterion"], batch.ratios, float(batch.c)))
+    if redo.size == 0:
+        return X, run_s
+    t0 = time.perf_counter()
+    sub = dataclasses.replace(
+        batch,
+        targets=np.asarray(batch.targets, float)[redo],
+        directions=np.asarray(batch.directions, float)[redo],
+        q0=np.asarray(batch.q0, float)[redo],
+        kj0=np.asarray(batch.kj0, float)[redo],
+        limits=dataclasses.replace(
+            batch.limits,
+            dq=np.asarray(batch.limits.dq)[redo] if np.ndim(batch.limits.dq) == 2 else batch.limits.dq,
+            dk=np.asarray(batch.limits.dk)[redo] if np.ndim(batch.limits.dk) == 2 else batch.limits.dk,
+        ),
+        ratio=batch.ratios[redo],
+    )
+    given = [first_starts[b] for b in redo] if first_starts else None
+    starts = exact_first_starts(sub, given, options, pos_tol, S1)
+    extra = first_start_rows(problem, starts, len(redo))
+    if extra.shape[1] != per_path[7].shape[1]:  # another count of extra starts: another program
+        return X, run_s
+    rows = tuple(a[redo] for a in per_path[:7]) + (extra,)
+    X2, out2, _, _ = _run_chunks(fn, rows, shared, jax.random.PRNGKey(int(opts["seed"])), chunking, disk_key)
+    better = _path_score(out2["status"], out2["criterion"]) < _path_score(out["status"][redo], out["criterion"][redo])
+    keep = redo[better]
+    X = X.copy()
+    X[keep] = X2[better]
+    for k in ("status", "solver_code", "pos_error", "criterion"):
+        if k in out and k in out2:
+            out[k] = np.array(out[k], copy=True)
+            out[k][keep] = out2[k][better]
+    dt = time.perf_counter() - t0
+    out["time_s"] = np.asarray(out["time_s"], float) + dt / max(out["time_s"].size, 1)
+    return X, run_s + dt
 
 
 def exact_first_starts(
