@@ -13,7 +13,7 @@ import argparse
 import json
 from typing import Any
 
-from .common import check_out_path, command, parse_floats
+from .common import check_out_path, command, parse_floats, reads, writes
 
 
 def _waypoints(text: str) -> int | list[int]:
@@ -28,7 +28,7 @@ def _waypoints(text: str) -> int | list[int]:
 
 @command("check-sim", "check a shape result's stiffness against a MuJoCo simulation (needs jaxstiff[sim])")
 def _add_check_sim(p: argparse.ArgumentParser) -> Any:
-    p.add_argument("result", help="result file written by `jaxstiff shape` (.npz)")
+    reads(p.add_argument("result", metavar="RESULT", help="result file written by `jaxstiff shape` (.npz)"))
     p.add_argument(
         "--waypoints",
         default="5",
@@ -43,10 +43,12 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
     p.add_argument("--tol", type=float, default=1e-3, help="relative agreement required")
     p.add_argument("--no-cct", action="store_true", help="skip the finite-load (CCT) check")
     p.add_argument("--scaled", action="store_true", help="use kj_scaled (after CMS) instead of kj")
-    p.add_argument(
-        "--urdf", default=None, help="the robot's URDF, if the path recorded in the result is not valid here"
+    reads(
+        p.add_argument(
+            "--urdf", default=None, help="the robot's URDF, if the path recorded in the result is not valid here"
+        )
     )
-    p.add_argument("--json", default=None, metavar="OUT", help="also write the table and errors as JSON")
+    writes(p.add_argument("--json", default=None, metavar="OUT", help="also write the table and errors as JSON"))
 
     def run(args: argparse.Namespace) -> int:
         from ..sim.build import MUJOCO_MISSING

@@ -7,7 +7,7 @@ import argparse
 import sys
 from typing import Any
 
-from .common import check_not_an_input, command
+from .common import command, writes
 from .view import add_result_flags
 
 
@@ -30,14 +30,13 @@ def csc_status_note(meta: dict[str, Any]) -> str:
 @command("export", "write a result's joint trajectory (q, kj, TCP) as CSV for a controller")
 def _add_export(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
-    p.add_argument("--csv", required=True, metavar="OUT.csv", help="the CSV to write (written atomically)")
+    writes(p.add_argument("--csv", required=True, metavar="OUT.csv", help="the CSV to write (written atomically)"))
     p.add_argument("--path", type=int, default=None, help="only this path of a batch (default: all, column 'path')")
 
     def run(args: argparse.Namespace) -> int:
         from jaxstiff.view.data import load_view_data
         from jaxstiff.view.export import export_csv, unusable_rows
 
-        check_not_an_input(args.csv, "--csv", {"RESULT": args.result, "--urdf": args.urdf})
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         print(
             f"wrote {export_csv(data, args.csv, path=args.path)} ({data.B if args.path is None else 1} x {data.P} rows)"

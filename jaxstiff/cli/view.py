@@ -17,15 +17,21 @@ import argparse
 import sys
 from typing import Any
 
-from .common import check_not_an_input, check_out_path, command
+from .common import check_out_path, command, reads, writes
 
 
 def add_result_flags(p: argparse.ArgumentParser) -> None:
     """The flags every command that reads a result shares: the file, --row, --urdf."""
-    p.add_argument("result", metavar="RESULT", help="a shape or csc result file (.npz), or a sweep folder with --row")
+    reads(
+        p.add_argument(
+            "result", metavar="RESULT", help="a shape or csc result file (.npz), or a sweep folder with --row"
+        )
+    )
     p.add_argument("--row", type=int, default=None, help="the row (row_id) of a sweep folder to read")
-    p.add_argument(
-        "--urdf", default=None, help="the robot's URDF if the recorded path moved (default: the path in the file)"
+    reads(
+        p.add_argument(
+            "--urdf", default=None, help="the robot's URDF if the recorded path moved (default: the path in the file)"
+        )
     )
 
 
@@ -43,7 +49,11 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
     p.add_argument("--port", type=int, default=8080, help="port of the viewer's web server")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (0.0.0.0: every interface)")
-    p.add_argument("--html", default=None, metavar="OUT.html", help="write a static page (opens from disk) and exit")
+    writes(
+        p.add_argument(
+            "--html", default=None, metavar="OUT.html", help="write a static page (opens from disk) and exit"
+        )
+    )
     p.add_argument("--path", type=int, default=0, help="--html: which path of a batch result (0-based)")
     p.add_argument(
         "--scale",
@@ -64,7 +74,6 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         if args.html:
             # before anything starts (viser's server, the scene): a folder or a missing folder is refused here
             check_out_path(args.html, "--html", like="shape.html")
-            check_not_an_input(args.html, "--html", {"RESULT": args.result, "--urdf": args.urdf})
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if not 0 <= args.path < data.B:
             raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")

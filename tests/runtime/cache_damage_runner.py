@@ -7,7 +7,8 @@ never forks with JAX started in it)::
 
 Writes one JSON object on stdout: the reference result, and per cache kind (``traced``: the
 ``jaxstiff-programs/*.jaxexp`` files; ``compiled``: the entries of JAX's compilation cache) the
-flips as ``[offset, bit, exit status or -signal, result hex or None, warnings, traced]``.
+flips as ``[offset, bit, exit status or -signal (-9: killed after TIMEOUT_S), result hex or None,
+warnings, traced]``.
 
 The cached call is the damped-least-squares IK of the planar 3R arm (:func:`jaxstiff.ik.ik_position`):
 a DiskJit program, so it goes through both caches, and small (about a second per run).
@@ -17,8 +18,11 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import shutil
+import signal
 import sys
+import time
 import warnings
 
 import jax  # imported before the forks; the backend is started in each child, never here
@@ -30,6 +34,8 @@ from jaxstiff.runtime import compile_cache as cc  # noqa: E402
 from jaxstiff.runtime import export_cache as ec  # noqa: E402
 
 TARGET = np.array([1.2, 0.5, 0.0])
+#: seconds a run may take (about 1 s from intact caches): a longer one is killed and counted as a hang
+TIMEOUT_S = 120.0
 
 
 def _child(cache: str, out: int) -> None:
@@ -80,7 +86,12 @@ def run_once(cache: str) -> tuple[int, dict | None]:
             os._exit(code)
     os.close(w)
     chunks = []
-    while True:
+    deadline = time.monotonic() + TIMEOUT_S
+    while True:  # a damaged program can also run for ever: killed at the deadline (exit -9)
+        ready, _, _ = select.select([r], [], [], max(0.0, deadline - time.monotonic()))
+        if not ready:
+            os.kill(pid, signal.SIGKILL)
+            break
         b = os.read(r, 1 << 16)
         if not b:
             break
