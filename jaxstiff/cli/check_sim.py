@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
 from .common import check_out_path, command, parse_floats, reads, writes
@@ -61,8 +62,8 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
         from ..runtime.x64 import enable_x64
         from ..sim import SettleError, cases_from_result, check_cases, markdown_table, rows_json
 
-        if args.force is not None and not args.force > 0:
-            raise ValueError(f"--force must be a positive number of newtons, got {args.force}")
+        if args.force is not None and not (math.isfinite(args.force) and args.force > 0):
+            raise ValueError(f"--force must be a positive finite number of newtons, got {args.force}")
         if not 0 < args.tol < 1:
             raise ValueError(f"--tol must be in (0, 1), got {args.tol}")
         if args.json:  # the output's folder before the simulation, not after it

@@ -14,6 +14,7 @@ The viewer reads the file and runs numpy forward kinematics; nothing is compiled
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Any
 
@@ -33,6 +34,29 @@ def add_result_flags(p: argparse.ArgumentParser) -> None:
             "--urdf", default=None, help="the robot's URDF if the recorded path moved (default: the path in the file)"
         )
     )
+
+
+def check_port(host: str, port: int) -> None:
+    """Refuse a ``--port`` outside 1-65535, a ``--host`` that is not an address of this machine,
+    and a port already taken, before the viewer starts (viser retries the next port for ever on
+    an address it cannot bind, and leaves a thread traceback and no exit for a port over 65535)."""
+    import socket
+
+    if not 1 <= port <= 65535:
+        raise ValueError(f"--port must be a TCP port number 1-65535, got {port}")
+    try:
+        family, kind, proto, _, addr = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
+    except (socket.gaierror, UnicodeError) as e:
+        raise ValueError(f"--host {host!r}: not an address to serve on ({getattr(e, 'strerror', None) or e})") from None
+    with socket.socket(family, kind, proto) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server binds (a closed viewer's port is free)
+        try:
+            s.bind(addr)
+        except OSError as e:
+            raise ValueError(
+                f"--port {port}: cannot serve on {host}:{port}: {e.strerror or e} (another viewer running? "
+                "choose another --port)"
+            ) from None
 
 
 def viser_or_error() -> Any:
@@ -67,13 +91,15 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         from jaxstiff.view.data import load_view_data
 
         viser_or_error()
-        if args.scale is not None and not args.scale > 0:
-            raise ValueError(f"--scale must be a positive number (N/m per m), got {args.scale}")
+        if args.scale is not None and not (math.isfinite(args.scale) and args.scale > 0):
+            raise ValueError(f"--scale must be a positive finite number (N/m per m), got {args.scale}")
         if args.every < 1:
             raise ValueError(f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {args.every}")
         if args.html:
             # before anything starts (viser's server, the scene): a folder or a missing folder is refused here
             check_out_path(args.html, "--html", like="shape.html")
+        else:
+            check_port(args.host, args.port)
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if not 0 <= args.path < data.B:
             raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")
