@@ -275,6 +275,8 @@ def _count_rows_first(raw_axes: Any, n_paths: int, source: str) -> None:
     if not isinstance(raw_axes, Mapping):
         return
     sizes = {k: _axis_size(v) for k, v in raw_axes.items()}
+    if any(n > MAX_ROWS for n in sizes.values()):
+        return  # one axis alone: its own check names it (axes.KEY), before it makes any value
     n_rows = math.prod(sizes.values()) * n_paths
     if n_rows > MAX_ROWS:
         big = " x ".join(f"{k} {n}" for k, n in sizes.items() if n > 1)
