@@ -205,13 +205,20 @@ def guard_jax_cache() -> bool:
             if made is None:
                 return None
             cache, where = made
+            inner = getattr(cache, "_base_cache", None)  # JAX's VerificationCache (check_contents) wraps the files
+            if inner is not None and not isinstance(inner, CheckedCache):
+                cache._base_cache = CheckedCache(inner)  # it compares JAX's own bytes: check below it
+                return cache, where
             return CheckedCache(cache), where
 
         get_file_cache._jaxstiff_checked = True  # type: ignore[attr-defined]
         jcc.get_file_cache = get_file_cache
-    current = getattr(jcc, "_cache", None)
-    if current is not None and not isinstance(current, CheckedCache):
-        jcc._cache = CheckedCache(current)  # initialised before the hook: wrapped in place
+    current = getattr(jcc, "_cache", None)  # initialised before the hook: wrapped in place
+    inner = getattr(current, "_base_cache", None)
+    if inner is not None and not isinstance(inner, CheckedCache):
+        current._base_cache = CheckedCache(inner)  # type: ignore[union-attr]
+    elif current is not None and inner is None and not isinstance(current, CheckedCache):
+        jcc._cache = CheckedCache(current)
     return True
 
 

@@ -263,10 +263,11 @@ def _axis_size(raw: Any) -> int:
     num, start, stop, step = (raw.get(k) for k in ("num", "start", "stop", "step"))
     if isinstance(num, int) and not isinstance(num, bool):
         return max(1, num)
-    reals = [x for x in (start, stop, step) if isinstance(x, (int, float)) and not isinstance(x, bool)]
-    if len(reals) == 3 and all(math.isfinite(x) for x in reals) and step != 0 and (stop - start) * step >= 0:
-        return int(math.floor((stop - start) / step + 1e-9)) + 1
-    return 1
+    reals = [float(x) for x in (start, stop, step) if isinstance(x, (int, float)) and not isinstance(x, bool)]
+    if len(reals) != 3 or not all(math.isfinite(x) for x in reals):
+        return 1
+    a, b, d = reals
+    return int(math.floor((b - a) / d + 1e-9)) + 1 if d != 0 and (b - a) * d >= 0 else 1
 
 
 def _count_rows_first(raw_axes: Any, n_paths: int, source: str) -> None:
