@@ -23,6 +23,7 @@ from jaxstiff.solvers.problem import WaypointProblem
 @pytest.fixture
 def cache(tmp_path, restore_jax_cache, monkeypatch):
     monkeypatch.delenv(ec.EXPORT_ENV, raising=False)
+    monkeypatch.setattr("jaxstiff.runtime.compile_cache._WARNED", set())  # each test sees its first warning
     jax.config.update("jax_compilation_cache_dir", str(tmp_path / "xla"))
     return tmp_path / "xla" / ec.EXPORT_SUBDIR
 
@@ -90,7 +91,8 @@ def test_damaged_file_is_replaced(cache):
     ec.compile_with_export_cache(f.jit(), (x, a), "k1")
     (name,) = _files(cache)
     (cache / name).write_bytes(b"not a program")
-    _check(ec.compile_with_export_cache(f.jit(), (x, a), "k1"), x, a)
+    with pytest.warns(ec.CacheDamageWarning, match="no jaxstiff header"):
+        _check(ec.compile_with_export_cache(f.jit(), (x, a), "k1"), x, a)
     assert f.traces == 2
     assert (cache / name).read_bytes() != b"not a program"
     ec.compile_with_export_cache(f.jit(), (x, a), "k1")
