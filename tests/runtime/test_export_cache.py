@@ -164,7 +164,7 @@ def test_pgd_from_the_file_equals_pgd_traced(cache, monkeypatch):
 
 def test_disk_jit_one_program_per_signature_and_from_the_file(cache):
     f = Counted()
-    fn = f.jit().__wrapped__  # the plain function (a new object: no trace cache shared with others)
+    fn = getattr(f.jit(), "__wrapped__")  # noqa: B009 - the plain function (a new object: no shared trace cache)
     x, a = np.linspace(-1.0, 2.0, 7), np.float64(1.5)
     dj = ec.DiskJit(fn, "dj")
     _check(dj, x, a)
@@ -185,7 +185,7 @@ def test_disk_jit_one_program_per_signature_and_from_the_file(cache):
 
 def test_disk_jit_specialize_is_the_program_it_calls(cache):
     f = Counted()
-    fn = f.jit().__wrapped__
+    fn = getattr(f.jit(), "__wrapped__")  # noqa: B009 - (untyped in the stubs)
     x, a = np.linspace(-1.0, 2.0, 7), np.float64(1.5)
     dj = ec.DiskJit(fn, "spec")
     kernel = dj.specialize(x, a)  # traced (and written) here, not at the first call
