@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
-from .common import check_out_path, command, parse_floats
+from .common import check_out_path, command, parse_floats, reads, writes
 
 
 def _waypoints(text: str) -> int | list[int]:
@@ -28,7 +29,7 @@ def _waypoints(text: str) -> int | list[int]:
 
 @command("check-sim", "check a shape result's stiffness against a MuJoCo simulation (needs jaxstiff[sim])")
 def _add_check_sim(p: argparse.ArgumentParser) -> Any:
-    p.add_argument("result", help="result file written by `jaxstiff shape` (.npz)")
+    reads(p.add_argument("result", metavar="RESULT", help="result file written by `jaxstiff shape` (.npz)"))
     p.add_argument(
         "--waypoints",
         default="5",
@@ -43,10 +44,12 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
     p.add_argument("--tol", type=float, default=1e-3, help="relative agreement required")
     p.add_argument("--no-cct", action="store_true", help="skip the finite-load (CCT) check")
     p.add_argument("--scaled", action="store_true", help="use kj_scaled (after CMS) instead of kj")
-    p.add_argument(
-        "--urdf", default=None, help="the robot's URDF, if the path recorded in the result is not valid here"
+    reads(
+        p.add_argument(
+            "--urdf", default=None, help="the robot's URDF, if the path recorded in the result is not valid here"
+        )
     )
-    p.add_argument("--json", default=None, metavar="OUT", help="also write the table and errors as JSON")
+    writes(p.add_argument("--json", default=None, metavar="OUT", help="also write the table and errors as JSON"))
 
     def run(args: argparse.Namespace) -> int:
         from ..sim.build import MUJOCO_MISSING
@@ -59,8 +62,8 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
         from ..runtime.x64 import enable_x64
         from ..sim import SettleError, cases_from_result, check_cases, markdown_table, rows_json
 
-        if args.force is not None and not args.force > 0:
-            raise ValueError(f"--force must be a positive number of newtons, got {args.force}")
+        if args.force is not None and not (math.isfinite(args.force) and args.force > 0):
+            raise ValueError(f"--force must be a positive finite number of newtons, got {args.force}")
         if not 0 < args.tol < 1:
             raise ValueError(f"--tol must be in (0, 1), got {args.tol}")
         if args.json:  # the output's folder before the simulation, not after it

@@ -8,6 +8,7 @@ one line ``jaxstiff: error: ...`` with exit code 2, never as a traceback (:func:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import re
 import tempfile
@@ -80,17 +81,135 @@ def check_out_file(out: str, flag: str = "--out") -> str:
     return check_out_path(os.path.abspath(name), flag, like=os.path.join(out, "result.npz"))
 
 
-def check_not_an_input(out: str, flag: str, inputs: dict[str, str | None]) -> None:
-    """Refuse an output file that is one of the command's input files (``inputs``: the input's flag
-    or name -> its path): writing it would replace the input before anything else reads it."""
-    if not os.path.exists(out):
-        return
-    for name, path in inputs.items():
-        if path and os.path.isfile(path) and os.path.samefile(out, path):
-            raise ValueError(
-                f"{flag}: {os.path.abspath(out)} is the {name} file itself; writing it would replace that input. "
-                "Choose another file name"
-            )
+# ---------------------------------------------------------------------- files read and written
+@dataclasses.dataclass(frozen=True)
+class FileFlag:
+    """What a command does with the path of one of its flags (declared once, where the flag is
+    added, by :func:`reads` / :func:`writes`; :func:`check_outputs_not_inputs` reads them all).
+
+    Attributes:
+        writes: True for an output, False for an input.
+        folder: an output folder the command writes into (``names`` inside it); for an input, a
+            file or a folder (a sweep folder's files are inputs too).
+        names: the files and folders an output folder gets (``plan.json``, ``plots``, ...).
+        suffix: appended to an output file's name when missing (``.npz``), as the command does.
+        shipped_robot: an input that may name a shipped robot instead of a file (``--robot``).
+    """
+
+    writes: bool
+    folder: bool = False
+    names: tuple[str, ...] = ()
+    suffix: str = ""
+    shipped_robot: bool = False
+
+
+_FILE_ATTR = "jaxstiff_file"
+
+
+def reads(action: argparse.Action, *, shipped_robot: bool = False) -> argparse.Action:
+    """Declare ``action``'s value (a path, or a list of them) an input of its command."""
+    setattr(action, _FILE_ATTR, FileFlag(writes=False, shipped_robot=shipped_robot))
+    return action
+
+
+def writes(
+    action: argparse.Action, *, folder: bool = False, names: tuple[str, ...] = (), suffix: str = ""
+) -> argparse.Action:
+    """Declare ``action``'s value an output of its command: a file (``suffix`` added when missing),
+    or a folder written into (``names``: what the command writes inside it)."""
+    setattr(action, _FILE_ATTR, FileFlag(writes=True, folder=folder, names=names, suffix=suffix))
+    return action
+
+
+def file_flags(*parsers: argparse.ArgumentParser) -> list[tuple[str, str, FileFlag]]:
+    """``(dest, shown name, FileFlag)`` of every declared path flag of ``parsers``."""
+    out = []
+    for p in parsers:
+        for a in p._actions:
+            role = getattr(a, _FILE_ATTR, None)
+            if role is not None:
+                shown = max(a.option_strings, key=len) if a.option_strings else str(a.metavar or a.dest)
+                out.append((a.dest, shown, role))
+    return out
+
+
+def _input_file(value: str, role: FileFlag) -> str:
+    """The file an input path names (``--robot NAME``: the shipped robot's URDF where no such file is)."""
+    if role.shipped_robot and not os.path.exists(value) and os.sep not in value and not value.endswith(".urdf"):
+        from jaxstiff.model.shipped import robot_path
+
+        try:
+            return robot_path(value)
+        except FileNotFoundError:
+            return value
+    return value
+
+
+def _same_file(a: str, b: str) -> bool:
+    """Whether two existing paths are one file or folder (symlinks followed, hard links seen)."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def _inside(path: str, folder: str) -> bool:
+    """Whether an existing ``path`` lies inside the existing folder ``folder`` (links resolved)."""
+    try:
+        p, f = os.path.realpath(path), os.path.realpath(folder)
+        return os.path.isdir(f) and os.path.commonpath([p, f]) == f and p != f
+    except (OSError, ValueError):
+        return False
+
+
+def check_outputs_not_inputs(args: argparse.Namespace, flags: list[tuple[str, str, FileFlag]]) -> None:
+    """Refuse a command whose output would replace one of its inputs, before any work.
+
+    ``flags``: the command's declared path flags (:func:`file_flags`). An output file is refused
+    when it is an input file (the same file through a symlink or a hard link too) or an existing
+    file inside an input folder (a sweep folder); an output folder when it is an input, or when
+    one of the files or folders it writes (``FileFlag.names``) is or holds an input. Paths that do
+    not exist yet replace nothing. Raises ValueError naming both flags and paths.
+    """
+    inputs: list[tuple[str, str]] = []
+    for dest, shown, role in flags:
+        value = getattr(args, dest, None)
+        if role.writes or value is None:
+            continue
+        for v in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(v, str) and v.strip():
+                inputs.append((shown, _input_file(v, role)))
+    for dest, shown, role in flags:
+        value = getattr(args, dest, None)
+        if not role.writes or not isinstance(value, str) or not value.strip():
+            continue
+        out = value
+        if role.suffix and not out.lower().endswith(role.suffix) and not os.path.isdir(out):
+            out += role.suffix
+        targets = [out] + [os.path.join(out, n) for n in role.names]
+        for t in targets:
+            if not os.path.exists(t):
+                continue
+            for name, path in inputs:
+                if not os.path.exists(path):
+                    continue
+                if _same_file(t, path):
+                    how = "" if os.path.abspath(t) == os.path.abspath(path) else ", through a link"
+                    what = f"{shown} {out}" + (f" (it writes {t})" if t != out else "")
+                    raise ValueError(
+                        f"{what} is the {name} file itself ({path}{how}): writing it would replace that input; "
+                        "choose another output"
+                    )
+                if t == out and not role.folder and _inside(t, path):
+                    raise ValueError(
+                        f"{shown} {out} is a file of the {name} input folder {path}: writing it would "
+                        "replace that input; choose another output"
+                    )
+                if t != out and _inside(path, t):
+                    raise ValueError(
+                        f"{shown} {out}: the command writes into {t}, which holds the {name} input {path}; "
+                        "choose another output"
+                    )
 
 
 def check_out_path(path: str, flag: str, like: str = "") -> str:
@@ -136,7 +255,12 @@ def add_robot_flags(p: argparse.ArgumentParser) -> None:
     from jaxstiff.settings.robot import DEFAULT_LOCKS, DEFAULT_ROBOT
 
     shipped = "; ".join(f"{r}: {', '.join(f'{j}={v:g}' for j, v in lk.items())}" for r, lk in DEFAULT_LOCKS.items())
-    p.add_argument("--robot", default=DEFAULT_ROBOT, help=f"URDF file or shipped robot name (default: {DEFAULT_ROBOT})")
+    reads(
+        p.add_argument(
+            "--robot", default=DEFAULT_ROBOT, help=f"URDF file or shipped robot name (default: {DEFAULT_ROBOT})"
+        ),
+        shipped_robot=True,
+    )
     p.add_argument("--base-link", default=None, help="first link of the chain (default: the URDF root)")
     p.add_argument("--tip-link", default=None, help=TIP_LINK_HELP)
     p.add_argument(

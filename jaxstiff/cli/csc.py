@@ -41,7 +41,15 @@ from typing import Any
 
 import numpy as np
 
-from jaxstiff.cli.common import add_robot_flags, check_out_file, check_rollout_size, command, robot_spec_from_args
+from jaxstiff.cli.common import (
+    add_robot_flags,
+    check_out_file,
+    check_rollout_size,
+    command,
+    reads,
+    robot_spec_from_args,
+    writes,
+)
 from jaxstiff.cli.csc_flags import M_TASK, parse_numbers
 from jaxstiff.cli.csc_flags import SETTING_FLAGS as SETTING_FLAGS
 from jaxstiff.cli.csc_flags import add_setting_flags as add_setting_flags
@@ -117,12 +125,13 @@ def _add_csc(p: argparse.ArgumentParser):
     p.epilog = _EPILOG.replace("{segment_work}", power_of_ten_text(SEGMENT_WORK))
     add_robot_flags(p)
     src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument(
+    path = src.add_argument(
         "--path",
         action="append",
         metavar="CSV",
         help="path CSV (header x,y,z[,dx,dy,dz]; m, base frame; directions unused), one step per row (a repeated row holds still); repeat for a batch",
     )
+    reads(path)
     src.add_argument("--hold", metavar="X,Y[,Z]", help="hold the TCP at this point (m) for --steps steps")
     p.add_argument(
         "--steps",
@@ -143,7 +152,10 @@ def _add_csc(p: argparse.ArgumentParser):
     )
     q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees (prismatic joints: m)")
     add_setting_flags(p)
-    p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)")
+    writes(
+        p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)"),
+        suffix=".npz",
+    )
     return run_csc
 
 

@@ -16,7 +16,7 @@ import sys
 import warnings
 
 from ..runtime.io import interrupt_exit_code, interrupt_handlers, interrupt_pending, raise_if_interrupted
-from .common import COMMANDS, join_negative_values
+from .common import COMMANDS, check_outputs_not_inputs, file_flags, join_negative_values, writes
 
 #: the order of ``jaxstiff --help``
 COMMAND_ORDER = ("robot", "shape", "csc", "sweep", "reproduce", "check-sim", "view", "plot", "export")
@@ -68,18 +68,21 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         action="store_true",
         help="do not use the persistent compilation cache (also: JAXSTIFF_COMPILE_CACHE=0); every run compiles",
     )
-    cache.add_argument(
+    compile_cache = cache.add_argument(
         "--compile-cache",
         dest="global_compile_cache",
         metavar="DIR",
         help="keep compiled programs in DIR (also: JAXSTIFF_CACHE_DIR; default: the user cache folder, "
         "e.g. ~/.cache/jaxstiff/xla; JAX_COMPILATION_CACHE_DIR, if set, wins)",
     )
+    writes(compile_cache, folder=True)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in sorted(COMMANDS, key=lambda c: COMMAND_ORDER.index(c) if c in COMMAND_ORDER else len(COMMAND_ORDER)):
         add, _, help_ = COMMANDS[name]
         sp = sub.add_parser(name, help=help_, description=help_, formatter_class=_HelpFormatter)
         sp.set_defaults(_run=add(sp))
+        # the paths it reads and writes, declared where its flags are added (common.reads / writes)
+        sp.set_defaults(_files=file_flags(parser, sp))
     return parser
 
 
@@ -161,6 +164,7 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings(), interrupt_handlers():
             warnings.showwarning = _show_warning
             raise_if_interrupted()  # a Ctrl-C while the command was starting up: stop before any work
+            check_outputs_not_inputs(args, args._files)  # before any work: no output replaces an input
             rc = _run_command(args)
         sig = interrupt_pending()
         if sig is not None and rc == 0:  # swallowed inside JAX and not seen at a checkpoint: the work had finished

@@ -13,7 +13,7 @@ import argparse
 import os
 from typing import Any
 
-from .common import command
+from .common import command, writes
 from .view import add_result_flags
 
 FORMATS = (".png", ".svg", ".pdf")  #: by the suffix of --out (jaxstiff.plots.save_figure)
@@ -43,7 +43,7 @@ def parse_waypoints(text: str, P: int) -> list[int]:
 @command("plot", "draw a result's figure (shape: seed 000's panels; csc: u and Frobenius error)")
 def _add_plot(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
-    p.add_argument("--out", required=True, metavar="FIG.png", help="the figure to write (.png, .svg or .pdf)")
+    writes(p.add_argument("--out", required=True, metavar="FIG.png", help="the figure to write (.png, .svg or .pdf)"))
     p.add_argument("--path", type=int, default=0, help="shape: which path of a batch (0-based)")
     p.add_argument(
         "--waypoints",

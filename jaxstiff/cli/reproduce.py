@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from jaxstiff.cli.common import command
+from jaxstiff.cli.common import command, reads, writes
 
 
 @command("reproduce", "run the experiments (seed figures 2-6, CSC, the quick sweep) and write one report")
@@ -13,7 +13,11 @@ def _add_reproduce(p: argparse.ArgumentParser):
         "Needs a source checkout: the experiments are the scripts in its experiments/ folder, "
         "each run as its own process. Writes DIR/report.md, DIR/figures/ and DIR/runs/."
     )
-    p.add_argument("--out", required=True, metavar="DIR", help="report folder")
+    writes(
+        p.add_argument("--out", required=True, metavar="DIR", help="report folder"),
+        folder=True,
+        names=("report.md", "figures", "runs"),
+    )
     p.add_argument("--quick", action="store_true", help="pass --quick to the experiments that have a short variant")
     p.add_argument(
         "--only",
@@ -22,11 +26,13 @@ def _add_reproduce(p: argparse.ArgumentParser):
         default=None,
         help="run only the experiments whose names start with these (e.g. fig4 csc); no sweep",
     )
-    p.add_argument(
-        "--experiments",
-        metavar="DIR",
-        default=None,
-        help="the experiments folder (none: $JAXSTIFF_EXPERIMENTS, then the source checkout's)",
+    reads(
+        p.add_argument(
+            "--experiments",
+            metavar="DIR",
+            default=None,
+            help="the experiments folder (none: $JAXSTIFF_EXPERIMENTS, then the source checkout's)",
+        )
     )
     p.add_argument("--timeout", type=float, default=900.0, metavar="S", help="seconds per experiment")
     p.add_argument("--no-sweep", action="store_true", help="skip experiments/sweeps/quick.toml")

@@ -6,7 +6,7 @@ import argparse
 import math
 from typing import Any
 
-from jaxstiff.cli.common import add_robot_flags, setting_help
+from jaxstiff.cli.common import add_robot_flags, reads, setting_help, writes
 from jaxstiff.settings.shape import LOCKED_JOINT_MODES, TASKS, ShapeSettings
 
 __all__ = ["EPILOG", "add_shape_flags", "limit_kwargs"]
@@ -24,7 +24,7 @@ EPILOG = (
 
 # ---------------------------------------------------------------------- flags
 def _add_problem_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
+    path = p.add_argument(
         "--path",
         action="append",
         metavar="CSV",
@@ -33,6 +33,7 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         "0, in the order given, as the file's first axis). Default: the shipped "
         "default path (jaxstiff.paths.default_path)",
     )
+    reads(path)
     p.add_argument(
         "--criterion",
         default=_S.criterion,
@@ -41,7 +42,10 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)",
     )
     p.add_argument("--ratio", default=_S.ratio, metavar="R", help=setting_help(ShapeSettings, "ratio", extra=", > 1"))
-    p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)")
+    writes(
+        p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)"),
+        suffix=".npz",
+    )
     p.add_argument(
         "--task",
         default=_S.task,

@@ -6,8 +6,21 @@ import argparse
 import sys
 from collections.abc import Callable
 
-from jaxstiff.cli.common import command
+from jaxstiff.cli.common import command, reads, writes
 from jaxstiff.runtime.io import interrupt_exit_code
+
+#: what a sweep writes into its --out folder (jaxstiff.sweep.store)
+SWEEP_WRITES = (
+    "plan.json",
+    "arrays",
+    "chunks",
+    "manifest.json",
+    "results.parquet",
+    "results.csv",
+    "timing.csv",
+    "summary.md",
+    "plots",
+)
 
 _EPILOG = """\
 The config names the robot, the paths and the parameter axes (see jaxstiff/sweep/config.py, docs/notes/sweep.md or
@@ -20,9 +33,14 @@ is DIR/results.parquet (one row per path x setting), with DIR/summary.md and DIR
 @command("sweep", "run a parameter sweep from a TOML config (resumable; local or Ray)")
 def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int]:
     p.epilog = _EPILOG
-    p.add_argument("config", metavar="CONFIG.toml", help="sweep config (TOML)")
-    p.add_argument(
-        "--out", required=True, metavar="DIR", help="result folder (new/empty, or this sweep's with --resume)"
+    reads(p.add_argument("config", metavar="CONFIG.toml", help="sweep config (TOML)"))
+    writes(
+        p.add_argument(
+            "--out", required=True, metavar="DIR", help="result folder (new/empty, or this sweep's with --resume)"
+        ),
+        folder=True,
+        # (config.toml too, but --resume may read the copy kept there: rewriting it with itself loses nothing)
+        names=SWEEP_WRITES,
     )
     p.add_argument("--resume", action="store_true", help="continue the sweep in DIR, skipping its finished chunks")
     p.add_argument(

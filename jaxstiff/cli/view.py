@@ -16,19 +16,49 @@ The viewer reads the file and runs numpy forward kinematics; nothing is compiled
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Any
 
-from .common import check_not_an_input, check_out_path, command
+from .common import check_out_path, command, reads, writes
 
 
 def add_result_flags(p: argparse.ArgumentParser) -> None:
     """The flags every command that reads a result shares: the file, --row, --urdf."""
-    p.add_argument("result", metavar="RESULT", help="a shape or csc result file (.npz), or a sweep folder with --row")
-    p.add_argument("--row", type=int, default=None, help="the row (row_id) of a sweep folder to read")
-    p.add_argument(
-        "--urdf", default=None, help="the robot's URDF if the recorded path moved (default: the path in the file)"
+    reads(
+        p.add_argument(
+            "result", metavar="RESULT", help="a shape or csc result file (.npz), or a sweep folder with --row"
+        )
     )
+    p.add_argument("--row", type=int, default=None, help="the row (row_id) of a sweep folder to read")
+    reads(
+        p.add_argument(
+            "--urdf", default=None, help="the robot's URDF if the recorded path moved (default: the path in the file)"
+        )
+    )
+
+
+def check_port(host: str, port: int) -> None:
+    """Refuse a ``--port`` outside 1-65535, a ``--host`` that is not an address of this machine,
+    and a port already taken, before the viewer starts (viser retries the next port for ever on
+    an address it cannot bind, and leaves a thread traceback and no exit for a port over 65535)."""
+    import socket
+
+    if not 1 <= port <= 65535:
+        raise ValueError(f"--port must be a TCP port number 1-65535, got {port}")
+    try:
+        family, kind, proto, _, addr = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
+    except (socket.gaierror, UnicodeError) as e:
+        raise ValueError(f"--host {host!r}: not an address to serve on ({getattr(e, 'strerror', None) or e})") from None
+    with socket.socket(family, kind, proto) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server binds (a closed viewer's port is free)
+        try:
+            s.bind(addr)
+        except OSError as e:
+            raise ValueError(
+                f"--port {port}: cannot serve on {host}:{port}: {e.strerror or e} (another viewer running? "
+                "choose another --port)"
+            ) from None
 
 
 def viser_or_error() -> Any:
@@ -45,8 +75,14 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
     p.add_argument("--port", type=int, default=8080, help="port of the viewer's web server")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (0.0.0.0: every interface)")
-    p.add_argument("--html", default=None, metavar="OUT.html", help="write a static page (opens from disk) and exit")
-    p.add_argument("--png", default=None, metavar="OUT.png", help="write a screenshot (headless Chromium) and exit")
+    writes(
+        p.add_argument(
+            "--html", default=None, metavar="OUT.html", help="write a static page (opens from disk) and exit"
+        )
+    )
+    writes(
+        p.add_argument("--png", default=None, metavar="OUT.png", help="write a screenshot (headless Chromium) and exit")
+    )
     p.add_argument("--path", type=int, default=0, help="the path of a batch result shown first (0-based)")
     p.add_argument("--waypoint", type=int, default=0, help="the waypoint (csc: step) shown first (0-based)")
     p.add_argument(
@@ -77,21 +113,21 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         from jaxstiff.view.data import load_view_data
 
         viser_or_error()
-        if args.scale is not None and not args.scale > 0:
-            raise ValueError(f"--scale must be a positive number (N/m per m), got {args.scale}")
+        if args.scale is not None and not (math.isfinite(args.scale) and args.scale > 0):
+            raise ValueError(f"--scale must be a positive finite number (N/m per m), got {args.scale}")
         if args.every < 1:
             raise ValueError(f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {args.every}")
-        inputs = {"RESULT": args.result, "--urdf": args.urdf}
         for flag, out, like in (("--html", args.html, "shape.html"), ("--png", args.png, "shape.png")):
-            if out:  # before anything starts (viser's server, the scene): a folder or a missing folder is refused here
+            if out:  # before anything starts (the browser, the scene): a folder or a missing folder is refused here
                 check_out_path(out, flag, like=like)
-                check_not_an_input(out, flag, inputs)
+        if not (args.html or args.png):
+            check_port(args.host, args.port)
         browser, size = None, (0, 0)
         if args.png:
             from jaxstiff.view.png import find_browser
 
             size = _size(args.size)
-            if not args.timeout > 0:
+            if not (math.isfinite(args.timeout) and args.timeout > 0):
                 raise ValueError(f"--timeout must be a positive number of seconds, got {args.timeout}")
             browser = find_browser(args.browser)  # no browser: said before the result is read
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)

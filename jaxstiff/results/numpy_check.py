@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from jaxstiff.runtime.io import file_sha256
+from jaxstiff.runtime.io import check_urdf_file, file_sha256
 
 if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
@@ -18,6 +18,8 @@ if TYPE_CHECKING:
 __all__ = [
     "np_fk_position",
     "robot_from_meta",
+    "result_urdf",
+    "check_same_robot",
     "np_jacobian_rows",
     "np_translational_stiffness",
     "np_alpha_ratio",
@@ -45,26 +47,73 @@ def np_fk_position(robot: Robot, q: np.ndarray) -> np.ndarray:
     return out
 
 
+def result_urdf(meta: dict[str, Any], urdf: str | os.PathLike | None = None) -> tuple[str, dict[str, Any]]:
+    """The URDF file to rebuild a result's robot from (``urdf``, the ``--urdf`` flag, else the
+    path in ``meta["robot"]["urdf"]``) and the ``meta["robot"]`` record, checked before the file
+    is opened: a regular file of bounded size (:func:`jaxstiff.runtime.io.check_urdf_file`), never
+    a FIFO, a device, a folder or a number. Errors name the flag or the meta field."""
+    rmeta = meta.get("robot") if isinstance(meta, dict) else None
+    if not isinstance(rmeta, dict):
+        raise ValueError(f"result meta field 'robot' must be a record (URDF path, links, locks), got {rmeta!r:.60}")
+    if urdf is not None:
+        return check_urdf_file(urdf, "--urdf"), rmeta
+    return check_urdf_file(rmeta.get("urdf"), "result meta field robot.urdf"), rmeta
+
+
+def check_same_robot(rmeta: dict[str, Any], path: str, chain: Any) -> None:
+    """Refuse a URDF given in place of the recorded one (``--urdf``) that is not the result's
+    robot. The same bytes (sha256) are the same robot moved; other bytes pass only when the chain
+    they give has the recorded name, joints, limits and tip transform (a reformatted copy), else a
+    ValueError says what differs."""
+    want = rmeta.get("sha256")
+    if not want or file_sha256(path) == want:
+        return
+    diffs = []
+    if rmeta.get("name") not in (None, chain.name):
+        diffs.append(f"robot {chain.name!r}, the result's is {rmeta.get('name')!r}")
+    names = rmeta.get("joint_names")
+    if names is not None and list(names) != list(chain.joint_names):
+        diffs.append(f"joints {list(chain.joint_names)}, the result's are {list(names)}")
+    else:
+        for key, have in (("lower", chain.lower), ("upper", chain.upper), ("tip_transform", chain.tip_matrix)):
+            rec = rmeta.get(key)
+            try:
+                same = rec is None or np.allclose(np.asarray(rec, dtype=float), have, rtol=1e-12, atol=1e-12)
+            except (TypeError, ValueError):
+                same = False
+            if not same:
+                diffs.append(f"another {key.replace('_', ' ')}")
+    if diffs:
+        raise ValueError(
+            f"--urdf {path} is not the robot of the result (sha256 differs, and it has {'; '.join(diffs)}); "
+            "give the URDF the result was made with"
+        )
+
+
 def robot_from_meta(meta: dict[str, Any], urdf: str | os.PathLike | None = None, check_sha: bool = True) -> Robot:
     """Rebuild the robot of a result from its ``meta`` (URDF path, links, locked joints, tcp).
 
     Args:
-        urdf: use this URDF file instead of the recorded path (e.g. on another machine).
-        check_sha: refuse a URDF whose sha256 differs from the recorded one.
+        urdf: use this URDF file instead of the recorded path (e.g. on another machine); it must
+            be the result's robot (:func:`check_same_robot`).
+        check_sha: refuse a recorded URDF whose sha256 differs from the recorded one, and a
+            ``urdf`` that is another robot.
     """
     from jaxstiff.model.robot import Robot  # deferred: verification itself needs numpy only
 
-    rmeta = meta["robot"]
-    path = os.fspath(urdf) if urdf is not None else rmeta["urdf"]
-    if check_sha and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
+    path, rmeta = result_urdf(meta, urdf)
+    if check_sha and urdf is None and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
         raise ValueError(f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...)")
-    return Robot.from_urdf(
+    robot = Robot.from_urdf(
         path,
         base_link=rmeta.get("base_link") or None,
         tip_link=rmeta.get("tip_link") or None,
         locked=rmeta.get("locked") or None,
         tcp=np.asarray(rmeta["tcp"]) if rmeta.get("tcp") is not None else None,
     )
+    if check_sha and urdf is not None:
+        check_same_robot(rmeta, path, robot)
+    return robot
 
 
 def np_jacobian_rows(robot: Robot, q: np.ndarray) -> np.ndarray:

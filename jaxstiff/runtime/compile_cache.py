@@ -18,6 +18,13 @@ Where (first that applies):
   ``~/Library/Caches/jaxstiff/xla``; Windows: the local app data folder).
 
 A folder that cannot be created or written is skipped silently (the run compiles as before).
+
+Every entry jaxstiff's processes write into JAX's cache carries a header with the key it was made
+for and the sha256 of its bytes (:class:`CheckedCache`, installed by :func:`guard_jax_cache`):
+JAX stores executables zstd-compressed without a checksum and hands them to XLA's deserializer,
+so one flipped bit could crash the process or load another program. An entry that fails the
+check is removed and compiled again, with one :class:`CacheDamageWarning`. The traced programs of
+:mod:`jaxstiff.runtime.export_cache` use the same header (:func:`pack`, :func:`unpack`).
 The cache only takes effect for programs compiled after it is turned on; turning it on after an
 earlier compilation of the process re-arms JAX's cache (JAX decides once, at the first compilation,
 whether a cache is in use).
@@ -29,12 +36,16 @@ and ``meta["timing_s"]["compile"]`` records); why it measures what it does: docs
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import threading
 from collections.abc import Iterator
 from typing import Any
 
 __all__ = [
+    "CacheDamageWarning",
+    "CheckedCache",
+    "guard_jax_cache",
     "CACHE_ENV",
     "CACHE_DIR_ENV",
     "COMPILE_EVENTS",
@@ -58,6 +69,159 @@ _OFF = ("0", "false", "no", "off")
 _state: dict[str, str | None] = {}
 
 
+# ---------------------------------------------------------------------- entries that check their bytes
+#: first line of a cache entry written by jaxstiff (a traced program of
+#: :mod:`jaxstiff.runtime.export_cache`, an executable of JAX's compilation cache); the header then
+#: holds the key it was made for, the payload's sha256 and its length, each on its own line, and
+#: the payload follows
+MAGIC = b"jaxstiff-cache-entry 1\n"
+#: a header longer than this is not one of ours (the key is at most a few hundred characters)
+_HEADER_MAX = len(MAGIC) + 4096
+
+
+class CacheDamageWarning(UserWarning):
+    """A cached program (a traced program, or an entry of JAX's compilation cache) failed its
+    checks and was discarded; the program is traced or compiled again (a cost, not a wrong result)."""
+
+
+_WARNED: set[str] = set()
+
+
+def warn_damaged(what: str, path: str, why: str) -> None:
+    """One warning per process and cache kind: the damaged entry ``path`` was discarded (``why``)."""
+    import warnings
+
+    if what in _WARNED:
+        return
+    _WARNED.add(what)
+    warnings.warn(
+        f"{what} {path} is damaged ({why}); it was discarded and will be made again "
+        "(results are not affected; further damaged entries are replaced without a warning)",
+        CacheDamageWarning,
+        stacklevel=2,
+    )
+
+
+def pack(file_key: str, payload: bytes) -> bytes:
+    """A cache entry: :data:`MAGIC`, the file key, sha256 and length of ``payload``, ``payload``."""
+    digest = hashlib.sha256(payload).hexdigest()
+    return MAGIC + f"{file_key}\n{digest}\n{len(payload)}\n".encode() + payload
+
+
+def unpack(data: bytes, file_key: str) -> bytes:
+    """The payload of a cache entry made for ``file_key``, checked byte for byte; a
+    ValueError saying what failed (magic, key, length, hash) for anything else. Nothing of the
+    entry reaches jax's deserializers before this check (a damaged program can crash them)."""
+    if not data.startswith(MAGIC):
+        raise ValueError("no jaxstiff header")
+    head = data[len(MAGIC) : _HEADER_MAX]
+    lines = head.split(b"\n", 3)
+    if len(lines) < 4:
+        raise ValueError("header cut short")
+    key, digest, length = (x.decode("ascii", "replace") for x in lines[:3])
+    start = len(MAGIC) + sum(len(x) + 1 for x in lines[:3])
+    if key != file_key:
+        raise ValueError("made for another key")
+    if not length.isdigit() or int(length) != len(data) - start:
+        raise ValueError(f"length {len(data) - start} bytes, the header says {length!r}")
+    payload = bytes(data[start:])
+    if hashlib.sha256(payload).hexdigest() != digest:
+        raise ValueError("sha256 of the program differs from its header")
+    return payload
+
+
+#: suffix of the keys under which :class:`CheckedCache` keeps JAX's entries: a plain JAX process
+#: sharing the folder never reads one of them (it would not know the header), nor they its own
+CHECKED_KEY_SUFFIX = "-jaxstiff-sha256"
+
+
+def _cache_interface() -> type:
+    try:
+        from jax._src.compilation_cache_interface import CacheInterface
+    except ImportError:  # pragma: no cover - another jax layout: a plain base
+        return object
+    return CacheInterface
+
+
+class CheckedCache(_cache_interface()):  # type: ignore[misc]
+    """JAX's persistent compilation cache with a sha256 per entry (the :func:`pack` header).
+
+    JAX keeps a compiled executable zstd-compressed (zlib without zstandard) and hands the
+    decompressed bytes to XLA's deserializer; zstd frames as JAX writes them carry no checksum,
+    so a damaged entry can reach that deserializer (a crash no ``try`` catches, or another
+    program). This wrapper of JAX's file cache checks each entry against its header before JAX
+    sees it; one that fails is removed (JAX does not overwrite an existing entry) and reported as
+    a miss, with one :class:`CacheDamageWarning` per process, and JAX compiles again.
+    """
+
+    def __init__(self, base: Any):
+        self._base = base
+
+    @property
+    def _path(self) -> Any:  # (JAX reads the folder from here)
+        return self._base._path
+
+    @_path.setter
+    def _path(self, value: Any) -> None:
+        self._base._path = value
+
+    def get(self, key: str) -> bytes | None:
+        data = self._base.get(key + CHECKED_KEY_SUFFIX)
+        if data is None:
+            return None
+        try:
+            return unpack(data, key)
+        except ValueError as e:
+            where = os.path.join(os.fspath(self._path), f"{key}{CHECKED_KEY_SUFFIX}-cache")
+            with contextlib.suppress(OSError):
+                os.unlink(where)
+            warn_damaged("the compilation cache entry", where, str(e))
+            return None
+
+    def put(self, key: str, value: bytes) -> None:
+        self._base.put(key + CHECKED_KEY_SUFFIX, pack(key, bytes(value)))
+
+    def clear(self) -> None:
+        clear = getattr(self._base, "clear", None)
+        if clear is not None:
+            clear()
+
+
+def guard_jax_cache() -> bool:
+    """Make JAX's persistent compilation cache check its entries (:class:`CheckedCache`), now and
+    after every re-initialisation (JAX builds its cache object lazily, in ``get_file_cache``).
+    Idempotent; False where this JAX has no such hook (then its cache is used unchecked)."""
+    try:
+        from jax._src import compilation_cache as jcc
+    except ImportError:  # pragma: no cover
+        return False
+    make = getattr(jcc, "get_file_cache", None)
+    if make is None:  # pragma: no cover - another jax layout
+        return False
+    if not getattr(make, "_jaxstiff_checked", False):
+
+        def get_file_cache(path: str) -> Any:
+            made = make(path)
+            if made is None:
+                return None
+            cache, where = made
+            inner = getattr(cache, "_base_cache", None)  # JAX's VerificationCache (check_contents) wraps the files
+            if inner is not None and not isinstance(inner, CheckedCache):
+                cache._base_cache = CheckedCache(inner)  # it compares JAX's own bytes: check below it
+                return cache, where
+            return CheckedCache(cache), where
+
+        get_file_cache._jaxstiff_checked = True  # type: ignore[attr-defined]
+        jcc.get_file_cache = get_file_cache
+    current = getattr(jcc, "_cache", None)  # initialised before the hook: wrapped in place
+    inner = getattr(current, "_base_cache", None)
+    if inner is not None and not isinstance(inner, CheckedCache):
+        current._base_cache = CheckedCache(inner)  # type: ignore[union-attr]
+    elif current is not None and inner is None and not isinstance(current, CheckedCache):
+        jcc._cache = CheckedCache(current)
+    return True
+
+
 def default_cache_dir() -> str | None:
     """The cache folder the environment asks for (module docstring), or None when it turns the cache off."""
     if os.environ.get(CACHE_ENV, "1").strip().lower() in _OFF:
@@ -79,6 +243,7 @@ def enable_compile_cache(path: str | None, min_compile_s: float = MIN_COMPILE_S)
     """
     import jax
 
+    guard_jax_cache()  # whoever's folder it is: an entry is checked before XLA deserializes it
     current = getattr(jax.config, "jax_compilation_cache_dir", None)
     if current and current != _state.get("set"):
         return current  # the caller's own

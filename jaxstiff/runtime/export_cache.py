@@ -11,9 +11,15 @@ The file's name is a hash of everything the traced program depends on: the calle
 problem's content fingerprint, the solver's settings), jaxstiff's source code (every ``.py`` file
 of the package), the JAX and jaxlib versions, the backend, the input shapes and dtypes and the x64
 flag. A caller whose program depends on something it cannot put in the key (a user's own
-criterion function) passes ``key=None`` and gets the plain ``lower().compile()``. A file that
-cannot be read or deserialized is ignored (and replaced); a folder that cannot be written only
-costs the tracing. Off where the compilation cache is off (``--no-compile-cache``,
+criterion function) passes ``key=None`` and gets the plain ``lower().compile()``.
+
+A file holds a short header (:data:`~jaxstiff.runtime.compile_cache.MAGIC`, the file key it was made for, the sha256 and length of
+the program's bytes) and the program; it is checked byte for byte before any of it reaches
+``jax.export.deserialize`` (a damaged program can crash the deserializer, a segfault no
+``try`` catches, or deserialize into another computation). A file that fails the check, cannot
+be deserialized, or whose program does not lower and compile is removed, with one
+:class:`CacheDamageWarning` per process, and the program is traced again and rewritten; a
+folder that cannot be written only costs the tracing. Off where the compilation cache is off (``--no-compile-cache``,
 ``JAXSTIFF_COMPILE_CACHE=0``) and with ``JAXSTIFF_EXPORT_CACHE=0``.
 
 The exported program is the same computation, compiled by the same XLA; every call of a kernel
@@ -34,9 +40,10 @@ from typing import Any
 
 import numpy as np
 
-from jaxstiff.runtime.compile_cache import cache_dir_in_use
+from jaxstiff.runtime.compile_cache import CacheDamageWarning, cache_dir_in_use, pack, unpack, warn_damaged
 
 __all__ = [
+    "CacheDamageWarning",  # (defined in compile_cache: both caches warn with it)
     "EXPORT_ENV",
     "EXPORT_SUBDIR",
     "DiskJit",
@@ -97,15 +104,33 @@ def _file_key(key: str, args: Sequence[Any]) -> str:
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()
 
 
-def _read(path: str) -> Any:
+def _discard(path: str, why: str) -> None:
+    with contextlib.suppress(OSError):
+        os.unlink(path)
+    warn_damaged("the cached traced program", path, why)
+
+
+def _read(path: str, file_key: str) -> Any:
+    """The exported program in ``path`` if the file is whole and made for ``file_key``, else None
+    (a damaged file is removed, with one warning per process)."""
     from jax import export
 
     try:
         with open(path, "rb") as f:
-            return export.deserialize(bytearray(f.read()))
-    except (FileNotFoundError, ImportError):  # ImportError: no flatbuffers, no serialization
+            data = f.read()
+    except OSError:  # missing (the usual case), unreadable
         return None
-    except Exception:  # noqa: BLE001 - a damaged or foreign file: trace again and replace it
+    try:
+        payload = unpack(data, file_key)
+    except ValueError as e:
+        _discard(path, str(e))
+        return None
+    try:
+        return export.deserialize(bytearray(payload))
+    except ImportError:  # no flatbuffers: no serialization
+        return None
+    except Exception as e:  # noqa: BLE001 - whole but foreign (another jax): trace again and replace it
+        _discard(path, f"cannot be deserialized: {type(e).__name__}")
         return None
 
 
@@ -125,20 +150,42 @@ def _write(path: str, data: bytes) -> None:
         pass  # an unwritable cache only costs the tracing next time
 
 
-def _exported(fn: Any, args: Sequence[Any], key: str) -> Any:
-    """The exported program of ``fn`` at ``args``: read from its file, or traced and written."""
+def _exported(fn: Any, args: Sequence[Any], key: str, fresh: bool = False) -> tuple[Any, str | None]:
+    """The exported program of ``fn`` at ``args``, read from its file (unless ``fresh``) or traced
+    and written; and the file's path when it was read from it (None: traced here)."""
     import jax
     from jax import export
 
     folder = export_dir()
     assert folder is not None
-    path = os.path.join(folder, _file_key(key, args) + ".jaxexp")
-    exp = _read(path)
-    if exp is None:
-        exp = export.export(fn, platforms=[jax.default_backend()])(*args)
-        with contextlib.suppress(ImportError):  # no flatbuffers: run the exported program unsaved
-            _write(path, bytes(exp.serialize()))
-    return exp
+    file_key = _file_key(key, args)
+    path = os.path.join(folder, file_key + ".jaxexp")
+    exp = None if fresh else _read(path, file_key)
+    if exp is not None:
+        return exp, path
+    exp = export.export(fn, platforms=[jax.default_backend()])(*args)
+    with contextlib.suppress(ImportError):  # no flatbuffers: run the exported program unsaved
+        _write(path, pack(file_key, bytes(exp.serialize())))
+    return exp, None
+
+
+def _compiled(fn: Any, args: Sequence[Any], key: str, opts: dict[str, Any] | None) -> tuple[Any, Any]:
+    """``(jitted exported program, its compiled form for args)``: a program read from its file that
+    fails to lower or compile (a foreign or damaged program that passed the checks) is discarded
+    and traced again."""
+    import jax
+
+    exp, path = _exported(fn, args, key)
+    jitted = jax.jit(exp.call, compiler_options=opts)
+    if path is None:
+        return jitted, jitted.lower(*args).compile()
+    try:
+        return jitted, jitted.lower(*args).compile()
+    except Exception as e:  # noqa: BLE001 - the file's program only; a fresh trace's errors propagate
+        _discard(path, f"does not compile: {type(e).__name__}")
+    exp, _ = _exported(fn, args, key, fresh=True)
+    jitted = jax.jit(exp.call, compiler_options=opts)
+    return jitted, jitted.lower(*args).compile()
 
 
 def compile_with_export_cache(
@@ -157,12 +204,9 @@ def compile_with_export_cache(
     Returns:
         The compiled function (call it with arguments of the same shapes and dtypes).
     """
-    import jax
-
     if key is None or export_dir() is None:
         return fn.lower(*args).compile()
-    exp = _exported(fn, args, key)
-    return jax.jit(exp.call, compiler_options=compiler_options or None).lower(*args).compile()
+    return _compiled(fn, args, key, compiler_options or None)[1]
 
 
 class DiskJit:
@@ -212,12 +256,12 @@ class DiskJit:
         sig = self._signature(args)
         f = self._by_sig.get(sig)
         if f is None:
-            import jax
-
             if export_dir() is None:
                 f = self._jit
             else:
-                f = jax.jit(_exported(self._jit, args, self._key).call, compiler_options=self._opts)
+                # compiled now (the first call reuses it): a program from the file that fails
+                # here is replaced by a fresh trace before anything runs it
+                f = _compiled(self._jit, args, self._key, self._opts)[0]
             self._by_sig[sig] = f
         return f
 

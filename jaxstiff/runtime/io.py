@@ -43,7 +43,9 @@ import numpy as np
 __all__ = [
     "STALE_TMP_S",
     "TMP_PREFIX",
+    "MAX_URDF_BYTES",
     "check_regular_file",
+    "check_urdf_file",
     "clean_stale_temporaries",
     "is_own_temporary",
     "atomic_write",
@@ -154,6 +156,34 @@ def check_regular_file(path: str | os.PathLike, what: str) -> str:
         else "not a file"
     )
     raise ValueError(f"{what}: {path} is not a regular file: it is {kind}; give a file")
+
+
+#: the largest URDF a result file may point at (the shipped ones are a few kB; a robot with
+#: inline meshes a few MB): a bigger "URDF" is refused before it is hashed or parsed
+MAX_URDF_BYTES = 64 << 20
+
+
+def check_urdf_file(path: object, what: str) -> str:
+    """``path`` as a string if it names a regular file of at most :data:`MAX_URDF_BYTES`, else a
+    one-line error naming ``what`` (a flag, or the result's meta field): the URDF a result file
+    records is opened only after this, so a crafted file cannot point the readers at a FIFO,
+    a device (``/dev/zero``), a folder, a huge file, or a number (an int "path" is a file
+    descriptor: ``0`` would read stdin).
+
+    Raises:
+        FileNotFoundError: nothing there.
+        ValueError: not a path (a number, a list, empty), not a regular file, or too big.
+    """
+    if not isinstance(path, (str, os.PathLike)) or isinstance(path, bytes):
+        raise ValueError(f"{what}: expected a URDF file name, got {type(path).__name__} {path!r}")
+    path = os.fspath(path)
+    if not isinstance(path, str) or not path.strip() or "\0" in path:
+        raise ValueError(f"{what}: expected a URDF file name, got {path!r}")
+    check_regular_file(path, what)
+    size = os.stat(path).st_size
+    if size > MAX_URDF_BYTES:
+        raise ValueError(f"{what}: {path} is {size / 2**20:.0f} MiB; a URDF over {MAX_URDF_BYTES >> 20} MiB is refused")
+    return path
 
 
 def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary: bool = False) -> str:

@@ -67,8 +67,15 @@ def _optional_gain(v: object) -> str | None:
     return None if v is None else _finite_non_negative(v)
 
 
-def _count(v: object) -> str | None:
-    return None if isinstance(v, int) and not isinstance(v, bool) and v >= 0 else "must be an integer >= 0"
+#: the most Newton corrections per step: each is unrolled into the compiled step (1000 compiled
+#: for minutes), and 1 already keeps the TCP on a reachable path to ~1e-11 m
+MAX_NEWTON = 50
+
+
+def _newton_count(v: object) -> str | None:
+    if isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= MAX_NEWTON:
+        return None
+    return f"must be an integer 0..{MAX_NEWTON} (each correction is compiled into the step; 1 is the default)"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,7 +124,7 @@ class CSCSettings(Settings):
         1,
         doc="Newton corrections q += J+ (x_d - x(q)) of the TCP inside each step: 1 (default) keeps the TCP on a "
         "reachable path to ~1e-11 m (0: drifts ~1e-6 m over 400 steps; scripts/bench_csc_newton.py)",
-        check=_count,
+        check=_newton_count,
     )
     joint_limits: str = setting(
         "off",

@@ -18,7 +18,9 @@ check).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -69,6 +71,20 @@ def _residual(mujoco: Any, sim: SimModel, data: Any, wrench: np.ndarray, base_sp
     return 0.0 if res == 0.0 else res / max(scale, 1e-300)
 
 
+@contextlib.contextmanager
+def mujoco_messages(mujoco: Any) -> Iterator[list[str]]:
+    """MuJoCo's warnings while the block runs, collected into the yielded list instead of going to
+    stdout and a ``MUJOCO_LOG.TXT`` in the working folder (MuJoCo's default: a stray file left by
+    every run that meets one, e.g. a huge probe force); the previous handler is restored after."""
+    seen: list[str] = []
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(seen.append)
+    try:
+        yield seen
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
 def settle(
     sim: SimModel,
     wrench: np.ndarray,
@@ -100,20 +116,22 @@ def settle(
     check_every = 10
     res = _residual(mujoco, sim, data, wrench, base_spring)
     prev = np.inf
-    while res > tol and not (res < FLOOR_TOL and res > 0.5 * prev):  # converged, or at round-off's floor
-        prev = res
-        if steps >= max_steps:
-            raise SettleError(
-                f"MuJoCo did not settle within {max_steps} steps under the wrench {wrench.tolist()} "
-                f"(residual {res:.2e} > {tol:g}); the load may be past a stability limit"
-            )
-        data.xfrc_applied[sim.tcp_body] = wrench
-        for _ in range(check_every):
-            mujoco.mj_step(model, data)
-        steps += check_every
-        if not np.all(np.isfinite(data.qpos)):
-            raise SettleError(f"MuJoCo diverged under the wrench {wrench.tolist()} after {steps} steps")
-        res = _residual(mujoco, sim, data, wrench, base_spring)
+    with mujoco_messages(mujoco) as said:
+        while res > tol and not (res < FLOOR_TOL and res > 0.5 * prev):  # converged, or at round-off's floor
+            prev = res
+            if steps >= max_steps:
+                raise SettleError(
+                    f"MuJoCo did not settle within {max_steps} steps under the wrench {wrench.tolist()} "
+                    f"(residual {res:.2e} > {tol:g}); the load may be past a stability limit"
+                )
+            data.xfrc_applied[sim.tcp_body] = wrench
+            for _ in range(check_every):
+                mujoco.mj_step(model, data)
+            steps += check_every
+            if not np.all(np.isfinite(data.qpos)) or said:
+                why = f" (MuJoCo: {said[0]})" if said else ""
+                raise SettleError(f"MuJoCo diverged under the wrench {wrench.tolist()} after {steps} steps{why}")
+            res = _residual(mujoco, sim, data, wrench, base_spring)
     return Settled(
         qpos=data.qpos.copy(),
         spring=data.qfrc_spring.copy(),

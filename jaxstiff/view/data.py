@@ -135,15 +135,18 @@ def chain_from_meta(meta: dict[str, Any], urdf: str | None = None) -> Chain:
     """The result's chain rebuilt from ``meta["robot"]`` (URDF path, links, locked joints, tcp) as
     :func:`jaxstiff.results.robot_from_meta` does, but as a plain numpy :class:`Chain`: no JAX.
 
-    The URDF's sha256 is checked against the recorded one unless ``urdf`` is given (a moved file).
+    The URDF is opened only if it is a regular file of bounded size
+    (:func:`jaxstiff.results.numpy_check.result_urdf`). Its sha256 is checked against the recorded
+    one; a ``urdf`` given instead (a moved file) must be the result's robot
+    (:func:`jaxstiff.results.numpy_check.check_same_robot`).
     """
     from jaxstiff.model.chain import Chain
     from jaxstiff.model.urdf import parse_urdf_chain
+    from jaxstiff.results.numpy_check import check_same_robot, result_urdf
     from jaxstiff.runtime.io import file_sha256
 
-    rmeta = meta.get("robot") or {}
-    path = urdf if urdf is not None else str(rmeta.get("urdf", ""))
     try:
+        path, rmeta = result_urdf(meta, urdf)
         if urdf is None and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
             raise ValueError(f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...)")
         tcp = np.asarray(rmeta["tcp"]) if rmeta.get("tcp") is not None else None
@@ -151,7 +154,10 @@ def chain_from_meta(meta: dict[str, Any], urdf: str | None = None) -> Chain:
         fields = parse_urdf_chain(path, rmeta.get("base_link") or None, rmeta.get("tip_link") or None, locked, tcp)
     except FileNotFoundError as exc:
         raise FileNotFoundError(f"{exc}; the result's URDF moved? give it with --urdf FILE") from None
-    return Chain(**fields)
+    chain = Chain(**fields)
+    if urdf is not None:
+        check_same_robot(rmeta, path, chain)
+    return chain
 
 
 def _block3(K: np.ndarray) -> np.ndarray:

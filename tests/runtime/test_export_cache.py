@@ -23,6 +23,7 @@ from jaxstiff.solvers.problem import WaypointProblem
 @pytest.fixture
 def cache(tmp_path, restore_jax_cache, monkeypatch):
     monkeypatch.delenv(ec.EXPORT_ENV, raising=False)
+    monkeypatch.setattr("jaxstiff.runtime.compile_cache._WARNED", set())  # each test sees its first warning
     jax.config.update("jax_compilation_cache_dir", str(tmp_path / "xla"))
     return tmp_path / "xla" / ec.EXPORT_SUBDIR
 
@@ -90,7 +91,8 @@ def test_damaged_file_is_replaced(cache):
     ec.compile_with_export_cache(f.jit(), (x, a), "k1")
     (name,) = _files(cache)
     (cache / name).write_bytes(b"not a program")
-    _check(ec.compile_with_export_cache(f.jit(), (x, a), "k1"), x, a)
+    with pytest.warns(ec.CacheDamageWarning, match="no jaxstiff header"):
+        _check(ec.compile_with_export_cache(f.jit(), (x, a), "k1"), x, a)
     assert f.traces == 2
     assert (cache / name).read_bytes() != b"not a program"
     ec.compile_with_export_cache(f.jit(), (x, a), "k1")
@@ -162,7 +164,7 @@ def test_pgd_from_the_file_equals_pgd_traced(cache, monkeypatch):
 
 def test_disk_jit_one_program_per_signature_and_from_the_file(cache):
     f = Counted()
-    fn = f.jit().__wrapped__  # the plain function (a new object: no trace cache shared with others)
+    fn = getattr(f.jit(), "__wrapped__")  # noqa: B009 - the plain function (a new object: no shared trace cache)
     x, a = np.linspace(-1.0, 2.0, 7), np.float64(1.5)
     dj = ec.DiskJit(fn, "dj")
     _check(dj, x, a)
@@ -183,7 +185,7 @@ def test_disk_jit_one_program_per_signature_and_from_the_file(cache):
 
 def test_disk_jit_specialize_is_the_program_it_calls(cache):
     f = Counted()
-    fn = f.jit().__wrapped__
+    fn = getattr(f.jit(), "__wrapped__")  # noqa: B009 - (untyped in the stubs)
     x, a = np.linspace(-1.0, 2.0, 7), np.float64(1.5)
     dj = ec.DiskJit(fn, "spec")
     kernel = dj.specialize(x, a)  # traced (and written) here, not at the first call
