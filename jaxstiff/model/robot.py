@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 
 from jaxstiff.model.chain import JOINT_PRISMATIC, JOINT_REVOLUTE, Chain, check_q
 from jaxstiff.model.kinematics import fk, fk_and_jacobian, jacobian
+from jaxstiff.model.reach import Reach, chain_reach
 from jaxstiff.model.shipped import robot_path, shipped_robots
 from jaxstiff.model.urdf import parse_urdf_chain
 
@@ -90,3 +91,12 @@ class Robot(Chain):
     def fk_and_jacobian(self, q: ArrayLike) -> tuple[jax.Array, jax.Array]:
         """Both in one pass: ``(T (..., 4, 4), J (..., 6, n))``."""
         return fk_and_jacobian(self, check_q(self, q))
+
+    # ------------------------------------------------------------------ workspace
+    def reach(self) -> Reach:
+        """The shell that holds every TCP position within the joint limits: ``Reach(centre (3,) m,
+        outer m, inner m, centre_joint)``, ``inner <= |p_tcp - centre| <= outer`` for every posture
+        (bounds proved from the joint origins, axes and limits; :mod:`jaxstiff.model.reach`).
+        ``jaxstiff.shape``, ``csc_rollout`` and their commands refuse waypoints outside it before
+        any solve (:func:`jaxstiff.model.reach.check_reach`)."""
+        return chain_reach(self)
