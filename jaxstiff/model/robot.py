@@ -54,8 +54,10 @@ class Robot(Chain):
         Args:
             path: URDF file, or the name of a shipped robot (``"kuka_lwr4"``, ``"planar_3r"``).
             base_link: link the chain starts at; default: the tree's root link.
-            tip_link: link the chain ends at; default: the leaf link that is reached through
-                the most actuated joints, if that leaf is unique (else an error lists them).
+            tip_link: link the chain ends at; default: the automatic tip of
+                :func:`jaxstiff.model.urdf.tip_candidates`: gripper and finger joints cut off, the
+                leaf reached through the most actuated joints, ties broken by finger parts and
+                end-effector names (tcp, tool, ee, flange); still tied: an error lists them all.
             locked: ``{joint_name: value}`` joints held at a value (rad or m). A locked joint
                 stays in ``q`` and in the joint list but is not free for the position task
                 (seed 000 locks the LWR's 7th joint at 0).
