@@ -115,10 +115,13 @@ def add_setting_flags(p: argparse.ArgumentParser, later: dict[str, str] | None =
 def settings_from_args(args: argparse.Namespace) -> CSCSettings:
     """The :class:`CSCSettings` of the flags (a flag left None: the field's default); an error names
     the flag (``--kmin must be ...``)."""
-    given = {name: getattr(args, name) for name in SETTING_FLAGS}
     defaults = CSCSettings.defaults()
+    values: dict[str, Any] = {}
+    for name in SETTING_FLAGS:
+        v = getattr(args, name)
+        values[name] = defaults[name] if v is None and name in ("step", "beta") else v
     try:
-        return CSCSettings(**{k: defaults[k] if v is None and k in ("step", "beta") else v for k, v in given.items()})
+        return CSCSettings(**values)
     except ValueError as e:
         raise ValueError(flag_message(str(e))) from None
 
