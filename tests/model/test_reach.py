@@ -222,3 +222,7 @@ def test_sweep_marks_rows_out_of_reach_instead_of_refusing(tmp_path):
     assert far.iloc[0]["result_file"] == "" and far.iloc[0]["result_index"] == -1
     assert far.iloc[0]["share_usable"] == 0.0 and math.isnan(far.iloc[0]["q0_ik_error_m"])
     assert near.iloc[0]["share_usable"] == 1.0 and near.iloc[0]["result_file"].startswith("arrays/")
+    from jaxstiff.view.data import sweep_row_file
+
+    with pytest.raises(ValueError, match=r"sweep row \d+ was not solved \(its path leaves the robot's reach\)"):
+        sweep_row_file(str(tmp_path / "run"), int(far.iloc[0]["row_id"]))
