@@ -39,6 +39,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from jaxstiff.model.reach import check_reach
 from jaxstiff.model.robot import Robot
 from jaxstiff.paths import Path
 from jaxstiff.results import files as R
@@ -274,6 +275,11 @@ def shape(
         ValueError: bad input (ratio <= 1, kmin <= 0 or kmin >= kmax, negative rate limits,
             per-path values of the wrong shape, q0/kj0 of the wrong length or outside the limits,
             unknown solver/criterion/task); per-path values name the offending path.
+        UnreachableError: (a ValueError, :mod:`jaxstiff.model.reach`) a waypoint lies outside the
+            robot's reach (``robot.reach()``; task "xy": its radius in the xy plane), checked before
+            any IK or solve; the message names the path, waypoint, distance and reach (and says so
+            when the numbers look like millimetres). A waypoint inside the reach that no posture
+            attains gets status 3.
         ShapeInterrupted: a ``KeyboardInterrupt`` after some waypoints were finished (SLSQP
             solvers): its ``result`` holds them, the others with status NOT_RUN (5).
 
@@ -314,6 +320,8 @@ def shape(
         )
         inp.robot_spec = spec_meta
         check_shape_size(inp)  # before any work: B x P waypoints that cannot fit are refused
+        # waypoints out of the robot's reach are refused before any IK or solve (milliseconds)
+        check_reach(inp.robot, bpath.points, planar=inp.task == "xy")
         extra_starts = make_start_states(inp, q0, kj0)
         marks = [time.perf_counter(), time.time()]  # the solve starts (perf_counter, wall clock)
         problem, req, arrays, interrupted = _solve(inp, extra_starts, progress)

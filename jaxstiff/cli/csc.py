@@ -3,12 +3,18 @@
 Examples::
 
     # the project's planar hold case (seed 001 has no simulation example): hold a point, K_xd = R(30 deg) diag(3000, 1000) R^T N/m
+    # (--hold takes --step constant --beta 2e-3 unless they are given: HOLD_STEP, HOLD_BETA)
     jaxstiff csc --robot planar_3r --hold 1.50005,0 --kxd 3000,1000@30 --q0-deg 75,-74.74,-76.30 \\
-                 --step constant --beta 2e-3 --steps 1000 --out hold.npz
+                 --steps 1000 --out hold.npz
 
     # the LWR (its 7th joint locked at 0 by default, as in `jaxstiff shape`) along a CSV path, task xyz
     jaxstiff csc --robot kuka_lwr4 --path path.csv --kxd 3000,1000,2000@30 \\
                  --q0 0.3,0.5,0,-1.2,0,0.6,0 --beta 1 --out lwr.npz
+
+``--hold`` without ``--step`` runs the constant step rule (a null step of ``--beta`` rad per step,
+default 2e-3 there): the adaptive rule's null step is beta times the primary step (S1-22), zero
+while the target stands still, so a held arm would not move. ``--step adaptive`` with ``--hold``
+still runs as asked, with a warning.
 
 ``--kxd`` (N/m): either the diagonal ``K1,...,Km`` optionally followed by ``@DEG``, meaning
 ``R_z(DEG) diag(K1..Km) R_z(DEG)^T`` (a rotation about the base z axis; m = 2 or 3), or the full
@@ -118,6 +124,11 @@ _EPILOG = (
 
 #: steps of ``--hold`` when ``--steps`` is not given
 HOLD_STEPS = 1000
+#: ``--hold`` without ``--step``: the constant step rule (the adaptive null step is beta |dq_P|, zero
+#: while the target stands still: the arm would not move), with this null-step length (rad per step)
+#: unless ``--beta`` is given: small enough that one Newton correction keeps the TCP on the point
+HOLD_STEP = "constant"
+HOLD_BETA = 2e-3
 
 
 @command("csc", "Configuration-based Stiffness Control (seed 001): follow a path or hold a point, lower u(q)")
@@ -151,7 +162,9 @@ def _add_csc(p: argparse.ArgumentParser):
         help="start posture, rad; m for prismatic joints (locked joints: their locked values)",
     )
     q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees (prismatic joints: m)")
-    add_setting_flags(p)
+    add_setting_flags(
+        p, later={"step": f"; with --hold: {HOLD_STEP}", "beta": f"; with --hold: {HOLD_BETA:g} rad per step"}
+    )
     writes(
         p.add_argument("--out", required=True, metavar="FILE.npz", help="result file (written atomically)"),
         suffix=".npz",
@@ -426,6 +439,9 @@ def run_csc(args: argparse.Namespace) -> int:
         raise ValueError("--steps applies to --hold; a --path has one step per row (repeat a row to hold it still)")
     if args.steps is not None and args.steps < 1:
         raise ValueError(f"--steps must be >= 1, got {args.steps}")
+    if args.hold is not None and args.step is None:  # a held point needs the step rule that moves
+        args.step = HOLD_STEP
+        args.beta = HOLD_BETA if args.beta is None else args.beta
     settings = settings_from_args(args)  # the numeric flags first (named as flags), before any work or warning
     out = check_out_file(args.out)
     spec = robot_spec_from_args(args)

@@ -87,8 +87,12 @@ SETTING_FLAGS = {
 }
 
 
-def add_setting_flags(p: argparse.ArgumentParser) -> None:
-    """One flag per :class:`CSCSettings` field (:data:`SETTING_FLAGS`), its default, unit and doc from the field."""
+def add_setting_flags(p: argparse.ArgumentParser, later: dict[str, str] | None = None) -> None:
+    """One flag per :class:`CSCSettings` field (:data:`SETTING_FLAGS`), its default, unit and doc from the field.
+
+    ``later``: fields whose default the command resolves itself (the flag's value stays None when
+    not given), each with the text its help shows after the default (e.g. ``"; with --hold: constant"``)."""
+    later = later or {}
     for info in CSCSettings.fields_info():
         flag = SETTING_FLAGS[info.name]
         kind: Any = int if info.name == "newton" else str if info.choices else float
@@ -101,14 +105,23 @@ def add_setting_flags(p: argparse.ArgumentParser) -> None:
             if isinstance(info.default, float)
             else f" (default: {info.default})"
         )
+        if info.name in later:
+            shown = shown[:-1] + later[info.name] + ")"
         help_text = info.doc + unit + shown
-        p.add_argument(flag, type=kind, choices=choices, default=info.default, help=help_text)
+        default = None if info.name in later else info.default
+        p.add_argument(flag, type=kind, choices=choices, default=default, help=help_text)
 
 
 def settings_from_args(args: argparse.Namespace) -> CSCSettings:
-    """The :class:`CSCSettings` of the flags; an error names the flag (``--kmin must be ...``)."""
+    """The :class:`CSCSettings` of the flags (a flag left None: the field's default); an error names
+    the flag (``--kmin must be ...``)."""
+    defaults = CSCSettings.defaults()
+    values: dict[str, Any] = {}
+    for name in SETTING_FLAGS:
+        v = getattr(args, name)
+        values[name] = defaults[name] if v is None and name in ("step", "beta") else v
     try:
-        return CSCSettings(**{name: getattr(args, name) for name in SETTING_FLAGS})
+        return CSCSettings(**values)
     except ValueError as e:
         raise ValueError(flag_message(str(e))) from None
 

@@ -10,11 +10,17 @@ import argparse
 import warnings
 from typing import Any
 
-from .common import add_robot_flags, command, parse_floats, robot_spec_from_args
+from .common import add_robot_flags, command, parse_floats, reads, robot_spec_from_args
 
 
-@command("robot", "print a robot's chain, limits, and FK/Jacobian at a posture")
+@command("robot", "print a robot's candidate tip links, chain, limits, and FK/Jacobian at a posture")
 def _add_robot(p: argparse.ArgumentParser) -> Any:
+    reads(
+        p.add_argument(
+            "urdf", nargs="?", default=None, metavar="URDF", help="URDF file or shipped robot name (the same as --robot)"
+        ),
+        shipped_robot=True,
+    )
     add_robot_flags(p)
     p.add_argument(
         "--q",
@@ -28,7 +34,15 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
         from ..runtime.x64 import enable_x64
 
         enable_x64()
-        robot = robot_spec_from_args(args).build()
+        from ..settings.robot import DEFAULT_ROBOT
+
+        if args.urdf is not None:
+            if args.robot not in (DEFAULT_ROBOT, args.urdf):
+                raise ValueError(f"give the robot once: URDF {args.urdf!r} or --robot {args.robot!r}")
+            args.robot = args.urdf
+        spec = robot_spec_from_args(args)
+        print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)
+        robot = spec.build()
         if args.q is None:
             from ..ik import nominal_posture
 
@@ -64,3 +78,24 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
         return 0
 
     return run
+
+
+def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None) -> None:
+    """The leaf links a chain from ``base_link`` can end at, with their actuated-joint counts, the
+    automatic choice first and gripper/finger leaves marked (:func:`jaxstiff.model.urdf.tip_candidates`)."""
+    from ..model.urdf import tip_candidates
+
+    ranked, chosen, base = tip_candidates(urdf, base_link)
+    print(f"candidate tip links below {base!r} (automatic choice first; --tip-link to choose another):")
+    width = max(len(c.link) for c in ranked) if ranked else 0
+    for c in ranked:
+        mark = "*" if c.link == chosen else " "
+        note = c.note()
+        used = "  <- --tip-link" if c.link == tip_link else ""
+        s = "" if c.joints == 1 else "s"
+        print(f" {mark} {c.link:<{width}}  {c.joints:>2} actuated joint{s}{'  (' + note + ')' if note else ''}{used}")
+    if chosen is None:
+        print("   (no automatic choice: the rule leaves a tie; pass --tip-link)")
+    else:
+        print(f"   * automatic tip: {chosen!r}")
+    print()

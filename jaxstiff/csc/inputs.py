@@ -23,6 +23,7 @@ from jaxstiff._numerics.batch import broadcast_batch
 from jaxstiff._numerics.safe import safe_sqrt
 from jaxstiff.csc.step import StaticSettings
 from jaxstiff.model.chain import check_locked_values
+from jaxstiff.model.reach import check_reach as refuse_unreachable
 from jaxstiff.model.robot import Robot
 from jaxstiff.runtime.dtypes import refuse_half_precision
 from jaxstiff.settings.csc import (
@@ -232,6 +233,7 @@ def prepare_rollout(
     hold_orientation: Any = None,
     remat: bool = True,
     chunk: int | None = 128,
+    check_reach: bool = True,
     **given: Any,
 ) -> tuple[StaticSettings, int | None, tuple, tuple[int, ...]]:
     """Every check of :func:`jaxstiff.csc_rollout` and its inputs flattened to one batch axis:
@@ -267,7 +269,7 @@ def prepare_rollout(
         scalars[name] = a
     null_eps_a = _null_eps(s["null_eps"], K_xd, bool(kxd_varying), dtype)
     R_hold = _hold_rotation(hold_orientation, task, dtype)
-    validate_values(robot, targets, K_xd, q0, beta, scalars, null_eps_a)
+    validate_values(robot, targets, K_xd, q0, beta, scalars, null_eps_a, check_reach)
     K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
     batches = [("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch)]
     if R_hold is not None:
@@ -332,8 +334,10 @@ def validate_values(
     beta: jax.Array,
     scalars: dict[str, jax.Array],
     null_eps: jax.Array,
+    check_reach_: bool = True,
 ) -> None:
-    """Value checks at the Python boundary, in numpy (skipped for traced inputs)."""
+    """Value checks at the Python boundary, in numpy (skipped for traced inputs); ``check_reach_``:
+    refuse waypoints out of the robot's reach (:func:`jaxstiff.model.reach.check_reach`)."""
 
     def val(x: Any) -> np.ndarray | None:
         return None if not is_concrete(x) else np.asarray(x, dtype=float)
@@ -342,6 +346,10 @@ def validate_values(
         v = val(a)
         if v is not None and not np.all(np.isfinite(v)):
             raise ValueError(f"{name} contains NaN or Inf")
+    pts = val(targets) if check_reach_ else None
+    if pts is not None and pts.size:
+        # waypoints out of the robot's reach, before any compilation (task "xy": (x, y) points)
+        refuse_unreachable(robot, pts.reshape((-1,) + pts.shape[-2:]), planar=pts.shape[-1] == 2)
     b = val(beta)
     if b is not None and np.any(b < 0):
         raise ValueError(f"beta must be >= 0, got min {b.min():g}")

@@ -205,6 +205,7 @@ def csc_rollout(
     hold_orientation: Any = None,
     remat: bool = True,
     chunk: int | None = 128,
+    check_reach: bool = True,
 ) -> CSCResult:
     """Configuration-based Stiffness Control rollout along a path (seed 001, SPEC section 6).
 
@@ -214,7 +215,7 @@ def csc_rollout(
 
     Settings (``beta``, ``task`` ... ``jl_gain``) come from ``settings`` (default: CSCSettings'
     defaults, as ``jaxstiff csc``'s); a keyword that is not None overrides its field (arrays too).
-    Long only for its 22 documented parameters; the body is two named steps (:func:`prepare_rollout`,
+    Long only for its 23 documented parameters; the body is two named steps (:func:`prepare_rollout`,
     :func:`rollout_batch`).
 
     Args:
@@ -264,13 +265,18 @@ def csc_rollout(
         remat: rematerialise the scan body in the backward pass (memory ~ T n per rollout).
         chunk: rollouts per ``vmap`` chunk; a larger batch runs as a sequential ``lax.map`` over
             chunks (bounded working set). ``None``: one vmap over the whole batch.
+        check_reach: refuse waypoints out of the robot's reach before compiling anything
+            (default True; ``robot.reach()``, :func:`jaxstiff.model.reach.check_reach`; a traced
+            path is not checked). The sweep passes False: its rows over a workspace may leave the
+            reach, and a rollout's cost does not depend on it (it tracks as far as it can).
 
     Returns:
         :class:`CSCResult` with leading batch axes ``*B``.
 
     Raises:
         ValueError: bad shapes, task, step, non-finite or out-of-limit inputs, negative beta,
-            a non-symmetric or indefinite K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs).
+            a non-symmetric or indefinite K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs);
+            :class:`~jaxstiff.model.reach.UnreachableError` for waypoints out of reach.
     """
     ensure_compile_cache()  # the persistent compilation cache, before the first compilation (cheap when on)
     st, chunk, args, batch = prepare_rollout(
@@ -296,6 +302,7 @@ def csc_rollout(
         hold_orientation=hold_orientation,
         remat=remat,
         chunk=chunk,
+        check_reach=check_reach,
     )
     res = rollout_batch(robot, st, chunk, *args)
     return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), res)

@@ -26,6 +26,7 @@ from numpy.typing import ArrayLike
 
 from jaxstiff.model.chain import JOINT_PRISMATIC, JOINT_REVOLUTE, Chain, check_q
 from jaxstiff.model.kinematics import fk, fk_and_jacobian, jacobian
+from jaxstiff.model.reach import Reach, chain_reach
 from jaxstiff.model.shipped import robot_path, shipped_robots
 from jaxstiff.model.urdf import parse_urdf_chain
 
@@ -53,8 +54,10 @@ class Robot(Chain):
         Args:
             path: URDF file, or the name of a shipped robot (``"kuka_lwr4"``, ``"planar_3r"``).
             base_link: link the chain starts at; default: the tree's root link.
-            tip_link: link the chain ends at; default: the leaf link that is reached through
-                the most actuated joints, if that leaf is unique (else an error lists them).
+            tip_link: link the chain ends at; default: the automatic tip of
+                :func:`jaxstiff.model.urdf.tip_candidates`: gripper and finger joints cut off, the
+                leaf reached through the most actuated joints, ties broken by finger parts and
+                end-effector names (tcp, tool, ee, flange); still tied: an error lists them all.
             locked: ``{joint_name: value}`` joints held at a value (rad or m). A locked joint
                 stays in ``q`` and in the joint list but is not free for the position task
                 (seed 000 locks the LWR's 7th joint at 0).
@@ -90,3 +93,12 @@ class Robot(Chain):
     def fk_and_jacobian(self, q: ArrayLike) -> tuple[jax.Array, jax.Array]:
         """Both in one pass: ``(T (..., 4, 4), J (..., 6, n))``."""
         return fk_and_jacobian(self, check_q(self, q))
+
+    # ------------------------------------------------------------------ workspace
+    def reach(self) -> Reach:
+        """The shell that holds every TCP position within the joint limits: ``Reach(centre (3,) m,
+        outer m, inner m, centre_joint)``, ``inner <= |p_tcp - centre| <= outer`` for every posture
+        (bounds proved from the joint origins, axes and limits; :mod:`jaxstiff.model.reach`).
+        ``jaxstiff.shape``, ``csc_rollout`` and their commands refuse waypoints outside it before
+        any solve (:func:`jaxstiff.model.reach.check_reach`)."""
+        return chain_reach(self)

@@ -25,7 +25,7 @@ import numpy as np
 from jaxstiff.model.chain import JOINT_PRISMATIC, JOINT_REVOLUTE, check_locked, mat_to_tuple, snap, tcp_matrix
 from jaxstiff.model.shipped import robot_path, shipped_robots
 from jaxstiff.runtime.io import check_regular_file
-from jaxstiff.runtime.messages import short_list, short_text
+from jaxstiff.runtime.messages import short_list, short_text, suggest
 
 _MOVABLE = {"revolute": JOINT_REVOLUTE, "continuous": JOINT_REVOLUTE, "prismatic": JOINT_PRISMATIC}
 _KNOWN = set(_MOVABLE) | {"fixed", "floating", "planar"}
@@ -202,6 +202,24 @@ class _Tree:
     parent_joint: dict[str, Any]
     children: dict[str, list[Any]]
 
+    def below(self, link: str) -> list[str]:
+        """Every link below ``link`` (depth first, file order among siblings)."""
+        out, stack = [], [j.child for j in reversed(self.children[link])]
+        while stack:
+            l = stack.pop()
+            out.append(l)
+            stack.extend(j.child for j in reversed(self.children[l]))
+        return out
+
+    def chain_below(self, link: str) -> list[Any]:
+        """Every joint below ``link``."""
+        out, stack = [], [link]
+        while stack:
+            for j in self.children[stack.pop()]:
+                out.append(j)
+                stack.append(j.child)
+        return out
+
     def chain_to(self, base_link: str, tip: str) -> list[Any]:
         """The joints from ``base_link`` down to ``tip`` (base first), or [] if ``tip`` is not below it."""
         chain, link, seen = [], tip, set()
@@ -248,54 +266,248 @@ def _pick_base(path: str, tree: _Tree, base_link: str | None) -> str:
             raise ValueError(f"{path}: several root links ({short_list(roots)}); pass base_link")
         return roots[0]
     if base_link not in tree.links:
-        raise ValueError(f"{path}: unknown base link {base_link!r}; links: {short_list(tree.links)}")
+        raise ValueError(
+            f"{path}: unknown base link {base_link!r}{suggest(base_link, tree.links)}; links: "
+            f"{short_list(tree.links, limit=TIP_LIST_LIMIT)}"
+        )
     return base_link
 
 
-def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> str:
-    """``tip_link`` checked, or the one leaf below ``base_link`` reached through the most actuated joints."""
-    if tip_link is not None:
-        if tip_link not in tree.links:
-            raise ValueError(f"{path}: unknown tip link {tip_link!r}; links: {short_list(tree.links)}")
-        return tip_link
-    # leaves below the base link, ranked by the number of actuated joints on their chain
+#: words that make a joint a gripper joint when its name contains one (any case, as substrings)
+GRIPPER_WORDS = ("gripper", "finger", "jaw", "claw", "thumb", "knuckle", "hand")
+#: ... and when its child link's name does: the parts of a finger (a wrist joint's child link is
+#: often called "gripper_link" or "hand": the body the wrist turns, not a finger)
+FINGER_WORDS = ("finger", "jaw", "claw", "thumb", "knuckle")
+#: end-effector names that break a tie between candidate tips, best first (lower-case substrings of
+#: the link name; ``ee`` only as a whole word: ``ee_link``, ``right_ee``, not ``knee``)
+TIP_NAME_TIERS = (("tcp",), ("tool",), ("end_effector", "endeffector", "eef", "ee"), ("flange",))
+_GRIPPER_RE = re.compile("|".join(GRIPPER_WORDS), re.IGNORECASE)
+_FINGER_RE = re.compile("|".join(FINGER_WORDS), re.IGNORECASE)
+
+
+def _name_tier(link: str) -> int:
+    """0 .. 3: the link's rank in :data:`TIP_NAME_TIERS`; 4: not an end-effector name."""
+    low = link.lower()
+    for tier, words in enumerate(TIP_NAME_TIERS):
+        if any(re.search(r"(^|[^a-z])ee([^a-z]|$)", low) if w == "ee" else w in low for w in words):
+            return tier
+    return len(TIP_NAME_TIERS)
+
+
+@dataclasses.dataclass(frozen=True)
+class TipCandidate:
+    """A leaf link the chain could end at (:func:`tip_candidates`).
+
+    Attributes:
+        link: the leaf link.
+        joints: actuated joints between the base link and it.
+        gripper_joint: the first gripper joint on its chain (:func:`is_gripper_joint`), or None.
+        finger: a link or fixed joint after its last actuated joint is named like a finger part
+            (:data:`FINGER_WORDS`: a finger tip fixed to the hand).
+        blocked_by: a mimic, floating or planar joint on its chain (no chain can run through it), or None.
+        name_tier: its rank among end-effector names (:data:`TIP_NAME_TIERS`; 4: none).
+    """
+
+    link: str
+    joints: int
+    gripper_joint: str | None
+    finger: bool
+    blocked_by: str | None
+    name_tier: int
+
+    def note(self) -> str:
+        """What the listing says about the candidate besides its joint count."""
+        parts = []
+        if self.gripper_joint is not None:
+            parts.append(f"through gripper joint {self.gripper_joint!r}")
+        elif self.blocked_by is not None:
+            parts.append(f"behind joint {self.blocked_by!r} (mimic, floating or planar: no chain through it)")
+        if self.finger and self.gripper_joint is None:
+            parts.append("finger part")
+        if self.name_tier < len(TIP_NAME_TIERS):
+            parts.append("end-effector name")
+        return "; ".join(parts)
+
+
+def _gripper_named(j: UrdfJoint) -> bool:
+    """The joint's name contains a :data:`GRIPPER_WORDS` word, or its child link's a :data:`FINGER_WORDS` one."""
+    return bool(_GRIPPER_RE.search(j.name) or _FINGER_RE.search(j.child))
+
+
+def is_gripper_joint(j: UrdfJoint, below: Sequence[UrdfJoint] = (), siblings: Sequence[UrdfJoint] = ()) -> bool:
+    """A joint of a gripper or hand, which the automatic tip never runs through (see
+    :func:`tip_candidates`): an actuated or mimic joint whose name contains one of
+    :data:`GRIPPER_WORDS` (``gripper``, ``finger``, ``jaw``, ``hand`` ...) or whose child link's
+    name contains one of :data:`FINGER_WORDS` (``finger``, ``jaw`` ...), and below which every
+    actuated joint is named so too (``below``: the joints of its subtree; an arm joint that happens
+    to be called "hand" keeps the arm below it), or a prismatic joint with no actuated joint below
+    it and another actuated joint beside it at its parent link (``siblings``: the two jaws of a
+    parallel gripper, whatever their names)."""
+    movable = j.type in _MOVABLE or j.mimic is not None
+    moving_below = [k for k in below if k.type in _MOVABLE]
+    if movable and _gripper_named(j) and all(_gripper_named(k) or k.mimic is not None for k in moving_below):
+        return True
+    return j.type == "prismatic" and not moving_below and any(s is not j and s.type in _MOVABLE for s in siblings)
+
+
+def _leaves_below(tree: _Tree, base_link: str, cut: set[str]) -> list[str]:
+    """Leaf links below ``base_link`` in file order, the joints named in ``cut`` and their subtrees left out."""
     below, stack = [], [base_link]
     while stack:
         link = stack.pop()
-        if not tree.children[link]:
+        kids = [j for j in tree.children[link] if j.name not in cut]
+        if not kids and link != base_link:
             below.append(link)
-        stack.extend(j.child for j in tree.children[link])
-    counts = {l: sum(j.type in _MOVABLE for j in tree.chain_to(base_link, l)) for l in below}
-    # a chain through a mimic, floating or planar joint cannot be used: such a leaf is never picked,
-    # and when it has as many actuated joints as the best other leaf, the choice is the user's
-    behind = {l: next((j for j in tree.chain_to(base_link, l) if _unsupported(j)), None) for l in below}
-    usable = {l: c for l, c in counts.items() if behind[l] is None}
-    if any(usable.values()):
-        top = max(usable.values())
-        rivals = sorted(l for l, c in counts.items() if behind[l] is not None and c >= top)
-        if rivals:
-            best_usable = sorted(l for l, c in usable.items() if c == top)
-            blockers = [(l, j) for l in rivals[:4] if (j := behind[l]) is not None]
-            why = ", ".join(
-                f"{l!r} (behind {j.type if j.mimic is None else 'mimic'} joint {j.name!r})" for l, j in blockers
-            )
-            raise ValueError(
-                f"{path}: the tip link is ambiguous below {base_link!r}: {short_list(best_usable)} has the most "
-                f"actuated joints ({top}) of the leaves a chain can end at, but {why} has as many; a chain cannot "
-                "end behind such a joint, so the default would silently pick the other branch (e.g. one finger "
-                f"of a gripper); pass tip_link (command line: --tip-link), e.g. {best_usable[0]!r}"
-            )
-        counts = usable
-    best = max(counts.values()) if counts else 0
-    tips = sorted(l for l, c in counts.items() if c == best)
-    if best == 0:
-        raise ValueError(f"{path}: no actuated joint below base link {base_link!r}; nothing to move")
-    if len(tips) != 1:
-        raise ValueError(
-            f"{path}: the tip link is ambiguous below {base_link!r}: leaves {short_list(tips) or '(none)'} "
-            f"each have {best} actuated joints; pass tip_link (command line: --tip-link)"
+        stack.extend(j.child for j in reversed(kids))
+    order = {l: i for i, l in enumerate(tree.links)}
+    return sorted(below, key=order.__getitem__)
+
+
+def _gripper_joints(tree: _Tree, base_link: str) -> set[str]:
+    """Names of the gripper joints below ``base_link`` (:func:`is_gripper_joint`)."""
+    out, stack = set(), [base_link]
+    while stack:
+        link = stack.pop()
+        kids = tree.children[link]
+        for j in kids:
+            if is_gripper_joint(j, tree.chain_below(j.child), kids):
+                out.add(j.name)
+            stack.append(j.child)
+    return out
+
+
+def _candidate(tree: _Tree, base_link: str, leaf: str, grippers: set[str]) -> TipCandidate:
+    chain = tree.chain_to(base_link, leaf)
+    last = max((i for i, j in enumerate(chain) if j.type in _MOVABLE), default=-1)
+    tail = chain[last + 1 :]
+    finger = any(_FINGER_RE.search(j.name) or _FINGER_RE.search(j.child) for j in tail)
+    return TipCandidate(
+        link=leaf,
+        joints=sum(j.type in _MOVABLE for j in chain),
+        gripper_joint=next((j.name for j in chain if j.name in grippers), None),
+        finger=bool(finger),
+        blocked_by=next((j.name for j in chain if _unsupported(j)), None),
+        name_tier=_name_tier(leaf),
+    )
+
+
+def _rank(c: TipCandidate) -> tuple:
+    return (c.gripper_joint is not None, c.blocked_by is not None, -c.joints, c.finger, c.name_tier, c.link)
+
+
+def _tip_choice(tree: _Tree, base_link: str) -> tuple[list[TipCandidate], str | None, str]:
+    """The candidate tips (the automatic choice first, then by :func:`_rank`), the automatic tip
+    (None when there is none) and, when there is none, why (an error message's middle part)."""
+    grippers = _gripper_joints(tree, base_link)
+    arm = _leaves_below(tree, base_link, grippers)  # the leaves once the gripper is cut off
+    every = _leaves_below(tree, base_link, set())
+    cands = {l: _candidate(tree, base_link, l, grippers) for l in dict.fromkeys(arm + every)}
+    if not any(cands[l].joints and cands[l].gripper_joint is None for l in arm):
+        # only gripper joints move (a gripper on its own): the rule falls back to every leaf
+        grippers, cands = set(), {l: _candidate(tree, base_link, l, set()) for l in every}
+    pool = [c for c in cands.values() if c.gripper_joint is None]
+    usable = [c for c in pool if c.blocked_by is None and c.joints]
+    ranked = sorted(cands.values(), key=_rank)
+    if not usable:  # every chain runs through a mimic, floating or planar joint: building it names that joint
+        usable = pool
+    top = max((c.joints for c in usable), default=0)
+    if top == 0:
+        return ranked, None, f"no actuated joint below base link {base_link!r}; nothing to move"
+    rivals = [c for c in pool if c.blocked_by is not None and c.joints >= top and c not in usable]
+    best = sorted((c for c in usable if c.joints == top), key=_rank)
+    if rivals:
+        why = ", ".join(
+            f"{c.link!r} (behind {_blocker_kind(tree, str(c.blocked_by))} joint {c.blocked_by!r})" for c in rivals
         )
-    return tips[0]
+        return (
+            ranked,
+            None,
+            f"{short_list(repr(c.link) for c in best)} has the most actuated joints ({top}) of the leaves a "
+            f"chain can end at, but {why} has as many; a chain cannot end behind such a joint, so the default would "
+            f"silently pick the other branch",
+        )
+    if any(not c.finger for c in best):
+        best = [c for c in best if not c.finger]
+    tier = min(c.name_tier for c in best)
+    best = [c for c in best if c.name_tier == tier]
+    if len(best) != 1:
+        return (
+            ranked,
+            None,
+            f"leaves {short_list(repr(c.link) for c in best)} each have {top} actuated joints and no end-effector "
+            f"name or gripper rule tells them apart",
+        )
+    chosen = best[0]
+    return [chosen] + [c for c in ranked if c is not chosen], chosen.link, ""
+
+
+def _blocker_kind(tree: _Tree, name: str) -> str:
+    j = next(j for js in tree.children.values() for j in js if j.name == name)
+    return "mimic" if j.mimic is not None else j.type
+
+
+def tip_candidates(path: str | os.PathLike, base_link: str | None = None) -> tuple[list[TipCandidate], str | None, str]:
+    """The leaf links a chain from ``base_link`` (default: the root) can end at, the automatic
+    choice first; the automatic tip link (None when the rule leaves a tie; the error of
+    :meth:`~jaxstiff.Robot.from_urdf` then lists them); and the base link. ``jaxstiff robot URDF``
+    prints them.
+
+    The rule (deterministic; the order of the URDF file does not matter):
+
+    1. **Gripper joints are cut off.** A joint is a gripper joint (:func:`is_gripper_joint`) when it
+       is actuated or a mimic joint, its name contains ``gripper``, ``finger``, ``jaw``, ``claw``,
+       ``thumb``, ``knuckle`` or ``hand`` (or its child link's name one of the finger words, not
+       ``gripper``/``hand``: a wrist turns a "gripper_link"), and every actuated joint below it is
+       named so too; or when it is a prismatic joint with another actuated joint beside it at the
+       same parent link and none below it (the jaws of a parallel gripper). The leaves of the tree without those joints' subtrees are the
+       candidates; a leaf behind a gripper joint is listed but never chosen (unless nothing but
+       gripper joints moves, when every leaf competes as if there were no gripper).
+    2. **Most actuated joints** between the base link and the leaf wins.
+    3. A leaf behind a mimic, floating or planar joint cannot end a chain; when it has as many
+       actuated joints as the best other leaf, the choice is left to the user (an error).
+    4. Ties: a leaf whose last fixed links or joints are named like a finger part (a finger tip on
+       a fixed joint: :data:`FINGER_WORDS`) yields to one that is not; then end-effector names decide, best first:
+       ``tcp``, ``tool`` (``tool0``), ``end_effector`` / ``eef`` / ``ee`` (``ee_link``), ``flange``.
+    5. Still tied: no automatic tip (an error that lists the tied leaves).
+    """
+    path = _resolve_path(path)
+    model = parse_urdf_model(path)
+    tree = _link_tree(path, model)
+    base = _pick_base(path, tree, base_link)
+    ranked, chosen, _ = _tip_choice(tree, base)
+    return ranked, chosen, base
+
+
+def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> str:
+    """``tip_link`` checked, or the automatic tip (:func:`tip_candidates`' rule)."""
+    if tip_link is not None:
+        if tip_link not in tree.links:
+            ranked, _, _ = _tip_choice(tree, base_link)
+            below = [c.link for c in ranked] + [l for l in tree.below(base_link) if l not in {c.link for c in ranked}]
+            raise ValueError(
+                f"{path}: unknown tip link {tip_link!r}{suggest(tip_link, tree.links)}; the links below {base_link!r} "
+                f"(candidate tips first): {short_list(below, limit=TIP_LIST_LIMIT)}"
+            )
+        return tip_link
+    ranked, chosen, why = _tip_choice(tree, base_link)
+    if chosen is not None:
+        return chosen
+    if not any(c.joints for c in ranked if c.gripper_joint is None):
+        raise ValueError(f"{path}: {why}")
+    listed = "; ".join(
+        f"{c.link!r} ({c.joints} actuated joint{'' if c.joints == 1 else 's'}{', ' + c.note() if c.note() else ''})"
+        for c in ranked[:TIP_LIST_LIMIT]
+    )
+    more = f"; ... and {len(ranked) - TIP_LIST_LIMIT} more" if len(ranked) > TIP_LIST_LIMIT else ""
+    example = next((c.link for c in ranked if c.gripper_joint is None and c.blocked_by is None), ranked[0].link)
+    raise ValueError(
+        f"{path}: the tip link is ambiguous below {base_link!r}: {why}; pass tip_link (command line: --tip-link), "
+        f"e.g. {example!r}. Candidate tips: {listed}{more} (`jaxstiff robot {os.path.basename(path)}` lists them)"
+    )
+
+
+#: candidate tips and links an error lists before "... and N more"
+TIP_LIST_LIMIT = 50
 
 
 def _unsupported(j: Any) -> bool:

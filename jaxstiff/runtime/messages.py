@@ -7,9 +7,10 @@ root). Every message that lists names or quotes input goes through :func:`short_
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Iterable
 
-__all__ = ["short_list", "short_text", "LIST_LIMIT", "TEXT_LIMIT"]
+__all__ = ["short_list", "short_text", "suggest", "LIST_LIMIT", "TEXT_LIMIT"]
 
 LIST_LIMIT = 10  #: names shown before "... and N more"
 TEXT_LIMIT = 80  #: characters of quoted input shown
@@ -33,3 +34,9 @@ def short_text(text: str, limit: int = TEXT_LIMIT) -> str:
     if len(text) <= limit:
         return repr(text)
     return f"{text[:limit]!r}... ({len(text)} characters)"
+
+
+def suggest(value: str, allowed: Iterable[str]) -> str:
+    """`` (did you mean 'x'?)`` for a near miss among ``allowed``, else ``""`` (difflib, cutoff 0.6)."""
+    close = difflib.get_close_matches(str(value), [str(a) for a in allowed], n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""

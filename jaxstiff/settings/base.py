@@ -11,10 +11,11 @@ from these classes, so a default is written once.
 from __future__ import annotations
 
 import dataclasses
-import difflib
 import math
 from collections.abc import Callable, Iterable
 from typing import Any, ClassVar, TypeVar
+
+from jaxstiff.runtime.messages import suggest as suggest  # (re-exported: its home before it moved down)
 
 __all__ = ["Settings", "setting", "FieldInfo", "positive", "non_negative", "at_least", "finite", "suggest"]
 
@@ -39,12 +40,6 @@ def setting(
     """A settings field: ``x: float = setting(1.0, unit="N/m", doc="...", check=positive)``."""
     meta = {"unit": unit, "doc": doc, "choices": None if choices is None else tuple(choices), "check": check}
     return dataclasses.field(default=default, metadata=meta)
-
-
-def suggest(value: str, allowed: Iterable[str]) -> str:
-    """`` (did you mean 'x'?)`` for a near miss among ``allowed``, else ``""``."""
-    close = difflib.get_close_matches(str(value), [str(a) for a in allowed], n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def positive(v: Any) -> str | None:

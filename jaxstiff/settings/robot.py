@@ -61,8 +61,8 @@ class RobotSpec(Settings):
     base_link: str | None = setting(None, doc="first link of the chain (default: the URDF root)")
     tip_link: str | None = setting(
         None,
-        doc="last link of the chain (default: the leaf reached through the most actuated joints; "
-        "an error if several tie)",
+        doc="last link of the chain (default: the leaf reached through the most actuated joints, never "
+        "through a gripper or finger joint; ties: end-effector names; an error lists the rest)",
     )
     locked: Mapping[str, float] | None = setting(
         None,

@@ -46,10 +46,12 @@ __all__ = [
     "Objective",
     "CODE_MEANING",
     "REPAIR_POS",
+    "GIVE_UP_REL",
     "TIE_RTOL",
     "not_run_outcomes",
     "kernel_objective",
     "judge",
+    "give_up",
     "greedy_path",
     "check_single_start",
     "run_greedy",
@@ -59,6 +61,11 @@ __all__ = [
 ]
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
+#: a waypoint without rate limit is given up (status 3, no SLSQP run) when neither its start postures
+#: nor position IK from each of them and from as many random postures come closer to it than this
+#: share of the robot's size (``length_scale``; 1 mm on a 1 m arm): a reachable waypoint's IK ends
+#: within round-off of it, so only waypoints far off every posture tried are given up
+GIVE_UP_REL = 1e-3
 TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count as equally good
 
 #: meaning of the result file's ``solver_code`` for the SLSQP solvers (meta ``solver_code_meaning``)
@@ -272,6 +279,66 @@ def rescue_starts(
     return out
 
 
+def give_up(
+    problem: WaypointProblem,
+    starts: Sequence[np.ndarray],
+    lb: np.ndarray,
+    ub: np.ndarray,
+    target: np.ndarray,
+    direction: np.ndarray,
+    pos_and_jac: PosAndJac,
+) -> Candidate | None:
+    """For a waypoint without rate limit: None when it may be reachable (some start posture is on
+    it, or position IK from a start or from a rescue posture gets within ``GIVE_UP_REL *
+    length_scale``), else the closest posture found, as an UNREACHABLE candidate.
+
+    Why: an unreachable waypoint kept the usual 8 starts and the 8 rescue starts busy for up to
+    ``first_maxiter`` (1000) SLSQP iterations each, about 13 s per waypoint on the LWR, and every
+    later waypoint of a path whose first ones are unreachable is again one without rate limit.
+    The IK costs milliseconds; on a reachable waypoint nothing changes (the solves run as before)."""
+    from jaxstiff.ik import ik_position
+
+    nf, rows = problem.n_free, list(problem.pos_rows)
+    free = list(problem.free_idx)
+    locked = np.nan_to_num(problem.robot.locked_values)
+    tol = GIVE_UP_REL * problem.robot.length_scale
+
+    def q_of(x: np.ndarray) -> np.ndarray:
+        q = locked.copy()
+        q[free] = x[:nf]
+        return q
+
+    def off(q: np.ndarray) -> float:
+        return float(np.linalg.norm(pos_and_jac(q)[0][rows] - target[rows]))
+
+    best: tuple[float, np.ndarray] | None = None
+    for x in starts:
+        e = off(q_of(x))
+        if e <= tol:
+            return None
+        best = (e, x) if best is None or e < best[0] else best
+    import jax
+
+    planar = problem.task == "xy"
+    tries = [q_of(x) for x in starts]
+    for i, q in enumerate(tries):
+        with jax.enable_x64(True):
+            qi, e = ik_position(problem.robot, target, q, planar=planar)
+        if e <= tol:
+            return None
+        x = clip_to_box(np.r_[np.asarray(qi, float)[free], starts[i][nf:]], lb, ub)
+        best = (e, x) if best is None or e < best[0] else best
+    for x in _rescue_starts(problem, len(starts), starts[0], lb, ub, target, direction):
+        e = off(q_of(x))
+        if e <= tol:
+            return None
+        best = (e, x) if e < best[0] else best  # type: ignore[index]
+    assert best is not None
+    x = best[1]
+    err3 = float(np.linalg.norm(pos_and_jac(q_of(x))[0] - target))
+    return x, R.UNREACHABLE, err3, -1, np.inf
+
+
 def _solve_starts(
     problem: WaypointProblem,
     solver: WaypointSolver,
@@ -363,6 +430,13 @@ def greedy_path(
             if not rate:
                 starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
             params = WaypointProblem.params(targets[p], directions[p], ratio, c)
+            hopeless = None if rate else give_up(problem, starts, lb, ub, targets[p], directions[p], pj)
+            if hopeless is not None:  # out of reach of every posture tried: no SLSQP run (GIVE_UP_REL)
+                x, status, err, code, _ = hopeless
+                out.append(WaypointOutcome(x, status, err, code, 0, 0, time.perf_counter() - t0))
+                if progress is not None:
+                    progress(p)
+                continue
             cands, nit, nfev = _solve_starts(
                 problem, solver, starts, lb, ub, targets[p], params, pj, fobj, pos_tol, None if rate else first_maxiter
             )

@@ -63,6 +63,7 @@ from jaxstiff.solvers.greedy import (
     Objective,
     PosAndJac,
     SolverOutput,
+    give_up,
     judge,
     kernel_objective,
 )
@@ -297,6 +298,13 @@ def _best_slsqp(
     f_min = problem.criterion_minimum(ctx.batch.c)
     if have and f_min is not None and f_best - f_min <= ctx.skip_tol * max(1.0, abs(f_min)):
         return None  # pgd's point is optimal to the tolerance: no SLSQP answer can be usefully lower
+    if not pgd_usable and not rate and starts:
+        # nothing usable from pgd at a waypoint without rate limit: given up when no start and no
+        # IK from one gets near it (greedy.GIVE_UP_REL), instead of 1000-iteration SLSQP solves
+        boxed = [clip_to_box(xs, lb, ub) for xs in starts]
+        t, d = ctx.batch.targets[b, p], ctx.batch.directions[b, p]
+        if give_up(problem, boxed, lb, ub, t, d, ctx.pos_and_jac) is not None:
+            return None
     take = None
     for xs in starts:
         x_start = clip_to_box(xs, lb, ub)

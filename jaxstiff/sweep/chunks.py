@@ -153,6 +153,56 @@ def _shape_call(
     return name, res, starts
 
 
+def _split_reach(plan: SweepPlan, rids: list[int], planar: bool) -> tuple[list[int], list[tuple[int, np.ndarray]]]:
+    """The rows whose paths lie within the robot's reach, and the others with their (P,) masks of
+    waypoints out of reach (:func:`jaxstiff.model.reach.unreachable_mask`; task "xy": in the plane)."""
+    from jaxstiff.model.reach import unreachable_mask
+
+    ok, refused = [], []
+    for r in rids:
+        mask = unreachable_mask(plan.robot, plan.row_trajectory(r).points, planar)
+        if mask.any():
+            refused.append((r, mask))
+        else:
+            ok.append(r)
+    return ok, refused
+
+
+def _refused_row(
+    plan: SweepPlan, chunk: Chunk, r: int, mask: np.ndarray, st: dict, progress: Callable[[float], None] | None
+) -> dict:
+    """The table row of a path with waypoints out of the robot's reach: not solved (a sweep over a
+    workspace may leave it, so the row is marked, not the sweep refused). Its waypoints out of reach
+    count as status 3 (unreachable), the others as 5 (not run); no start posture, no result file
+    (``result_file`` "", ``result_index`` -1)."""
+    from jaxstiff.results.files import NOT_RUN, UNREACHABLE
+
+    P = mask.shape[0]
+    status = np.where(mask, UNREACHABLE, NOT_RUN)
+    nan = np.full(P, np.nan)
+    row = _base_row(plan, chunk, r)
+    row["q0_ik_error_m"] = math.nan
+    row.update(
+        shape_row_metrics(
+            status,
+            nan,
+            nan,
+            nan,
+            nan,
+            nan,
+            np.zeros(P),
+            criterion=st["criterion"],
+            ratio_target=st["ratio"],
+            alpha_tol_deg=plan.alpha_tol_deg,
+            ratio_rel_tol=plan.ratio_rel_tol,
+        )
+    )
+    row.update(result_file="", result_index=-1)
+    if progress is not None:
+        progress(P)
+    return row
+
+
 def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] | None) -> tuple[list, list, int]:
     import jax
 
@@ -162,8 +212,12 @@ def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None
         key = json.dumps({k: v for k, v in st.items() if k not in ("q0", "q0_seed")}, sort_keys=True)
         calls.setdefault(key, []).append(r)
     rows, arrays = [], []
-    for k, rids in enumerate(calls.values()):
-        st = plan.row_settings(rids[0])
+    for k, all_rids in enumerate(calls.values()):
+        st = plan.row_settings(all_rids[0])
+        rids, refused = _split_reach(plan, all_rids, st["task"] == "xy")
+        rows += [_refused_row(plan, chunk, r, mask, st, progress) for r, mask in refused]
+        if not rids:
+            continue
         name, res, starts = _shape_call(plan, chunk, k, rids, progress)
         arrays.append((name, res))
         for b, r in enumerate(rids):
@@ -240,6 +294,7 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
         objective=g["objective"],
         locked_joints=g["locked_joints"],
         kxd_varying=False,
+        check_reach=False,  # a rollout's cost does not depend on reach: rows out of it show their tracking error
     )
     devices = len(res.q.sharding.device_set)
     out = {k: np.asarray(v)[: len(rids)] for k, v in res.as_dict().items()}

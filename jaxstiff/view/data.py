@@ -127,6 +127,8 @@ def sweep_row_file(folder: str, row: int) -> tuple[str, int]:
         for r in rows:
             seen += 1
             if int(r.get("row_id", -1)) == row:
+                if not r.get("result_file"):  # a row whose path leaves the robot's reach is not solved
+                    raise ValueError(f"{folder}: sweep row {row} was not solved (its path leaves the robot's reach)")
                 return os.path.join(folder, str(r["result_file"])), int(r.get("result_index", 0))
     raise ValueError(f"{folder}: no sweep row {row} (the folder has {seen} rows, row_id 0..{seen - 1})")
 

@@ -95,7 +95,10 @@ def test_two_paths_one_file_and_options(tmp_path, small_csv, capsys):
 def test_unreachable_waypoints_warn_on_stderr_and_the_file_is_complete(tmp_path, small_csv, capsys):
     base = jaxstiff.Path.from_csv(small_csv)
     far = tmp_path / "far.csv"
-    jaxstiff.Path(np.vstack([base.points[:1], [[3.0, 3.0, 3.0]]]), base.directions[:2]).to_csv(far)  # 3 m: out of reach
+    # waypoint 0 mirrored through the base's axis: within reach, but not within the rate limits of waypoint 0
+    # (a waypoint out of reach is refused before the solve: tests/model/test_reach.py)
+    mirrored = base.points[:1] * [-1.0, -1.0, 1.0]
+    jaxstiff.Path(np.vstack([base.points[:1], mirrored]), base.directions[:2]).to_csv(far)
     out = tmp_path / "far.npz"
     rc = main(["shape", "--path", str(far), "--out", str(out), "--quiet", "--first-starts", "1"])
     err = capsys.readouterr().err
@@ -290,7 +293,9 @@ def test_an_interrupt_swallowed_inside_jax_stops_the_run_at_the_next_waypoint(tm
 
 def test_no_usable_waypoint_exits_3_with_the_file_written(tmp_path, small_csv, capsys):
     far = tmp_path / "far.csv"
-    jaxstiff.Path(np.array([[3.0, 3.0, 3.0], [3.0, 3.1, 3.0]])).to_csv(far)  # 3 m away: out of the LWR's reach
+    # 0.4 m below the base: inside the LWR's reach shell (0.71 m from the shoulder), but no posture
+    # within the joint limits gets there (the closest of 400,000 random postures is 0.15 m away)
+    jaxstiff.Path(np.array([[0.0, 0.0, -0.4], [0.0, 0.02, -0.4]])).to_csv(far)
     out = tmp_path / "far.npz"
     rc = main(["shape", "--path", str(far), "--out", str(out), "--first-starts", "1"])
     cap = capsys.readouterr()

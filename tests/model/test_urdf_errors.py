@@ -152,11 +152,19 @@ def test_no_path_between_base_and_tip():
         jaxstiff.Robot.from_urdf(BRANCHED, base_link="link_4", tip_link="link_1")
 
 
-def test_ambiguous_tip():
+def test_ambiguous_tip(write):
+    """Two leaves through the same four joints and neither an end-effector name ('tool' renamed
+    'probe'): the error lists both (with "tool" the name breaks the tie: test_tip_rules.py)."""
+    with open(BRANCHED) as fh:
+        path = write(fh.read().replace('"tool"', '"probe"'))
     with raises(
-        ValueError, "tip link is ambiguous below 'world'", "camera, tool", "pass tip_link (command line: --tip-link)"
+        ValueError,
+        "tip link is ambiguous below 'world'",
+        "leaves 'camera', 'probe' each have 4 actuated joints",
+        "pass tip_link (command line: --tip-link)",
+        "Candidate tips: 'camera' (4 actuated joints); 'probe' (4 actuated joints); 'side_link'",
     ):
-        jaxstiff.Robot.from_urdf(BRANCHED)
+        jaxstiff.Robot.from_urdf(path)
 
 
 def test_chain_without_actuated_joints():

@@ -51,7 +51,7 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
 
     path, q0 = planar_paths(1, 4, seed=1)
     pts = path.points.copy()
-    pts[0, 2, :2] *= 10.0  # far outside the arm's reach
+    pts[0, 2, :2] *= -1.0  # within reach, but half a turn away: outside the rate-limited box
     base_res = run(jaxstiff.Path(pts, path.directions), q0)
     assert base_res.status[0, 2] == R.UNREACHABLE
     base = {

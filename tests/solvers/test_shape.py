@@ -228,7 +228,9 @@ def test_f1_short_run_and_verification(lwr, tmp_path):
 
 def test_unreachable_waypoint_gets_status_and_the_run_goes_on(lwr, tmp_path):
     pts = short_default(4).points.copy()
-    pts[2] = [2.0, 0.0, 0.3]  # 2 m away: outside the workspace
+    # waypoint 1 mirrored through the base's axis: the arm reaches it (lwr_a1 turned by 180 deg), but not
+    # within 20 deg of waypoint 1's posture (a point 2 m away is now refused before the solve: test_reach.py)
+    pts[2] = [-pts[1, 0], -pts[1, 1], pts[1, 2]]
     path = jaxstiff.Path(pts, np.tile([0.0, -1.0, 0.0], (4, 1)))
     res = jaxstiff.shape(lwr, path, "f2", 5.0, first_starts=2, dq=math.radians(20), dk=20.0)
     assert res.status[0, 2] == R.UNREACHABLE
