@@ -17,7 +17,11 @@ from .common import add_robot_flags, command, parse_floats, reads, robot_spec_fr
 def _add_robot(p: argparse.ArgumentParser) -> Any:
     reads(
         p.add_argument(
-            "urdf", nargs="?", default=None, metavar="URDF", help="URDF file or shipped robot name (the same as --robot)"
+            "urdf",
+            nargs="?",
+            default=None,
+            metavar="URDF",
+            help="URDF file or shipped robot name (the same as --robot)",
         ),
         shipped_robot=True,
     )

@@ -328,7 +328,7 @@ def give_up(
             return None
         x = clip_to_box(np.r_[np.asarray(qi, float)[free], starts[i][nf:]], lb, ub)
         best = (e, x) if best is None or e < best[0] else best
-    for x in _rescue_starts(problem, len(starts), starts[0], lb, ub, target, direction):
+    for x in rescue_starts(problem, len(starts), starts[0], lb, ub, target, direction):
         e = off(q_of(x))
         if e <= tol:
             return None

@@ -204,35 +204,31 @@ def solve_batch(
     return out
 
 
-def first_off_target(
-    problem: WaypointProblem, status: np.ndarray, f: np.ndarray, r: np.ndarray, c: float
-) -> np.ndarray:
-    """(B,) True where a path's first waypoint is not provably in target: unusable, or a criterion
-    value that does not bound alpha and rho inside the in-target tolerances (the rule of
-    :func:`jaxstiff.solvers.greedy.maybe_off_target`). Always False for a criterion without such
-    a bound (a user's own) or without stiffness variables."""
+def target_bounds(problem: WaypointProblem, r: np.ndarray, c: float) -> np.ndarray | None:
+    """(B,) per path, the criterion value below which a waypoint is provably in target (f1 and f2:
+    the value alone bounds alpha and rho inside the in-target tolerances; the rule of
+    :func:`jaxstiff.solvers.greedy.maybe_off_target`), or None for a criterion without such a
+    bound (a user's own) or a problem without stiffness variables."""
     from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL
     from jaxstiff.stiffness.criteria import f2 as _f2
 
-    B = status.shape[0]
     if problem.criterion_minimum(c) is None or problem.n_spring == 0:
-        return np.zeros(B, bool)
-    r = np.broadcast_to(np.asarray(r, float), (B,))
+        return None
+    r = np.asarray(r, float)
     a, tol = ALPHA_TOL_DEG, RATIO_REL_TOL
     if problem.criterion is _f2:
-        bound = np.minimum(1.0 + a, 1.0 + tol * r)
-    else:
-        bound = np.full(B, min(a + c, c / (1.0 - tol)))
-    usable = np.isin(status[:, 0], list(R.USABLE))
-    return ~(usable & (f[:, 0] < bound))
+        return np.minimum(1.0 + a, 1.0 + tol * r)
+    return np.full(r.shape, min(a + c, c / (1.0 - tol)))
 
 
-def _path_score(status: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """Per path, the rollout's own ranking (:meth:`PGDKernel.traj_batch`): fewest waypoints that
-    are not solved first, then the lowest sum of the criterion over the solved ones."""
+def _ranking(status: np.ndarray, f: np.ndarray, bound: np.ndarray) -> list[tuple[int, int, float]]:
+    """Per path, ``(waypoints not solved, waypoints not provably in target, sum of the criterion over
+    the solved ones)``: lower is better, compared in that order."""
     solved = status == R.SOLVED
+    hit = solved & (f < bound[:, None])
     tot = np.sum(np.where(solved, f, 0.0), axis=1)
-    return np.sum(~solved, axis=1) * 1e12 + np.where(np.isfinite(tot), tot, 1e11)
+    tot = np.where(np.isfinite(tot), tot, np.inf)
+    return [(int(a), int(b), float(t)) for a, b, t in zip(np.sum(~solved, 1), np.sum(~hit, 1), tot, strict=True)]
 
 
 def _retry_first(
@@ -251,13 +247,20 @@ def _retry_first(
 ) -> tuple[np.ndarray, float]:
     """Option ``first_exact="retry"`` (the default): the paths whose first waypoint (no rate
     limit) pgd left out of target are solved again, their first-waypoint starts replaced by greedy
-    SLSQP's answers there (:func:`exact_first_starts`); a path keeps the rerun only where the
-    rollout ranking prefers it. Paths already in target are untouched, so the cost is paid only
+    SLSQP's answers there (:func:`exact_first_starts`); a path keeps the rerun where it has fewer
+    unsolved waypoints, or as many and fewer out of target, or as many of both and a lower sum of
+    the criterion (the rollout's own ranking with the in-target count put before the sum: the
+    first waypoint is what the rerun is for, and a lower sum bought with it off target is not
+    what a user asks for). Paths already in target are untouched, so the cost is paid only
     where pgd's own stages stalled (measured: most first waypoints of third-party arms such as the
     UR10, few of the LWR's). ``out`` is updated in place; returns the new ``X`` and run time."""
     X, out, run_s = done
     problem = batch.problem
-    redo = np.flatnonzero(first_off_target(problem, out["status"], out["criterion"], batch.ratios, float(batch.c)))
+    bound = target_bounds(problem, batch.ratios, float(batch.c))
+    if bound is None:
+        return X, run_s
+    status, f = np.asarray(out["status"]), np.asarray(out["criterion"])
+    redo = np.flatnonzero(~(np.isin(status[:, 0], list(R.USABLE)) & (f[:, 0] < bound)))
     if redo.size == 0:
         return X, run_s
     t0 = time.perf_counter()
@@ -281,7 +284,9 @@ def _retry_first(
         return X, run_s
     rows = tuple(a[redo] for a in per_path[:7]) + (extra,)
     X2, out2, _, _ = _run_chunks(fn, rows, shared, jax.random.PRNGKey(int(opts["seed"])), chunking, disk_key)
-    better = _path_score(out2["status"], out2["criterion"]) < _path_score(out["status"][redo], out["criterion"][redo])
+    new_rank = _ranking(np.asarray(out2["status"]), np.asarray(out2["criterion"]), bound[redo])
+    old_rank = _ranking(status[redo], f[redo], bound[redo])
+    better = np.array([a < b for a, b in zip(new_rank, old_rank, strict=True)], bool)
     keep = redo[better]
     X = X.copy()
     X[keep] = X2[better]
