@@ -221,11 +221,35 @@ def target_bounds(problem: WaypointProblem, r: np.ndarray, c: float) -> np.ndarr
     return np.full(r.shape, min(a + c, c / (1.0 - tol)))
 
 
-def _ranking(status: np.ndarray, f: np.ndarray, bound: np.ndarray) -> list[tuple[int, int, float]]:
-    """Per path, ``(waypoints not solved, waypoints not provably in target, sum of the criterion over
-    the solved ones)``: lower is better, compared in that order."""
+def _ranking(
+    problem: WaypointProblem, batch: WaypointBatch, rows: np.ndarray, X: np.ndarray, status: np.ndarray, f: np.ndarray
+) -> list[tuple[int, int, float]]:
+    """Per path of ``rows`` (with ``X`` (k, P, nx), ``status``, ``f`` (k, P) their results), ``(waypoints
+    not solved, solved waypoints not in target, sum of the criterion over the solved ones)``: lower
+    is better, compared in that order. In target: alpha and rho of the report at ``X``
+    (:func:`jaxstiff.results.target.target_masks`, the rule of the result's ``in_target``)."""
+    from jaxstiff.results.target import target_masks
+    from jaxstiff.solvers.problem import report_rows
+    from jaxstiff.stiffness.criteria import f1 as _f1
+
+    k, P = status.shape
+    r = batch.ratios[rows]
+    params = np.concatenate(
+        [
+            np.asarray(batch.targets, float)[rows].reshape(k * P, 3),
+            np.asarray(batch.directions, float)[rows].reshape(k * P, 3),
+            np.repeat(r, P)[:, None],
+            np.full((k * P, 1), float(batch.c)),
+        ],
+        axis=1,
+    )
+    with jax.enable_x64(True):
+        rep = report_rows(problem, X.reshape(k * P, -1), params)
+    mm = problem.m * problem.m
+    alpha, rho = rep[:, 3 + mm].reshape(k, P), rep[:, 4 + mm].reshape(k, P)
+    a_ok, r_ok = target_masks(alpha, rho, r[:, None], "f1" if problem.criterion is _f1 else "f2")
     solved = status == R.SOLVED
-    hit = solved & (f < bound[:, None])
+    hit = solved & a_ok & r_ok
     tot = np.sum(np.where(solved, f, 0.0), axis=1)
     tot = np.where(np.isfinite(tot), tot, np.inf)
     return [(int(a), int(b), float(t)) for a, b, t in zip(np.sum(~solved, 1), np.sum(~hit, 1), tot, strict=True)]
@@ -284,8 +308,8 @@ def _retry_first(
         return X, run_s
     rows = tuple(a[redo] for a in per_path[:7]) + (extra,)
     X2, out2, _, _ = _run_chunks(fn, rows, shared, jax.random.PRNGKey(int(opts["seed"])), chunking, disk_key)
-    new_rank = _ranking(np.asarray(out2["status"]), np.asarray(out2["criterion"]), bound[redo])
-    old_rank = _ranking(status[redo], f[redo], bound[redo])
+    new_rank = _ranking(problem, batch, redo, X2, np.asarray(out2["status"]), np.asarray(out2["criterion"]))
+    old_rank = _ranking(problem, batch, redo, X[redo], status[redo], f[redo])
     better = np.array([a < b for a, b in zip(new_rank, old_rank, strict=True)], bool)
     keep = redo[better]
     X = X.copy()
