@@ -8,7 +8,7 @@ Adam steps stalls there in poorer local optima than SLSQP reaches from the very 
 measured on the UR10 (tip tool0), one straight-line waypoint, the 8 starts greedy SLSQP uses
 (q0 and 7 IK postures, kj0 mid-range): SLSQP reached f2 = 1.0012 (rho 4.9988, alpha 0) from 2 of
 them, pgd's stages from none (best f2 14.4, rho 1.54). The arms differ in scale and frame, not
-in this: the LWR's first waypoints are easier, not different (docs/notes/solvers.md, issue 37).
+in this: the LWR's first waypoints are easier, not different (docs/notes/solvers.md).
 
 What: :func:`exact_first_answers` runs greedy SLSQP's own first-waypoint search (its starts, its
 iteration budget ``first_maxiter``, its rescue starts drawn over the whole ranges when no start

@@ -103,7 +103,7 @@ class _Deadline:
 
 
 class _DevTools:
-    """One websocket to the browser; commands to one page session (flattened)."""
+    """One websocket to the browser; commands to one attached page target (flattened protocol)."""
 
     def __init__(self, url: str, deadline: _Deadline) -> None:
         from websockets.sync.client import connect
