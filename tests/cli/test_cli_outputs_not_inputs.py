@@ -35,7 +35,14 @@ REQUIRED: dict[str, list[str]] = {
 #: each command's positional inputs: a placeholder when not under test
 #: (command, input flag) -> the required flag it stands in for (one of a mutually exclusive pair)
 INSTEAD_OF = {("csc", "--path"): "--hold"}
-POSITIONAL = {"robot": "URDF", "sweep": "CONFIG.toml", "check-sim": "RESULT", "view": "RESULT", "plot": "RESULT", "export": "RESULT"}
+POSITIONAL = {
+    "robot": "URDF",
+    "sweep": "CONFIG.toml",
+    "check-sim": "RESULT",
+    "view": "RESULT",
+    "plot": "RESULT",
+    "export": "RESULT",
+}
 
 _PATHLIKE_METAVAR = re.compile(r"FILE|DIR|OUT|CSV|URDF|TOML|NPZ|PNG|HTML|JSON|\.\w")
 _PATHLIKE_HELP = re.compile(r"\b(file|folder|directory|write|writes|written)\b", re.I)
