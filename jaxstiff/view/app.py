@@ -30,7 +30,7 @@ def panel_markdown(data: ViewData, b: int, p: int) -> str:
     return "\n".join(lines)
 
 
-def _header(data: ViewData, scene: Scene) -> str:
+def header_markdown(data: ViewData, scene: Scene) -> str:
     m = data.meta
     if data.kind == "shape":
         what = f"shape, criterion {m.get('criterion')}, ratio {m.get('ratio')}, solver {m.get('solver')}"
@@ -51,7 +51,7 @@ class Viewer:
         self.server, self.data = server, data
         self.scene = Scene(server, data, n_per_m, every)
         gui = server.gui
-        gui.add_markdown(_header(data, self.scene))
+        gui.add_markdown(header_markdown(data, self.scene))
         self.path = None
         if data.B > 1:
             self.path = gui.add_dropdown("path", tuple(data.labels), initial_value=data.labels[0])

@@ -28,7 +28,7 @@ import re
 import socket
 from typing import Any
 
-from jaxstiff.view.app import _header, panel_markdown
+from jaxstiff.view.app import header_markdown, panel_markdown
 from jaxstiff.view.data import ViewData
 from jaxstiff.view.scene import Scene
 
@@ -202,7 +202,7 @@ def page_data(data: ViewData, scene: Scene, paths: list[int], b: int, waypoint: 
         "word": "waypoint" if data.kind == "shape" else "step",
         "paths": paths,
         "labels": [data.labels[i] for i in paths],
-        "header": markdown_html(_header(data, scene)),
+        "header": markdown_html(header_markdown(data, scene)),
         "panel": [[markdown_html(panel_markdown(data, i, p)) for p in range(data.P)] for i in paths],
         "initial": {"path": paths.index(b), "waypoint": int(waypoint), "all": bool(all_on)},
         "camera": {"position": [float(x) for x in scene.position], "look_at": [float(x) for x in scene.look_at]},

@@ -301,7 +301,7 @@ def _retry_first(
         ),
         ratio=batch.ratios[redo],
     )
-    given = [first_starts[b] for b in redo] if first_starts else None
+    given = [first_starts[int(b)] for b in redo] if first_starts else None
     starts = exact_first_starts(sub, given, options, pos_tol, S1)
     extra = first_start_rows(problem, starts, len(redo))
     if extra.shape[1] != per_path[7].shape[1]:  # another count of extra starts: another program
