@@ -80,6 +80,17 @@ def browser():
         br.close()
 
 
+@pytest.fixture(autouse=True)
+def _close_pages(request):
+    """Each test's pages closed after it: the module's one browser otherwise keeps every earlier
+    test's page and its software-WebGL context drawing, and later tests' scenes came late or not
+    at all (a 90 s timeout waiting for the canvas in the full suite)."""
+    yield
+    if "browser" in request.fixturenames:
+        for ctx in list(request.getfixturevalue("browser").contexts):
+            ctx.close()
+
+
 @pytest.fixture(scope="module")
 def csc_result(tmp_path_factory) -> str:
     """A `jaxstiff csc` run on the LWR: hold the TCP where the start posture puts it, 60 steps (the
