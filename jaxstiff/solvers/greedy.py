@@ -56,6 +56,7 @@ __all__ = [
     "check_single_start",
     "run_greedy",
     "Candidate",
+    "target_bound",
     "maybe_off_target",
     "rescue_starts",
 ]
@@ -227,20 +228,30 @@ def _pick(problem: WaypointProblem, cands: Sequence[Candidate]) -> Candidate:
     return max(ties, key=margin)
 
 
+def target_bound(problem: WaypointProblem, r: Any, c: float) -> np.ndarray | None:
+    """The criterion value below which a waypoint is provably in target, for the wanted ratio(s)
+    ``r`` (a number or an array: the bound has its shape), or None for a criterion without such a
+    bound (a user's own) or a problem without stiffness variables. With the tolerances a = 1 deg
+    and tol = 2 % (:mod:`jaxstiff.results.target`): f2 = (1 + alpha)(1 + |r - rho|) <
+    min(1 + a, 1 + tol r) gives alpha < a and |rho - r| < tol r; f1 = (alpha + c) r / min(rho, r)
+    < min(a + c, c / (1 - tol)) gives alpha < a and rho > (1 - tol) r."""
+    if problem.criterion_minimum(c) is None or problem.n_spring == 0:
+        return None
+    r = np.asarray(r, float)
+    a, tol = ALPHA_TOL_DEG, RATIO_REL_TOL
+    if problem.criterion is f2:
+        return np.minimum(1.0 + a, 1.0 + tol * r)
+    return np.full(r.shape, min(a + c, c / (1.0 - tol)))
+
+
 def maybe_off_target(problem: WaypointProblem, cands: Sequence[Candidate], r: float, c: float) -> bool:
-    """False when a usable candidate's criterion value proves it in target (f1, f2: the criterion
-    alone bounds alpha and rho; :mod:`jaxstiff.results.target`), else True; always False for other
-    criteria (no such bound). With the tolerances a = 1 deg and tol = 2 %: f2 = (1 + alpha)(1 +
-    |r - rho|) < min(1 + a, 1 + tol r) gives alpha < a and |rho - r| < tol r; f1 = (alpha + c) r /
-    min(rho, r) < min(a + c, c / (1 - tol)) gives alpha < a and rho > (1 - tol) r."""
-    fmin = problem.criterion_minimum(c)
-    if fmin is None or problem.n_spring == 0:
+    """False when a usable candidate's criterion value proves it in target (below
+    :func:`target_bound`), else True; always False for other criteria (no such bound)."""
+    bound = target_bound(problem, r, c)
+    if bound is None:
         return False
-    tol = RATIO_REL_TOL
-    a = ALPHA_TOL_DEG
-    bound = min(1.0 + a, 1.0 + tol * r) if problem.criterion is f2 else min(a + c, c / (1.0 - tol))
     fbest = min((cd[4] for cd in cands if cd[1] in R.USABLE), default=np.inf)
-    return not fbest < bound
+    return not fbest < float(bound)
 
 
 def rescue_starts(

@@ -204,23 +204,6 @@ def solve_batch(
     return out
 
 
-def target_bounds(problem: WaypointProblem, r: np.ndarray, c: float) -> np.ndarray | None:
-    """(B,) per path, the criterion value below which a waypoint is provably in target (f1 and f2:
-    the value alone bounds alpha and rho inside the in-target tolerances; the rule of
-    :func:`jaxstiff.solvers.greedy.maybe_off_target`), or None for a criterion without such a
-    bound (a user's own) or a problem without stiffness variables."""
-    from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL
-    from jaxstiff.stiffness.criteria import f2 as _f2
-
-    if problem.criterion_minimum(c) is None or problem.n_spring == 0:
-        return None
-    r = np.asarray(r, float)
-    a, tol = ALPHA_TOL_DEG, RATIO_REL_TOL
-    if problem.criterion is _f2:
-        return np.minimum(1.0 + a, 1.0 + tol * r)
-    return np.full(r.shape, min(a + c, c / (1.0 - tol)))
-
-
 def _ranking(
     problem: WaypointProblem, batch: WaypointBatch, rows: np.ndarray, X: np.ndarray, status: np.ndarray, f: np.ndarray
 ) -> list[tuple[int, int, float]]:
@@ -280,7 +263,9 @@ def _retry_first(
     UR10, few of the LWR's). ``out`` is updated in place; returns the new ``X`` and run time."""
     X, out, run_s = done
     problem = batch.problem
-    bound = target_bounds(problem, batch.ratios, float(batch.c))
+    from jaxstiff.solvers.greedy import target_bound
+
+    bound = target_bound(problem, batch.ratios, float(batch.c))
     if bound is None:
         return X, run_s
     status, f = np.asarray(out["status"]), np.asarray(out["criterion"])
