@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -47,6 +48,7 @@ from jaxstiff.results.singular import singular_meta, singular_waypoints, warn_si
 from jaxstiff.results.target import warn_missed_target
 from jaxstiff.runtime.compile_cache import CompileClock, ensure_compile_cache
 from jaxstiff.runtime.dtypes import refuse_half_precision
+from jaxstiff.settings.base import suggest
 from jaxstiff.settings.robot import RobotSpec
 from jaxstiff.settings.shape import ShapeSettings
 from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
@@ -69,10 +71,14 @@ from jaxstiff.solvers.base import first_starts_use as _first_starts_use
 from jaxstiff.solvers.base import options_for_solver as options_for_solver  # re-exported (sweep)
 from jaxstiff.solvers.base import options_meta as _options_meta
 from jaxstiff.solvers.base import solver_option_names as solver_option_names  # re-exported (sweep)
+from jaxstiff.solvers.configs import Solver, solver_call
 from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, warm_report
 
 __all__ = [
     "shape",
+    "run_shape",
+    "INLINE_SETTINGS",
+    "DEPRECATED_KEYWORDS",
     "SOLVERS",
     "register_solver",
     "DEFAULTS",
@@ -178,7 +184,104 @@ def _solve(
 
 
 # ---------------------------------------------------------------------- shape
+#: the keyword arguments :func:`shape` takes besides its own: every ShapeSettings field, and the
+#: CMS target given as a volume or a major axis instead of ``cms_mean_axis``
+INLINE_SETTINGS = frozenset(ShapeSettings.field_names()) - {"criterion", "ratio", "solver"} | {
+    "cms_volume",
+    "cms_major",
+}
+#: older keyword arguments of :func:`shape`, still taken with a DeprecationWarning: what to use instead
+DEPRECATED_KEYWORDS = {
+    "options": "a solver object, e.g. solver=jaxstiff.solvers.PGD(iters=60) (jaxstiff.solvers)",
+    "pos_tol": "jaxstiff.shaping.run_shape(..., pos_tol=...)",
+    "meta_extra": "jaxstiff.shaping.run_shape(..., meta_extra=...)",
+}
+
+
 def shape(
+    robot: Robot | RobotSpec | str,
+    path: Path | np.ndarray | None = None,
+    criterion: str | Callable[..., Any] | None = None,
+    ratio: float | np.ndarray | None = None,
+    *,
+    solver: str | Solver | None = None,
+    settings: ShapeSettings | None = None,
+    q0: Any = None,
+    kj0: Any = None,
+    progress: Callable[[int, int], None] | None = None,
+    **inline: Any,
+) -> R.ShapeResult:
+    """Shape the stiffness ellipsoid along one or more TCP paths (seed 000, S0-9 ... S0-15).
+
+    Args:
+        robot: a :class:`~jaxstiff.Robot` (its locked joints stay fixed), a
+            :class:`~jaxstiff.settings.RobotSpec`, or a URDF path / shipped robot name.
+        path: a :class:`~jaxstiff.Path` (P waypoints, or a batch of B paths) or points (P, 3) /
+            (B, P, 3) in metres (directions: the tangent); default :func:`~jaxstiff.default_path`.
+        criterion: ``"f1"`` (ratio at least r), ``"f2"`` (ratio exactly r), a registered name, or
+            a JAX-traceable ``crit(K, d, r[, c])``.
+        ratio: the wanted axis ratio r > 1: a number, or (B,) one per path.
+        solver: a solver object (:mod:`jaxstiff.solvers`: ``SLSQP()``, ``SLSQPFD()``, ``PGD()``,
+            ``Hybrid()``, ``Trajectory()``, each with its options as fields) or a solver's name.
+        settings: a :class:`~jaxstiff.settings.ShapeSettings`: every setting left out here.
+        q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values;
+            default: IK from the nominal posture to each path's first waypoint.
+        kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
+        progress: ``progress(b, p)`` called after each waypoint (SLSQP solvers).
+        **inline: any :class:`~jaxstiff.settings.ShapeSettings` field given here instead of in
+            ``settings`` (``task="xy"``, ``dq=...``, ``kmin=...``; defaults, units and meaning are
+            written there); ``ratio``, ``dq``, ``dk``, ``dq_per_m`` and ``dk_per_m`` also take
+            per-path (and per-joint) arrays; ``cms_volume`` / ``cms_major`` give the CMS target as
+            the ellipsoid's volume ((N/m)^m) or major axis (N/m) instead of ``cms_mean_axis``.
+
+    Returns:
+        :class:`~jaxstiff.ShapeResult` with leading axis B (B = 1 for one path).
+
+    Raises:
+        TypeError: an unknown keyword (the message names the nearest setting).
+        ValueError: bad input, before any work (the message names the value, path and joint);
+            :class:`~jaxstiff.model.reach.UnreachableError` for a waypoint out of reach.
+        ShapeInterrupted: a ``KeyboardInterrupt`` after some waypoints were finished: its ``result``
+            holds them, the others with status NOT_RUN (5).
+
+    :func:`run_shape` is the same call with every input as a parameter (the command line's way in).
+    """
+    kw: dict[str, Any] = {}
+    for k, v in inline.items():
+        if k in DEPRECATED_KEYWORDS:
+            warnings.warn(
+                f"shape({k}=...) is deprecated; use {DEPRECATED_KEYWORDS[k]}", DeprecationWarning, stacklevel=2
+            )
+        elif k not in INLINE_SETTINGS:
+            raise TypeError(f"shape() got an unexpected keyword argument {k!r}{suggest(k, sorted(INLINE_SETTINGS))}")
+        kw[k] = v
+    if "cms_mean_axis" in kw:  # a setting run_shape reads from the settings object
+        settings = (settings if settings is not None else _DEFAULT_SETTINGS).replace(
+            cms_mean_axis=kw.pop("cms_mean_axis")
+        )
+    name: str | None = None
+    if solver is not None:
+        name, sopts = solver_call(solver)
+        if sopts and kw.get("options"):
+            raise TypeError("give the solver's options in the solver object or in options=, not both")
+        if sopts:
+            kw["options"] = sopts
+    return run_shape(
+        robot,
+        path,
+        criterion,
+        ratio,
+        settings=settings,
+        solver=name,
+        q0=q0,
+        kj0=kj0,
+        progress=progress,
+        _stacklevel=4,
+        **kw,
+    )
+
+
+def run_shape(
     robot: Robot | RobotSpec | str,
     path: Path | np.ndarray | None = None,
     criterion: str | Callable[..., Any] | None = None,
@@ -206,8 +309,10 @@ def shape(
     pos_tol: float = POS_TOL,
     progress: Callable[[int, int], None] | None = None,
     meta_extra: Mapping[str, Any] | None = None,
+    _stacklevel: int = 3,
 ) -> R.ShapeResult:
-    """Shape the stiffness ellipsoid along one or more TCP paths (seed 000, S0-9 ... S0-15).
+    """:func:`shape` with every input as a parameter (solver by name, options as a dict): the way
+    in of the command line and the sweeps.
 
     Every setting left out (None) comes from ``settings`` (default :class:`ShapeSettings()
     <jaxstiff.settings.ShapeSettings>`, whose defaults are given below); one given here wins over
@@ -328,7 +433,7 @@ def shape(
         marks += [time.perf_counter(), time.time()]  # ... and ends
         rep = report_at_solution(problem, inp, arrays, req.ratios)
         cms = cms_factors(rep.K, inp)
-        warn_off_plane(rep.position, bpath, inp.task, stacklevel=3)
+        warn_off_plane(rep.position, bpath, inp.task, stacklevel=_stacklevel)
         opts_meta = _options_meta(inp.solver, inp.starts, inp.options)
         use = _first_starts_use(inp.solver, opts_meta, inp.first_starts, inp.first_rate_limit)
         timing = _timing((t_start, w_start), marks, clock, arrays.get("compile_s"), bool(arrays.get("time_s_run_only")))
@@ -341,8 +446,8 @@ def shape(
         result = assemble_result(inp, arrays, rep, cms, meta)
     if interrupted:
         raise ShapeInterrupted(result)
-    warn_missed_target(result, stacklevel=3)  # usable waypoints off target: one warning, named
-    warn_singular(singular, inp.task, stacklevel=3)  # ... and those whose ratio is the regularisation's
+    warn_missed_target(result, stacklevel=_stacklevel)  # usable waypoints off target: one warning, named
+    warn_singular(singular, inp.task, stacklevel=_stacklevel)  # ... and those whose ratio is the regularisation's
     return result
 
 

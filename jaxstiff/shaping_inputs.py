@@ -256,6 +256,9 @@ def _with_kj_unit(solver: str, options: Mapping[str, Any] | None, kmin: float, k
     option is not given: the solver and the result's meta both get the number it works with."""
     opts = dict(options or {})
     greedy = str(opts.get("warm", "pgd")) if solver == "trajectory" else solver
+    if solver == "trajectory" and "warm_options" in opts:  # the warm start's options given apart
+        opts["warm_options"] = _with_kj_unit(greedy, opts["warm_options"], kmin, kmax) or {}
+        return opts
     if SLSQPOptions not in OPTIONS_OF.get(greedy, ()) or opts.get("kj_scale") is not None:
         return options
     from jaxstiff.solvers.slsqp import kj_unit

@@ -185,7 +185,8 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
     import numpy as np
 
     from jaxstiff.results import files as R
-    from jaxstiff.shaping import ShapeInterrupted, shape
+    from jaxstiff.shaping import ShapeInterrupted
+    from jaxstiff.shaping import run_shape as shape_all_inputs
 
     if args.solver in ("pgd", "trajectory", "hybrid") and not args.quiet:
         print(
@@ -196,7 +197,7 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
         )
     try:
         with progress(total, "shape", "waypoints", enabled=not args.quiet) as bar:
-            res = shape(progress=WaypointProgress(bar), **kw)
+            res = shape_all_inputs(progress=WaypointProgress(bar), **kw)
             # the batch solvers tick no waypoint: the line says what was done ("60/60", not "0/60")
             bar.update(int(np.sum(res.status != R.NOT_RUN)) - bar.n)
     except ShapeInterrupted as e:  # keep what was finished, then stop as interrupted

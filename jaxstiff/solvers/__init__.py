@@ -4,8 +4,16 @@
 * :mod:`.slsqp`    seed 000's greedy per-waypoint SLSQP with exact JAX derivatives (``"slsqp"``);
 * :mod:`.slsqp_fd` the seed's own way, numpy + finite differences, the speed baseline (``"slsqp-fd"``).
 
-Solvers are chosen by name in :func:`jaxstiff.shape` (registry :data:`jaxstiff.solvers.base.SOLVERS`).
+A solver is chosen in :func:`jaxstiff.shape` by an object holding its options (:mod:`.configs`:
+``SLSQP``, ``SLSQPFD``, ``PGD``, ``Hybrid``, ``Trajectory``, ``Registered``) or by its name (registry
+:data:`jaxstiff.solvers.base.SOLVERS`).
 """
 
+from jaxstiff.solvers.configs import PGD as PGD
+from jaxstiff.solvers.configs import SLSQP as SLSQP
+from jaxstiff.solvers.configs import SLSQPFD as SLSQPFD
+from jaxstiff.solvers.configs import Hybrid as Hybrid
+from jaxstiff.solvers.configs import Registered as Registered
+from jaxstiff.solvers.configs import Trajectory as Trajectory
 from jaxstiff.solvers.problem import Limits as Limits
 from jaxstiff.solvers.problem import WaypointProblem as WaypointProblem

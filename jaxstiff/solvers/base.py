@@ -185,6 +185,9 @@ def check_options(solver: str, options: Mapping[str, Any] | None) -> None:
         return
     if not isinstance(options, Mapping):
         raise ValueError(f"options must be a dict of solver options, got {type(options).__name__}")
+    if solver == "trajectory" and "warm_options" in options:  # the warm start's options apart
+        _check_split_trajectory(options)
+        return
     warm = options.get("warm", "pgd")
     if solver == "trajectory" and warm not in WARM_STARTS:
         raise ValueError(f"option warm must be one of {', '.join(map(repr, WARM_STARTS))}, got {warm!r}")
@@ -208,6 +211,24 @@ def check_options(solver: str, options: Mapping[str, Any] | None) -> None:
     for cls in (TrajectoryOptions, HybridOptions, PGDOptions, SLSQPOptions):
         if cls in classes:
             cls.check_values(cls.own(options))
+
+
+def _check_split_trajectory(options: Mapping[str, Any]) -> None:
+    """:func:`check_options` of the trajectory solver given its warm start's options apart
+    (``warm_options``, as :class:`jaxstiff.solvers.configs.Trajectory` passes them)."""
+    warm, wopts = options.get("warm", "pgd"), options["warm_options"]
+    if warm not in WARM_STARTS:
+        raise ValueError(f"option warm must be one of {', '.join(map(repr, WARM_STARTS))}, got {warm!r}")
+    if not isinstance(wopts, Mapping):
+        raise ValueError(f"option warm_options must be a dict of {warm} options, got {type(wopts).__name__}")
+    own = {k: v for k, v in options.items() if k != "warm_options"}
+    unknown = sorted(str(k) for k in own if k not in TrajectoryOptions.field_names())
+    if unknown:
+        raise ValueError(
+            f"unknown option(s) for solver 'trajectory' (its warm start's go in warm_options): {', '.join(unknown)}"
+        )
+    TrajectoryOptions.check_values(own)
+    check_options(str(warm), wopts)
 
 
 def first_starts_use(solver: str, opts_meta: dict[str, Any], n_first: int, first_rate_limit: bool) -> str:
@@ -243,8 +264,10 @@ def options_meta(solver: str, starts: int | None, options: Mapping[str, Any] | N
     if solver == "trajectory":
         warm = str(opts.get("warm", "pgd"))
         wdef = solver_defaults(warm)
+        split = given.pop("warm_options", None)  # the warm start's options given apart (configs.Trajectory)
         out["options"] = opts = {**own, **{k: v for k, v in given.items() if k in own}}
-        out["warm_options"] = {**wdef, **{k: v for k, v in given.items() if k in wdef}}
+        wgiven = given if split is None else dict(split)
+        out["warm_options"] = {**wdef, **{k: v for k, v in wgiven.items() if k in wdef}}
     multi = solver in ("pgd", "hybrid") or warm in ("pgd", "hybrid")
     if not multi:
         out["starts"] = 1

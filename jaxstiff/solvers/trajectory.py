@@ -28,6 +28,7 @@ start's. Status: ``0`` SOLVED, ``3`` UNREACHABLE, ``4`` NONFINITE (as :mod:`.pgd
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import time
 from collections.abc import Callable, Mapping
@@ -258,14 +259,16 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="trajectory"``)."""
     opts = dict(req.options or {})
     warm_kind = opts.get("warm", DEFAULT_OPTIONS["warm"])
+    split = opts.pop("warm_options", None)  # the warm start's options apart (else: the same dict)
+    wreq = req if split is None else dataclasses.replace(req, options=dict(split))
     if warm_kind == "pgd":
         from jaxstiff.solvers import pgd
 
-        warm = pgd.run_request(req)
+        warm = pgd.run_request(wreq)
     elif warm_kind == "hybrid":
         from jaxstiff.solvers import hybrid
 
-        warm = hybrid.run_request(req)
+        warm = hybrid.run_request(wreq)
     elif warm_kind == "slsqp":
         from jaxstiff.solvers.base import SOLVERS, SolverInterrupted
 
@@ -276,7 +279,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
                 "'hybrid' for several starts"
             )
         try:
-            warm = SOLVERS["slsqp"](req)
+            warm = SOLVERS["slsqp"](wreq)
         except SolverInterrupted:  # a partial warm start is no trajectory result: keep nothing
             raise KeyboardInterrupt from None
     else:

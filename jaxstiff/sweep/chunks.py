@@ -101,7 +101,7 @@ def _shape_call(
 ) -> tuple:
     """One batched ``shape()`` call over the paths of rows ``rids`` (one setting): ``(name, result, starts)``."""
     from jaxstiff.paths import Path
-    from jaxstiff.shaping import shape
+    from jaxstiff.shaping import run_shape
     from jaxstiff.solvers.base import options_for_solver
 
     st = plan.row_settings(rids[0])
@@ -119,7 +119,7 @@ def _shape_call(
         # the sweep's table reports misses per row (share_both): a warning per chunk would be noise
         warnings.simplefilter("ignore", MissedTargetWarning)
         warnings.simplefilter("ignore", SingularPostureWarning)  # meta["singular"] of each chunk keeps it
-        res = shape(
+        res = run_shape(
             plan.robot,
             path,
             st["criterion"],
