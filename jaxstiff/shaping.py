@@ -178,7 +178,7 @@ def _solve(
 
 
 # ---------------------------------------------------------------------- shape
-def shape(
+def shape(  # noqa: PLR0913 - signature being reduced (issue 38)
     robot: Robot | RobotSpec | str,
     path: Path | np.ndarray | None = None,
     criterion: str | Callable[..., Any] | None = None,

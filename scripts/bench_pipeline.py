@@ -55,7 +55,7 @@ def _parse(argv=None):
     return args
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> int:  # noqa: C901, PLR0915 - the benchmark's procedure, read top to bottom
     """Time the stages of the pipeline (and, with --compare-lapack, a LAPACK variant). Long (~160
     lines) because the staged kernels are closures over the JAX modules imported after the x64
     switch and over the batch; they are defined here, next to the timing loop that uses them."""
