@@ -120,7 +120,7 @@ def prefer_sync_cpu_dispatch() -> bool:
         True if CPU dispatch is (now) synchronous.
     """
     try:
-        from jax._src import xla_bridge
+        from jax._src import xla_bridge  # noqa: PLC2701 - jax has no public query for initialised backends
 
         started = xla_bridge.backends_are_initialized()
     except (ImportError, AttributeError):  # pragma: no cover - private API moved
