@@ -195,7 +195,7 @@ def rank_check(robot, q, K, rows: int) -> dict:
     }
 
 
-def main(argv=None) -> int:
+def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read top to bottom
     """Long because it is the experiment's plan written out: rollouts, checks, figures, summary in order."""
     from jaxstiff.plots import experiment_parser
 

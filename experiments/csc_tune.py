@@ -37,7 +37,7 @@ import sys
 import time
 
 
-def main(argv=None) -> int:
+def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read top to bottom
     from jaxstiff.plots import experiment_parser
 
     ap = experiment_parser("csc_tune", __doc__)

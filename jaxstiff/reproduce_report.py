@@ -130,7 +130,7 @@ _IMG = re.compile(r"!\[([^\]]*)\]\(([^)\s]+)\)")
 _SKIP_TABLES = ("timing.csv", "results.csv")
 
 
-def section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: str = "", log: str = "") -> list[str]:
+def section(run_name: str, folder: str, fig_dir: str, report_dir: str, note: str = "", log: str = "") -> list[str]:  # noqa: C901 - one report section assembled in order, each part a few lines
     """Markdown lines of one experiment's output folder ``folder``; copies its PNGs to ``fig_dir``
     (links relative to ``report_dir``). ``note`` goes first; ``log``: the run's log, shown when the
     experiment wrote no ``summary.md``."""

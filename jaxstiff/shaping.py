@@ -126,7 +126,7 @@ def prefer_sync_cpu_dispatch() -> bool:
         True if CPU dispatch is (now) synchronous.
     """
     try:
-        from jax._src import xla_bridge
+        from jax._src import xla_bridge  # noqa: PLC2701 - jax has no public query for initialised backends
 
         started = xla_bridge.backends_are_initialized()
     except (ImportError, AttributeError):  # pragma: no cover - private API moved
@@ -281,7 +281,7 @@ def shape(
     )
 
 
-def run_shape(
+def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a parameter, for the CLI and sweeps
     robot: Robot | RobotSpec | str,
     path: Path | np.ndarray | None = None,
     criterion: str | Callable[..., Any] | None = None,

@@ -908,7 +908,7 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def main(argv=None) -> int:
+def main(argv=None) -> int:  # noqa: C901, PLR0912, PLR0915 - the benchmark's procedure, read top to bottom
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--robots", default=",".join(ROBOTS), help=f"comma list of {', '.join(ROBOTS)}")
     ap.add_argument(

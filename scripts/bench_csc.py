@@ -46,7 +46,7 @@ import sys
 import time
 
 
-def main(argv=None) -> int:
+def main(argv=None) -> int:  # noqa: PLR0915 - the benchmark's procedure, read top to bottom
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--batch", type=int, default=1024, help="number of rollouts B")
     ap.add_argument("--steps", type=int, default=1000, help="time steps T (path waypoints)")

@@ -55,7 +55,7 @@ def _parse(argv=None):
     return args
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None) -> int:  # noqa: C901, PLR0915 - the benchmark's procedure, read top to bottom
     """Time the stages of the pipeline (and, with --compare-lapack, a LAPACK variant). Long (~160
     lines) because the staged kernels are closures over the JAX modules imported after the x64
     switch and over the batch; they are defined here, next to the timing loop that uses them."""
@@ -70,8 +70,8 @@ def main(argv: list[str] | None = None) -> int:
     import importlib
 
     import jaxstiff
-    from jaxstiff._numerics.eig import eigh_descending, gap_tol
-    from jaxstiff._numerics.safe import safe_ratio
+    from jaxstiff._numerics.eig import eigh_descending, gap_tol  # noqa: PLC2701 - times the package's private numerics
+    from jaxstiff._numerics.safe import safe_ratio  # noqa: PLC2701 - times the package's private numerics
     from jaxstiff.stiffness.ellipsoid import alpha_rad
 
     # jaxstiff.stiffness is also reached as a package attribute; fetch the module itself

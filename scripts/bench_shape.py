@@ -34,7 +34,7 @@ import sys
 import time
 
 
-def main(argv=None) -> int:
+def main(argv=None) -> int:  # noqa: PLR0915 - the benchmark's procedure, read top to bottom
     argv = sys.argv[1:] if argv is None else list(argv)
     if "--batch" in argv:  # batch engine benchmark (issue 5): delegate to scripts/bench_batch.py
         sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))

@@ -221,7 +221,7 @@ def _check_complex(path: Any, K_xd: Any, q0: Any, beta: Any) -> None:
             raise ValueError(f"{name} is complex ({v.dtype}): stiffnesses, postures and paths are real")
 
 
-def prepare_rollout(
+def prepare_rollout(  # noqa: PLR0913 - csc_rollout's arguments (signature being reduced, issue 38)
     robot: Robot,
     path: Any,
     K_xd: Any,
@@ -326,7 +326,7 @@ def _flatten(
     return tb, kb, qb, bb, eb, rb
 
 
-def validate_values(
+def validate_values(  # noqa: C901 - a flat list of independent input checks
     robot: Robot,
     targets: jax.Array,
     K_xd: jax.Array,

@@ -82,7 +82,7 @@ __all__ = [
 BATCH_AXIS = "jaxstiff_csc_rollouts"  #: the named vmap axis of a chunk's rollouts
 
 
-def rollout_one(
+def rollout_one(  # noqa: PLR0913 - the rollout's traced arrays, one argument each (vmapped)
     robot: Robot,
     st: StaticSettings,
     axis_name: str,
@@ -142,7 +142,7 @@ def rollout_batch_jit(backend: str, top_level: bool) -> Callable[..., CSCResult]
     return jax.jit(_rollout_batch_impl, static_argnums=(0, 1, 2), compiler_options=opts)
 
 
-def _rollout_batch_impl(
+def _rollout_batch_impl(  # noqa: PLR0913 - the rollout's traced arrays, one argument each (jitted)
     robot: Robot,
     st: StaticSettings,
     chunk: int | None,
@@ -181,7 +181,7 @@ def _rollout_batch_impl(
     return jax.tree.map(lambda a, b: jnp.concatenate([a, b], axis=0), out, tail)
 
 
-def csc_rollout(
+def csc_rollout(  # noqa: PLR0913 - signature being reduced (issue 38)
     robot: Robot,
     path: Any,
     K_xd: Any,

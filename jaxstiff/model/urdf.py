@@ -63,7 +63,7 @@ def _float_attr(path: str, where: str, text: str) -> list[float]:
         raise ValueError(f"{path}: {where}: cannot read numbers from {short_text(text)}") from None
 
 
-def _check_joint_xml(path: str, elem: Any) -> None:
+def _check_joint_xml(path: str, elem: Any) -> None:  # noqa: C901 - a flat list of independent checks of one element
     """The joint element checked: name, known type, parent/child, finite origin, axis and limits."""
     name = elem.get("name")
     if not name:

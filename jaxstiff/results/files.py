@@ -323,7 +323,7 @@ def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, 
     return np.asarray(Q), np.asarray(KJ), np.asarray(RATE)
 
 
-def verify(
+def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequence
     res: ShapeResult | str | os.PathLike, robot: Robot | None = None, urdf: str | os.PathLike | None = None
 ) -> dict[str, float]:
     """Re-check a result with numpy only (no JAX): FK, bounds, rate limits, reported values.

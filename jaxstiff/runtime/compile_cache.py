@@ -137,7 +137,7 @@ CHECKED_KEY_SUFFIX = "-jaxstiff-sha256"
 
 def _cache_interface() -> type:
     try:
-        from jax._src.compilation_cache_interface import CacheInterface
+        from jax._src.compilation_cache_interface import CacheInterface  # noqa: PLC2701 - jax exports no cache interface to subclass
     except ImportError:  # pragma: no cover - another jax layout: a plain base
         return object
     return CacheInterface
@@ -192,7 +192,7 @@ def guard_jax_cache() -> bool:
     after every re-initialisation (JAX builds its cache object lazily, in ``get_file_cache``).
     Idempotent; False where this JAX has no such hook (then its cache is used unchecked)."""
     try:
-        from jax._src import compilation_cache as jcc
+        from jax._src import compilation_cache as jcc  # noqa: PLC2701 - jax has no public hook on its file cache
     except ImportError:  # pragma: no cover
         return False
     make = getattr(jcc, "get_file_cache", None)

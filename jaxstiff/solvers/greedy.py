@@ -350,7 +350,7 @@ def give_up(
     return x, R.UNREACHABLE, err3, -1, np.inf
 
 
-def _solve_starts(
+def _solve_starts(  # noqa: PLR0913 - one waypoint's problem, passed as its parts
     problem: WaypointProblem,
     solver: WaypointSolver,
     starts: Sequence[np.ndarray],

@@ -212,7 +212,7 @@ def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -
             at_start = False
 
 
-def _polish_waypoint(
+def _polish_waypoint(  # noqa: PLR0913 - one waypoint's state beside the shared context ctx
     ctx: _Polish,
     b: int,
     p: int,
@@ -269,7 +269,7 @@ def _polish_waypoint(
     return have
 
 
-def _best_slsqp(
+def _best_slsqp(  # noqa: PLR0913 - one waypoint's state beside the shared context ctx
     ctx: _Polish,
     b: int,
     p: int,

@@ -269,7 +269,7 @@ def _slsqp_lean_steps(
     Returns:
         ``(x, exit mode, iterations)``.
     """
-    from scipy.optimize._slsqplib import slsqp as _kernel
+    from scipy.optimize._slsqplib import slsqp as _kernel  # noqa: PLC2701 - scipy's routine without minimize's per-step wrappers (see above)
 
     n, m = x0.size, meq
     state = {

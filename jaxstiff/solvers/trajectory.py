@@ -66,7 +66,7 @@ def make_feasible_pass(ops: WaypointOps, first_rate: bool, npol: int) -> Callabl
     box around the previous usable waypoint, box-respecting Newton polish (``npol`` steps) and the
     status check; score = unusable waypoints * 1e12 + total criterion (lower is better)."""
 
-    def feasible_pass(X, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):
+    def feasible_pass(X, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
         def step(carry, inp):
             xref, at_start = carry
             x, tgt, d = inp
@@ -116,7 +116,7 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) ->
 
     feasible_pass = make_feasible_pass(ops, first_rate, npol)
 
-    def traj(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):
+    def traj(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
         P = targets.shape[0]
         dx = jnp.concatenate([dq_f, dk])
         scale = jnp.minimum(dx, jnp.concatenate([jnp.full((nf,), jnp.pi), jnp.full(dk.shape, kmax - kmin)]))

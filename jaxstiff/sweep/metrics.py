@@ -63,7 +63,7 @@ def _nanstat(fn: Callable[[np.ndarray], Any], a: np.ndarray) -> float:
     return float(fn(a)) if a.size else math.nan
 
 
-def shape_row_metrics(
+def shape_row_metrics(  # noqa: PLR0913 - one per-waypoint array per metric, and the sweep's tolerances
     status: np.ndarray,
     alpha_deg: np.ndarray,
     ratio: np.ndarray,

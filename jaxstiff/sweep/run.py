@@ -187,7 +187,7 @@ def _assemble(plan: SweepPlan, store: SweepStore, report: bool, log: Callable[[s
     return table_file
 
 
-def run_sweep(
+def run_sweep(  # noqa: PLR0913 - public entry point: its keyword options are its interface
     config: str | os.PathLike | Mapping[str, Any] | SweepPlan,
     out: str | os.PathLike,
     *,

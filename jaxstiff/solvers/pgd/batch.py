@@ -238,7 +238,7 @@ def _ranking(
     return [(int(a), int(b), float(t)) for a, b, t in zip(np.sum(~solved, 1), np.sum(~hit, 1), tot, strict=True)]
 
 
-def _retry_first(
+def _retry_first(  # noqa: PLR0913 - solve_batch's state handed to its retry step
     batch: WaypointBatch,
     first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
     options: Mapping[str, Any] | None,

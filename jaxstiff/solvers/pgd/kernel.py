@@ -104,7 +104,7 @@ class PGDKernel:
         xs = xs.at[0].set(xref)
         return clip_box(xs, lb[None, :], ub[None, :])
 
-    def one_start(
+    def one_start(  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
         self,
         x0: jax.Array,
         lb: jax.Array,
@@ -317,7 +317,7 @@ class PGDKernel:
 
         return jax.vmap(post, in_axes=(0, 0, 0, 0, per_path))(x0, lb0, ub0, res, lims)
 
-    def traj(
+    def traj(  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
         self,
         targets: jax.Array,
         dirs: jax.Array,
@@ -345,7 +345,7 @@ class PGDKernel:
         out = self.traj_batch(t, dr, x, k, dq, dkk, kmin, kmax, rr, c, pos_tol, ex, n_valid)
         return {k: v[0] for k, v in out.items()}
 
-    def traj_batch(
+    def traj_batch(  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
         self,
         targets: jax.Array,
         dirs: jax.Array,

@@ -258,7 +258,7 @@ class WaypointOps:
         e = jnp.concatenate([ep, e_shape[0]])
         return e, jnp.concatenate([Jp, dshape], axis=1).T
 
-    def lm(self, x, lb, ub, target, d, r, kind: str, iters: int | jax.Array, wpos: float, walign: float, s):
+    def lm(self, x, lb, ub, target, d, r, kind: str, iters: int | jax.Array, wpos: float, walign: float, s):  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
         """``iters`` box-constrained Levenberg-Marquardt steps on :meth:`lm_residual`.
 
         Minimum-norm steps in box-scaled coordinates (``s``: per-coordinate box width): the system

@@ -13,7 +13,7 @@ from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, cl
 __all__ = ["optimise", "finish", "verdict", "judge"]
 
 
-def optimise(
+def optimise(  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
     ops: WaypointOps,
     x0,
     lb,
@@ -110,7 +110,7 @@ def _score(fv, err, opts):
     return jnp.where(ok, fv, jnp.inf)
 
 
-def _adam(ops: WaypointOps, surrogate, x0, lb, ub, target, d, r, c, kspan, opts, iters, s0, decay):
+def _adam(ops: WaypointOps, surrogate, x0, lb, ub, target, d, r, c, kspan, opts, iters, s0, decay):  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
     """``iters`` projected Adam steps (a Python int or a traced loop bound) on the criterion, or on
     the surrogate where ``surrogate`` (:meth:`WaypointOps.descent_terms`). ``s0``, ``decay``: the
     first step (fraction of the box width) and its per-iteration decay (:func:`_phase_constants`).
