@@ -10,17 +10,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-# first, before JAX is imported: a Ctrl-C while the `jaxstiff` command starts up is remembered,
-# not lost (see jaxstiff.runtime.early_signals; nothing changes when imported as a library)
-from .runtime.allocator import tune_allocator as _tune_allocator
-from .runtime.early_signals import record_early_signals as _record_early_signals
+# Importing the package changes nothing process-wide: the command line (jaxstiff.cli) installs
+# its early signal handlers and tunes glibc's allocator; a script opts in with
+# jaxstiff.runtime.tune_allocator() (why and the cost: jaxstiff.runtime.allocator).
 from .runtime.lazy import lazy_exports
 from .runtime.version import __version__ as __version__
-
-_record_early_signals()
-# large outputs reuse freed heap memory instead of fresh, page-faulting mmaps (glibc; opt out with
-# JAXSTIFF_MALLOC_TUNE=0; why and the cost: jaxstiff.runtime.allocator)
-_tune_allocator()
 
 #: public name -> the module (relative to this package) that defines it. ``Ellipsoid``,
 #: ``ellipsoid`` and ``orientation_error`` come from ``stiffness.ellipsoid``, not from the former

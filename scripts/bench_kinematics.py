@@ -18,6 +18,11 @@ kinematics kernel jaxstiff picks for the chain (``kernel_for``: unrolled, framed
 also records the largest difference between the two results (pytorch-kinematics parses URDF
 numbers in float32, so ~1e-7 is agreement).
 
+The process opts in to jaxstiff's allocator setting (``jaxstiff.runtime.tune_allocator()``, what
+the ``jaxstiff`` command does and the docs tell a script with large batches to do; ``import
+jaxstiff`` alone leaves glibc's defaults, about 2x slower at B = 1e5); ``--no-tune`` measures
+without it.
+
 Usage:
     python scripts/bench_kinematics.py --sizes 1e5             # every arm, float32 and float64
     python scripts/bench_kinematics.py --robot lwr              # the LWR alone (sizes 1, 1e3, 1e5, 1e6)
@@ -236,6 +241,7 @@ def _parse_args(argv: list[str] | None) -> tuple[argparse.Namespace, list[str]]:
     ap.add_argument("--min-time", type=float, default=1.0, help="seconds of timed calls per cell (at least 3 calls)")
     ap.add_argument("--max-repeats", type=int, default=2000, help="upper bound on timed calls per cell")
     ap.add_argument("--no-torch", action="store_true", help="skip pytorch-kinematics")
+    ap.add_argument("--no-tune", action="store_true", help="leave glibc's allocator as import jaxstiff does")
     ap.add_argument("--json", default=None, metavar="FILE", help="write rows, device, versions and sizes here")
     args = ap.parse_args(argv)
     dtypes = [d.strip() for d in args.dtypes.split(",") if d.strip()]
@@ -340,7 +346,11 @@ def _measure_cell(robot, pk_chain, q_np, dtype_name: str, args: argparse.Namespa
 def main(argv: list[str] | None = None) -> int:
     args, dtypes = _parse_args(argv)
 
+    from jaxstiff.runtime import tune_allocator
     from jaxstiff.runtime.x64 import enable_x64
+
+    tuned = False if args.no_tune else tune_allocator()
+    print(f"allocator setting (jaxstiff.runtime.tune_allocator): {'on' if tuned else 'off'}")
 
     enable_x64()  # float64 available; float32 inputs stay float32 (the kernel keeps the dtype)
     import numpy as np

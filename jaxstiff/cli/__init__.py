@@ -1,4 +1,14 @@
-"""The ``jaxstiff`` command line (entry point :func:`main`); one module a subcommand."""
+"""The ``jaxstiff`` command line (entry point :func:`main`); one module a subcommand.
+
+Importing it applies the command's process-wide settings, first, before JAX is imported: a Ctrl-C
+while the command starts up is remembered, not lost (:mod:`jaxstiff.runtime.early_signals`), and
+large outputs reuse freed heap memory instead of fresh, page-faulting mmaps (glibc; opt out with
+``JAXSTIFF_MALLOC_TUNE=0``; :mod:`jaxstiff.runtime.allocator`). ``import jaxstiff`` does neither.
+"""
+
+import jaxstiff.runtime.command_start  # noqa: F401 - first: the settings above
+
+# isort: split
 
 from .common import COMMANDS as COMMANDS
 from .common import TIP_LINK_HELP as TIP_LINK_HELP

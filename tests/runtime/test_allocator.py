@@ -19,8 +19,11 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="gl
 
 _PROBE = r"""
 import ctypes, json, resource
-import jaxstiff  # applies the setting unless JAXSTIFF_MALLOC_TUNE=0
-from jaxstiff.runtime.allocator import tune_allocator
+import sys
+import jaxstiff  # changes nothing process-wide
+from jaxstiff.runtime import tune_allocator
+
+tuned = tune_allocator() if sys.argv[1] == "tune" else None  # the command line's opt-in, and a script's
 
 libc = ctypes.CDLL(None)
 libc.malloc.restype = ctypes.c_void_p
@@ -39,16 +42,16 @@ def faults():
 libc.free(block())
 f0 = faults()
 libc.free(block())
-print(json.dumps({"tuned": tune_allocator(), "second_faults": faults() - f0}))
+print(json.dumps({"tuned": tuned, "second_faults": faults() - f0}))
 """
 
 
-def _probe(env_value: str | None) -> dict:
+def _probe(env_value: str | None, mode: str = "tune") -> dict:
     env = {k: v for k, v in os.environ.items() if not k.startswith("MALLOC_") and k != "GLIBC_TUNABLES"}
     env.pop("JAXSTIFF_MALLOC_TUNE", None)
     if env_value is not None:
         env["JAXSTIFF_MALLOC_TUNE"] = env_value
-    out = subprocess.run([sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", _PROBE, mode], env=env, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -66,6 +69,14 @@ def test_freed_large_block_is_reused_without_page_faults():
     # untuned: the new block faults in (nearly) every page; tuned: (nearly) none
     assert off["second_faults"] > 0.8 * pages, off
     assert on["second_faults"] < 0.1 * pages, on
+
+
+@pytest.mark.skipif(not _is_glibc(), reason="glibc only")
+def test_importing_the_package_leaves_the_allocator_alone():
+    """``import jaxstiff`` changes no process-wide setting: a freed large block faults in again."""
+    plain = _probe(None, mode="import-only")
+    assert plain["tuned"] is None
+    assert plain["second_faults"] > 0.8 * 64e6 / 4096, plain
 
 
 def test_opt_out_user_settings_and_non_linux_are_no_ops(monkeypatch):
