@@ -50,6 +50,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: PLR0915 - the experimen
     from jaxstiff.results import files as R
     from jaxstiff.shaping import SOLVERS, register_solver
     from jaxstiff.solvers import trajectory
+    from jaxstiff.solvers.configs import solver_from_name
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     dp = jaxstiff.default_path()
@@ -107,10 +108,9 @@ def main(argv: list[str] | None = None) -> int:  # noqa: PLR0915 - the experimen
                 path,
                 crit,
                 5.0,
-                solver=solver,
+                solver=solver_from_name(solver, {**opts, "chunk": B} if solver != "slsqp" else opts),
                 starts=starts,
                 q0=q0,
-                options=({**opts, "chunk": B} if solver != "slsqp" else opts or None),
             )
             dt = time.perf_counter() - t0
             cached[name] = to_arrays(res)

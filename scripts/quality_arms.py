@@ -66,6 +66,7 @@ def main(argv=None) -> int:
     jax.config.update("jax_enable_x64", True)
     import jaxstiff
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
+    from jaxstiff.solvers.configs import solver_from_name
 
     prefer_sync_cpu_dispatch()
     sys.path.insert(0, HERE)
@@ -84,7 +85,7 @@ def main(argv=None) -> int:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 res[solver] = jaxstiff.shape(
-                    robot, path, "f2", 5.0, solver=solver, q0=q0, options=extra if solver != "slsqp" else None
+                    robot, path, "f2", 5.0, solver=solver_from_name(solver, extra if solver != "slsqp" else None), q0=q0
                 )
             res[solver].meta["_wall_s"] = time.perf_counter() - t0
         print(f"\n{arm}: {robot.n} joints {list(robot.joint_names)}, tip {kw.get('tip_link', 'default')}")

@@ -11,6 +11,7 @@ from these classes, so a default is written once.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
 from collections.abc import Callable, Iterable
 from typing import Any, ClassVar, TypeVar
@@ -71,6 +72,21 @@ class Settings:
 
     #: the label used in error messages (``"shape"``, ``"csc"``, ...)
     section: ClassVar[str] = ""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """The class docstring gets an ``Attributes:`` section made from its fields' metadata
+        (default, unit, doc, choices): the API reference lists every setting from the one place
+        it is written."""
+        super().__init_subclass__(**kwargs)
+        lines = []
+        for name, f in vars(cls).items():
+            if isinstance(f, dataclasses.Field) and "doc" in f.metadata:
+                m = f.metadata
+                unit = f" [{m['unit']}]" if m.get("unit") else ""
+                choices = f"; one of {', '.join(map(repr, m['choices']))}" if m.get("choices") else ""
+                lines.append(f"    {name}: {m['doc'] or name}{unit} (default {f.default!r}{choices}).")
+        if lines and cls.__doc__ and "Attributes:" not in cls.__doc__:
+            cls.__doc__ = inspect.cleandoc(cls.__doc__) + "\n\nAttributes:\n" + "\n".join(lines) + "\n"
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):  # type: ignore[arg-type]

@@ -76,7 +76,7 @@ def _ratio(v: object) -> str | None:
 
 @dataclasses.dataclass(frozen=True)
 class ShapeSettings(Settings):
-    """Settings of :func:`jaxstiff.shape` that the seed leaves open (defaults in the README).
+    """Settings of :func:`jaxstiff.shape` that the seed leaves open (every field, default and unit below).
 
     The scalar form is validated here; ``ratio``, ``dq`` and ``dk`` may also be given per path or
     per joint to :func:`jaxstiff.shape`, which checks those arrays itself.
