@@ -1,8 +1,10 @@
 """Shared test helpers: one comparison with explicit tolerances and a NaN check, one finite difference,
-and an independent numpy forward kinematics (homogeneous 4x4 products, nothing shared with the kernel)."""
+an independent numpy forward kinematics (homogeneous 4x4 products, nothing shared with the kernel), and
+a bundled robot read once per process."""
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import pathlib
 import sys
@@ -53,6 +55,14 @@ def numpy_fk(robot, q):
             M[:3, :3] = _rot(robot.axes[i], q[i])
         T = T @ M
     return T @ robot.tip_matrix
+
+
+@functools.cache
+def robot_by_name(name: str):
+    """``jaxstiff.Robot.from_urdf(name)`` (a bundled robot's name), read once per process."""
+    import jaxstiff  # here, not at the top: the helpers above stay independent of the package
+
+    return jaxstiff.Robot.from_urdf(name)
 
 
 # folders, for tests in any sub-folder of tests/

@@ -15,8 +15,8 @@ import types
 
 import numpy as np
 import pytest
+from hand_made_results import arc_result
 from helpers import DATA_DIR
-from test_turning_figure import arc_result
 
 import jaxstiff
 from jaxstiff.plots import shape_path

@@ -4,10 +4,9 @@ rate limits, the PNG read back as pixels (not blank: the curves' colours are the
 
 from __future__ import annotations
 
-import types
-
 import numpy as np
 import pytest
+from hand_made_results import arc_result
 
 import jaxstiff
 from jaxstiff.plots.base import nice_value, pyplot
@@ -30,32 +29,6 @@ def _result(robot, P=12):
     path = jaxstiff.paths.arc([0.0, 0.0, 0.3], 0.6, 0.0, 44.0, n=P)  # turns 4 deg per waypoint
     alpha = np.r_[np.full(4, 1e-7), np.linspace(2, 30, 4), np.full(P - 8, 1e-6)]
     return arc_result(q, kj, path, DQ, DK, alpha)
-
-
-def arc_result(q, kj, path, dq, dk, alpha_deg) -> types.SimpleNamespace:
-    """A hand-made one-path f2 result (r = 5) for the turning figure: joint values ``q`` and
-    stiffnesses ``kj`` (P, n) along ``path``, rate limits ``dq``, ``dk`` (numbers or per joint), the
-    orientation error ``alpha_deg`` (P,) and ratio 5 at every waypoint, all solved."""
-    P, n = q.shape
-    return types.SimpleNamespace(
-        P=P,
-        n=n,
-        B=1,
-        meta={
-            "ratio": 5.0,
-            "criterion": "f2",
-            "limits": {"dq": dq, "dk": dk, "kmin": 1.0, "kmax": 100.0, "first_rate_limit": False},
-        },
-        q=q[None],
-        kj=kj[None],
-        q0=q[:1].copy(),
-        kj0=kj[:1].copy(),
-        status=np.zeros((1, P), int),
-        target=path.points[None],
-        direction=path.directions[None],
-        alpha_deg=np.asarray(alpha_deg, float)[None],
-        ratio=np.full((1, P), 5.0),
-    )
 
 
 def test_rate_limited_joints_counts_the_steps_set_to_the_limits():

@@ -5,18 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_pgd import OPTS, check_file, planar_paths, run
+from pgd_cases import OPTS
 
 from jaxstiff.results import files as R
 
 
 @pytest.mark.slow
-def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
+def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path, planar_paths, run_planar, check_planar_file):
     path, q0 = planar_paths(3, 5)
-    base = run(path, q0)  # same pgd settings and keys as inside the hybrid
-    hyb = run(path, q0, solver="hybrid", options={**OPTS, "chain": "pgd"})
-    gre = run(path, q0, solver="hybrid", options=OPTS)  # default chain "greedy": also tries the seed's own start
-    ref = run(path, q0, solver="slsqp", options=None)
+    base = run_planar(path, q0)  # same pgd settings and keys as inside the hybrid
+    hyb = run_planar(path, q0, solver="hybrid", options={**OPTS, "chain": "pgd"})
+    gre = run_planar(path, q0, solver="hybrid", options=OPTS)  # default chain "greedy": also tries the seed's own start
+    ref = run_planar(path, q0, solver="slsqp", options=None)
     assert np.all(R.is_usable(hyb.status))
     both = R.is_usable(base.status)
     assert np.all(hyb.criterion[both] <= base.criterion[both] + 1e-12)
@@ -24,12 +24,12 @@ def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
     # per waypoint the chains differ (the polish keeps pgd's next point reachable), so compare totals
     assert hyb.criterion[ok].sum() <= base.criterion[ok].sum() + 1e-9
     assert np.mean(hyb.criterion[ok]) <= 1.5 * np.mean(ref.criterion[ok])
-    check_file(hyb, tmp_path)
+    check_planar_file(hyb, tmp_path)
     # greedy chaining: at the first waypoint the box and the seed's start are SLSQP's own, and SLSQP
     # from that start is one of the candidates, so the hybrid is not worse there (up to SLSQP accuracy)
     assert np.all(gre.criterion[:, 0] <= ref.criterion[:, 0] * (1 + 1e-3))  # SLSQP stops within ftol
     assert np.all(R.is_usable(gre.status))
-    check_file(gre, tmp_path, "g.npz")
+    check_planar_file(gre, tmp_path, "g.npz")
     # the greedy chain may leave pgd's corridor per waypoint, but no path ends worse than pgd's in
     # total (else it is polished again inside the corridor); same pgd settings and keys as base
     for b in range(len(q0)):
@@ -38,12 +38,10 @@ def test_hybrid_never_worse_than_pgd_and_matches_slsqp(tmp_path):
 
 
 @pytest.mark.slow
-def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
+def test_hybrid_unreachable_waypoint_stays_inside_its_own_box(planar, planar_paths, run_planar):
     """A waypoint no solver can reach, where pgd's stored (unusable) state lies outside the box of
     the hybrid's own chain (pgd's chain differs): the hybrid reports it unreachable with a state
     inside its box, so the rate limits hold at every waypoint (the file check tests them all)."""
-    from test_pgd import PLANAR
-
     import jaxstiff
     from jaxstiff.solvers import hybrid
     from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
@@ -52,14 +50,14 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box():
     path, q0 = planar_paths(1, 4, seed=1)
     pts = path.points.copy()
     pts[0, 2, :2] *= -1.0  # within reach, but half a turn away: outside the rate-limited box
-    base_res = run(jaxstiff.Path(pts, path.directions), q0)
+    base_res = run_planar(jaxstiff.Path(pts, path.directions), q0)
     assert base_res.status[0, 2] == R.UNREACHABLE
     base = {
         k: np.array(getattr(base_res, k))
         for k in ("q", "kj", "status", "pos_error", "solver_code", "nit", "nfev", "time_s")
     }
     base["kj"][0, 2] = 100.0  # as if pgd's chain had carried another stiffness there
-    problem = WaypointProblem(PLANAR, "xy", get_criterion("f2"))
+    problem = WaypointProblem(planar, "xy", get_criterion("f2"))
     dk = 5.0
     limits = Limits(dq=np.full(3, 0.1), dk=np.full(3, dk), kmin=1.0, kmax=100.0, first_rate_limit=False)
     batch = WaypointBatch(problem, pts, base_res.direction, q0, np.full((1, 3), 50.5), limits, 3.0, 0.0)

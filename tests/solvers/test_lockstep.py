@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pgd_cases import OPTS
 
 import jaxstiff
 from jaxstiff.results import files as R
@@ -105,21 +106,17 @@ def test_slsqp_solves_in_lockstep_equal_the_solver_called_alone():
 
 
 @pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
-def test_hybrid_path_result_does_not_depend_on_its_batch():
-    from test_pgd import OPTS, planar_paths, run
-
+def test_hybrid_path_result_does_not_depend_on_its_batch(planar_paths, run_planar):
     path, q0 = planar_paths(3, 5, seed=2)
     opts = {**OPTS, "polish_skip_tol": 0.0}
-    both = run(path, q0, solver="hybrid", options=opts)
-    alone = run(jaxstiff.Path(path.points[1:2], path.directions[1:2]), q0[1:2], solver="hybrid", options=opts)
+    both = run_planar(path, q0, solver="hybrid", options=opts)
+    alone = run_planar(jaxstiff.Path(path.points[1:2], path.directions[1:2]), q0[1:2], solver="hybrid", options=opts)
     for k in ("q", "kj", "criterion", "status"):
         np.testing.assert_array_equal(getattr(both, k)[1], getattr(alone, k)[0], err_msg=k)
 
 
 @pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
-def test_polish_skip_keeps_the_criterion_and_saves_solves(monkeypatch):
-    from test_pgd import OPTS, planar_paths, run
-
+def test_polish_skip_keeps_the_criterion_and_saves_solves(monkeypatch, planar_paths, run_planar):
     from jaxstiff.solvers import slsqp
 
     # count the SLSQP solves the polish starts (a skipped waypoint's nfev is pgd's either way, and
@@ -140,10 +137,12 @@ def test_polish_skip_keeps_the_criterion_and_saves_solves(monkeypatch):
 
     monkeypatch.setattr(slsqp, "make_slsqp_solver", counting_solver)  # the polish imports it per call
     path, q0 = planar_paths(3, 6, seed=3)
-    pg = run(path, q0, options={**OPTS, "iters": 200, "iters_first": 400})
-    full = run(path, q0, solver="hybrid", options={**OPTS, "iters": 200, "iters_first": 400, "polish_skip_tol": 0.0})
+    pg = run_planar(path, q0, options={**OPTS, "iters": 200, "iters_first": 400})
+    full = run_planar(
+        path, q0, solver="hybrid", options={**OPTS, "iters": 200, "iters_first": 400, "polish_skip_tol": 0.0}
+    )
     n_full = len(solves)
-    skip = run(path, q0, solver="hybrid", options={**OPTS, "iters": 200, "iters_first": 400})
+    skip = run_planar(path, q0, solver="hybrid", options={**OPTS, "iters": 200, "iters_first": 400})
     n_skip = len(solves) - n_full
     near = pg.criterion - 1.0 <= 1e-9
     assert near.any() and not near.all()  # the case exercises the skip and the polish

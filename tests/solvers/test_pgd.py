@@ -10,60 +10,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from helpers import numpy_fk, one_value_joint_urdf
+from pgd_cases import OPTS, STARTS
 
 import jaxstiff
 from jaxstiff.results import files as R
 from jaxstiff.solvers import pgd
 
-PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
-# small, fixed settings shared by the pgd/hybrid/trajectory tests: one compilation
-OPTS = {"iters": 30, "iters_first": 60, "starts_first": 8, "chunk": 2}
-STARTS = 4
-
-
-def planar_paths(B: int, P: int, seed: int = 0):
-    """TCP traces (numpy FK) of joint-space motions of the planar arm: reachable by construction."""
-    rng = np.random.default_rng(seed)
-    lo, hi = PLANAR.lower + 0.4, PLANAR.upper - 0.4
-    qa = rng.uniform(lo, hi, (B, 3))
-    qb = np.clip(qa + rng.uniform(-0.15, 0.15, (B, 3)), lo, hi)
-    s = np.linspace(0, 1, P)
-    Q = qa[:, None] + s[None, :, None] * (qb - qa)[:, None]
-    pts = np.array([[numpy_fk(PLANAR, q)[:3, 3] for q in Qb] for Qb in Q])
-    d = np.gradient(pts, axis=1)
-    d[..., 2] = 0.0
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    return jaxstiff.Path(pts, d), qa
-
-
-def run(path, q0, solver="pgd", **kw):
-    kw.setdefault("options", OPTS)
-    kw.setdefault("dq", 0.1)  # rad per waypoint: room for the null-space motion of the short test paths
-    kw.setdefault("starts", STARTS if solver != "slsqp" else None)
-    return jaxstiff.shape(PLANAR, path, "f2", 3.0, task="xy", solver=solver, q0=q0, **kw)
-
 
 @pytest.fixture(scope="module")
-def batch3():
+def batch3(planar_paths, run_planar):
     path, q0 = planar_paths(3, 5)
-    return path, q0, run(path, q0)
-
-
-def check_file(res, tmp_path, name="r.npz"):
-    """Save, reload, verify with numpy only; positions against the independent numpy FK."""
-    f = tmp_path / name
-    res.save(f)
-    back = jaxstiff.ShapeResult.load(f)
-    v = R.verify(back)
-    assert R.verify(f) == v  # the file's path alone does too
-    assert v["max_pos_error"] <= 1e-9
-    assert v["max_bound_violation"] <= 0.0 and v["max_rate_violation"] <= 1e-15
-    assert v["max_alpha_mismatch"] < 1e-8 and v["max_criterion_mismatch"] < 1e-8
-    for b in range(back.B):
-        for p in range(back.P):
-            if back.status[b, p] in R.USABLE:
-                assert np.linalg.norm(numpy_fk(PLANAR, back.q[b, p])[:3, 3] - back.target[b, p]) <= 1e-9
-    return back
+    return path, q0, run_planar(path, q0)
 
 
 def test_meta_records_the_starts_and_options_pgd_ran_with(batch3):
@@ -77,25 +34,25 @@ def test_meta_records_the_starts_and_options_pgd_ran_with(batch3):
     assert f"{min(fs['count'], s1)} of the {s1} first-waypoint starts of pgd" in fs["use"], fs
 
 
-def test_pgd_batch_feasible_and_verified(batch3, tmp_path):
+def test_pgd_batch_feasible_and_verified(batch3, tmp_path, check_planar_file):
     path, q0, res = batch3
     assert res.q.shape == (3, 5, 3) and res.status.shape == (3, 5)
     assert np.all(res.status == R.SOLVED)
     assert np.all(np.isfinite(res.criterion))
-    check_file(res, tmp_path)
+    check_planar_file(res, tmp_path)
 
 
 @pytest.mark.slow
-def test_pgd_chunking_does_not_change_results(batch3):
+def test_pgd_chunking_does_not_change_results(batch3, run_planar):
     path, q0, res = batch3
-    one = run(path, q0, options={**OPTS, "chunk": 3})  # same keys per path index, other chunking
+    one = run_planar(path, q0, options={**OPTS, "chunk": 3})  # same keys per path index, other chunking
     np.testing.assert_allclose(one.q, res.q, atol=1e-12)
     np.testing.assert_allclose(one.kj, res.kj, atol=1e-12)
 
 
-def test_pgd_quality_close_to_slsqp(batch3):
+def test_pgd_quality_close_to_slsqp(batch3, run_planar):
     path, q0, res = batch3
-    ref = run(path, q0, solver="slsqp", options=None)
+    ref = run_planar(path, q0, solver="slsqp", options=None)
     ok = R.is_usable(ref.status)
     # where f2's minimum (1, at alpha = 0 and rho = r) is reachable, pgd's LM stage lands on it: as
     # good as SLSQP to 1e-6 (SLSQP itself stops at ftol, ~1e-5 above)
@@ -108,37 +65,37 @@ def test_pgd_quality_close_to_slsqp(batch3):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("mode", ["rollout", "best"])
-def test_both_modes_feasible(tmp_path, mode):
+def test_both_modes_feasible(tmp_path, mode, planar_paths, run_planar, check_planar_file):
     path, q0 = planar_paths(2, 4, seed=3)
-    res = run(path, q0, options={**OPTS, "mode": mode})
+    res = run_planar(path, q0, options={**OPTS, "mode": mode})
     assert np.all(R.is_usable(res.status))
-    check_file(res, tmp_path)
+    check_planar_file(res, tmp_path)
 
 
-def test_unreachable_waypoint_is_flagged_and_skipped(tmp_path):
+def test_unreachable_waypoint_is_flagged_and_skipped(tmp_path, planar_paths, run_planar, check_planar_file):
     path, q0 = planar_paths(1, 4, seed=1)
     pts = path.points.copy()
     pts[0, 2, :2] *= -1.0  # within reach, but half a turn away: outside the rate-limited box
     bad = jaxstiff.Path(pts, path.directions)
-    res = run(bad, q0)
+    res = run_planar(bad, q0)
     assert res.status[0, 2] == R.UNREACHABLE
     assert np.all(R.is_usable(res.status[0, [0, 1, 3]]))
-    check_file(res, tmp_path)  # waypoint 3's rate limits refer to waypoint 1
+    check_planar_file(res, tmp_path)  # waypoint 3's rate limits refer to waypoint 1
 
 
-def test_bad_options_raise():
+def test_bad_options_raise(planar_paths, run_planar):
     path, q0 = planar_paths(1, 3)
     with pytest.raises(ValueError, match=r"unknown option\(s\) for solver 'pgd': 'itres' \(did you mean 'iters'\?\)"):
-        run(path, q0, options={"itres": 3})
+        run_planar(path, q0, options={"itres": 3})
     with pytest.raises(ValueError, match="mode"):
-        run(path, q0, options={"mode": "greedy"})
+        run_planar(path, q0, options={"mode": "greedy"})
     with pytest.raises(ValueError, match="starts"):
-        run(path, q0, starts=0)
+        run_planar(path, q0, starts=0)
 
 
-def test_list_of_paths_is_the_same_batch(batch3):
+def test_list_of_paths_is_the_same_batch(batch3, run_planar):
     path, q0, res = batch3
-    again = run([path[b] for b in range(3)], q0)
+    again = run_planar([path[b] for b in range(3)], q0)
     np.testing.assert_allclose(again.q, res.q, atol=1e-12)
     assert again.status.shape == (3, 5)
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
-from test_pgd import OPTS, PLANAR, STARTS, planar_paths, run
+from pgd_cases import OPTS, STARTS
 
 import jaxstiff
 from jaxstiff.settings.solvers import PGDOptions
@@ -28,7 +28,7 @@ def _kernel_args(problem, path, q0, P):
     pts, dirs = np.asarray(path.points[0]), np.asarray(path.directions[0])
     n = pts.shape[0]
     pad = lambda a: np.concatenate([a, np.repeat(a[-1:], P - n, axis=0)])  # noqa: E731
-    x0 = jnp.asarray(problem.x_of(q0[0], np.full(PLANAR.n, 50.0)))
+    x0 = jnp.asarray(problem.x_of(q0[0], np.full(problem.robot.n, 50.0)))
     return (
         jnp.asarray(pad(pts)),
         jnp.asarray(pad(dirs)),
@@ -46,10 +46,10 @@ def _kernel_args(problem, path, q0, P):
     )
 
 
-def test_rows_beyond_the_path_change_nothing():
+def test_rows_beyond_the_path_change_nothing(planar, planar_paths):
     # the same 5-waypoint path in programs of capacity 8 and 16: the same bits in its 5 rows (in
     # rollout mode the kept trajectory is chosen over the path's own waypoints only) and zeros after
-    problem = WaypointProblem(PLANAR, "xy", jaxstiff.f2)
+    problem = WaypointProblem(planar, "xy", jaxstiff.f2)
     opts = {f: getattr(PGDOptions(), f) for f in PGDOptions.__dataclass_fields__}
     opts.update(OPTS, starts=STARTS)
     path, q0 = planar_paths(1, 5, seed=3)
@@ -63,7 +63,7 @@ def test_rows_beyond_the_path_change_nothing():
     assert np.all(np.asarray(a["status"])[:5] == 0)
 
 
-def test_paths_of_other_lengths_reuse_the_compiled_program(monkeypatch):
+def test_paths_of_other_lengths_reuse_the_compiled_program(monkeypatch, planar_paths, run_planar):
     # pgd compiles (or loads) its chunk program for the arguments' shapes: a 5- and a 7-waypoint
     # batch must ask for the same shapes (capacity 8), so the second run reuses the program
     seen = []
@@ -76,7 +76,7 @@ def test_paths_of_other_lengths_reuse_the_compiled_program(monkeypatch):
     monkeypatch.setattr(pgd_batch, "compile_with_export_cache", spy)
     path5, q0 = planar_paths(2, 5, seed=1)
     path7, _ = planar_paths(2, 7, seed=1)
-    r5, r7 = run(path5, q0), run(path7, q0)
+    r5, r7 = run_planar(path5, q0), run_planar(path7, q0)
     assert len(seen) == 2 and seen[0] == seen[1]
     assert seen[0][0][1] == 8  # the waypoint axis at its capacity
     assert r5.P == 5 and r7.P == 7 and r5.q.shape[1] == 5 and r7.q.shape[1] == 7

@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 import pytest
-from test_pgd import OPTS, planar_paths, run
+from pgd_cases import OPTS
 
 from jaxstiff.runtime import threads as th
 
@@ -65,11 +65,11 @@ def test_map_chunks_keeps_order_and_runs_concurrently():
 
 @pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
 @pytest.mark.parametrize("solver", ["pgd", "trajectory"])
-def test_results_do_not_depend_on_the_thread_count(solver):
+def test_results_do_not_depend_on_the_thread_count(solver, planar_paths, run_planar):
     path, q0 = planar_paths(5, 4, seed=5)
     opts = {**OPTS, **({"traj_iters": 40, "blocks": 2} if solver == "trajectory" else {})}
-    one = run(path, q0, solver=solver, options={**opts, "threads": 1})
-    many = run(path, q0, solver=solver, options={**opts, "threads": 3})  # chunks of 2: 3 at once
+    one = run_planar(path, q0, solver=solver, options={**opts, "threads": 1})
+    many = run_planar(path, q0, solver=solver, options={**opts, "threads": 3})  # chunks of 2: 3 at once
     for k in ("q", "kj", "criterion", "status", "pos_error"):
         np.testing.assert_array_equal(getattr(many, k), getattr(one, k), err_msg=k)
     assert np.all(np.isfinite(one.criterion))

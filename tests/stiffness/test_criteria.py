@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import assert_close, central_diff
+from helpers import assert_close, central_diff, robot_by_name
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -23,13 +23,6 @@ from jaxstiff.stiffness.criteria import CRITERIA, alpha_and_ratio
 
 RNG = np.random.default_rng(99)
 N = 64
-_ROBOTS: dict[str, jaxstiff.Robot] = {}
-
-
-def robot(name: str) -> jaxstiff.Robot:
-    if name not in _ROBOTS:
-        _ROBOTS[name] = jaxstiff.Robot.from_urdf(name)
-    return _ROBOTS[name]
 
 
 def k_from_alpha_rho(alpha_deg, rho, lam2=100.0, phi_deg=30.0):
@@ -173,7 +166,7 @@ def pipeline(rname: str, task: str):
     FK/Jacobian/K_T: one compilation per robot and task serves both criteria (w = (1, 0) or (0, 1))."""
     key = (rname, task)
     if key not in _PIPELINES:
-        rb = robot(rname)
+        rb = robot_by_name(rname)
 
         def f(q, kj, d, r, w):
             K = jaxstiff.translational_stiffness(jaxstiff.jacobian(rb, q), kj, task)
@@ -193,7 +186,7 @@ PIPE_CASES = [("kuka_lwr4", "full"), ("planar_3r", "xy")]
 @pytest.mark.slow
 @pytest.mark.parametrize("rname,task", PIPE_CASES)
 def test_gradient_wrt_q_and_kj_vs_finite_differences(rname, task):
-    rb = robot(rname)
+    rb = robot_by_name(rname)
     m = 2 if task == "xy" else 3
     rng = np.random.default_rng(11)
     vg = pipeline(rname, task)
@@ -244,7 +237,7 @@ SINGULAR = [
 
 @pytest.mark.parametrize("rname,q,task,d", SINGULAR)
 def test_values_and_gradients_finite_at_singular_postures(rname, q, task, d):
-    rb = robot(rname)
+    rb = robot_by_name(rname)
     vg = pipeline(rname, task)
     for kj in (np.full(rb.n, 1.0), np.full(rb.n, 100.0), np.linspace(1.0, 100.0, rb.n)):  # kj at its bounds
         for r in (1.0, 5.0):

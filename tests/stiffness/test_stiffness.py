@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import assert_close, central_diff
+from helpers import assert_close, central_diff, robot_by_name
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -24,13 +24,6 @@ from jaxstiff.stiffness.core import TASK_ROWS, cms_scale, compliance_condition
 
 RNG = np.random.default_rng(42)
 N = 64  # batch size used throughout (each new shape compiles anew)
-_ROBOTS: dict[str, jaxstiff.Robot] = {}
-
-
-def robot(name: str) -> jaxstiff.Robot:
-    if name not in _ROBOTS:
-        _ROBOTS[name] = jaxstiff.Robot.from_urdf(name)
-    return _ROBOTS[name]
 
 
 def random_postures(r, n=N, rng=RNG):
@@ -64,7 +57,7 @@ CASES = [("kuka_lwr4", "xyz"), ("kuka_lwr4", "full"), ("planar_3r", "xy")]
 @pytest.mark.slow
 @pytest.mark.parametrize("name,task", CASES)
 def test_cartesian_stiffness_matches_numpy_inverse(name, task):
-    r = robot(name)
+    r = robot_by_name(name)
     q, kj = random_postures(r)
     J = np.asarray(r.jacobian(jnp.asarray(q)))
     K = jaxstiff.cartesian_stiffness(jnp.asarray(J), jnp.asarray(kj), task)
@@ -100,7 +93,7 @@ def min_spring_energy(J6, kj, dx, task):
 def test_translational_stiffness_physical_meaning():
     """1/2 dx^T K_T dx is the least spring energy of a TCP translation dx (orientation held for
     "full", free for "xyz"); so K_T(full) >= K_T(xyz) in the Loewner order."""
-    r = robot("kuka_lwr4")
+    r = robot_by_name("kuka_lwr4")
     q, kj = random_postures(r, n=N)
     J = np.asarray(r.jacobian(jnp.asarray(q)))
     KT = {t: np.asarray(jaxstiff.translational_stiffness(jnp.asarray(J), jnp.asarray(kj), t)) for t in ("full", "xyz")}
@@ -114,7 +107,7 @@ def test_translational_stiffness_physical_meaning():
 
 
 def test_full_is_schur_complement():
-    r = robot("kuka_lwr4")
+    r = robot_by_name("kuka_lwr4")
     q, kj = random_postures(r, n=N)
     J = np.asarray(r.jacobian(jnp.asarray(q)))
     C = numpy_compliance(J, kj, "full")
@@ -128,7 +121,7 @@ def test_cms_scales_axes_only(name, task):
     """Scaling every kj by k scales K_T by k: axes by k, same ratio and directions (S0 section III).
 
     Exact to 1e-12 at well-conditioned postures; elsewhere rounding grows like eps * cond(C)."""
-    r = robot(name)
+    r = robot_by_name(name)
     q, kj = random_postures(r, n=N)
     J = r.jacobian(jnp.asarray(q))
     cond = np.linalg.cond(numpy_compliance(np.asarray(J), kj, task))
@@ -151,7 +144,7 @@ def test_cms_scales_axes_only(name, task):
 
 
 def test_cms_factor_reaches_targets():
-    r = robot("kuka_lwr4")
+    r = robot_by_name("kuka_lwr4")
     q, kj = random_postures(r, n=N)
     J = r.jacobian(jnp.asarray(q))
     K = jaxstiff.translational_stiffness(J, jnp.asarray(kj), "full")
@@ -188,7 +181,7 @@ def planar_kg(q, F):
 
 
 def test_joint_stiffness_congruence_and_cct_planar_closed_form():
-    r = robot("planar_3r")
+    r = robot_by_name("planar_3r")
     q = np.radians([75.0, -74.74, -76.30])
     J = np.asarray(r.jacobian(jnp.asarray(q)))
     Kx = np.array([[900.0, 120.0], [120.0, 300.0]])
@@ -207,7 +200,7 @@ def test_joint_stiffness_congruence_and_cct_planar_closed_form():
 @pytest.mark.slow
 def test_cct_term_vs_finite_differences_lwr():
     task = "full"
-    r = robot("kuka_lwr4")
+    r = robot_by_name("kuka_lwr4")
     rows = list(TASK_ROWS[task])
     q = RNG.uniform(-1.5, 1.5, size=(2, r.n))
     F = RNG.normal(size=(2, len(rows))) * 20.0
@@ -222,7 +215,7 @@ def test_cct_term_vs_finite_differences_lwr():
 
 
 def test_cct_wrench_broadcast_over_postures():
-    r = robot("planar_3r")
+    r = robot_by_name("planar_3r")
     q = RNG.uniform(-2, 2, size=(4, 3))
     F = np.array([3.0, -5.0])
     J = r.jacobian(jnp.asarray(q))
@@ -234,7 +227,7 @@ def test_cct_wrench_broadcast_over_postures():
 
 
 def test_joint_stiffness_errors():
-    r = robot("planar_3r")
+    r = robot_by_name("planar_3r")
     J = r.jacobian(jnp.zeros(3))
     with pytest.raises(ValueError, match="needs robot= and q="):
         jaxstiff.joint_stiffness(J, jnp.eye(2), jnp.ones(2), task="xy")
@@ -262,7 +255,7 @@ SINGULAR = [
 @pytest.mark.slow
 @pytest.mark.parametrize("name,q,task", SINGULAR)
 def test_singular_postures_are_flagged_and_finite(name, q, task):
-    r = robot(name)
+    r = robot_by_name(name)
     J = r.jacobian(jnp.asarray(q))
     for kj in [np.full(r.n, 1.0), np.full(r.n, 100.0), np.linspace(1.0, 100.0, r.n)]:
         K = jaxstiff.cartesian_stiffness(J, jnp.asarray(kj), task)
@@ -275,7 +268,7 @@ def test_singular_postures_are_flagged_and_finite(name, q, task):
 
 
 def test_condition_of_regular_postures_is_modest():
-    r = robot("kuka_lwr4")
+    r = robot_by_name("kuka_lwr4")
     q = np.array([0.3, 0.8, -0.4, -1.3, 0.5, 0.9, 0.0])
     kj = np.full(7, 50.0)
     J = r.jacobian(jnp.asarray(q))
@@ -288,7 +281,7 @@ def test_condition_of_regular_postures_is_modest():
 def test_zero_or_negative_kj_stays_finite():
     """Inside a trace (a batch where some kj are not known to be positive) the clamp keeps K finite;
     given as numbers, kj <= 0 is refused (test_concrete_non_positive_kj_is_refused_by_name)."""
-    r = robot("planar_3r")
+    r = robot_by_name("planar_3r")
     J = r.jacobian(jnp.asarray([0.5, 0.5, 0.5]))
     K = jax.jit(jaxstiff.translational_stiffness, static_argnames="task")(J, jnp.asarray([0.0, -1.0, 10.0]), task="xy")
     assert bool(jnp.all(jnp.isfinite(K)))
@@ -296,7 +289,7 @@ def test_zero_or_negative_kj_stays_finite():
 
 @pytest.mark.slow
 def test_dtype_kept_float32():
-    r = robot("kuka_lwr4")
+    r = robot_by_name("kuka_lwr4")
     q = np.array([0.3, 0.8, -0.4, -1.3, 0.5, 0.9, 0.0])
     kj = np.linspace(10.0, 90.0, 7)
     J64 = r.jacobian(jnp.asarray(q))
@@ -310,7 +303,7 @@ def test_dtype_kept_float32():
 
 
 def test_batch_shapes_and_broadcasting():
-    r = robot("planar_3r")
+    r = robot_by_name("planar_3r")
     q = RNG.uniform(-2, 2, size=(3, 1, 2, 3))
     J = r.jacobian(jnp.asarray(q))
     kj = jnp.asarray([500.0, 300.0, 100.0])  # one kj for the whole batch
@@ -324,7 +317,7 @@ def test_batch_shapes_and_broadcasting():
 
 
 def test_no_recompilation_for_same_shapes():
-    r = robot("planar_3r")
+    r = robot_by_name("planar_3r")
     J = r.jacobian(jnp.asarray(RNG.uniform(-2, 2, size=(N, 3))))
     kj = jnp.asarray(RNG.uniform(1, 100, size=(N, 3)))
     jaxstiff.translational_stiffness(J, kj, "xy")
@@ -347,7 +340,7 @@ def test_bad_inputs_raise_clear_errors():
 
 def test_seed_fig2_posture_numbers():
     """The seed's Fig. 2 posture: K_T from the closed-form planar Jacobian (numpy) matches."""
-    r = robot("planar_3r")
+    r = robot_by_name("planar_3r")
     q = np.radians([75.0, -74.74, -76.30])
     kj = np.array([500.0, 300.0, 100.0])
     c = np.cumsum(q)
@@ -427,7 +420,7 @@ def test_fusion_boundary_is_an_identity_for_every_transformation():
 def test_fusion_boundary_survives_vmap_on_cpu():
     """Under vmap the stiffness must still be computed behind a conditional (a ``select`` would
     let XLA re-evaluate the whole closed form per output entry: ~10x slower, same values)."""
-    r = robot("kuka_lwr4")
+    r = robot_by_name("kuka_lwr4")
     q, kj = random_postures(r, 8)
 
     def K(q, kj):
