@@ -221,7 +221,7 @@ def _check_complex(path: Any, K_xd: Any, q0: Any, beta: Any) -> None:
             raise ValueError(f"{name} is complex ({v.dtype}): stiffnesses, postures and paths are real")
 
 
-def prepare_rollout(  # noqa: PLR0913 - csc_rollout's arguments (signature being reduced, issue 38)
+def prepare_rollout(
     robot: Robot,
     path: Any,
     K_xd: Any,
@@ -229,8 +229,6 @@ def prepare_rollout(  # noqa: PLR0913 - csc_rollout's arguments (signature being
     beta: Any = None,
     *,
     settings: CSCSettings | None = None,
-    kxd_varying: bool | None = None,
-    hold_orientation: Any = None,
     remat: bool = True,
     chunk: int | None = 128,
     check_reach: bool = True,
@@ -239,7 +237,8 @@ def prepare_rollout(  # noqa: PLR0913 - csc_rollout's arguments (signature being
     """Every check of :func:`jaxstiff.csc_rollout` and its inputs flattened to one batch axis:
     ``(static settings, chunk, arrays for rollout_batch, batch shape)``. No compilation: the
     command line calls it to report bad input before it announces the run. Arguments as
-    :func:`jaxstiff.csc_rollout` (``given``: its settings keywords)."""
+    :func:`jaxstiff.csc_rollout` (``given``: its inline keywords)."""
+    kxd_varying, hold_orientation = given.pop("kxd_varying", None), given.pop("hold_orientation", None)
     s = rollout_settings(settings, **given)
     beta = s["beta"] if beta is None else beta
     _check_static(robot, s, chunk)

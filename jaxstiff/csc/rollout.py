@@ -61,6 +61,7 @@ from jaxstiff.model.kinematics import POLY_MIN_BATCH
 from jaxstiff.model.robot import Robot
 from jaxstiff.runtime.compile_cache import ensure_compile_cache
 from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff.settings.base import suggest
 from jaxstiff.settings.csc import CSCSettings
 
 __all__ = [
@@ -181,7 +182,12 @@ def _rollout_batch_impl(  # noqa: PLR0913 - the rollout's traced arrays, one arg
     return jax.tree.map(lambda a, b: jnp.concatenate([a, b], axis=0), out, tail)
 
 
-def csc_rollout(  # noqa: PLR0913 - signature being reduced (issue 38)
+#: the keywords :func:`csc_rollout` takes besides its own: every CSCSettings field but beta (a
+#: parameter), and two per-call inputs
+INLINE_CSC_SETTINGS = frozenset(CSCSettings.field_names()) - {"beta"} | {"kxd_varying", "hold_orientation"}
+
+
+def csc_rollout(
     robot: Robot,
     path: Any,
     K_xd: Any,
@@ -189,23 +195,10 @@ def csc_rollout(  # noqa: PLR0913 - signature being reduced (issue 38)
     beta: Any = None,
     *,
     settings: CSCSettings | None = None,
-    task: str | None = None,
-    step: str | None = None,
-    kmin: Any = None,
-    kmax: Any = None,
-    nu0: Any = None,
-    damping: Any = None,
-    null_eps: Any = None,
-    newton: int | None = None,
-    joint_limits: str | None = None,
-    jl_gain: Any = None,
-    objective: str | None = None,
-    locked_joints: str | None = None,
-    kxd_varying: bool | None = None,
-    hold_orientation: Any = None,
     remat: bool = True,
     chunk: int | None = 128,
     check_reach: bool = True,
+    **inline: Any,
 ) -> CSCResult:
     """Configuration-based Stiffness Control rollout along a path (seed 001, SPEC section 6).
 
@@ -213,10 +206,9 @@ def csc_rollout(  # noqa: PLR0913 - signature being reduced (issue 38)
     Every array input may carry leading batch axes; they broadcast against each other and the
     result carries the broadcast batch shape ``*B`` (computed with one ``vmap``).
 
-    Settings (``beta``, ``task`` ... ``jl_gain``) come from ``settings`` (default: CSCSettings'
-    defaults, as ``jaxstiff csc``'s); a keyword that is not None overrides its field (arrays too).
-    Long only for its 23 documented parameters; the body is two named steps (:func:`prepare_rollout`,
-    :func:`rollout_batch`).
+    Settings (``beta`` and the ``**inline`` ones) come from ``settings`` (default: CSCSettings'
+    defaults, as ``jaxstiff csc``'s); one given here that is not None overrides its field (arrays
+    too). The body is two named steps (:func:`prepare_rollout`, :func:`rollout_batch`).
 
     Args:
         robot: the chain (static: one compilation per robot and setting).
@@ -237,31 +229,6 @@ def csc_rollout(  # noqa: PLR0913 - signature being reduced (issue 38)
             step is ``beta`` times as long as the primary step (S1-22; zero when the path stands
             still). ``"constant"``: the null step is ``beta`` rad long (for holding a point).
         settings: a :class:`~jaxstiff.settings.CSCSettings` (its units and checks).
-        task: ``"xy"``, ``"xyz"`` or ``"full"``; default from K_xd's size.
-        step: ``"adaptive"`` (default) or ``"constant"``.
-        kmin, kmax: actuator range of the realised joint stiffness, Nm/rad (default [1, inf)).
-        nu0: isotropy threshold: damping switches on below ``nu0^(m/2)`` (default 1e-2).
-        damping: relative damping ``lam / sqrt(tr(J J^T)/m)`` at a singularity (default 0.1).
-        null_eps: floor of ``|dq_N|`` (Nm/rad^2); default ``1e-9 |K_xd|_F`` (1e-5 in float32).
-        newton: number of Newton corrections ``q += J+ (x_d - x(q))`` inside each step (static; default 1:
-            the TCP stays on a reachable path to ~1e-11 m, where 0 drifts ~1e-6 m over 400 steps).
-        joint_limits: ``"off"`` (default), ``"priority"`` (lowest-priority secondary task) or
-            ``"sum"`` (added to the CSC gradient); see :mod:`jaxstiff.csc.step`.
-        jl_gain: joint-limit gain (rad per step for a joint at its limit, before projection; for
-            ``"sum"``: relative weight against the CSC gradient); default 0.3 with
-            ``joint_limits`` ``"priority"`` or ``"sum"``, else 0.
-        objective: what the null-space step lowers: ``"offdiag"`` (default, the seed's ``u(q)``,
-            S1-19) or ``"frobenius"`` (``|K_xd - K_C(q)|_F`` itself, this project's own; static).
-            The result reports both measures either way.
-        locked_joints: ``"rigid"`` (default, SPEC section 1: a locked joint has no spring, adds no
-            compliance, has no stiffness variable; its ``kj`` is reported as +inf, infinite stiffness) or ``"spring"``
-            (it keeps its spring in ``u``, ``kj`` and ``K_C``). Static.
-        kxd_varying: whether K_xd's axis -3 runs along the path. Default: True when
-            ``K_xd.ndim >= 3`` and ``K_xd.shape[-3] == T``; pass False for a batch of constant
-            K_xd whose batch size happens to equal T.
-        hold_orientation: task ``"full"`` only: the tool orientation to hold, a rotation matrix
-            (*B, 3, 3) in the base frame; default: the orientation at ``q0``. (A rollout continued
-            from a later posture, as :func:`csc_rollout_segments` does, passes the first one's.)
         remat: rematerialise the scan body in the backward pass (memory ~ T n per rollout).
         chunk: rollouts per ``vmap`` chunk; a larger batch runs as a sequential ``lax.map`` over
             chunks (bounded working set). ``None``: one vmap over the whole batch.
@@ -269,40 +236,53 @@ def csc_rollout(  # noqa: PLR0913 - signature being reduced (issue 38)
             (default True; ``robot.reach()``, :func:`jaxstiff.model.reach.check_reach`; a traced
             path is not checked). The sweep passes False: its rows over a workspace may leave the
             reach, and a rollout's cost does not depend on it (it tracks as far as it can).
+        **inline: any :class:`~jaxstiff.settings.CSCSettings` field, and ``kxd_varying`` and
+            ``hold_orientation``; a value that is not None wins over ``settings``:
+
+            task: ``"xy"``, ``"xyz"`` or ``"full"``; default from K_xd's size.
+            step: ``"adaptive"`` (default) or ``"constant"``.
+            kmin, kmax: actuator range of the realised joint stiffness, Nm/rad (default [1, inf)).
+            nu0: isotropy threshold: damping switches on below ``nu0^(m/2)`` (default 1e-2).
+            damping: relative damping ``lam / sqrt(tr(J J^T)/m)`` at a singularity (default 0.1).
+            null_eps: floor of ``|dq_N|`` (Nm/rad^2); default ``1e-9 |K_xd|_F`` (1e-5 in float32).
+            newton: number of Newton corrections ``q += J+ (x_d - x(q))`` inside each step (static; default 1:
+                the TCP stays on a reachable path to ~1e-11 m, where 0 drifts ~1e-6 m over 400 steps).
+            joint_limits: ``"off"`` (default), ``"priority"`` (lowest-priority secondary task) or
+                ``"sum"`` (added to the CSC gradient); see :mod:`jaxstiff.csc.step`.
+            jl_gain: joint-limit gain (rad per step for a joint at its limit, before projection; for
+                ``"sum"``: relative weight against the CSC gradient); default 0.3 with
+                ``joint_limits`` ``"priority"`` or ``"sum"``, else 0.
+            objective: what the null-space step lowers: ``"offdiag"`` (default, the seed's ``u(q)``,
+                S1-19) or ``"frobenius"`` (``|K_xd - K_C(q)|_F`` itself, this project's own; static).
+                The result reports both measures either way.
+            locked_joints: ``"rigid"`` (default, SPEC section 1: a locked joint has no spring, adds no
+                compliance, has no stiffness variable; its ``kj`` is reported as +inf, infinite stiffness) or ``"spring"``
+                (it keeps its spring in ``u``, ``kj`` and ``K_C``). Static.
+            kxd_varying: whether K_xd's axis -3 runs along the path. Default: True when
+                ``K_xd.ndim >= 3`` and ``K_xd.shape[-3] == T``; pass False for a batch of constant
+                K_xd whose batch size happens to equal T.
+            hold_orientation: task ``"full"`` only: the tool orientation to hold, a rotation matrix
+                (*B, 3, 3) in the base frame; default: the orientation at ``q0``. (A rollout continued
+                from a later posture, as :func:`csc_rollout_segments` does, passes the first one's.)
 
     Returns:
         :class:`CSCResult` with leading batch axes ``*B``.
 
     Raises:
+        TypeError: an unknown keyword (the message names the nearest setting).
         ValueError: bad shapes, task, step, non-finite or out-of-limit inputs, negative beta,
             a non-symmetric or indefinite K_xd, ``kmin <= 0`` or ``kmin > kmax`` (checked for concrete inputs);
             :class:`~jaxstiff.model.reach.UnreachableError` for waypoints out of reach.
     """
+    unknown = sorted(set(inline) - INLINE_CSC_SETTINGS)
+    if unknown:
+        k = unknown[0]
+        raise TypeError(
+            f"csc_rollout() got an unexpected keyword argument {k!r}{suggest(k, sorted(INLINE_CSC_SETTINGS))}"
+        )
     ensure_compile_cache()  # the persistent compilation cache, before the first compilation (cheap when on)
     st, chunk, args, batch = prepare_rollout(
-        robot,
-        path,
-        K_xd,
-        q0,
-        beta,
-        settings=settings,
-        task=task,
-        step=step,
-        kmin=kmin,
-        kmax=kmax,
-        nu0=nu0,
-        damping=damping,
-        null_eps=null_eps,
-        newton=newton,
-        joint_limits=joint_limits,
-        jl_gain=jl_gain,
-        objective=objective,
-        locked_joints=locked_joints,
-        kxd_varying=kxd_varying,
-        hold_orientation=hold_orientation,
-        remat=remat,
-        chunk=chunk,
-        check_reach=check_reach,
+        robot, path, K_xd, q0, beta, settings=settings, remat=remat, chunk=chunk, check_reach=check_reach, **inline
     )
     res = rollout_batch(robot, st, chunk, *args)
     return jax.tree_util.tree_map(lambda a: a.reshape(batch + a.shape[1:]), res)

@@ -1228,7 +1228,10 @@ def test_settings_defaults_are_the_api_and_cli_defaults():
     assert rollout_settings(CSCSettings(kmin=2.0), kmin=3.0)["kmin"] == 3.0  # a keyword overrides the settings
     assert _csc_flag_defaults() == defaults
     params = inspect.signature(jaxstiff.csc_rollout).parameters
-    assert all(params[name].default is None for name in defaults)
+    assert params["beta"].default is None  # the others are taken inline, every field of the settings
+    from jaxstiff.csc.rollout import INLINE_CSC_SETTINGS
+
+    assert set(defaults) - {"beta"} <= INLINE_CSC_SETTINGS
     # the effective default reaches the rollout: no keywords == every default given explicitly
     path = np.tile(X_SEED, (5, 1))
     a = jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED)
@@ -1274,6 +1277,16 @@ def test_settings_object_and_its_checks():
             CSCSettings(**kwargs)
     with pytest.raises(ValueError, match="settings must be a jaxstiff.settings.CSCSettings"):
         jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, settings={"beta": 1.0})
+
+
+def test_short_signature_and_unknown_keywords():
+    """csc_rollout has at most 10 parameters; a misspelt setting is a TypeError naming the nearest one."""
+    import inspect
+
+    assert len(inspect.signature(jaxstiff.csc_rollout).parameters) <= 10
+    path = np.tile(X_SEED, (3, 1))
+    with pytest.raises(TypeError, match="'damping'"):
+        jaxstiff.csc_rollout(PLANAR, path, K_SEED, Q_SEED, dampign=0.2)
 
 
 def test_status_bits_are_an_int_flag_with_the_old_values():
