@@ -13,6 +13,7 @@ import numpy as np
 from _common import figure, size
 
 import jaxstiff
+from jaxstiff.solvers import PGD
 
 robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
 radii, heights = (0.45, 0.55, 0.65), (0.25, 0.45)  # m
@@ -24,7 +25,7 @@ arcs = [
 ][:B]  # 40 degrees in 24 waypoints: about 1.7 deg per waypoint
 ratios = np.linspace(3.0, 6.0, B)  # one wanted ratio per path (a scalar would apply to all)
 
-res = jaxstiff.shape(robot, jaxstiff.Path.stack(arcs), "f2", ratios, solver="pgd", starts=size(4, 2))
+res = jaxstiff.shape(robot, jaxstiff.Path.stack(arcs), "f2", ratios, solver=PGD(starts=size(4, 2)))
 print(res)
 print("criterion", res.criterion.shape, "q", res.q.shape)  # (B, P), (B, P, n): one leading B axis
 share = res.in_target.mean(axis=1)  # in_target: alpha < 1 deg and rho within 2 % of r, (B, P)
