@@ -80,7 +80,7 @@ that every batched call of a group has the same batch size and compiles once).
 The plan, and so every row's result, depends only on the config, never on timing.
 
 Example:
-    >>> from jaxstiff.sweep_config import load_config
+    >>> from jaxstiff.sweep.config import load_config
     >>> plan = load_config("experiments/sweeps/quick.toml")     # doctest: +SKIP
     >>> len(plan.rows), len(plan.chunks)                        # doctest: +SKIP
     (312, 6)
