@@ -62,7 +62,7 @@ from jaxstiff.cli.csc_flags import add_setting_flags as add_setting_flags
 from jaxstiff.cli.csc_flags import parse_kxd as parse_kxd
 from jaxstiff.cli.csc_flags import settings_from_args as settings_from_args
 from jaxstiff.csc.segments import StepProgress
-from jaxstiff.runtime.io import check_regular_file, deferred_interrupts, interrupt_pending, meta_dumps
+from jaxstiff.runtime.io import check_regular_file, deferred_interrupts, interrupt_pending
 from jaxstiff.settings.csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
 from jaxstiff.settings.csc import CSCSettings
 from jaxstiff.settings.shape import task_dim
@@ -355,16 +355,8 @@ def _meta(
 
 def _write(out: str, res: Any, robot: Any, q0: np.ndarray, K: np.ndarray, meta: dict[str, Any]) -> str:
     """The result file, written atomically; an interrupt now still gets the file."""
-    from jaxstiff.results.files import atomic_save_npz
-
     with deferred_interrupts():  # the rollout is finished (or cut at a segment)
-        arrays = {name: np.asarray(a) for name, a in res.as_dict().items()}
-        arrays["status"] = arrays["status"].astype(np.int64)
-        arrays["joint_names"] = np.asarray(robot.joint_names, dtype=str)
-        arrays["q0"] = q0
-        arrays["K_xd"] = K
-        arrays["meta"] = np.asarray(meta_dumps(meta))
-        return atomic_save_npz(out, arrays)
+        return res.save(out, joint_names=robot.joint_names, meta=meta, q0=q0, K_xd=K)
 
 
 def _report(res: Any, robot: Any, settings: CSCSettings, K: np.ndarray, written: str) -> None:

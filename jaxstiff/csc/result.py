@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import os
 from typing import Any
 
 import jax
@@ -114,6 +115,60 @@ class CSCResult:
     def as_dict(self) -> dict[str, Any]:
         """The fields as a ``{name: array}`` dict (numpy-convertible)."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    # ------------------------------------------------------------------ files
+    def save(
+        self,
+        file: str | os.PathLike,
+        *,
+        joint_names: Any = None,
+        meta: dict[str, Any] | None = None,
+        **extra: Any,
+    ) -> str:
+        """Write the result file (the ``jaxstiff csc --out`` format, ``numpy.load(...,
+        allow_pickle=False)``) atomically: every field, ``status`` as int64, ``joint_names`` when
+        given, the ``extra`` arrays (the command adds ``q0`` and ``K_xd``) and ``meta`` as JSON.
+        Returns the path written; an interrupted save leaves no partial file."""
+        from jaxstiff.results.npz import atomic_save_npz
+        from jaxstiff.runtime.io import meta_dumps
+
+        clash = sorted(set(extra) & {f.name for f in dataclasses.fields(self)} | set(extra) & {"meta", "joint_names"})
+        if clash:
+            raise ValueError(f"extra arrays must not reuse a field name: {', '.join(clash)}")
+        arrays = {name: np.asarray(a) for name, a in self.as_dict().items()}
+        arrays["status"] = arrays["status"].astype(np.int64)
+        if joint_names is not None:
+            arrays["joint_names"] = np.asarray(joint_names, dtype=str)
+        arrays.update({k: np.asarray(v) for k, v in extra.items()})
+        arrays["meta"] = np.asarray(meta_dumps(dict(meta or {})))
+        return atomic_save_npz(file, arrays)
+
+    @staticmethod
+    def load(file: str | os.PathLike) -> CSCResult:
+        """Read the fields of a file written by :meth:`save` or ``jaxstiff csc`` (no pickles), as
+        numpy arrays (``status`` int32 as a rollout returns it). The file's extra arrays and its
+        ``meta``: ``numpy.load`` and ``jaxstiff.runtime.io.meta_loads(str(z["meta"]))``.
+
+        Raises:
+            FileNotFoundError: no such file.
+            ValueError: not a CSC result file (a shape result, text, missing fields).
+        """
+        file = os.fspath(file)
+        if not os.path.isfile(file):
+            raise FileNotFoundError(f"result file not found: {file}")
+        names = [f.name for f in dataclasses.fields(CSCResult)]
+        try:
+            with np.load(file, allow_pickle=False) as z:
+                data = {k: z[k] for k in z.files if k in names}
+                keys = set(z.files)
+        except Exception as exc:  # not a zip, a pickle, a damaged archive
+            raise ValueError(f"{file}: not a readable .npz result file ({type(exc).__name__}: {exc})") from None
+        missing = [k for k in names if k not in data]
+        if missing:
+            what = "a shape result (jaxstiff shape)" if "criterion" in keys else "not a CSC result file"
+            raise ValueError(f"{file}: {what}; missing CSC fields: {', '.join(missing)}")
+        data["status"] = data["status"].astype(np.int32)
+        return CSCResult(**data)
 
     def __repr__(self) -> str:
         """A short summary (size, u and Frobenius error at the start and the end, status counts), not the arrays."""

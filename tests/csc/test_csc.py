@@ -1445,3 +1445,29 @@ def test_a_planar_path_with_a_3d_kxd_names_the_disagreement():
         jaxstiff.csc_rollout(robot, path, np.eye(3) * 1000.0, np.radians([30.0, 60.0, 30.0]))
     out = jaxstiff.csc_rollout(robot, path, np.eye(2) * 1000.0, np.radians([30.0, 60.0, 30.0]))  # 2x2: runs
     assert np.all(np.isfinite(np.asarray(out.q)))
+
+
+def test_result_save_and_load_round_trip(tmp_path):
+    """CSCResult.save / load keep every field bit for bit (status as the rollout's int32); the
+    file is the command's format (extra arrays, meta); other files are refused by name."""
+    import json
+
+    res = jaxstiff.csc_rollout(PLANAR, np.tile(X_SEED, (4, 1)), K_SEED, Q_SEED)
+    f = res.save(tmp_path / "r.npz", joint_names=PLANAR.joint_names, meta={"note": "x"}, q0=Q_SEED)
+    back = jaxstiff.CSCResult.load(f)
+    for name, a in res.as_dict().items():
+        np.testing.assert_array_equal(np.asarray(getattr(back, name)), np.asarray(a), err_msg=name)
+        assert np.asarray(getattr(back, name)).dtype == np.asarray(a).dtype, name
+    with np.load(f, allow_pickle=False) as z:
+        assert json.loads(str(z["meta"])) == {"note": "x"}
+        np.testing.assert_array_equal(z["q0"], Q_SEED)
+        assert list(z["joint_names"]) == list(PLANAR.joint_names)
+    with pytest.raises(ValueError, match="must not reuse a field name"):
+        res.save(tmp_path / "s.npz", u=np.zeros(3))
+    (tmp_path / "t.csv").write_text("x,y,z\n")
+    with pytest.raises(ValueError, match="not a readable .npz"):
+        jaxstiff.CSCResult.load(tmp_path / "t.csv")
+    np.savez(tmp_path / "other.npz", criterion=np.zeros(2))
+    with pytest.raises(ValueError, match="a shape result"):
+        jaxstiff.CSCResult.load(tmp_path / "other.npz")
+    assert not (tmp_path / "s.npz").exists()
