@@ -7,15 +7,9 @@ rate limits allow (S0-10 ... S0-14). Afterwards the common-mode stiffness factor
 III) scales each waypoint's kj so that its ellipsoid reaches a target size.
 
 The defaults the seed leaves open live in :class:`~jaxstiff.settings.ShapeSettings` (values, units,
-docs; every result file records them in ``meta["settings"]``): ``dq`` = 2 deg (0.0349 rad) and
-``dk`` = 5 Nm/rad per waypoint, ``kmin``/``kmax`` = 1/100 Nm/rad (seed), ``c`` = 0.01 (seed),
-``first_rate_limit`` False (the first waypoint is shaped within the full ranges: the start state is
-only an initial guess), ``first_starts`` = 8 (the unconstrained first waypoint is non-convex: it is
-solved from q0 and 7 more IK postures, the nominal posture perturbed by up to +-60 deg from a fixed
-seed and the path's own data, and the best usable answer is kept), and a CMS target of a geometric-
-mean axis of 1000 N/m (``target_volume = 1000**m`` (N/m)^m, m = 3, or 2 for task "xy"). Without
-them: ``q0`` is damped-least-squares IK (:mod:`jaxstiff.ik`) from the nominal posture to the first
-waypoint, ``kj0`` is mid-range. Why these values: docs/notes/shape.md.
+docs, written there once; every result file records them in ``meta["settings"]``). Without ``q0``
+and ``kj0``: ``q0`` is damped-least-squares IK (:mod:`jaxstiff.ik`) from the nominal posture to the
+first waypoint, ``kj0`` is mid-range. Why these values: docs/notes/shape.md.
 
 The steps: check the inputs (:func:`check_inputs`) -> start states (:func:`make_start_states`) ->
 solve (a solver in :data:`SOLVERS`; add one with :func:`register_solver`) -> report and meta
@@ -315,9 +309,9 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
     in of the command line and the sweeps.
 
     Every setting left out (None) comes from ``settings`` (default :class:`ShapeSettings()
-    <jaxstiff.settings.ShapeSettings>`, whose defaults are given below); one given here wins over
-    ``settings``. Long only for its 26 documented parameters; the body is the named steps of the
-    module docstring (:func:`check_inputs`, :func:`make_start_states`, solve, report, meta, result).
+    <jaxstiff.settings.ShapeSettings>`, where every default, unit and meaning is written); one
+    given here wins over ``settings``. The body is the named steps of the module docstring
+    (:func:`check_inputs`, :func:`make_start_states`, solve, report, meta, result).
 
     Args:
         robot: the chain (its locked joints stay fixed), a :class:`~jaxstiff.settings.RobotSpec`
@@ -347,22 +341,22 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
         kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
             With rigid locked joints their entries are ignored (any value, ``inf`` included).
         dq: joint rate limit per waypoint, rad (m for prismatic joints): a number, (n,) per joint,
-            or (B, n) per path and joint; ``inf`` = none. Default 2 deg.
-        dk: stiffness rate limit per waypoint, Nm/rad: a number, (n,) or (B, n). Default 5.
+            or (B, n) per path and joint; ``inf`` = none.
+        dk: stiffness rate limit per waypoint, Nm/rad: a number, (n,) or (B, n).
             (n,) entries of rigid locked joints are ignored.
         dq_per_m, dk_per_m: rate limits per metre of path instead of dq / dk (rad/m, m/m for
             prismatic joints; Nm/rad/m): a number, (n,) or (B, n); each path's per-waypoint
             limit is this times its shortest segment (:mod:`jaxstiff.settings.shape`), so the
             result does not depend on the sampling density. Giving dq and dq_per_m (or dk and
             dk_per_m) is a ValueError. Recorded in ``meta["settings"]``.
-        kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax. Default 1, 100 (seed); not applied
+        kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax; not applied
             to rigid locked joints.
-        c: f1's offset, deg (seed: 0.01), a number (the same for every path).
-        first_rate_limit: apply dq/dk between (q0, kj0) and the first waypoint (default False).
+        c: f1's offset, deg, a number (the same for every path).
+        first_rate_limit: apply dq/dk between (q0, kj0) and the first waypoint.
         first_starts: when the first waypoint is not rate-limited, solve it from this many start
-            postures (q0, then :func:`first_start_postures`) and keep the best (default 8).
-        cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m. Default
-            ``settings.cms_mean_axis ** m`` (1000**m).
+            postures (q0, then :func:`first_start_postures`) and keep the best.
+        cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m (default
+            ``settings.cms_mean_axis ** m``).
         cms_major: CMS target: the major axis lambda1, N/m (instead of the volume).
         options: solver options: SLSQP's :data:`jaxstiff.solvers.slsqp.DEFAULT_OPTIONS`, pgd's
             :data:`jaxstiff.solvers.pgd.DEFAULT_OPTIONS`, both (plus ``polish_slsqp``, ``chain``) for
