@@ -196,12 +196,9 @@ def check_options(solver: str, options: Mapping[str, Any] | None) -> None:
         return
     unknown = sorted(str(k) for k in options if k not in known)
     if unknown:
-        import difflib
+        from jaxstiff.runtime.messages import suggest
 
-        hints = [
-            f"{k!r} (did you mean {m[0]!r}?)" if (m := difflib.get_close_matches(k, known, n=1)) else repr(k)
-            for k in unknown
-        ]
+        hints = [f"{k!r}{suggest(k, sorted(known))}" for k in unknown]
         raise ValueError(
             f"unknown option(s) for solver {solver!r}: {', '.join(hints)}; known: {', '.join(sorted(known))}"
         )

@@ -12,7 +12,6 @@ one reported.
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar, TypeVar
@@ -20,6 +19,8 @@ from typing import Any, ClassVar, TypeVar
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, ValidationInfo, field_validator, model_validator
 from pydantic_core import PydanticCustomError
+
+from jaxstiff.runtime.messages import suggest as _suggest
 
 __all__ = [
     "SweepConfigError",
@@ -70,9 +71,9 @@ def typename(v: Any) -> str:
 
 
 def suggest(word: Any, options: Sequence[str]) -> str:
-    """``"; did you mean 'x'?"`` for a near miss among ``options``, else ``""``."""
-    close = difflib.get_close_matches(str(word), [str(o) for o in options], n=1, cutoff=0.6)
-    return f"; did you mean {close[0]!r}?" if close else ""
+    """``" (did you mean 'x'?)"`` for a near miss among ``options``, else ``""``
+    (:func:`jaxstiff.runtime.messages.suggest`, the one did-you-mean of the package)."""
+    return _suggest(str(word), options)
 
 
 def problem(text: str, at: str = "") -> PydanticCustomError:
