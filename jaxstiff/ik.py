@@ -29,6 +29,7 @@ from jaxstiff.model.chain import check_locked_values
 from jaxstiff.model.kinematics import position_and_jacobian
 from jaxstiff.model.robot import JOINT_REVOLUTE, Robot
 from jaxstiff.runtime.export_cache import DiskJit
+from jaxstiff.runtime.programs import program_cache
 
 __all__ = ["ik_position", "nominal_posture", "NOMINAL_OFFSET_DEG"]
 
@@ -49,7 +50,7 @@ def nominal_posture(robot: Robot) -> np.ndarray:
     return np.where(robot.free, q, np.nan_to_num(robot.locked_values))
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def ik_program(robot: Robot, iters: int, rows: tuple[int, ...]) -> DiskJit:
     """:func:`_ik` jitted for one robot, iteration count and rows (its traced program kept on disk:
     :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""

@@ -60,6 +60,7 @@ from jaxstiff.csc.step import StaticSettings, csc_step, step_context
 from jaxstiff.model.kinematics import POLY_MIN_BATCH
 from jaxstiff.model.robot import Robot
 from jaxstiff.runtime.compile_cache import ensure_compile_cache
+from jaxstiff.runtime.programs import program_cache
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.base import suggest
 from jaxstiff.settings.csc import CSCSettings
@@ -136,7 +137,7 @@ def rollout_batch(*args: Any) -> CSCResult:
     return rollout_batch_jit(jax.default_backend(), top_level)(*args)
 
 
-@functools.cache
+@program_cache(None)
 def rollout_batch_jit(backend: str, top_level: bool) -> Callable[..., CSCResult]:
     """The jitted batch rollout of a backend, top level (jaxstiff's XLA options) or nested (one per process)."""
     opts = kernel_compiler_options() if top_level else None

@@ -29,7 +29,6 @@ start's. Status: ``0`` SOLVED, ``3`` UNREACHABLE, ``4`` NONFINITE (as :mod:`.pgd
 from __future__ import annotations
 
 import dataclasses
-import functools
 import time
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -40,6 +39,7 @@ import numpy as np
 
 from jaxstiff.results import files as R
 from jaxstiff.runtime.export_cache import DiskJit
+from jaxstiff.runtime.programs import program_cache
 from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
@@ -168,7 +168,7 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) ->
     return traj
 
 
-@functools.lru_cache(maxsize=16)
+@program_cache(maxsize=16)
 def _compiled(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
     traj = _kernel(problem, dict(opts_items), first_rate)
     # per path: warm start, targets, directions, start state, rate limits (dq_f, dk) and ratio;

@@ -64,9 +64,13 @@ def compute_chunk(plan: SweepPlan, chunk_id: int, progress: Callable[[float], No
         the settings, q0_ik_error_m, the metrics, result_file, result_index), ``arrays`` (``(name, data)``),
         ``wall_s``, ``worker``, ``devices``.
     """
+    from jaxstiff.runtime.programs import release_if_near_map_limit
     from jaxstiff.runtime.x64 import enable_x64
 
     enable_x64()
+    # a long sweep compiles a program set per setting: let them go before the process nears its
+    # limit of memory mappings (past it XLA's compiler crashes; jaxstiff.runtime.programs)
+    release_if_near_map_limit()
     t0 = time.perf_counter()
     chunk = plan.chunks[chunk_id]
     if plan.kind == "shape":

@@ -15,6 +15,7 @@ import numpy as np
 
 from jaxstiff.results import files as R
 from jaxstiff.runtime.export_cache import compile_with_export_cache
+from jaxstiff.runtime.programs import program_cache
 from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import PGDOptions
@@ -72,7 +73,7 @@ def check_options(options: Mapping[str, Any] | None, starts: int | None = None) 
     return PGDOptions.check_values(opts)
 
 
-@functools.lru_cache(maxsize=32)
+@program_cache(maxsize=32)
 def compiled_kernel(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
     """:meth:`PGDKernel.traj_batch <jaxstiff.solvers.pgd.kernel.PGDKernel.traj_batch>` (the
     kernel over a batch of paths) jitted, cached per problem, settings (sorted ``(name, value)``

@@ -3,7 +3,6 @@ problem (cached), and their numpy wrappers (:mod:`jaxstiff.solvers.problem`)."""
 
 from __future__ import annotations
 
-import functools
 import threading
 from collections.abc import Callable
 
@@ -12,6 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.runtime.export_cache import DiskJit
+from jaxstiff.runtime.programs import program_cache
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
@@ -30,7 +30,7 @@ __all__ = [
 ]
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def compiled_scaled(problem: WaypointProblem) -> DiskJit:
     """The jitted ``fused_scaled(y, params, scale)`` of a problem, compiled once per problem and dtype
     (its traced program kept on disk for the built-in criteria: :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""
@@ -38,7 +38,7 @@ def compiled_scaled(problem: WaypointProblem) -> DiskJit:
     return DiskJit(problem.fused_scaled, None if fp is None else f"fused_scaled|{fp}")
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def compiled_scaled_rows(problem: WaypointProblem) -> Callable[..., jax.Array]:
     """``fused_scaled`` over rows: ``(Y (R, nx), params (R, np), scale) -> (R, out)``, jitted with
     jaxstiff's kernel compiler options (:mod:`jaxstiff.solvers.lockstep`'s batched evaluations;
@@ -46,7 +46,7 @@ def compiled_scaled_rows(problem: WaypointProblem) -> Callable[..., jax.Array]:
     return jax.jit(jax.vmap(problem.fused_scaled, in_axes=(0, 0, None)), compiler_options=kernel_compiler_options())
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def compiled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
     """``fused(x, params)`` of a problem, unscaled, on the one jitted kernel of :func:`compiled_scaled`."""
     fs = compiled_scaled(problem)
@@ -66,7 +66,7 @@ def compiled(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax
     return fused
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def compiled_report(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarray], jax.Array]:
     """Jitted single-point :meth:`WaypointProblem.report_x` ``(x, params)``: one compilation per problem
     (kept on disk like :func:`compiled_scaled`)."""
@@ -80,7 +80,7 @@ def compiled_report(problem: WaypointProblem) -> Callable[[np.ndarray, np.ndarra
 REPORT_ROWS = 128
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def compiled_report_rows(problem: WaypointProblem) -> DiskJit:
     """:meth:`WaypointProblem.report_x` over rows, ``(X (REPORT_ROWS, nx), params (REPORT_ROWS, np))
     -> (REPORT_ROWS, out)``, jitted with jaxstiff's kernel compiler options and kept on disk like
@@ -152,13 +152,13 @@ def _report_rows(problem: WaypointProblem, X: np.ndarray, params: np.ndarray) ->
     return np.concatenate(outs)
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def compiled_evaluate(problem: WaypointProblem):
     """Jitted batch report ``(q (N,n), kj (N,n), d (N,3), r, c) -> (pos, K_T, alpha, ratio, f)``."""
     return jax.jit(problem.report)
 
 
-@functools.lru_cache(maxsize=64)
+@program_cache(maxsize=64)
 def compiled_position(problem: WaypointProblem):
     """Jitted ``q (n,) -> [position (3,), J[rows][:, free] (k*n_free,)]`` in one flat array."""
     rows = problem.pos_rows
