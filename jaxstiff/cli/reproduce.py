@@ -3,8 +3,44 @@
 from __future__ import annotations
 
 import argparse
+import importlib
+import os
+import sys
+from types import ModuleType
 
 from jaxstiff.cli.common import command, reads, writes
+
+__all__ = ["load_runner"]
+
+#: the folder of the package's source checkout (editable install or clone): experiments/ lies beside it
+_CHECKOUT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+
+def load_runner() -> ModuleType:
+    """The runner of ``jaxstiff reproduce`` (``experiments/_reproduce/runner.py``), which lives in the
+    source checkout with the experiments it runs, not in the installed package: looked for in
+    ``$JAXSTIFF_EXPERIMENTS``, beside the package (an editable install or a clone), then in
+    ``./experiments``.
+
+    Raises:
+        FileNotFoundError: no checkout found; the message says where it looked and what to do.
+    """
+    env = os.environ.get("JAXSTIFF_EXPERIMENTS")
+    folders = ([env] if env else []) + [
+        os.path.join(_CHECKOUT, "experiments"),
+        os.path.join(os.getcwd(), "experiments"),
+    ]
+    for d in folders:
+        if os.path.isfile(os.path.join(d, "_reproduce", "runner.py")):
+            d = os.path.abspath(d)
+            if d not in sys.path:
+                sys.path.insert(0, d)
+            return importlib.import_module("_reproduce.runner")
+    raise FileNotFoundError(
+        "jaxstiff reproduce runs the scripts in the experiments/ folder of a source checkout, which is not "
+        "part of the installed package; looked in: " + "; ".join(folders) + ". Run it from a clone of the "
+        "repository (pip install -e .), or set JAXSTIFF_EXPERIMENTS to a checkout's experiments/ folder"
+    )
 
 
 @command("reproduce", "run the experiments (seed figures 2-6, CSC, the quick sweep) and write one report")
@@ -46,7 +82,7 @@ def _add_reproduce(p: argparse.ArgumentParser):
     def run(args) -> int:
         import os
 
-        from jaxstiff.reproduce import run_reproduce
+        run_reproduce = load_runner().run_reproduce
 
         if os.path.exists(args.out) and not os.path.isdir(args.out):
             raise ValueError(f"--out: {args.out} is a file; the report needs a folder (made if missing)")

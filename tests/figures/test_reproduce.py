@@ -10,8 +10,10 @@ import textwrap
 
 import pytest
 
-from jaxstiff import reproduce
 from jaxstiff.cli import main
+from jaxstiff.cli.reproduce import load_runner
+
+reproduce = load_runner()  # the runner lives in the checkout's experiments/_reproduce
 
 # a valid 1x1 PNG, written by the fake experiments
 PNG = base64.b64decode(
@@ -141,7 +143,9 @@ def test_cli_only_and_errors(fake_experiments, tmp_path, capsys):
 
 
 def test_without_a_source_checkout_the_message_says_what_to_do(tmp_path, monkeypatch):
-    monkeypatch.setattr(reproduce, "__file__", str(tmp_path / "site-packages" / "jaxstiff" / "reproduce.py"))
+    from jaxstiff.cli import reproduce as cli_reproduce
+
+    monkeypatch.setattr(reproduce, "__file__", str(tmp_path / "site-packages" / "experiments" / "_reproduce" / "r.py"))
     monkeypatch.delenv("JAXSTIFF_EXPERIMENTS", raising=False)
     monkeypatch.chdir(tmp_path)
     with pytest.raises(FileNotFoundError) as info:
@@ -149,9 +153,13 @@ def test_without_a_source_checkout_the_message_says_what_to_do(tmp_path, monkeyp
     msg = str(info.value)
     assert "experiments/ folder of a source checkout" in msg and "--experiments DIR" in msg
     assert str(tmp_path / "site-packages" / "experiments") in msg
+    # an installed package without a checkout: the command cannot find its runner, and says so
+    monkeypatch.setattr(cli_reproduce, "_CHECKOUT", str(tmp_path / "site-packages"))
+    with pytest.raises(FileNotFoundError, match="JAXSTIFF_EXPERIMENTS"):
+        cli_reproduce.load_runner()
 
 
 def test_environment_variable_is_used(fake_experiments, tmp_path, monkeypatch):
-    monkeypatch.setattr(reproduce, "__file__", str(tmp_path / "elsewhere" / "jaxstiff" / "reproduce.py"))
+    monkeypatch.setattr(reproduce, "__file__", str(tmp_path / "elsewhere" / "experiments" / "_reproduce" / "r.py"))
     monkeypatch.setenv("JAXSTIFF_EXPERIMENTS", str(fake_experiments))
     assert reproduce.find_experiments_dir() == str(fake_experiments)

@@ -13,10 +13,10 @@ are run here as **subprocesses**, one after another:
 * the scripts stay plain scripts (each experiment is a short script that calls the
   library), and the library does not import them.
 
-``experiments/`` is not part of the installed package, so ``reproduce`` needs a source checkout: it
-looks in ``--experiments DIR``, then ``$JAXSTIFF_EXPERIMENTS``, then ``experiments/`` beside the
-package (an editable install or a clone), then ``./experiments``; otherwise it stops with a
-message that says so. The shipped sweep ``experiments/sweeps/quick.toml`` runs as one more section
+``experiments/`` (this runner included) is not part of the installed package, so ``reproduce``
+needs a source checkout: the experiments come from ``--experiments DIR``, then
+``$JAXSTIFF_EXPERIMENTS``, then this checkout's ``experiments/``, then ``./experiments``; otherwise
+it stops with a message that says so. The shipped sweep ``experiments/sweeps/quick.toml`` runs as one more section
 (``--no-sweep`` skips it).
 
 Layout of ``DIR``::
@@ -44,7 +44,7 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 
-from jaxstiff.reproduce_report import ExperimentRun, write_report
+from _reproduce.report import ExperimentRun, write_report
 from jaxstiff.runtime.io import atomic_write_text
 
 __all__ = ["find_experiments_dir", "discover", "run_reproduce", "ReproduceOutcome", "ExperimentRun"]
@@ -66,8 +66,8 @@ def find_experiments_dir(explicit: str | os.PathLike | None = None) -> str:
     env = os.environ.get("JAXSTIFF_EXPERIMENTS")
     if env:
         candidates.append(("$JAXSTIFF_EXPERIMENTS", env))
-    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    candidates.append(("the source checkout", os.path.join(here, "experiments")))
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # this checkout's experiments/
+    candidates.append(("the source checkout", here))
     candidates.append(("the working folder", os.path.join(os.getcwd(), "experiments")))
     for what, path in candidates:
         tried.append(f"{path} ({what})")
