@@ -180,4 +180,7 @@ def test_shape_help_says_which_task_a_contact_with_a_turning_tool_wants(capsys):
     text = _words(capsys.readouterr().out)
     assert "orientation HELD" in text and "FREE TO TURN" in text
     assert "shaping contact with a tool that may turn wants xyz" in text
-    assert "Which stiffness is shaped?" in text and "Which stiffness is shaped?" in open(os.path.join(DOCS, "concepts.md")).read()
+    assert (
+        "Which stiffness is shaped?" in text
+        and "Which stiffness is shaped?" in open(os.path.join(DOCS, "concepts.md")).read()
+    )
