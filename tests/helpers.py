@@ -57,6 +57,31 @@ def numpy_fk(robot, q):
     return T @ robot.tip_matrix
 
 
+def numpy_jacobian(robot, q, h=1e-6):
+    """Geometric Jacobian (6, n), rows ``[v; w]`` in the base frame, by central differences of
+    :func:`numpy_fk`: ``v_i = dp/dq_i`` and ``w_i = vee(dR/dq_i R^T)`` (error ~h^2)."""
+    q = np.asarray(q, dtype=float)
+    R = numpy_fk(robot, q)[:3, :3]
+    J = np.zeros((6, q.size))
+    for i in range(q.size):
+        e = np.zeros_like(q)
+        e[i] = h
+        Tp, Tm = numpy_fk(robot, q + e), numpy_fk(robot, q - e)
+        J[:3, i] = (Tp[:3, 3] - Tm[:3, 3]) / (2 * h)
+        W = (Tp[:3, :3] - Tm[:3, :3]) / (2 * h) @ R.T
+        J[3:, i] = 0.5 * np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]])
+    return J
+
+
+def numpy_held_and_free(J, kj):
+    """(held, free) translational stiffness (3, 3), N/m, of the Jacobian J (6, n) and springs kj (n,)
+    (``inf``: rigid): ``free = (J_p K_j^-1 J_p^T)^-1``, the inverse of the translational compliance
+    (a pure force, tool free to turn); ``held`` the top-left block of ``(J K_j^-1 J^T)^-1`` (tool
+    orientation held). Plain numpy inverses."""
+    C = (J / np.asarray(kj, dtype=float)) @ J.T
+    return np.linalg.inv(C)[:3, :3], np.linalg.inv(C[:3, :3])
+
+
 @functools.cache
 def robot_by_name(name: str):
     """``jaxstiff.Robot.from_urdf(name)`` (a bundled robot's name), read once per process."""

@@ -3,7 +3,9 @@
 Needs MuJoCo (``pip install "jaxstiff[sim]"``). For each selected waypoint of every path the robot
 is rebuilt in MuJoCo with springs kj at the waypoint's posture, small forces (and, for task
 ``full``, moments) are applied at the TCP, and the settled deflections are compared with jaxstiff's
-compliance; then a finite load checks the CCT term and its sign (:mod:`jaxstiff.sim.check`).
+compliance; then a finite load checks the CCT term and its sign (:mod:`jaxstiff.sim.check`). Whatever
+the task, it prints both stiffnesses a force meets: with the tool's orientation held and with the tool
+free to turn.
 Exit code 0 when every waypoint agrees within ``--tol``, 1 otherwise, 2 for bad input.
 """
 
@@ -61,6 +63,7 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
         from ..runtime.io import atomic_write_text, json_default
         from ..runtime.x64 import enable_x64
         from ..sim import SettleError, cases_from_result, check_cases, markdown_table, rows_json
+        from ..sim.report import HELD_FREE_NOTE
 
         if args.force is not None and not (math.isfinite(args.force) and args.force > 0):
             raise ValueError(f"--force must be a positive finite number of newtons, got {args.force}")
@@ -77,6 +80,7 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
             print(f"jaxstiff: check-sim: {exc}")
             return 1
         print(markdown_table(rows, cases[0].robot.name if cases else ""))
+        print(f"\n{HELD_FREE_NOTE}")
         data = rows_json(rows, result=args.result, robot=cases[0].robot.name if cases else None)
         bad = [r.label for r in rows if not r.passed]
         print(

@@ -50,7 +50,11 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         "--task",
         default=_S.task,
         choices=list(TASKS),
-        help="full: K_T = top-left 3x3 of the 6x6 K_C (seed); xyz: 3x3 K_C; xy: planar 2x2",
+        help="which stiffness is shaped. full (seed 000): the top-left 3x3 of the 6x6 K_C, what a force "
+        "meets with the tool's orientation HELD (clamp, peg in a hole); xyz: the inverse of the translational "
+        "compliance, what a pure force at the TCP meets with the tool FREE TO TURN: shaping contact with a "
+        "tool that may turn wants xyz (a full result's ellipsoid can be far off there: docs/concepts.md, "
+        "'Which stiffness is shaped?'); xy: planar arms, 2x2 (default: %(default)s)",
     )
     p.add_argument(
         "--locked-joints",

@@ -2,7 +2,7 @@
 the criteria landscape (Fig. 6), the seven-panel path figure (Fig. 4/5) and CSC's u / Frobenius
 curves; plus the small pieces every experiment script shares (its ``--out`` parser, summary tables).
 Modules: :mod:`.base` (matplotlib, PNG writer, geometry), :mod:`.planar` (Fig. 2, 3, 6, CSC curves),
-:mod:`.shape_path` (Fig. 4/5), :mod:`.tables`; every name is importable as ``jaxstiff.plots.X``.
+:mod:`.shape_path` (Fig. 4/5), :mod:`.task_modes` (held against free tool orientation), :mod:`.tables`; every name is importable as ``jaxstiff.plots.X``.
 Matplotlib (Agg backend) is imported only inside these functions: the core library never imports
 this module, and importing it pulls in numpy only.
 
@@ -31,6 +31,7 @@ from jaxstiff.plots.base import (
 from jaxstiff.plots.planar import figure_cds, figure_cms, figure_criteria, figure_u_frobenius
 from jaxstiff.plots.shape_path import figure_shape_path, figure_turning, rate_limited_joints, stiffness_axes
 from jaxstiff.plots.tables import experiment_parser, markdown_table, save_table_csv, text_table
+from jaxstiff.plots.task_modes import figure_task_modes, held_and_free
 
 __all__ = [
     "pyplot",
@@ -47,6 +48,8 @@ __all__ = [
     "figure_shape_path",
     "figure_turning",
     "rate_limited_joints",
+    "figure_task_modes",
+    "held_and_free",
     "nice_value",
     "draw_scale_bar",
     "experiment_parser",

@@ -246,7 +246,9 @@ def _panel_projection_xy(
             label="path tangent" if j == 0 else None,
         )
     ax.set(xlabel="x (m)", ylabel="y (m)", title=f"(g) projection on the xy plane\n{_scale_text(n_per_m)}")
-    ax.set_aspect("equal")
+    # equal scale by widening the narrower data range, not by shrinking the box: a path narrow in x
+    # (the default path: 0.1 m by 0.5 m) made an equal-aspect box a thin strip (issue 40, item 4)
+    ax.set_aspect("equal", adjustable="datalim")
     ax.xaxis.set_major_locator(_FittingLocator())  # a narrow x range: fewer ticks, labels apart
     value = nice_value(size * n_per_m)  # a round stiffness near the largest drawn semi-axis
     draw_scale_bar(ax, value / n_per_m, f"{value:g} N/m")

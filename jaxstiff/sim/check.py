@@ -7,7 +7,10 @@ For each posture (:class:`~jaxstiff.sim.setup.SimCase`) a MuJoCo model is built
    the measured translational compliance; for task ``"full"`` moments ``+-h`` about x, y, z as
    well, giving the 6x6 compliance, whose inverse's top-left block is the stiffness with the tool
    orientation held (SPEC section 2; exact, no constraint needed). Further diagonal force
-   directions are compared as deflection vectors. Default ``h``: a deflection of about 1e-5 m
+   directions are compared as deflection vectors. Whatever the task, both stiffnesses a force can
+   meet are reported: with the tool free to turn (the inverse of the force probes' translational
+   block, task ``xyz``'s) and with the orientation held (from the 6x6; task ``xyz`` probes the
+   moments too when the chain has six springs). Default ``h``: a deflection of about 1e-5 m
    (1e-5 rad for moments), where the central difference's O(h^2) error is ~1e-10.
 2. **Finite load** (CCT). A force ``F0`` along the axis that makes the CCT term largest, sized so
    that ``|K_G| = 0.5 min(kj)`` (the term then changes K_T by ~1 to 30 %, at least ~10x the
@@ -66,6 +69,12 @@ class SimRow:
 
     ``cct_*`` are NaN when the CCT check was not run; ``cct_err`` is for the sign under test,
     ``cct_err_wrong`` for the opposite sign, ``cct_err_none`` without the term.
+
+    Whatever the task, the two stiffnesses a force at the TCP can meet (3x3, N/m): ``K_held_*``
+    with the tool's orientation held (task ``full``'s; None for task ``xy`` and for a chain with
+    fewer than six springs, which cannot hold the orientation and still move), ``K_free_*`` with
+    the tool free to turn (task ``xyz``'s; for ``xy`` the 2x2 of the plane); ``err_held`` /
+    ``err_free`` their errors as ``err_K`` (NaN where not measured).
     """
 
     label: str
@@ -85,10 +94,17 @@ class SimRow:
     cct_err_none: float = float("nan")
     cct_eq_residual: float = float("nan")
     tol: float = TOL
+    K_held_pred: np.ndarray | None = None
+    K_held_meas: np.ndarray | None = None
+    K_free_pred: np.ndarray | None = None
+    K_free_meas: np.ndarray | None = None
+    err_held: float = float("nan")
+    err_free: float = float("nan")
 
     @property
     def stiffness_ok(self) -> bool:
-        return max(self.err_K, self.err_C, self.err_dir) <= self.tol
+        errs = [self.err_K, self.err_C, self.err_dir] + [e for e in (self.err_held, self.err_free) if not np.isnan(e)]
+        return max(errs) <= self.tol
 
     @property
     def cct_ok(self) -> bool:
@@ -138,11 +154,38 @@ def _measured(D: np.ndarray, task: str) -> np.ndarray:
     return D[np.ix_(rows, range(len(rows)))]
 
 
+def _held_and_free(
+    case: SimCase, D: np.ndarray, moments: bool
+) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray, np.ndarray]:
+    """(held predicted, held measured, free predicted, free measured) from the axis probes'
+    deflections D (6, k): forces along x, y (, z) first, then (``moments``) moments about x, y, z."""
+    springs = case.springs
+    if case.task == "xy":
+        C = D[:2, :2]
+        return None, None, predicted_stiffness(case.robot, case.q, case.kj, springs, "xy"), _sym(np.linalg.inv(C))
+    free_pred = predicted_stiffness(case.robot, case.q, case.kj, springs, "xyz")
+    free_meas = _sym(np.linalg.inv(D[:3, :3]))  # a pure force, the tool turns as the springs let it
+    if not moments:
+        return None, None, free_pred, free_meas
+    held_pred = predicted_stiffness(case.robot, case.q, case.kj, springs, "full")
+    held_meas = _sym(np.linalg.inv(D[:6, :6])[:3, :3])  # the force that translates with no rotation
+    return held_pred, held_meas, free_pred, free_meas
+
+
+def _sym(K: np.ndarray) -> np.ndarray:
+    return 0.5 * (K + K.T)
+
+
 def _stiffness_part(case: SimCase, sim: object, force: float | None, deflection: float, tol: float) -> SimRow:
     springs = case.springs
     C6 = predicted_compliance(case.robot, case.q, case.kj, springs, "full")
     K_pred = predicted_stiffness(case.robot, case.q, case.kj, springs, case.task)
     axes, extra = probe_directions(case.task)
+    # task xyz probes the moments too when the chain can hold the orientation (six springs or more),
+    # so that both stiffnesses a force can meet are measured whatever the task
+    moments = case.task != "xy" and int(np.count_nonzero(springs)) >= 6
+    if moments and len(axes) == 3:
+        axes = np.concatenate([axes, np.eye(6)[3:]])
     dirs = np.concatenate([axes, extra])
     h = _steps(C6, dirs, force, deflection)
     D, _, residual, steps = probe_compliance(sim, dirs, h)  # type: ignore[arg-type]
@@ -151,10 +194,14 @@ def _stiffness_part(case: SimCase, sim: object, force: float | None, deflection:
     # direction checks: whole 6-D deflection for "full", the task rows otherwise
     rows = list(range(6)) if case.task == "full" else list(task_rows(case.task))
     err_dir = max(rel_error(D[rows, len(axes) + j], C6[np.ix_(rows, range(6))] @ u) for j, u in enumerate(extra))
+    held_pred, held_meas, free_pred, free_meas = _held_and_free(case, D, moments)
     return SimRow(
         label=case.label, task=case.task, mode=case.mode, K_pred=K_pred, K_meas=K_meas,
         err_K=rel_error(K_meas, K_pred), err_C=rel_error(np.linalg.inv(K_meas), np.linalg.inv(K_pred)),
         err_dir=err_dir, force=float(h[0]), residual=residual, steps=steps, tol=tol,
+        K_held_pred=held_pred, K_held_meas=held_meas, K_free_pred=free_pred, K_free_meas=free_meas,
+        err_held=float("nan") if held_meas is None else rel_error(held_meas, held_pred),  # type: ignore[arg-type]
+        err_free=rel_error(free_meas, free_pred),
     )  # fmt: skip
 
 

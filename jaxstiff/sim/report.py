@@ -9,7 +9,7 @@ import numpy as np
 
 from jaxstiff.sim.check import SimRow
 
-__all__ = ["markdown_table", "rows_json", "worst"]
+__all__ = ["markdown_table", "rows_json", "worst", "HELD_FREE_NOTE"]
 
 
 def _eig(K: np.ndarray) -> str:
@@ -20,17 +20,35 @@ def _e(x: float) -> str:
     return "-" if np.isnan(x) else f"{x:.1e}"
 
 
+def _eig_or_dash(K: np.ndarray | None) -> str:
+    return "-" if K is None else _eig(K)
+
+
+def _listed(K: np.ndarray | None) -> list | None:
+    return None if K is None else K.tolist()
+
+
+#: what the two measured stiffnesses are (printed under the table)
+HELD_FREE_NOTE = (
+    "held: the stiffness a force at the TCP meets with the tool's orientation held (task full shapes it); "
+    "free: with the tool free to turn (task xyz shapes it), never stiffer than held"
+)
+
+
 def markdown_table(rows: Sequence[SimRow], robot: str = "") -> str:
-    """One line per posture: stiffness eigenvalues predicted vs measured (N/m), the errors, the CCT check."""
+    """One line per posture: stiffness eigenvalues predicted vs measured (N/m), the errors, both
+    stiffnesses a force can meet (held and free tool orientation, :data:`HELD_FREE_NOTE`), the CCT check."""
     head = (
         "| robot | waypoint | task | locked | K_T eig. predicted (N/m) | K_T eig. measured (N/m) | err_K | err_C "
-        "| err_dir | CCT load (N) | CCT err (+) | err (-) | err (none) | pass |"
+        "| err_dir | held eig. measured (N/m) | err held | free eig. measured (N/m) | err free "
+        "| CCT load (N) | CCT err (+) | err (-) | err (none) | pass |"
     )
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         lines.append(
             f"| {robot} | {r.label} | {r.task} | {r.mode} | {_eig(r.K_pred)} | {_eig(r.K_meas)} | {_e(r.err_K)} "
-            f"| {_e(r.err_C)} | {_e(r.err_dir)} | {'-' if np.isnan(r.cct_load) else f'{r.cct_load:.3g}'} "
+            f"| {_e(r.err_C)} | {_e(r.err_dir)} | {_eig_or_dash(r.K_held_meas)} | {_e(r.err_held)} "
+            f"| {_eig_or_dash(r.K_free_meas)} | {_e(r.err_free)} | {'-' if np.isnan(r.cct_load) else f'{r.cct_load:.3g}'} "
             f"| {_e(r.cct_err)} | {_e(r.cct_err_wrong)} | {_e(r.cct_err_none)} | {'yes' if r.passed else 'NO'} |"
         )
     return "\n".join(lines)
@@ -39,7 +57,7 @@ def markdown_table(rows: Sequence[SimRow], robot: str = "") -> str:
 def worst(rows: Sequence[SimRow]) -> dict[str, float]:
     """The largest errors over ``rows`` (NaN-free keys only) and the smallest wrong-sign CCT error."""
     out: dict[str, float] = {}
-    for key in ("err_K", "err_C", "err_dir", "cct_err", "cct_eq_residual", "residual"):
+    for key in ("err_K", "err_C", "err_dir", "err_held", "err_free", "cct_err", "cct_eq_residual", "residual"):
         vals = [getattr(r, key) for r in rows if not np.isnan(getattr(r, key))]
         if vals:
             out[key] = float(max(vals))
@@ -63,6 +81,10 @@ def rows_json(rows: Sequence[SimRow], **extra: Any) -> dict[str, Any]:
                 "cct_err_wrong_sign": None if np.isnan(r.cct_err_wrong) else r.cct_err_wrong,
                 "cct_err_none": None if np.isnan(r.cct_err_none) else r.cct_err_none,
                 "cct_eq_residual": None if np.isnan(r.cct_eq_residual) else r.cct_eq_residual,
+                "K_held_pred": _listed(r.K_held_pred), "K_held_meas": _listed(r.K_held_meas),
+                "K_free_pred": _listed(r.K_free_pred), "K_free_meas": _listed(r.K_free_meas),
+                "err_held": None if np.isnan(r.err_held) else r.err_held,
+                "err_free": None if np.isnan(r.err_free) else r.err_free,
                 "tol": r.tol, "passed": r.passed,
             }
         )  # fmt: skip

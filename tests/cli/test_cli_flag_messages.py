@@ -169,3 +169,18 @@ def test_csc_steps_with_a_path_is_refused(tmp_path, capsys):
         == "jaxstiff: error: --steps applies to --hold; a --path has one step per row (repeat a row to hold it still)"
     )
     assert not out.exists()
+
+
+# ------------------------------------------------------------------ shape --help: which task a contact wants
+def test_shape_help_says_which_task_a_contact_with_a_turning_tool_wants(capsys):
+    """Issue 40: task full shapes the stiffness with the tool's orientation held; a user who shapes
+    contact with a tool free to turn wants xyz, and --help says so, naming the docs section."""
+    with pytest.raises(SystemExit):
+        main(["shape", "--help"])
+    text = _words(capsys.readouterr().out)
+    assert "orientation HELD" in text and "FREE TO TURN" in text
+    assert "shaping contact with a tool that may turn wants xyz" in text
+    assert (
+        "Which stiffness is shaped?" in text
+        and "Which stiffness is shaped?" in open(os.path.join(DOCS, "concepts.md")).read()
+    )

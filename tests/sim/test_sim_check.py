@@ -129,3 +129,41 @@ def test_cli_on_a_real_shape_result_with_rigid_lock_recorded(tmp_path):
     assert main(["check-sim", rigid, "--waypoints", "2", "--json", str(tmp_path / "j.json")]) == 0
     data = json.loads((tmp_path / "j.json").read_text())
     assert {r["locked_joints"] for r in data["rows"]} == {"rigid"}
+
+
+@pytest.mark.parametrize("task", ["xyz", "full"])
+def test_both_modes_measured_whatever_the_task(task):
+    """Issue 40: check-sim measures the stiffness a force meets with the tool free to turn and with its
+    orientation held, for either task; both against an independent numpy computation (Jacobian from
+    finite differences of a numpy FK, plain inverses), not only against jaxstiff's prediction."""
+    from helpers import numpy_held_and_free, numpy_jacobian
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    q = np.array([0.3, 0.5, -0.2, 1.0, 0.4, -0.6, 0.0])
+    kj = np.array([80.0, 60.0, 40.0, 30.0, 20.0, 10.0, np.inf])
+    row = check_case(SimCase(robot, q, kj, task, "rigid"), cct=False)
+    assert row.passed and row.err_free < TIGHT and row.err_held < TIGHT
+    held_n, free_n = numpy_held_and_free(numpy_jacobian(robot, q), kj)
+    assert np.linalg.norm(row.K_free_meas - free_n, 2) < 1e-5 * np.linalg.norm(free_n, 2)
+    assert np.linalg.norm(row.K_held_meas - held_n, 2) < 1e-5 * np.linalg.norm(held_n, 2)
+    # the task's own K_T is one of the two
+    assert np.allclose(row.K_meas, row.K_held_meas if task == "full" else row.K_free_meas, rtol=1e-12)
+    # free is softer: the two differ by far more than the measurement error
+    assert np.linalg.norm(row.K_held_meas - row.K_free_meas, 2) > 1e-2 * np.linalg.norm(held_n, 2)
+
+
+def test_cli_prints_held_and_free(tmp_path, capsys):
+    from jaxstiff.cli.main import main
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    q = np.array([[[0.3, 0.5, -0.2, 1.0, 0.4, -0.6, 0.0]]])
+    kj = np.array([[[80.0, 60.0, 40.0, 30.0, 20.0, 10.0, np.inf]]])
+    f = _result_file(tmp_path / "r.npz", robot, q, kj, "xyz", "rigid")
+    out = tmp_path / "check.json"
+    assert main(["check-sim", f, "--waypoints", "1", "--no-cct", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "held eig. measured (N/m)" in text and "free eig. measured (N/m)" in text
+    assert "tool's orientation held" in text and "free to turn" in text
+    row = json.loads(out.read_text())["rows"][0]
+    assert row["err_held"] < TIGHT and row["err_free"] < TIGHT
+    assert np.allclose(row["K_free_meas"], row["K_meas"])  # task xyz shapes the free one
