@@ -74,7 +74,6 @@ Example:
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 from typing import TYPE_CHECKING, Any
 
@@ -105,7 +104,7 @@ from jaxstiff.results.status import USABLE as USABLE
 from jaxstiff.results.status import ShapeStatus as ShapeStatus
 from jaxstiff.results.status import is_usable as is_usable
 from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL, in_target, ratio_targets, target_masks
-from jaxstiff.runtime.io import file_sha256, meta_dumps, meta_loads
+from jaxstiff.runtime.io import file_sha256, meta_dumps
 
 if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
@@ -128,6 +127,7 @@ _ARRAYS_BP3 = ("target", "direction", "position")
 _ARRAYS_BP = ("cms", "pos_error", "alpha_deg", "ratio", "criterion", "status", "solver_code", "nit", "nfev", "time_s")
 _ARRAYS_BN = ("q0", "kj0")
 _INT_KEYS = ("status", "solver_code", "nit", "nfev")
+_FIELDS = ("joint_names", *_ARRAYS_BPN, *_ARRAYS_BP3, *_ARRAYS_BP, *_ARRAYS_BN)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -200,40 +200,37 @@ class ShapeResult(PathGrid):
 
     @staticmethod
     def load(file: str | os.PathLike) -> ShapeResult:
-        """Read a result file written by :meth:`save` (no pickles).
+        """Read a result file written by :meth:`save` (no pickles), its schema checked
+        (:func:`jaxstiff.results.reader.read_arrays`: keys, shapes, dtypes, finiteness, meta types);
+        not its robot (:meth:`read` checks that too).
 
         Raises:
             FileNotFoundError: no such file.
-            ValueError: not a jaxstiff result file (missing keys, wrong shapes, bad meta).
+            ValueError: not a jaxstiff result file (missing keys, wrong shapes, bad meta): a
+                :class:`~jaxstiff.results.reader.ResultFileError`.
         """
-        file = os.fspath(file)
-        if not os.path.isfile(file):
-            raise FileNotFoundError(f"result file not found: {file}")
-        with open(file, "rb") as fh:
-            head = fh.read(4)
-        if head != b"PK\x03\x04":  # every .npz is a zip archive; anything else numpy would try to unpickle
-            text = all(32 <= b < 127 or b in (9, 10, 13) for b in head)
-            kind = "the file is empty" if not head else "it is text, e.g. a CSV" if text else "it is not a zip archive"
-            raise ValueError(
-                f"{file}: not a readable .npz result file ({kind}); results are written by `jaxstiff shape --out r.npz`"
-            )
-        try:
-            with np.load(file, allow_pickle=False) as z:
-                data = {k: z[k] for k in z.files}
-        except Exception as exc:  # zipfile/format errors
-            raise ValueError(f"{file}: not a readable .npz result file ({exc})") from None
-        names = [f.name for f in dataclasses.fields(ShapeResult)]
-        missing = [k for k in names if k not in data]
-        if missing:
-            if {"frobenius", "tracking_error"} <= set(data):  # what a CSC rollout's file holds
-                raise ValueError(f"{file}: a CSC result (jaxstiff csc); this needs a shape result (jaxstiff shape)")
-            raise ValueError(f"{file}: not a jaxstiff result file, missing keys: {', '.join(missing)}")
-        try:
-            meta = meta_loads(str(data["meta"]))
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{file}: meta is not valid JSON ({exc})") from None
-        kwargs = {k: data[k] for k in names if k != "meta"}
-        return ShapeResult(meta=meta, **kwargs)
+        from jaxstiff.results.reader import read_arrays
+
+        _, arrays, meta = read_arrays(file, "shape")
+        return ShapeResult(meta=meta, **arrays)
+
+    @staticmethod
+    def read(file: str | os.PathLike, urdf: str | os.PathLike | None = None) -> ShapeResult:
+        """Read a result file and check it against its robot (:func:`jaxstiff.results.reader.read_result`:
+        the URDF and its hash, joint names, locked joints, the stored positions by FK, the task).
+
+        Raises:
+            FileNotFoundError: no such file, or its URDF is missing.
+            ValueError: a :class:`~jaxstiff.results.reader.ResultFileError` naming what disagrees.
+        """
+        from jaxstiff.results.reader import read_result
+
+        return ShapeResult.from_file(read_result(file, urdf, kind="shape"))
+
+    @staticmethod
+    def from_file(rf: Any) -> ShapeResult:
+        """The :class:`ShapeResult` of a shape :class:`~jaxstiff.results.reader.ResultFile`."""
+        return ShapeResult(meta=rf.meta, **{k: rf.arrays[k] for k in _FIELDS})
 
     def summary(self) -> dict[str, Any]:
         """Headline numbers: see :func:`summary`."""
@@ -328,8 +325,9 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
 ) -> dict[str, float]:
     """Re-check a result with numpy only (no JAX): FK, bounds, rate limits, reported values.
 
-    ``res``: a :class:`ShapeResult` or the path of a result file (loaded with
-    :meth:`ShapeResult.load`).
+    ``res``: a :class:`ShapeResult` or the path of a result file (read with
+    :meth:`ShapeResult.read`: a file whose robot, joints, locked joints, positions or task disagree
+    with its meta is refused with a :class:`~jaxstiff.results.reader.ResultFileError`).
 
     Uses the robot rebuilt from ``meta`` (or the one given), a plain numpy FK, and a numpy
     recomputation of ``K_T``, alpha, rho and f1/f2 (other criteria: criterion not re-checked).
@@ -346,7 +344,7 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
         must be the robot's, in chain order (ValueError otherwise).
     """
     if isinstance(res, (str, os.PathLike)):
-        res = ShapeResult.load(res)
+        res = ShapeResult.read(res, urdf)  # the one reader: robot, joints, locks, positions, task checked
     if robot is None:
         robot = robot_from_meta(res.meta, urdf)
     lim = res.meta["limits"]
