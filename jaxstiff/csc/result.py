@@ -160,7 +160,7 @@ class CSCResult:
         from jaxstiff.results.reader import read_arrays
 
         _, arrays, _ = read_arrays(file, "csc")
-        data = {f.name: arrays[f.name] for f in dataclasses.fields(CSCResult)}
+        data: dict[str, Any] = {f.name: arrays[f.name] for f in dataclasses.fields(CSCResult)}
         data["status"] = data["status"].astype(np.int32)
         return CSCResult(**data)
 

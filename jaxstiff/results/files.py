@@ -303,6 +303,13 @@ def _stiffness_or_nan(robot: Robot, q: np.ndarray, kj: np.ndarray, task: str) ->
         return np.full((m, m), np.nan)
 
 
+def _worst(prev: float, x: np.ndarray) -> float:
+    """The larger of ``prev`` and the largest of ``x``, a NaN counting as ``inf`` (a check that
+    cannot be made is reported, never swallowed: Python's ``max(0.0, nan)`` is 0.0)."""
+    x = np.asarray(x, dtype=float)
+    return max(prev, float(np.max(np.where(np.isnan(x), np.inf, x), initial=-np.inf)))
+
+
 def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per waypoint of path b: the reference state (q_ref (P,n), kj_ref (P,n)) its box refers to,
     and whether rate limits apply (P,) bool (False only before the first usable waypoint when the
@@ -392,24 +399,20 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
         usable = is_usable(res.status[b])
         err = np.where(bad, inf, np.linalg.norm(pos - res.target[b], axis=-1))
         if usable.any():
-            out["max_pos_error"] = max(out["max_pos_error"], float(err[usable].max()))
-        out["max_position_mismatch"] = max(out["max_position_mismatch"], float(np.abs(pos - res.position[b]).max()))
+            out["max_pos_error"] = _worst(out["max_pos_error"], err[usable])
+        out["max_position_mismatch"] = _worst(out["max_position_mismatch"], np.abs(pos - res.position[b]))
         bound = np.r_[
             (robot.lower - q).ravel(), (q - robot.upper).ravel(), (kmin - kjb).ravel(), (kjb - kmax).ravel(), 0.0
         ]
-        out["max_bound_violation"] = max(out["max_bound_violation"], float(bound.max()))
+        out["max_bound_violation"] = _worst(out["max_bound_violation"], bound)
         if lmask.any():
-            out["max_locked_violation"] = max(
-                out["max_locked_violation"], float(np.abs(q[:, lmask] - locked[lmask]).max())
-            )
+            out["max_locked_violation"] = _worst(out["max_locked_violation"], np.abs(q[:, lmask] - locked[lmask]))
         Qr, Kr, rate = reference_states(res, b)
         if rate.any():
             dqv = np.abs(q[rate] - Qr[rate]) - prm["dq"][b]
             Kr = np.where(lmask[None, :] & (Kr == np.inf), kjb, Kr)
             dkv = np.abs(kjb[rate] - Kr[rate]) - prm["dk"][b]
-            out["max_rate_violation"] = max(
-                out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0]))
-            )
+            out["max_rate_violation"] = _worst(out["max_rate_violation"], np.r_[dqv.ravel(), dkv.ravel(), 0.0])
         # reported stiffness quantities, recomputed in numpy
         K = np.stack([_stiffness_or_nan(robot, q[p], kj[p], task) for p in range(res.P)])
         if np.isnan(K).any():  # an exactly singular compliance: its reported values cannot be re-checked
@@ -418,23 +421,23 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
         alpha, rho = np.full(res.P, np.nan), np.full(res.P, np.nan)
         if ok.any():
             alpha[ok], rho[ok] = np_alpha_ratio(K[ok], res.direction[b][ok])
-        out["max_alpha_mismatch"] = max(out["max_alpha_mismatch"], float(np.abs(alpha - res.alpha_deg[b]).max()))
-        out["max_ratio_mismatch"] = max(out["max_ratio_mismatch"], float((np.abs(rho - res.ratio[b]) / rho).max()))
+        out["max_alpha_mismatch"] = _worst(out["max_alpha_mismatch"], np.abs(alpha - res.alpha_deg[b]))
+        out["max_ratio_mismatch"] = _worst(out["max_ratio_mismatch"], (np.abs(rho - res.ratio[b]) / rho))
         crit = res.meta["criterion"]
         if crit in ("f1", "f2"):
             f = np_criterion(crit, alpha, rho, float(prm["ratio"][b]), c)
-            out["max_criterion_mismatch"] = max(
-                out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max())
+            out["max_criterion_mismatch"] = _worst(
+                out["max_criterion_mismatch"], np.abs(f - res.criterion[b]) / np.abs(f)
             )
         cms_ref = np.full(res.P, np.nan)
         if ok.any():
             cms_ref[ok] = np_cms(K[ok], res.meta["cms"])
-        out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))
+        out["max_cms_mismatch"] = _worst(out["max_cms_mismatch"], (np.abs(cms_ref - res.cms[b]) / cms_ref))
         # what the controller is commanded with: cms * kj (a rigid joint's inf stays inf)
         want = res.cms[b][:, None] * res.kj[b]
         got = res.kj_scaled[b]
         same = (want == got) | (np.isnan(want) & np.isnan(got))
         with np.errstate(invalid="ignore", divide="ignore"):
             rel = np.where(same, 0.0, np.abs(got - want) / np.abs(want))
-        out["max_kj_scaled_mismatch"] = max(out["max_kj_scaled_mismatch"], float(np.nan_to_num(rel, nan=inf).max()))
+        out["max_kj_scaled_mismatch"] = _worst(out["max_kj_scaled_mismatch"], np.nan_to_num(rel, nan=inf))
     return out

@@ -254,11 +254,13 @@ def _check_robot_meta(file: str, meta: dict, n: int, required: bool) -> dict | N
 
 
 def _check_shape_meta(file: str, meta: dict, B: int, n: int, full: bool) -> None:
-    task = _meta_field(file, meta, "task", lambda v: v in TASKS, f"one of {', '.join(TASKS)}", required=full)
+    task = _meta_field(
+        file, meta, "task", lambda v: isinstance(v, str) and v in TASKS, f"one of {', '.join(TASKS)}", required=full
+    )
     _meta_field(file, meta, "settings", lambda v: isinstance(v, dict), "a record")
     _meta_field(file, meta, "settings.task", lambda v: v == task or task is None, f"the task of the file ({task!r})")
     _meta_field(file, meta, "settings.locked_joints", lambda v: v in ("rigid", "spring"), "'rigid' or 'spring'")
-    _meta_field(file, meta, "criterion", _text, "the criterion's name (text)")
+    crit = _meta_field(file, meta, "criterion", _text, "the criterion's name (text)", required=full)
     pos = lambda v: _number(v) and math.isfinite(v) and v > 0  # noqa: E731
     _meta_field(
         file,
@@ -266,13 +268,21 @@ def _check_shape_meta(file: str, meta: dict, B: int, n: int, full: bool) -> None
         "ratio",
         lambda v: pos(v) or (_numbers(v, B) and all(x > 0 for x in v)),
         f"a positive number or {B} of them",
+        required=full,
     )
-    _meta_field(file, meta, "c", lambda v: _number(v) and math.isfinite(v), "a finite number")
+    _meta_field(
+        file, meta, "c", lambda v: _number(v) and math.isfinite(v), "a finite number", required=full and crit == "f1"
+    )
     _meta_field(file, meta, "pos_tol", pos, "a positive number")
-    if _meta_field(file, meta, "cms", lambda v: isinstance(v, dict), "a record (target_volume or target_major)"):
+    cms = _meta_field(
+        file, meta, "cms", lambda v: isinstance(v, dict), "a record (target_volume or target_major)", required=full
+    )
+    if cms is not None:
         for key in ("target_volume", "target_major"):
             _meta_field(file, meta, f"cms.{key}", lambda v: v is None or pos(v), "a positive number or null")
-    if _meta_field(file, meta, "limits", lambda v: isinstance(v, dict), "a record (kmin, kmax, dq, dk)"):
+        if cms.get("target_volume") is None and cms.get("target_major") is None:
+            raise ResultFileError(file, "meta cms", "target_volume or target_major (the CMS rule)", cms)
+    if _meta_field(file, meta, "limits", lambda v: isinstance(v, dict), "a record (kmin, kmax, dq, dk)", required=full):
         kmin = _meta_field(file, meta, "limits.kmin", pos, "a positive number", required=True)
         _meta_field(
             file, meta, "limits.kmax", lambda v: _number(v) and v >= kmin, f"a number >= kmin ({kmin})", required=True
@@ -345,7 +355,13 @@ def _shape_schema(file: str, data: dict[str, np.ndarray], meta: dict, full: bool
         out[k] = _float_array(file, k, data[k])
     rmeta = _check_robot_meta(file, meta, n, required=full)
     _check_shape_meta(file, meta, B, n, full)
-    # values
+    _check_shape_values(file, out, meta, rmeta)
+    return out
+
+
+def _check_shape_values(file: str, out: dict[str, np.ndarray], meta: dict, rmeta: dict | None) -> None:
+    """The values of a shape file's arrays that need no robot (module docstring)."""
+    B, names = out["q"].shape[0], out["joint_names"]
     status = out["status"]
     bad = ~np.isin(status, np.arange(6))
     if bad.any():
@@ -356,7 +372,13 @@ def _shape_schema(file: str, data: dict[str, np.ndarray], meta: dict, full: bool
     _check_finite(file, "position", out["position"], usable, " at usable waypoints (status 0-2)")
     _check_finite(file, "target", out["target"])
     _check_finite(file, "direction", out["direction"])
-    settings = meta.get("settings") if isinstance(meta.get("settings"), dict) else {}
+    norm = np.linalg.norm(out["direction"], axis=-1)
+    off = ~(np.abs(norm - 1.0) <= 1e-6)
+    if off.any():
+        raise ResultFileError(
+            file, "direction", "unit vectors", f"a vector of length {norm[off][0]:.6g} ({_where(off)})"
+        )
+    settings: dict = meta["settings"] if isinstance(meta.get("settings"), dict) else {}
     rigid_ok = settings.get("locked_joints", "rigid") != "spring"
     locked = _locked_mask(rmeta, [str(x) for x in names])
     for k in ("kj", "kj_scaled"):
@@ -401,7 +423,6 @@ def _shape_schema(file: str, data: dict[str, np.ndarray], meta: dict, full: bool
                 f"stiffness in the recorded range [{kmin:g}, {kmax:g}] at usable waypoints",
                 f"{kj[off][0]} ({_where(off)})",
             )
-    return out
 
 
 # ---------------------------------------------------------------------- csc schema
@@ -415,7 +436,9 @@ def _csc_schema(file: str, data: dict[str, np.ndarray], meta: dict, full: bool) 
         raise ResultFileError(file, "q", "shape (B, T, n) or (T, n) with B, T, n >= 1", f"<shape {q.shape}>")
     batch = q.shape[:-2]
     T, n = q.shape[-2:]
-    task = _meta_field(file, meta, "task", lambda v: v in TASKS, f"one of {', '.join(TASKS)}", required=full)
+    task = _meta_field(
+        file, meta, "task", lambda v: isinstance(v, str) and v in TASKS, f"one of {', '.join(TASKS)}", required=full
+    )
     _meta_field(file, meta, "settings", lambda v: isinstance(v, dict), "a record")
     _meta_field(file, meta, "settings.task", lambda v: v == task or task is None, f"the task of the file ({task!r})")
     _meta_field(file, meta, "settings.locked_joints", lambda v: v in ("rigid", "spring"), "'rigid' or 'spring'")
@@ -462,8 +485,10 @@ def _csc_schema(file: str, data: dict[str, np.ndarray], meta: dict, full: bool) 
             file, "status", "bit masks 0-15 (jaxstiff.csc.CSCStatus)", f"{out['status'][bad][0]} {_where(bad)}"
         )
     rmeta = _check_robot_meta(file, meta, n, required=full)
-    names = [str(x) for x in out.get("joint_names", (rmeta or {}).get("joint_names") or [""] * n)]
-    settings = meta.get("settings") if isinstance(meta.get("settings"), dict) else {}
+    names = [
+        str(x) for x in (out["joint_names"] if "joint_names" in out else (rmeta or {}).get("joint_names") or [""] * n)
+    ]
+    settings: dict = meta["settings"] if isinstance(meta.get("settings"), dict) else {}
     locked = _locked_mask(rmeta, names)
     _check_stiffness(
         file,
@@ -530,7 +555,7 @@ def chain_from_meta(meta: dict[str, Any], urdf: str | os.PathLike | None = None,
         try:
             fields = parse_urdf_chain(path, rmeta.get("base_link") or None, rmeta.get("tip_link") or None, locked, tcp)
         except ValueError as exc:
-            raise ValueError(f"meta robot: the recorded chain cannot be built: {exc}") from None
+            raise ValueError(f"the recorded chain cannot be built: {exc}") from None
     except FileNotFoundError as exc:
         raise FileNotFoundError(f"{exc}; the result's URDF moved? give it with --urdf FILE") from None
     except ResultFileError:

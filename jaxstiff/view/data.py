@@ -187,7 +187,7 @@ def _csc_data(rf: ResultFile, index: int | None, source: str) -> ViewData:
     target = data["target"][sel]
     if target.shape[-1] == 2:
         target = np.concatenate([target, position[..., 2:3]], axis=-1)
-    Kxd = data.get("K_xd", np.asarray(meta.get("K_xd", np.full((3, 3), np.nan)), float))
+    Kxd = data["K_xd"] if "K_xd" in data else _meta_kxd(meta, rf.file)
     if Kxd.ndim == 3 and Kxd.shape[0] != 1 and index is not None:
         Kxd = Kxd[sel]
     Kxd = np.broadcast_to(_block3(Kxd).reshape((-1, 1, 3, 3) if Kxd.ndim == 3 else (1, 1, 3, 3)), (B, T, 3, 3))
@@ -209,6 +209,19 @@ def _csc_data(rf: ResultFile, index: int | None, source: str) -> ViewData:
         labels,
         index=index,
     )
+
+
+def _meta_kxd(meta: dict[str, Any], file: str) -> np.ndarray:
+    """A csc file without its K_xd array (a library save): the meta's ``K_xd``, else NaN (not drawn)."""
+    try:
+        K = np.asarray(meta.get("K_xd", np.full((3, 3), np.nan)), dtype=float)
+    except (TypeError, ValueError):
+        K = np.zeros((0, 0, 0))
+    if K.ndim not in (2, 3) or K.shape[-1] != K.shape[-2] or K.shape[-1] not in (2, 3, 6):
+        from jaxstiff.results.reader import ResultFileError
+
+        raise ResultFileError(file, "meta K_xd", "a square 2x2, 3x3 or 6x6 matrix (no K_xd array)", meta.get("K_xd"))
+    return K
 
 
 def _path_names(rec: Any) -> list[str]:
