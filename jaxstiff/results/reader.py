@@ -76,7 +76,8 @@ class ResultFileError(ValueError):
     def __init__(self, file: str, field: str, expected: str, found: Any = None, *, text: str | None = None):
         self.file, self.field = file, field
         msg = text if text is not None else f"expected {expected}, found {_short(found)}"
-        super().__init__(" ".join(f"{file}: {field}: {msg}".split()))
+        where = f"{file}: " if field == "file" else f"{file}: {field}: "  # (the whole file: no field)
+        super().__init__(" ".join(f"{where}{msg}".split()))
 
 
 def _short(x: Any, limit: int = 80) -> str:
@@ -220,6 +221,10 @@ def _matrix4(x: Any) -> bool:
 
 # ---------------------------------------------------------------------- meta
 def _check_robot_meta(file: str, meta: dict, n: int, required: bool) -> dict | None:
+    """meta["robot"] checked (full mode), or as it is for the locked-joint mask (schema mode)."""
+    if not required:
+        rmeta = meta.get("robot")
+        return rmeta if isinstance(rmeta, dict) else None
     rmeta = _meta_field(
         file, meta, "robot", lambda v: isinstance(v, dict), "a record (URDF, links, locks)", required=required
     )
@@ -283,16 +288,23 @@ def _check_shape_meta(file: str, meta: dict, B: int, n: int, full: bool) -> None
         if cms.get("target_volume") is None and cms.get("target_major") is None:
             raise ResultFileError(file, "meta cms", "target_volume or target_major (the CMS rule)", cms)
     if _meta_field(file, meta, "limits", lambda v: isinstance(v, dict), "a record (kmin, kmax, dq, dk)", required=full):
-        kmin = _meta_field(file, meta, "limits.kmin", pos, "a positive number", required=True)
+        kmin = _meta_field(file, meta, "limits.kmin", pos, "a positive number", required=full)
         _meta_field(
-            file, meta, "limits.kmax", lambda v: _number(v) and v >= kmin, f"a number >= kmin ({kmin})", required=True
+            file,
+            meta,
+            "limits.kmax",
+            lambda v: _number(v) and (kmin is None or v >= kmin),
+            f"a number >= kmin ({kmin})",
+            required=full,
         )
         _meta_field(
-            file, meta, "limits.first_rate_limit", lambda v: isinstance(v, bool), "true or false", required=True
+            file, meta, "limits.first_rate_limit", lambda v: isinstance(v, bool), "true or false", required=full
         )
         for key in ("dq", "dk"):
             lim = meta["limits"]
             v = lim.get(key)
+            if v is None and not full:
+                continue
             ok = (
                 _number(v)
                 or _numbers(v, n, finite=False)
@@ -304,6 +316,7 @@ def _check_shape_meta(file: str, meta: dict, B: int, n: int, full: bool) -> None
 
 def _locked_mask(rmeta: dict | None, names: list[str]) -> np.ndarray:
     locked = (rmeta or {}).get("locked") or {}
+    locked = locked if isinstance(locked, dict) else {}
     return np.asarray([nm in locked for nm in names], dtype=bool)
 
 
@@ -356,6 +369,8 @@ def _shape_schema(file: str, data: dict[str, np.ndarray], meta: dict, full: bool
     rmeta = _check_robot_meta(file, meta, n, required=full)
     _check_shape_meta(file, meta, B, n, full)
     _check_shape_values(file, out, meta, rmeta)
+    if full:
+        _check_shape_consistency(file, out, meta)
     return out
 
 
@@ -372,18 +387,25 @@ def _check_shape_values(file: str, out: dict[str, np.ndarray], meta: dict, rmeta
     _check_finite(file, "position", out["position"], usable, " at usable waypoints (status 0-2)")
     _check_finite(file, "target", out["target"])
     _check_finite(file, "direction", out["direction"])
-    norm = np.linalg.norm(out["direction"], axis=-1)
-    off = ~(np.abs(norm - 1.0) <= 1e-6)
-    if off.any():
-        raise ResultFileError(
-            file, "direction", "unit vectors", f"a vector of length {norm[off][0]:.6g} ({_where(off)})"
-        )
     settings: dict = meta["settings"] if isinstance(meta.get("settings"), dict) else {}
     rigid_ok = settings.get("locked_joints", "rigid") != "spring"
     locked = _locked_mask(rmeta, [str(x) for x in names])
     for k in ("kj", "kj_scaled"):
         _check_stiffness(file, k, out[k], usable, locked, rigid_ok)
     _check_stiffness(file, "kj0", out["kj0"], np.ones(B, bool), locked, rigid_ok)
+
+
+def _check_shape_consistency(file: str, out: dict[str, np.ndarray], meta: dict) -> None:
+    """What the arrays of a shape file say about each other (full mode; hand-made results that
+    :meth:`ShapeResult.load` reads need not agree): unit directions, ``kj_scaled = cms * kj``,
+    ``pos_error = |position - target|``, kj inside the recorded range, at usable waypoints."""
+    usable = np.isin(out["status"], np.asarray(USABLE))
+    norm = np.linalg.norm(out["direction"], axis=-1)
+    off = ~(np.abs(norm - 1.0) <= 1e-6)
+    if off.any():
+        raise ResultFileError(
+            file, "direction", "unit vectors", f"a vector of length {norm[off][0]:.6g} ({_where(off)})"
+        )
     cms = out["cms"][usable]
     if np.any(~np.isfinite(cms) | (cms <= 0)):
         raise ResultFileError(
@@ -411,7 +433,7 @@ def _check_shape_values(file: str, out: dict[str, np.ndarray], meta: dict, rmeta
             f"{out['pos_error'][off][0]} where |position - target| = {err[off][0]} ({_where(off)})",
         )
     lim = meta.get("limits")
-    if isinstance(lim, dict):
+    if isinstance(lim, dict) and lim.get("kmin") is not None and lim.get("kmax") is not None:
         kmin, kmax = float(lim["kmin"]), float(lim["kmax"])
         kj = out["kj"]
         spring = usable[..., None] & ~np.isinf(kj)
@@ -510,7 +532,9 @@ def _read(file: str, kind: str | None, full: bool) -> tuple[str, dict[str, np.nd
         missing = [k for k in CSC_KEYS if k not in data]
         raise ResultFileError(file, "file", "", text=f"{what}; missing CSC fields: {', '.join(missing)}")
     kind = kind or found
-    meta = _meta(file, data)
+    keys = SHAPE_KEYS if kind == "shape" else CSC_KEYS
+    # a file without meta and without the arrays: the schema names the missing arrays first
+    meta = {} if "meta" not in data and not all(k in data for k in keys) else _meta(file, data)
     arrays = _shape_schema(file, data, meta, full) if kind == "shape" else _csc_schema(file, data, meta, full)
     return kind, arrays, meta, data["q"].dtype == np.float32
 
