@@ -64,19 +64,12 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if data.kind == "shape":
             from jaxstiff.plots import figure_shape_path
-            from jaxstiff.results.files import ShapeResult
 
             if not 0 <= args.path < data.B:
                 raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")
-            file = data.source.split("#row=")[0]
-            res = ShapeResult.load(file) if os.path.isfile(file) else None
-            if res is None or args.row is not None:
-                from jaxstiff.view.data import sweep_row_file
-
-                f, i = sweep_row_file(file, int(args.row))
-                res, b = ShapeResult.load(f), i
-            else:
-                b = args.path
+            # the file as the reader checked it (every path; a sweep row: its index in the array file)
+            res = data.result
+            b = data.index if data.index is not None else args.path
             title = f"{os.path.basename(data.source)}: {data.labels[0 if args.row is not None else b]}"
             picks = parse_waypoints(args.waypoints, data.P)
             if "," in str(args.waypoints):  # a pick list: those waypoints in (f) and (g)

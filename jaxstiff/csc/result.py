@@ -146,27 +146,21 @@ class CSCResult:
     @staticmethod
     def load(file: str | os.PathLike) -> CSCResult:
         """Read the fields of a file written by :meth:`save` or ``jaxstiff csc`` (no pickles), as
-        numpy arrays (``status`` int32 as a rollout returns it). The file's extra arrays and its
-        ``meta``: ``numpy.load`` and ``jaxstiff.runtime.io.meta_loads(str(z["meta"]))``.
+        numpy arrays (float64; ``status`` int32 as a rollout returns it), the schema checked
+        (:func:`jaxstiff.results.reader.read_arrays`: keys, shapes against the task, dtypes,
+        finiteness, stiffness > 0). The file's extra arrays and its ``meta``:
+        :func:`jaxstiff.results.reader.read_arrays`; checked against its robot too:
+        :func:`jaxstiff.results.reader.read_result`.
 
         Raises:
             FileNotFoundError: no such file.
-            ValueError: not a CSC result file (a shape result, text, missing fields).
+            ValueError: not a CSC result file (a shape result, text, missing fields, wrong shapes,
+                dtypes or values): a :class:`~jaxstiff.results.reader.ResultFileError`.
         """
-        file = os.fspath(file)
-        if not os.path.isfile(file):
-            raise FileNotFoundError(f"result file not found: {file}")
-        names = [f.name for f in dataclasses.fields(CSCResult)]
-        try:
-            with np.load(file, allow_pickle=False) as z:
-                data = {k: z[k] for k in z.files if k in names}
-                keys = set(z.files)
-        except Exception as exc:  # not a zip, a pickle, a damaged archive
-            raise ValueError(f"{file}: not a readable .npz result file ({type(exc).__name__}: {exc})") from None
-        missing = [k for k in names if k not in data]
-        if missing:
-            what = "a shape result (jaxstiff shape)" if "criterion" in keys else "not a CSC result file"
-            raise ValueError(f"{file}: {what}; missing CSC fields: {', '.join(missing)}")
+        from jaxstiff.results.reader import read_arrays
+
+        _, arrays, _ = read_arrays(file, "csc")
+        data: dict[str, Any] = {f.name: arrays[f.name] for f in dataclasses.fields(CSCResult)}
         data["status"] = data["status"].astype(np.int32)
         return CSCResult(**data)
 

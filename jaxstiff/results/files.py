@@ -74,7 +74,6 @@ Example:
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 from typing import TYPE_CHECKING, Any
 
@@ -105,7 +104,7 @@ from jaxstiff.results.status import USABLE as USABLE
 from jaxstiff.results.status import ShapeStatus as ShapeStatus
 from jaxstiff.results.status import is_usable as is_usable
 from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL, in_target, ratio_targets, target_masks
-from jaxstiff.runtime.io import file_sha256, meta_dumps, meta_loads
+from jaxstiff.runtime.io import file_sha256, meta_dumps
 
 if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
@@ -128,6 +127,7 @@ _ARRAYS_BP3 = ("target", "direction", "position")
 _ARRAYS_BP = ("cms", "pos_error", "alpha_deg", "ratio", "criterion", "status", "solver_code", "nit", "nfev", "time_s")
 _ARRAYS_BN = ("q0", "kj0")
 _INT_KEYS = ("status", "solver_code", "nit", "nfev")
+_FIELDS = ("joint_names", *_ARRAYS_BPN, *_ARRAYS_BP3, *_ARRAYS_BP, *_ARRAYS_BN)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -200,40 +200,37 @@ class ShapeResult(PathGrid):
 
     @staticmethod
     def load(file: str | os.PathLike) -> ShapeResult:
-        """Read a result file written by :meth:`save` (no pickles).
+        """Read a result file written by :meth:`save` (no pickles), its schema checked
+        (:func:`jaxstiff.results.reader.read_arrays`: keys, shapes, dtypes, finiteness, meta types);
+        not its robot (:meth:`read` checks that too).
 
         Raises:
             FileNotFoundError: no such file.
-            ValueError: not a jaxstiff result file (missing keys, wrong shapes, bad meta).
+            ValueError: not a jaxstiff result file (missing keys, wrong shapes, bad meta): a
+                :class:`~jaxstiff.results.reader.ResultFileError`.
         """
-        file = os.fspath(file)
-        if not os.path.isfile(file):
-            raise FileNotFoundError(f"result file not found: {file}")
-        with open(file, "rb") as fh:
-            head = fh.read(4)
-        if head != b"PK\x03\x04":  # every .npz is a zip archive; anything else numpy would try to unpickle
-            text = all(32 <= b < 127 or b in (9, 10, 13) for b in head)
-            kind = "the file is empty" if not head else "it is text, e.g. a CSV" if text else "it is not a zip archive"
-            raise ValueError(
-                f"{file}: not a readable .npz result file ({kind}); results are written by `jaxstiff shape --out r.npz`"
-            )
-        try:
-            with np.load(file, allow_pickle=False) as z:
-                data = {k: z[k] for k in z.files}
-        except Exception as exc:  # zipfile/format errors
-            raise ValueError(f"{file}: not a readable .npz result file ({exc})") from None
-        names = [f.name for f in dataclasses.fields(ShapeResult)]
-        missing = [k for k in names if k not in data]
-        if missing:
-            if {"frobenius", "tracking_error"} <= set(data):  # what a CSC rollout's file holds
-                raise ValueError(f"{file}: a CSC result (jaxstiff csc); this needs a shape result (jaxstiff shape)")
-            raise ValueError(f"{file}: not a jaxstiff result file, missing keys: {', '.join(missing)}")
-        try:
-            meta = meta_loads(str(data["meta"]))
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{file}: meta is not valid JSON ({exc})") from None
-        kwargs = {k: data[k] for k in names if k != "meta"}
-        return ShapeResult(meta=meta, **kwargs)
+        from jaxstiff.results.reader import read_arrays
+
+        _, arrays, meta = read_arrays(file, "shape")
+        return ShapeResult(meta=meta, **arrays)
+
+    @staticmethod
+    def read(file: str | os.PathLike, urdf: str | os.PathLike | None = None) -> ShapeResult:
+        """Read a result file and check it against its robot (:func:`jaxstiff.results.reader.read_result`:
+        the URDF and its hash, joint names, locked joints, the stored positions by FK, the task).
+
+        Raises:
+            FileNotFoundError: no such file, or its URDF is missing.
+            ValueError: a :class:`~jaxstiff.results.reader.ResultFileError` naming what disagrees.
+        """
+        from jaxstiff.results.reader import read_result
+
+        return ShapeResult.from_file(read_result(file, urdf, kind="shape"))
+
+    @staticmethod
+    def from_file(rf: Any) -> ShapeResult:
+        """The :class:`ShapeResult` of a shape :class:`~jaxstiff.results.reader.ResultFile`."""
+        return ShapeResult(meta=rf.meta, **{k: rf.arrays[k] for k in _FIELDS})
 
     def summary(self) -> dict[str, Any]:
         """Headline numbers: see :func:`summary`."""
@@ -306,6 +303,13 @@ def _stiffness_or_nan(robot: Robot, q: np.ndarray, kj: np.ndarray, task: str) ->
         return np.full((m, m), np.nan)
 
 
+def _worst(prev: float, x: np.ndarray) -> float:
+    """The larger of ``prev`` and the largest of ``x``, a NaN counting as ``inf`` (a check that
+    cannot be made is reported, never swallowed: Python's ``max(0.0, nan)`` is 0.0)."""
+    x = np.asarray(x, dtype=float)
+    return max(prev, float(np.max(np.where(np.isnan(x), np.inf, x), initial=-np.inf)))
+
+
 def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per waypoint of path b: the reference state (q_ref (P,n), kj_ref (P,n)) its box refers to,
     and whether rate limits apply (P,) bool (False only before the first usable waypoint when the
@@ -328,8 +332,9 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
 ) -> dict[str, float]:
     """Re-check a result with numpy only (no JAX): FK, bounds, rate limits, reported values.
 
-    ``res``: a :class:`ShapeResult` or the path of a result file (loaded with
-    :meth:`ShapeResult.load`).
+    ``res``: a :class:`ShapeResult` or the path of a result file (read with
+    :meth:`ShapeResult.read`: a file whose robot, joints, locked joints, positions or task disagree
+    with its meta is refused with a :class:`~jaxstiff.results.reader.ResultFileError`).
 
     Uses the robot rebuilt from ``meta`` (or the one given), a plain numpy FK, and a numpy
     recomputation of ``K_T``, alpha, rho and f1/f2 (other criteria: criterion not re-checked).
@@ -346,7 +351,7 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
         must be the robot's, in chain order (ValueError otherwise).
     """
     if isinstance(res, (str, os.PathLike)):
-        res = ShapeResult.load(res)
+        res = ShapeResult.read(res, urdf)  # the one reader: robot, joints, locks, positions, task checked
     if robot is None:
         robot = robot_from_meta(res.meta, urdf)
     lim = res.meta["limits"]
@@ -394,24 +399,20 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
         usable = is_usable(res.status[b])
         err = np.where(bad, inf, np.linalg.norm(pos - res.target[b], axis=-1))
         if usable.any():
-            out["max_pos_error"] = max(out["max_pos_error"], float(err[usable].max()))
-        out["max_position_mismatch"] = max(out["max_position_mismatch"], float(np.abs(pos - res.position[b]).max()))
+            out["max_pos_error"] = _worst(out["max_pos_error"], err[usable])
+        out["max_position_mismatch"] = _worst(out["max_position_mismatch"], np.abs(pos - res.position[b]))
         bound = np.r_[
             (robot.lower - q).ravel(), (q - robot.upper).ravel(), (kmin - kjb).ravel(), (kjb - kmax).ravel(), 0.0
         ]
-        out["max_bound_violation"] = max(out["max_bound_violation"], float(bound.max()))
+        out["max_bound_violation"] = _worst(out["max_bound_violation"], bound)
         if lmask.any():
-            out["max_locked_violation"] = max(
-                out["max_locked_violation"], float(np.abs(q[:, lmask] - locked[lmask]).max())
-            )
+            out["max_locked_violation"] = _worst(out["max_locked_violation"], np.abs(q[:, lmask] - locked[lmask]))
         Qr, Kr, rate = reference_states(res, b)
         if rate.any():
             dqv = np.abs(q[rate] - Qr[rate]) - prm["dq"][b]
             Kr = np.where(lmask[None, :] & (Kr == np.inf), kjb, Kr)
             dkv = np.abs(kjb[rate] - Kr[rate]) - prm["dk"][b]
-            out["max_rate_violation"] = max(
-                out["max_rate_violation"], float(np.max(np.r_[dqv.ravel(), dkv.ravel(), 0.0]))
-            )
+            out["max_rate_violation"] = _worst(out["max_rate_violation"], np.r_[dqv.ravel(), dkv.ravel(), 0.0])
         # reported stiffness quantities, recomputed in numpy
         K = np.stack([_stiffness_or_nan(robot, q[p], kj[p], task) for p in range(res.P)])
         if np.isnan(K).any():  # an exactly singular compliance: its reported values cannot be re-checked
@@ -420,23 +421,23 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
         alpha, rho = np.full(res.P, np.nan), np.full(res.P, np.nan)
         if ok.any():
             alpha[ok], rho[ok] = np_alpha_ratio(K[ok], res.direction[b][ok])
-        out["max_alpha_mismatch"] = max(out["max_alpha_mismatch"], float(np.abs(alpha - res.alpha_deg[b]).max()))
-        out["max_ratio_mismatch"] = max(out["max_ratio_mismatch"], float((np.abs(rho - res.ratio[b]) / rho).max()))
+        out["max_alpha_mismatch"] = _worst(out["max_alpha_mismatch"], np.abs(alpha - res.alpha_deg[b]))
+        out["max_ratio_mismatch"] = _worst(out["max_ratio_mismatch"], (np.abs(rho - res.ratio[b]) / rho))
         crit = res.meta["criterion"]
         if crit in ("f1", "f2"):
             f = np_criterion(crit, alpha, rho, float(prm["ratio"][b]), c)
-            out["max_criterion_mismatch"] = max(
-                out["max_criterion_mismatch"], float((np.abs(f - res.criterion[b]) / np.abs(f)).max())
+            out["max_criterion_mismatch"] = _worst(
+                out["max_criterion_mismatch"], np.abs(f - res.criterion[b]) / np.abs(f)
             )
         cms_ref = np.full(res.P, np.nan)
         if ok.any():
             cms_ref[ok] = np_cms(K[ok], res.meta["cms"])
-        out["max_cms_mismatch"] = max(out["max_cms_mismatch"], float((np.abs(cms_ref - res.cms[b]) / cms_ref).max()))
+        out["max_cms_mismatch"] = _worst(out["max_cms_mismatch"], (np.abs(cms_ref - res.cms[b]) / cms_ref))
         # what the controller is commanded with: cms * kj (a rigid joint's inf stays inf)
         want = res.cms[b][:, None] * res.kj[b]
         got = res.kj_scaled[b]
         same = (want == got) | (np.isnan(want) & np.isnan(got))
         with np.errstate(invalid="ignore", divide="ignore"):
             rel = np.where(same, 0.0, np.abs(got - want) / np.abs(want))
-        out["max_kj_scaled_mismatch"] = max(out["max_kj_scaled_mismatch"], float(np.nan_to_num(rel, nan=inf).max()))
+        out["max_kj_scaled_mismatch"] = _worst(out["max_kj_scaled_mismatch"], np.nan_to_num(rel, nan=inf))
     return out

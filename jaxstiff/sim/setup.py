@@ -122,7 +122,8 @@ def cases_from_result(
             factor, so either checks the same mapping.
         urdf: the robot's URDF if the recorded path is not valid here (its sha256 must match).
     """
-    res = result if isinstance(result, ShapeResult) else ShapeResult.load(result)
+    # a file: the one reader (robot, joints, locked joints, positions by FK, task checked)
+    res = result if isinstance(result, ShapeResult) else ShapeResult.read(result, urdf)
     meta = res.meta
     try:
         robot = robot_from_meta(meta, urdf=urdf)

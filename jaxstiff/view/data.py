@@ -1,11 +1,12 @@
 """What the viewer, the plot and the export commands read from a result: :class:`ViewData`.
 
-One loader for the three kinds of result a user holds: a ``jaxstiff shape`` file (read with the
-results layer's :meth:`jaxstiff.results.ShapeResult.load`, which also names what is wrong with a
-file that is not a result), a ``jaxstiff csc`` file, and one row of a sweep folder (its
-``chunks/*.json`` name the array file and the index of the row). Everything is numpy: the chain is
-rebuilt from the file's ``meta`` (URDF path, links, locks, tcp; :func:`chain_from_meta`) and the
-stiffness ellipsoids come from :mod:`jaxstiff.view.kinematics`; JAX is not imported.
+One loader for the three kinds of result a user holds: a ``jaxstiff shape`` file, a ``jaxstiff
+csc`` file, and one row of a sweep folder (its ``chunks/*.json`` name the array file and the index
+of the row). Every file is read by the results layer's one reader
+(:func:`jaxstiff.results.reader.read_result`), which checks it against its meta and its robot and
+names what is wrong with a file it refuses. Everything is numpy: the chain is rebuilt from the
+file's ``meta`` (URDF path, links, locks, tcp; :func:`chain_from_meta`) and the stiffness
+ellipsoids come from :mod:`jaxstiff.view.kinematics`; JAX is not imported.
 
 Units: q in rad (m for prismatic joints), kj in Nm/rad (N/m for prismatic joints), positions in m,
 stiffness matrices in N/m, base frame throughout. A rigid locked joint (newer shape files,
@@ -23,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from jaxstiff.results.grid import PathGrid
-from jaxstiff.runtime.io import meta_loads
+from jaxstiff.results.reader import ResultFile, chain_from_meta, read_result
 from jaxstiff.view.kinematics import stiffness_T, tcp_position
 
 if TYPE_CHECKING:
@@ -51,6 +52,8 @@ class ViewData(PathGrid):
         arrays: the file's per-step arrays (B, P) by key, for the panel and the plots.
         meta: the file's meta record.
         labels: B names of the paths.
+        result: a shape file's :class:`~jaxstiff.results.ShapeResult` (every path of the file), else None.
+        index: the path of ``result`` shown (a sweep row's index in its array file), else None (all).
     """
 
     kind: str
@@ -66,6 +69,8 @@ class ViewData(PathGrid):
     arrays: dict[str, np.ndarray]
     meta: dict[str, Any]
     labels: list[str]
+    result: Any = None
+    index: int | None = None
 
     @property
     def locked_joints(self) -> str:
@@ -133,35 +138,6 @@ def sweep_row_file(folder: str, row: int) -> tuple[str, int]:
     raise ValueError(f"{folder}: no sweep row {row} (the folder has {seen} rows, row_id 0..{seen - 1})")
 
 
-def chain_from_meta(meta: dict[str, Any], urdf: str | None = None) -> Chain:
-    """The result's chain rebuilt from ``meta["robot"]`` (URDF path, links, locked joints, tcp) as
-    :func:`jaxstiff.results.robot_from_meta` does, but as a plain numpy :class:`Chain`: no JAX.
-
-    The URDF is opened only if it is a regular file of bounded size
-    (:func:`jaxstiff.results.numpy_check.result_urdf`). Its sha256 is checked against the recorded
-    one; a ``urdf`` given instead (a moved file) must be the result's robot
-    (:func:`jaxstiff.results.numpy_check.check_same_robot`).
-    """
-    from jaxstiff.model.chain import Chain
-    from jaxstiff.model.urdf import parse_urdf_chain
-    from jaxstiff.results.numpy_check import check_same_robot, result_urdf
-    from jaxstiff.runtime.io import file_sha256
-
-    try:
-        path, rmeta = result_urdf(meta, urdf)
-        if urdf is None and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
-            raise ValueError(f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...)")
-        tcp = np.asarray(rmeta["tcp"]) if rmeta.get("tcp") is not None else None
-        locked = rmeta.get("locked") or None
-        fields = parse_urdf_chain(path, rmeta.get("base_link") or None, rmeta.get("tip_link") or None, locked, tcp)
-    except FileNotFoundError as exc:
-        raise FileNotFoundError(f"{exc}; the result's URDF moved? give it with --urdf FILE") from None
-    chain = Chain(**fields)
-    if urdf is not None:
-        check_same_robot(rmeta, path, chain)
-    return chain
-
-
 def _block3(K: np.ndarray) -> np.ndarray:
     """The translational 3x3 block of (..., m, m) stiffness matrices (m = 2 padded with zeros)."""
     if K.shape[-1] == 2:
@@ -171,14 +147,14 @@ def _block3(K: np.ndarray) -> np.ndarray:
     return K[..., :3, :3]
 
 
-def _shape_data(file: str, urdf: str | None, index: int | None, source: str) -> ViewData:
+def _shape_data(rf: ResultFile, index: int | None, source: str) -> ViewData:
     from jaxstiff.results.files import ShapeResult
 
-    res = ShapeResult.load(file)
+    res = ShapeResult.from_file(rf)
     sel = slice(None) if index is None else slice(index, index + 1)
-    robot = chain_from_meta(res.meta, urdf)
+    robot = rf.chain
     q, kj = res.q[sel], res.kj_scaled[sel]
-    K = stiffness_T(robot, q, kj, str(res.meta.get("task", "full")))
+    K = stiffness_T(robot, q, kj, rf.task)
     keys = ("alpha_deg", "ratio", "criterion", "status", "cms", "pos_error")
     arrays = {k: np.asarray(getattr(res, k))[sel] for k in keys}
     arrays["kj_raw"] = res.kj[sel]
@@ -197,24 +173,21 @@ def _shape_data(file: str, urdf: str | None, index: int | None, source: str) -> 
         arrays,
         res.meta,
         labels,
+        result=res,
+        index=index,
     )
 
 
-def _csc_data(file: str, data: dict[str, np.ndarray], urdf: str | None, index: int | None, source: str) -> ViewData:
-    meta = meta_loads(str(data["meta"]))
+def _csc_data(rf: ResultFile, index: int | None, source: str) -> ViewData:
+    data, meta, robot = rf.arrays, rf.meta, rf.chain  # (per-step arrays with the batch axis)
     sel = slice(None) if index is None else slice(index, index + 1)
-    robot = chain_from_meta(meta, urdf)
-    q = np.asarray(data["q"], float)
-    if q.ndim == 2:  # a single rollout written without the batch axis
-        data = {k: (v[None] if k not in ("meta", "joint_names") else v) for k, v in data.items()}
-        q = q[None]
-    q = q[sel]
+    q = data["q"][sel]
     B, T = q.shape[:2]
-    position = np.asarray(data["position"], float)[sel]
-    target = np.asarray(data["target"], float)[sel]
+    position = data["position"][sel]
+    target = data["target"][sel]
     if target.shape[-1] == 2:
         target = np.concatenate([target, position[..., 2:3]], axis=-1)
-    Kxd = np.asarray(data["K_xd"], float)
+    Kxd = data["K_xd"] if "K_xd" in data else _meta_kxd(meta, rf.file)
     if Kxd.ndim == 3 and Kxd.shape[0] != 1 and index is not None:
         Kxd = Kxd[sel]
     Kxd = np.broadcast_to(_block3(Kxd).reshape((-1, 1, 3, 3) if Kxd.ndim == 3 else (1, 1, 3, 3)), (B, T, 3, 3))
@@ -225,16 +198,30 @@ def _csc_data(file: str, data: dict[str, np.ndarray], urdf: str | None, index: i
         source,
         robot,
         q,
-        np.asarray(data["kj"], float)[sel],
+        data["kj"][sel],
         target,
         position,
         None,
-        _block3(np.asarray(data["K_C"], float)[sel]),
+        _block3(data["K_C"][sel]),
         Kxd.copy(),
         arrays,
         meta,
         labels,
+        index=index,
     )
+
+
+def _meta_kxd(meta: dict[str, Any], file: str) -> np.ndarray:
+    """A csc file without its K_xd array (a library save): the meta's ``K_xd``, else NaN (not drawn)."""
+    try:
+        K = np.asarray(meta.get("K_xd", np.full((3, 3), np.nan)), dtype=float)
+    except (TypeError, ValueError):
+        K = np.zeros((0, 0, 0))
+    if K.ndim not in (2, 3) or K.shape[-1] != K.shape[-2] or K.shape[-1] not in (2, 3, 6):
+        from jaxstiff.results.reader import ResultFileError
+
+        raise ResultFileError(file, "meta K_xd", "a square 2x2, 3x3 or 6x6 matrix (no K_xd array)", meta.get("K_xd"))
+    return K
 
 
 def _path_names(rec: Any) -> list[str]:
@@ -274,21 +261,14 @@ def load_view_data(file: str | os.PathLike, row: int | None = None, urdf: str | 
         file, index = sweep_row_file(file, row)
     elif row is not None:
         raise ValueError(f"--row {row} is for a sweep folder; {file} is a result file (use --path B to pick a path)")
-    if not _is_csc(file):
-        return _shape_data(file, urdf, index, source)  # ShapeResult.load: its errors for other files
-    with np.load(file, allow_pickle=False) as z:
-        return _csc_data(file, {k: z[k] for k in z.files}, urdf, index, source)
-
-
-def _is_csc(file: str) -> bool:
-    """Whether ``file`` is a ``jaxstiff csc`` result (an npz with ``K_C`` and ``u``)."""
-    try:
-        with np.load(file, allow_pickle=False) as z:
-            return {"K_C", "u"} <= set(z.files)
-    except Exception:  # not an npz: ShapeResult.load says what it is
-        return False
+    rf = read_result(file, urdf)  # the one reader: schema, robot, joints, locks, positions, task
+    if index is not None and not 0 <= index < rf.arrays["q"].shape[0]:
+        raise ValueError(f"{source}: the row's result_index {index} is not a path of {file}")
+    return _shape_data(rf, index, source) if rf.kind == "shape" else _csc_data(rf, index, source)
 
 
 def check_positions(data: ViewData) -> float:
-    """Largest distance (m) between the stored TCP positions and the numpy FK of the stored q."""
+    """Largest distance (m) between the stored TCP positions and the numpy FK of the stored q (a file
+    read by :func:`load_view_data` has passed the reader's check of it:
+    :data:`jaxstiff.results.reader.POSITION_TOL`)."""
     return float(np.max(np.linalg.norm(tcp_position(data.robot, data.q) - data.position, axis=-1)))

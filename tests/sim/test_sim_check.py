@@ -73,14 +73,26 @@ def test_third_party_tree_with_tip_link_lock_and_rotated_tcp(mode):
 
 
 def _result_file(path, robot, q, kj, task, locked_joints):
+    """A result file as the readers accept it: positions the FK of q, the axis ratio that of (q, kj)
+    with the task (jaxstiff.results.reader checks both), placeholders elsewhere."""
+    from jaxstiff.results.numpy_check import np_alpha_ratio, np_fk_position, np_translational_stiffness
+
     B, P, n = q.shape
     zeros = np.zeros((B, P))
-    meta = {"robot": robot_meta(robot), "task": task, "settings": {"task": task}}
+    meta = {
+        "robot": robot_meta(robot), "task": task, "settings": {"task": task}, "criterion": "f2", "ratio": 3.0,
+        "cms": {"target_volume": 1e6, "target_major": None},
+        "limits": {"kmin": 1.0, "kmax": 1000.0, "dq": 1.0, "dk": 1000.0, "first_rate_limit": False},
+    }  # fmt: skip
     if locked_joints is not None:
         meta["settings"]["locked_joints"] = locked_joints
+    position = np.stack([np_fk_position(robot, q[b]) for b in range(B)])
+    direction = np.zeros((B, P, 3)) + [1.0, 0.0, 0.0]
+    K = np.stack([[np_translational_stiffness(robot, q[b, p], kj[b, p], task) for p in range(P)] for b in range(B)])
+    alpha, ratio = np_alpha_ratio(K, direction)
     res = ShapeResult(
-        joint_names=np.array(robot.joint_names), q=q, kj=kj, cms=zeros + 1, kj_scaled=kj, target=np.zeros((B, P, 3)),
-        direction=np.zeros((B, P, 3)), position=np.zeros((B, P, 3)), pos_error=zeros, alpha_deg=zeros, ratio=zeros,
+        joint_names=np.array(robot.joint_names), q=q, kj=kj, cms=zeros + 1, kj_scaled=kj, target=position,
+        direction=direction, position=position, pos_error=zeros, alpha_deg=alpha, ratio=ratio,
         criterion=zeros, status=zeros.astype(int), q0=q[:, 0], kj0=kj[:, 0], solver_code=zeros.astype(int),
         nit=zeros.astype(int), nfev=zeros.astype(int), time_s=zeros, meta=meta,
     )  # fmt: skip

@@ -1,6 +1,8 @@
 """Result files for the viewer tests, built from arrays (no solver run): q is drawn at random inside
 the limits, the stored TCP positions come from :func:`jaxstiff.fk` (JAX, independent of the
-viewer's numpy FK), the stiffness numbers are placeholders the viewer only displays."""
+viewer's numpy FK), alpha and the axis ratio are those of (q, kj) with the task (the readers check
+the ratio against the task); the criterion and the CMS factor are placeholders the viewer only
+displays."""
 
 from __future__ import annotations
 
@@ -28,7 +30,13 @@ def make_shape_result(
         kj[..., ~robot.free] = np.inf
     position = np.asarray(jaxstiff.fk(robot, q))[..., :3, 3]
     d = rng.normal(size=(B, P, 3))
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
     z = np.zeros((B, P))
+    from jaxstiff.results.numpy_check import np_alpha_ratio
+    from jaxstiff.view.kinematics import stiffness_T
+
+    K = stiffness_T(robot, q, kj, task)
+    alpha, ratio = np_alpha_ratio(K[..., :2, :2] if task == "xy" else K, d)
     meta = {
         "robot": robot_meta(robot),
         "task": task,
@@ -37,6 +45,8 @@ def make_shape_result(
         "c": 1.0,
         "solver": "test",
         "settings": {"locked_joints": "rigid" if rigid else "spring"},
+        "limits": {"kmin": 1.0, "kmax": 100.0, "dq": 0.035, "dk": 5.0, "first_rate_limit": False},
+        "cms": {"target_volume": 1e6, "target_major": None},
         "path": {"name": ";".join(f"p{b}" for b in range(B))},
     }
     return jaxstiff.ShapeResult(
@@ -46,11 +56,11 @@ def make_shape_result(
         cms=np.full((B, P), 2.0),
         kj_scaled=2.0 * kj,
         target=position + 1e-12,
-        direction=d / np.linalg.norm(d, axis=-1, keepdims=True),
+        direction=d,
         position=position,
         pos_error=np.full((B, P), 1e-12),
-        alpha_deg=z + 0.5,
-        ratio=z + 5.0,
+        alpha_deg=alpha,
+        ratio=ratio,
         criterion=z + 1.5,
         status=np.zeros((B, P), dtype=np.int64),
         q0=q[:, 0],
