@@ -375,14 +375,15 @@ def test_library_interrupt_carries_the_finished_part():
 def test_a_signal_while_the_command_starts_up_stops_it():
     """Ctrl-C in the second the command spends importing JAX used to land in JAX's GC callback,
     be printed and dropped, and the command ran to the end with exit 0. Started as the command
-    (argv[0] 'jaxstiff'), the package's import now remembers the signal and the command stops
-    before any work with exit 130; imported as a library, the handlers are left alone."""
+    (argv[0] 'jaxstiff'), the command line's first import (jaxstiff.cli -> runtime.command_start)
+    now remembers the signal and the command stops before any work with exit 130; imported as a
+    library (``import jaxstiff``), the handlers are left alone."""
     # a background job inherits SIGINT ignored, and Python then leaves it so: start as a terminal would
     dfl = "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
     code = dfl + (
         "import os, signal, sys\n"
         "sys.argv[0] = 'jaxstiff'\n"
-        "import jaxstiff\n"
+        "import jaxstiff.runtime.command_start  # what the console script's import of jaxstiff.cli runs first\n"
         "os.kill(os.getpid(), signal.SIGINT)  # during the start-up: remembered, not raised\n"
         "from jaxstiff.cli import main\n"
         "sys.exit(main(['robot', '--robot', 'planar_3r']))\n"
