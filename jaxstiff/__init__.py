@@ -8,6 +8,7 @@ import their module the first time they are used; ``from jaxstiff import fk`` wo
 
 from __future__ import annotations
 
+import sys as _sys
 from typing import TYPE_CHECKING
 
 # Importing the package changes nothing process-wide: the command line (jaxstiff.cli) installs
@@ -94,7 +95,7 @@ __all__ = [
 
 
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _SOURCES)
-keep_public_names(__import__("sys").modules[__name__], MOVED, __all__)  # jaxstiff.ellipsoid stays the function
+keep_public_names(_sys.modules[__name__], MOVED, __all__)  # jaxstiff.ellipsoid stays the function
 
 
 if TYPE_CHECKING:  # the names as the type checker and the IDE see them
