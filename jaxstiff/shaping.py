@@ -37,7 +37,7 @@ import numpy as np
 from jaxstiff.model.reach import check_reach
 from jaxstiff.model.robot import Robot
 from jaxstiff.paths import Path
-from jaxstiff.results import files as R
+from jaxstiff.results.files import ShapeResult
 from jaxstiff.results.singular import singular_meta, singular_waypoints, warn_singular
 from jaxstiff.results.target import warn_missed_target
 from jaxstiff.runtime.compile_cache import CompileClock, ensure_compile_cache
@@ -141,7 +141,7 @@ class ShapeInterrupted(KeyboardInterrupt):
     meta has ``interrupted: true``. A subclass of ``KeyboardInterrupt``, so an interrupt still
     stops the caller; catch it to keep the finished part (the command line saves it)."""
 
-    def __init__(self, result: R.ShapeResult):
+    def __init__(self, result: ShapeResult):
         super().__init__()
         self.result = result
 
@@ -204,7 +204,7 @@ def shape(
     kj0: Any = None,
     progress: Callable[[int, int], None] | None = None,
     **inline: Any,
-) -> R.ShapeResult:
+) -> ShapeResult:
     """Shape the stiffness ellipsoid along one or more TCP paths (seed 000, S0-9 ... S0-15).
 
     Args:
@@ -304,7 +304,7 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
     progress: Callable[[int, int], None] | None = None,
     meta_extra: Mapping[str, Any] | None = None,
     _stacklevel: int = 3,
-) -> R.ShapeResult:
+) -> ShapeResult:
     """:func:`shape` with every input as a parameter (solver by name, options as a dict): the way
     in of the command line and the sweeps.
 
