@@ -153,17 +153,23 @@ def _read_numbers(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _settings(args: argparse.Namespace, v: dict[str, Any], robot: Robot) -> dict[str, Any]:
-    """The keywords of :func:`~jaxstiff.shaping.run_shape` for the settings flags: ``criterion``
-    and ``ratio`` (its positional arguments, checked there), the rate limits as ``dq`` / ``dk``
-    (per joint, or left out for the per-metre ones: :func:`limit_kwargs`) and every other flag
-    in ``settings``."""
+    """The keywords of :func:`~jaxstiff.shaping.run_shape` for the settings flags: each setting
+    that ``run_shape`` names as a keyword (checked there, with its messages), the rate limits as
+    ``dq`` / ``dk`` (per joint, or left out for the per-metre ones: :func:`limit_kwargs`), and
+    every other setting (per-metre limits, a field ``run_shape`` does not name) in ``settings``."""
+    import inspect
+
+    from jaxstiff.shaping import run_shape
+
     limits = limit_kwargs(args, joint_rate_limits(robot, v["dq"], v["dq_m"]), v["dk"])
-    per_m = limits.pop("settings", None)
-    apart = ("criterion", "ratio", "dq", "dk", "dq_per_m", "dk_per_m")
-    given = {k: x for k, x in v.items() if k in setting_flags(ShapeSettings) and k not in apart and x is not None}
-    if per_m is not None:
-        given.update(dq_per_m=per_m.dq_per_m, dk_per_m=per_m.dk_per_m)
-    return {"criterion": v["criterion"], "ratio": v["ratio"], "settings": ShapeSettings(**given), **limits}
+    settings = limits.pop("settings", None)
+    named = inspect.signature(run_shape).parameters
+    fields = {k: v[k] for k in setting_flags(ShapeSettings) if k not in ("dq", "dk", "dq_per_m", "dk_per_m")}
+    rest = {k: x for k, x in fields.items() if k not in named and x is not None}
+    if rest:
+        settings = (settings or ShapeSettings()).replace(**rest)
+    out = {k: x for k, x in fields.items() if k in named}
+    return {**out, **limits, **({} if settings is None else {"settings": settings})}
 
 
 def _read_paths(files: list[str] | None) -> tuple[Path, list[str]]:
