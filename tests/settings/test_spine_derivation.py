@@ -73,7 +73,7 @@ def test_a_new_shape_setting_is_a_flag_of_jaxstiff_shape(wider):
     act = _action(p, "--wrist-margin")
     assert act.default == 0.25 and act.dest == "wrist_margin"
     text = p.format_help()
-    assert MARGIN_DOC in text and "rad" in act.help and "(default: 0.25)" in " ".join(text.split())
+    assert MARGIN_DOC in text and "rad" in (act.help or "") and "(default: 0.25)" in " ".join(text.split())
     args = p.parse_args(["--wrist-margin", "0.5"])
     values = shape_cmd._read_numbers(args)
     assert values["wrist_margin"] == 0.5
@@ -102,7 +102,8 @@ def test_a_new_csc_setting_is_a_flag_of_jaxstiff_csc(wider):
     settings = csc_flags.settings_from_args(p.parse_args([*required, "--settle-steps", "7"]))
     assert isinstance(settings, WiderCSC) and settings.settle_steps == 7
     assert settings.meta()["settle_steps"] == 7 and settings.meta()["units"]["settle_steps"] == "steps"
-    assert csc_flags.settings_from_args(p.parse_args(required)).settle_steps == 3
+    default = csc_flags.settings_from_args(p.parse_args(required))
+    assert isinstance(default, WiderCSC) and default.settle_steps == 3
     with pytest.raises(ValueError, match="--settle-steps must be an integer >= 0, got -2"):
         csc_flags.settings_from_args(p.parse_args([*required, "--settle-steps", "-2"]))
 
