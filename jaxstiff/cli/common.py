@@ -13,7 +13,7 @@ import os
 import re
 import tempfile
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from jaxstiff.settings.robot import RobotSpec
@@ -281,14 +281,6 @@ def add_robot_flags(p: argparse.ArgumentParser) -> None:
         help="tool offset after the tip link, in the tip frame: m, and rad for the URDF-style "
         "roll-pitch-yaw rotation (default: none)",
     )
-
-
-def setting_help(cls: Any, name: str, unit: str | None = None, extra: str = "") -> str:
-    """A flag's help from a settings field: ``"<doc>, <unit><extra>"`` (``unit`` overrides the
-    field's, e.g. degrees for ``--dq-deg``), so the command line and the API say the same."""
-    info = {i.name: i for i in cls.fields_info()}[name]
-    u = info.unit if unit is None else unit
-    return f"{info.doc}{', ' + u if u else ''}{extra}"
 
 
 def robot_spec_from_args(args: argparse.Namespace) -> RobotSpec:

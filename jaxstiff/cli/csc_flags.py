@@ -6,11 +6,12 @@ from __future__ import annotations
 import argparse
 import math
 import re
-from typing import Any
 
 import numpy as np
 
 from jaxstiff.cli.common import parse_floats
+from jaxstiff.cli.setting_flags import add_setting_flags as add_settings_flags
+from jaxstiff.cli.setting_flags import read_setting_flags, setting_flags
 from jaxstiff.settings.csc import CSCSettings
 
 __all__ = [
@@ -69,57 +70,24 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
     return K
 
 
-#: the settings flags of `jaxstiff csc`: CSCSettings field -> flag (defaults, units and help from the field)
-SETTING_FLAGS = {
-    "beta": "--beta",
-    "step": "--step",
-    "task": "--task",
-    "kmin": "--kmin",
-    "kmax": "--kmax",
-    "nu0": "--nu0",
-    "damping": "--damping",
-    "null_eps": "--null-eps",
-    "newton": "--newton",
-    "joint_limits": "--joint-limits",
-    "jl_gain": "--jl-gain",
-    "objective": "--objective",
-    "locked_joints": "--locked-joints",
-}
+#: the settings flags of `jaxstiff csc`: CSCSettings field -> flag (made from the fields: jaxstiff.cli.setting_flags)
+SETTING_FLAGS = setting_flags(CSCSettings)
 
 
 def add_setting_flags(p: argparse.ArgumentParser, later: dict[str, str] | None = None) -> None:
-    """One flag per :class:`CSCSettings` field (:data:`SETTING_FLAGS`), its default, unit and doc from the field.
+    """One flag per :class:`CSCSettings` field (:data:`SETTING_FLAGS`), its type, default, unit and
+    doc from the field (:func:`jaxstiff.cli.setting_flags.add_setting_flags`, argparse converting).
 
     ``later``: fields whose default the command resolves itself (the flag's value stays None when
     not given), each with the text its help shows after the default (e.g. ``"; with --hold: constant"``)."""
-    later = later or {}
-    for info in CSCSettings.fields_info():
-        flag = SETTING_FLAGS[info.name]
-        kind: Any = int if info.name == "newton" else str if info.choices else float
-        choices = [c for c in info.choices if c is not None] if info.choices else None
-        unit = f" [{info.unit}]" if info.unit and info.unit != "1" else ""
-        shown = (
-            ""
-            if info.default is None
-            else f" (default: {info.default:g})"
-            if isinstance(info.default, float)
-            else f" (default: {info.default})"
-        )
-        if info.name in later:
-            shown = shown[:-1] + later[info.name] + ")"
-        help_text = info.doc + unit + shown
-        default = None if info.name in later else info.default
-        p.add_argument(flag, type=kind, choices=choices, default=default, help=help_text)
+    add_settings_flags(p, CSCSettings, typed=True, later=later)
 
 
 def settings_from_args(args: argparse.Namespace) -> CSCSettings:
     """The :class:`CSCSettings` of the flags (a flag left None: the field's default); an error names
     the flag (``--kmin must be ...``)."""
     defaults = CSCSettings.defaults()
-    values: dict[str, Any] = {}
-    for name in SETTING_FLAGS:
-        v = getattr(args, name)
-        values[name] = defaults[name] if v is None and name in ("step", "beta") else v
+    values = {k: defaults[k] if v is None else v for k, v in read_setting_flags(args, CSCSettings).items()}
     try:
         return CSCSettings(**values)
     except ValueError as e:

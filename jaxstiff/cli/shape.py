@@ -15,11 +15,13 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from jaxstiff.cli.common import check_out_file, command, robot_spec_from_args
+from jaxstiff.cli.setting_flags import read_setting_flags, setting_flags
 from jaxstiff.cli.shape_flags import EPILOG as EPILOG
 from jaxstiff.cli.shape_flags import add_shape_flags as add_shape_flags
 from jaxstiff.cli.shape_flags import limit_kwargs
 from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending, raise_if_interrupted
 from jaxstiff.runtime.progress import Progress, progress
+from jaxstiff.settings.shape import ShapeSettings
 
 if TYPE_CHECKING:
     import numpy as np
@@ -28,7 +30,7 @@ if TYPE_CHECKING:
     from jaxstiff.paths import Path
     from jaxstiff.results.files import ShapeResult
 
-__all__ = ["summary_table", "rate_limits", "WaypointProgress", "add_shape_flags", "run_shape"]
+__all__ = ["summary_table", "rate_limits", "joint_rate_limits", "WaypointProgress", "add_shape_flags", "run_shape"]
 
 
 def _num(text: Any, flag: str, cast: Any = float) -> Any:
@@ -118,9 +120,13 @@ def summary_table(res: ShapeResult) -> str:
 def rate_limits(robot: Robot, dq_deg: float, dq_m: float | None) -> float | np.ndarray:
     """Per-joint rate limit (n,): revolute joints from --dq-deg (rad), prismatic ones from --dq-m
     (m; default the same number as the revolute joints' radians), a scalar when all are revolute."""
+    return joint_rate_limits(robot, math.radians(dq_deg), dq_m)
+
+
+def joint_rate_limits(robot: Robot, dq: float, dq_m: float | None) -> float | np.ndarray:
+    """:func:`rate_limits` from ``dq`` in rad (the field's unit, as :func:`read_setting_flags` gives it)."""
     import numpy as np
 
-    dq = math.radians(dq_deg)
     prismatic = robot.prismatic
     if not prismatic.any():
         return dq
@@ -129,25 +135,41 @@ def rate_limits(robot: Robot, dq_deg: float, dq_m: float | None) -> float | np.n
 
 # ---------------------------------------------------------------------- run
 def _read_numbers(args: argparse.Namespace) -> dict[str, Any]:
-    """The numeric flags, checked (errors name the flag)."""
-    v = {
-        "ratio": _num(args.ratio, "--ratio"),
-        "dq_deg": _num(args.dq_deg, "--dq-deg"),
-        "dk": _num(args.dk, "--dk"),
-        "kmin": _num(args.kmin, "--kmin"),
-        "kmax": _num(args.kmax, "--kmax"),
-        "c": _num(args.c, "--c"),
-        "starts": _num(args.starts, "--starts", int),
-        "first_starts": _num(args.first_starts, "--first-starts", int),
-        "cms_volume": _num(args.cms_volume, "--cms-volume"),
-        "cms_major": _num(args.cms_major, "--cms-major"),
-        "dq_m": _num(args.dq_m, "--dq-m"),
-    }
-    for key, flag, unit in (("dq_deg", "--dq-deg", "degrees"), ("dq_m", "--dq-m", "m"), ("dk", "--dk", "Nm/rad")):
+    """The settings flags (``{field: value}``, dq in rad) and the other numeric flags, checked
+    (errors name the flag)."""
+    v = read_setting_flags(args, ShapeSettings)
+    v.update(
+        cms_volume=_num(args.cms_volume, "--cms-volume"),
+        cms_major=_num(args.cms_major, "--cms-major"),
+        dq_m=_num(args.dq_m, "--dq-m"),
+    )
+    for key, flag, unit in (("dq", "--dq-deg", "degrees"), ("dq_m", "--dq-m", "m"), ("dk", "--dk", "Nm/rad")):
         x = v[key]
         if x is not None and (math.isnan(x) or x < 0):
-            raise ValueError(f"{flag} must be >= 0 ({unit} per waypoint), got {getattr(args, key)}")
+            raise ValueError(
+                f"{flag} must be >= 0 ({unit} per waypoint), got {getattr(args, flag[2:].replace('-', '_'))}"
+            )
     return v
+
+
+def _settings(args: argparse.Namespace, v: dict[str, Any], robot: Robot) -> dict[str, Any]:
+    """The keywords of :func:`~jaxstiff.shaping.run_shape` for the settings flags: each setting
+    that ``run_shape`` names as a keyword (checked there, with its messages), the rate limits as
+    ``dq`` / ``dk`` (per joint, or left out for the per-metre ones: :func:`limit_kwargs`), and
+    every other setting (per-metre limits, a field ``run_shape`` does not name) in ``settings``."""
+    import inspect
+
+    from jaxstiff.shaping import run_shape
+
+    limits = limit_kwargs(args, joint_rate_limits(robot, v["dq"], v["dq_m"]), v["dk"])
+    settings = limits.pop("settings", None)
+    named = inspect.signature(run_shape).parameters
+    fields = {k: v[k] for k in setting_flags(ShapeSettings) if k not in ("dq", "dk", "dq_per_m", "dk_per_m")}
+    rest = {k: x for k, x in fields.items() if k not in named and x is not None}
+    if rest:
+        settings = (settings or ShapeSettings()).replace(**rest)
+    out = {k: x for k, x in fields.items() if k in named}
+    return {**out, **limits, **({} if settings is None else {"settings": settings})}
 
 
 def _read_paths(files: list[str] | None) -> tuple[Path, list[str]]:
@@ -289,20 +311,9 @@ def run_shape(args: argparse.Namespace) -> int:
     kw = dict(
         robot=robot,
         path=path,
-        criterion=args.criterion,
-        ratio=v["ratio"],
-        task=args.task,
-        locked_joints=args.locked_joints,
-        solver=args.solver,
-        starts=v["starts"],
         q0=None if q0 is None else np.asarray(q0),
         kj0=kj0,
-        **limit_kwargs(args, rate_limits(robot, v["dq_deg"], v["dq_m"]), v["dk"]),
-        kmin=v["kmin"],
-        kmax=v["kmax"],
-        c=v["c"],
-        first_rate_limit=args.first_rate_limit,
-        first_starts=v["first_starts"],
+        **_settings(args, v, robot),
         cms_volume=v["cms_volume"],
         cms_major=v["cms_major"],
         meta_extra={"path_files": path_files, "robot_spec": spec.meta(), "cli": cli_record(args)},

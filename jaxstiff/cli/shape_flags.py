@@ -1,4 +1,5 @@
-"""The flags of ``jaxstiff shape``: defaults, units and help from :class:`~jaxstiff.settings.ShapeSettings`."""
+"""The flags of ``jaxstiff shape``: one per :class:`~jaxstiff.settings.ShapeSettings` field (made from the
+field's metadata), and the files, start states and CMS targets written here."""
 
 from __future__ import annotations
 
@@ -6,8 +7,9 @@ import argparse
 import math
 from typing import Any
 
-from jaxstiff.cli.common import add_robot_flags, reads, setting_help, writes
-from jaxstiff.settings.shape import LOCKED_JOINT_MODES, TASKS, ShapeSettings
+from jaxstiff.cli.common import add_robot_flags, reads, writes
+from jaxstiff.cli.setting_flags import add_setting_flags
+from jaxstiff.settings.shape import ShapeSettings
 
 __all__ = ["EPILOG", "add_shape_flags", "limit_kwargs"]
 
@@ -23,7 +25,7 @@ EPILOG = (
 
 
 # ---------------------------------------------------------------------- flags
-def _add_problem_flags(p: argparse.ArgumentParser) -> None:
+def _add_path_flags(p: argparse.ArgumentParser) -> None:
     path = p.add_argument(
         "--path",
         action="append",
@@ -34,36 +36,14 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         "default path (jaxstiff.paths.default_path)",
     )
     reads(path)
-    p.add_argument(
-        "--criterion",
-        default=_S.criterion,
-        type=str.lower,  # F2 is f2
-        choices=("f1", "f2"),
-        help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)",
-    )
-    p.add_argument("--ratio", default=_S.ratio, metavar="R", help=setting_help(ShapeSettings, "ratio", extra=", > 1"))
     writes(
         p.add_argument("--out", default="shape.npz", metavar="FILE.npz", help="result file (written atomically)"),
         suffix=".npz",
     )
-    p.add_argument(
-        "--task",
-        default=_S.task,
-        choices=list(TASKS),
-        help="which stiffness is shaped. full (seed 000): the top-left 3x3 of the 6x6 K_C, what a force "
-        "meets with the tool's orientation HELD (clamp, peg in a hole); xyz: the inverse of the translational "
-        "compliance, what a pure force at the TCP meets with the tool FREE TO TURN: shaping contact with a "
-        "tool that may turn wants xyz (a full result's ellipsoid can be far off there: docs/concepts.md, "
-        "'Which stiffness is shaped?'); xy: planar arms, 2x2 (default: %(default)s)",
-    )
-    p.add_argument(
-        "--locked-joints",
-        default=_S.locked_joints,
-        choices=list(LOCKED_JOINT_MODES),
-        help="rigid: a locked joint (--lock) has no spring, adds no compliance and has no stiffness "
-        "variable (its kj in the file is inf); spring: it keeps its spring, whose stiffness is "
-        "optimised like a free joint's (SPEC section 1) (default: %(default)s)",
-    )
+
+
+def _add_start_and_target_flags(p: argparse.ArgumentParser) -> None:
+    """The flags that are not settings: start states, the prismatic rate limit, CMS targets."""
     p.add_argument(
         "--q0",
         default=None,
@@ -79,63 +59,12 @@ def _add_problem_flags(p: argparse.ArgumentParser) -> None:
         "rigid locked joints are ignored) or, with rigid locked joints, one per free joint "
         "(default: mid-range (kmin+kmax)/2)",
     )
-
-
-def _add_limit_flags(p: argparse.ArgumentParser) -> None:
-    dq_group, dk_group = p.add_mutually_exclusive_group(), p.add_mutually_exclusive_group()
-    dq_group.add_argument(
-        "--dq-deg",
-        default=math.degrees(_S.dq),
-        metavar="D",
-        help=setting_help(ShapeSettings, "dq", unit="degrees per waypoint", extra=" (inf = none)"),
-    )
     p.add_argument(
         "--dq-m",
         default=None,
         metavar="M",
         help="rate limit of prismatic joints, m per waypoint (inf = none; default: the value of "
-        "--dq-deg in radians read as metres, 2 -> 0.0349 m)",
-    )
-    dq_group.add_argument(
-        "--dq-per-m",
-        default=None,
-        metavar="RAD_PER_M",
-        help=setting_help(ShapeSettings, "dq_per_m", extra="; instead of --dq-deg and --dq-m")
-        + ": each path's limit per waypoint is this times its (shortest) segment length, so the result "
-        "does not depend on how densely the path is sampled",
-    )
-    dk_group.add_argument(
-        "--dk", default=_S.dk, metavar="K", help=setting_help(ShapeSettings, "dk", extra=" (inf = none)")
-    )
-    dk_group.add_argument(
-        "--dk-per-m",
-        default=None,
-        metavar="K_PER_M",
-        help=setting_help(ShapeSettings, "dk_per_m", extra="; instead of --dk")
-        + ": each path's limit per waypoint is this times its (shortest) segment length",
-    )
-    p.add_argument("--kmin", default=_S.kmin, metavar="A", help=setting_help(ShapeSettings, "kmin", extra=", > 0"))
-    p.add_argument("--kmax", default=_S.kmax, metavar="B", help=setting_help(ShapeSettings, "kmax", extra=", > kmin"))
-    p.add_argument("--c", default=_S.c, metavar="C", help=setting_help(ShapeSettings, "c"))
-    p.add_argument(
-        "--first-rate-limit",
-        dest="first_rate_limit",
-        action="store_true",
-        help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
-        "first waypoint may use the full joint and stiffness ranges)",
-    )
-    p.add_argument(
-        "--no-first-rate-limit",
-        dest="first_rate_limit",
-        action="store_false",
-        help="the default: do not rate-limit the first waypoint",
-    )
-    p.set_defaults(first_rate_limit=_S.first_rate_limit)
-    p.add_argument(
-        "--first-starts",
-        default=_S.first_starts,
-        metavar="N",
-        help="start postures for the first (not rate-limited) waypoint",
+        "--dq-deg in radians read as metres, 2 -> 0.0349 m; not with --dq-per-m)",
     )
     p.add_argument(
         "--cms-volume",
@@ -150,32 +79,19 @@ def _add_limit_flags(p: argparse.ArgumentParser) -> None:
         metavar="N_PER_M",
         help="CMS target: major axis lambda1, N/m, instead of the volume",
     )
-
-
-def _add_solver_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--solver",
-        default=_S.solver,
-        help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
-        "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
-        "trajectory after a greedy warm start), or another registered solver",
-    )
-    p.add_argument(
-        "--starts",
-        default=_S.starts,
-        metavar="S",
-        help="starts per waypoint, multi-start solvers only (default: the solver's own)",
-    )
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary table")
 
 
 def add_shape_flags(p: argparse.ArgumentParser) -> None:
-    """Every flag of ``jaxstiff shape`` (the robot flags are every command's)."""
+    """Every flag of ``jaxstiff shape``: the robot flags (every command's), the path and result
+    files, one flag per :class:`ShapeSettings` field (:func:`~jaxstiff.cli.setting_flags.add_setting_flags`;
+    the command reads their text, :func:`~jaxstiff.cli.setting_flags.read_setting_flags`), then
+    the start states and the CMS targets."""
     p.epilog = EPILOG
     add_robot_flags(p)
-    _add_problem_flags(p)
-    _add_limit_flags(p)
-    _add_solver_flags(p)
+    _add_path_flags(p)
+    add_setting_flags(p, ShapeSettings, typed=False)
+    _add_start_and_target_flags(p)
 
 
 def _per_metre(text: Any, flag: str) -> float | None:

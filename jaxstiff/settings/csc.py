@@ -2,7 +2,9 @@
 
 ``csc_rollout()``, ``jaxstiff csc`` and a sweep's ``[csc]`` axes read their defaults here.
 Seed 001 fixes the update rule (S1-13 ... S1-22) but not these numbers; every one is this
-project's choice (SPEC section 6; the :mod:`jaxstiff.csc` docstrings say why).
+project's choice (SPEC section 6; the :mod:`jaxstiff.csc` docstrings say why). The flags of
+``jaxstiff csc`` and the sweep's csc ``[axes]`` are made from these fields (:mod:`jaxstiff.settings.base`);
+a swept field is static (one compiled rollout per value) unless its ``Axis`` says otherwise.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import dataclasses
 import math
 from typing import Literal
 
-from jaxstiff.settings.base import Settings, setting
+from jaxstiff.settings.base import Axis, Settings, setting
 
 __all__ = [
     "CSCSettings",
@@ -22,6 +24,7 @@ __all__ = [
     "LOCKED_JOINT_MODES",
     "DEFAULT_JL_GAIN",
     "TASK_BY_SIZE",
+    "CSC_SWEEP_TASK",
 ]
 
 CSC_TASKS = ("xy", "xyz", "full")  #: task rows; None = from the size of K_xd
@@ -33,6 +36,7 @@ OBJECTIVES = ("offdiag", "frobenius")
 #: a locked joint without a spring (SPEC section 1's default) or with one (a compliant actuator holding it)
 LOCKED_JOINT_MODES = ("rigid", "spring")
 DEFAULT_JL_GAIN = 0.3  #: the joint-limit gain used when avoidance is on and no gain is given
+CSC_SWEEP_TASK = "xyz"  #: task None resolved for a sweep's 3x3 K_xd (jaxstiff.sweep.axes)
 
 
 def _is_real(v: object) -> bool:
@@ -89,9 +93,14 @@ class CSCSettings(Settings):
     """
 
     section = "csc"
+    sweep_static = True  # a rollout compiles per value: a swept field is part of the group key
 
     task: str | None = setting(
-        None, choices=(None, *CSC_TASKS), doc="task rows (default: from the size of K_xd: 2 xy, 3 xyz, 6 full)"
+        None,
+        choices=(None, *CSC_TASKS),
+        doc="task rows (default: from the size of K_xd: 2 xy, 3 xyz, 6 full)",
+        # a sweep's K_xd is 2x2 or 3x3 (jaxstiff.sweep.axes.kxd_matrix): None is xyz there
+        axis=Axis(from_field=lambda v: v or CSC_SWEEP_TASK, choices=("xy", "xyz")),
     )
     step: str = setting(
         "adaptive",
@@ -103,6 +112,7 @@ class CSCSettings(Settings):
         unit="1 (adaptive) or rad per step (constant; m for prismatic joints)",
         doc="null-step multiplier (S1-22); constant rule: the null-step length",
         check=_finite_non_negative,
+        axis=Axis(static=False, unit=""),  # one value per rollout: csc_rollout's fifth argument
     )
     kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive)
     kmax: float = setting(
@@ -113,12 +123,21 @@ class CSCSettings(Settings):
         unit="1",
         doc="isotropy threshold: damping below nu0^(m/2) (S1-16's damped inverse)",
         check=_isotropy_threshold,
+        axis=None,
     )
     damping: float = setting(
-        0.1, unit="1", doc="relative damping lam / sqrt(tr(J J^T)/m) at a singularity", check=_finite_non_negative
+        0.1,
+        unit="1",
+        doc="relative damping lam / sqrt(tr(J J^T)/m) at a singularity",
+        check=_finite_non_negative,
+        axis=None,
     )
     null_eps: float | None = setting(
-        None, unit="Nm/rad^2", doc="floor of |dq_N| (default: 1e-9 |K_xd|_F, from the dtype)", check=_optional_positive
+        None,
+        unit="Nm/rad^2",
+        doc="floor of |dq_N| (default: 1e-9 |K_xd|_F, from the dtype)",
+        check=_optional_positive,
+        axis=None,
     )
     newton: int = setting(
         1,
@@ -138,6 +157,7 @@ class CSCSettings(Settings):
         f"sum = weight against the CSC gradient at a limit (default: {DEFAULT_JL_GAIN} with joint_limits priority "
         f"or sum, else 0)",
         check=_optional_gain,
+        axis=Axis(unit=""),
     )
 
     objective: Literal["offdiag", "frobenius"] = setting(

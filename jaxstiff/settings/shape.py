@@ -2,8 +2,9 @@
 
 ``shape()``, ``jaxstiff shape`` and a sweep's ``[shape]`` axes read their defaults here. Units
 are those of the API: joint rate limits in rad per waypoint (``dq``; m for prismatic joints);
-the command line's ``--dq-deg`` and the sweep's ``dq_deg`` are degrees and are converted by
-:meth:`ShapeSettings.dq_from_deg`. Every result file records the settings it ran with, with
+the command line's ``--dq-deg`` and the sweep's ``dq_deg`` are degrees (the field's ``Flag`` and
+``Axis`` convert: :func:`dq_to_deg`, :meth:`ShapeSettings.dq_from_deg`). The flags of
+``jaxstiff shape`` and the sweep's ``[axes]`` are made from these fields (:mod:`jaxstiff.settings.base`). Every result file records the settings it ran with, with
 their units (``meta["settings"]``).
 
 ``ratio``, ``dq`` and ``dk`` may also be given per path (and per joint) to :func:`jaxstiff.shape`;
@@ -29,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 
 from jaxstiff.model.chain import LOCKED_JOINT_MODES
-from jaxstiff.settings.base import Settings, at_least, non_negative, positive, setting
+from jaxstiff.settings.base import Axis, Flag, Settings, at_least, non_negative, positive, setting
 
 __all__ = [
     "ShapeSettings",
@@ -44,6 +45,7 @@ __all__ = [
     "shortest_segments",
     "SEGMENT_SPREAD_WARN",
     "task_dim",
+    "dq_to_deg",
 ]
 
 CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
@@ -62,6 +64,16 @@ DEFAULT_DQ_DEG = 2.0  #: joint rate limit, degrees per waypoint (the seed leaves
 SEGMENT_SPREAD_WARN = 1.1
 
 
+def dq_to_deg(dq: float) -> float:
+    """A joint rate limit in rad as the degrees of ``--dq-deg`` and the sweep's ``dq_deg``, to 12
+    significant digits (the default shows as 2.0, not 2.0000000000000004)."""
+    return float(f"{math.degrees(dq):.12g}")
+
+
+def _starts_axis_check(v: object) -> str | None:
+    return None if isinstance(v, int) and v >= 0 else "must be an integer >= 0 (0: the solver's default)"
+
+
 def _optional_non_negative(v: object) -> str | None:
     return None if v is None else non_negative(v)
 
@@ -70,7 +82,7 @@ def _ratio(v: object) -> str | None:
     return (
         None
         if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 1
-        else "must be a finite number > 1 (lambda1 / lambda2)"
+        else "must be > 1 and finite (lambda1 / lambda2)"
     )
 
 
@@ -84,47 +96,150 @@ class ShapeSettings(Settings):
 
     section = "shape"
 
-    criterion: str = setting("f2", doc="shaping criterion: f1 (ratio at least r) or f2 (ratio exactly r)")
-    ratio: float = setting(5.0, doc="wanted axis ratio r = lambda1 / lambda2", check=_ratio)
-    task: str = setting("full", choices=TASKS, doc="task rows of K_T: full = top-left 3x3 of the 6x6 K_C")
+    criterion: str = setting(
+        "f2",
+        doc="shaping criterion: f1 (ratio at least r) or f2 (ratio exactly r)",
+        flag=Flag(type=str.lower, choices=CRITERIA, help="f1 (S0-9: ratio >= R) or f2 (S0-15: ratio = R)"),
+        axis=Axis(static=True, registry="jaxstiff.stiffness.criteria:CRITERIA"),
+    )
+    ratio: float = setting(
+        5.0, doc="wanted axis ratio r = lambda1 / lambda2", check=_ratio, flag=Flag(metavar="R", extra=", > 1")
+    )
+    task: str = setting(
+        "full",
+        choices=TASKS,
+        doc="task rows of K_T: full = top-left 3x3 of the 6x6 K_C",
+        flag=Flag(
+            help="which stiffness is shaped. full (seed 000): the top-left 3x3 of the 6x6 K_C, what a force "
+            "meets with the tool's orientation HELD (clamp, peg in a hole); xyz: the inverse of the translational "
+            "compliance, what a pure force at the TCP meets with the tool FREE TO TURN: shaping contact with a "
+            "tool that may turn wants xyz (a full result's ellipsoid can be far off there: docs/concepts.md, "
+            "'Which stiffness is shaped?'); xy: planar arms, 2x2 (default: %(default)s)"
+        ),
+        axis=Axis(static=True),
+    )
     locked_joints: Literal["rigid", "spring"] = setting(
         "rigid",
         choices=LOCKED_JOINT_MODES,
         doc="a locked joint is rigid (no spring, no stiffness variable, kj = +inf) or keeps its spring (SPEC 1)",
+        flag=Flag(
+            help="rigid: a locked joint (--lock) has no spring, adds no compliance and has no stiffness "
+            "variable (its kj in the file is inf); spring: it keeps its spring, whose stiffness is "
+            "optimised like a free joint's (SPEC section 1) (default: %(default)s)"
+        ),
+        axis=Axis(static=True),
     )
-    solver: str = setting("slsqp", doc="solver (slsqp, slsqp-fd, pgd, hybrid, trajectory, or a registered one)")
-    starts: int | None = setting(None, doc="starts per waypoint (None: the solver's default; SLSQP: 1)")
+    solver: str = setting(
+        "slsqp",
+        doc="solver (slsqp, slsqp-fd, pgd, hybrid, trajectory, or a registered one)",
+        flag=Flag(
+            help="slsqp (JAX derivatives), slsqp-fd (the seed's numpy + finite differences), "
+            "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
+            "trajectory after a greedy warm start), or another registered solver"
+        ),
+        axis=Axis(static=True, registry="jaxstiff.solvers.base:SOLVERS"),
+    )
+    starts: int | None = setting(
+        None,
+        doc="starts per waypoint (None: the solver's default; SLSQP: 1)",
+        flag=Flag(metavar="S", help="starts per waypoint, multi-start solvers only (default: the solver's own)"),
+        # the table's column is an integer: 0 is the solver's default (None here)
+        axis=Axis(
+            static=True,
+            from_field=lambda v: v or 0,
+            to_field=lambda v: v or None,
+            check=_starts_axis_check,
+            extra="; a sweep writes None as 0",
+        ),
+    )
     dq: float = setting(
         math.radians(DEFAULT_DQ_DEG),
         unit="rad per waypoint (m for prismatic joints)",
         doc="joint rate limit (S0-11, S0-12)",
         check=non_negative,
+        flag=Flag(
+            name="--dq-deg",
+            metavar="D",
+            unit="degrees per waypoint",
+            from_field=dq_to_deg,
+            to_field=math.radians,
+            extra=" (inf = none)",
+            group="dq",
+        ),
+        axis=Axis(
+            name="dq_deg",
+            unit="deg per waypoint",
+            from_field=dq_to_deg,
+            to_field=math.radians,
+            extra="; a prismatic joint gets the same number in m (3 deg -> 0.0524 m)",
+        ),
     )
     dk: float = setting(
         5.0,
         unit="Nm/rad per waypoint (N/m for prismatic joints)",
         doc="joint stiffness rate limit (S0-13, S0-14)",
         check=non_negative,
+        flag=Flag(metavar="K", extra=" (inf = none)", group="dk"),
+        axis=Axis(unit="Nm/rad per waypoint"),
     )
     dq_per_m: float | None = setting(
         None,
         unit="rad per metre of path (m per m for prismatic joints)",
         doc="joint rate limit per metre of path instead of dq (None: dq per waypoint applies)",
         check=_optional_non_negative,
+        flag=Flag(
+            metavar="RAD_PER_M",
+            extra="; instead of --dq-deg and --dq-m: each path's limit per waypoint is this times its (shortest) "
+            "segment length, so the result does not depend on how densely the path is sampled",
+            group="dq",
+        ),
+        axis=None,
     )
     dk_per_m: float | None = setting(
         None,
         unit="Nm/rad per metre of path",
         doc="joint stiffness rate limit per metre of path instead of dk (None: dk per waypoint applies)",
         check=_optional_non_negative,
+        flag=Flag(
+            metavar="K_PER_M",
+            extra="; instead of --dk: each path's limit per waypoint is this times its (shortest) segment length",
+            group="dk",
+        ),
+        axis=None,
     )
-    kmin: float = setting(1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive)
-    kmax: float = setting(100.0, unit="Nm/rad", doc="highest joint stiffness", check=positive)
-    c: float = setting(0.01, unit="deg", doc="offset c of f1 (S0-9)", check=non_negative)
-    first_rate_limit: bool = setting(False, doc="apply the rate limits between (q0, kj0) and waypoint 0")
-    first_starts: int = setting(8, doc="IK start postures tried at the first waypoint", check=at_least(1))
+    kmin: float = setting(
+        1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive, flag=Flag(metavar="A", extra=", > 0")
+    )
+    kmax: float = setting(
+        100.0, unit="Nm/rad", doc="highest joint stiffness", check=positive, flag=Flag(metavar="B", extra=", > kmin")
+    )
+    c: float = setting(
+        0.01,
+        unit="deg",
+        doc="offset c of f1 (S0-9)",
+        check=non_negative,
+        flag=Flag(metavar="C"),
+        axis=Axis(unit="", before="dq_deg"),
+    )
+    first_rate_limit: bool = setting(
+        False,
+        doc="apply the rate limits between (q0, kj0) and waypoint 0",
+        flag=Flag(
+            help="apply the rate limits between (q0, kj0) and the first waypoint too (default: the "
+            "first waypoint may use the full joint and stiffness ranges)",
+            off_help="the default: do not rate-limit the first waypoint",
+        ),
+    )
+    first_starts: int = setting(
+        8, doc="IK start postures tried at the first waypoint", check=at_least(1), flag=Flag(metavar="N")
+    )
     cms_mean_axis: float = setting(
-        1000.0, unit="N/m", doc="CMS: the common geometric-mean axis of every waypoint", check=positive
+        1000.0,
+        unit="N/m",
+        doc="CMS: the common geometric-mean axis of every waypoint",
+        check=positive,
+        flag=None,  # the command line's --cms-volume / --cms-major say the target instead
+        axis=None,
     )
 
     def __post_init__(self) -> None:

@@ -1,10 +1,12 @@
 """The parameter axes of a sweep: their specifications (defaults from the settings spine), their
 values (a value, a list, or a range), and the checks that need the robot and the paths.
 
-Defaults are not written here: every axis that mirrors a setting takes its default from
-:class:`~jaxstiff.settings.ShapeSettings` or :class:`~jaxstiff.settings.CSCSettings`, so a sweep
-row at its defaults is the problem ``shape()`` / ``csc_rollout()`` / the commands solve. Where the
-sweep's column needs another form, the conversion is fixed and documented on the axis:
+Defaults are not written here: every axis that is a setting is made from its field of
+:class:`~jaxstiff.settings.ShapeSettings` or :class:`~jaxstiff.settings.CSCSettings` (default,
+type, choices, check, unit, doc: :func:`~jaxstiff.sweep.axis_specs.setting_axes`), so a sweep row
+at its defaults is the problem ``shape()`` / ``csc_rollout()`` / the commands solve, and a value
+is refused by the field's own check. Where the sweep's column needs another form, the conversion
+is written on the field's ``Axis``:
 
 * ``dq_deg`` = ``degrees(ShapeSettings.dq)`` (the table is in degrees per waypoint);
 * ``starts`` = 0 for ``ShapeSettings.starts = None`` (the solver's default; an integer column);
@@ -20,6 +22,7 @@ The axes that exist only in sweeps (``kxd_major``, ``kxd_ratio``, ``kxd_angle_de
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import warnings
@@ -82,19 +85,18 @@ class _AxesBase(Table):
         return f"unknown axis for kind {cls.kind!r}{suggest(key, list(specs))}{hint}; axes: {', '.join(specs)}"
 
 
-def _axes_model(kind: str) -> type[_AxesBase]:
-    fields: dict[str, Any] = {name: (Any, None) for name in AXES[kind]}
+@functools.lru_cache(maxsize=8)
+def _axes_model(kind: str, names: tuple[str, ...]) -> type[_AxesBase]:
+    """The ``[axes]`` table of ``kind``: one optional key per axis (made again when the axes change)."""
+    fields: dict[str, Any] = {name: (Any, None) for name in names}
     model = create_model(f"{kind.capitalize()}Axes", __base__=_AxesBase, **fields)
     model.kind = kind
     return model
 
 
-_AXES_MODELS = {k: _axes_model(k) for k in AXES}
-
-
 def axes_table(raw: Any, kind: str, robot: Any, source: str = "") -> dict[str, list]:
     """``[axes]`` as ``{axis: [values]}`` for every axis of ``kind`` (defaults filled in, in :data:`AXES` order)."""
-    given = validate(_AXES_MODELS[kind], raw, "axes", source).model_dump(exclude_unset=True)
+    given = validate(_axes_model(kind, tuple(AXES[kind])), raw, "axes", source).model_dump(exclude_unset=True)
     out: dict[str, list] = {}
     for name, spec in AXES[kind].items():
         key = f"axes.{name}"
@@ -127,11 +129,13 @@ def _one_value(v: Any, spec: AxisSpec, key: str, source: str) -> Any:
             raise SweepConfigError(
                 key, f"expected {want} or a list/range of them, got {typename(v)} {v!r}", source
             ) from None
-        text = spec.check(x) if spec.check else None
-        if not text and not math.isfinite(x) and not (spec.name == "kmax" and math.isinf(spec.default)):
-            text = f"must be finite, got {v!r}"  # (only the csc actuator range may be open: kmax = inf)
+        text = None
+        if not math.isfinite(x) and not (isinstance(spec.default, float) and math.isinf(spec.default)):
+            text = "must be finite"  # (an axis may be open only where its default is: csc kmax = inf)
+        elif spec.check is not None:
+            text = spec.check(x)
         if text:
-            raise SweepConfigError(key, text, source)
+            raise SweepConfigError(key, f"{text}, got {v!r}", source)
         return x
     if spec.type == "bool":
         if not isinstance(v, bool):

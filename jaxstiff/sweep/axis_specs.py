@@ -1,25 +1,28 @@
 """The parameter axes of each sweep kind, as one table per kind (:data:`AXES`).
 
-Defaults come from :class:`~jaxstiff.settings.ShapeSettings` / :class:`~jaxstiff.settings.CSCSettings`
-(the conversions are documented in :mod:`jaxstiff.sweep.axes`); the sweep-only axes (``kxd_major``,
-``kxd_ratio``, ``kxd_angle_deg``, ``q0``, ``q0_seed``) keep their own defaults here.
+The axes that are settings are made from the fields of :class:`~jaxstiff.settings.ShapeSettings`
+/ :class:`~jaxstiff.settings.CSCSettings` (:func:`setting_axes`: each field with an
+:class:`~jaxstiff.settings.base.Axis`, its default, type, choices, check, unit and doc; the
+conversions are documented in :mod:`jaxstiff.sweep.axes`); a field added there is an axis here
+without another edit. The sweep-only axes (``kxd_major``, ``kxd_ratio``, ``kxd_angle_deg``, ``q0``,
+``q0_seed``) are written here with their own defaults.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from jaxstiff.settings.csc import CSC_TASKS, JOINT_LIMIT_MODES, LOCKED_JOINT_MODES, OBJECTIVES, STEP_RULES, CSCSettings
-from jaxstiff.settings.shape import LOCKED_JOINT_MODES as SHAPE_LOCKED_JOINT_MODES
-from jaxstiff.settings.shape import TASKS, ShapeSettings
+from jaxstiff.settings.base import Check, FieldInfo, Settings
+from jaxstiff.settings.csc import CSC_SWEEP_TASK, CSCSettings
+from jaxstiff.settings.shape import ShapeSettings
 
-__all__ = ["AxisSpec", "AXES", "CSC_SWEEP_TASK", "Q0_FAMILIES"]
+__all__ = ["AxisSpec", "AXES", "CSC_SWEEP_TASK", "Q0_FAMILIES", "setting_axes", "sweep_axes"]
 
 Q0_FAMILIES = ("ik", "nominal", "random")
-CSC_SWEEP_TASK = "xyz"  #: CSCSettings.task = None resolved for a sweep's 3x3 K_xd (see the module docstring)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -34,8 +37,11 @@ class AxisSpec:
         unit: unit of the values ("" if none).
         doc: one line for ``--help`` and the report.
         choices: allowed strings (``"str"`` axes), or a function returning them (registries).
-        check: ``check(value) -> problem text or None`` for numbers.
-        setting: the settings field the default comes from (``"ShapeSettings.dq"``), "" if none.
+        check: ``check(value) -> problem text or None`` for numbers (the settings field's check,
+            on the field's value: ``to_field(value)``).
+        setting: the settings field the axis is (``"ShapeSettings.dq"``), "" if none.
+        field: that field's name ("" if none): the keyword a row's value is given as.
+        to_field: the field's value of an axis value (``dq_deg`` -> rad), None: the same.
     """
 
     name: str
@@ -47,6 +53,8 @@ class AxisSpec:
     choices: Sequence[str] | Callable[[], Sequence[str]] | None = None
     check: Callable[[Any], str | None] | None = None
     setting: str = ""
+    field: str = ""
+    to_field: Callable[[Any], Any] | None = None
 
     def allowed(self) -> list[str] | None:
         """The allowed strings, or None (any value of the type)."""
@@ -54,33 +62,75 @@ class AxisSpec:
             return None
         return list(self.choices() if callable(self.choices) else self.choices)
 
+    def field_value(self, value: Any) -> Any:
+        """The settings field's value of an axis value."""
+        return value if self.to_field is None else self.to_field(value)
 
-def _gt(x0: float, what: str = "") -> Callable[[Any], str | None]:
-    return lambda v: None if v > x0 else f"must be > {x0:g}{what}, got {v!r}"
+
+def _registry(where: str) -> Callable[[], list[str]]:
+    """The sorted keys of a registry ``"module:NAME"`` (read when asked: registered names count)."""
+    module, _, name = where.partition(":")
+    return lambda: sorted(getattr(importlib.import_module(module), name))
 
 
-def _ge(x0: float, what: str = "") -> Callable[[Any], str | None]:
-    return lambda v: None if v >= x0 else f"must be >= {x0:g}{what}, got {v!r}"
+def _on_field(check: Check | None, to_field: Callable[[Any], Any] | None) -> Check | None:
+    """A field's check run on the field's value of an axis value."""
+    if check is None or to_field is None:
+        return check
+    return lambda v: check(to_field(v))
+
+
+def _axis_spec(cls: type[Settings], info: FieldInfo) -> AxisSpec:
+    ax = info.axis
+    assert ax is not None
+    kind = ax.kind or {bool: "bool", int: "int", float: "float", str: "str"}.get(info.kind or str, "str")
+    choices: Any = ax.choices or (_registry(ax.registry) if ax.registry else None)
+    if choices is None and info.choices is not None:
+        choices = tuple(c for c in info.choices if c is not None)
+    return AxisSpec(
+        ax.name or info.name,
+        kind,
+        info.default if ax.from_field is None else ax.from_field(info.default),
+        static=cls.sweep_static if ax.static is None else ax.static,
+        unit=info.unit if ax.unit is None else ax.unit,
+        doc=(info.doc or info.name) + ax.extra,
+        choices=choices,
+        check=ax.check or _on_field(info.check, ax.to_field),
+        setting=f"{cls.__name__}.{info.name}",
+        field=info.name,
+        to_field=ax.to_field,
+    )
+
+
+def setting_axes(cls: type[Settings]) -> list[AxisSpec]:
+    """The axes of the fields of ``cls`` with an :class:`~jaxstiff.settings.base.Axis`: the static
+    ones first, then the others, each in field order (an ``Axis.before`` moves one before another)."""
+    infos = [i for i in cls.fields_info() if i.axis is not None]
+    specs = [_axis_spec(cls, i) for i in infos]
+    order = [s for s in specs if s.static] + [s for s in specs if not s.static]
+    for info in infos:
+        if info.axis is not None and info.axis.before:
+            moved = next(s for s in order if s.field == info.name)
+            order.remove(moved)
+            order.insert(next(k for k, s in enumerate(order) if s.name == info.axis.before), moved)
+    return order
+
+
+# the checks of the sweep-only axes (a settings axis runs its field's check); the value is added by the caller
+def _gt(x0: float) -> Check:
+    return lambda v: None if v > x0 else f"must be > {x0:g}"
+
+
+def _ge(x0: float) -> Check:
+    return lambda v: None if v >= x0 else f"must be >= {x0:g}"
 
 
 def _finite(v: Any) -> str | None:
-    return None if math.isfinite(v) else f"must be finite, got {v!r}"
+    return None if math.isfinite(v) else "must be finite"
 
 
-def _both(a: Callable[[Any], str | None], b: Callable[[Any], str | None]) -> Callable[[Any], str | None]:
+def _both(a: Check, b: Check) -> Check:
     return lambda v: a(v) or b(v)
-
-
-def _criteria() -> list[str]:
-    from jaxstiff.stiffness.criteria import CRITERIA
-
-    return sorted(CRITERIA)
-
-
-def _solvers() -> list[str]:
-    from jaxstiff.solvers.base import SOLVERS
-
-    return sorted(SOLVERS)
 
 
 def _q0_specs() -> tuple[AxisSpec, AxisSpec]:
@@ -90,202 +140,28 @@ def _q0_specs() -> tuple[AxisSpec, AxisSpec]:
     )
 
 
-def _shape_axes() -> dict[str, AxisSpec]:
-    """The axes of a shape sweep. Long only because it is one table (one entry per axis); kept whole."""
-    d = ShapeSettings()
-    S = "ShapeSettings."
-    specs = (
-        AxisSpec(
-            "criterion",
-            "str",
-            d.criterion,
-            static=True,
-            choices=_criteria,
-            setting=S + "criterion",
-            doc="shaping criterion (S0-9 f1, S0-15 f2)",
-        ),
-        AxisSpec(
-            "task", "str", d.task, static=True, choices=TASKS, setting=S + "task", doc="task rows of K_T (SPEC 2)"
-        ),
-        AxisSpec(
-            "locked_joints",
-            "str",
-            d.locked_joints,
-            static=True,
-            choices=SHAPE_LOCKED_JOINT_MODES,
-            setting=S + "locked_joints",
-            doc="locked joints rigid (no spring, no stiffness variable, kj = inf; SPEC 1) or spring",
-        ),
-        AxisSpec(
-            "solver",
-            "str",
-            d.solver,
-            static=True,
-            choices=_solvers,
-            setting=S + "solver",
-            doc="solver of jaxstiff.shape",
-        ),
-        AxisSpec(
-            "starts",
-            "int",
-            d.starts or 0,
-            static=True,
-            check=_ge(0),
-            setting=S + "starts (None -> 0)",
-            doc="starts per waypoint (0: the solver's default; SLSQP: 1)",
-        ),
-        AxisSpec(
-            "ratio",
-            "float",
-            d.ratio,
-            check=_gt(1.0, " (lambda1 / lambda2)"),
-            setting=S + "ratio",
-            doc="wanted axis ratio r",
-        ),
-        AxisSpec("c", "float", d.c, check=_ge(0.0), setting=S + "c", doc="offset c of f1 (S0-9)"),
-        AxisSpec(
-            "dq_deg",
-            "float",
-            float(f"{math.degrees(d.dq):.12g}"),
-            unit="deg per waypoint",
-            check=_ge(0.0),
-            setting=S + "dq (rad -> deg)",
-            doc="joint rate limit (S0-11, S0-12); a prismatic joint gets the same number in m (3 deg -> 0.0524 m)",
-        ),
-        AxisSpec(
-            "dk",
-            "float",
-            d.dk,
-            unit="Nm/rad per waypoint",
-            check=_ge(0.0),
-            setting=S + "dk",
-            doc="stiffness rate limit (S0-13, S0-14)",
-        ),
-        AxisSpec(
-            "kmin", "float", d.kmin, unit="Nm/rad", check=_gt(0.0), setting=S + "kmin", doc="lower stiffness bound"
-        ),
-        AxisSpec(
-            "kmax", "float", d.kmax, unit="Nm/rad", check=_gt(0.0), setting=S + "kmax", doc="upper stiffness bound"
-        ),
-        AxisSpec(
-            "first_rate_limit",
-            "bool",
-            d.first_rate_limit,
-            setting=S + "first_rate_limit",
-            doc="apply the rate limits between (q0, kj0) and waypoint 0",
-        ),
-        AxisSpec(
-            "first_starts",
-            "int",
-            d.first_starts,
-            check=_ge(1),
-            setting=S + "first_starts",
-            doc="IK start postures tried at the first waypoint (no rate limit)",
-        ),
-        *_q0_specs(),
-    )
-    return {a.name: a for a in specs}
-
-
-def _static_choice(d: CSCSettings, name: str, choices: Sequence[str], doc: str) -> AxisSpec:
-    """A static csc axis of strings whose default is the CSCSettings field ``name``."""
-    return AxisSpec(name, "str", getattr(d, name), static=True, choices=choices, setting="CSCSettings." + name, doc=doc)
-
-
-def _csc_axes() -> dict[str, AxisSpec]:
-    """The axes of a CSC sweep. Long only because it is one table (one entry per axis); kept whole."""
-    d = CSCSettings()
-    C = "CSCSettings."
-    specs = (
-        AxisSpec(
-            "task",
-            "str",
-            d.task or CSC_SWEEP_TASK,
-            static=True,
-            choices=tuple(t for t in CSC_TASKS if t != "full"),
-            setting=C + "task (None -> xyz: the sweep's K_xd is 3x3)",
-            doc="task rows (K_xd is 2x2 or 3x3)",
-        ),
-        AxisSpec(
-            "step",
-            "str",
-            d.step,
-            static=True,
-            choices=STEP_RULES,
-            setting=C + "step",
-            doc="null-step rule (S1-22 or constant)",
-        ),
-        AxisSpec(
-            "kmin",
-            "float",
-            d.kmin,
-            static=True,
-            unit="Nm/rad",
-            check=_gt(0.0),
-            setting=C + "kmin",
-            doc="actuator range, lower",
-        ),
-        AxisSpec(
-            "kmax",
-            "float",
-            d.kmax,
-            static=True,
-            unit="Nm/rad",
-            check=_gt(0.0),
-            setting=C + "kmax",
-            doc="actuator range, upper (inf: open)",
-        ),
-        AxisSpec(
-            "newton",
-            "int",
-            d.newton,
-            static=True,
-            check=_ge(0),
-            setting=C + "newton",
-            doc="Newton corrections per step",
-        ),
-        AxisSpec(
-            "joint_limits",
-            "str",
-            d.joint_limits,
-            static=True,
-            choices=JOINT_LIMIT_MODES,
-            setting=C + "joint_limits",
-            doc="joint-limit secondary task",
-        ),
-        AxisSpec(
-            "jl_gain",
-            "float",
-            d.jl_gain,
-            static=True,
-            check=_ge(0.0),
-            setting=C + "jl_gain",
-            doc="joint-limit gain (default: 0.3 with joint_limits on, else 0)",
-        ),
-        _static_choice(
-            d,
-            "objective",
-            OBJECTIVES,
-            "null-space objective: offdiag = u (S1-19, the seed's), frobenius = |K_xd - K_C|_F (S1-10)",
-        ),
-        _static_choice(
-            d, "locked_joints", LOCKED_JOINT_MODES, "locked joints rigid (no spring, SPEC section 1) or spring"
-        ),
-        AxisSpec(
-            "beta",
-            "float",
-            d.beta,
-            check=_both(_ge(0.0), _finite),
-            setting=C + "beta",
-            doc="null-step multiplier beta (S1-22)",
-        ),
+def _sweep_only_csc() -> tuple[AxisSpec, ...]:
+    """The K_xd of a CSC sweep row (:func:`jaxstiff.sweep.axes.kxd_matrix`)."""
+    return (
         AxisSpec("kxd_major", "float", 3000.0, unit="N/m", check=_both(_gt(0.0), _finite), doc="K_xd major axis"),
         AxisSpec("kxd_ratio", "float", 3.0, check=_both(_ge(1.0), _finite), doc="K_xd major / minor axis"),
         AxisSpec("kxd_angle_deg", "float", 30.0, unit="deg", check=_finite, doc="K_xd major axis angle about base z"),
-        *_q0_specs(),
     )
-    return {a.name: a for a in specs}
+
+
+def sweep_axes(
+    shape: type[Settings] = ShapeSettings, csc: type[Settings] = CSCSettings
+) -> dict[str, dict[str, AxisSpec]]:
+    """:data:`AXES` of the settings classes ``shape`` and ``csc``: their fields' axes, then the sweep's own."""
+    out = {
+        "shape": (*setting_axes(shape), *_q0_specs()),
+        "csc": (*setting_axes(csc), *_sweep_only_csc(), *_q0_specs()),
+    }
+    per_row = [a.name for a in out["csc"] if a.field and not a.static and a.field != "beta"]
+    if per_row:  # csc_rollout takes one value per row of beta only: every other field is one per chunk
+        raise TypeError(f"csc sweep axes {per_row} must be static (Axis(static=True)): only beta varies per row")
+    return {kind: {a.name: a for a in specs} for kind, specs in out.items()}
 
 
 #: The axes of each sweep kind, in the order rows are enumerated (:func:`itertools.product`).
-AXES: dict[str, dict[str, AxisSpec]] = {"shape": _shape_axes(), "csc": _csc_axes()}
+AXES: dict[str, dict[str, AxisSpec]] = sweep_axes()

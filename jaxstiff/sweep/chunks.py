@@ -24,12 +24,13 @@ import numpy as np
 from jaxstiff.results.singular import SingularPostureWarning
 from jaxstiff.results.target import MissedTargetWarning
 from jaxstiff.runtime.io import json_default
-from jaxstiff.sweep.axes import kxd_matrix
+from jaxstiff.settings.shape import ShapeSettings
+from jaxstiff.sweep.axes import AXES, kxd_matrix
 from jaxstiff.sweep.metrics import csc_row_metrics, shape_row_metrics
 from jaxstiff.sweep.plan import Chunk, SweepPlan
 from jaxstiff.sweep.starts import start_posture_and_error
 
-__all__ = ["compute_chunk", "shard_batch", "table_settings"]
+__all__ = ["compute_chunk", "shard_batch", "table_settings", "setting_values"]
 
 
 def shard_batch(arrays: Mapping[str, np.ndarray], size: int | None = None) -> tuple[dict[str, Any], int]:
@@ -100,6 +101,13 @@ def _base_row(plan: SweepPlan, chunk: Chunk, r: int) -> dict:
     }
 
 
+def setting_values(kind: str, values: Mapping[str, Any]) -> dict[str, Any]:
+    """``{field: value}`` of the settings axes of ``kind`` found in ``values`` (a row's settings or
+    a group's static key), each as its field takes it (``dq_deg`` -> ``dq`` in rad, ``starts`` 0 ->
+    None: :meth:`AxisSpec.field_value`)."""
+    return {a.field: a.field_value(values[n]) for n, a in AXES[kind].items() if a.field and n in values}
+
+
 def _shape_call(
     plan: SweepPlan, chunk: Chunk, k: int, rids: list[int], progress: Callable[[float], None] | None
 ) -> tuple:
@@ -126,20 +134,8 @@ def _shape_call(
         res = run_shape(
             plan.robot,
             path,
-            st["criterion"],
-            st["ratio"],
-            task=st["task"],
-            locked_joints=st["locked_joints"],
-            solver=st["solver"],
-            starts=st["starts"] or None,
+            settings=ShapeSettings(**setting_values("shape", st)),
             q0=q0,
-            dq=math.radians(st["dq_deg"]),
-            dk=st["dk"],
-            kmin=st["kmin"],
-            kmax=st["kmax"],
-            c=st["c"],
-            first_rate_limit=st["first_rate_limit"],
-            first_starts=st["first_starts"],
             options=options_for_solver(st["solver"], plan.options) or None,
             progress=tick,
             meta_extra={
@@ -288,15 +284,8 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
         sharded["K_xd"],
         sharded["q0"],
         sharded["beta"],
-        task=task,
-        step=g["step"],
-        kmin=g["kmin"],
-        kmax=g["kmax"],
-        newton=int(g["newton"]),
-        joint_limits=g["joint_limits"],
-        jl_gain=g["jl_gain"],
-        objective=g["objective"],
-        locked_joints=g["locked_joints"],
+        # the static settings axes: one value per group (beta, per row, is the fifth argument)
+        **{k: x for k, x in setting_values("csc", g).items() if k != "beta"},
         kxd_varying=False,
         check_reach=False,  # a rollout's cost does not depend on reach: rows out of it show their tracking error
     )

@@ -100,27 +100,6 @@ def test_shape_command_defaults_are_the_settings():
     assert a.first_rate_limit is S.first_rate_limit and int(a.first_starts) == S.first_starts
 
 
-def test_shape_command_help_comes_from_the_settings_docs_and_units():
-    acts = _flag_actions("shape")
-    docs = {i.name: i for i in ShapeSettings.fields_info()}
-    for flag, name in (("--ratio", "ratio"), ("--dk", "dk"), ("--kmin", "kmin"), ("--kmax", "kmax"), ("--c", "c")):
-        text = acts[flag].help or ""
-        assert docs[name].doc in text and docs[name].unit in text, flag
-    text = acts["--dq-deg"].help or ""
-    assert docs["dq"].doc in text and "degrees per waypoint" in text
-    assert list(acts["--task"].choices or ()) == list(docs["task"].choices or ())
-
-
-def test_sweep_shape_axes_defaults_are_the_settings():
-    from jaxstiff.sweep.config import AXES
-
-    ax = AXES["shape"]
-    for name in ("criterion", "task", "solver", "ratio", "c", "dk", "kmin", "kmax", "first_rate_limit", "first_starts"):
-        assert ax[name].default == getattr(S, name), name
-    assert ax["starts"].default == (S.starts or 0)  # 0 = the solver's default (None in the settings)
-    assert math.radians(ax["dq_deg"].default) == S.dq
-
-
 # ---------------------------------------------------------------------- robot flags: every command the same
 def test_add_robot_flags_defaults_are_robot_spec_defaults():
     p = argparse.ArgumentParser()

@@ -169,7 +169,12 @@ CATALOGUE = [
         "axes.kmin",
         ["kmin = 50", "kmax = 20"],
     ),
-    ("negative rate limit", lambda t: _set(base(), "axes.dq_deg", -1.0), "axes.dq_deg", ["must be >= 0", "-1"]),
+    (
+        "negative rate limit",
+        lambda t: _set(base(), "axes.dq_deg", -1.0),
+        "axes.dq_deg",
+        ["must be a number >= 0", "-1"],
+    ),
     (
         "unknown criterion",
         lambda t: _set(base(), "axes.criterion", ["f1", "f3"]),
