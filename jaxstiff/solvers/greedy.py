@@ -59,6 +59,9 @@ __all__ = [
     "target_bound",
     "maybe_off_target",
     "rescue_starts",
+    "box_starts",
+    "BOX_STARTS",
+    "PATH_RETRIES",
 ]
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
@@ -290,6 +293,25 @@ def rescue_starts(
     return out
 
 
+#: start states :func:`box_starts` adds at a rate-limited waypoint left off target
+BOX_STARTS = 4
+
+
+def box_starts(
+    lb: np.ndarray, ub: np.ndarray, ref: np.ndarray, target: np.ndarray, direction: np.ndarray
+) -> list[np.ndarray]:
+    """:data:`BOX_STARTS` start states inside a rate-limited waypoint's box ``[lb, ub]``: its
+    centre, then points drawn uniformly in it (seeded by the waypoint's own data and ``ref``, the
+    reference state clipped into the box, so a path gets the same starts anywhere in a batch).
+    Rate-limited boxes are small (2 deg and 5 Nm/rad a side by default), so every start is near
+    the reference posture, and SLSQP's position constraint brings each onto the waypoint."""
+    rng = np.random.default_rng(content_seed(target, direction, ref))
+    lo, hi = np.asarray(lb, float), np.asarray(ub, float)
+    out = [0.5 * (lo + hi)]
+    out += [lo + rng.uniform(size=lo.shape) * (hi - lo) for _ in range(BOX_STARTS - 1)]
+    return [np.clip(x, lo, hi) for x in out]
+
+
 def give_up(
     problem: WaypointProblem,
     starts: Sequence[np.ndarray],
@@ -381,7 +403,7 @@ def _solve_starts(  # noqa: PLR0913 - one waypoint's problem, passed as its part
     return cands, nit, nfev
 
 
-def greedy_path(
+def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented below
     batch: WaypointBatch,
     b: int,
     solver: WaypointSolver,
@@ -391,6 +413,7 @@ def greedy_path(
     progress: Callable[[int], None] | None = None,
     first_starts: Sequence[tuple[np.ndarray, np.ndarray]] = (),
     first_maxiter: int | None = None,
+    path_retries: int = 0,
 ) -> list[WaypointOutcome]:
     """Solve the waypoints of path ``b`` of ``batch`` one after the other (seed 000's greedy scheme).
 
@@ -416,62 +439,173 @@ def greedy_path(
             posture farthest from the joint limits (:data:`TIE_RTOL`).
         first_maxiter: iteration limit for that first, not rate-limited waypoint (None: the
             solver's default).
+        path_retries: where a rate-limited waypoint ends off target (its criterion not below
+            :func:`target_bound`), first :func:`box_starts` inside its box; and where the walk ends
+            with such a waypoint, up to this many other optima of the first waypoint (the tied
+            answers of its multi-start, farthest from the joint limits first) are walked again,
+            keeping the walk with the fewest unsolved, then off-target waypoints, then the lowest
+            sum of the criterion. f2 and f1 have whole sets of optimal first postures, and which
+            one the walk leaves from decides whether a rate-limited stretch later can follow. 0:
+            seed 000's scheme alone.
 
     Returns:
         One :class:`WaypointOutcome` per waypoint.
     """
-    problem, limits, targets, directions = (
-        batch.problem,
-        batch.limits.for_path(b),
-        batch.targets[b],
-        batch.directions[b],
-    )
-    ratio, c = float(batch.ratios[b]), batch.c
-    pj = jax_pos_and_jac(problem) if pos_and_jac is None else pos_and_jac
-    fobj = kernel_objective(problem) if objective is None else objective
-    q_ref, kj_ref = np.asarray(batch.q0[b], float), np.asarray(batch.kj0[b], float)
-    at_start = True
-    out: list[WaypointOutcome] = []
-    try:
-        for p in range(targets.shape[0]):
-            t0 = time.perf_counter()
-            rate = limits.first_rate_limit or not at_start
-            lb, ub = limits.box(problem, q_ref, kj_ref, rate)
-            starts = [clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)]
-            if not rate:
-                starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in first_starts]
-            params = WaypointProblem.params(targets[p], directions[p], ratio, c)
-            hopeless = None if rate else give_up(problem, starts, lb, ub, targets[p], directions[p], pj)
-            if hopeless is not None:  # out of reach of every posture tried: no SLSQP run (GIVE_UP_REL)
-                x, status, err, code, _ = hopeless
-                out.append(WaypointOutcome(x, status, err, code, 0, 0, time.perf_counter() - t0))
+    walk = _GreedyWalk(batch, b, solver, pos_and_jac, objective, pos_tol, first_starts, first_maxiter, path_retries)
+    out, fs, alternatives = walk.run(None, progress)
+    bound = target_bound(batch.problem, float(batch.ratios[b]), batch.c)
+    if path_retries <= 0 or bound is None or not alternatives:
+        return out
+    rank = _walk_rank(out, fs, float(bound))
+    if rank[1] == 0:
+        return out
+    t0 = time.perf_counter()
+    for alt in alternatives[:path_retries]:
+        try:
+            o2, f2s, _ = walk.run(alt, None)
+        except PathInterrupted:
+            raise PathInterrupted(out) from None  # the best complete walk so far
+        r2 = _walk_rank(o2, f2s, float(bound))
+        if r2 < rank:
+            out, rank = o2, r2
+        if rank[1] == 0:
+            break
+    extra = (time.perf_counter() - t0) / max(len(out), 1)  # the retries' time, spread over the path
+    return [dataclasses.replace(o, time_s=o.time_s + extra) for o in out]
+
+
+def _walk_rank(out: Sequence[WaypointOutcome], fs: Sequence[float], bound: float) -> tuple[int, int, float]:
+    """``(unsolved waypoints, usable ones not provably in target, sum of the criterion over the
+    usable ones)`` of one walk: lower is better, compared in that order."""
+    usable = [o.status in R.USABLE for o in out]
+    off = sum(1 for u, f in zip(usable, fs, strict=True) if u and not f < bound)
+    total = float(sum(f for u, f in zip(usable, fs, strict=True) if u))
+    return (len(out) - sum(usable), off, total if np.isfinite(total) else np.inf)
+
+
+class _GreedyWalk:
+    """One greedy walk along a path (:func:`greedy_path`), repeatable from another first-waypoint
+    answer."""
+
+    def __init__(  # noqa: PLR0913 - greedy_path's inputs
+        self,
+        batch: WaypointBatch,
+        b: int,
+        solver: WaypointSolver,
+        pos_and_jac: PosAndJac | None,
+        objective: Objective | None,
+        pos_tol: float,
+        first_starts: Sequence[tuple[np.ndarray, np.ndarray]],
+        first_maxiter: int | None,
+        rescue_rate_limited: int,
+    ) -> None:
+        self.problem = batch.problem
+        self.limits = batch.limits.for_path(b)
+        self.targets, self.directions = batch.targets[b], batch.directions[b]
+        self.ratio, self.c = float(batch.ratios[b]), batch.c
+        self.q0, self.kj0 = np.asarray(batch.q0[b], float), np.asarray(batch.kj0[b], float)
+        self.solver, self.pos_tol = solver, pos_tol
+        self.pj = jax_pos_and_jac(self.problem) if pos_and_jac is None else pos_and_jac
+        self.fobj = kernel_objective(self.problem) if objective is None else objective
+        self.first_starts, self.first_maxiter = first_starts, first_maxiter
+        self.rescue_rate_limited = rescue_rate_limited > 0
+
+    def run(
+        self, first: Candidate | None, progress: Callable[[int], None] | None
+    ) -> tuple[list[WaypointOutcome], list[float], list[Candidate]]:
+        """The walk: outcomes, the criterion of each, and the first waypoint's other optima (when
+        it was solved here, not rate-limited); ``first`` given: the walk leaves from that answer
+        of the first waypoint instead of solving it."""
+        problem, limits, targets = self.problem, self.limits, self.targets
+        q_ref, kj_ref = self.q0, self.kj0
+        at_start = True
+        out: list[WaypointOutcome] = []
+        fs: list[float] = []
+        alternatives: list[Candidate] = []
+        try:
+            for p in range(targets.shape[0]):
+                t0 = time.perf_counter()
+                rate = limits.first_rate_limit or not at_start
+                if first is not None and not rate:
+                    x, status, err, code, f = first
+                    nit = nfev = 0
+                else:
+                    x, status, err, code, f, nit, nfev, alts = self._waypoint(p, q_ref, kj_ref, rate)
+                    if not rate:
+                        alternatives = alts
+                out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
+                fs.append(f)
+                if status in R.USABLE:
+                    q_ref = q_ref.copy()
+                    q_ref[list(problem.free_idx)] = x[: problem.n_free]
+                    kj_ref = np.array(problem.kj_full(x[problem.n_free :]), copy=True)
+                    at_start = False
                 if progress is not None:
                     progress(p)
-                continue
-            cands, nit, nfev = _solve_starts(
-                problem, solver, starts, lb, ub, targets[p], params, pj, fobj, pos_tol, None if rate else first_maxiter
+        except KeyboardInterrupt:
+            # the waypoints in `out` are finished and consistent (each is appended whole); the caller
+            # may keep them (shape marks the rest NOT_RUN)
+            raise PathInterrupted(out) from None
+        return out, fs, alternatives
+
+    def _waypoint(
+        self, p: int, q_ref: np.ndarray, kj_ref: np.ndarray, rate: bool
+    ) -> tuple[np.ndarray, int, float, int, float, int, int, list[Candidate]]:
+        """Waypoint p from the reference state: ``(x, status, pos_error, code, f, nit, nfev,
+        other optima)`` (the other optima only where it is not rate-limited)."""
+        problem, target, direction = self.problem, self.targets[p], self.directions[p]
+        lb, ub = self.limits.box(problem, q_ref, kj_ref, rate)
+        starts = [clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)]
+        if not rate:
+            starts += [clip_to_box(problem.x_of(qs, ks), lb, ub) for qs, ks in self.first_starts]
+        params = WaypointProblem.params(target, direction, self.ratio, self.c)
+        hopeless = None if rate else give_up(problem, starts, lb, ub, target, direction, self.pj)
+        if hopeless is not None:  # out of reach of every posture tried: no SLSQP run (GIVE_UP_REL)
+            x, status, err, code, f = hopeless
+            return x, status, err, code, f, 0, 0, []
+        args = (problem, self.solver)
+        maxiter = None if rate else self.first_maxiter
+        cands, nit, nfev = _solve_starts(
+            *args, starts, lb, ub, target, params, self.pj, self.fobj, self.pos_tol, maxiter
+        )
+        more: list[np.ndarray] = []
+        if not rate and maybe_off_target(problem, cands, self.ratio, self.c):
+            # no start is provably in target: as many again, from postures and stiffnesses
+            # drawn over the whole ranges (not run where one start is in target)
+            more = rescue_starts(problem, len(starts), starts[0], lb, ub, target, direction)
+        elif rate and self.rescue_rate_limited and maybe_off_target(problem, cands, self.ratio, self.c):
+            # a rate-limited waypoint off target: SLSQP from the reference state clipped into the
+            # box may stay on a face of it (a stiffness at its bound) that another start inside
+            # the same box leaves
+            more = box_starts(lb, ub, starts[0], target, direction)
+        if more:
+            extra, nit2, nfev2 = _solve_starts(
+                *args, more, lb, ub, target, params, self.pj, self.fobj, self.pos_tol, maxiter
             )
-            if not rate and maybe_off_target(problem, cands, ratio, c):
-                # no start is provably in target: as many again, from postures and stiffnesses
-                # drawn over the whole ranges (not run where one start is in target)
-                more = rescue_starts(problem, len(starts), starts[0], lb, ub, targets[p], directions[p])
-                extra, nit2, nfev2 = _solve_starts(
-                    problem, solver, more, lb, ub, targets[p], params, pj, fobj, pos_tol, first_maxiter
-                )
-                cands, nit, nfev = cands + extra, nit + nit2, nfev + nfev2
-            x, status, err, code, _ = _pick(problem, cands)
-            out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
-            if status in R.USABLE:
-                q_ref = q_ref.copy()
-                q_ref[list(problem.free_idx)] = x[: problem.n_free]
-                kj_ref = np.array(problem.kj_full(x[problem.n_free :]), copy=True)
-                at_start = False
-            if progress is not None:
-                progress(p)
-    except KeyboardInterrupt:
-        # the waypoints in `out` are finished and consistent (each is appended whole); the caller
-        # may keep them (shape marks the rest NOT_RUN)
-        raise PathInterrupted(out) from None
+            cands, nit, nfev = cands + extra, nit + nit2, nfev + nfev2
+        best = _pick(problem, cands)
+        x, status, err, code, f = best
+        alts = [] if rate else _other_optima(problem, cands, best)
+        return x, status, err, code, f, nit, nfev, alts
+
+
+def _other_optima(problem: WaypointProblem, cands: Sequence[Candidate], best: Candidate) -> list[Candidate]:
+    """The usable answers tied with ``best`` (criterion within :data:`TIE_RTOL`), each posture
+    once (0.01 rad apart), ``best`` left out, in :func:`_pick`'s order of preference."""
+    usable = [c for c in cands if c[1] in R.USABLE]
+    if best[1] not in R.USABLE:
+        return []
+    fbest = best[4]
+    ties = [c for c in usable if c[4] <= fbest + TIE_RTOL * max(abs(fbest), 1e-12)]
+    out: list[Candidate] = []
+    seen = [best[0][: problem.n_free]]
+    while ties:
+        c = _pick(problem, ties)
+        ties = [t for t in ties if t is not c]
+        q = c[0][: problem.n_free]
+        if all(np.max(np.abs(q - s)) > 1e-2 for s in seen):
+            out.append(c)
+            seen.append(q)
     return out
 
 
@@ -482,11 +616,21 @@ def check_single_start(req: SolveRequest, kind: str) -> None:
         raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={req.starts}")
 
 
-def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, Any]) -> dict[str, Any]:
+#: option ``path_retries`` None: this many for ``"slsqp"``; ``"slsqp-fd"``, the seed's method, none
+PATH_RETRIES = 8
+
+
+def run_greedy(
+    req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, Any], seed_scheme: bool = False
+) -> dict[str, Any]:
     """Greedy SLSQP (``solver``, with :func:`greedy_path`'s keyword arguments ``extra``) over every
     path of ``req``, in the :data:`~jaxstiff.solvers.base.SOLVERS` dict format; raises
-    :class:`~jaxstiff.solvers.base.SolverInterrupted` with the finished part on an interrupt."""
+    :class:`~jaxstiff.solvers.base.SolverInterrupted` with the finished part on an interrupt.
+    ``seed_scheme``: option ``path_retries`` None means 0 (seed 000's greedy scheme alone), else
+    :data:`PATH_RETRIES`."""
     prob = req.problem
+    retries = solver.options.get("path_retries")
+    retries = (0 if seed_scheme else PATH_RETRIES) if retries is None else int(retries)
 
     per_path: list[list[WaypointOutcome]] = []
     B, P = req.targets.shape[:2]
@@ -504,6 +648,7 @@ def run_greedy(req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, An
                     progress=prog,
                     first_starts=req.first_starts[b],
                     first_maxiter=solver.options["first_maxiter"],
+                    path_retries=retries,
                     **extra,
                 )
             )

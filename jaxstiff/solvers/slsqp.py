@@ -32,6 +32,7 @@ from jaxstiff.solvers.base import SolveRequest
 
 # re-exported: the greedy chaining lived here (jaxstiff.solvers.slsqp.X keeps working)
 from jaxstiff.solvers.greedy import CODE_MEANING as CODE_MEANING
+from jaxstiff.solvers.greedy import PATH_RETRIES
 from jaxstiff.solvers.greedy import REPAIR_POS as REPAIR_POS
 from jaxstiff.solvers.greedy import TIE_RTOL as TIE_RTOL
 from jaxstiff.solvers.greedy import PathInterrupted as PathInterrupted
@@ -394,6 +395,7 @@ def solve_path(
         solver,
         progress=progress,
         first_maxiter=solver.options["first_maxiter"],
+        path_retries=PATH_RETRIES if solver.options.get("path_retries") is None else int(solver.options["path_retries"]),
     )
 
 

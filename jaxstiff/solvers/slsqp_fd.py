@@ -186,4 +186,6 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     check_single_start(req, "slsqp-fd")
     prob = req.problem
     solver = make_fd_solver(prob, req.options, (req.limits.kmin, req.limits.kmax))
-    return run_greedy(req, solver, {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)})
+    return run_greedy(
+        req, solver, {"pos_and_jac": numpy_pos_and_jac(prob), "objective": numpy_objective(prob)}, seed_scheme=True
+    )
