@@ -28,6 +28,8 @@ MOVED = {
     "jaxstiff.sweep_metrics": "jaxstiff.sweep.metrics",
     "jaxstiff.sweep_report": "jaxstiff.sweep.report",
     "jaxstiff.sweep_store": "jaxstiff.sweep.store",
+    "jaxstiff.shaping_inputs": "jaxstiff.shaping._inputs",
+    "jaxstiff.shaping_steps": "jaxstiff.shaping._steps",
 }
 install_moved_modules(MOVED)
 

@@ -31,7 +31,7 @@ from jaxstiff.model.robot import JOINT_REVOLUTE, Robot
 from jaxstiff.runtime.export_cache import DiskJit
 from jaxstiff.runtime.programs import program_cache
 
-__all__ = ["ik_position", "nominal_posture", "NOMINAL_OFFSET_DEG"]
+__all__: list[str] = []
 
 #: Nominal posture: every free joint at the middle of its range plus this offset (degrees),
 #: clipped to the range. For the LWR (ranges symmetric about 0) that is 30 degrees on every

@@ -8,7 +8,7 @@ import numpy as np
 from jax.core import Tracer
 from numpy.typing import ArrayLike
 
-__all__ = ["broadcast_batch", "known_floats", "check_square", "is_traced", "batched_like"]
+__all__: list[str] = []
 
 
 def broadcast_batch(*named_shapes: tuple[str, tuple[int, ...]]) -> tuple[int, ...]:

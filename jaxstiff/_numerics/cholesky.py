@@ -16,19 +16,7 @@ import jax.numpy as jnp
 
 from jaxstiff._numerics.linalg import fusion_boundary, mm
 
-__all__ = [
-    "Sym",
-    "CHOLESKY_ORDER",
-    "reg_eps",
-    "sym_entries",
-    "sym_to_array",
-    "damped_cholesky",
-    "tri_inverse",
-    "gram_of_inverse",
-    "damped_inverse_entries",
-    "damped_inverse_primal",
-    "damped_inverse",
-]
+__all__ = ["Sym", "reg_eps", "gram_of_inverse", "damped_inverse_entries"]
 
 # A symmetric matrix as a dict {(i, j): entry (...,)} over i <= j (structure of arrays).
 Sym = dict

@@ -13,7 +13,7 @@ import jax.numpy as jnp
 from jax.extend.core import Primitive as _Primitive
 from jax.interpreters import ad, batching, mlir
 
-__all__ = ["mm", "fusion_boundary"]
+__all__ = ["mm"]
 
 
 def fusion_boundary(tree: Any) -> Any:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-__all__ = ["safe_sqrt", "safe_norm", "safe_atan2", "safe_ratio"]
+__all__: list[str] = []
 
 
 def safe_sqrt(s: jax.Array) -> jax.Array:

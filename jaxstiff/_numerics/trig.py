@@ -12,7 +12,7 @@ import math
 import jax
 import jax.numpy as jnp
 
-__all__ = ["cos_sin", "joint_cos_sin", "POLY_MIN_BATCH"]
+__all__: list[str] = []
 
 # pi/2 = P1 + P2 + P3 (Cody and Waite's split). P1 and P2 keep only the leading 33 (float64) or
 # 12 (float32) bits of their part, so k * P1 and k * P2 are exact for |k| < 2^20 (float64) or

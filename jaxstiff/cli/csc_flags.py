@@ -14,15 +14,7 @@ from jaxstiff.cli.setting_flags import add_setting_flags as add_settings_flags
 from jaxstiff.cli.setting_flags import read_setting_flags, setting_flags
 from jaxstiff.settings.csc import CSCSettings
 
-__all__ = [
-    "M_TASK",
-    "SETTING_FLAGS",
-    "parse_numbers",
-    "parse_kxd",
-    "add_setting_flags",
-    "settings_from_args",
-    "flag_message",
-]
+__all__ = ["flag_message"]
 
 M_TASK = {2: "xy", 3: "xyz", 6: "full"}  #: the task of an m x m K_xd when --task is not given
 

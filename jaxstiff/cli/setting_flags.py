@@ -21,7 +21,7 @@ from typing import Any
 
 from jaxstiff.settings.base import FieldInfo, Flag, Settings
 
-__all__ = ["flag_name", "setting_flags", "add_setting_flags", "read_setting_flags", "flag_help"]
+__all__ = ["flag_name", "flag_help"]
 
 
 def flag_name(info: FieldInfo) -> str:

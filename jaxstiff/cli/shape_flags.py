@@ -11,7 +11,7 @@ from jaxstiff.cli.common import add_robot_flags, reads, writes
 from jaxstiff.cli.setting_flags import add_setting_flags
 from jaxstiff.settings.shape import ShapeSettings
 
-__all__ = ["EPILOG", "add_shape_flags", "limit_kwargs"]
+__all__: list[str] = []
 
 _S = ShapeSettings()
 EPILOG = (

@@ -14,7 +14,7 @@ import jax.numpy as jnp
 from jaxstiff._numerics.linalg import mm
 from jaxstiff._numerics.safe import safe_sqrt
 
-__all__ = ["mv", "mtv", "outer", "vector_norm", "det_cofactors", "det_small", "spd_inverse", "spd_inverse_primal"]
+__all__ = ["outer"]
 
 
 def mv(A: jax.Array, x: jax.Array) -> jax.Array:

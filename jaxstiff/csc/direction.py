@@ -18,7 +18,7 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.settings.csc import OBJECTIVES, TASK_BY_SIZE, CSCSettings
 from jaxstiff.stiffness.core import TASK_ROWS
 
-__all__ = ["null_space_direction", "project_to_target"]
+__all__: list[str] = []
 
 ArrayLike: TypeAlias = jax.typing.ArrayLike
 _DEFAULTS = CSCSettings()  # the damping rule's defaults (nu0, damping), as csc_rollout's

@@ -31,7 +31,7 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.settings.csc import TASK_BY_SIZE, CSCSettings
 from jaxstiff.stiffness.core import TASK_ROWS
 
-__all__ = ["frobenius_of_jacobian", "frobenius_value_and_grad", "frobenius_gradient"]
+__all__ = ["frobenius_of_jacobian"]
 
 ArrayLike: TypeAlias = jax.typing.ArrayLike
 _DEFAULTS = CSCSettings()

@@ -38,15 +38,7 @@ from jaxstiff.settings.csc import (
 from jaxstiff.settings.shape import task_dim
 from jaxstiff.stiffness.core import TASK_ROWS, check_task_feasible
 
-__all__ = [
-    "rollout_settings",
-    "prepare_rollout",
-    "validate_values",
-    "path_points",
-    "is_concrete",
-    "joints_outside_limits",
-    "SCALAR_SETTINGS",
-]
+__all__ = ["rollout_settings", "validate_values", "path_points", "SCALAR_SETTINGS"]
 
 #: the numeric settings that reach the compiled rollout as (differentiable) scalars
 SCALAR_SETTINGS = ("kmin", "kmax", "nu0", "damping", "jl_gain")

@@ -19,7 +19,7 @@ from jaxstiff.csc.algebra import vector_norm
 from jaxstiff.csc.pose import orientation_angle
 from jaxstiff.stiffness.core import cartesian_stiffness
 
-__all__ = ["realised_stiffness", "realised_forward", "realised_vjp", "posture_measures"]
+__all__ = ["realised_forward", "realised_vjp"]
 
 
 def _realised_stiffness(J: jax.Array, kj: jax.Array, K_xd: jax.Array, task: str) -> tuple[jax.Array, jax.Array]:

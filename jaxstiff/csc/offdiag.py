@@ -21,14 +21,7 @@ from jaxstiff.settings.csc import LOCKED_JOINT_MODES, TASK_BY_SIZE
 from jaxstiff.stiffness.core import TASK_ROWS
 from jaxstiff.stiffness.criteria import offdiag_of
 
-__all__ = [
-    "offdiag_value_and_grad",
-    "offdiag_forward",
-    "offdiag_vjp",
-    "offdiag_gradient",
-    "jacobian_contraction",
-    "on_jacobians",
-]
+__all__ = ["offdiag_forward", "offdiag_vjp"]
 
 
 def _offdiag_value_and_grad(J6: jax.Array, K_xd: jax.Array, rows: tuple[int, ...]) -> tuple[jax.Array, jax.Array]:

@@ -16,7 +16,7 @@ from jaxstiff.csc.algebra import vector_norm
 from jaxstiff.model.kinematics import cross_cols, fk_and_jacobian_raw, jacobian_tangent, position_and_jacobian_raw
 from jaxstiff.model.robot import Robot
 
-__all__ = ["pos_jac", "pose_jac", "orientation_error", "orientation_angle"]
+__all__ = ["orientation_error"]
 
 
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))

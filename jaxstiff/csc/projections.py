@@ -31,16 +31,7 @@ import jax.numpy as jnp
 from jaxstiff._numerics.linalg import mm
 from jaxstiff.csc.algebra import det_cofactors, det_small, mtv, mv, outer, spd_inverse, spd_inverse_primal
 
-__all__ = [
-    "Damping",
-    "damping_rule",
-    "isotropy_threshold",
-    "damped_inverse",
-    "damped_pinv",
-    "damped_projections",
-    "projections_forward",
-    "projections_vjp",
-]
+__all__ = ["Damping", "damping_rule", "damped_inverse", "projections_forward", "projections_vjp"]
 
 Scalar: TypeAlias = jax.typing.ArrayLike  #: a scalar setting (a float or a traced 0-d array)
 

@@ -14,21 +14,7 @@ from typing import Any
 import jax
 import numpy as np
 
-__all__ = [
-    "CSCResult",
-    "CSCStatus",
-    "STATUS_OK",
-    "STATUS_DAMPED",
-    "STATUS_JOINT_LIMIT",
-    "STATUS_NAN",
-    "STATUS_NULL_SMALL",
-    "STATUS_NAMES",
-    "describe_status",
-    "START_FIELDS",
-    "step_axis",
-    "concat_results",
-    "array_units",
-]
+__all__ = ["CSCResult"]
 
 
 class CSCStatus(enum.IntFlag):

@@ -17,7 +17,7 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.runtime.io import raise_if_interrupted
 from jaxstiff.runtime.progress import Progress
 
-__all__ = ["CSCInterrupted", "csc_rollout_segments", "StepProgress"]
+__all__ = ["csc_rollout_segments"]
 
 
 class CSCInterrupted(KeyboardInterrupt):

@@ -75,17 +75,7 @@ from jaxstiff.model.robot import Robot
 from jaxstiff.stiffness.core import TASK_ROWS
 from jaxstiff.stiffness.criteria import offdiag
 
-__all__ = [
-    "StaticSettings",
-    "StepContext",
-    "SATURATION_ROUNDS",
-    "step_context",
-    "csc_step",
-    "solve_step",
-    "evaluate",
-    "rigid_locks",
-    "expand_free",
-]
+__all__ = ["StepContext", "SATURATION_ROUNDS", "solve_step", "evaluate", "rigid_locks", "expand_free"]
 
 #: re-solves of a step after joints were frozen at their limits (each round freezes the joints the
 #: previous solve pushed past a limit); later violators are clamped by the final clip

@@ -20,21 +20,7 @@ import numpy as np
 
 from jaxstiff.runtime.dtypes import refuse_half_precision
 
-__all__ = [
-    "Chain",
-    "JointType",
-    "JOINT_REVOLUTE",
-    "JOINT_PRISMATIC",
-    "snap",
-    "mat_to_tuple",
-    "tuple_to_mat",
-    "tcp_matrix",
-    "check_locked",
-    "check_q",
-    "check_locked_values",
-    "LOCKED_JOINT_MODES",
-    "LOCKED_TOL",
-]
+__all__ = ["JointType", "JOINT_REVOLUTE", "JOINT_PRISMATIC", "tuple_to_mat", "LOCKED_TOL"]
 
 #: What a locked joint is (SPEC section 1): ``"rigid"`` (the default: no spring, so no compliance
 #: term and no stiffness variable; its ``kj`` entry in results is ``+inf``) or ``"spring"`` (it

@@ -18,7 +18,7 @@ import numpy as np
 
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
-__all__ = ["chain_frames", "link_frames", "tcp_transform", "tcp_position", "position_jacobian"]
+__all__: list[str] = []
 
 
 def _joint_motion(axis: np.ndarray, prismatic: bool, q: np.ndarray) -> np.ndarray:

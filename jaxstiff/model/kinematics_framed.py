@@ -46,7 +46,7 @@ from jaxstiff._numerics.trig import POLY_MIN_BATCH, joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain, snap
 from jaxstiff.model.scalars import Scalar, add, dot3, mul, sub
 
-__all__ = ["FramedPlan", "framed_plan", "framed_chain"]
+__all__ = ["FramedPlan", "framed_plan"]
 
 Rows3 = tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]
 

@@ -32,18 +32,7 @@ from jaxstiff._numerics.batch import batched_like
 from jaxstiff._numerics.trig import joint_cos_sin
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
-__all__ = [
-    "UNROLL_MAX_JOINTS",
-    "FRAMED_MAX_JOINTS",
-    "SOLVER_UNROLL_MAX_JOINTS",
-    "axis_aligned",
-    "uses_scan",
-    "kernel_for",
-    "solver_uses_scan",
-    "chain_arrays",
-    "scan_pose",
-    "scan_pose_and_jacobian",
-]
+__all__ = ["FRAMED_MAX_JOINTS", "SOLVER_UNROLL_MAX_JOINTS", "axis_aligned", "uses_scan", "chain_arrays"]
 
 #: Axis-aligned chains (:func:`axis_aligned`) with at most this many joints use the unrolled
 #: kernel; longer ones use the scan (other chains: :data:`FRAMED_MAX_JOINTS`) (measured crossover: docs/notes/model.md, ``scripts/bench_long_chain.py``).

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import jax
 
-__all__ = ["Scalar", "Vec3", "Mat3", "is_const", "mul", "add", "sub", "dot3", "matmul3", "matvec3", "cross"]
+__all__ = ["add", "sub"]
 
 Scalar = float | jax.Array  # a Python float is a compile-time constant
 Vec3 = Sequence[Scalar]

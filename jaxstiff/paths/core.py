@@ -20,7 +20,7 @@ from jaxstiff.runtime.io import atomic_write_text
 
 from .csv_io import MAX_ABS_VALUE, format_csv, read_csv
 
-__all__ = ["Path", "tangents", "ZERO_SEGMENT_M"]
+__all__ = ["Path", "tangents"]
 
 #: m: segments shorter than this have no direction (shared with the generators).
 ZERO_SEGMENT_M = 1e-12

@@ -19,7 +19,7 @@ import numpy as np
 
 from jaxstiff.runtime.io import check_regular_file
 
-__all__ = ["read_csv", "format_csv", "MAX_ABS_VALUE"]
+__all__ = ["read_csv"]
 
 #: the largest magnitude a coordinate or direction component may have: beyond it the squared
 #: length of a segment or direction (a sum of 3 squares of differences) overflows float64

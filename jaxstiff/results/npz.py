@@ -10,7 +10,7 @@ import numpy as np
 
 from jaxstiff.runtime.io import atomic_write
 
-__all__ = ["atomic_save_npz", "path_parameters"]
+__all__: list[str] = []
 
 
 def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> str:

@@ -15,17 +15,7 @@ from jaxstiff.runtime.io import check_urdf_file, file_sha256
 if TYPE_CHECKING:
     from jaxstiff.model.robot import Robot
 
-__all__ = [
-    "np_fk_position",
-    "robot_from_meta",
-    "result_urdf",
-    "check_same_robot",
-    "np_jacobian_rows",
-    "np_translational_stiffness",
-    "np_alpha_ratio",
-    "np_criterion",
-    "np_cms",
-]
+__all__: list[str] = []
 
 
 def np_fk_position(robot: Robot, q: np.ndarray) -> np.ndarray:

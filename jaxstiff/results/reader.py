@@ -39,17 +39,7 @@ from jaxstiff.runtime.io import check_regular_file, file_sha256, meta_loads
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = [
-    "ResultFileError",
-    "ResultFile",
-    "read_arrays",
-    "read_result",
-    "chain_from_meta",
-    "SHAPE_KEYS",
-    "CSC_KEYS",
-    "POSITION_TOL",
-    "TASKS",
-]
+__all__ = ["SHAPE_KEYS", "CSC_KEYS", "POSITION_TOL", "TASKS"]
 
 POSITION_TOL = 1e-6  #: m: stored TCP positions against the numpy FK of the stored q
 RATIO_REL_TOL = 1e-4  #: stored axis ratio against the one of the recorded task (well-conditioned waypoints)

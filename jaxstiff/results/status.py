@@ -10,18 +10,7 @@ import enum
 
 import numpy as np
 
-__all__ = [
-    "ShapeStatus",
-    "SOLVED",
-    "NOT_CONVERGED",
-    "CLIPPED",
-    "UNREACHABLE",
-    "NONFINITE",
-    "NOT_RUN",
-    "STATUS_NAMES",
-    "USABLE",
-    "is_usable",
-]
+__all__ = ["ShapeStatus"]
 
 
 class ShapeStatus(enum.IntEnum):

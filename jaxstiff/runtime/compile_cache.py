@@ -50,12 +50,6 @@ __all__ = [
     "CACHE_DIR_ENV",
     "COMPILE_EVENTS",
     "MIN_COMPILE_S",
-    "CompileClock",
-    "cache_dir_in_use",
-    "compile_cache_flags",
-    "default_cache_dir",
-    "enable_compile_cache",
-    "ensure_compile_cache",
 ]
 
 #: environment variable that turns the cache off (0, false, no, off)

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["is_half_precision", "refuse_half_precision"]
+__all__ = ["is_half_precision"]
 
 
 def is_half_precision(dtype: Any) -> bool:

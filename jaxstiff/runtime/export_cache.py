@@ -46,9 +46,7 @@ __all__ = [
     "CacheDamageWarning",  # (defined in compile_cache: both caches warn with it)
     "EXPORT_ENV",
     "EXPORT_SUBDIR",
-    "DiskJit",
     "code_fingerprint",
-    "compile_with_export_cache",
     "export_dir",
 ]
 

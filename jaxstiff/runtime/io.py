@@ -40,25 +40,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = [
-    "STALE_TMP_S",
-    "TMP_PREFIX",
-    "MAX_URDF_BYTES",
-    "check_regular_file",
-    "check_urdf_file",
-    "clean_stale_temporaries",
-    "is_own_temporary",
-    "atomic_write",
-    "atomic_write_text",
-    "json_default",
-    "meta_dumps",
-    "meta_loads",
-    "interrupt_handlers",
-    "interrupt_pending",
-    "raise_if_interrupted",
-    "deferred_interrupts",
-    "interrupt_exit_code",
-]
+__all__ = ["STALE_TMP_S", "TMP_PREFIX", "MAX_URDF_BYTES", "clean_stale_temporaries", "is_own_temporary"]
 
 
 def _umask() -> int:

@@ -9,7 +9,7 @@ import importlib.util
 from collections.abc import Callable, Mapping, MutableMapping
 from typing import Any
 
-__all__ = ["lazy_exports"]
+__all__: list[str] = []
 
 
 def lazy_exports(

@@ -10,7 +10,7 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable
 
-__all__ = ["short_list", "short_text", "suggest", "LIST_LIMIT", "TEXT_LIMIT"]
+__all__ = ["LIST_LIMIT", "TEXT_LIMIT"]
 
 LIST_LIMIT = 10  #: names shown before "... and N more"
 TEXT_LIMIT = 80  #: characters of quoted input shown

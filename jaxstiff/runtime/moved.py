@@ -11,11 +11,11 @@ import importlib.machinery
 import os
 import sys
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from types import ModuleType
 from typing import Any
 
-__all__ = ["install_moved_modules", "keep_public_names"]
+__all__ = ["former_names", "install_moved_modules", "keep_public_names"]
 
 
 class _Alias(importlib.abc.Loader):
@@ -23,8 +23,12 @@ class _Alias(importlib.abc.Loader):
         self.old, self.new = old, new
 
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
+        public = _public_part(self.new)
+        where = "" if public == self.new else f" (its code is now the private module {self.new})"
         warnings.warn(
-            f"module {self.old} is deprecated; import {self.new} instead", DeprecationWarning, stacklevel=_importer()
+            f"module {self.old} is deprecated; import {public} instead{where}",
+            DeprecationWarning,
+            stacklevel=_importer(),
         )
         module = importlib.import_module(self.new)
         self._spec = module.__spec__
@@ -34,6 +38,16 @@ class _Alias(importlib.abc.Loader):
         """Nothing to run (the module is the new one, already executed): its own ``__spec__``,
         which the import system has just replaced by the alias's, is put back."""
         module.__spec__ = self._spec
+
+
+def _public_part(module: str) -> str:
+    """The module's path up to its first private part: ``jaxstiff.shaping._steps`` ->
+    ``jaxstiff.shaping``, the package that is the way in to a private module's code."""
+    parts = module.split(".")
+    for i, part in enumerate(parts):
+        if part.startswith("_"):
+            return ".".join(parts[:i])
+    return module
 
 
 #: files whose frames stand between an import and the code that asked for it
@@ -94,3 +108,24 @@ def keep_public_names(package: ModuleType, moved: Mapping[str, str], public: Ite
             super().__setattr__(name, value)
 
     package.__class__ = _Package
+
+
+def former_names(module: str, moved: Mapping[str, str]) -> Callable[[str], Any]:
+    """A module-level ``__getattr__`` for ``module`` that answers names it no longer exports
+    (``moved``: name -> the module that defines it) with a ``DeprecationWarning`` naming where the
+    name lives; any other name is an ``AttributeError`` as usual. The warning points at the line
+    that reads the name (``from m import X`` reads it from C, ``m.X`` from the caller's frame)."""
+
+    def __getattr__(name: str) -> Any:
+        where = moved.get(name)
+        if where is None:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        # ``from m import X`` asks twice: the import system's hasattr (_handle_fromlist), then the
+        # import itself; the warning is given once, by the second
+        if sys._getframe(1).f_code.co_name != "_handle_fromlist":
+            private = _public_part(where) != where
+            hint = "an internal name now, in the private module" if private else "import it from"
+            warnings.warn(f"{module}.{name} is deprecated: {hint} {where}", DeprecationWarning, stacklevel=2)
+        return getattr(importlib.import_module(where), name)
+
+    return __getattr__

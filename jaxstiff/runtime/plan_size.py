@@ -21,7 +21,7 @@ from __future__ import annotations
 import os
 import re
 
-__all__ = ["PlanTooLargeError", "available_memory_bytes", "check_plan_size", "format_bytes", "MEMORY_LIMIT_ENV"]
+__all__ = ["available_memory_bytes", "format_bytes", "MEMORY_LIMIT_ENV"]
 
 MEMORY_LIMIT_ENV = "JAXSTIFF_MEMORY_LIMIT"  #: bytes a plan may use (overrides the available memory)
 _SUFFIX = {"": 1, "k": 1e3, "m": 1e6, "g": 1e9, "t": 1e12}

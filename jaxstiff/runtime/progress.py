@@ -26,7 +26,7 @@ from typing import TextIO
 
 from tqdm import tqdm
 
-__all__ = ["Progress", "progress", "is_terminal"]
+__all__ = ["progress", "is_terminal"]
 
 #: the bar on a terminal: tqdm's fields; n and total as whole numbers even when counts are fractional
 BAR_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} {unit} [{elapsed}<{remaining}]{postfix}"

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["shard_rows", "device_count", "padded_size"]
+__all__ = ["device_count", "padded_size"]
 
 
 def device_count() -> int:

@@ -21,7 +21,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, TypeVar
 
-__all__ = ["usable_cores", "chunk_threads", "chunk_rows", "map_chunks"]
+__all__ = ["usable_cores"]
 
 T = TypeVar("T")
 

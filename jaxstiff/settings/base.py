@@ -27,18 +27,7 @@ from typing import Any, ClassVar, TypeVar
 
 from jaxstiff.runtime.messages import suggest as suggest  # (re-exported: its home before it moved down)
 
-__all__ = [
-    "Settings",
-    "setting",
-    "FieldInfo",
-    "Flag",
-    "Axis",
-    "positive",
-    "non_negative",
-    "at_least",
-    "finite",
-    "suggest",
-]
+__all__ = ["Settings", "setting", "Axis", "positive", "finite", "suggest"]
 
 S = TypeVar("S", bound="Settings")
 Check = Callable[[Any], "str | None"]  # returns what is wrong, or None

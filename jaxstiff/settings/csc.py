@@ -15,17 +15,7 @@ from typing import Literal
 
 from jaxstiff.settings.base import Axis, Settings, setting
 
-__all__ = [
-    "CSCSettings",
-    "CSC_TASKS",
-    "STEP_RULES",
-    "JOINT_LIMIT_MODES",
-    "OBJECTIVES",
-    "LOCKED_JOINT_MODES",
-    "DEFAULT_JL_GAIN",
-    "TASK_BY_SIZE",
-    "CSC_SWEEP_TASK",
-]
+__all__ = ["CSCSettings", "CSC_TASKS"]
 
 CSC_TASKS = ("xy", "xyz", "full")  #: task rows; None = from the size of K_xd
 TASK_BY_SIZE = {2: "xy", 3: "xyz", 6: "full"}  #: the task of a K_xd of size m x m (task None)

@@ -24,7 +24,7 @@ from jaxstiff.model.shipped import robot_path
 from jaxstiff.runtime.io import file_sha256
 from jaxstiff.settings.base import Settings, setting
 
-__all__ = ["RobotSpec", "DEFAULT_LOCKS", "DEFAULT_ROBOT", "tcp_transform", "robot_meta", "versions"]
+__all__ = ["RobotSpec", "tcp_transform", "versions"]
 
 DEFAULT_ROBOT = "kuka_lwr4"  #: the robot every command uses without --robot
 

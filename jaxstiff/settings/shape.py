@@ -32,21 +32,7 @@ import numpy as np
 from jaxstiff.model.chain import LOCKED_JOINT_MODES
 from jaxstiff.settings.base import Axis, Flag, Settings, at_least, non_negative, positive, setting
 
-__all__ = [
-    "ShapeSettings",
-    "LOCKED_JOINT_MODES",
-    "CRITERIA",
-    "TASKS",
-    "SOLVER_NAMES",
-    "DEFAULT_DQ_DEG",
-    "ratio_per_path",
-    "limit_per_joint",
-    "per_metre_limit",
-    "shortest_segments",
-    "SEGMENT_SPREAD_WARN",
-    "task_dim",
-    "dq_to_deg",
-]
+__all__ = ["ShapeSettings", "LOCKED_JOINT_MODES", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG", "dq_to_deg"]
 
 CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
 TASKS = ("full", "xyz", "xy")  #: task rows of the stiffness (SPEC section 2)

@@ -36,7 +36,7 @@ import numpy as np
 
 from jaxstiff.model.chain import JOINT_PRISMATIC, Chain
 
-__all__ = ["MUJOCO_MISSING", "require_mujoco", "SimModel", "build_model", "BODY_MASS", "TIMESTEP", "SETTLE_TIME"]
+__all__ = ["BODY_MASS", "TIMESTEP", "SETTLE_TIME"]
 
 #: what to tell a user without MuJoCo
 MUJOCO_MISSING = 'the physics check needs MuJoCo: pip install "jaxstiff[sim]"'

@@ -46,17 +46,7 @@ from jaxstiff.sim.predict import (
 from jaxstiff.sim.setup import SimCase
 from jaxstiff.stiffness import task_rows
 
-__all__ = [
-    "TOL",
-    "DEFLECTION",
-    "CCT_FRACTION",
-    "SimRow",
-    "check_case",
-    "check_cases",
-    "cct_load",
-    "probe_directions",
-    "rel_error",
-]
+__all__ = ["DEFLECTION", "CCT_FRACTION", "check_cases", "cct_load", "probe_directions", "rel_error"]
 
 TOL = 1e-3  #: the issue's bar for relative agreement
 DEFLECTION = 1e-5  #: default probe size: largest deflection, m (rad for moment probes)

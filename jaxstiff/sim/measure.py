@@ -27,7 +27,7 @@ import numpy as np
 
 from jaxstiff.sim.build import SimModel, require_mujoco
 
-__all__ = ["SettleError", "Settled", "settle", "deflection", "probe_compliance", "SETTLE_TOL", "FLOOR_TOL", "MAX_STEPS"]
+__all__ = ["Settled", "settle", "deflection", "SETTLE_TOL", "FLOOR_TOL", "MAX_STEPS"]
 
 SETTLE_TOL = 1e-9  #: residual generalised force / spring torques at which a settle has converged
 FLOOR_TOL = 1e-6  #: a residual that stops falling below this is round-off's floor: accepted (and reported)

@@ -27,14 +27,7 @@ import numpy as np
 from jaxstiff.model.chain import Chain
 from jaxstiff.stiffness import compliance, joint_stiffness, task_rows, translational_stiffness
 
-__all__ = [
-    "joint_torque",
-    "predicted_compliance",
-    "predicted_stiffness",
-    "cct_term",
-    "loaded_compliance",
-    "stiffness_from_compliance",
-]
+__all__: list[str] = []
 
 
 def _jacobian(robot: Chain, q: np.ndarray) -> np.ndarray:

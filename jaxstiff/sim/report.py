@@ -9,7 +9,7 @@ import numpy as np
 
 from jaxstiff.sim.check import SimRow
 
-__all__ = ["markdown_table", "rows_json", "worst", "HELD_FREE_NOTE"]
+__all__ = ["markdown_table", "worst"]
 
 
 def _eig(K: np.ndarray) -> str:

@@ -25,7 +25,7 @@ from jaxstiff.model.chain import Chain
 from jaxstiff.results import ShapeResult, is_usable, robot_from_meta
 from jaxstiff.stiffness import task_rows
 
-__all__ = ["LOCKED_MODES", "locked_joint_mode", "spring_mask", "SimCase", "select_waypoints", "cases_from_result"]
+__all__ = ["LOCKED_MODES", "select_waypoints", "cases_from_result"]
 
 LOCKED_MODES = ("rigid", "spring")
 

@@ -24,19 +24,7 @@ from jaxstiff.settings.solvers import (
 )
 from jaxstiff.solvers.problem import WaypointBatch
 
-__all__ = [
-    "SolveRequest",
-    "SOLVERS",
-    "SolverInterrupted",
-    "register_solver",
-    "outcomes_to_arrays",
-    "solver_defaults",
-    "solver_option_names",
-    "options_for_solver",
-    "check_options",
-    "first_starts_use",
-    "options_meta",
-]
+__all__ = ["SolveRequest", "SOLVERS", "register_solver", "solver_defaults", "check_options"]
 
 
 # ---------------------------------------------------------------------- solver registry

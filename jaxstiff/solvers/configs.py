@@ -28,17 +28,7 @@ from typing import Any, ClassVar
 
 from jaxstiff.settings.solvers import HybridOptions, PGDOptions, SLSQPOptions, SolverOptions, TrajectoryOptions
 
-__all__ = [
-    "SLSQP",
-    "SLSQPFD",
-    "PGD",
-    "Hybrid",
-    "Trajectory",
-    "Registered",
-    "Solver",
-    "solver_from_name",
-    "solver_call",
-]
+__all__ = ["SLSQP", "SLSQPFD", "PGD", "Hybrid", "Trajectory", "Registered", "solver_from_name"]
 
 
 def _changed(obj: SolverOptions, cls: type[SolverOptions]) -> dict[str, Any]:

@@ -39,7 +39,7 @@ from jaxstiff.solvers.greedy import (
 from jaxstiff.solvers.lockstep import RowsProgram, Steps, run_lockstep
 from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
 
-__all__ = ["exact_first_answers", "SLSQP_OPTION_NAMES"]
+__all__ = ["SLSQP_OPTION_NAMES"]
 
 #: the SLSQP options a batch solver's options may carry for this stage
 SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver")

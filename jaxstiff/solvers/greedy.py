@@ -37,32 +37,7 @@ from jaxstiff.solvers.problem import (
 )
 from jaxstiff.stiffness.criteria import f2
 
-__all__ = [
-    "SolverOutput",
-    "WaypointOutcome",
-    "PathInterrupted",
-    "WaypointSolver",
-    "PosAndJac",
-    "Objective",
-    "CODE_MEANING",
-    "REPAIR_POS",
-    "GIVE_UP_REL",
-    "TIE_RTOL",
-    "not_run_outcomes",
-    "kernel_objective",
-    "judge",
-    "give_up",
-    "greedy_path",
-    "check_single_start",
-    "run_greedy",
-    "Candidate",
-    "target_bound",
-    "maybe_off_target",
-    "rescue_starts",
-    "box_starts",
-    "BOX_STARTS",
-    "PATH_RETRIES",
-]
+__all__ = ["CODE_MEANING", "GIVE_UP_REL"]
 
 REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts as CLIPPED when repaired
 #: a waypoint without rate limit is given up (status 3, no SLSQP run) when neither its start postures

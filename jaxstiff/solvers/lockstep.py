@@ -19,7 +19,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-__all__ = ["Request", "Steps", "run_steps", "run_lockstep", "bucket_size", "RowsProgram"]
+__all__ = ["Request", "bucket_size"]
 
 #: one evaluation request: the point and the waypoint's parameters
 Request = tuple[np.ndarray, np.ndarray]

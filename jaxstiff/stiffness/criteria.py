@@ -53,21 +53,7 @@ from jaxstiff._numerics.eig import eigh_descending
 from jaxstiff._numerics.safe import safe_ratio, safe_sqrt
 from jaxstiff.stiffness.ellipsoid import alpha_rad, check_direction, refuse_indefinite
 
-__all__ = [
-    "f1",
-    "f2",
-    "frobenius",
-    "offdiag",
-    "get_criterion",
-    "check_criterion_call",
-    "accepts_c",
-    "register_criterion",
-    "CRITERIA",
-    "alpha_and_ratio",
-    "alpha_and_ratio_of_eig",
-    "f1_of",
-    "f2_of",
-]
+__all__ = ["f1", "f2", "frobenius", "offdiag", "get_criterion", "register_criterion"]
 
 Criterion = Callable[..., jax.Array]
 

@@ -47,16 +47,7 @@ from jaxstiff._numerics.batch import broadcast_batch, check_square, is_traced
 from jaxstiff._numerics.eig import JACOBI_SWEEPS, eigh_descending, eigh_descending_inline
 from jaxstiff._numerics.safe import safe_atan2, safe_norm, safe_ratio
 
-__all__ = [
-    "Ellipsoid",
-    "ellipsoid",
-    "eigh_descending",
-    "orientation_error",
-    "axis_ratio",
-    "volume",
-    "JACOBI_SWEEPS",
-    "refuse_indefinite",
-]
+__all__ = ["Ellipsoid", "ellipsoid", "eigh_descending", "orientation_error", "axis_ratio", "volume", "JACOBI_SWEEPS"]
 
 
 @jax.tree_util.register_dataclass

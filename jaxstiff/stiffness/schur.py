@@ -46,15 +46,7 @@ from jaxstiff._numerics.cholesky import damped_cholesky, sym_entries, sym_to_arr
 from jaxstiff._numerics.eig import eigh_descending, eigh_descending_primal, gap_tol
 from jaxstiff._numerics.linalg import mm
 
-__all__ = [
-    "lost_axis_floor",
-    "schur_compliance",
-    "floor_of",
-    "stiffness_of_compliance",
-    "stiffness_eig_of_compliance",
-    "stiffness_and_tangents",
-    "axes_of_compliance",
-]
+__all__ = ["lost_axis_floor", "floor_of"]
 
 _EXP_CAP = 50.0  # exp(-mu/a) is only ever evaluated for -mu/a <= 50 (mu >= -50 a: rounding only)
 

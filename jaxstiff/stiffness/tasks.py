@@ -16,7 +16,7 @@ import numpy as np
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = ["TASK_ROWS", "task_rows", "check_task_feasible", "select_task_rows"]
+__all__: list[str] = []
 
 TASK_ROWS: dict[str, tuple[int, ...]] = {"xy": (0, 1), "xyz": (0, 1, 2), "full": (0, 1, 2, 3, 4, 5)}
 

@@ -40,18 +40,7 @@ from jaxstiff.sweep.axis_specs import Q0_FAMILIES as Q0_FAMILIES
 from jaxstiff.sweep.axis_specs import AxisSpec as AxisSpec
 from jaxstiff.sweep.schema import SweepConfigError, Table, number, range_values, suggest, typename, validate
 
-__all__ = [
-    "AxisSpec",
-    "AXES",
-    "kxd_matrix",
-    "axes_table",
-    "axis_values",
-    "q0_values",
-    "resolve_jl_gain",
-    "cross_checks",
-    "CSC_SWEEP_TASK",
-    "Q0_FAMILIES",
-]
+__all__ = ["AxisSpec", "AXES", "axis_values", "q0_values", "CSC_SWEEP_TASK", "Q0_FAMILIES"]
 
 
 def kxd_matrix(task: str, major: float, ratio: float, angle_deg: float) -> np.ndarray:

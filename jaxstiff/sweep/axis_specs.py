@@ -20,7 +20,7 @@ from jaxstiff.settings.base import Check, FieldInfo, Settings
 from jaxstiff.settings.csc import CSC_SWEEP_TASK, CSCSettings
 from jaxstiff.settings.shape import ShapeSettings
 
-__all__ = ["AxisSpec", "AXES", "CSC_SWEEP_TASK", "Q0_FAMILIES", "setting_axes", "sweep_axes"]
+__all__ = ["CSC_SWEEP_TASK", "setting_axes", "sweep_axes"]
 
 Q0_FAMILIES = ("ik", "nominal", "random")
 

@@ -22,18 +22,7 @@ from jaxstiff.sweep.chunks import compute_chunk
 from jaxstiff.sweep.plan import Chunk, SweepPlan
 from jaxstiff.sweep.store import SweepStore
 
-__all__ = [
-    "BACKENDS",
-    "Progress",
-    "run_local",
-    "run_ray",
-    "RAY_MAX_RETRIES",
-    "ChunkLostError",
-    "ray_task",
-    "import_ray",
-    "default_cache_dir",
-    "enable_compile_cache",
-]
+__all__ = ["RAY_MAX_RETRIES", "ray_task", "default_cache_dir"]
 
 BACKENDS = ("local", "ray")
 #: how often Ray reruns a chunk whose worker process died (Ray's own default, made explicit)

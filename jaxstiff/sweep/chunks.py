@@ -30,7 +30,7 @@ from jaxstiff.sweep.metrics import csc_row_metrics, shape_row_metrics
 from jaxstiff.sweep.plan import Chunk, SweepPlan
 from jaxstiff.sweep.starts import start_posture_and_error
 
-__all__ = ["compute_chunk", "shard_batch", "table_settings", "setting_values"]
+__all__ = ["table_settings", "setting_values"]
 
 
 def shard_batch(arrays: Mapping[str, np.ndarray], size: int | None = None) -> tuple[dict[str, Any], int]:

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["METRICS", "shape_row_metrics", "csc_row_metrics"]
+__all__: list[str] = []
 
 #: Metric name -> description, per sweep kind, in table order. The first two are the default
 #: heat-map metrics.

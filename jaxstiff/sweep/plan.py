@@ -41,16 +41,7 @@ from jaxstiff.sweep.schema import (
 from jaxstiff.sweep.sections import report_choices, solver_options
 from jaxstiff.sweep.trajectories import Trajectory, format_value, read_paths
 
-__all__ = [
-    "Chunk",
-    "SweepPlan",
-    "load_config",
-    "parse_config",
-    "hashed_config",
-    "build_robot",
-    "expand_rows",
-    "cut_chunks",
-]
+__all__ = ["load_config", "build_robot", "expand_rows", "cut_chunks"]
 
 
 def hashed_config(normalised: dict) -> dict:

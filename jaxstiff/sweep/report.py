@@ -21,7 +21,7 @@ from jaxstiff.sweep.config import AXES, SweepPlan
 from jaxstiff.sweep.metrics import METRICS
 from jaxstiff.sweep.store import atomic_write_text, read_table
 
-__all__ = ["write_report", "heatmap"]
+__all__ = ["heatmap"]
 
 
 def _label(plan: SweepPlan, axis: str) -> str:

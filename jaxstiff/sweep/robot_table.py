@@ -10,7 +10,7 @@ import numpy as np
 
 from jaxstiff.sweep.schema import RobotTable, SweepConfigError, suggest, validate
 
-__all__ = ["build_robot"]
+__all__: list[str] = []
 
 
 def build_robot(cfg: Mapping[str, Any], base_dir: str, source: str = "") -> tuple[Any, dict]:

@@ -60,7 +60,6 @@ from jaxstiff.sweep.store import SweepStore, read_table
 
 __all__ = [
     "run_sweep",
-    "SweepOutcome",
     "compute_chunk",
     "start_posture",
     "start_posture_and_error",

@@ -22,29 +22,7 @@ from pydantic_core import PydanticCustomError
 
 from jaxstiff.runtime.messages import suggest as _suggest
 
-__all__ = [
-    "SweepConfigError",
-    "Table",
-    "SweepTable",
-    "RobotTable",
-    "PathFileTable",
-    "RangeTable",
-    "ReportTable",
-    "KINDS",
-    "TOP_KEYS",
-    "DEFAULT_CHUNK",
-    "MAX_ROWS",
-    "validate",
-    "problem",
-    "typename",
-    "suggest",
-    "number",
-    "vec3",
-    "short_float",
-    "range_values",
-    "check_table",
-    "known_keys",
-]
+__all__ = ["RangeTable", "problem", "number", "short_float"]
 
 KINDS = ("shape", "csc")
 TOP_KEYS = ("sweep", "robot", "paths", "axes", "solver_options", "report")

@@ -15,7 +15,7 @@ from typing import Any
 from jaxstiff.sweep.axes import AXES
 from jaxstiff.sweep.schema import ReportTable, SweepConfigError, check_table, suggest, typename, validate
 
-__all__ = ["solver_options", "report_choices"]
+__all__: list[str] = []
 
 
 def solver_options(cfg: Mapping[str, Any], axes: Mapping[str, list], source: str = "") -> dict:

@@ -15,7 +15,7 @@ import numpy as np
 
 from jaxstiff.sweep.plan import SweepPlan
 
-__all__ = ["start_posture", "start_posture_and_error", "Q0_CACHE", "IK_TOL_M", "IK_RETRIES"]
+__all__: list[str] = []
 
 #: IK distance (m) above which a start posture counts as not reaching the first waypoint
 IK_TOL_M = 1e-4

@@ -40,7 +40,7 @@ from jaxstiff.sweep.plan import SweepPlan, hashed_config
 from jaxstiff.sweep.table import read_table as read_table
 from jaxstiff.sweep.table import rows_csv, table_frame
 
-__all__ = ["SweepStore", "read_table", "atomic_write_text", "FORMAT"]
+__all__ = ["read_table", "atomic_write_text", "FORMAT"]
 
 FORMAT = "jaxstiff.sweep/1"
 LOCK_FILE = ".lock"  #: held while a sweep writes into the folder

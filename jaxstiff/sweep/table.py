@@ -8,7 +8,7 @@ from typing import Any
 
 from jaxstiff.sweep.axes import AXES
 
-__all__ = ["table_frame", "rows_csv", "read_table"]
+__all__ = ["read_table"]
 
 
 def table_frame(rows: list[dict], cols: list[str], kind: str) -> Any:

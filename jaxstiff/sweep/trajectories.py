@@ -30,7 +30,7 @@ from jaxstiff.sweep.schema import (
     vec3,
 )
 
-__all__ = ["GENERATORS", "Trajectory", "generator_values", "read_paths", "format_value"]
+__all__ = ["Trajectory", "generator_values"]
 
 #: Parameter types of each path generator: ``"float"``, ``"int"``, ``"vec3"``, ``"points"``.
 #: Scalar parameters accept a list or a range (one path per value), vec3 ones a list of vectors.

@@ -17,7 +17,7 @@ from typing import Any
 from jaxstiff.view.data import ViewData
 from jaxstiff.view.scene import Scene
 
-__all__ = ["open_viewer", "panel_markdown", "Viewer", "serve_forever"]
+__all__ = ["Viewer"]
 
 
 def panel_markdown(data: ViewData, b: int, p: int) -> str:

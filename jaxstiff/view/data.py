@@ -30,7 +30,7 @@ from jaxstiff.view.kinematics import stiffness_T, tcp_position
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = ["ViewData", "load_view_data", "sweep_row_file", "format_kj", "chain_from_meta"]
+__all__ = ["sweep_row_file", "format_kj", "chain_from_meta"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

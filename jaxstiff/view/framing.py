@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ArmSizes", "arm_sizes", "arm_length", "nice_scale", "screen_semi_axis", "choose_view", "MANTISSAS"]
+__all__ = ["ArmSizes", "arm_length", "MANTISSAS"]
 
 #: the round mantissas a scale can take: 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 x 10^k (neighbours at most 4/3 apart)
 MANTISSAS = (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)

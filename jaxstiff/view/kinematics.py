@@ -20,15 +20,7 @@ from jaxstiff.model.host import chain_frames, link_frames, position_jacobian, tc
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = [
-    "chain_frames",
-    "link_frames",
-    "tcp_transform",
-    "tcp_position",
-    "position_jacobian",
-    "stiffness_T",
-    "ellipsoid_axes",
-]
+__all__ = ["chain_frames", "link_frames", "tcp_transform", "tcp_position", "position_jacobian"]
 
 
 def stiffness_T(chain: Chain, q: np.ndarray, kj: np.ndarray, task: str = "full") -> np.ndarray:

@@ -24,7 +24,7 @@ import numpy as np
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = ["LinkMesh", "urdf_meshes", "origin_matrix"]
+__all__ = ["LinkMesh", "origin_matrix"]
 
 
 @dataclasses.dataclass(frozen=True)

@@ -41,7 +41,7 @@ import threading
 import time
 from typing import IO, Any
 
-__all__ = ["find_browser", "screenshot", "BROWSER_NAMES", "chromium_flags", "SETTLE_S"]
+__all__ = ["BROWSER_NAMES", "chromium_flags", "SETTLE_S"]
 
 #: executables tried in this order on PATH (after --browser and $JAXSTIFF_CHROMIUM)
 BROWSER_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome")

@@ -23,7 +23,7 @@ from jaxstiff.view.geometry import capsule, cylinder, icosphere
 from jaxstiff.view.kinematics import chain_frames, ellipsoid_axes, link_frames
 from jaxstiff.view.meshes import urdf_meshes
 
-__all__ = ["Scene", "COLORS", "nice_scale", "rotation_wxyz", "ellipsoid_pose", "ellipsoid_vertices"]
+__all__ = ["COLORS", "nice_scale", "rotation_wxyz", "ellipsoid_pose", "ellipsoid_vertices"]
 
 COLORS = {
     "arm": (40, 80, 220),

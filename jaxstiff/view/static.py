@@ -32,7 +32,7 @@ from jaxstiff.view.app import header_markdown, panel_markdown
 from jaxstiff.view.data import ViewData
 from jaxstiff.view.scene import Scene
 
-__all__ = ["write_html", "page_html", "markdown_html", "SLOT_S", "MAX_WAYPOINTS", "slot_index"]
+__all__ = ["page_html", "markdown_html", "SLOT_S", "MAX_WAYPOINTS", "slot_index"]
 
 SLOT_S = 1.0  #: seconds of viser's timeline per slot (the page sets the time to a slot's middle)
 MAX_WAYPOINTS = 3000  #: a batch with more waypoints in all (B x P) puts only the chosen path in the page

@@ -211,7 +211,7 @@ def test_units_and_robot_spec_recorded_in_meta(default_run):
 
 
 def test_prismatic_joint_units_say_metres(tmp_path):
-    from jaxstiff.shaping_steps import array_units
+    from jaxstiff.shaping._steps import array_units  # noqa: PLC2701 - the units meta["units"] records
 
     assert array_units(jaxstiff.Robot.from_urdf("planar_3r"))["q"] == "rad"
     src = open(jaxstiff.robot_path("planar_3r")).read()

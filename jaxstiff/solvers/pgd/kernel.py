@@ -16,7 +16,7 @@ from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
 from jaxstiff.solvers.pgd.stages import judge, optimise
 from jaxstiff.solvers.problem import WaypointProblem
 
-__all__ = ["make_kernel", "PGDKernel", "length_unit", "waypoint_keys"]
+__all__ = ["make_kernel", "length_unit"]
 
 #: per waypoint: ``(x, criterion, position error, status, winning start)``
 Waypoint = tuple[jax.Array, jax.Array, jax.Array, jax.Array, jax.Array]

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 from jaxstiff._numerics.batch import batched_like
 from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, spd_solve
 
-__all__ = ["optimise", "finish", "verdict", "judge"]
+__all__ = ["finish", "verdict"]
 
 
 def optimise(  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)

@@ -13,19 +13,7 @@ import numpy as np
 from jaxstiff.solvers.problem.compiled import jax_pos_and_jac
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
-__all__ = [
-    "box",
-    "rate_bounds",
-    "clip_to_box",
-    "newton_project",
-    "check_point",
-    "PointCheck",
-    "Limits",
-    "WaypointBatch",
-    "POS_TOL",
-    "BOUND_TOL",
-    "content_seed",
-]
+__all__ = ["box", "Limits"]
 
 POS_TOL = 1e-9  #: m, largest position error of a waypoint that counts as reached
 BOUND_TOL = 1e-9  #: largest excursion outside the box that SLSQP may report before it counts as clipped

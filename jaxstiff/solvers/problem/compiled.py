@@ -15,19 +15,7 @@ from jaxstiff.runtime.programs import program_cache
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
-__all__ = [
-    "compiled",
-    "compiled_evaluate",
-    "compiled_report",
-    "compiled_report_rows",
-    "report_rows",
-    "warm_report",
-    "REPORT_ROWS",
-    "compiled_scaled",
-    "compiled_scaled_rows",
-    "compiled_position",
-    "jax_pos_and_jac",
-]
+__all__ = ["compiled", "compiled_report_rows", "REPORT_ROWS"]
 
 
 @program_cache(maxsize=64)

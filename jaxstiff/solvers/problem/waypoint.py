@@ -21,7 +21,7 @@ from jaxstiff.stiffness.core import compliance, task_rows, translational_stiffne
 from jaxstiff.stiffness.criteria import accepts_c, alpha_and_ratio, alpha_and_ratio_of_eig, f1, f1_of, f2, f2_of
 from jaxstiff.stiffness.schur import stiffness_eig_of_compliance
 
-__all__ = ["WaypointProblem"]
+__all__: list[str] = []
 
 
 @dataclasses.dataclass(frozen=True)

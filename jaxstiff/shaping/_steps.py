@@ -1,6 +1,6 @@
-"""The named steps of :func:`jaxstiff.shape` besides the input checks: the start states (q0, kj0
-and the first waypoint's extra start postures), what is reported at the solved points, the CMS
-factor, the ``meta`` record and the :class:`~jaxstiff.ShapeResult`.
+"""The named steps of :func:`jaxstiff.shape` after the solve: what is reported at the solved points,
+the CMS factor, the ``meta`` record and the :class:`~jaxstiff.ShapeResult` (private to
+:mod:`jaxstiff.shaping`; the input checks and start states are in ``_inputs``).
 
 Every reported quantity (position, K_T, alpha, ratio, criterion) is recomputed here at each
 solver's final points with one compiled program, so all solvers report the same way. The common-
@@ -28,32 +28,9 @@ from jaxstiff.results.numpy_check import np_alpha_ratio, np_criterion
 from jaxstiff.runtime.io import deferred_interrupts
 from jaxstiff.runtime.plan_size import check_plan_size
 from jaxstiff.settings.robot import robot_meta, versions
-from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
-from jaxstiff.shaping_inputs import FIRST_STARTS_SPREAD_DEG as FIRST_STARTS_SPREAD_DEG
-from jaxstiff.shaping_inputs import ShapeInputs as ShapeInputs
-from jaxstiff.shaping_inputs import first_start_postures as first_start_postures
-from jaxstiff.shaping_inputs import first_start_rng as first_start_rng
-from jaxstiff.shaping_inputs import make_start_states as make_start_states
+from jaxstiff.shaping._inputs import FIRST_STARTS_SEED, FIRST_STARTS_SPREAD_DEG, ShapeInputs
 from jaxstiff.solvers.problem import WaypointProblem, report_rows
 from jaxstiff.stiffness.criteria import CRITERIA
-
-__all__ = [
-    "ShapeInputs",
-    "Report",
-    "first_start_rng",
-    "first_start_postures",
-    "make_start_states",
-    "report_at_solution",
-    "not_run_groups",
-    "check_shape_size",
-    "cms_factors",
-    "warn_off_plane",
-    "shape_meta",
-    "array_units",
-    "assemble_result",
-    "FIRST_STARTS_SEED",
-    "FIRST_STARTS_SPREAD_DEG",
-]
 
 
 @dataclasses.dataclass

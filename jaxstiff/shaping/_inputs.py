@@ -1,6 +1,6 @@
 """Steps 1 and 2 of :func:`jaxstiff.shape`: the checked inputs (:class:`ShapeInputs`,
 :func:`check_inputs`) and the start states (q0, kj0 and the first waypoint's extra start postures,
-:func:`make_start_states`)."""
+:func:`make_start_states`); private to :mod:`jaxstiff.shaping`."""
 
 from __future__ import annotations
 
@@ -34,17 +34,6 @@ from jaxstiff.solvers.base import SOLVERS, check_options
 from jaxstiff.solvers.problem import content_seed
 from jaxstiff.stiffness.core import check_task_feasible, task_rows
 from jaxstiff.stiffness.criteria import check_criterion_call, f1, f2, get_criterion
-
-__all__ = [
-    "ShapeInputs",
-    "robot_and_path",
-    "check_inputs",
-    "first_start_rng",
-    "first_start_postures",
-    "make_start_states",
-    "FIRST_STARTS_SEED",
-    "FIRST_STARTS_SPREAD_DEG",
-]
 
 FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures, mixed with each path's own data
 FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg

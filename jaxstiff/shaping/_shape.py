@@ -1,27 +1,6 @@
-"""``shape()``: stiffness-ellipsoid shaping along TCP paths (seed 000, SPEC section 5).
-
-For every waypoint of every path, joint positions q and joint stiffnesses kj are chosen so that the
-stiffness ellipsoid's major axis follows the desired direction with the wanted axis ratio
-(criterion f1 or f2), the TCP stays exactly on the path, and q and kj change no faster than the
-rate limits allow (S0-10 ... S0-14). Afterwards the common-mode stiffness factor (CMS, S0 section
-III) scales each waypoint's kj so that its ellipsoid reaches a target size.
-
-The defaults the seed leaves open live in :class:`~jaxstiff.settings.ShapeSettings` (values, units,
-docs, written there once; every result file records them in ``meta["settings"]``). Without ``q0``
-and ``kj0``: ``q0`` is damped-least-squares IK (:mod:`jaxstiff.ik`) from the nominal posture to the
-first waypoint, ``kj0`` is mid-range. Why these values: docs/notes/shape.md.
-
-The steps: check the inputs (:func:`check_inputs`) -> start states (:func:`make_start_states`) ->
-solve (a solver in :data:`SOLVERS`; add one with :func:`register_solver`) -> report and meta
-(:mod:`jaxstiff.shaping_steps`) -> :class:`~jaxstiff.ShapeResult`.
-
-Example:
-    >>> import jaxstiff
-    >>> robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
-    >>> res = jaxstiff.shape(robot, jaxstiff.default_path(n=10), "f2", 5.0)   # doctest: +SKIP
-    >>> res.status.shape                                                       # doctest: +SKIP
-    (1, 10)
-"""
+"""The call itself: :func:`shape` (settings inline, a solver object) and :func:`run_shape` (every
+input a parameter), the solve step between the inputs (``_inputs``) and the report (``_steps``),
+and the CPU dispatch switch of the entry points. Private to :mod:`jaxstiff.shaping`."""
 
 from __future__ import annotations
 
@@ -45,14 +24,8 @@ from jaxstiff.runtime.dtypes import refuse_half_precision
 from jaxstiff.settings.base import suggest
 from jaxstiff.settings.robot import RobotSpec
 from jaxstiff.settings.shape import ShapeSettings
-from jaxstiff.shaping_inputs import FIRST_STARTS_SEED as FIRST_STARTS_SEED
-from jaxstiff.shaping_inputs import FIRST_STARTS_SPREAD_DEG as FIRST_STARTS_SPREAD_DEG
-from jaxstiff.shaping_inputs import ShapeInputs, robot_and_path
-from jaxstiff.shaping_inputs import check_inputs as check_inputs
-from jaxstiff.shaping_inputs import first_start_postures as first_start_postures
-from jaxstiff.shaping_inputs import first_start_rng as first_start_rng
-from jaxstiff.shaping_inputs import make_start_states as make_start_states
-from jaxstiff.shaping_steps import (
+from jaxstiff.shaping._inputs import ShapeInputs, check_inputs, make_start_states, robot_and_path
+from jaxstiff.shaping._steps import (
     assemble_result,
     check_shape_size,
     cms_factors,
@@ -60,32 +33,11 @@ from jaxstiff.shaping_steps import (
     shape_meta,
     warn_off_plane,
 )
-from jaxstiff.solvers.base import SOLVERS, SolveRequest, SolverInterrupted, register_solver
+from jaxstiff.solvers.base import SOLVERS, SolveRequest, SolverInterrupted
 from jaxstiff.solvers.base import first_starts_use as _first_starts_use
-from jaxstiff.solvers.base import options_for_solver as options_for_solver  # re-exported (sweep)
 from jaxstiff.solvers.base import options_meta as _options_meta
-from jaxstiff.solvers.base import solver_option_names as solver_option_names  # re-exported (sweep)
 from jaxstiff.solvers.configs import Solver, solver_call
 from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, warm_report
-
-__all__ = [
-    "shape",
-    "run_shape",
-    "INLINE_SETTINGS",
-    "DEPRECATED_KEYWORDS",
-    "SOLVERS",
-    "register_solver",
-    "DEFAULTS",
-    "SolveRequest",
-    "ShapeInterrupted",
-    "SolverInterrupted",
-    "prefer_sync_cpu_dispatch",
-    "first_start_rng",
-    "first_start_postures",
-    "check_inputs",
-    "make_start_states",
-    "cpu_async_dispatch",
-]
 
 _DEFAULT_SETTINGS = ShapeSettings()
 
