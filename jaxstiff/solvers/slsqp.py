@@ -391,7 +391,9 @@ def solve_path(
         solver,
         progress=progress,
         first_maxiter=solver.options["first_maxiter"],
-        path_retries=PATH_RETRIES if solver.options.get("path_retries") is None else int(solver.options["path_retries"]),
+        path_retries=PATH_RETRIES
+        if solver.options.get("path_retries") is None
+        else int(solver.options["path_retries"]),
     )
 
 
