@@ -132,6 +132,7 @@ def test_problem_fingerprint_follows_the_content():
     assert WaypointProblem(a, "full", lambda K, d, r: jaxstiff.f2(K, d, r)).fingerprint() is None
 
 
+@pytest.mark.slow  # pgd's whole program compiled twice; the fast lane checks the file format with smaller programs
 @pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")  # not about targets
 def test_pgd_from_the_file_equals_pgd_traced(cache, monkeypatch):
     robot = jaxstiff.Robot.from_urdf("planar_3r")

@@ -105,6 +105,7 @@ def test_slsqp_solves_in_lockstep_equal_the_solver_called_alone():
     assert sum(t.nfev for t in together) > 5 * 3  # the solves really iterated
 
 
+@pytest.mark.slow  # two hybrid solves; the fast lane keeps the lockstep-equals-alone check
 @pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
 def test_hybrid_path_result_does_not_depend_on_its_batch(planar_paths, run_planar):
     path, q0 = planar_paths(3, 5, seed=2)
@@ -115,6 +116,7 @@ def test_hybrid_path_result_does_not_depend_on_its_batch(planar_paths, run_plana
         np.testing.assert_array_equal(getattr(both, k)[1], getattr(alone, k)[0], err_msg=k)
 
 
+@pytest.mark.slow  # hybrid solves with and without the skip
 @pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
 def test_polish_skip_keeps_the_criterion_and_saves_solves(monkeypatch, planar_paths, run_planar):
     from jaxstiff.solvers import slsqp
@@ -216,6 +218,7 @@ atexit.register(lambda: print("at exit, 2 rows run on", prog.rows_for(2, 3, 2), 
 """
 
 
+@pytest.mark.slow  # a subprocess that compiles from scratch
 def test_a_process_that_ends_during_a_background_compile_waits_for_it():
     """The interpreter ends while a smaller row count is being compiled on the background thread
     (a script that returns right after a hybrid solve). The thread must be waited for: a daemon

@@ -20,7 +20,9 @@ def _run(kernel: PGDKernel, args: tuple) -> dict:
     return jax.jit(kernel.traj)(*args)
 
 
-@pytest.mark.parametrize("crit", ["f2", "f1"])
+@pytest.mark.parametrize(
+    "crit", ["f2", pytest.param("f1", marks=pytest.mark.slow)]
+)  # f1 in the slow lane: same program shape
 def test_one_program_equals_two_programs(crit):
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     problem = WaypointProblem(robot, "full", getattr(jaxstiff, crit))

@@ -26,7 +26,7 @@ def _user_criterion(K, d, r):
 
 CASES = [
     ("planar_3r", "xy", None, "f2"),
-    ("kuka_lwr4", "full", {"lwr_a7": 0.0}, "f2"),
+    pytest.param("kuka_lwr4", "full", {"lwr_a7": 0.0}, "f2", marks=pytest.mark.slow),  # the largest compile: slow lane
     ("kuka_lwr4", "xyz", None, "f1"),
     ("kuka_lwr4", "full", None, _user_criterion),
 ]

@@ -93,7 +93,15 @@ def test_stiffness_and_tangents_equals_the_jvp_of_the_stiffness():
             assert_close(np.asarray(dK[t]), np.asarray(dK1), rtol=1e-8, atol=1e-10 * np.abs(dK1).max(), what="dK")
 
 
-@pytest.mark.parametrize(("task", "crit"), [("full", "f2"), ("full", "f1"), ("xyz", "f2"), ("xy", "f1")])
+@pytest.mark.parametrize(
+    ("task", "crit"),
+    [  # the fast lane keeps one case; each compiles the whole objective (the slow lane runs all)
+        pytest.param("full", "f2", marks=pytest.mark.slow),
+        pytest.param("full", "f1", marks=pytest.mark.slow),
+        ("xyz", "f2"),
+        pytest.param("xy", "f1", marks=pytest.mark.slow),
+    ],
+)
 def test_objective_shortcut_equals_the_criterion_of_K(task, crit):
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     f = getattr(jaxstiff, crit)
