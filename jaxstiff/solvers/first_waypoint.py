@@ -50,13 +50,15 @@ def exact_first_answers(
     first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
     options: Mapping[str, Any] | None = None,
     pos_tol: float = 1e-9,
+    criteria: list[float] | None = None,
 ) -> list[list[np.ndarray]]:
     """Per path, the usable SLSQP answers (decision vectors ``x = [q_free, kj]``) of its first
     waypoint, lowest criterion first, from greedy SLSQP's starts: the start state ``(q0, kj0)``,
     the given ``first_starts`` and, where none of those answers is provably in target, as many
     rescue starts again (:func:`jaxstiff.solvers.greedy.greedy_path`'s first waypoint, for every
     path in lockstep). The first waypoint's box is the whole range (no rate limit: the caller
-    runs this only then). A path with no usable answer gets an empty list.
+    runs this only then). A path with no usable answer gets an empty list. ``criteria``, a list
+    given by the caller, receives each path's lowest criterion there (inf without a usable answer).
     """
     from jaxstiff.solvers.slsqp import make_slsqp_solver
 
@@ -112,4 +114,6 @@ def exact_first_answers(
     for b in range(B):
         usable = sorted((c for c in cands[b] if c[1] in R.USABLE), key=lambda c: c[4])
         out.append([np.asarray(c[0], float) for c in usable])
+        if criteria is not None:
+            criteria.append(float(usable[0][4]) if usable else np.inf)
     return out

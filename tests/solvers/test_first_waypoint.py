@@ -96,3 +96,45 @@ def test_later_waypoints_keep_the_look_ahead_advice_and_first_gets_its_own():
     assert first_free_waypoints(status, limited).tolist() == [-1]
     text = missed_target_warning(status, flag, limited, kj, NAMES)
     assert text is not None and "no rate limit" not in text and "cannot look ahead" in text
+
+
+# ---------------------------------------------------------------------- the retry's cost
+@pytest.mark.slow
+def test_retry_reruns_a_path_only_where_slsqp_found_a_lower_first_criterion(monkeypatch):
+    """pgd's retry (option first_exact="retry") runs a path again only where greedy SLSQP's first
+    waypoint has a lower criterion than pgd kept there: with SLSQP reporting nothing better (a
+    target out of every solver's reach), no second run, and the result is pgd's own bit for bit;
+    with its real answers, the path is run again (the UR10 case, where pgd's own stages stall)."""
+    from jaxstiff.solvers import PGD
+    from jaxstiff.solvers import first_waypoint as fw
+    from jaxstiff.solvers.pgd import batch as pgd_batch
+
+    robot = jaxstiff.Robot.from_urdf(UR10, tip_link="tool0")
+    q = np.clip(0.5 * (robot.lower + robot.upper) + 0.4, robot.lower, robot.upper)
+    path = _line(robot, q, [0.0, 1.0, 0.0])
+    runs = []
+    real_run = pgd_batch._run_chunks
+    monkeypatch.setattr(pgd_batch, "_run_chunks", lambda *a, **k: runs.append(1) or real_run(*a, **k))
+    own = _shape(robot, path, PGD(first_exact="none"))
+    assert len(runs) == 1
+    assert abs(own.ratio[0, 0] - 5.0) > 0.1, "the case is meant to be one pgd's own stages leave off target"
+
+    runs.clear()
+    retried = _shape(robot, path, PGD())
+    assert len(runs) == 2 and abs(retried.ratio[0, 0] - 5.0) <= 0.1  # the ratio reached (see _check_first_waypoint)
+
+    real_answers = fw.exact_first_answers
+
+    def nothing_better(*a, **k):
+        out = real_answers(*a, **k)
+        crit = a[4] if len(a) > 4 else k.get("criteria")
+        if crit is not None:
+            crit[:] = [np.inf] * len(crit)
+        return out
+
+    monkeypatch.setattr(fw, "exact_first_answers", nothing_better)
+    runs.clear()
+    skipped = _shape(robot, path, PGD())
+    assert len(runs) == 1
+    for k in ("q", "kj", "criterion", "status"):
+        np.testing.assert_array_equal(getattr(skipped, k), getattr(own, k), err_msg=k)

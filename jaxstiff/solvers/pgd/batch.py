@@ -288,7 +288,20 @@ def _retry_first(  # noqa: PLR0913 - solve_batch's state handed to its retry ste
         ratio=batch.ratios[redo],
     )
     given = [first_starts[int(b)] for b in redo] if first_starts else None
-    starts = exact_first_starts(sub, given, options, pos_tol, S1)
+    found: list[float] = []
+    starts = exact_first_starts(sub, given, options, pos_tol, S1, found)
+    # rerun only where SLSQP found a lower criterion at the first waypoint than pgd kept there
+    # (where it did not, the rerun's first waypoint could not be better, and a target out of
+    # every solver's reach cost a whole second run of the path for nothing)
+    f_pgd = np.where(np.isin(status[redo, 0], list(R.USABLE)), f[redo, 0], np.inf)
+    f_sl = np.asarray(found, float)
+    worth = f_sl < f_pgd - 1e-9 * np.maximum(1.0, np.abs(np.where(np.isfinite(f_pgd), f_pgd, 1.0)))
+    if not worth.any():
+        dt = time.perf_counter() - t0
+        out["time_s"] = np.asarray(out["time_s"], float) + dt / max(out["time_s"].size, 1)
+        return X, run_s + dt
+    redo = redo[worth]
+    starts = [st for st, w in zip(starts, worth, strict=True) if w]
     extra = first_start_rows(problem, starts, len(redo))
     if extra.shape[1] != per_path[7].shape[1]:  # another count of extra starts: another program
         return X, run_s
@@ -315,15 +328,17 @@ def exact_first_starts(
     options: Mapping[str, Any] | None,
     pos_tol: float,
     S: int,
+    criteria: list[float] | None = None,
 ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
     """Per path, the first waypoint's start states for pgd's starts 1..S-1: greedy SLSQP's usable
     answers there, best first (:func:`jaxstiff.solvers.first_waypoint.exact_first_answers`, from
     ``(q0, kj0)``, ``first_starts`` and its rescue starts), then the given ``first_starts``
-    themselves, at most S - 1 in all (option ``first_exact``)."""
+    themselves, at most S - 1 in all (option ``first_exact``). ``criteria``: as
+    :func:`~jaxstiff.solvers.first_waypoint.exact_first_answers`'s."""
     from jaxstiff.solvers.first_waypoint import exact_first_answers
 
     problem = batch.problem
-    answers = exact_first_answers(batch, first_starts, options, pos_tol)
+    answers = exact_first_answers(batch, first_starts, options, pos_tol, criteria)
     out = []
     for b, xs in enumerate(answers):
         q0 = np.asarray(batch.q0[b], float)
