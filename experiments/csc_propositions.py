@@ -331,7 +331,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
     ax.set_ylim(0, 1.0)
     ax.set(
         ylabel=r"$\|K_{xd} - K_C\|_F \;/\; \|K_{xd}\|_F$",
-        title="Proposition 1 (any eps reachable?): the residual never gets near 0",
+        title="Proposition 1 (any eps reachable?) with kj = diag(J^T K_xd J): the residual's distribution",
     )
     ax.grid(alpha=0.3, axis="y")
     ax.legend(fontsize=8, loc="upper left", ncol=2)
@@ -473,7 +473,7 @@ def summary_body(p1: list, p2: dict, kn3: float) -> list[str]:
         "posture where it gets near 0 (its smallest column is listed): a folded arm with the TCP on a joint axis, off every "
         "shipped path.",
         "",
-        "**Verdict:** Proposition 1 does not hold in general with the realisation rule kj = diag(J^T K_xd J): at every posture "
+        "**Verdict:** Proposition 1 does not hold in general with the seed's realisation rule kj = diag(J^T K_xd J) (only with that rule: with kj free, exact matches exist): at every posture "
         "where the n joints all move the TCP the residual is bounded away from 0, and on the shipped cases it stays at the "
         "shares above; the direct minimisation over all postures never ends below the floor of the columns that count "
         "at the posture it finds. It holds only at the degenerate postures of the rank argument below (n - m joint axes through the TCP). "

@@ -15,8 +15,8 @@ error (with the axis ratio), (e) CMS factor, (f) the path with the CMS-scaled 3-
 ``summary.md`` (the table: share of waypoints with alpha < 1 deg and ratio >= 4.9, the path's largest
 turn per waypoint against the rate limit, waypoints with a joint held by a rate limit, max position
 error and max bound/rate violation checked with a numpy FK, time per waypoint), ``summary.csv`` and
-the result file ``fig4_f1.npz``. ``fig4_f1_curved.py`` runs the same on a path that turns faster than
-the rate limits can follow.
+the result file ``fig4_f1.npz``. ``fig4_f1_curved.py`` runs the same on a path whose tangent turns
+more degrees per waypoint than the joint rate limit dq (a joint angle: not the same quantity).
 
 Usage:
     python experiments/fig4_f1.py [--out DIR] [--quick]
@@ -205,7 +205,12 @@ def run(criterion: str, tag: str, title: str, argv=None, path_fn=None, setup=Non
 
 
 def main(argv=None) -> int:
-    return run("f1", "fig4_f1", "Seed 000 Fig. 4: f1, ratio at least 5 - KUKA LWR 4 (A7 locked), default path", argv)
+    return run(
+        "f1",
+        "fig4_f1",
+        "After seed 000 Fig. 4, on jaxstiff's own default path: f1, ratio at least 5 - KUKA LWR 4 (A7 locked)",
+        argv,
+    )
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Seed 000, Fig. 4 on a path that curves faster than the rate limits follow (f1, ratio at least 5).
+"""Seed 000, Fig. 4 on jaxstiff's own tight-turn path (f1, ratio at least 5).
 
 The seed's Fig. 4/5 path is "a curved path in the xy plane" and it says the limits show "where the
 trajectory curves most". The shipped default path turns at most 1.9 deg per waypoint, below the
@@ -73,7 +73,8 @@ def setup_text(criterion: str) -> str:
     crit = "f1 (S0-9) with r = 5, c = 0.01" if criterion == "f1" else "f2 (S0-15) with r = 5"
     return (
         "(the seed gives neither the path nor the rate limits; this path is jaxstiff's own, chosen so the "
-        "tangent turns faster than the rate limits follow) ``urdf/kuka_lwr4.urdf`` with ``lwr_a7`` locked at 0 "
+        "tangent turns by more degrees per waypoint than the joint rate limit dq allows a joint to move; the two are "
+        "different quantities, so this does not show the limits cannot follow it) ``urdf/kuka_lwr4.urdf`` with ``lwr_a7`` locked at 0 "
         "(as in the seed) and rigid: it neither moves nor gives, so K_C sums over the 6 free joints (jaxstiff's "
         "default for a locked joint, SPEC section 1); path: an "
         f"elliptic arc in the horizontal plane z = {s['center'][2]:.2f} m (`ellipse_arc`, centre "
@@ -223,7 +224,7 @@ def main(argv=None) -> int:
     return curved_main(
         "f1",
         "fig4_f1_curved",
-        "Seed 000 Fig. 4 on a path turning faster than the rate limits: f1, ratio at least 5 - KUKA LWR 4 (A7 locked)",
+        "After seed 000 Fig. 4, on jaxstiff's own tight-turn path: f1, ratio at least 5 - KUKA LWR 4 (A7 locked)",
         argv,
     )
 

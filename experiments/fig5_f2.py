@@ -21,7 +21,12 @@ from fig4_f1 import run  # noqa: E402  (the shared run and summary; the figure i
 
 
 def main(argv=None) -> int:
-    return run("f2", "fig5_f2", "Seed 000 Fig. 5: f2, ratio exactly 5 - KUKA LWR 4 (A7 locked), default path", argv)
+    return run(
+        "f2",
+        "fig5_f2",
+        "After seed 000 Fig. 5, on jaxstiff's own default path: f2, ratio exactly 5 - KUKA LWR 4 (A7 locked)",
+        argv,
+    )
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Seed 000, Fig. 5 on a path that curves faster than the rate limits follow (f2, ratio exactly 5).
+"""Seed 000, Fig. 5 on jaxstiff's own tight-turn path (f2, ratio exactly 5).
 
 The seed's headline f2 result: the ellipsoids reach exactly 5:1 along the tangent except where the
 trajectory curves most. The same setup and curved path as ``fig4_f1_curved.py`` (an elliptic arc in
@@ -26,7 +26,7 @@ def main(argv=None) -> int:
     return curved_main(
         "f2",
         "fig5_f2_curved",
-        "Seed 000 Fig. 5 on a path turning faster than the rate limits: f2, ratio exactly 5 - KUKA LWR 4 (A7 locked)",
+        "After seed 000 Fig. 5, on jaxstiff's own tight-turn path: f2, ratio exactly 5 - KUKA LWR 4 (A7 locked)",
         argv,
     )
 

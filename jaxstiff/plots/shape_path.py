@@ -489,7 +489,11 @@ def _turning_overlay(ax: Any, wp: np.ndarray, turning: np.ndarray, dq_deg: float
     ax2.plot(wp[1:], turning, color="0.45", lw=2, alpha=0.8, label="path tangent turns (deg per waypoint)")
     if dq_deg is not None:
         ax2.axhline(
-            dq_deg, color="0.25", ls="--", lw=1, label=f"{which}joint rate limit dq = {dq_deg:g} deg per waypoint"
+            dq_deg,
+            color="0.25",
+            ls="--",
+            lw=1,
+            label=f"{which}joint rate limit dq = {dq_deg:g} deg per waypoint (a joint angle, for scale only:\nnot a limit on the tangent's turn)",
         )
     ax2.set_ylabel("turning of the path tangent (deg per waypoint)", color="0.3")
     ax2.set_ylim(0, 1.15 * max(float(turning.max()), dq_deg or 0.0) or 1.0)
