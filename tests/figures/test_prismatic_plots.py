@@ -187,7 +187,7 @@ def test_turning_figure_compares_the_turning_with_the_revolute_rate_limit_only(c
     ax, twins = _panel(fig, "(a) orientation error alpha")
     (limit,) = [ln for ln in twins[0].get_lines() if "rate limit dq" in ln.get_label()]
     np.testing.assert_allclose(limit.get_ydata(), 2.0, rtol=1e-12)
-    assert limit.get_label() == "revolute joint rate limit dq = 2 deg per waypoint"
+    assert limit.get_label().startswith("revolute joint rate limit dq = 2 deg per waypoint (a joint angle")
     ax, _ = _panel(fig, "(c) joints held by the rate limits")
     texts = _legend_texts(ax)
     assert "joints at the rate limit dq =\n2 deg (revolute), 50 mm (prismatic)" in texts
