@@ -337,7 +337,9 @@ def _drawn_waypoints(P: int, every: int, waypoints: Sequence[int] | None) -> tup
     if waypoints is None:
         if every < 1:
             raise ValueError(f"every must be >= 1, got {every}")
-        return np.arange(0, P, every), np.arange(0, P, 2 * every), float(every)
+        # sized by (f)'s gap: at one scale for both panels, the 3-D ellipsoids stay visible; in (g),
+        # drawn twice as often, neighbours along the path may touch
+        return np.arange(0, P, every), np.arange(0, P, 2 * every), float(2 * every)
     idx = np.unique(np.asarray(list(waypoints), dtype=int))
     if idx.size == 0:
         raise ValueError("waypoints is empty: give at least one waypoint index")
