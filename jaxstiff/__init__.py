@@ -8,13 +8,14 @@ import their module the first time they are used; ``from jaxstiff import fk`` wo
 
 from __future__ import annotations
 
+import sys as _sys
 from typing import TYPE_CHECKING
 
 # Importing the package changes nothing process-wide: the command line (jaxstiff.cli) installs
 # its early signal handlers and tunes glibc's allocator; a script opts in with
 # jaxstiff.runtime.tune_allocator() (why and the cost: jaxstiff.runtime.allocator).
 from .runtime.lazy import lazy_exports
-from .runtime.moved import install_moved_modules
+from .runtime.moved import install_moved_modules, keep_public_names
 from .runtime.version import __version__ as __version__
 
 #: former module paths -> where the code lives now (importing one warns and gives the new module)
@@ -94,6 +95,7 @@ __all__ = [
 
 
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _SOURCES)
+keep_public_names(_sys.modules[__name__], MOVED, __all__)  # jaxstiff.ellipsoid stays the function
 
 
 if TYPE_CHECKING:  # the names as the type checker and the IDE see them

@@ -57,6 +57,23 @@ def numpy_fk(robot, q):
     return T @ robot.tip_matrix
 
 
+def joint_motion_traces(robot, B: int, P: int, seed: int = 0):
+    """TCP traces (numpy FK) of B straight joint-space motions of a planar arm, P waypoints each, 0.4
+    rad inside the limits: reachable by construction. Returns points (B, P, 3), unit tangents in
+    the xy plane (B, P, 3) and the start postures (B, n)."""
+    rng = np.random.default_rng(seed)
+    lo, hi = robot.lower + 0.4, robot.upper - 0.4
+    qa = rng.uniform(lo, hi, (B, robot.n))
+    qb = np.clip(qa + rng.uniform(-0.15, 0.15, (B, robot.n)), lo, hi)
+    s = np.linspace(0, 1, P)
+    Q = qa[:, None] + s[None, :, None] * (qb - qa)[:, None]
+    pts = np.array([[numpy_fk(robot, q)[:3, 3] for q in Qb] for Qb in Q])
+    d = np.gradient(pts, axis=1)
+    d[..., 2] = 0.0
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return pts, d, qa
+
+
 def numpy_jacobian(robot, q, h=1e-6):
     """Geometric Jacobian (6, n), rows ``[v; w]`` in the base frame, by central differences of
     :func:`numpy_fk`: ``v_i = dp/dq_i`` and ``w_i = vee(dR/dq_i R^T)`` (error ~h^2)."""

@@ -36,3 +36,18 @@ def test_from_import_of_an_old_path_in_a_fresh_process():
     assert out.returncode != 0 and "import jaxstiff.model.robot instead" in out.stderr
     ok = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
+
+
+def test_importing_a_former_path_keeps_the_public_name_of_the_same_name():
+    """jaxstiff.ellipsoid is a public function and a former module path: importing the path must
+    not replace the function (a later test in the same process once found a module there)."""
+    sys.modules.pop("jaxstiff.ellipsoid", None)
+    with pytest.warns(DeprecationWarning):
+        from jaxstiff.ellipsoid import Ellipsoid  # noqa: F401 - the import is the test
+    assert callable(jaxstiff.ellipsoid)
+    sys.modules.pop("jaxstiff.ellipsoid", None)
+    with pytest.warns(DeprecationWarning):
+        importlib.import_module("jaxstiff.ellipsoid")
+    assert callable(jaxstiff.ellipsoid) and jaxstiff.ellipsoid.__name__ == "ellipsoid"
+    assert jaxstiff.ellipsoid is importlib.import_module("jaxstiff.stiffness.ellipsoid").ellipsoid
+    sys.modules.pop("jaxstiff.ellipsoid", None)

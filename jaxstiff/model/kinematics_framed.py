@@ -77,7 +77,9 @@ def _axis_frame(axis) -> np.ndarray:
     a = np.asarray(axis, dtype=float)
     k = int(np.argmax(np.abs(a)))
     e = np.zeros(3)
-    if abs(a[k]) == 1.0:
+    # a coordinate axis only if its other entries are exactly 0: (0, 1, 6e-8) is a unit vector in
+    # float64 too (1 + 3.6e-15 rounds to 1), and a frame built for (0, 1, 0) would not be a rotation
+    if abs(a[k]) == 1.0 and np.count_nonzero(a) == 1:
         e[(k + 1) % 3] = 1.0
         x = e
     else:

@@ -1,4 +1,4 @@
-"""The one reader of result files (issue 42): every consumer (view, plot, export, check-sim,
+"""The one reader of result files: every consumer (view, plot, export, check-sim,
 :func:`jaxstiff.results.verify`, sweep rows, :meth:`ShapeResult.load`, :meth:`CSCResult.load`)
 goes through it, so they accept and refuse the same files.
 

@@ -11,11 +11,11 @@ import importlib.machinery
 import os
 import sys
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from types import ModuleType
 from typing import Any
 
-__all__ = ["install_moved_modules"]
+__all__ = ["install_moved_modules", "keep_public_names"]
 
 
 class _Alias(importlib.abc.Loader):
@@ -73,3 +73,24 @@ def install_moved_modules(moved: Mapping[str, str]) -> None:
             f.moved.update(moved)
             return
     sys.meta_path.append(_MovedFinder(moved))
+
+
+def keep_public_names(package: ModuleType, moved: Mapping[str, str], public: Iterable[str]) -> None:
+    """Keep a public name of ``package`` when a former module path of the same name is imported.
+
+    ``import jaxstiff.ellipsoid`` (a former path) makes the import system set the attribute
+    ``jaxstiff.ellipsoid`` to the module, which would replace the public function of that name for
+    the whole process. The package's module class ignores exactly that assignment: the function
+    stays, ``from jaxstiff.ellipsoid import Ellipsoid`` still works (through ``sys.modules``).
+    """
+    guarded = {old.rpartition(".")[2]: new for old, new in moved.items() if old.rpartition(".")[2] in set(public)}
+    if not guarded:
+        return
+
+    class _Package(type(package)):  # type: ignore[misc]
+        def __setattr__(self, name: str, value: Any) -> None:
+            if isinstance(value, ModuleType) and guarded.get(name) == value.__name__:
+                return  # a former module path's import: the public name stays
+            super().__setattr__(name, value)
+
+    package.__class__ = _Package

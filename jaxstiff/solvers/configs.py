@@ -48,13 +48,15 @@ def _changed(obj: SolverOptions, cls: type[SolverOptions]) -> dict[str, Any]:
 
 
 class _Named:
-    """What every solver object has: ``name`` (its registry name) and :meth:`options`."""
+    """What every solver object has: ``name`` (its registry name) and :meth:`options`, by default
+    the fields of its options class ``options_of`` that differ from their defaults."""
 
     name: ClassVar[str] = ""
+    options_of: ClassVar[type[SolverOptions] | None] = None
 
-    def options(self) -> dict[str, Any]:  # pragma: no cover - every class defines it
+    def options(self) -> dict[str, Any]:
         """The options dict the solver reads (only the values that differ from its defaults)."""
-        raise NotImplementedError
+        return {} if self.options_of is None else _changed(self, self.options_of)  # type: ignore[arg-type]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,10 +64,7 @@ class SLSQP(SLSQPOptions, _Named):
     """Greedy per-waypoint SLSQP with exact JAX derivatives (``"slsqp"``, the default solver)."""
 
     name: ClassVar[str] = "slsqp"
-
-    def options(self) -> dict[str, Any]:
-        """The options that differ from :class:`~jaxstiff.settings.solvers.SLSQPOptions`' defaults."""
-        return _changed(self, SLSQPOptions)
+    options_of: ClassVar[type[SolverOptions] | None] = SLSQPOptions
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,10 +72,7 @@ class SLSQPFD(SLSQPOptions, _Named):
     """The seed's own method: SLSQP with numpy and finite differences (``"slsqp-fd"``; the speed baseline)."""
 
     name: ClassVar[str] = "slsqp-fd"
-
-    def options(self) -> dict[str, Any]:
-        """The options that differ from :class:`~jaxstiff.settings.solvers.SLSQPOptions`' defaults."""
-        return _changed(self, SLSQPOptions)
+    options_of: ClassVar[type[SolverOptions] | None] = SLSQPOptions
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,10 +80,7 @@ class PGD(PGDOptions, _Named):
     """Batched multi-start projected gradient (``"pgd"``): many paths at once, on CPU or GPU."""
 
     name: ClassVar[str] = "pgd"
-
-    def options(self) -> dict[str, Any]:
-        """The options that differ from :class:`~jaxstiff.settings.solvers.PGDOptions`' defaults."""
-        return _changed(self, PGDOptions)
+    options_of: ClassVar[type[SolverOptions] | None] = PGDOptions
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from helpers import numpy_fk
+from helpers import joint_motion_traces, numpy_fk
 from pgd_cases import OPTS, STARTS
 
 import jaxstiff
@@ -25,16 +25,7 @@ def planar_paths(planar):
     the planar arm, reachable by construction, and their start postures (B, 3)."""
 
     def make(B: int, P: int, seed: int = 0):
-        rng = np.random.default_rng(seed)
-        lo, hi = planar.lower + 0.4, planar.upper - 0.4
-        qa = rng.uniform(lo, hi, (B, 3))
-        qb = np.clip(qa + rng.uniform(-0.15, 0.15, (B, 3)), lo, hi)
-        s = np.linspace(0, 1, P)
-        Q = qa[:, None] + s[None, :, None] * (qb - qa)[:, None]
-        pts = np.array([[numpy_fk(planar, q)[:3, 3] for q in Qb] for Qb in Q])
-        d = np.gradient(pts, axis=1)
-        d[..., 2] = 0.0
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        pts, d, qa = joint_motion_traces(planar, B, P, seed)
         return jaxstiff.Path(pts, d), qa
 
     return make

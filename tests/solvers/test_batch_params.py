@@ -13,7 +13,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import numpy_fk
+from helpers import joint_motion_traces
 
 import jaxstiff
 from jaxstiff.results import files as R
@@ -24,17 +24,7 @@ PGD_OPTS = {"starts": 2, "iters": 5, "iters_first": 10, "starts_first": 2, "chun
 
 def planar_paths(B: int, P: int, seed: int = 0):
     """TCP traces (numpy FK) of joint-space motions of the planar arm: reachable by construction."""
-    rng = np.random.default_rng(seed)
-    lo, hi = PLANAR.lower + 0.4, PLANAR.upper - 0.4
-    qa = rng.uniform(lo, hi, (B, 3))
-    qb = np.clip(qa + rng.uniform(-0.15, 0.15, (B, 3)), lo, hi)
-    s = np.linspace(0, 1, P)
-    Q = qa[:, None] + s[None, :, None] * (qb - qa)[:, None]
-    pts = np.array([[numpy_fk(PLANAR, q)[:3, 3] for q in Qb] for Qb in Q])
-    d = np.gradient(pts, axis=1)
-    d[..., 2] = 0.0
-    d /= np.linalg.norm(d, axis=-1, keepdims=True)
-    return pts, d, qa
+    return joint_motion_traces(PLANAR, B, P, seed)
 
 
 def shape(pts, d, q0, solver="slsqp", ratio=3.0, **kw):
