@@ -211,27 +211,45 @@ def _panel_ellipsoids_3d(
     from matplotlib.ticker import MaxNLocator
 
     pts = res.target[b]
-    ax.plot(*pts.T, "k-", lw=1.5, label="path")
+    # drawn in call order (path, then ellipsoids, then tangents): sorted by depth, the path, which
+    # runs along every major axis, was drawn over the ellipsoids and hid them
+    ax.computed_zorder = False
+    ax.plot(*pts.T, "-", color="0.35", lw=1, label="path")
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
     sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1)
     for k in idx3:
         E = sphere * (unit[k] * size) @ V[k].T + pts[k]
-        ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.6, linewidth=0, shade=True)
+        ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.85, linewidth=0, shade=True)
+    for k in idx3:
         ax.quiver(*pts[k], *(0.6 * size * res.direction[b, k]), color="C0", lw=1)
     ax.set_title(f"(f) path and 3-D stiffness ellipsoids (CMS-scaled)\n{_scale_text(n_per_m)}")
-    ax.set_xlabel("x (m)", labelpad=14)
-    ax.set_ylabel("y (m)", labelpad=14)
-    ax.set_zlabel("z (m)", labelpad=10)
-    lo, hi = _widened_box(np.nanmin(pts, 0) - 1.1 * size, np.nanmax(pts, 0) + 1.1 * size)
+    ax.set_xlabel("x (m)", labelpad=6)
+    ax.set_ylabel("y (m)", labelpad=6)
+    ax.zaxis.set_rotate_label(False)  # upright: seen from azimuths > 0 matplotlib turned it upside down
+    ax.set_zlabel("z (m)", labelpad=4, rotation=90)
+    reach = 1.05 * size * float(np.nanmax(unit[idx3, 0], initial=1.0))  # the longest drawn semi-axis, m
+    lo, hi = _widened_box(np.nanmin(pts, 0) - reach, np.nanmax(pts, 0) + reach)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(tuple(hi - lo), zoom=0.9)  # equal scale on all three axes
-    ax.view_init(elev=30, azim=-55)
+    ax.set_box_aspect(tuple(hi - lo), zoom=1.1)  # equal scale on all three axes
+    ax.view_init(elev=30, azim=_azimuth(pts))
     longest = float(np.max(hi - lo))
     for axis, side in zip((ax.xaxis, ax.yaxis, ax.zaxis), hi - lo, strict=True):
         axis.set_major_locator(MaxNLocator(int(np.clip(round(5 * side / longest), 3, 5))))
     ax.tick_params(axis="both", labelsize=8, pad=1)
+
+
+def _azimuth(pts: np.ndarray) -> float:
+    """A view azimuth (deg) that shows the path's longest horizontal extent across the panel, seen
+    25 deg off broadside: -55 for a path along x (matplotlib's usual view), -25 along y (the
+    default path, which -55 foreshortened into the box's corner)."""
+    xy = pts[np.all(np.isfinite(pts), axis=1), :2]
+    if len(xy) < 2:
+        return -55.0
+    w, U = np.linalg.eigh(np.cov((xy - xy.mean(0)).T))
+    theta = float(np.degrees(np.arctan2(U[1, -1], U[0, -1]))) % 180.0  # the main direction, [0, 180)
+    return theta - 55.0 if theta < 60.0 else theta - 115.0
 
 
 def _panel_projection_xy(
@@ -332,14 +350,19 @@ def _FittingLocator() -> Any:
     return _fitting_locator_class()()
 
 
-def _drawn_waypoints(P: int, every: int, waypoints: Sequence[int] | None) -> tuple[np.ndarray, np.ndarray, float]:
-    """Waypoints drawn in (g) and in (f), and their typical gap (waypoints) that sizes the ellipses."""
+def _drawn_waypoints(
+    P: int, every: int | None, waypoints: Sequence[int] | None
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Waypoints drawn in (g) and in (f) (the same), and their typical gap (waypoints) that sizes
+    the ellipses. ``every`` None: about six ellipses along the path (every ``P // 6``-th)."""
     if waypoints is None:
+        every = max(P // 6, 1) if every is None else every
         if every < 1:
             raise ValueError(f"every must be >= 1, got {every}")
-        # sized by (f)'s gap: at one scale for both panels, the 3-D ellipsoids stay visible; in (g),
-        # drawn twice as often, neighbours along the path may touch
-        return np.arange(0, P, every), np.arange(0, P, 2 * every), float(2 * every)
+        # the same waypoints in both panels, at one scale: (g) drawn twice as often as (f) piled its
+        # outlines on each other at a scale that leaves (f)'s 3-D ellipsoids visible (issue 40, item 4)
+        idx = np.arange(0, P, every)
+        return idx, idx, float(every)
     idx = np.unique(np.asarray(list(waypoints), dtype=int))
     if idx.size == 0:
         raise ValueError("waypoints is empty: give at least one waypoint index")
@@ -378,7 +401,7 @@ def figure_shape_path(
     robot: Chain,
     file: str | os.PathLike,
     title: str,
-    every: int = 5,
+    every: int | None = None,
     b: int = 0,
     dpi: int = 110,
     waypoints: Sequence[int] | None = None,
@@ -388,8 +411,8 @@ def figure_shape_path(
     (a) joint stiffness kj (Nm/rad; N/m for prismatic joints), (b) joint positions (deg; prismatic
     joints in mm, on a right axis when the robot has revolute joints too), (c) the criterion's distance to its
     minimum (log scale), (d) orientation error alpha (deg) and axis ratio, (e) CMS factor, (f) the
-    path (m) with the CMS-scaled 3-D stiffness ellipsoids every ``2 * every`` waypoints, (g) their
-    outlines projected on the xy plane every ``every`` waypoints; (f) and (g) at one scale (N/m per cm).
+    path (m) with the CMS-scaled 3-D stiffness ellipsoids every ``every`` waypoints, (g) their
+    outlines projected on the xy plane; (f) and (g) at one scale (N/m per cm, a scale bar in (g)).
 
     Args:
         res: a :class:`jaxstiff.results.ShapeResult` (task "xy": the ellipses lie in the path's
@@ -397,8 +420,8 @@ def figure_shape_path(
         robot: the robot it was computed for.
         file: PNG to write (cropped to the drawing).
         title: figure title.
-        every: waypoint spacing of the drawn ellipses: every ``every``-th in (g), every
-            ``2 every``-th in (f).
+        every: waypoint spacing of the drawn ellipses, in (f) and (g) alike: every
+            ``every``-th from 0; default ``P // 6`` (about six).
         b: which path of the batch.
         dpi: resolution, dots per inch.
         waypoints: the waypoints whose ellipses are drawn, in (f) and (g) alike (instead of
@@ -439,9 +462,13 @@ def figure_shape_path(
         V = V3
     lam = np.where(ok[:, None], lam, np.nan)  # no ellipse where no usable solution was found
     spacing = float(np.median(np.linalg.norm(np.diff(res.target[b], axis=0), axis=1)))
-    unit = lam / np.nanmax(lam[:, :1])  # axes relative to the largest major axis on the path
-    size = 0.5 * gap * spacing  # the stiffest semi-axis, m: half the gap between the waypoints drawn in (g)
-    n_per_m = float(np.nanmax(lam[:, 0])) / size  # N/m per metre of drawing, (f) and (g) alike
+    # one scale for (f) and (g): the median major semi-axis is half the gap between (f)'s ellipsoids
+    # (they touch there); scaled by the largest instead, one stiff waypoint (f1 drives rho up to 19
+    # on the default path) shrank every other ellipsoid to a needle (issue 40, item 4)
+    typical = float(np.nanmedian(lam[:, 0]))
+    unit = lam / typical  # axes relative to the median major axis on the path
+    size = 0.5 * gap * spacing  # the median stiffest semi-axis, m
+    n_per_m = typical / size  # N/m per metre of drawing, (f) and (g) alike
     idx, idx3 = idx[ok[idx]], idx3[ok[idx3]]
     _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:3], projection="3d"), res, b, unit, V, idx3, size, n_per_m)
     _panel_projection_xy(fig.add_subplot(gs[2, 3:6]), res, b, unit, V, idx, size, n_per_m)
