@@ -65,6 +65,9 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if data.kind == "shape":
             from jaxstiff.plots import figure_shape_path
+            from jaxstiff.runtime.x64 import enable_x64
+
+            enable_x64()  # the ellipsoids from the file's float64 joints (it warned and drew them in float32)
 
             if not 0 <= args.path < data.B:
                 raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")

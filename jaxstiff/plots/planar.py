@@ -111,6 +111,10 @@ def _criterion_surface(
     """Top panel of :func:`figure_criteria`: the criterion as a 3-D surface (log colour), minimum set in red."""
     from matplotlib.colors import LogNorm
 
+    # drawn in call order, the minimum on top: sorted by depth, matplotlib put the semi-transparent
+    # surface over f2's dot and f1's line although no part of the surface is in front of them (the
+    # views below are chosen so; tests/figures/test_figure_layout.py checks f1's line)
+    ax.computed_zorder = False
     ax.plot_surface(
         A,
         P,
@@ -149,9 +153,10 @@ def _criterion_surface(
     ax.set_ylabel("axis ratio ρ = λ1/λ2")
     ax.set_zlabel(name)
     ax.set_title(label, fontsize=10)
-    # f1's minimum set lies along the floor of a valley: seen across it (azim -60), the near wall
-    # hid the red line, which was drawn over it anyway; seen along the valley, nothing is in front of it
-    ax.view_init(elev=30, azim=-105 if name == "f1" else -60)
+    # f1's minimum set lies along the floor of a valley, f2's at the bottom of a funnel: seen from
+    # azim -60, the near wall hid f1's red line (85 of 101 points) and f2's dot, drawn over it anyway;
+    # seen along the valley (azim -105), nothing is in front of either, and both panels share the view
+    ax.view_init(elev=30, azim=-105)
     ax.legend(fontsize=8, loc="upper left")
 
 
@@ -197,9 +202,12 @@ def _criterion_map(
     ticks = [t for t in (-90, -30, -10, -3, -1, 0, 1, 3, 10, 30, 90) if A.min() <= t <= A.max()]
     ax2.set_xticks(ticks, [f"{t:g}" for t in ticks])
 
-    def inside(x: float, y: float) -> bool:  # away from the edges: a label there was cut in half
-        fx, fy = ax2.transAxes.inverted().transform(ax2.transData.transform((x, y)))
-        return bool(fx < 0.88 and 0.05 < fy < 0.95)
+    dot = ax2.transData.transform((0.0, r))  # the minimum's marker (f2) or the red line's end (f1)
+
+    def inside(x: float, y: float) -> bool:  # away from the edges (a label there was cut in half) and the dot
+        px = ax2.transData.transform((x, y))
+        fx, fy = ax2.transAxes.inverted().transform(px)
+        return bool(fx < 0.88 and 0.05 < fy < 0.95 and np.hypot(*(px - dot)) > 0.06 * ax2.bbox.height)
 
     # one label a level, each at its own height: placed by matplotlib, the labels of the levels that
     # crowd alpha = 0 lay on top of each other (issue 40, item 4)
@@ -241,7 +249,8 @@ def figure_criteria(
     plt = pyplot()
     A, P = np.meshgrid(alpha_deg, rho, indexing="ij")
     fig = plt.figure(figsize=(13, 10))
-    gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1], hspace=0.25, wspace=0.15)
+    # top: the panels right under the title (the default left an empty band, issue 40 item 4)
+    gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1], hspace=0.2, wspace=0.15, top=0.93, bottom=0.06)
     specs = [
         ("f1", F1, f"f1 = (|α| + c) / (min(ρ, r)/r),  r = {r:g}, c = {c:g}"),
         ("f2", F2, f"f2 = (1 + |α|)(1 + |r − ρ|),  r = {r:g}"),
@@ -250,7 +259,7 @@ def figure_criteria(
     for col, (name, F, label) in enumerate(specs):
         _criterion_surface(fig.add_subplot(gs[0, col], projection="3d"), A, P, F, name, label, rho_line, r, c)
         _criterion_map(fig, fig.add_subplot(gs[1, col]), A, P, F, name, rho_line, r, c)
-    fig.suptitle(title or "Seed 000 Fig. 6: criteria over orientation error × axis ratio", fontsize=12)
+    fig.suptitle(title or "Seed 000 Fig. 6: criteria over orientation error × axis ratio", fontsize=12, y=0.985)
     return save_figure(fig, file)
 
 

@@ -293,24 +293,27 @@ def test_fig6_contour_labels_apart_and_inside(criteria_figure):
         assert _overlapping([("legend", legend)], boxes) == []
 
 
-def _hidden_points_of_f1_line(ax, r, c, alpha_range=(-90.0, 90.0), rho_range=(1.05, 10.0)):
+def _hidden_points_of_f1_line(ax, r, c, alpha_range=(-90.0, 90.0), rho_range=(1.05, 10.0), f=None, points=None):
     """How many of 101 points of f1's minimum line (alpha = 0, rho >= r, f1 = c) have f1's closed-form
     surface between them and the viewer: a ray from each point toward the eye (the view's elevation
     and azimuth, in the box's normalised coordinates, orthographic), marched until it leaves the
-    grid, is hidden where the surface rises above it."""
+    grid, is hidden where the surface rises above it. ``f(alpha, rho)`` and ``points`` [(alpha,
+    rho, value)]: another surface and its marked points (f2's minimum)."""
+    f = f or (lambda a, p: (abs(a) + c) / (min(p, r) / r))
+    points = points if points is not None else [(0.0, rho, c) for rho in np.linspace(r, rho_range[1], 101)]
     box = np.asarray(ax.get_box_aspect(), float)
     lims = np.array([ax.get_xlim3d(), ax.get_ylim3d(), ax.get_zlim3d()])
     el, az = np.radians(ax.elev), np.radians(ax.azim)
     eye = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
     tol = 1e-3 * (lims[2, 1] - lims[2, 0])
     hidden = 0
-    for rho in np.linspace(r, rho_range[1], 101):
-        start = (np.array([0.0, rho, c]) - lims[:, 0]) / (lims[:, 1] - lims[:, 0]) * box
+    for point in points:
+        start = (np.array(point) - lims[:, 0]) / (lims[:, 1] - lims[:, 0]) * box
         for t in np.linspace(1e-3, 3.0, 3000):
             a, p, z = (start + t * eye) / box * (lims[:, 1] - lims[:, 0]) + lims[:, 0]
             if not (alpha_range[0] <= a <= alpha_range[1] and rho_range[0] <= p <= rho_range[1]):
                 break
-            if (abs(a) + c) / (min(p, r) / r) > z + tol:
+            if f(a, p) > z + tol:
                 hidden += 1
                 break
     return hidden
@@ -326,6 +329,22 @@ def test_fig6_f1_minimum_line_not_behind_the_surface(criteria_figure):
     try:
         ax.view_init(elev=30, azim=-60)  # the check fails at the former view
         assert _hidden_points_of_f1_line(ax, r, c) > 50
+    finally:
+        ax.view_init(elev=elev, azim=azim)
+
+
+def test_fig6_f2_minimum_not_behind_the_surface(criteria_figure):
+    """f2's minimum (0, r, 1) is drawn on top of the surface (computed_zorder off): right only if no
+    part of the surface lies between it and the viewer."""
+    seen, (_, _, _, _, r, c) = criteria_figure
+    ax = next(a for a in seen["fig"].axes if a.name == "3d" and "f2" in a.get_title())
+    assert ax.computed_zorder is False
+    f2 = lambda a, p: (1 + abs(a)) * (1 + abs(r - p))  # noqa: E731
+    assert _hidden_points_of_f1_line(ax, r, c, f=f2, points=[(0.0, r, 1.0)]) == 0
+    elev, azim = ax.elev, ax.azim
+    try:
+        ax.view_init(elev=30, azim=-60)  # the former view: the funnel's near wall is in front of it
+        assert _hidden_points_of_f1_line(ax, r, c, f=f2, points=[(0.0, r, 1.0)]) == 1
     finally:
         ax.view_init(elev=elev, azim=azim)
 
