@@ -477,3 +477,13 @@ def test_planar4r_self_motion_panels_one_size_one_range_colorbar_beside(tmp_path
     c = cbar[0].get_window_extent()
     assert 0 <= c.x0 - right.x1 < 0.05 * fig.bbox.width  # beside the right panel
     assert c.height == pytest.approx(right.height, rel=0.02)
+
+
+def test_fig6_no_band_under_the_title(criteria_figure):
+    """The highest panel title sits right under the figure title (the default layout left an empty
+    band of about 6 % of the figure's height)."""
+    seen, _ = criteria_figure
+    fig, rnd = seen["fig"], seen["renderer"]
+    sup = next(t for t in fig.texts if t.get_text().startswith("Seed 000 Fig. 6")).get_window_extent(rnd)
+    highest = max(a.title.get_window_extent(rnd).y1 for a in fig.axes if a.get_title())
+    assert 0 < (sup.y0 - highest) / fig.bbox.height < 0.03
