@@ -75,7 +75,9 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
     )
 
     best = int(np.argmin(u[:, -1]))
-    fig, ax = plt.subplots(1, 2, figsize=(14, 7), constrained_layout=True)
+    # one x and one y range for both panels (equal aspect): they are the same size and compare at a
+    # glance (each on its own range they differed in size and scale, issue 40 item 4)
+    fig, ax = plt.subplots(1, 2, figsize=(14, 5.6), sharex=True, sharey=True, constrained_layout=True)
     scale = 1.5e-4  # m per N/m for drawing the ellipses at the TCP
     for a, b in zip(ax, (0, best), strict=True):
         qs = np.vstack([q0, res.q[b]])
@@ -116,10 +118,14 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
         loc="lower center",
         ncol=3,
     )
+    ax[1].tick_params(labelleft=True)  # shared y, but both panels keep their tick labels
     sm = plt.cm.ScalarMappable(cmap=plt.get_cmap("viridis"), norm=plt.Normalize(0, T))
-    fig.colorbar(sm, ax=ax, label=f"time step k (arm drawn every {T // 5} steps)", shrink=0.7)
+    # in an inset of the right panel: beside it and as tall as it (fig.colorbar(ax=both) sat apart
+    # at the figure's edge once the equal aspect had shrunk the panels)
+    cax = ax[1].inset_axes((1.03, 0.0, 0.035, 1.0))
+    fig.colorbar(sm, cax=cax, label=f"time step k (arm drawn every {T // 5} steps)")
     fig.suptitle("Planar 4R: self-motion along the line and the stiffness ellipses at the TCP")
-    fig.get_layout_engine().set(rect=(0, 0.06, 1, 0.94))
+    fig.get_layout_engine().set(rect=(0, 0.07, 1, 1))
     plots.save_figure(fig, os.path.join(args.out, "self_motion.png"), dpi=120, crop=False)
 
     summary = {

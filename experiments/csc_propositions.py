@@ -195,6 +195,86 @@ def rank_check(robot, q, K, rows: int) -> dict:
     }
 
 
+def figure_prop1(p1: list, file: str) -> str:
+    """Proposition 1's bar chart: per case the residual of the rollouts, of a direct minimisation and
+    the floor; the legend under the axes (inside, it lay over the bars and markers, issue 40 item 4)."""
+    import numpy as np
+
+    from jaxstiff import plots
+
+    plt = plots.pyplot()
+    fig, ax = plt.subplots(figsize=(10, 5.6))
+    x = np.arange(len(p1))
+    best_roll = [min(v["share_min"] for v in d["per_beta"].values()) for d in p1]
+    mean_roll = [min(v["share_mean"] for v in d["per_beta"].values()) for d in p1]
+    direct = [d["direct_minimum_K_xd_of_first_step"]["polished_share"] for d in p1]
+    ref = [d["aligned_floor_share"] for d in p1]
+    ax.bar(x - 0.3, mean_roll, 0.2, label="rollouts: lowest mean over the steps (best beta)")
+    ax.bar(x - 0.1, best_roll, 0.2, label="rollouts: lowest value at any step (any beta)")
+    ax.bar(x + 0.1, direct, 0.2, label="direct minimisation over all postures (any TCP; K_xd of step 1)")
+    ax.scatter(
+        x + 0.3,
+        ref,
+        marker="_",
+        s=900,
+        color="k",
+        label=r"floor with all n' columns counting ($\mathrm{tr}\,K_{xd}K_C^{-1} = n'$)",
+    )
+    if p1[0].get("self_motion_scan"):
+        ax.scatter(
+            [-0.1],
+            [p1[0]["self_motion_scan"]["share_min"]],
+            marker="*",
+            s=160,
+            color="C3",
+            zorder=5,
+            label="3R: dense scan of the held point's self-motion",
+        )
+    for xi, d in zip(x, direct, strict=True):
+        ax.annotate(f"{100 * d:.0f} %", (xi + 0.1, d), ha="center", va="bottom", fontsize=8)
+    ax.set_xticks(x, [f"{d['case']}\n(m = {d['m']}, n' = {d['n_nonzero_columns']})" for d in p1])
+    top = max([*mean_roll, *best_roll, *direct, *ref])
+    ax.set_ylim(0, max(1.0, 1.1 * top))
+    ax.set(
+        ylabel=r"$\|K_{xd} - K_C\|_F \;/\; \|K_{xd}\|_F$",
+        title="Proposition 1 (any eps reachable?) with kj = diag(J^T K_xd J): the residual's distribution",
+    )
+    ax.grid(alpha=0.3, axis="y")
+    # markerscale: the floor's 900-pt bar marker ran out of the legend's box
+    fig.legend(*ax.get_legend_handles_labels(), fontsize=8, loc="lower center", ncol=2, markerscale=0.5)
+    fig.tight_layout(rect=(0, 0.14, 1, 1))
+    return plots.save_figure(fig, file, dpi=120, crop=False)
+
+
+def figure_prop2_rankings(rankings: dict, file: str) -> str:
+    """Proposition 2: per case each beta's run at (mean u, mean stiffness error), labelled
+    ``beta = b`` where the label covers no other label or point (two runs close together had their
+    labels on top of each other, issue 40 item 4)."""
+    from jaxstiff import plots
+    from jaxstiff.plots.base import label_points
+
+    plt = plots.pyplot()
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.4))
+    for a, (name, rk) in zip(ax, rankings.items(), strict=True):
+        um, fm = rk["mean_u"], rk["mean_frobenius"]
+        for b in um:
+            a.plot(um[b], fm[b], "o", ms=7)
+        a.margins(0.2)
+        a.set(
+            xlabel="mean u over the rollout [Nm/rad]",
+            ylabel=r"mean $\|K_{xd}-K_C\|_F$ [N/m]",
+            title=f"{name}: each beta's run",
+        )
+        a.grid(alpha=0.3)
+    fig.suptitle("Proposition 2: ranking the runs by u (x) is not ranking them by the stiffness error (y)")
+    fig.tight_layout()
+    for a, rk in zip(ax, rankings.values(), strict=True):
+        um, fm = rk["mean_u"], rk["mean_frobenius"]
+        colors = [ln.get_color() for ln in a.get_lines()]  # each label in its point's colour
+        label_points(a, [um[b] for b in um], [fm[b] for b in um], [f"beta = {b}" for b in um], colors=colors)
+    return plots.save_figure(fig, file, dpi=120, crop=False)
+
+
 def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read top to bottom
     """Long because it is the experiment's plan written out: rollouts, checks, figures, summary in order."""
     from jaxstiff.plots import experiment_parser
@@ -298,45 +378,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
         }
 
     # ------------------------------------------------ figures
-    fig, ax = plt.subplots(figsize=(10, 4.8))
-    x = np.arange(len(p1))
-    best_roll = [min(v["share_min"] for v in d["per_beta"].values()) for d in p1]
-    mean_roll = [min(v["share_mean"] for v in d["per_beta"].values()) for d in p1]
-    direct = [d["direct_minimum_K_xd_of_first_step"]["polished_share"] for d in p1]
-    ref = [d["aligned_floor_share"] for d in p1]
-    ax.bar(x - 0.3, mean_roll, 0.2, label="rollouts: lowest mean over the steps (best beta)")
-    ax.bar(x - 0.1, best_roll, 0.2, label="rollouts: lowest value at any step (any beta)")
-    ax.bar(x + 0.1, direct, 0.2, label="direct minimisation over all postures (any TCP; K_xd of step 1)")
-    ax.scatter(
-        x + 0.3,
-        ref,
-        marker="_",
-        s=900,
-        color="k",
-        label=r"floor with all n' columns counting ($\mathrm{tr}\,K_{xd}K_C^{-1} = n'$)",
-    )
-    if p1[0].get("self_motion_scan"):
-        ax.scatter(
-            [-0.1],
-            [p1[0]["self_motion_scan"]["share_min"]],
-            marker="*",
-            s=160,
-            color="C3",
-            zorder=5,
-            label="3R: dense scan of the held point's self-motion",
-        )
-    for xi, d in zip(x, direct, strict=True):
-        ax.annotate(f"{100 * d:.0f} %", (xi + 0.1, d), ha="center", va="bottom", fontsize=8)
-    ax.set_xticks(x, [f"{d['case']}\n(m = {d['m']}, n' = {d['n_nonzero_columns']})" for d in p1])
-    ax.set_ylim(0, 1.0)
-    ax.set(
-        ylabel=r"$\|K_{xd} - K_C\|_F \;/\; \|K_{xd}\|_F$",
-        title="Proposition 1 (any eps reachable?) with kj = diag(J^T K_xd J): the residual's distribution",
-    )
-    ax.grid(alpha=0.3, axis="y")
-    ax.legend(fontsize=8, loc="upper left", ncol=2)
-    fig.tight_layout()
-    plots.save_figure(fig, os.path.join(args.out, "prop1_residual.png"), dpi=120, crop=False)
+    figure_prop1(p1, os.path.join(args.out, "prop1_residual.png"))
 
     fig, ax = plt.subplots(1, 2, figsize=(13, 4.6))
     steps = np.arange(len(u3))
@@ -372,22 +414,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
     fig.tight_layout()
     plots.save_figure(fig, os.path.join(args.out, "prop2_3r.png"), dpi=120, crop=False)
 
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.4))
-    for a, (name, rk) in zip(ax, p2["rankings"].items(), strict=True):
-        um, fm = rk["mean_u"], rk["mean_frobenius"]
-        for b in um:
-            a.plot(um[b], fm[b], "o", ms=7)
-            a.annotate(f"beta = {b}", (um[b], fm[b]), textcoords="offset points", xytext=(6, 4), fontsize=9)
-        a.margins(0.12)
-        a.set(
-            xlabel="mean u over the rollout [Nm/rad]",
-            ylabel=r"mean $\|K_{xd}-K_C\|_F$ [N/m]",
-            title=f"{name}: each beta's run",
-        )
-        a.grid(alpha=0.3)
-    fig.suptitle("Proposition 2: ranking the runs by u (x) is not ranking them by the stiffness error (y)")
-    fig.tight_layout()
-    plots.save_figure(fig, os.path.join(args.out, "prop2_rankings.png"), dpi=120, crop=False)
+    figure_prop2_rankings(p2["rankings"], os.path.join(args.out, "prop2_rankings.png"))
 
     summary = {"quick": args.quick, "proposition_1": p1, "proposition_2": p2}
     atomic_write_text(os.path.join(args.out, "summary.json"), json.dumps(summary, indent=2))

@@ -102,6 +102,14 @@ def default_setup(criterion: str) -> str:
     return setup
 
 
+#: what one path says about f1 against f2 (issue 40 item 3): the comparison rests on a family of paths
+ONE_PATH = (
+    "One path does not rank the criteria: at the first waypoint the solver picks among equally good postures "
+    "by rounding, so the same path moved by 1e-13 m can give another count; `fig5_f2_vs_f1_paths` compares f1 and "
+    "f2 over 56 paths (the default path shifted, random reachable paths) and reports the distribution."
+)
+
+
 def default_path_note(res, limits) -> list[str]:
     """What the default path's gentle turning means for the result (Markdown lines)."""
     import numpy as np
@@ -128,7 +136,8 @@ def default_path_note(res, limits) -> list[str]:
         return [
             head + f"On this path {verdict}, so an even alpha and ratio along the whole path is the expected result: "
             f"it does not show where the criterion gives way. `{curved}` repeats this figure on a path whose "
-            "tangent turns faster than the limits can follow.",
+            "tangent turns more degrees per waypoint than the joint rate limit dq (a joint angle: not the same "
+            f"quantity). {ONE_PATH}",
         ]
     bound = int(np.count_nonzero(limits["per_wp"]["kj_bound"][~ok]))
     return [
@@ -140,7 +149,8 @@ def default_path_note(res, limits) -> list[str]:
             if crit == "f1"
             else "asks for the ratio r exactly)"
         )
-        + f". `{curved}` repeats this figure on a path whose tangent turns faster than the limits can follow.",
+        + f". `{curved}` repeats this figure on a path whose tangent turns more degrees per waypoint than the joint "
+        f"rate limit dq (a joint angle: not the same quantity). {ONE_PATH}",
         "",
         *where_it_holds(res, limits),
     ]

@@ -47,10 +47,11 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
     p.add_argument("--path", type=int, default=0, help="shape: which path of a batch (0-based)")
     p.add_argument(
         "--waypoints",
-        default="5",
+        default=None,
         metavar="N|I,J,...",
-        help="shape: which waypoints' ellipses to draw: a spacing N (every N-th waypoint from 0, the 3-D panel "
-        "every 2N-th; the former form) or a pick list of 0-based indices, e.g. 0,10,20 (default: 5)",
+        help="shape: which waypoints' ellipses to draw, in the 3-D panel and the xy projection alike: a spacing N "
+        "(every N-th waypoint from 0) or a pick list of 0-based indices, e.g. 0,10,20 (default: about six, "
+        "every P//6-th)",
     )
 
     def run(args: argparse.Namespace) -> int:
@@ -64,6 +65,9 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if data.kind == "shape":
             from jaxstiff.plots import figure_shape_path
+            from jaxstiff.runtime.x64 import enable_x64
+
+            enable_x64()  # the ellipsoids from the file's float64 joints (it warned and drew them in float32)
 
             if not 0 <= args.path < data.B:
                 raise ValueError(f"--path {args.path}: the result has {data.B} path(s), 0..{data.B - 1}")
@@ -71,10 +75,13 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
             res = data.result
             b = data.index if data.index is not None else args.path
             title = f"{os.path.basename(data.source)}: {data.labels[0 if args.row is not None else b]}"
-            picks = parse_waypoints(args.waypoints, data.P)
-            if "," in str(args.waypoints):  # a pick list: those waypoints in (f) and (g)
+            if args.waypoints is None:  # about six ellipses along the path
+                written = figure_shape_path(res, data.robot, args.out, title, b=b)
+            elif "," in str(args.waypoints):  # a pick list: those waypoints in (f) and (g)
+                picks = parse_waypoints(args.waypoints, data.P)
                 written = figure_shape_path(res, data.robot, args.out, title, b=b, waypoints=picks)
-            else:  # a spacing N: every N-th in (g), every 2N-th in (f)
+            else:  # a spacing N: every N-th waypoint in (f) and (g)
+                parse_waypoints(args.waypoints, data.P)  # its checks
                 written = figure_shape_path(res, data.robot, args.out, title, every=int(args.waypoints), b=b)
         else:
             from jaxstiff.plots import figure_u_frobenius

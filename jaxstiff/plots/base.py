@@ -25,6 +25,7 @@ __all__ = [
     "style_ellipse_panel",
     "nice_value",
     "draw_scale_bar",
+    "label_points",
 ]
 
 
@@ -193,3 +194,62 @@ def draw_scale_bar(ax: Any, length: float, label: str, loc: str = "upper left", 
     )
     bar.patch.set_alpha(0.8)
     ax.add_artist(bar)
+
+
+#: offsets (points) tried in turn for a point's label: right-up first, then the other sides
+_LABEL_OFFSETS = ((6, 4), (6, -12), (-6, 4), (-6, -12), (0, 9), (0, -16), (14, 14), (14, -22), (-14, 14), (-14, -22))
+
+
+def label_points(
+    ax: Any,
+    xs: ArrayLike,
+    ys: ArrayLike,
+    texts: Sequence[str],
+    fontsize: float = 9,
+    colors: Sequence[Any] | None = None,
+) -> list[Any]:
+    """Annotate the points ``(xs[i], ys[i])`` with ``texts[i]`` (in ``colors[i]``), each label at the
+    first offset of a short list (right-up, right-down, left-up, ...) where its box lies inside the
+    axes, overlaps no label placed before it and no other point's marker, and is nearer its own
+    point than any other (so that it reads as that point's), judged by the renderer's extents (set
+    the limits and the layout first). A label that fits nowhere keeps the first offset.
+
+    Returns:
+        The annotations, in the order of ``texts``.
+    """
+    fig = ax.figure
+    fig.canvas.draw()  # limits and layout final: display coordinates hold from here on
+    renderer = fig.canvas.get_renderer()
+    x, y = np.asarray(xs, float), np.asarray(ys, float)
+    pts = ax.transData.transform(np.column_stack([x, y]))
+    r = 4.0 * fig.dpi / 72.0  # a 7-pt marker's half size, pixels
+    placed: list[Any] = []
+    out = []
+    for i, text in enumerate(texts):
+        others = np.delete(pts, i, axis=0)
+        for dx, dy in (*_LABEL_OFFSETS, _LABEL_OFFSETS[0]):  # the last try: the first offset, kept
+            ha = "left" if dx > 0 else "right" if dx < 0 else "center"
+            ann = ax.annotate(
+                text, (x[i], y[i]), textcoords="offset points", xytext=(dx, dy), fontsize=fontsize, ha=ha,
+                color=None if colors is None else colors[i],
+            )  # fmt: skip
+            box = ann.get_window_extent(renderer)
+            mid = np.array([(box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2])
+            own = bool(np.all(np.linalg.norm(others - mid, axis=1) > np.linalg.norm(pts[i] - mid)))
+            inside = ax.bbox.x0 <= box.x0 and box.x1 <= ax.bbox.x1 and ax.bbox.y0 <= box.y0 and box.y1 <= ax.bbox.y1
+            on_point = bool(np.any(
+                (others[:, 0] > box.x0 - r) & (others[:, 0] < box.x1 + r)
+                & (others[:, 1] > box.y0 - r) & (others[:, 1] < box.y1 + r)
+            ))  # fmt: skip
+            if inside and own and not on_point and not any(box.overlaps(b) for b in placed):
+                break
+            ann.remove()
+        else:  # the loop's last try is kept as it is
+            ann = ax.annotate(
+                text, (x[i], y[i]), textcoords="offset points", xytext=_LABEL_OFFSETS[0], fontsize=fontsize,
+                color=None if colors is None else colors[i],
+            )  # fmt: skip
+            box = ann.get_window_extent(renderer)
+        placed.append(box)
+        out.append(ann)
+    return out

@@ -111,6 +111,10 @@ def _criterion_surface(
     """Top panel of :func:`figure_criteria`: the criterion as a 3-D surface (log colour), minimum set in red."""
     from matplotlib.colors import LogNorm
 
+    # drawn in call order, the minimum on top: sorted by depth, matplotlib put the semi-transparent
+    # surface over f2's dot and f1's line although no part of the surface is in front of them (the
+    # views below are chosen so; tests/figures/test_figure_layout.py checks f1's line)
+    ax.computed_zorder = False
     ax.plot_surface(
         A,
         P,
@@ -149,8 +153,35 @@ def _criterion_surface(
     ax.set_ylabel("axis ratio ρ = λ1/λ2")
     ax.set_zlabel(name)
     ax.set_title(label, fontsize=10)
-    ax.view_init(elev=30, azim=-60)
+    # f1's minimum set lies along the floor of a valley, f2's at the bottom of a funnel: seen from
+    # azim -60, the near wall hid f1's red line (85 of 101 points) and f2's dot, drawn over it anyway;
+    # seen along the valley (azim -105), nothing is in front of either, and both panels share the view
+    ax.view_init(elev=30, azim=-105)
     ax.legend(fontsize=8, loc="upper left")
+
+
+def _staggered_label_points(
+    A: np.ndarray, P: np.ndarray, F: np.ndarray, levels: Sequence[float], ok: Any = None
+) -> list[tuple[float, tuple[float, float]]]:
+    """``[(level, (alpha, rho))]``: a point on each contour level, at alpha >= 0, the levels from low
+    to high at rho rising evenly from the bottom of the map to its top (``A``, ``P``, ``F``: the
+    (alpha, rho) grids and values, alpha along axis 0); a level that does not cross alpha >= 0 at its
+    height takes the nearest height where it does, one that crosses nowhere gets no label.
+    ``ok(alpha, rho)``: False for a point where no label may go (default: anywhere)."""
+    alpha, rho = A[:, 0], P[0, :]
+    right = alpha >= 0
+    lo, hi = rho[0] + 0.06 * (rho[-1] - rho[0]), rho[-1] - 0.06 * (rho[-1] - rho[0])
+    targets = np.linspace(lo, hi, max(len(levels), 1))
+    out = []
+    for level, target in zip(sorted(levels), targets, strict=False):
+        for j in np.argsort(np.abs(rho - target)):
+            f = F[right, j]  # rises with |alpha| at a fixed rho (both criteria)
+            if f.min() <= level <= f.max():
+                x = float(np.interp(level, f, alpha[right]))
+                if ok is None or ok(x, float(rho[j])):
+                    out.append((float(level), (x, float(rho[j]))))
+                    break
+    return out
 
 
 def _criterion_map(
@@ -159,10 +190,29 @@ def _criterion_map(
     """Bottom panel of :func:`figure_criteria`: the criterion as a colour map with contours and its colour bar."""
     from matplotlib.colors import LogNorm
 
-    pcm = ax2.pcolormesh(A, P, F, norm=LogNorm(vmin=F.min(), vmax=F.max()), cmap="viridis", shading="auto")
+    # gouraud: colours interpolated between the grid's nodes (flat cells showed the 1-deg grid as
+    # bands on the logarithmic alpha axis below)
+    pcm = ax2.pcolormesh(A, P, F, norm=LogNorm(vmin=F.min(), vmax=F.max()), cmap="viridis", shading="gouraud")
     levels = [v for v in (0.1, 1.5, 3, 10, 30, 100, 300) if F.min() < v < F.max()]
     cs = ax2.contour(A, P, F, levels=levels, colors="white", linewidths=0.7)
-    ax2.clabel(cs, fmt="%g", fontsize=7)
+    # symlog: linear within 1 deg of 0, logarithmic beyond: the contours that crowd alpha = 0 on a
+    # linear axis (0.1 to 10 within 10 deg of 180) spread across the map and their labels read
+    ax2.set_xscale("symlog", linthresh=1.0, linscale=0.6)
+    ax2.set_xlim(A.min(), A.max())
+    ticks = [t for t in (-90, -30, -10, -3, -1, 0, 1, 3, 10, 30, 90) if A.min() <= t <= A.max()]
+    ax2.set_xticks(ticks, [f"{t:g}" for t in ticks])
+
+    dot = ax2.transData.transform((0.0, r))  # the minimum's marker (f2) or the red line's end (f1)
+
+    def inside(x: float, y: float) -> bool:  # away from the edges (a label there was cut in half) and the dot
+        px = ax2.transData.transform((x, y))
+        fx, fy = ax2.transAxes.inverted().transform(px)
+        return bool(fx < 0.88 and 0.05 < fy < 0.95 and np.hypot(*(px - dot)) > 0.06 * ax2.bbox.height)
+
+    # one label a level, each at its own height: placed by matplotlib, the labels of the levels that
+    # crowd alpha = 0 lay on top of each other (issue 40, item 4)
+    for level, point in _staggered_label_points(A, P, F, levels, inside):
+        ax2.clabel(cs, levels=[level], fmt="%g", fontsize=7, manual=[point])
     if name == "f1":
         ax2.plot(np.zeros_like(rho_line), rho_line, color="red", lw=4, label=f"minimum set (f1 = c = {c:g})")
     else:
@@ -172,8 +222,8 @@ def _criterion_map(
         ylabel="axis ratio ρ = λ1/λ2",
         title=f"{name} (colour: log scale, white: contours)",
     )
-    ax2.set_xticks([-90, -45, 0, 45, 90])
-    ax2.legend(fontsize=8, loc="upper right")
+    ax2.set_xlabel("orientation error α (deg; linear within ±1, logarithmic beyond)")
+    ax2.legend(fontsize=8, loc="upper left")  # upper right: it covered the top of f1's red line
     fig.colorbar(pcm, ax=ax2, label=name)
 
 
@@ -199,7 +249,8 @@ def figure_criteria(
     plt = pyplot()
     A, P = np.meshgrid(alpha_deg, rho, indexing="ij")
     fig = plt.figure(figsize=(13, 10))
-    gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1], hspace=0.25, wspace=0.15)
+    # top: the panels right under the title (the default left an empty band, issue 40 item 4)
+    gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1], hspace=0.2, wspace=0.15, top=0.93, bottom=0.06)
     specs = [
         ("f1", F1, f"f1 = (|α| + c) / (min(ρ, r)/r),  r = {r:g}, c = {c:g}"),
         ("f2", F2, f"f2 = (1 + |α|)(1 + |r − ρ|),  r = {r:g}"),
@@ -208,7 +259,7 @@ def figure_criteria(
     for col, (name, F, label) in enumerate(specs):
         _criterion_surface(fig.add_subplot(gs[0, col], projection="3d"), A, P, F, name, label, rho_line, r, c)
         _criterion_map(fig, fig.add_subplot(gs[1, col]), A, P, F, name, rho_line, r, c)
-    fig.suptitle(title or "Seed 000 Fig. 6: criteria over orientation error × axis ratio", fontsize=12)
+    fig.suptitle(title or "Seed 000 Fig. 6: criteria over orientation error × axis ratio", fontsize=12, y=0.985)
     return save_figure(fig, file)
 
 

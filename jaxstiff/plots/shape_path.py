@@ -1,4 +1,4 @@
-"""Seed 000 Fig. 4/5: the seven panels (a)-(g) of one path of a shaping result; alpha and rho along
+"""The seven panels of seed 000 Fig. 4/5 (a)-(g) of one path of a shaping result; alpha and rho along
 the path against the turning rate of its tangent (:func:`figure_turning`)."""
 
 from __future__ import annotations
@@ -83,13 +83,24 @@ def _panel_joints(
         y = np.where(np.isfinite(values[:, i]), values[:, i], np.nan)
         handles += target.plot(wp, y, color=colors[i], label=label)
     ax.set(xlabel="waypoint p", ylabel=ylabel, title=title)
-    if ax_r is None:
-        ax.legend(fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
-    else:  # both axes' curves, in chain order
+    if ax_r is not None:
         ax_r.set_ylabel(right[1])  # type: ignore[index]
-        labels = [h.get_label() for h in handles]
-        ax.legend(handles, labels, fontsize=7, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    labels = [str(h.get_label()) for h in handles]  # both axes' curves, in chain order
+    ax.legend(handles, labels, fontsize=7, ncol=_legend_columns(labels), loc="upper center", bbox_to_anchor=(0.5, -0.2))
     ax.grid(alpha=0.3)
+
+
+def _legend_columns(labels: Sequence[str], width_chars: int = 55) -> int:
+    """Columns (1-4) of a legend under a joint panel that keep it within the panel's width, about
+    ``width_chars`` characters of the 7-pt legend font: matplotlib fills the columns top to bottom,
+    each as wide as its longest entry plus a handle (about 6). Four columns of a UR10's names
+    ("shoulder_lift_joint") ran into the next panel's legend (issue 40, item 4)."""
+    for ncol in (4, 3, 2):
+        rows = -(-len(labels) // ncol)
+        cols = [labels[c * rows : (c + 1) * rows] for c in range(ncol)]
+        if sum(max((len(t) for t in col), default=0) + 6 for col in cols if col) <= width_chars:
+            return ncol
+    return 1
 
 
 def _joint_panels(fig: Any, gs: Any, wp: np.ndarray, res: ShapeResult, b: int, colors: Any, pris: np.ndarray) -> None:
@@ -178,39 +189,67 @@ def _panel_cms(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
 
 def _scale_text(n_per_m: float) -> str:
     """'1 cm on the plot = X N/m' for ellipses drawn at ``n_per_m`` (N/m of stiffness per m of drawing)."""
-    return f"ellipse semi-axes: 1 cm on the plot = {0.01 * n_per_m:.4g} N/m"
+    return f"ellipse semi-axes: 1 cm of the plot's axes = {0.01 * n_per_m:.4g} N/m"
+
+
+def _widened_box(lo: np.ndarray, hi: np.ndarray, share: float = 0.35) -> tuple[np.ndarray, np.ndarray]:
+    """The 3-D box ``lo``..``hi`` (m) widened about its centre so that no side is shorter than
+    ``share`` of the longest: equal scale stays, and a flat box (the default path: 0.1 m in z
+    against 0.55 m in y) no longer piles its tick labels on each other (issue 40, item 4)."""
+    span = np.maximum(hi - lo, share * float(np.max(hi - lo)))
+    mid = 0.5 * (lo + hi)
+    return mid - 0.5 * span, mid + 0.5 * span
 
 
 def _panel_ellipsoids_3d(
     ax: Any, res: ShapeResult, b: int, unit: np.ndarray, V: np.ndarray, idx3: np.ndarray, size: float, n_per_m: float
 ) -> None:
     """(f): the path (m) with the CMS-scaled 3-D ellipsoids at waypoints ``idx3``, equal axes; the
-    stiffest semi-axis drawn ``size`` m long, i.e. ``n_per_m`` N/m per metre of the plot (in the title)."""
+    stiffest semi-axis drawn ``size`` m long, i.e. ``n_per_m`` N/m per metre of the plot (in the
+    title; the same scale as (g)). The box is widened where it is flat, with three to five ticks an
+    axis, their labels and the axis names set off from the box."""
     from matplotlib.ticker import MaxNLocator
 
     pts = res.target[b]
-    ax.plot(*pts.T, "k-", lw=1.5, label="path")
+    # drawn in call order (path, then ellipsoids, then tangents): sorted by depth, the path, which
+    # runs along every major axis, was drawn over the ellipsoids and hid them
+    ax.computed_zorder = False
+    ax.plot(*pts.T, "-", color="0.35", lw=1, label="path")
     u, v = np.meshgrid(np.linspace(0, 2 * np.pi, 24), np.linspace(0, np.pi, 12))
     sphere = np.stack([np.cos(u) * np.sin(v), np.sin(u) * np.sin(v), np.cos(v)], axis=-1)
     for k in idx3:
         E = sphere * (unit[k] * size) @ V[k].T + pts[k]
-        ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.6, linewidth=0, shade=True)
+        ax.plot_surface(E[..., 0], E[..., 1], E[..., 2], color="C1", alpha=0.85, linewidth=0, shade=True)
+    for k in idx3:
         ax.quiver(*pts[k], *(0.6 * size * res.direction[b, k]), color="C0", lw=1)
-    ax.set(
-        xlabel="x (m)",
-        ylabel="y (m)",
-        zlabel="z (m)",
-        title=f"(f) path and 3-D stiffness ellipsoids (CMS-scaled)\n{_scale_text(n_per_m)}",
-    )
-    lo, hi = pts.min(0) - 1.1 * size, pts.max(0) + 1.1 * size
-    lo[2], hi[2] = min(lo[2], pts[:, 2].mean() - 0.05), max(hi[2], pts[:, 2].mean() + 0.05)
+    ax.set_title(f"(f) path and 3-D stiffness ellipsoids (CMS-scaled)\n{_scale_text(n_per_m)}")
+    ax.set_xlabel("x (m)", labelpad=6)
+    ax.set_ylabel("y (m)", labelpad=6)
+    ax.zaxis.set_rotate_label(False)  # upright: seen from azimuths > 0 matplotlib turned it upside down
+    ax.set_zlabel("z (m)", labelpad=4, rotation=90)
+    reach = 1.05 * size * float(np.nanmax(unit[idx3, 0], initial=1.0))  # the longest drawn semi-axis, m
+    lo, hi = _widened_box(np.nanmin(pts, 0) - reach, np.nanmax(pts, 0) + reach)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_zlim(lo[2], hi[2])
-    ax.set_box_aspect(tuple(hi - lo))  # equal scale on all three axes
-    ax.view_init(elev=45, azim=-30)
-    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-        axis.set_major_locator(MaxNLocator(4))
+    ax.set_box_aspect(tuple(hi - lo), zoom=1.1)  # equal scale on all three axes
+    ax.view_init(elev=30, azim=_azimuth(pts))
+    longest = float(np.max(hi - lo))
+    for axis, side in zip((ax.xaxis, ax.yaxis, ax.zaxis), hi - lo, strict=True):
+        axis.set_major_locator(MaxNLocator(int(np.clip(round(5 * side / longest), 3, 5))))
+    ax.tick_params(axis="both", labelsize=8, pad=1)
+
+
+def _azimuth(pts: np.ndarray) -> float:
+    """A view azimuth (deg) that shows the path's longest horizontal extent across the panel, seen
+    25 deg off broadside: -55 for a path along x (matplotlib's usual view), -25 along y (the
+    default path, which -55 foreshortened into the box's corner)."""
+    xy = pts[np.all(np.isfinite(pts), axis=1), :2]
+    if len(xy) < 2:
+        return -55.0
+    w, U = np.linalg.eigh(np.cov((xy - xy.mean(0)).T))
+    theta = float(np.degrees(np.arctan2(U[1, -1], U[0, -1]))) % 180.0  # the main direction, [0, 180)
+    return theta - 55.0 if theta < 60.0 else theta - 115.0
 
 
 def _panel_projection_xy(
@@ -251,9 +290,24 @@ def _panel_projection_xy(
     ax.set_aspect("equal", adjustable="datalim")
     ax.xaxis.set_major_locator(_FittingLocator())  # a narrow x range: fewer ticks, labels apart
     value = nice_value(size * n_per_m)  # a round stiffness near the largest drawn semi-axis
-    draw_scale_bar(ax, value / n_per_m, f"{value:g} N/m")
+    # inside the axes, in the corner farthest from the path (outside it ran off the figure's grid)
+    draw_scale_bar(ax, value / n_per_m, f"{value:g} N/m", loc=_emptiest_corner(ax, pts), anchor=None)
     ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     ax.grid(alpha=0.3)
+
+
+def _emptiest_corner(ax: Any, pts: np.ndarray) -> str:
+    """The corner of ``ax`` ("upper left", ...) farthest from the points ``pts`` (xy columns), in
+    axes fractions, after the equal aspect has set the limits."""
+    ax.apply_aspect()
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    fx, fy = (pts[:, 0] - x0) / (x1 - x0), (pts[:, 1] - y0) / (y1 - y0)
+    corners = {"upper left": (0, 1), "upper right": (1, 1), "lower left": (0, 0), "lower right": (1, 0)}
+
+    def room(c: str) -> float:
+        return float(np.nanmin(np.hypot(fx - corners[c][0], fy - corners[c][1])))
+
+    return max(corners, key=room)
 
 
 def _fitting_locator_class() -> type:
@@ -296,12 +350,19 @@ def _FittingLocator() -> Any:
     return _fitting_locator_class()()
 
 
-def _drawn_waypoints(P: int, every: int, waypoints: Sequence[int] | None) -> tuple[np.ndarray, np.ndarray, float]:
-    """Waypoints drawn in (g) and in (f), and their typical gap (waypoints) that sizes the ellipses."""
+def _drawn_waypoints(
+    P: int, every: int | None, waypoints: Sequence[int] | None
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Waypoints drawn in (g) and in (f) (the same), and their typical gap (waypoints) that sizes
+    the ellipses. ``every`` None: about six ellipses along the path (every ``P // 6``-th)."""
     if waypoints is None:
+        every = max(P // 6, 1) if every is None else every
         if every < 1:
             raise ValueError(f"every must be >= 1, got {every}")
-        return np.arange(0, P, every), np.arange(0, P, 2 * every), float(every)
+        # the same waypoints in both panels, at one scale: (g) drawn twice as often as (f) piled its
+        # outlines on each other at a scale that leaves (f)'s 3-D ellipsoids visible (issue 40, item 4)
+        idx = np.arange(0, P, every)
+        return idx, idx, float(every)
     idx = np.unique(np.asarray(list(waypoints), dtype=int))
     if idx.size == 0:
         raise ValueError("waypoints is empty: give at least one waypoint index")
@@ -340,7 +401,7 @@ def figure_shape_path(
     robot: Chain,
     file: str | os.PathLike,
     title: str,
-    every: int = 5,
+    every: int | None = None,
     b: int = 0,
     dpi: int = 110,
     waypoints: Sequence[int] | None = None,
@@ -350,8 +411,8 @@ def figure_shape_path(
     (a) joint stiffness kj (Nm/rad; N/m for prismatic joints), (b) joint positions (deg; prismatic
     joints in mm, on a right axis when the robot has revolute joints too), (c) the criterion's distance to its
     minimum (log scale), (d) orientation error alpha (deg) and axis ratio, (e) CMS factor, (f) the
-    path (m) with the CMS-scaled 3-D stiffness ellipsoids every ``2 * every`` waypoints, (g) their
-    outlines projected on the xy plane every ``every`` waypoints.
+    path (m) with the CMS-scaled 3-D stiffness ellipsoids every ``every`` waypoints, (g) their
+    outlines projected on the xy plane; (f) and (g) at one scale (N/m per cm, a scale bar in (g)).
 
     Args:
         res: a :class:`jaxstiff.results.ShapeResult` (task "xy": the ellipses lie in the path's
@@ -359,8 +420,8 @@ def figure_shape_path(
         robot: the robot it was computed for.
         file: PNG to write (cropped to the drawing).
         title: figure title.
-        every: waypoint spacing of the drawn ellipses: every ``every``-th in (g), every
-            ``2 every``-th in (f).
+        every: waypoint spacing of the drawn ellipses, in (f) and (g) alike: every
+            ``every``-th from 0; default ``P // 6`` (about six).
         b: which path of the batch.
         dpi: resolution, dots per inch.
         waypoints: the waypoints whose ellipses are drawn, in (f) and (g) alike (instead of
@@ -378,7 +439,8 @@ def figure_shape_path(
     plt = pyplot()
     wp = np.arange(res.P)
     fig = plt.figure(figsize=(17, 14))
-    gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.45, wspace=0.9)
+    # top: the panels start just under the title (the default left an empty band, issue 40 item 4)
+    gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.55, wspace=0.9, top=0.94)
     colors = plt.cm.tab10(np.arange(res.n))
     pris = _prismatic(robot, res.n)
     _joint_panels(fig, gs, wp, res, b, colors, pris)
@@ -400,15 +462,52 @@ def figure_shape_path(
         V = V3
     lam = np.where(ok[:, None], lam, np.nan)  # no ellipse where no usable solution was found
     spacing = float(np.median(np.linalg.norm(np.diff(res.target[b], axis=0), axis=1)))
-    unit = lam / np.nanmax(lam[:, :1])  # axes relative to the largest major axis on the path
-    size = 0.5 * gap * spacing  # the stiffest semi-axis in (g), m: half the gap between drawn waypoints
-    n_per_m = float(np.nanmax(lam[:, 0])) / size  # N/m per metre of drawing in (g); (f) draws twice as large
+    # one scale for (f) and (g): the median major semi-axis is half the gap between (f)'s ellipsoids
+    # (they touch there); scaled by the largest instead, one stiff waypoint (f1 drives rho up to 19
+    # on the default path) shrank every other ellipsoid to a needle (issue 40, item 4)
+    typical = float(np.nanmedian(lam[:, 0]))
+    unit = lam / typical  # axes relative to the median major axis on the path
+    size = 0.5 * gap * spacing  # the median stiffest semi-axis, m
+    n_per_m = typical / size  # N/m per metre of drawing, (f) and (g) alike
     idx, idx3 = idx[ok[idx]], idx3[ok[idx3]]
-    _panel_ellipsoids_3d(fig.add_subplot(gs[2, 0:4], projection="3d"), res, b, unit, V, idx3, 2 * size, n_per_m / 2)
-    _panel_projection_xy(fig.add_subplot(gs[2, 4:6]), res, b, unit, V, idx, size, n_per_m)
+    ax_f = fig.add_subplot(gs[2, 0:3], projection="3d")
+    _panel_ellipsoids_3d(ax_f, res, b, unit, V, idx3, size, n_per_m)
+    _panel_projection_xy(fig.add_subplot(gs[2, 3:6]), res, b, unit, V, idx, size, n_per_m)
 
-    fig.suptitle(title, fontsize=13)
+    fig.suptitle(title, fontsize=13, y=0.985)
+    _declutter_3d(ax_f, fig)
     return save_figure(fig, file, dpi=dpi)
+
+
+def _declutter_3d(ax: Any, fig: Any) -> None:
+    """Hide the 3-D tick labels that overlap another label of the panel: where two axes meet at a
+    corner of the box their end labels ran into each other ("0.75" into "-0.30" on the default
+    path, "-0.04" into "-0.34" on a UR10 path), and an axis name may sit on a tick label. Of two
+    overlapping tick labels the one of the axis with more labels shown goes; a tick label under an
+    axis name goes. Needs a draw: the boxes are the renderer's."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    axes = (ax.xaxis, ax.yaxis, ax.zaxis)
+    ticks = {
+        id(a): [t.label1 for t in a.get_major_ticks() if t.label1.get_visible() and t.label1.get_text()] for a in axes
+    }
+
+    def shown(a: Any) -> int:
+        return sum(t.get_visible() for t in ticks[id(a)])
+
+    def overlap(p: Any, q: Any) -> bool:
+        return bool(p.get_window_extent(renderer).overlaps(q.get_window_extent(renderer)))
+
+    for i, a in enumerate(axes):
+        for t in ticks[id(a)]:
+            for b in axes:
+                if t.get_visible() and b.label.get_text() and overlap(t, b.label):
+                    t.set_visible(False)
+            for b in axes[i:]:
+                for u in ticks[id(b)]:
+                    if u is t or not (t.get_visible() and u.get_visible()) or not overlap(t, u):
+                        continue
+                    (t if shown(a) >= shown(b) and a is not b else u).set_visible(False)
 
 
 def rate_limited_joints(res: ShapeResult, robot: Chain, b: int = 0, rtol: float = 1e-6) -> dict[str, np.ndarray]:
