@@ -29,7 +29,7 @@ from jaxstiff.sweep.metrics import csc_row_metrics, shape_row_metrics
 from jaxstiff.sweep.plan import Chunk, SweepPlan
 from jaxstiff.sweep.starts import start_posture_and_error
 
-__all__ = ["compute_chunk", "shard_batch", "table_settings"]
+__all__ = ["compute_chunk", "shard_batch", "table_settings", "base_row"]
 
 
 def shard_batch(arrays: Mapping[str, np.ndarray], size: int | None = None) -> tuple[dict[str, Any], int]:
@@ -87,7 +87,8 @@ def compute_chunk(plan: SweepPlan, chunk_id: int, progress: Callable[[float], No
     }
 
 
-def _base_row(plan: SweepPlan, chunk: Chunk, r: int) -> dict:
+def base_row(plan: SweepPlan, chunk: Chunk, r: int) -> dict:
+    """The columns of row ``r`` the plan fixes: ids, path, P and the settings (as table cells)."""
     traj = plan.row_trajectory(r)
     return {
         "row_id": r,
@@ -184,7 +185,7 @@ def _refused_row(
     P = mask.shape[0]
     status = np.where(mask, UNREACHABLE, NOT_RUN)
     nan = np.full(P, np.nan)
-    row = _base_row(plan, chunk, r)
+    row = base_row(plan, chunk, r)
     row["q0_ik_error_m"] = math.nan
     row.update(
         shape_row_metrics(
@@ -225,7 +226,7 @@ def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None
         name, res, starts = _shape_call(plan, chunk, k, rids, progress)
         arrays.append((name, res))
         for b, r in enumerate(rids):
-            row = _base_row(plan, chunk, r)
+            row = base_row(plan, chunk, r)
             row["q0_ik_error_m"] = starts[b][1]
             row.update(
                 shape_row_metrics(
@@ -257,6 +258,8 @@ def _csc_meta(plan: SweepPlan, chunk: Chunk, g: dict, rids: list[int], sts: list
     return {
         "format": "jaxstiff.sweep.csc/1",
         "sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id},
+        "task": g["task"],  # (as a csc result file records it: the reader checks K_C against it)
+        "settings": {"task": g["task"], "locked_joints": g["locked_joints"]},
         "robot": robot_meta(plan.robot),
         "static": {k: v for k, v in g.items() if k != "id"},
         "rows": [table_settings(s) | {"row_id": r, "path": t.name} for r, s, t in zip(rids, sts, trajs, strict=True)],
@@ -316,7 +319,7 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
     )
     rows = []
     for i, r in enumerate(rids):
-        row = _base_row(plan, chunk, r)
+        row = base_row(plan, chunk, r)
         row["q0_ik_error_m"] = starts[i][1]
         row.update(
             csc_row_metrics(
