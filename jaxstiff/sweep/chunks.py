@@ -252,7 +252,9 @@ def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None
     return rows, arrays, devices
 
 
-def _csc_meta(plan: SweepPlan, chunk: Chunk, g: dict, rids: list[int], sts: list[dict], trajs: list) -> dict:
+def _csc_meta(  # noqa: PLR0913 - the chunk's rows, settings, paths and start postures' IK errors
+    plan: SweepPlan, chunk: Chunk, g: dict, rids: list[int], sts: list[dict], trajs: list, ik: list[float]
+) -> dict:
     from jaxstiff.settings.robot import robot_meta, versions
 
     return {
@@ -262,7 +264,10 @@ def _csc_meta(plan: SweepPlan, chunk: Chunk, g: dict, rids: list[int], sts: list
         "settings": {"task": g["task"], "locked_joints": g["locked_joints"]},
         "robot": robot_meta(plan.robot),
         "static": {k: v for k, v in g.items() if k != "id"},
-        "rows": [table_settings(s) | {"row_id": r, "path": t.name} for r, s, t in zip(rids, sts, trajs, strict=True)],
+        "rows": [
+            table_settings(s) | {"row_id": r, "path": t.name, "q0_ik_error_m": None if math.isnan(e) else e}
+            for r, s, t, e in zip(rids, sts, trajs, ik, strict=True)
+        ],
         "units": {"q": "rad", "u": "Nm/rad", "frobenius": "N/m", "tracking_error": "m", "K_xd": "N/m"},
         "versions": versions(),
     }
@@ -315,7 +320,13 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
         q0=inputs["q0"],
         beta=inputs["beta"],
         joint_names=np.asarray(plan.robot.joint_names, dtype=str),
-        meta=np.asarray(json.dumps(_csc_meta(plan, chunk, g, rids, sts, trajs), sort_keys=True, default=json_default)),
+        meta=np.asarray(
+            json.dumps(
+                _csc_meta(plan, chunk, g, rids, sts, trajs, [e for _, e in starts]),
+                sort_keys=True,
+                default=json_default,
+            )
+        ),
     )
     rows = []
     for i, r in enumerate(rids):

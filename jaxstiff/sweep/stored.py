@@ -272,11 +272,12 @@ def check_rows_record(
         )
         for i, r in enumerate(rows)
     ]
+    # (in the order they were computed: a shape chunk writes its rows out of reach first)
     ids = [r["row_id"] for r in out]
-    if row_ids is not None and ids != list(row_ids):
-        raise ResultFileError(file, "rows", f"the rows of chunk {rec['chunk']} in order {_ids(row_ids)}", _ids(ids))
-    if row_ids is None and ids != sorted(set(ids)):
-        raise ResultFileError(file, "rows", "row ids in increasing order, each once", _ids(ids))
+    if row_ids is not None and sorted(ids) != sorted(row_ids):
+        raise ResultFileError(file, "rows", f"the rows of chunk {rec['chunk']}, each once: {_ids(row_ids)}", _ids(ids))
+    if row_ids is None and len(ids) != len(set(ids)):
+        raise ResultFileError(file, "rows", "row ids, each once", _ids(ids))
     return out
 
 
@@ -321,7 +322,7 @@ def check_rows_arrays(
         rf = read_result(path, urdf, kind=kind)
         _check_sweep_record(path, rf, members, kind, plan_hash, rows[0]["chunk"])
         for r in members:
-            _check_row_values(path, rf, r, kind, alpha_tol_deg, ratio_rel_tol)
+            _check_row_values(file, name, rf, r, kind, alpha_tol_deg, ratio_rel_tol)
         read[name] = rf
     return read
 
@@ -377,10 +378,11 @@ def _check_sweep_record(path: str, rf: ResultFile, members: list[dict], kind: st
         raise ResultFileError(path, field, f"the rows pointing to this file ({got} as (index, row_id))", ids)
 
 
-def _check_row_values(
-    path: str, rf: ResultFile, r: dict, kind: str, alpha_tol_deg: float, ratio_rel_tol: float
+def _check_row_values(  # noqa: PLR0913 - the row, its two files, and the sweep's two tolerances
+    file: str, name: str, rf: ResultFile, r: dict, kind: str, alpha_tol_deg: float, ratio_rel_tol: float
 ) -> None:
-    """The row's settings against the file's record of them, its metrics against the file's arrays."""
+    """The row's settings against the array file's record of them, its metrics against the array
+    file's arrays (refused naming the rows file ``file`` and the array file ``name``)."""
     i, a, meta = r["result_index"], rf.arrays, rf.meta
     where = f"row {r['row_id']}"
     if kind == "shape":
@@ -410,7 +412,9 @@ def _check_row_values(
         )
     else:
         mrow = meta["rows"][i]
-        recorded = {k: mrow.get(k) for k in (*AXES["csc"], "path")}
+        recorded = {k: mrow.get(k, "<missing>") for k in (*AXES["csc"], "path")}
+        ik = mrow.get("q0_ik_error_m", "<missing>")
+        recorded["q0_ik_error_m"] = math.nan if ik is None else ik
         got = csc_row_metrics(
             a["u"][i],
             a["frobenius"][i],
@@ -421,12 +425,10 @@ def _check_row_values(
         )
     for key, want in recorded.items():
         if not _same(r[key], want):
-            raise ResultFileError(path, f"{where} {key}", f"{want!r} (recorded in the array file)", r[key])
-    for name, v in got.items():
-        if not _close(float(r[name]), v):
-            raise ResultFileError(
-                path, f"{where} {name}", f"{v!r} (recomputed from the array file's index {i})", r[name]
-            )
+            raise ResultFileError(file, f"{where} {key}", f"{want!r} (recorded in {name}, index {i})", r[key])
+    for metric, v in got.items():
+        if not _close(float(r[metric]), v):
+            raise ResultFileError(file, f"{where} {metric}", f"{v!r} (recomputed from {name}, index {i})", r[metric])
 
 
 def _at(x: Any, i: int) -> Any:
