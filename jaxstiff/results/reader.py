@@ -14,7 +14,9 @@ Two levels:
 * :func:`read_result` (what the commands use): the schema, then the robot: the URDF opened only as
   a regular file of bounded size (:func:`jaxstiff.runtime.io.check_urdf_file`), its sha256 checked,
   the chain rebuilt and compared with the record (name, joint names in order, limits, tip
-  transform), locked joints at their values, q inside the limits at usable waypoints, the stored
+  transform), locked joints at their values, q inside the limits at usable waypoints, each usable
+  waypoint's step in q and kj within the recorded rate limits (``limits.dq`` / ``dk``, from q0 / kj0
+  at the first one when ``first_rate_limit``), the stored
   TCP positions recomputed by numpy FK of the stored q (within :data:`POSITION_TOL`), and the task
   checked against the stored stiffness (shape: the axis ratio; csc: ``K_C``). A file that claims
   another robot, TCP or task is refused, naming what disagrees.
@@ -647,6 +649,54 @@ def _check_limits(file: str, chain: Chain, q: np.ndarray, rows: np.ndarray, q32:
         )
 
 
+RATE_TOL = 1e-9  #: rad or Nm/rad: a step beyond the recorded rate limit by more than this is refused (float64 files)
+
+
+def _check_rates(
+    file: str, chain: Chain, arr: dict[str, np.ndarray], meta: dict, usable: np.ndarray, q32: bool
+) -> None:
+    """Each usable waypoint's step in q and kj from its reference state (the last usable waypoint
+    before it, or q0 / kj0 at the start) within the recorded rate limits ``limits.dq`` / ``dk``
+    (per waypoint; per-metre limits are recorded converted), at the first waypoint only when the
+    file records ``first_rate_limit``; a rigid locked joint (kj = +inf) has no stiffness step."""
+    from jaxstiff.results.npz import path_parameters
+
+    q, kj = arr["q"], arr["kj"]
+    B, P, n = q.shape
+    prm = path_parameters(meta, B, n)
+    first = bool(meta["limits"]["first_rate_limit"])
+    for b in range(B):
+        q_ref, k_ref, at_start, last = arr["q0"][b], arr["kj0"][b], True, -1
+        for p in range(P):
+            if not usable[b, p]:
+                continue
+            if first or not at_start:
+                for key, x, ref, lim, unit in (
+                    ("q", q[b, p], q_ref, prm["dq"][b], "rad"),
+                    ("kj", kj[b, p], k_ref, prm["dk"][b], "Nm/rad"),
+                ):
+                    with np.errstate(invalid="ignore"):
+                        step = np.where(np.isinf(x) & np.isinf(ref), 0.0, np.abs(x - ref))
+                    tol = (
+                        1e-6 * (1.0 + np.abs(ref)) if q32 else RATE_TOL + 1e-12 * np.abs(np.nan_to_num(ref, posinf=0.0))
+                    )
+                    over = ~(step <= lim + tol)
+                    if over.any():
+                        j = int(np.argmax(over))
+                        was = (
+                            f"waypoint {last}" if not at_start else f"the start state ({'q0' if key == 'q' else 'kj0'})"
+                        )
+                        raise ResultFileError(
+                            file,
+                            key,
+                            "",
+                            text=f"path {b}, waypoint {p}, joint {chain.joint_names[j]}: {key} moves {step[j]:.6g} {unit} "
+                            f"from {was}, more than the recorded rate limit d{key[0]} = {lim[j]:.6g} {unit} "
+                            f"(meta limits.d{key[0]}, tolerance {tol[j]:.2g})",
+                        )
+            q_ref, k_ref, at_start, last = q[b, p], kj[b, p], False, p
+
+
 def _check_positions(file: str, chain: Chain, q: np.ndarray, position: np.ndarray, rows: np.ndarray) -> None:
     from jaxstiff.model.host import tcp_position
 
@@ -760,6 +810,7 @@ def read_result(file: str | os.PathLike, urdf: str | os.PathLike | None = None, 
         _check_limits(file, chain, q, usable, q32)
         _check_positions(file, chain, q, arr["position"], usable)
         _check_shape_task(file, chain, arr, task, usable)
+        _check_rates(file, chain, arr, meta, usable, q32)
     else:
         if arr["q"].ndim == 2:  # a single rollout written without the batch axis
             arr = {k: (v if k in ("joint_names", "q0", "K_xd") else v[None]) for k, v in arr.items()}
