@@ -28,7 +28,7 @@ from jaxstiff.view.kinematics import stiffness_T, tcp_position
 if TYPE_CHECKING:
     from jaxstiff.model.chain import Chain
 
-__all__ = ["ViewData", "load_view_data", "sweep_row_file", "format_kj", "chain_from_meta"]
+__all__ = ["ViewData", "load_view_data", "sweep_row_file", "format_kj", "chain_from_meta", "check_drawable"]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -263,3 +263,20 @@ def check_positions(data: ViewData) -> float:
     read by :func:`load_view_data` has passed the reader's check of it:
     :data:`jaxstiff.results.reader.POSITION_TOL`)."""
     return float(np.max(np.linalg.norm(tcp_position(data.robot, data.q) - data.position, axis=-1)))
+
+
+def check_drawable(data: ViewData) -> None:
+    """Refuse ``data`` unless every waypoint has a posture and a stiffness to draw: a non-finite one (a file may hold NaN
+    q or kj where a waypoint is not usable, status 3-5) is refused by name, not met by the
+    eigen-decomposition of its ellipsoid ("Eigenvalues did not converge")."""
+    bad = ~np.isfinite(data.q).all(axis=-1) | ~np.isfinite(data.K).all(axis=(-2, -1))
+    if bad.any():
+        b, p = (int(i) for i in np.argwhere(bad)[0])
+        status = data.arrays.get("status")
+        st = f" (status {int(status[b, p])})" if status is not None else ""
+        what = "joint values" if not np.isfinite(data.q[b, p]).all() else "stiffness"
+        raise ValueError(
+            f"{data.source}: path {b}, waypoint {p}{st}: non-finite {what}, which the viewer and plot cannot draw"
+            + (f" ({int(bad.sum()) - 1} more such waypoints)" if bad.sum() > 1 else "")
+            + "; `jaxstiff export` writes every waypoint to CSV"
+        )
