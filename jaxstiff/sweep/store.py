@@ -98,6 +98,11 @@ class SweepStore:
         if not os.path.isdir(self.out) or os.path.isfile(self.path("plan.json")):
             return
         others = [f for f in os.listdir(self.out) if f not in (LOCK_FILE, OWNER_FILE)]
+        if {"chunks", "arrays"} & set(others):
+            raise ValueError(
+                f"--out {self.out} holds a sweep's chunks but no plan.json (the sweep's plan); it is not a usable "
+                "sweep store: choose an empty or new folder"
+            )
         if others:
             raise ValueError(
                 f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder"

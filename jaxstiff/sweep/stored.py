@@ -77,8 +77,8 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def _close(a: float, b: float) -> bool:
-    if math.isnan(a) or math.isnan(b):
-        return math.isnan(a) and math.isnan(b)
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return a == b or (math.isnan(a) and math.isnan(b))
     return a == b or abs(a - b) <= METRIC_REL_TOL * max(abs(a), abs(b))
 
 
@@ -123,7 +123,7 @@ def load_plan(folder: str) -> dict[str, Any]:
     _field(
         file, rec, "plan_hash", lambda v: isinstance(v, str) and bool(_HEX64.fullmatch(v)), "a sha256 (64 hex digits)"
     )
-    _field(file, rec, "kind", lambda v: v in AXES, f"one of {', '.join(AXES)}")
+    _field(file, rec, "kind", lambda v: isinstance(v, str) and v in AXES, f"one of {', '.join(AXES)}")
 
     def chunk_ok(c: Any) -> bool:
         return (
@@ -268,7 +268,9 @@ def check_rows_record(
             r,
             kind,
             rec,
-            None if expected is None else expected.get(r.get("row_id")) if isinstance(r, dict) else None,
+            None
+            if expected is None or not isinstance(r, dict) or not _int(r.get("row_id"))
+            else expected.get(r["row_id"]),
         )
         for i, r in enumerate(rows)
     ]
@@ -320,7 +322,7 @@ def check_rows_arrays(
                 text=f"missing: the array file of rows {_ids([r['row_id'] for r in members])} of {file}",
             )
         rf = read_result(path, urdf, kind=kind)
-        _check_sweep_record(path, rf, members, kind, plan_hash, rows[0]["chunk"])
+        _check_sweep_record(file, path, rf, members, kind, plan_hash, rows[0]["chunk"])
         for r in members:
             _check_row_values(file, name, rf, r, kind, alpha_tol_deg, ratio_rel_tol)
         read[name] = rf
@@ -330,6 +332,10 @@ def check_rows_arrays(
 def _check_unsolved(file: str, r: dict, kind: str) -> None:
     """A row without an array file: a shape path out of reach, solved nowhere."""
     where = f"row {r['row_id']}: "
+    if not math.isnan(r["q0_ik_error_m"]):
+        raise ResultFileError(
+            file, where + "q0_ik_error_m", "NaN (a path out of reach has no start posture)", r["q0_ik_error_m"]
+        )
     if kind != "shape":
         raise ResultFileError(file, where + "result_file", "an array file (every csc row has one)", "")
     for name in METRICS["shape"]:
@@ -347,7 +353,9 @@ def _check_unsolved(file: str, r: dict, kind: str) -> None:
             )
 
 
-def _check_sweep_record(path: str, rf: ResultFile, members: list[dict], kind: str, plan_hash: str, chunk: int) -> None:
+def _check_sweep_record(
+    rows_file: str, path: str, rf: ResultFile, members: list[dict], kind: str, plan_hash: str, chunk: int
+) -> None:
     meta = rf.meta
     rec = meta.get("sweep")
     B = rf.arrays["q"].shape[0]
@@ -375,7 +383,13 @@ def _check_sweep_record(path: str, rf: ResultFile, members: list[dict], kind: st
         raise ResultFileError(path, field, f"the row ids of its {B} paths", ids)
     got = sorted((r["result_index"], r["row_id"]) for r in members)
     if got != [(i, x) for i, x in enumerate(ids)]:
-        raise ResultFileError(path, field, f"the rows pointing to this file ({got} as (index, row_id))", ids)
+        raise ResultFileError(
+            rows_file,
+            "rows",
+            "",
+            text=f"its rows pointing to {os.path.relpath(path, os.path.dirname(os.path.dirname(rows_file)))} "
+            f"(as (result_index, row_id): {got}) are not the paths that file holds ({field}: row ids {ids})",
+        )
 
 
 def _check_row_values(  # noqa: PLR0913 - the row, its two files, and the sweep's two tolerances
