@@ -434,8 +434,8 @@ def _check_row_values(  # noqa: PLR0913 - the row, its two files, and the sweep'
             a["frobenius"][i],
             a["tracking_error"][i],
             a["status"][i],
-            a["u_start"][i],
-            a["frobenius_start"][i],
+            float(a["u_start"][i]),
+            float(a["frobenius_start"][i]),
         )
     for key, want in recorded.items():
         if not _same(r[key], want):
