@@ -661,40 +661,34 @@ def _check_rates(
     file records ``first_rate_limit``; a rigid locked joint (kj = +inf) has no stiffness step."""
     from jaxstiff.results.npz import path_parameters
 
-    q, kj = arr["q"], arr["kj"]
-    B, P, n = q.shape
+    B, _, n = arr["q"].shape
     prm = path_parameters(meta, B, n)
     first = bool(meta["limits"]["first_rate_limit"])
     for b in range(B):
-        q_ref, k_ref, at_start, last = arr["q0"][b], arr["kj0"][b], True, -1
-        for p in range(P):
-            if not usable[b, p]:
-                continue
-            if first or not at_start:
-                for key, x, ref, lim, unit in (
-                    ("q", q[b, p], q_ref, prm["dq"][b], "rad"),
-                    ("kj", kj[b, p], k_ref, prm["dk"][b], "Nm/rad"),
-                ):
-                    with np.errstate(invalid="ignore"):
-                        step = np.where(np.isinf(x) & np.isinf(ref), 0.0, np.abs(x - ref))
-                    tol = (
-                        1e-6 * (1.0 + np.abs(ref)) if q32 else RATE_TOL + 1e-12 * np.abs(np.nan_to_num(ref, posinf=0.0))
-                    )
-                    over = ~(step <= lim + tol)
-                    if over.any():
-                        j = int(np.argmax(over))
-                        was = (
-                            f"waypoint {last}" if not at_start else f"the start state ({'q0' if key == 'q' else 'kj0'})"
-                        )
-                        raise ResultFileError(
-                            file,
-                            key,
-                            "",
-                            text=f"path {b}, waypoint {p}, joint {chain.joint_names[j]}: {key} moves {step[j]:.6g} {unit} "
-                            f"from {was}, more than the recorded rate limit d{key[0]} = {lim[j]:.6g} {unit} "
-                            f"(meta limits.d{key[0]}, tolerance {tol[j]:.2g})",
-                        )
-            q_ref, k_ref, at_start, last = q[b, p], kj[b, p], False, p
+        at = np.flatnonzero(usable[b])  # the usable waypoints, in order
+        if at.size == 0:
+            continue
+        for key, start, lim, unit in (("q", "q0", prm["dq"][b], "rad"), ("kj", "kj0", prm["dk"][b], "Nm/rad")):
+            x = arr[key][b, at]
+            ref = np.concatenate([arr[start][b][None], x[:-1]])  # each one's reference state
+            with np.errstate(invalid="ignore"):
+                step = np.where(np.isinf(x) & np.isinf(ref), 0.0, np.abs(x - ref))
+            size = np.abs(np.where(np.isfinite(ref), ref, 0.0))
+            tol = 1e-6 * (1.0 + size) if q32 else RATE_TOL + 1e-12 * size
+            over = ~(step <= lim + tol)
+            if not first:
+                over[0] = False
+            if over.any():
+                k, j = (int(i) for i in np.argwhere(over)[0])
+                was = f"waypoint {at[k - 1]}" if k else f"the start state ({start})"
+                raise ResultFileError(
+                    file,
+                    key,
+                    "",
+                    text=f"path {b}, waypoint {at[k]}, joint {chain.joint_names[j]}: {key} moves {step[k, j]:.6g} "
+                    f"{unit} from {was}, more than the recorded rate limit d{key[0]} = {lim[j]:.6g} {unit} "
+                    f"(meta limits.d{key[0]}, tolerance {tol[k, j]:.2g})",
+                )
 
 
 def _check_positions(file: str, chain: Chain, q: np.ndarray, position: np.ndarray, rows: np.ndarray) -> None:
