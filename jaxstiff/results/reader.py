@@ -537,6 +537,14 @@ def _read(file: str, kind: str | None, full: bool) -> tuple[str, dict[str, np.nd
     keys = SHAPE_KEYS if kind == "shape" else CSC_KEYS
     # a file without meta and without the arrays: the schema names the missing arrays first
     meta = {} if "meta" not in data and not all(k in data for k in keys) else _meta(file, data)
+    static = meta.get("static")
+    if (
+        kind == "csc"
+        and "task" not in meta
+        and isinstance(static, dict)
+        and meta.get("format") == "jaxstiff.sweep.csc/1"
+    ):
+        meta["task"] = static.get("task")  # (a csc sweep's array file written before it recorded its task)
     arrays = _shape_schema(file, data, meta, full) if kind == "shape" else _csc_schema(file, data, meta, full)
     return kind, arrays, meta, data["q"].dtype == np.float32
 

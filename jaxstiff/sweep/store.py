@@ -19,6 +19,12 @@ written first and its rows file last, so a rows file on disk means the chunk is 
 manifest is rewritten after it and is reconciled with the rows files on resume (a kill between the
 two loses nothing). Temporary files left by a kill are removed when the store is opened again.
 
+Damage: on resume every rows file is checked with the array files its rows point to
+(:mod:`jaxstiff.sweep.stored`: its columns typed and equal to the plan's settings, the array files
+read by the one result reader, each row's metrics recomputed from them); a damaged or tampered one
+is refused naming the file and the field (delete the rows file to recompute that chunk). A damaged
+``manifest.json`` (a log) is made again from the rows files, with a warning.
+
 The table is assembled from the rows files sorted by ``row_id``; it holds no timing, so an
 interrupted and resumed sweep gives the same table as an uninterrupted one.
 """

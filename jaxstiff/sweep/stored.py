@@ -427,8 +427,9 @@ def _check_row_values(  # noqa: PLR0913 - the row, its two files, and the sweep'
     else:
         mrow = meta["rows"][i]
         recorded = {k: mrow.get(k, "<missing>") for k in (*AXES["csc"], "path")}
-        ik = mrow.get("q0_ik_error_m", "<missing>")
-        recorded["q0_ik_error_m"] = math.nan if ik is None else ik
+        if "q0_ik_error_m" in mrow:  # (files written before it was recorded do not hold it)
+            ik = mrow["q0_ik_error_m"]
+            recorded["q0_ik_error_m"] = math.nan if ik is None else ik
         got = csc_row_metrics(
             a["u"][i],
             a["frobenius"][i],
