@@ -57,12 +57,13 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
     def run(args: argparse.Namespace) -> int:
         import numpy as np
 
-        from jaxstiff.view.data import load_view_data
+        from jaxstiff.view.data import check_drawable, load_view_data
 
         ext = os.path.splitext(args.out)[1].lower()
         if ext not in FORMATS:
             raise ValueError(f"--out {args.out}: write a .png, .svg or .pdf figure (got {ext or 'no suffix'!r})")
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
+        check_drawable(data)  # (a non-finite waypoint is named, not met by an eigen-decomposition)
         if data.kind == "shape":
             from jaxstiff.plots import figure_shape_path
             from jaxstiff.runtime.x64 import enable_x64

@@ -14,7 +14,9 @@ Two levels:
 * :func:`read_result` (what the commands use): the schema, then the robot: the URDF opened only as
   a regular file of bounded size (:func:`jaxstiff.runtime.io.check_urdf_file`), its sha256 checked,
   the chain rebuilt and compared with the record (name, joint names in order, limits, tip
-  transform), locked joints at their values, q inside the limits at usable waypoints, the stored
+  transform), locked joints at their values, q inside the limits at usable waypoints, each usable
+  waypoint's step in q and kj within the recorded rate limits (``limits.dq`` / ``dk``, from q0 / kj0
+  at the first one when ``first_rate_limit``), the stored
   TCP positions recomputed by numpy FK of the stored q (within :data:`POSITION_TOL`), and the task
   checked against the stored stiffness (shape: the axis ratio; csc: ``K_C``). A file that claims
   another robot, TCP or task is refused, naming what disagrees.
@@ -525,6 +527,14 @@ def _read(file: str, kind: str | None, full: bool) -> tuple[str, dict[str, np.nd
     keys = SHAPE_KEYS if kind == "shape" else CSC_KEYS
     # a file without meta and without the arrays: the schema names the missing arrays first
     meta = {} if "meta" not in data and not all(k in data for k in keys) else _meta(file, data)
+    static = meta.get("static")
+    if (
+        kind == "csc"
+        and "task" not in meta
+        and isinstance(static, dict)
+        and meta.get("format") == "jaxstiff.sweep.csc/1"
+    ):
+        meta["task"] = static.get("task")  # (a csc sweep's array file written before it recorded its task)
     arrays = _shape_schema(file, data, meta, full) if kind == "shape" else _csc_schema(file, data, meta, full)
     return kind, arrays, meta, data["q"].dtype == np.float32
 
@@ -635,6 +645,48 @@ def _check_limits(file: str, chain: Chain, q: np.ndarray, rows: np.ndarray, q32:
         raise ResultFileError(
             file, "q", "joint values inside the robot's limits at usable waypoints", f"{sel[off][0]} ({_where(off)})"
         )
+
+
+RATE_TOL = 1e-9  #: rad or Nm/rad: a step beyond the recorded rate limit by more than this is refused (float64 files)
+
+
+def _check_rates(
+    file: str, chain: Chain, arr: dict[str, np.ndarray], meta: dict, usable: np.ndarray, q32: bool
+) -> None:
+    """Each usable waypoint's step in q and kj from its reference state (the last usable waypoint
+    before it, or q0 / kj0 at the start) within the recorded rate limits ``limits.dq`` / ``dk``
+    (per waypoint; per-metre limits are recorded converted), at the first waypoint only when the
+    file records ``first_rate_limit``; a rigid locked joint (kj = +inf) has no stiffness step."""
+    from jaxstiff.results.npz import path_parameters
+
+    B, _, n = arr["q"].shape
+    prm = path_parameters(meta, B, n)
+    first = bool(meta["limits"]["first_rate_limit"])
+    for b in range(B):
+        at = np.flatnonzero(usable[b])  # the usable waypoints, in order
+        if at.size == 0:
+            continue
+        for key, start, lim, unit in (("q", "q0", prm["dq"][b], "rad"), ("kj", "kj0", prm["dk"][b], "Nm/rad")):
+            x = arr[key][b, at]
+            ref = np.concatenate([arr[start][b][None], x[:-1]])  # each one's reference state
+            with np.errstate(invalid="ignore"):
+                step = np.where(np.isinf(x) & np.isinf(ref), 0.0, np.abs(x - ref))
+            size = np.abs(np.where(np.isfinite(ref), ref, 0.0))
+            tol = 1e-6 * (1.0 + size) if q32 else RATE_TOL + 1e-12 * size
+            over = ~(step <= lim + tol)
+            if not first:
+                over[0] = False
+            if over.any():
+                k, j = (int(i) for i in np.argwhere(over)[0])
+                was = f"waypoint {at[k - 1]}" if k else f"the start state ({start})"
+                raise ResultFileError(
+                    file,
+                    key,
+                    "",
+                    text=f"path {b}, waypoint {at[k]}, joint {chain.joint_names[j]}: {key} moves {step[k, j]:.6g} "
+                    f"{unit} from {was}, more than the recorded rate limit d{key[0]} = {lim[j]:.6g} {unit} "
+                    f"(meta limits.d{key[0]}, tolerance {tol[k, j]:.2g})",
+                )
 
 
 def _check_positions(file: str, chain: Chain, q: np.ndarray, position: np.ndarray, rows: np.ndarray) -> None:
@@ -750,6 +802,7 @@ def read_result(file: str | os.PathLike, urdf: str | os.PathLike | None = None, 
         _check_limits(file, chain, q, usable, q32)
         _check_positions(file, chain, q, arr["position"], usable)
         _check_shape_task(file, chain, arr, task, usable)
+        _check_rates(file, chain, arr, meta, usable, q32)
     else:
         if arr["q"].ndim == 2:  # a single rollout written without the batch axis
             arr = {k: (v if k in ("joint_names", "q0", "K_xd") else v[None]) for k, v in arr.items()}

@@ -88,7 +88,8 @@ def compute_chunk(plan: SweepPlan, chunk_id: int, progress: Callable[[float], No
     }
 
 
-def _base_row(plan: SweepPlan, chunk: Chunk, r: int) -> dict:
+def base_row(plan: SweepPlan, chunk: Chunk, r: int) -> dict:
+    """The columns of row ``r`` the plan fixes: ids, path, P and the settings (as table cells)."""
     traj = plan.row_trajectory(r)
     return {
         "row_id": r,
@@ -180,7 +181,7 @@ def _refused_row(
     P = mask.shape[0]
     status = np.where(mask, UNREACHABLE, NOT_RUN)
     nan = np.full(P, np.nan)
-    row = _base_row(plan, chunk, r)
+    row = base_row(plan, chunk, r)
     row["q0_ik_error_m"] = math.nan
     row.update(
         shape_row_metrics(
@@ -221,7 +222,7 @@ def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None
         name, res, starts = _shape_call(plan, chunk, k, rids, progress)
         arrays.append((name, res))
         for b, r in enumerate(rids):
-            row = _base_row(plan, chunk, r)
+            row = base_row(plan, chunk, r)
             row["q0_ik_error_m"] = starts[b][1]
             row.update(
                 shape_row_metrics(
@@ -247,15 +248,22 @@ def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None
     return rows, arrays, devices
 
 
-def _csc_meta(plan: SweepPlan, chunk: Chunk, g: dict, rids: list[int], sts: list[dict], trajs: list) -> dict:
+def _csc_meta(  # noqa: PLR0913 - the chunk's rows, settings, paths and start postures' IK errors
+    plan: SweepPlan, chunk: Chunk, g: dict, rids: list[int], sts: list[dict], trajs: list, ik: list[float]
+) -> dict:
     from jaxstiff.settings.robot import robot_meta, versions
 
     return {
         "format": "jaxstiff.sweep.csc/1",
         "sweep": {"name": plan.name, "plan_hash": plan.plan_hash, "chunk": chunk.id},
+        "task": g["task"],  # (as a csc result file records it: the reader checks K_C against it)
+        "settings": {"task": g["task"], "locked_joints": g["locked_joints"]},
         "robot": robot_meta(plan.robot),
         "static": {k: v for k, v in g.items() if k != "id"},
-        "rows": [table_settings(s) | {"row_id": r, "path": t.name} for r, s, t in zip(rids, sts, trajs, strict=True)],
+        "rows": [
+            table_settings(s) | {"row_id": r, "path": t.name, "q0_ik_error_m": None if math.isnan(e) else e}
+            for r, s, t, e in zip(rids, sts, trajs, ik, strict=True)
+        ],
         "units": {"q": "rad", "u": "Nm/rad", "frobenius": "N/m", "tracking_error": "m", "K_xd": "N/m"},
         "versions": versions(),
     }
@@ -301,11 +309,17 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
         q0=inputs["q0"],
         beta=inputs["beta"],
         joint_names=np.asarray(plan.robot.joint_names, dtype=str),
-        meta=np.asarray(json.dumps(_csc_meta(plan, chunk, g, rids, sts, trajs), sort_keys=True, default=json_default)),
+        meta=np.asarray(
+            json.dumps(
+                _csc_meta(plan, chunk, g, rids, sts, trajs, [e for _, e in starts]),
+                sort_keys=True,
+                default=json_default,
+            )
+        ),
     )
     rows = []
     for i, r in enumerate(rids):
-        row = _base_row(plan, chunk, r)
+        row = base_row(plan, chunk, r)
         row["q0_ik_error_m"] = starts[i][1]
         row.update(
             csc_row_metrics(

@@ -19,6 +19,12 @@ written first and its rows file last, so a rows file on disk means the chunk is 
 manifest is rewritten after it and is reconciled with the rows files on resume (a kill between the
 two loses nothing). Temporary files left by a kill are removed when the store is opened again.
 
+Damage: on resume every rows file is checked with the array files its rows point to
+(:mod:`jaxstiff.sweep.stored`: its columns typed and equal to the plan's settings, the array files
+read by the one result reader, each row's metrics recomputed from them); a damaged or tampered one
+is refused naming the file and the field (delete the rows file to recompute that chunk). A damaged
+``manifest.json`` (a log) is made again from the rows files, with a warning.
+
 The table is assembled from the rows files sorted by ``row_id``; it holds no timing, so an
 interrupted and resumed sweep gives the same table as an uninterrupted one.
 """
@@ -31,6 +37,7 @@ import glob
 import json
 import os
 import socket
+import warnings
 from typing import Any
 
 from jaxstiff.runtime.io import atomic_write, atomic_write_text
@@ -97,6 +104,11 @@ class SweepStore:
         if not os.path.isdir(self.out) or os.path.isfile(self.path("plan.json")):
             return
         others = [f for f in os.listdir(self.out) if f not in (LOCK_FILE, OWNER_FILE)]
+        if {"chunks", "arrays"} & set(others):
+            raise ValueError(
+                f"--out {self.out} holds a sweep's chunks but no plan.json (the sweep's plan); it is not a usable "
+                "sweep store: choose an empty or new folder"
+            )
         if others:
             raise ValueError(
                 f"--out {self.out} is not empty and holds no sweep (found {sorted(others)[:3]}); choose an empty or new folder"
@@ -150,31 +162,14 @@ class SweepStore:
         plan = self.plan
         plan_file = self.path("plan.json")
         if os.path.isfile(plan_file):
+            from jaxstiff.sweep.stored import load_record
+
             try:
-                with open(plan_file, encoding="utf-8") as fh:
-                    old = json.load(fh)
-            except (OSError, json.JSONDecodeError) as exc:
-                raise ValueError(f"{plan_file}: unreadable ({exc}); this folder is not a usable sweep store") from None
+                old = load_record(plan_file, "sweep plan (plan.json)")
+            except ValueError as exc:
+                raise ValueError(f"{exc}; this folder is not a usable sweep store") from None
             if old.get("plan_hash") != plan.plan_hash:
-                # (only what the hash sees: a moved file is no change)
-                diff = _config_diff(hashed_config(old.get("config", {})), hashed_config(plan.config))
-                if diff and set(diff.split(", ")) <= {"sweep.name", "sweep.description"}:
-                    was = old.get("config", {}).get("sweep", {})
-                    raise ValueError(
-                        f"--out {self.out} holds this sweep under another label (sweep.name {was.get('name')!r}, now "
-                        f"{plan.name!r}; the name defaults to the config's file name, so a renamed file changes it): "
-                        f"set name = {json.dumps(was.get('name'))}"
-                        + (
-                            f" and description = {json.dumps(was.get('description', ''))}"
-                            if "sweep.description" in diff
-                            else ""
-                        )
-                        + " in [sweep] to continue it, or use a new --out"
-                    )
-                raise ValueError(
-                    f"--out {self.out} holds a different sweep ({old.get('name')!r}, plan {str(old.get('plan_hash'))[:12]}); "
-                    f"changed: {diff or 'robot or path data'}. Use a new --out for a changed config"
-                )
+                self._refuse_other_plan(plan_file, old)
             # without --resume only a store with no chunk done (a run stopped while it set the store
             # up: nothing to lose) runs again; the chunks are scanned once more below either way
             n = 0 if resume else len(self._scan_done())
@@ -209,6 +204,43 @@ class SweepStore:
         )
         self._write_manifest()
 
+    def _refuse_other_plan(self, plan_file: str, old: dict) -> None:
+        """Why ``plan.json`` (its record ``old``) is not this sweep: a renamed sweep, a changed config,
+        or a plan hash that the config does not explain."""
+        plan = self.plan
+        cfg = old.get("config")
+        cfg = cfg if isinstance(cfg, dict) and all(isinstance(cfg.get(k, {}), dict) for k in ("robot", "sweep")) else {}
+        paths = cfg.get("paths", [])
+        if not (isinstance(paths, list) and all(isinstance(p, dict) for p in paths)):
+            cfg = {}
+        # (only what the hash sees: a moved file is no change)
+        diff = _config_diff(hashed_config(cfg), hashed_config(plan.config)) if cfg else ""
+        if diff and set(diff.split(", ")) <= {"sweep.name", "sweep.description"}:
+            was = cfg.get("sweep", {})
+            raise ValueError(
+                f"--out {self.out} holds this sweep under another label (sweep.name {was.get('name')!r}, now "
+                f"{plan.name!r}; the name defaults to the config's file name, so a renamed file changes it): "
+                f"set name = {json.dumps(was.get('name'))}"
+                + (
+                    f" and description = {json.dumps(was.get('description', ''))}"
+                    if "sweep.description" in diff
+                    else ""
+                )
+                + " in [sweep] to continue it, or use a new --out"
+            )
+        if diff:
+            raise ValueError(
+                f"--out {self.out} holds a different sweep ({old.get('name')!r}, plan {str(old.get('plan_hash'))[:12]}); "
+                f"changed: {diff}. Use a new --out for a changed config"
+            )
+        why = (
+            "the robot's or the paths' data changed, or the file was edited" if cfg else "its config record is damaged"
+        )
+        raise ValueError(
+            f"{plan_file}: plan_hash: expected {plan.plan_hash[:12]}... (this config's plan), found "
+            f"{str(old.get('plan_hash'))[:12]!r} ({why}); use a new --out"
+        )
+
     def _plan_record(self) -> dict:
         p = self.plan
         return {
@@ -234,38 +266,61 @@ class SweepStore:
                     os.unlink(f)
 
     def _scan_done(self) -> dict[int, dict]:
-        """Finished chunks: every rows file that parses and belongs to this plan."""
+        """Finished chunks: every rows file, checked with the array files it points to
+        (:mod:`jaxstiff.sweep.stored`: types, this plan's settings, metrics recomputed from the arrays)."""
+        from jaxstiff.sweep.chunks import base_row
+        from jaxstiff.sweep.stored import check_rows_arrays, check_rows_record, load_record
+
+        plan = self.plan
         done = {}
         for f in sorted(glob.glob(self.path("chunks", "chunk-*.json"))):
+            name = os.path.basename(f)
+            cid = int(name[6:-5]) if name[6:-5].isdigit() else -1
+            if not 0 <= cid < len(plan.chunks) or name != os.path.basename(self.rows_file(cid)):
+                raise ValueError(f"{f}: not a chunk of this sweep (it has chunks 0..{len(plan.chunks) - 1}); delete it")
+            chunk = plan.chunks[cid]
             try:
-                with open(f, encoding="utf-8") as fh:
-                    rec = json.load(fh)
-            except (OSError, json.JSONDecodeError) as exc:
-                raise ValueError(f"{f}: unreadable chunk file ({exc}); delete it to recompute that chunk") from None
-            cid = rec.get("chunk")
-            if (
-                rec.get("plan_hash") != self.plan.plan_hash
-                or not isinstance(cid, int)
-                or not 0 <= cid < len(self.plan.chunks)
-            ):
-                raise ValueError(f"{f}: belongs to another sweep; delete it or use a new --out")
-            want = list(self.plan.chunks[cid].rows)
-            if [r["row_id"] for r in rec.get("rows", [])] != want:
-                raise ValueError(f"{f}: its rows do not match chunk {cid} of the plan; delete it to recompute")
+                rec = load_record(f, "sweep rows file")
+                rows = check_rows_record(
+                    f,
+                    rec,
+                    plan.kind,
+                    plan_hash=plan.plan_hash,
+                    chunk_id=cid,
+                    row_ids=list(chunk.rows),
+                    expected={r: base_row(plan, chunk, r) for r in chunk.rows},
+                )
+                check_rows_arrays(
+                    self.out,
+                    f,
+                    rows,
+                    plan.kind,
+                    plan_hash=plan.plan_hash,
+                    alpha_tol_deg=plan.alpha_tol_deg,
+                    ratio_rel_tol=plan.ratio_rel_tol,
+                )
+            except (ValueError, FileNotFoundError) as exc:
+                raise ValueError(f"{exc}; delete {f} to recompute chunk {cid}") from None
             done[cid] = rec
         return done
 
     def _load_manifest(self) -> dict:
+        from jaxstiff.sweep.stored import load_record, manifest_problem
+
         f = self.path("manifest.json")
         man = {"format": FORMAT, "plan_hash": self.plan.plan_hash, "chunks": {}, "runs": []}
-        if os.path.isfile(f):
+        if os.path.exists(f):
             try:
-                with open(f, encoding="utf-8") as fh:
-                    old = json.load(fh)
-                if old.get("plan_hash") == self.plan.plan_hash:
-                    man.update({"chunks": old.get("chunks", {}), "runs": old.get("runs", [])})
-            except (OSError, json.JSONDecodeError):
-                pass  # rebuilt from the rows files below
+                old: Any = load_record(f, "sweep manifest")
+                problem = manifest_problem(old, self.plan.plan_hash)
+            except ValueError as exc:
+                old, problem = None, str(exc)
+            if problem is None:
+                man.update({"chunks": old["chunks"], "runs": old["runs"]})
+            else:  # a log, not a result: made again from the rows files (the run history is lost)
+                warnings.warn(
+                    f"{f}: {problem.removeprefix(f + ': ')}; made again from the chunks' rows files", stacklevel=2
+                )
         # the rows files are the truth: drop entries without one, add those missing
         man["chunks"] = {k: v for k, v in man["chunks"].items() if int(k) in self.done}
         for cid, rec in self.done.items():

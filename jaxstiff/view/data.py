@@ -16,8 +16,6 @@ stiffness matrices in N/m, base frame throughout. A rigid locked joint (newer sh
 from __future__ import annotations
 
 import dataclasses
-import glob
-import json
 import os
 from typing import TYPE_CHECKING, Any
 
@@ -120,22 +118,12 @@ def format_kj(k: float, unit: str, locked: bool = False) -> str:
 
 
 def sweep_row_file(folder: str, row: int) -> tuple[str, int]:
-    """The array file and the index in it of sweep row ``row`` (from ``folder/chunks/*.json``)."""
-    files = sorted(glob.glob(os.path.join(folder, "chunks", "chunk-*.json")))
-    if not files:
-        raise FileNotFoundError(f"{folder}: no chunks/chunk-*.json; not a finished jaxstiff sweep folder")
-    seen = 0
-    for f in files:
-        with open(f) as fh:
-            rows = json.load(fh)
-        rows = rows.get("rows", rows) if isinstance(rows, dict) else rows
-        for r in rows:
-            seen += 1
-            if int(r.get("row_id", -1)) == row:
-                if not r.get("result_file"):  # a row whose path leaves the robot's reach is not solved
-                    raise ValueError(f"{folder}: sweep row {row} was not solved (its path leaves the robot's reach)")
-                return os.path.join(folder, str(r["result_file"])), int(r.get("result_index", 0))
-    raise ValueError(f"{folder}: no sweep row {row} (the folder has {seen} rows, row_id 0..{seen - 1})")
+    """The array file and the index in it of sweep row ``row``, after the checks of
+    :func:`jaxstiff.sweep.stored.read_sweep_row` (plan, rows file, array file)."""
+    from jaxstiff.sweep.stored import read_sweep_row
+
+    rf, index = read_sweep_row(folder, row)
+    return rf.file, index
 
 
 def _block3(K: np.ndarray) -> np.ndarray:
@@ -257,13 +245,16 @@ def load_view_data(file: str | os.PathLike, row: int | None = None, urdf: str | 
     if os.path.isdir(file):
         if row is None:
             raise ValueError(f"{file} is a sweep folder: pick one of its rows with --row ROW_ID")
+        from jaxstiff.sweep.stored import read_sweep_row
+
         source = f"{file}#row={row}"
-        file, index = sweep_row_file(file, row)
+        # the sweep's checks (plan, rows file, the row against its array file), the array file
+        # read by the one reader
+        rf, index = read_sweep_row(file, row, urdf)
     elif row is not None:
         raise ValueError(f"--row {row} is for a sweep folder; {file} is a result file (use --path B to pick a path)")
-    rf = read_result(file, urdf)  # the one reader: schema, robot, joints, locks, positions, task
-    if index is not None and not 0 <= index < rf.arrays["q"].shape[0]:
-        raise ValueError(f"{source}: the row's result_index {index} is not a path of {file}")
+    else:
+        rf = read_result(file, urdf)  # the one reader: schema, robot, joints, locks, positions, task
     return _shape_data(rf, index, source) if rf.kind == "shape" else _csc_data(rf, index, source)
 
 
@@ -272,3 +263,20 @@ def check_positions(data: ViewData) -> float:
     read by :func:`load_view_data` has passed the reader's check of it:
     :data:`jaxstiff.results.reader.POSITION_TOL`)."""
     return float(np.max(np.linalg.norm(tcp_position(data.robot, data.q) - data.position, axis=-1)))
+
+
+def check_drawable(data: ViewData) -> None:
+    """Refuse ``data`` unless every waypoint has a posture and a stiffness to draw: a non-finite one (a file may hold NaN
+    q or kj where a waypoint is not usable, status 3-5) is refused by name, not met by the
+    eigen-decomposition of its ellipsoid ("Eigenvalues did not converge")."""
+    bad = ~np.isfinite(data.q).all(axis=-1) | ~np.isfinite(data.K).all(axis=(-2, -1))
+    if bad.any():
+        b, p = (int(i) for i in np.argwhere(bad)[0])
+        status = data.arrays.get("status")
+        st = f" (status {int(status[b, p])})" if status is not None else ""
+        what = "joint values" if not np.isfinite(data.q[b, p]).all() else "stiffness"
+        raise ValueError(
+            f"{data.source}: path {b}, waypoint {p}{st}: non-finite {what}, which the viewer and plot cannot draw"
+            + (f" ({int(bad.sum()) - 1} more such waypoints)" if bad.sum() > 1 else "")
+            + "; `jaxstiff export` writes every waypoint to CSV"
+        )

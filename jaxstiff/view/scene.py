@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from jaxstiff.view.data import ViewData
+from jaxstiff.view.data import ViewData, check_drawable
 from jaxstiff.view.framing import arm_sizes, choose_view, nice_scale, screen_semi_axis
 from jaxstiff.view.geometry import capsule, cylinder, icosphere
 from jaxstiff.view.kinematics import chain_frames, ellipsoid_axes, link_frames
@@ -117,6 +117,7 @@ class Scene:
 
     def __init__(self, server: Any, data: ViewData, n_per_m: float | None = None, every: int = 1) -> None:
         self.server, self.data, self.every = server, data, max(1, int(every))
+        check_drawable(data)
         self.frames = chain_frames(data.robot, data.q)  # (B, P, n, 4, 4), (B, P, 4, 4)
         self.links = link_frames(data.robot, data.q) if data.robot.n else None
         self.sizes = arm_sizes(*self.frames)

@@ -74,7 +74,8 @@ def test_third_party_tree_with_tip_link_lock_and_rotated_tcp(mode):
 
 def _result_file(path, robot, q, kj, task, locked_joints):
     """A result file as the readers accept it: positions the FK of q, the axis ratio that of (q, kj)
-    with the task (jaxstiff.results.reader checks both), placeholders elsewhere."""
+    with the task, rate limits its steps keep (jaxstiff.results.reader checks all three),
+    placeholders elsewhere."""
     from jaxstiff.results.numpy_check import np_alpha_ratio, np_fk_position, np_translational_stiffness
 
     B, P, n = q.shape
@@ -82,7 +83,7 @@ def _result_file(path, robot, q, kj, task, locked_joints):
     meta = {
         "robot": robot_meta(robot), "task": task, "settings": {"task": task}, "criterion": "f2", "ratio": 3.0,
         "cms": {"target_volume": 1e6, "target_major": None},
-        "limits": {"kmin": 1.0, "kmax": 1000.0, "dq": 1.0, "dk": 1000.0, "first_rate_limit": False},
+        "limits": {"kmin": 1.0, "kmax": 1000.0, "dq": 4.0, "dk": 1000.0, "first_rate_limit": False},
     }  # fmt: skip
     if locked_joints is not None:
         meta["settings"]["locked_joints"] = locked_joints

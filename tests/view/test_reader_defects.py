@@ -212,3 +212,22 @@ def test_readers_agree_on_a_tampered_file(shape_file, tmp_path, capsys) -> None:
         jaxstiff.results.verify(f)
     assert lines == {f"jaxstiff: error: {exc.value}"}
     assert "meta robot.name" in str(exc.value) and "'planar_3r'" in str(exc.value)
+
+
+def test_defect_one_nan_waypoint_is_named_not_an_eigenvalue_error(shape_file, tmp_path, capsys) -> None:
+    """Issue 42 item 5: one NaN waypoint broke the whole view with "Eigenvalues did not converge".
+    A file may hold NaN q at a waypoint that is not usable (status 4, non-finite); view and plot
+    now name it, export writes it (its status column says what it is)."""
+
+    def nan_waypoint(a):
+        a["status"][0, 3] = 4
+        a["q"][0, 3, :6] = np.nan  # (the free joints; lwr_a7 keeps its locked value)
+
+    f = _tamper(shape_file, str(tmp_path / "nan.npz"), arrays=nan_waypoint)
+    words = ("nan.npz: path 0, waypoint 3 (status 4): non-finite joint values", "jaxstiff export")
+    _refused(["view", f, "--html", str(tmp_path / "out.html")], capsys, *words)
+    _refused(["plot", f, "--out", str(tmp_path / "out.png")], capsys, *words)
+    assert not [p for p in os.listdir(tmp_path) if p.startswith("out.")]
+    assert main(["export", f, "--csv", str(tmp_path / "x.csv")]) == 0
+    rows = open(tmp_path / "x.csv").read().splitlines()
+    assert len(rows) == 1 + 8 and rows[4].endswith(",4") and "nan" in rows[4].lower()

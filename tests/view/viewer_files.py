@@ -45,7 +45,9 @@ def make_shape_result(
         "c": 1.0,
         "solver": "test",
         "settings": {"locked_joints": "rigid" if rigid else "spring"},
-        "limits": {"kmin": 1.0, "kmax": 100.0, "dq": 0.035, "dk": 5.0, "first_rate_limit": False},
+        # rate limits the random steps keep (q moves < 1.6 rad, kj < 75 Nm/rad between waypoints):
+        # the reader checks them
+        "limits": {"kmin": 1.0, "kmax": 100.0, "dq": 2.0, "dk": 80.0, "first_rate_limit": False},
         "cms": {"target_volume": 1e6, "target_major": None},
         "path": {"name": ";".join(f"p{b}" for b in range(B))},
     }
