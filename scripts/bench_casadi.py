@@ -608,7 +608,8 @@ def make_path(robot, name: str):
     if robot.name == "kuka_lwr4":
         centre = np.array([0.6, 0.0, 0.3])  # the default path's middle
     else:
-        centre = np.asarray(robot.fk(nominal_posture(robot)))[:3, 3]
+        with __import__("jax").enable_x64(True):  # float64 FK (the x64 mode is this script's choice per call)
+            centre = np.asarray(robot.fk(nominal_posture(robot)))[:3, 3]
     if name == "line":
         h = 0.12 * L
         return line(centre + [0, -h, 0], centre + [0, h, 0], n=30)
