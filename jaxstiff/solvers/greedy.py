@@ -419,7 +419,7 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
             with such a waypoint, up to this many other optima of the first waypoint (the tied
             answers of its multi-start, farthest from the joint limits first) are walked again,
             keeping the walk with the fewest unsolved, then off-target waypoints, then the lowest
-            sum of the criterion. f2 and f1 have whole sets of optimal first postures, and which
+            sum of the criterion (not where the first waypoint itself is off target). f2 and f1 have whole sets of optimal first postures, and which
             one the walk leaves from decides whether a rate-limited stretch later can follow. 0:
             seed 000's scheme alone.
 
@@ -432,7 +432,9 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
     if path_retries <= 0 or bound is None or not alternatives:
         return out
     rank = _walk_rank(out, fs, float(bound))
-    if rank[1] == 0:
+    if rank[1] == 0 or not (out[0].status in R.USABLE and fs[0] < float(bound)):
+        # in target everywhere, or the first waypoint's own optimum off target: its tied
+        # alternatives are as far off, and a target no posture reaches would cost every walk
         return out
     t0 = time.perf_counter()
     for alt in alternatives[:path_retries]:
