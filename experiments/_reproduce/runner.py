@@ -2,8 +2,9 @@
 
 The experiments are the scripts in the source checkout's ``experiments/`` folder, each runnable
 as ``python experiments/NAME.py --out DIR``. By default the reproductions of the seeds run: seed 000
-Fig. 2-6 (``fig*``), the project's own CSC cases of seed 001's method (``csc*``; the seed has no
-simulation example) and the MuJoCo check of the stiffness model (``sim*``); ``--all`` adds the others
+Fig. 2-6 (``fig*``), the project's two fidelity studies of them (``task_modes``: which stiffness is
+shaped; ``f1_default_path``), the project's own CSC cases of seed 001's method (``csc*``; the seed
+has no simulation example) and the MuJoCo check of the stiffness model (``sim*``); ``--all`` adds the others
 (studies beyond the seeds, which may take much longer), ``--only`` picks by name. They
 are run here as **subprocesses**, one after another:
 
@@ -49,8 +50,9 @@ from jaxstiff.runtime.io import atomic_write_text
 
 __all__ = ["find_experiments_dir", "discover", "run_reproduce", "ReproduceOutcome", "ExperimentRun"]
 
-#: Order of the report: seed 000 figures 2-6, then CSC, then the physics check, then the rest alphabetically.
-ORDER = ("fig2", "fig3", "fig4", "fig5", "fig6", "csc", "sim")
+#: Order of the report: seed 000 figures 2-6, the two fidelity studies of them (which stiffness is
+#: shaped; f1 on the default path), then CSC, then the physics check, then the rest alphabetically.
+ORDER = ("fig2", "fig3", "fig4", "fig5", "fig6", "task_modes", "f1_default", "csc", "sim")
 
 
 def find_experiments_dir(explicit: str | os.PathLike | None = None) -> str:
@@ -109,7 +111,8 @@ def discover(folder: str, everything: bool = True) -> list[str]:
 
     Args:
         everything: all of them; False: the default set of ``jaxstiff reproduce``: seed 000's figures
-            (names starting with ``fig``), the CSC cases (``csc``) and the physics check (``sim``).
+            (names starting with ``fig``), the fidelity studies ``task_modes`` and ``f1_default_path``,
+            the CSC cases (``csc``) and the physics check (``sim``).
     """
     scripts = [p for p in glob.glob(os.path.join(folder, "*.py")) if _is_experiment(p)]
     if not everything:

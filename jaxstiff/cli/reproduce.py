@@ -76,7 +76,8 @@ def _add_reproduce(p: argparse.ArgumentParser):
     p.add_argument(
         "--all",
         action="store_true",
-        help="run every experiment script, not only the default set (seed 000's figures fig*, the CSC cases csc*)",
+        help="run every experiment script, not only the default set (seed 000's figures fig*, the fidelity studies "
+        "task_modes and f1_default_path, the CSC cases csc*, the physics check sim*)",
     )
 
     def run(args) -> int:
