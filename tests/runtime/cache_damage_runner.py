@@ -3,12 +3,20 @@ in its own forked process (a damaged program can crash XLA's deserializer: a seg
 ``try`` catches). Run by tests/runtime/test_cache_damage.py as its own process (the pytest process
 never forks with JAX started in it)::
 
-    python cache_damage_runner.py CACHE_DIR FLIPS_PER_KIND
+    python cache_damage_runner.py CACHE_DIR FLIPS_PER_KIND [EDIT_FILE]
 
 Writes one JSON object on stdout: the reference result, and per cache kind (``traced``: the
 ``jaxstiff-programs/*.jaxexp`` files; ``compiled``: the entries of JAX's compilation cache) the
 flips as ``[offset, bit, exit status or -signal (-9: killed after TIMEOUT_S), result hex or None,
-warnings, traced]``.
+warnings, traced, read]`` (read: the run read the flipped file; None where it died).
+
+Every run computes the traced program's file key from jaxstiff's code fingerprint taken once, here,
+before the first fork, and runs the modules imported here: the file a run reads is the one that
+was flipped even where the checkout's sources change while the runner runs (a merge into the
+checkout under test: the fast lane once saw a later run trace a fresh program under another key,
+never read the flipped file and so report no damage). ``EDIT_FILE``, for the test of that: a
+source file of the jaxstiff package being run (a copy) that gets a comment line appended after
+the reference run.
 
 The cached call is the damped-least-squares IK of the planar 3R arm (:func:`jaxstiff.ik.ik_position`):
 a DiskJit program, so it goes through both caches, and small (about a second per run).
@@ -53,6 +61,7 @@ def _child(cache: str, out: int) -> None:
         return real_export(*a, **k)
 
     export.export = counting_export
+    read = _record_reads()
     cc.enable_compile_cache(cache, min_compile_s=0.0)
     with warnings.catch_warnings(record=True) as seen:
         warnings.simplefilter("always")
@@ -66,8 +75,45 @@ def _child(cache: str, out: int) -> None:
         "warnings": damage,
         "traced": len(traced),
         "hits": clock.cache_hits,
+        "read": read,
     }
     os.write(out, json.dumps(rec).encode())
+
+
+def _record_reads() -> list[str]:
+    """The cache files this process reads from now on (real paths; traced programs and JAX's
+    entries), as a list that fills as they are read (empty for code without these hooks)."""
+    read: list[str] = []
+    real_read = getattr(ec, "_read", None)
+    if real_read is not None:
+
+        def recording_read(path, file_key):
+            read.append(os.path.realpath(path))
+            return real_read(path, file_key)
+
+        ec._read = recording_read
+    checked = getattr(cc, "CheckedCache", None)
+    if checked is not None:
+        real_get = checked.get
+
+        def recording_get(self, key):
+            where = os.path.join(os.fspath(self._path), f"{key}{cc.CHECKED_KEY_SUFFIX}-cache")
+            read.append(os.path.realpath(where))
+            return real_get(self, key)
+
+        checked.get = recording_get
+    return read
+
+
+def pin_code() -> str:
+    """Take jaxstiff's code fingerprint (the forked runs inherit it: ``functools.cache``) and import
+    the modules of the cached call, before the first fork: every run then reads the same traced
+    program file, whatever happens to the sources on disk meanwhile (module docstring). The
+    fingerprint."""
+    import jaxstiff.ik  # noqa: F401 - imported for the forks (no backend is started by it)
+    import jaxstiff.model.robot  # noqa: F401
+
+    return ec.code_fingerprint()
 
 
 def run_once(cache: str) -> tuple[int, dict | None]:
@@ -115,8 +161,13 @@ def offsets(size: int, n: int, seed: int) -> list[int]:
 
 def main() -> None:
     cache, n = sys.argv[1], int(sys.argv[2])
+    edit = sys.argv[3] if len(sys.argv) > 3 else None
+    pinned = pin_code()
     first = run_once(cache)  # fills both caches
     clean = run_once(cache)  # from the caches: the reference the damaged runs must give
+    if edit:
+        with open(edit, "a") as f:
+            f.write("# edited while the runner runs\n")
     kinds = {
         "traced": sorted(
             os.path.join(cache, ec.EXPORT_SUBDIR, f)
@@ -127,7 +178,17 @@ def main() -> None:
     }
     pristine = cache + ".pristine"
     shutil.copytree(cache, pristine)
-    report = {"first": first, "clean": clean, "files": {k: len(v) for k, v in kinds.items()}, "flips": {}}
+    import jaxstiff
+
+    report = {
+        "first": first,
+        "clean": clean,
+        "files": {k: len(v) for k, v in kinds.items()},
+        "flips": {},
+        "package": os.path.dirname(os.path.realpath(jaxstiff.__file__)),
+        # the fingerprint every run used, and the one of the sources on disk now (another: they changed)
+        "fingerprint": {"pinned": pinned, "on_disk": ec.code_fingerprint.__wrapped__()},
+    }
     for seed, (kind, files) in enumerate(kinds.items()):
         rows = []
         for file in sorted(files, key=os.path.getsize)[-1:]:  # the kind's largest file: the IK program
@@ -149,6 +210,7 @@ def main() -> None:
                         None if rec is None else rec["q"],
                         None if rec is None else len(rec["warnings"]),
                         None if rec is None else rec["traced"],
+                        None if rec is None else os.path.realpath(file) in rec["read"],
                     ]
                 )
         report["flips"][kind] = rows

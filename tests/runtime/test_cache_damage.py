@@ -4,8 +4,9 @@ Single bits are flipped at many offsets (header and payload) of each on-disk cac
 traced programs (``jaxstiff-programs/*.jaxexp``) and the entries of JAX's compilation cache. After
 each flip the cached call runs in its own process (``cache_damage_runner.py``): it must exit 0,
 give the reference result bit for bit, and say once that it discarded the damaged entry (every
-single-bit flip changes the checked bytes, so each one must be seen). The reference is the run
-from the intact caches, and its q is checked independently by forward kinematics.
+single-bit flip changes the checked bytes, so each one must be seen); each run records the cache
+files it read, and the flipped one must be among them. The reference is the run from the intact
+caches, and its q is checked independently by forward kinematics.
 
 In-process checks: the header format (key, length, sha256) refuses each kind of damage before
 deserialization; a whole file whose program does not deserialize or compile is replaced; JAX's
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -23,6 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import REPO_ROOT
 
 from jaxstiff.runtime import compile_cache as cc
 from jaxstiff.runtime import export_cache as ec
@@ -30,13 +33,14 @@ from jaxstiff.runtime import export_cache as ec
 RUNNER = os.path.join(os.path.dirname(__file__), "cache_damage_runner.py")
 
 
-def _run_flips(tmp_path, n):
+def _run_flips(tmp_path, n, edit=None, env=None):
     out = subprocess.run(
-        [sys.executable, RUNNER, str(tmp_path / "cache"), str(n)],
+        [sys.executable, RUNNER, str(tmp_path / "cache"), str(n), *([str(edit)] if edit else [])],
         capture_output=True,
         text=True,
         timeout=1800,
         cwd=tmp_path,
+        env=env,
     )
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout)
@@ -56,9 +60,10 @@ def _check_report(rep, n):
     for kind, rows in rep["flips"].items():
         assert len(rows) >= 0.8 * n, (kind, len(rows))
         assert any(off < 100 for off, *_ in rows)  # the header is hit too
-        for off, bit, code, qhex, warned, traced in rows:
+        for off, bit, code, qhex, warned, traced, read in rows:
             where = f"{kind} byte {off} bit {bit}"
             assert code == 0, f"{where}: exit status {code}"
+            assert read, f"{where}: the run did not read the flipped file"
             assert qhex == clean["q"], f"{where}: another result"
             assert warned == 1, f"{where}: {warned} damage warnings (every flip must be seen, once)"
             if kind == "traced":
@@ -80,6 +85,25 @@ def test_bit_flips_in_every_cache_kind_many(tmp_path):
     """150 offsets per kind (about 5 minutes on a 2-core machine)."""
     counts = _check_report(_run_flips(tmp_path, 150), 150)
     print(f"bit flips run: {counts}")
+
+
+@pytest.mark.slow
+def test_bit_flips_seen_when_the_sources_change_during_the_run(tmp_path):
+    """The fast lane once ran in a checkout that changed under it (a merge): a flip run after the
+    change keyed the traced program by the new code fingerprint, traced it afresh beside the
+    flipped file, never read that file and reported no damage. The runner takes the fingerprint
+    once, before its forks: here it runs a copy of the package whose ik.py it edits after the
+    reference run, and every flip must still be read and seen (about 15 s)."""
+    import jaxstiff
+
+    src = tmp_path / "src"
+    shutil.copytree(os.path.dirname(jaxstiff.__file__), src / "jaxstiff", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(REPO_ROOT / "urdf", src / "urdf")  # beside the package, as in a checkout
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(src), os.environ.get("PYTHONPATH")]))}
+    rep = _run_flips(tmp_path, 3, edit=src / "jaxstiff" / "ik.py", env=env)
+    assert rep["package"] == os.path.realpath(src / "jaxstiff")  # the copy ran, not the checkout
+    assert rep["fingerprint"]["on_disk"] != rep["fingerprint"]["pinned"]  # the edit changed the key
+    assert set(_check_report(rep, 3)) == {"traced", "compiled"}
 
 
 # ---------------------------------------------------------------------- in-process
