@@ -29,7 +29,18 @@ def summary_lines(both: dict, own: dict, res_full, res_xyz) -> list[str]:
 
     r = float(res_full.meta["ratio"])
     rows = [("(i) full, held", both["held"]), ("(ii) full, free", both["free"]), ("(iii) xyz, free", own)]
-    lines = ["| stiffness | " + " | ".join(f"wp {p}" for p in WAYPOINTS) + " | in target |", "|---" * 7 + "|"]
+    lines = [
+        "### Which stiffness is shaped? Held against free tool orientation along the default path",
+        "",
+        "The README's main job (LWR, f2, r = 5, task `full`) shapes the stiffness a force meets with the "
+        "tool's orientation held (i). A pure force on a tool free to turn meets the inverse of the "
+        "translational compliance (ii): on the same solution its major axis is far off the tangent and "
+        "its ratio is not 5. Shaped for that contact (task `xyz`, iii), the free ellipsoid is aligned "
+        "where the rate limits allow.",
+        "",
+        "| stiffness | " + " | ".join(f"wp {p}" for p in WAYPOINTS) + " | in target |",
+        "|---" * 7 + "|",
+    ]
     for name, v in rows:
         a_ok, r_ok = target_masks(v["alpha_deg"], v["ratio"], r, res_full.meta["criterion"])
         cells = [f"{v['alpha_deg'][p]:.1f} deg, {v['ratio'][p]:.2f}, {v['major'][p]:.0f} N/m" for p in WAYPOINTS]

@@ -219,7 +219,9 @@ def _intro(quick: bool, only: Sequence[str] | None, everything: bool) -> list[st
             if only
             else "Every experiment of the repository"
             if everything
-            else "The reproductions of seed 000's figures (fig*) and the project's own CSC cases on seed 001's method (csc*)"
+            else "The reproductions of seed 000's figures (fig*), the project's two fidelity studies of them "
+            "(task_modes: which stiffness is shaped; f1_default_path), the project's own CSC cases on seed 001's "
+            "method (csc*) and the physics check (sim*)"
         )
         + ", run by `jaxstiff reproduce"
         + (" --quick" if quick else "")
