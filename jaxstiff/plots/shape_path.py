@@ -76,7 +76,7 @@ def _panel_joints(
     handles = []
     for i in range(res.n):
         rigid = bool(np.all(np.isposinf(values[:, i])))
-        label = f"{res.joint_names[i]} (rigid, kj = inf)" if rigid else str(res.joint_names[i])
+        label = f"{res.joint_names[i]} (rigid)" if rigid else str(res.joint_names[i])  # kj = inf: no curve
         if suffix is not None and suffix[i]:
             label = f"{label} {suffix[i]}"
         target = ax_r if ax_r is not None and right[0][i] else ax  # type: ignore[index]

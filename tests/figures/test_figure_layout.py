@@ -159,6 +159,39 @@ def test_path_figure_3d_labels_do_not_collide(robot_name, tmp_path, monkeypatch)
     assert _overlapping(f_boxes, _boxes(_axis2d_texts(ax_g), rnd)) == []
 
 
+LOCKED = {
+    "kuka_lwr4": ("kuka_lwr4", {"lwr_a7": 0.0}),
+    "ur10": (os.path.join(ROBOTS, "ur10.urdf"), {"wrist_3_joint": 0.0}),
+    "z1": (os.path.join(ROBOTS, "z1.urdf"), {"joint6": 0.0}),
+}
+
+
+@pytest.mark.parametrize("robot_name", list(LOCKED))
+def test_path_figure_legends_cover_no_title_and_no_other_panel(robot_name, tmp_path, monkeypatch):
+    """Each legend under a panel stays off the next row's titles and off the other panels, with a
+    rigid locked joint's longer entry too (the UR10's six names in one column of "(rigid, kj =
+    inf)" ran over (d)'s title in the gallery's second example)."""
+    source, locked = LOCKED[robot_name]
+    robot = jaxstiff.Robot.from_urdf(source, locked=locked)
+    res = _hand_made(robot)
+    seen = _capture(monkeypatch, shape_path)
+    shape_path.figure_shape_path(res, robot, tmp_path / "fig.png", "t", dpi=40)
+    fig, rnd = seen["fig"], seen["renderer"]
+    legends = [(a, a.get_legend()) for a in fig.axes if a.get_legend() is not None]
+    assert len(legends) >= 2  # (a) and (b) at least
+    titles = [(a.get_title(), a.title.get_window_extent(rnd)) for a in fig.axes if a.get_title()]
+    for owner, leg in legends:
+        box = leg.get_window_extent(rnd)
+        hits = _overlapping([("legend of " + owner.get_title(), box)], titles)
+        assert hits == [], hits
+        for other in fig.axes:
+            if other is owner or other.name == "3d" or not other.get_visible() or other.bbox.width < 2:
+                continue
+            frame = other.bbox
+            inside = box.x0 + 1 < frame.x1 and frame.x0 + 1 < box.x1 and box.y0 + 1 < frame.y1 and frame.y0 + 1 < box.y1
+            assert not inside, (owner.get_title(), other.get_title())
+
+
 @pytest.mark.parametrize("robot_name", list(ARMS))
 def test_path_figure_scale_bar_inside_g_and_no_band_under_the_title(robot_name, tmp_path, monkeypatch):
     _, _, fig, rnd, ax_f, ax_g = _draw_path_figure(robot_name, tmp_path, monkeypatch)
