@@ -210,7 +210,7 @@ def _criterion_map(
         return bool(fx < 0.88 and 0.05 < fy < 0.95 and np.hypot(*(px - dot)) > 0.06 * ax2.bbox.height)
 
     # one label a level, each at its own height: placed by matplotlib, the labels of the levels that
-    # crowd alpha = 0 lay on top of each other (issue 40, item 4)
+    # crowd alpha = 0 lay on top of each other
     for level, point in _staggered_label_points(A, P, F, levels, inside):
         ax2.clabel(cs, levels=[level], fmt="%g", fontsize=7, manual=[point])
     if name == "f1":
@@ -249,7 +249,7 @@ def figure_criteria(
     plt = pyplot()
     A, P = np.meshgrid(alpha_deg, rho, indexing="ij")
     fig = plt.figure(figsize=(13, 10))
-    # top: the panels right under the title (the default left an empty band, issue 40 item 4)
+    # top: the panels right under the title (the default left an empty band)
     gs = fig.add_gridspec(2, 2, height_ratios=[1.15, 1], hspace=0.2, wspace=0.15, top=0.93, bottom=0.06)
     specs = [
         ("f1", F1, f"f1 = (|α| + c) / (min(ρ, r)/r),  r = {r:g}, c = {c:g}"),

@@ -94,7 +94,7 @@ def _legend_columns(labels: Sequence[str], width_chars: int = 55) -> int:
     """Columns (1-4) of a legend under a joint panel that keep it within the panel's width, about
     ``width_chars`` characters of the 7-pt legend font: matplotlib fills the columns top to bottom,
     each as wide as its longest entry plus a handle (about 6). Four columns of a UR10's names
-    ("shoulder_lift_joint") ran into the next panel's legend (issue 40, item 4)."""
+    ("shoulder_lift_joint") ran into the next panel's legend."""
     for ncol in (4, 3, 2):
         rows = -(-len(labels) // ncol)
         cols = [labels[c * rows : (c + 1) * rows] for c in range(ncol)]
@@ -195,7 +195,7 @@ def _scale_text(n_per_m: float) -> str:
 def _widened_box(lo: np.ndarray, hi: np.ndarray, share: float = 0.35) -> tuple[np.ndarray, np.ndarray]:
     """The 3-D box ``lo``..``hi`` (m) widened about its centre so that no side is shorter than
     ``share`` of the longest: equal scale stays, and a flat box (the default path: 0.1 m in z
-    against 0.55 m in y) no longer piles its tick labels on each other (issue 40, item 4)."""
+    against 0.55 m in y) no longer piles its tick labels on each other."""
     span = np.maximum(hi - lo, share * float(np.max(hi - lo)))
     mid = 0.5 * (lo + hi)
     return mid - 0.5 * span, mid + 0.5 * span
@@ -286,7 +286,7 @@ def _panel_projection_xy(
         )
     ax.set(xlabel="x (m)", ylabel="y (m)", title=f"(g) projection on the xy plane\n{_scale_text(n_per_m)}")
     # equal scale by widening the narrower data range, not by shrinking the box: a path narrow in x
-    # (the default path: 0.1 m by 0.5 m) made an equal-aspect box a thin strip (issue 40, item 4)
+    # (the default path: 0.1 m by 0.5 m) made an equal-aspect box a thin strip
     ax.set_aspect("equal", adjustable="datalim")
     ax.xaxis.set_major_locator(_FittingLocator())  # a narrow x range: fewer ticks, labels apart
     value = nice_value(size * n_per_m)  # a round stiffness near the largest drawn semi-axis
@@ -360,7 +360,7 @@ def _drawn_waypoints(
         if every < 1:
             raise ValueError(f"every must be >= 1, got {every}")
         # the same waypoints in both panels, at one scale: (g) drawn twice as often as (f) piled its
-        # outlines on each other at a scale that leaves (f)'s 3-D ellipsoids visible (issue 40, item 4)
+        # outlines on each other at a scale that leaves (f)'s 3-D ellipsoids visible
         idx = np.arange(0, P, every)
         return idx, idx, float(every)
     idx = np.unique(np.asarray(list(waypoints), dtype=int))
@@ -439,7 +439,7 @@ def figure_shape_path(
     plt = pyplot()
     wp = np.arange(res.P)
     fig = plt.figure(figsize=(17, 14))
-    # top: the panels start just under the title (the default left an empty band, issue 40 item 4)
+    # top: the panels start just under the title (the default left an empty band)
     gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.55, wspace=0.9, top=0.94)
     colors = plt.cm.tab10(np.arange(res.n))
     pris = _prismatic(robot, res.n)
@@ -464,7 +464,7 @@ def figure_shape_path(
     spacing = float(np.median(np.linalg.norm(np.diff(res.target[b], axis=0), axis=1)))
     # one scale for (f) and (g): the median major semi-axis is half the gap between (f)'s ellipsoids
     # (they touch there); scaled by the largest instead, one stiff waypoint (f1 drives rho up to 19
-    # on the default path) shrank every other ellipsoid to a needle (issue 40, item 4)
+    # on the default path) shrank every other ellipsoid to a needle
     typical = float(np.nanmedian(lam[:, 0]))
     unit = lam / typical  # axes relative to the median major axis on the path
     size = 0.5 * gap * spacing  # the median stiffest semi-axis, m

@@ -45,7 +45,7 @@ __all__ = [
     "shape",
 ]
 
-#: names this module exported before it became a package (issue 38), still answered with a
+#: names this module exported before it became a package, still answered with a
 #: DeprecationWarning naming where each lives
 _FORMER = {
     "INLINE_SETTINGS": "jaxstiff.shaping._shape",
