@@ -136,7 +136,9 @@ def _run_command(args: argparse.Namespace) -> int:
     from ..runtime.compile_cache import CompileClock, compile_cache_flags
 
     t0 = time.perf_counter()
-    with compile_cache_flags(args.global_no_compile_cache, args.global_compile_cache) as cache_dir:
+    # a subcommand's own --no-compile-cache (the sweep's) turns the cache off here as well
+    no_cache = bool(args.global_no_compile_cache or getattr(args, "no_compile_cache", False))
+    with compile_cache_flags(no_cache, args.global_compile_cache) as cache_dir:
         with CompileClock() as clock:
             rc = int(args._run(args) or 0)
     if clock.programs and not getattr(args, "quiet", False):

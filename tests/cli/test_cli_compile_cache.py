@@ -54,3 +54,30 @@ def test_cache_flags_and_compile_time_reported(tmp_path):
     cache_dirs = {n: json.loads(str(np.load(tmp_path / f"{n}.npz")["meta"]))["compilation"]["cache_dir"] for n in runs}
     assert cache_dirs == {"flag_on": str(tmp_path / "on"), "flag_off": None, "env_off": None}
     assert "no compilation cache" in outs["flag_off"][1]
+
+
+def test_a_subcommands_own_no_compile_cache_turns_the_command_cache_off(monkeypatch):
+    """`jaxstiff sweep ... --no-compile-cache` (the sweep's own flag) turned off only the sweep's
+    workers' cache: the command-level cache stayed on and said "programs loaded from the cache"."""
+    import argparse
+    import contextlib
+    import importlib
+
+    cli_main = importlib.import_module("jaxstiff.cli.main")  # (the package exports a function named main)
+    from jaxstiff.runtime import compile_cache
+
+    seen = []
+
+    @contextlib.contextmanager
+    def flags(no_cache, cache_dir):
+        seen.append(no_cache)
+        yield None
+
+    monkeypatch.setattr(compile_cache, "compile_cache_flags", flags)
+    base = {"command": "sweep", "global_no_compile_cache": False, "global_compile_cache": None, "quiet": True}
+    for own, want in ((True, True), (False, False)):
+        args = argparse.Namespace(**base, no_compile_cache=own, _run=lambda a: 0)
+        assert cli_main._run_command(args) == 0
+        assert seen[-1] is want
+    args = argparse.Namespace(**{**base, "global_no_compile_cache": True}, _run=lambda a: 0)  # no own flag
+    assert cli_main._run_command(args) == 0 and seen[-1] is True
