@@ -415,7 +415,8 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
         first_maxiter: iteration limit for that first, not rate-limited waypoint (None: the
             solver's default).
         path_retries: where a rate-limited waypoint ends off target (its criterion not below
-            :func:`target_bound`), first :func:`box_starts` inside its box; and where the walk ends
+            :func:`target_bound`) after a first waypoint in target, first :func:`box_starts` inside
+            its box; and where the walk ends
             with such a waypoint, up to this many other optima of the first waypoint (the tied
             answers of its multi-start, farthest from the joint limits first) are walked again,
             keeping the walk with the fewest unsolved, then off-target waypoints, then the lowest
@@ -486,6 +487,7 @@ class _GreedyWalk:
         self.fobj = kernel_objective(self.problem) if objective is None else objective
         self.first_starts, self.first_maxiter = first_starts, first_maxiter
         self.rescue_rate_limited = rescue_rate_limited > 0
+        self.bound = target_bound(self.problem, self.ratio, self.c)
 
     def run(
         self, first: Candidate | None, progress: Callable[[int], None] | None
@@ -496,6 +498,9 @@ class _GreedyWalk:
         problem, limits, targets = self.problem, self.limits, self.targets
         q_ref, kj_ref = self.q0, self.kj0
         at_start = True
+        # box starts at off-target rate-limited waypoints only after a first waypoint in target
+        # (where even that one is off, the target is out of reach there: no extra solves)
+        box_ok = False
         out: list[WaypointOutcome] = []
         fs: list[float] = []
         alternatives: list[Candidate] = []
@@ -507,12 +512,14 @@ class _GreedyWalk:
                     x, status, err, code, f = first
                     nit = nfev = 0
                 else:
-                    x, status, err, code, f, nit, nfev, alts = self._waypoint(p, q_ref, kj_ref, rate)
+                    x, status, err, code, f, nit, nfev, alts = self._waypoint(p, q_ref, kj_ref, rate, box_ok)
                     if not rate:
                         alternatives = alts
                 out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
                 fs.append(f)
                 if status in R.USABLE:
+                    if at_start:
+                        box_ok = self.rescue_rate_limited and self.bound is not None and f < float(self.bound)
                     q_ref = q_ref.copy()
                     q_ref[list(problem.free_idx)] = x[: problem.n_free]
                     kj_ref = np.array(problem.kj_full(x[problem.n_free :]), copy=True)
@@ -526,10 +533,11 @@ class _GreedyWalk:
         return out, fs, alternatives
 
     def _waypoint(
-        self, p: int, q_ref: np.ndarray, kj_ref: np.ndarray, rate: bool
+        self, p: int, q_ref: np.ndarray, kj_ref: np.ndarray, rate: bool, box_ok: bool
     ) -> tuple[np.ndarray, int, float, int, float, int, int, list[Candidate]]:
         """Waypoint p from the reference state: ``(x, status, pos_error, code, f, nit, nfev,
-        other optima)`` (the other optima only where it is not rate-limited)."""
+        other optima)`` (the other optima only where it is not rate-limited); ``box_ok``: box
+        starts where a rate-limited waypoint ends off target."""
         problem, target, direction = self.problem, self.targets[p], self.directions[p]
         lb, ub = self.limits.box(problem, q_ref, kj_ref, rate)
         starts = [clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)]
@@ -550,7 +558,7 @@ class _GreedyWalk:
             # no start is provably in target: as many again, from postures and stiffnesses
             # drawn over the whole ranges (not run where one start is in target)
             more = rescue_starts(problem, len(starts), starts[0], lb, ub, target, direction)
-        elif rate and self.rescue_rate_limited and maybe_off_target(problem, cands, self.ratio, self.c):
+        elif rate and box_ok and maybe_off_target(problem, cands, self.ratio, self.c):
             # a rate-limited waypoint off target: SLSQP from the reference state clipped into the
             # box may stay on a face of it (a stiffness at its bound) that another start inside
             # the same box leaves
