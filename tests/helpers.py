@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import json
 import pathlib
 import sys
 import textwrap
@@ -164,3 +165,17 @@ def one_value_joint_urdf(folder) -> str:
     path = pathlib.Path(folder) / "one_value_joint.urdf"
     path.write_text(head + marker + tail)
     return str(path)
+
+
+def tamper_result(src: str, dst: str, arrays=None, meta=None) -> str:
+    """A copy of result file ``src`` at ``dst`` with ``arrays(dict)`` / ``meta(dict)`` applied to its
+    arrays and its meta record (in place); returns ``dst``."""
+    with np.load(src, allow_pickle=False) as z:
+        data = {k: z[k] for k in z.files}
+    m = json.loads(str(data.pop("meta")))
+    if arrays:
+        arrays(data)
+    if meta:
+        meta(m)
+    np.savez(dst, meta=np.asarray(json.dumps(m)), **data)  # pyright: ignore[reportArgumentType]
+    return dst

@@ -11,6 +11,7 @@ import shutil
 
 import numpy as np
 import pytest
+from helpers import tamper_result
 
 import jaxstiff
 from jaxstiff.results.reader import ResultFileError, read_result
@@ -18,18 +19,6 @@ from jaxstiff.sweep.run import run_sweep
 from jaxstiff.sweep.stored import read_sweep_row
 
 Q_START = [0.3, 0.5, -0.2, -1.2, 0.4, 0.6, 0.0]  # the LWR, lwr_a7 locked at 0
-
-
-def _rewrite(src: str, dst: str, arrays=None, meta=None) -> str:
-    with np.load(src, allow_pickle=False) as z:
-        data = {k: z[k] for k in z.files}
-    m = json.loads(str(data.pop("meta")))
-    if arrays:
-        arrays(data)
-    if meta:
-        meta(m)
-    np.savez(dst, meta=np.asarray(json.dumps(m)), **data)  # pyright: ignore[reportArgumentType]
-    return dst
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +55,7 @@ def test_q_jumping_more_than_dq_is_refused(lwr_file, tmp_path) -> None:
     def claim(m):
         m["limits"]["dq"] = tight
 
-    f = _rewrite(lwr_file, str(tmp_path / "jump.npz"), meta=claim)
+    f = tamper_result(lwr_file, str(tmp_path / "jump.npz"), meta=claim)
     with pytest.raises(ResultFileError) as exc:
         read_result(f)
     msg = str(exc.value)
@@ -84,7 +73,7 @@ def test_kj_stepping_more_than_dk_and_the_first_waypoint(lwr_file, tmp_path) -> 
     def claim(m):
         m["limits"]["dk"] = [float(dk / 3)] * kj.shape[-1]  # (n values)
 
-    f = _rewrite(lwr_file, str(tmp_path / "dk.npz"), meta=claim)
+    f = tamper_result(lwr_file, str(tmp_path / "dk.npz"), meta=claim)
     with pytest.raises(ResultFileError, match=r": kj: path 0, waypoint \d, joint lwr_a\d: .*limits\.dk"):
         read_result(f)
 
@@ -99,7 +88,7 @@ def test_kj_stepping_more_than_dk_and_the_first_waypoint(lwr_file, tmp_path) -> 
         with np.load(lwr_file) as z:
             steps = np.abs(np.diff(z["q"][0], axis=0)).max()
         if steps <= step0 / 2:  # only waypoint 0 breaks the claimed limit
-            f = _rewrite(lwr_file, str(tmp_path / "first.npz"), meta=first)
+            f = tamper_result(lwr_file, str(tmp_path / "first.npz"), meta=first)
             with pytest.raises(ResultFileError, match=r"waypoint 0, .* from the start state \(q0\)"):
                 read_result(f)
 
@@ -111,7 +100,7 @@ def test_a_within_tolerance_step_is_accepted(lwr_file, tmp_path) -> None:
     def exact(m):  # the limit the file's largest step just meets
         m["limits"]["dq"] = float(steps.max())
 
-    read_result(_rewrite(lwr_file, str(tmp_path / "exact.npz"), meta=exact))
+    read_result(tamper_result(lwr_file, str(tmp_path / "exact.npz"), meta=exact))
 
 
 # ---------------------------------------------------------------------- a real sweep row
@@ -164,7 +153,7 @@ def test_tampered_sweep_rows_are_refused(sweep_folder, tmp_path) -> None:
     # the array file claims another URDF hash
     d = _copy(sweep_folder, tmp_path)
     arr = os.path.join(d, "arrays", "chunk-000000-0.npz")
-    _rewrite(arr, arr, meta=lambda m: m["robot"].__setitem__("sha256", "0" * 64))
+    tamper_result(arr, arr, meta=lambda m: m["robot"].__setitem__("sha256", "0" * 64))
     with pytest.raises(ValueError, match=r"sha256 differs"):
         read_sweep_row(d, 0)
     shutil.rmtree(d)
@@ -172,7 +161,7 @@ def test_tampered_sweep_rows_are_refused(sweep_folder, tmp_path) -> None:
     # q of the row's path moved: the FK of the stored q is not the stored position
     d = _copy(sweep_folder, tmp_path)
     arr = os.path.join(d, "arrays", "chunk-000000-0.npz")
-    _rewrite(arr, arr, arrays=lambda a: a.__setitem__("q", a["q"] + np.r_[0.0, 0.01, 0.0]))
+    tamper_result(arr, arr, arrays=lambda a: a.__setitem__("q", a["q"] + np.r_[0.0, 0.01, 0.0]))
     with pytest.raises(ResultFileError, match=r"chunk-000000-0\.npz: position: .*FK of the stored q"):
         read_sweep_row(d, 0)
     shutil.rmtree(d)

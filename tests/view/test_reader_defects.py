@@ -6,29 +6,16 @@ command ends in exit 2 with one line naming what disagrees, and writes nothing.
 
 from __future__ import annotations
 
-import json
 import os
 
 import numpy as np
 import pytest
+from helpers import tamper_result
 
 import jaxstiff
 from jaxstiff.cli import main
 from jaxstiff.model.shipped import robot_path
 from jaxstiff.runtime.io import file_sha256
-
-
-def _tamper(src: str, dst: str, arrays=None, meta=None) -> str:
-    """A copy of result file ``src`` with ``arrays(dict)`` / ``meta(dict)`` applied (in place)."""
-    with np.load(src, allow_pickle=False) as z:
-        data = {k: z[k] for k in z.files}
-    m = json.loads(str(data.pop("meta")))
-    if arrays:
-        arrays(data)
-    if meta:
-        meta(m)
-    np.savez(dst, meta=np.asarray(json.dumps(m)), **data)  # pyright: ignore[reportArgumentType]
-    return dst
 
 
 def _refused(argv: list[str], capsys, *words: str) -> str:
@@ -64,9 +51,9 @@ def test_defect_another_robot_with_its_correct_hash(shape_file, tmp_path, capsys
     def other(m):
         m["robot"].update(urdf=planar, sha256=file_sha256(planar), name="planar_3r")
 
-    f = _tamper(shape_file, str(tmp_path / "other.npz"), meta=other)
+    f = tamper_result(shape_file, str(tmp_path / "other.npz"), meta=other)
     _all_refuse(f, tmp_path, capsys, "other.npz", "meta robot", "lwr_base")
-    f = _tamper(shape_file, str(tmp_path / "other2.npz"), meta=lambda m: m.update(robot=record))
+    f = tamper_result(shape_file, str(tmp_path / "other2.npz"), meta=lambda m: m.update(robot=record))
     _all_refuse(f, tmp_path, capsys, "other2.npz", "meta robot.joint_names", "7 joint names")
     pytest.importorskip("mujoco")  # check-sim said "3/3 agree" on the wrong robot
     _refused(["check-sim", f, "--waypoints", "1"], capsys, "meta robot.joint_names")
@@ -83,9 +70,9 @@ def test_defect_tcp_moved_half_a_metre(shape_file, tmp_path, capsys) -> None:
             shift[0, 3] = 0.5
             m["robot"]["tip_transform"] = (tip @ shift).tolist()
 
-    f = _tamper(shape_file, str(tmp_path / "tcp.npz"), meta=moved)
+    f = tamper_result(shape_file, str(tmp_path / "tcp.npz"), meta=moved)
     _all_refuse(f, tmp_path, capsys, "robot.tip_transform", plot=False)
-    f = _tamper(shape_file, str(tmp_path / "tcp2.npz"), meta=lambda m: moved(m, True))
+    f = tamper_result(shape_file, str(tmp_path / "tcp2.npz"), meta=lambda m: moved(m, True))
     line = _refused(["export", f, "--csv", str(tmp_path / "out.csv")], capsys, "position", "FK of the stored q")
     assert "0.5" in line
 
@@ -97,7 +84,7 @@ def test_defect_another_task(shape_file, tmp_path, capsys, task) -> None:
         m["task"] = task
         m.setdefault("settings", {})["task"] = task
 
-    f = _tamper(shape_file, str(tmp_path / "task.npz"), meta=other)
+    f = tamper_result(shape_file, str(tmp_path / "task.npz"), meta=other)
     _all_refuse(f, tmp_path, capsys, "meta task", repr(task), plot=False)
 
 
@@ -108,7 +95,7 @@ def test_defect_joint_names_permuted(shape_file, tmp_path, capsys) -> None:
     def permute_meta(m):
         m["robot"]["joint_names"] = m["robot"]["joint_names"][::-1]
 
-    f = _tamper(shape_file, str(tmp_path / "names.npz"), arrays=permute, meta=permute_meta)
+    f = tamper_result(shape_file, str(tmp_path / "names.npz"), arrays=permute, meta=permute_meta)
     _all_refuse(f, tmp_path, capsys, "joint_names", "chain order", plot=False)
 
 
@@ -116,9 +103,11 @@ def test_defect_a_locked_joint_that_moved(shape_file, tmp_path, capsys) -> None:
     def moved(a):
         a["q"][..., 6] += 0.2  # lwr_a7, locked at 0 (its axis through the TCP: the position is the same)
 
-    f = _tamper(shape_file, str(tmp_path / "locked.npz"), arrays=moved)
+    f = tamper_result(shape_file, str(tmp_path / "locked.npz"), arrays=moved)
     _all_refuse(f, tmp_path, capsys, "locked joint lwr_a7", plot=False)
-    f = _tamper(shape_file, str(tmp_path / "locked2.npz"), meta=lambda m: m["robot"].update(locked={"lwr_a7": 0.3}))
+    f = tamper_result(
+        shape_file, str(tmp_path / "locked2.npz"), meta=lambda m: m["robot"].update(locked={"lwr_a7": 0.3})
+    )
     _refused(["export", f, "--csv", str(tmp_path / "out.csv")], capsys, "locked joint lwr_a7", "0.3")
 
 
@@ -129,7 +118,7 @@ def test_defect_q_of_another_dtype(shape_file, csc_file, tmp_path, capsys, dtype
         def cast(a):
             a["q"] = a["q"].astype(dtype)
 
-        f = _tamper(src, str(tmp_path / "dtype.npz"), arrays=cast)
+        f = tamper_result(src, str(tmp_path / "dtype.npz"), arrays=cast)
         _all_refuse(f, tmp_path, capsys, "q: expected float32 or float64", np.dtype(dtype).name, plot=False)
 
 
@@ -144,7 +133,7 @@ def test_defect_stored_positions_not_the_fk_of_q(shape_file, csc_file, tmp_path,
             if "pos_error" in a:
                 a["target"] = a["target"] + 0.06  # |position - target| kept: only FK can tell
 
-        f = _tamper(src, str(tmp_path / "pos.npz"), arrays=shifted)
+        f = tamper_result(src, str(tmp_path / "pos.npz"), arrays=shifted)
         _all_refuse(f, tmp_path, capsys, "position", "FK of the stored q", plot=False)
 
 
@@ -152,7 +141,7 @@ def test_defect_csc_file_with_6_of_7_q_columns(csc_file, tmp_path, capsys) -> No
     def drop(a):
         a["q"] = a["q"][..., :6].copy()
 
-    f = _tamper(csc_file, str(tmp_path / "six.npz"), arrays=drop)
+    f = tamper_result(csc_file, str(tmp_path / "six.npz"), arrays=drop)
     _all_refuse(f, tmp_path, capsys, "q", "shape", plot=False)
 
 
@@ -163,7 +152,7 @@ def test_defect_nan_q_or_bad_stiffness_in_a_status_0_row(shape_file, tmp_path, c
     def bad(a):
         a[key].reshape(-1)[1] = value  # waypoint 0 (status 0), joint 1
 
-    f = _tamper(shape_file, str(tmp_path / "bad.npz"), arrays=bad)
+    f = tamper_result(shape_file, str(tmp_path / "bad.npz"), arrays=bad)
     _all_refuse(f, tmp_path, capsys, f" {key}: expected", plot=False)
 
 
@@ -173,7 +162,7 @@ def test_defect_bad_stiffness_in_a_csc_file(csc_file, tmp_path, capsys) -> None:
         def bad(a, value=value):
             a["kj"].reshape(-1)[1] = value
 
-        f = _tamper(csc_file, str(tmp_path / "bad.npz"), arrays=bad)
+        f = tamper_result(csc_file, str(tmp_path / "bad.npz"), arrays=bad)
         _refused(["export", f, "--csv", str(tmp_path / "out.csv")], capsys, "kj: expected stiffness > 0")
         assert not os.path.exists(tmp_path / "out.csv")
 
@@ -190,7 +179,7 @@ def test_defect_no_paths_or_no_waypoints(shape_file, csc_file, tmp_path, capsys,
                         continue
                     a[k] = np.take(v, [], axis=axis)
 
-        f = _tamper(src, str(tmp_path / "empty.npz"), arrays=empty)
+        f = tamper_result(src, str(tmp_path / "empty.npz"), arrays=empty)
         _refused(["export", f, "--csv", str(tmp_path / "out.csv")], capsys, " q: expected shape")
         assert not os.path.exists(tmp_path / "out.csv")
 
@@ -202,7 +191,7 @@ def test_readers_agree_on_a_tampered_file(shape_file, tmp_path, capsys) -> None:
     def lie(m):
         m["robot"]["name"] = "planar_3r"
 
-    f = _tamper(shape_file, str(tmp_path / "lie.npz"), meta=lie)
+    f = tamper_result(shape_file, str(tmp_path / "lie.npz"), meta=lie)
     lines = {
         _refused(["export", f, "--csv", str(tmp_path / "out.csv")], capsys),
         _refused(["view", f, "--html", str(tmp_path / "out.html")], capsys),
@@ -223,7 +212,7 @@ def test_defect_one_nan_waypoint_is_named_not_an_eigenvalue_error(shape_file, tm
         a["status"][0, 3] = 4
         a["q"][0, 3, :6] = np.nan  # (the free joints; lwr_a7 keeps its locked value)
 
-    f = _tamper(shape_file, str(tmp_path / "nan.npz"), arrays=nan_waypoint)
+    f = tamper_result(shape_file, str(tmp_path / "nan.npz"), arrays=nan_waypoint)
     words = ("nan.npz: path 0, waypoint 3 (status 4): non-finite joint values", "jaxstiff export")
     _refused(["view", f, "--html", str(tmp_path / "out.html")], capsys, *words)
     _refused(["plot", f, "--out", str(tmp_path / "out.png")], capsys, *words)
