@@ -429,7 +429,7 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
     """
     walk = _GreedyWalk(batch, b, solver, pos_and_jac, objective, pos_tol, first_starts, first_maxiter, path_retries)
     out, fs, alternatives = walk.run(None, progress)
-    bound = target_bound(batch.problem, float(batch.ratios[b]), batch.c)
+    bound = walk.bound  # target_bound of this path's ratio and c
     if path_retries <= 0 or bound is None or not alternatives:
         return out
     rank = _walk_rank(out, fs, float(bound))
