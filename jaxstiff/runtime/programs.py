@@ -23,7 +23,14 @@ import sys
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-__all__ = ["program_cache", "release_compiled", "memory_maps", "map_limit", "release_if_near_map_limit"]
+__all__ = [
+    "program_cache",
+    "register_cache",
+    "release_compiled",
+    "memory_maps",
+    "map_limit",
+    "release_if_near_map_limit",
+]
 
 F = TypeVar("F", bound=Callable[..., Any])
 _CACHES: list[Any] = []
@@ -39,6 +46,13 @@ def program_cache(maxsize: int | None = 64) -> Callable[[F], F]:
         return cached  # type: ignore[return-value]
 
     return wrap
+
+
+def register_cache(cache: Any) -> Any:
+    """Register an object with a ``cache_clear()`` method that holds compiled programs (a dict
+    of one's own), so that :func:`release_compiled` empties it too; returns it."""
+    _CACHES.append(cache)
+    return cache
 
 
 def release_compiled() -> None:

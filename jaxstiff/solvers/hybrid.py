@@ -52,13 +52,14 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-import jax.numpy as jnp
+import jax
 import numpy as np
 
 from jaxstiff.results import files as R
 from jaxstiff.settings.solvers import HybridOptions
 from jaxstiff.solvers import pgd
 from jaxstiff.solvers.base import SolveRequest
+from jaxstiff.solvers.first_waypoint import rows_program
 from jaxstiff.solvers.greedy import (
     Objective,
     PosAndJac,
@@ -67,12 +68,11 @@ from jaxstiff.solvers.greedy import (
     judge,
     kernel_objective,
 )
-from jaxstiff.solvers.lockstep import RowsProgram, Steps, run_lockstep
+from jaxstiff.solvers.lockstep import Steps, run_lockstep
 from jaxstiff.solvers.problem import (
     WaypointBatch,
     WaypointProblem,
     clip_to_box,
-    compiled_scaled_rows,
     jax_pos_and_jac,
 )
 
@@ -169,7 +169,9 @@ def polish(
         for b in range(B)
     ]
     # the B paths' SLSQP solves advance together, their kernel calls batched (one call per round)
-    run_lockstep(gens, RowsProgram(compiled_scaled_rows(problem), jnp.asarray(solver.scale)))
+    # (one rows program per problem and scale for the process: its compiled row counts are reused)
+    scale = tuple(float(v) for v in np.asarray(solver.scale, float).ravel())
+    run_lockstep(gens, rows_program(problem, scale, bool(jax.config.read("jax_enable_x64"))))
     # the polish's wall time, shared equally by the waypoints (the paths ran interleaved)
     out["time_s"] = out["time_s"] + (time.perf_counter() - t0) / max(out["time_s"].size, 1)
     return out

@@ -138,3 +138,47 @@ def test_retry_reruns_a_path_only_where_slsqp_found_a_lower_first_criterion(monk
     assert len(runs) == 1
     for k in ("q", "kj", "criterion", "status"):
         np.testing.assert_array_equal(getattr(skipped, k), getattr(own, k), err_msg=k)
+
+
+@pytest.mark.slow
+def test_retry_warm_up_thread_changes_no_result(monkeypatch):
+    """While pgd's kernel compiles for the first time in a process, a thread compiles the retry's
+    SLSQP programs (jaxstiff.solvers.pgd.batch._warm_retry). It must run there, be finished when
+    the call returns, and change nothing: the same result bit for bit as with it switched off
+    (JAXSTIFF_WARM_RETRY=0), on a UR10 case where the retry fires."""
+    from jaxstiff.runtime.programs import release_compiled
+    from jaxstiff.solvers import first_waypoint as fw
+    from jaxstiff.solvers.pgd import batch as pgd_batch
+
+    robot = jaxstiff.Robot.from_urdf(UR10, tip_link="tool0")
+    q = np.clip(0.5 * (robot.lower + robot.upper) + 0.4, robot.lower, robot.upper)
+    path = _line(robot, q, [0.0, 1.0, 0.0])
+    warmed = []
+    real_warm = fw.warm_first_waypoint
+
+    def spy(*a, **k):
+        warmed.append(1)
+        return real_warm(*a, **k)
+
+    monkeypatch.setattr(fw, "warm_first_waypoint", spy)
+    threads = []
+    real_thread = pgd_batch._warm_retry
+    monkeypatch.setattr(pgd_batch, "_warm_retry", lambda *a: threads.append(real_thread(*a)) or threads[-1])
+
+    release_compiled()  # nothing compiled in this process: the warm-up starts
+    with_warm = _shape(robot, path, "pgd")
+    assert warmed == [1] and threads[0] is not None and not threads[0].is_alive()
+    assert abs(with_warm.ratio[0, 0] - 5.0) <= 0.1  # the retry fired and reached the ratio
+
+    threads.clear()
+    with_warm_again = _shape(robot, path, "pgd")  # compiled now: no second warm-up
+    assert warmed == [1] and threads == [None]
+
+    release_compiled()
+    monkeypatch.setenv("JAXSTIFF_WARM_RETRY", "0")
+    threads.clear()
+    without = _shape(robot, path, "pgd")
+    assert warmed == [1] and threads == [None]
+    for k in ("q", "kj", "criterion", "status", "ratio"):
+        np.testing.assert_array_equal(getattr(with_warm, k), getattr(without, k), err_msg=k)
+        np.testing.assert_array_equal(getattr(with_warm_again, k), getattr(without, k), err_msg=k)

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import os
+import threading
 import time
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -15,7 +17,7 @@ import numpy as np
 
 from jaxstiff.results import files as R
 from jaxstiff.runtime.export_cache import compile_with_export_cache
-from jaxstiff.runtime.programs import program_cache
+from jaxstiff.runtime.programs import program_cache, register_cache
 from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import PGDOptions
@@ -170,6 +172,7 @@ def solve_batch(
     dq_f = dq_all[:, list(problem.free_idx)]
     dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
     S1 = max(int(opts["starts"]), int(opts["starts_first"])) if opts["mode"] == "best" else int(opts["starts"])
+    warm = _warm_retry(batch, first_starts, options, pos_tol, first_rate, opts, (fn, C, disk_key))
     if not first_rate and opts["first_exact"] == "slsqp":
         first_starts = exact_first_starts(batch, first_starts, options, pos_tol, S1)
     extra = first_start_rows(problem, first_starts, B)
@@ -178,9 +181,13 @@ def solve_batch(
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
     shared = (float(limits.kmin), float(limits.kmax), float(batch.c), float(pos_tol))
-    X, out, compile_s, run_s = _run_chunks(
-        fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
-    )
+    try:
+        X, out, compile_s, run_s = _run_chunks(
+            fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
+        )
+    finally:
+        if warm is not None:  # its programs are the retry's; never left running past this call
+            warm.join()
     if not first_rate and opts["first_exact"] == "retry":
         X, run_s = _retry_first(
             batch,
@@ -203,6 +210,76 @@ def solve_batch(
     if return_timing:
         out["compile_s"], out["run_s"] = compile_s, run_s
     return out
+
+
+def _warm_retry(
+    batch: WaypointBatch,
+    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
+    options: Mapping[str, Any] | None,
+    pos_tol: float,
+    first_rate: bool,
+    opts: Mapping[str, Any],
+    program: tuple[Any, int, str | None],
+) -> threading.Thread | None:
+    """Where the first-waypoint retry may run and pgd's kernel is not compiled in this process yet,
+    a thread that compiles the retry's SLSQP programs while the kernel compiles
+    (:func:`jaxstiff.solvers.first_waypoint.warm_first_waypoint`): the kernel's compilation keeps
+    one core busy for seconds, the retry's programs then cost the first call no time of their own.
+    Results do not depend on it. None where there is nothing to warm."""
+    if first_rate or opts["first_exact"] != "retry" or os.environ.get(WARM_ENV, "1").strip().lower() in _OFF:
+        return None
+    fn, C, disk_key = program
+    if any(entry[0] is fn and sig[1] == disk_key and sig[2][0][1][0] == C for sig, entry in _PROGRAMS.items()):
+        return None  # compiled in this process: so are the retry's programs, or they load quickly
+    from jaxstiff.solvers.first_waypoint import warm_first_waypoint
+
+    t = threading.Thread(
+        target=warm_first_waypoint, args=(batch, first_starts, options, pos_tol), name="pgd-warm-retry", daemon=False
+    )
+    t.start()
+    return t
+
+
+#: environment variable that turns the retry's warm-up thread off (0, false, no, off)
+WARM_ENV = "JAXSTIFF_WARM_RETRY"
+_OFF = ("0", "false", "no", "off")
+
+
+#: the chunk programs compiled in this process: (id of the kernel, its disk key, the arguments'
+#: signature) -> (kernel, compiled program); a second run of the same shapes (the retry's rerun,
+#: the next call) reuses the program instead of loading it from the caches again (about 0.5 s each)
+class _Programs(dict):
+    def cache_clear(self) -> None:  # runtime.programs.release_compiled
+        self.clear()
+
+
+_PROGRAMS: dict[tuple, tuple[Any, Any]] = register_cache(_Programs())
+_PROGRAMS_MAX = 8
+
+
+def _signature(args: Sequence[Any]) -> tuple:
+    sig = []
+    for a in args:
+        if isinstance(a, (np.ndarray, jax.Array)):
+            sig.append((type(a).__name__, tuple(a.shape), str(a.dtype), repr(getattr(a, "sharding", None))))
+        else:
+            sig.append((type(a).__name__, (), type(a).__name__, None))
+    return tuple(sig)
+
+
+def _program_for(fn: Any, args: Sequence[Any], disk_key: str | None, options: Mapping[str, Any]) -> Any:
+    """``fn`` compiled for ``args`` (:func:`~jaxstiff.runtime.export_cache.compile_with_export_cache`),
+    kept for the process (:data:`_PROGRAMS`, the last few): the same compiled program, so the same
+    results, as compiling again."""
+    sig = (id(fn), disk_key, _signature(args), bool(jax.config.read("jax_enable_x64")), repr(sorted(options.items())))
+    hit = _PROGRAMS.get(sig)
+    if hit is not None and hit[0] is fn:
+        return hit[1]
+    comp = compile_with_export_cache(fn, args, disk_key, dict(options))
+    _PROGRAMS[sig] = (fn, comp)  # fn held: its id stays its own while the entry lives
+    while len(_PROGRAMS) > _PROGRAMS_MAX:
+        _PROGRAMS.pop(next(iter(_PROGRAMS)))
+    return comp
 
 
 def _ranking(
@@ -428,7 +505,7 @@ def _run_chunks(
             chunks.append(args)
         t0 = time.perf_counter()
         # every chunk has the same shapes (padded): one compiled program for all of them
-        comp = compile_with_export_cache(fn, chunks[0], None if sharded else disk_key, kernel_compiler_options())
+        comp = _program_for(fn, chunks[0], None if sharded else disk_key, kernel_compiler_options())
         compile_s = time.perf_counter() - t0
         t0 = time.perf_counter()
         results = map_chunks(lambda a: jax.tree_util.tree_map(np.asarray, comp(*a)), chunks, 1 if sharded else threads)
