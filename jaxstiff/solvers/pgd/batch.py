@@ -181,13 +181,11 @@ def solve_batch(
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
     shared = (float(limits.kmin), float(limits.kmax), float(batch.c), float(pos_tol))
-    try:
-        X, out, compile_s, run_s = _run_chunks(
-            fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
-        )
-    finally:
-        if warm is not None:  # its programs are the retry's; never left running past this call
-            warm.join()
+    X, out, compile_s, run_s = _run_chunks(
+        fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
+    )
+    if warm is not None:  # its programs are the retry's (an interrupt above does not wait for it)
+        warm.join()
     if not first_rate and opts["first_exact"] == "retry":
         X, run_s = _retry_first(
             batch,
@@ -228,14 +226,19 @@ def _warm_retry(
     Results do not depend on it. None where there is nothing to warm."""
     if first_rate or opts["first_exact"] != "retry" or os.environ.get(WARM_ENV, "1").strip().lower() in _OFF:
         return None
-    fn, C, disk_key = program
-    if any(entry[0] is fn and sig[1] == disk_key and sig[2][0][1][0] == C for sig, entry in _PROGRAMS.items()):
+    fn, C, _ = program
+    if any(entry[0] is fn and sig[2][0][1][0] == C for sig, entry in _PROGRAMS.items()):
         return None  # compiled in this process: so are the retry's programs, or they load quickly
     from jaxstiff.solvers.first_waypoint import warm_first_waypoint
 
-    t = threading.Thread(
-        target=warm_first_waypoint, args=(batch, first_starts, options, pos_tol), name="pgd-warm-retry", daemon=False
-    )
+    x64 = bool(jax.config.read("jax_enable_x64"))  # the caller's (a thread starts from the global flag)
+
+    def warm() -> None:
+        with jax.enable_x64(x64):
+            warm_first_waypoint(batch, first_starts, options, pos_tol)
+
+    # not a daemon: joined before the call returns (a daemon stopped inside XLA at exit can abort)
+    t = threading.Thread(target=warm, name="pgd-warm-retry", daemon=False)
     t.start()
     return t
 
