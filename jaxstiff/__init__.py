@@ -13,21 +13,21 @@ from typing import TYPE_CHECKING
 
 # Importing the package changes nothing process-wide: the command line (jaxstiff.cli) installs
 # its early signal handlers and tunes glibc's allocator; a script opts in with
-# jaxstiff.runtime.tune_allocator() (why and the cost: jaxstiff.runtime.allocator).
-from .runtime.lazy import lazy_exports
-from .runtime.moved import install_moved_modules, keep_public_names
-from .runtime.version import __version__ as __version__
+# jaxstiff.runtime.tune_allocator() (why and the cost: jaxstiff.runtime._allocator).
+from .runtime._lazy import lazy_exports
+from .runtime._moved import install_moved_modules, keep_public_names
+from .runtime._version import __version__ as __version__
 
 #: former module paths -> where the code lives now (importing one warns and gives the new module)
 MOVED = {
-    "jaxstiff.robot": "jaxstiff.model.robot",
-    "jaxstiff.kinematics": "jaxstiff.model.kinematics",
-    "jaxstiff.ellipsoid": "jaxstiff.stiffness.ellipsoid",
-    "jaxstiff.criteria": "jaxstiff.stiffness.criteria",
-    "jaxstiff.sweep_config": "jaxstiff.sweep.config",
-    "jaxstiff.sweep_metrics": "jaxstiff.sweep.metrics",
-    "jaxstiff.sweep_report": "jaxstiff.sweep.report",
-    "jaxstiff.sweep_store": "jaxstiff.sweep.store",
+    "jaxstiff.robot": "jaxstiff.model._robot",
+    "jaxstiff.kinematics": "jaxstiff.model._kinematics",
+    "jaxstiff.ellipsoid": "jaxstiff.stiffness._ellipsoid",
+    "jaxstiff.criteria": "jaxstiff.stiffness._criteria",
+    "jaxstiff.sweep_config": "jaxstiff.sweep._config",
+    "jaxstiff.sweep_metrics": "jaxstiff.sweep._metrics",
+    "jaxstiff.sweep_report": "jaxstiff.sweep._report",
+    "jaxstiff.sweep_store": "jaxstiff.sweep._store",
     "jaxstiff.shaping_inputs": "jaxstiff.shaping._inputs",
     "jaxstiff.shaping_steps": "jaxstiff.shaping._steps",
 }
@@ -37,13 +37,13 @@ install_moved_modules(MOVED)
 #: ``ellipsoid`` and ``orientation_error`` come from ``stiffness.ellipsoid``, not from the former
 #: module path ``jaxstiff.ellipsoid``, whose import would rebind the name ``jaxstiff.ellipsoid``.
 _SOURCES = {
-    ".stiffness.criteria": ("f1", "f2", "frobenius", "get_criterion", "offdiag", "register_criterion"),
+    ".stiffness._criteria": ("f1", "f2", "frobenius", "get_criterion", "offdiag", "register_criterion"),
     ".csc": ("CSCResult", "csc_rollout", "csc_rollout_segments"),
-    ".stiffness.ellipsoid": ("Ellipsoid", "ellipsoid", "orientation_error"),
-    ".model.kinematics": ("fk", "fk_and_jacobian", "jacobian", "position_and_jacobian"),
+    ".stiffness._ellipsoid": ("Ellipsoid", "ellipsoid", "orientation_error"),
+    ".model._kinematics": ("fk", "fk_and_jacobian", "jacobian", "position_and_jacobian"),
     ".paths": ("Path", "default_path"),
     ".results": ("ShapeResult",),
-    ".model.robot": ("Robot", "robot_path", "shipped_robots"),
+    ".model._robot": ("Robot", "robot_path", "shipped_robots"),
     ".settings": ("RobotSpec", "ShapeSettings"),
     ".shaping": ("shape",),
     ".stiffness": (
@@ -104,13 +104,13 @@ if TYPE_CHECKING:  # the names as the type checker and the IDE see them
     from .csc import CSCResult as CSCResult
     from .csc import csc_rollout as csc_rollout
     from .csc import csc_rollout_segments as csc_rollout_segments
-    from .model.kinematics import fk as fk
-    from .model.kinematics import fk_and_jacobian as fk_and_jacobian
-    from .model.kinematics import jacobian as jacobian
-    from .model.kinematics import position_and_jacobian as position_and_jacobian
-    from .model.robot import Robot as Robot
-    from .model.robot import robot_path as robot_path
-    from .model.robot import shipped_robots as shipped_robots
+    from .model._kinematics import fk as fk
+    from .model._kinematics import fk_and_jacobian as fk_and_jacobian
+    from .model._kinematics import jacobian as jacobian
+    from .model._kinematics import position_and_jacobian as position_and_jacobian
+    from .model._robot import Robot as Robot
+    from .model._robot import robot_path as robot_path
+    from .model._robot import shipped_robots as shipped_robots
     from .paths import Path as Path
     from .paths import default_path as default_path
     from .results import ShapeResult as ShapeResult
@@ -125,12 +125,12 @@ if TYPE_CHECKING:  # the names as the type checker and the IDE see them
     from .stiffness import translational_axes as translational_axes
     from .stiffness import translational_compliance as translational_compliance
     from .stiffness import translational_stiffness as translational_stiffness
-    from .stiffness.criteria import f1 as f1
-    from .stiffness.criteria import f2 as f2
-    from .stiffness.criteria import frobenius as frobenius
-    from .stiffness.criteria import get_criterion as get_criterion
-    from .stiffness.criteria import offdiag as offdiag
-    from .stiffness.criteria import register_criterion as register_criterion
-    from .stiffness.ellipsoid import Ellipsoid as Ellipsoid
-    from .stiffness.ellipsoid import ellipsoid as ellipsoid
-    from .stiffness.ellipsoid import orientation_error as orientation_error
+    from .stiffness._criteria import f1 as f1
+    from .stiffness._criteria import f2 as f2
+    from .stiffness._criteria import frobenius as frobenius
+    from .stiffness._criteria import get_criterion as get_criterion
+    from .stiffness._criteria import offdiag as offdiag
+    from .stiffness._criteria import register_criterion as register_criterion
+    from .stiffness._ellipsoid import Ellipsoid as Ellipsoid
+    from .stiffness._ellipsoid import ellipsoid as ellipsoid
+    from .stiffness._ellipsoid import orientation_error as orientation_error

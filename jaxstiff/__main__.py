@@ -2,6 +2,6 @@
 
 import sys
 
-from jaxstiff.cli import main
+from jaxstiff.cli import _main as main
 
 sys.exit(main())

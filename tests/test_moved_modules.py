@@ -32,11 +32,11 @@ def test_no_shim_file_is_left():
 
 
 def test_from_import_of_an_old_path_in_a_fresh_process():
-    code = "from jaxstiff.robot import Robot; import jaxstiff.model.robot as m; assert Robot is m.Robot"
+    code = "from jaxstiff.robot import Robot; import jaxstiff.model._robot as m; assert Robot is m.Robot"
     out = subprocess.run(
         [sys.executable, "-W", "error::DeprecationWarning", "-c", code], capture_output=True, text=True
     )
-    assert out.returncode != 0 and "import jaxstiff.model.robot instead" in out.stderr
+    assert out.returncode != 0 and "import jaxstiff.model._robot instead" in out.stderr
     ok = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
 
@@ -52,7 +52,7 @@ def test_importing_a_former_path_keeps_the_public_name_of_the_same_name():
     with pytest.warns(DeprecationWarning):
         importlib.import_module("jaxstiff.ellipsoid")
     assert callable(jaxstiff.ellipsoid) and jaxstiff.ellipsoid.__name__ == "ellipsoid"
-    assert jaxstiff.ellipsoid is importlib.import_module("jaxstiff.stiffness.ellipsoid").ellipsoid
+    assert jaxstiff.ellipsoid is importlib.import_module("jaxstiff.stiffness._ellipsoid").ellipsoid
     sys.modules.pop("jaxstiff.ellipsoid", None)
 
 

@@ -13,17 +13,17 @@ Example:
     True
 """
 
-from .build import MUJOCO_MISSING as MUJOCO_MISSING
-from .build import build_model as build_model
-from .build import require_mujoco as require_mujoco
-from .check import TOL as TOL
-from .check import SimRow as SimRow
-from .check import check_case as check_case
-from .check import check_cases as check_cases
-from .measure import SettleError as SettleError
-from .report import markdown_table as markdown_table
-from .report import rows_json as rows_json
-from .setup import SimCase as SimCase
-from .setup import cases_from_result as cases_from_result
-from .setup import locked_joint_mode as locked_joint_mode
-from .setup import spring_mask as spring_mask
+from ._build import MUJOCO_MISSING as MUJOCO_MISSING
+from ._build import build_model as build_model
+from ._build import require_mujoco as require_mujoco
+from ._check import TOL as TOL
+from ._check import SimRow as SimRow
+from ._check import check_case as check_case
+from ._check import check_cases as check_cases
+from ._measure import SettleError as SettleError
+from ._report import markdown_table as markdown_table
+from ._report import rows_json as rows_json
+from ._setup import SimCase as SimCase
+from ._setup import cases_from_result as cases_from_result
+from ._setup import locked_joint_mode as locked_joint_mode
+from ._setup import spring_mask as spring_mask

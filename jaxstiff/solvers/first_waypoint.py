@@ -27,7 +27,7 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 from jaxstiff.solvers.greedy import (
     Candidate,
     SolverOutput,

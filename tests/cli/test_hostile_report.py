@@ -12,7 +12,7 @@ import pytest
 
 import jaxstiff
 import jaxstiff.shaping._steps as steps  # noqa: PLC2701 - counts the rows the report step computes
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 
 
 def _counting(monkeypatch) -> list[int]:

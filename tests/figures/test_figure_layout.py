@@ -29,8 +29,8 @@ from matplotlib.colors import same_color
 
 import jaxstiff
 from jaxstiff import plots
-from jaxstiff.plots import shape_path
-from jaxstiff.plots.base import label_points
+from jaxstiff.plots import _shape_path as shape_path
+from jaxstiff.plots._base import label_points
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))

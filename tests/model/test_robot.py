@@ -17,7 +17,7 @@ import pytest
 from helpers import DATA_DIR, assert_close
 
 import jaxstiff
-from jaxstiff.cli import main
+from jaxstiff.cli import _main as main
 
 BRANCHED = str(DATA_DIR / "branched_tree.urdf")
 
@@ -228,7 +228,7 @@ def test_prismatic_joints_get_lengths_not_degrees():
     """A prismatic joint's value is a length: the nominal posture puts it at mid-range (not
     mid-range + 30 deg read as 0.52 m, which the clip sent to its limit), `csc --q0-deg` leaves its
     entry in metres, and `shape --dq-m` sets its rate limit apart from --dq-deg."""
-    from jaxstiff.cli.shape import rate_limits
+    from jaxstiff.cli._shape import rate_limits
     from jaxstiff.ik import nominal_posture
 
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
@@ -342,7 +342,7 @@ def test_repr_is_one_short_line_with_name_joints_links_and_locks():
 def test_float64_values_without_x64_warn_once_and_give_float32(monkeypatch):
     import jax
 
-    from jaxstiff.model import kinematics
+    from jaxstiff.model import _kinematics as kinematics
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     monkeypatch.setattr(kinematics, "_warned_float32", False)

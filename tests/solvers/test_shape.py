@@ -16,8 +16,8 @@ from helpers import assert_close, numpy_fk, one_value_joint_urdf
 
 import jaxstiff
 from jaxstiff import paths
-from jaxstiff.results import files as R
-from jaxstiff.results.target import MissedTargetWarning
+from jaxstiff.results import _files as R
+from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.solvers.problem import WaypointProblem, compiled
 
 LOCK = {"lwr_a7": 0.0}
@@ -386,7 +386,7 @@ def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match)
     path = paths.arc([0.0, 0.0, 0.0], 1.5, 20.0, 40.0, n=2)
     with pytest.raises(ValueError, match=match):
         jaxstiff.shape(robot, path, "f2", 3.0, task=task)
-    from jaxstiff.cli import main
+    from jaxstiff.cli import _main as main
 
     out = tmp_path / "r.npz"
     assert main(["shape", "--robot", "planar_3r", "--task", task, "--out", str(out)]) == 2
@@ -525,7 +525,7 @@ def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane(lwr):
 def test_meta_tcp_is_the_offset_given(tmp_path):
     """meta.robot.tcp is recovered from the URDF's bare tip by a solve; on a chain with rpy origins
     its round-off (0.09999999999999996 for 0.1) is not passed on: the offset reads as given."""
-    from jaxstiff.settings.robot import robot_meta
+    from jaxstiff.settings._robot import robot_meta
 
     urdf = tmp_path / "r.urdf"
     urdf.write_text(
