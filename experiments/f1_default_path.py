@@ -59,7 +59,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - one linear study, each step print
     import numpy as np
 
     import jaxstiff
-    from jaxstiff.plots._shape_path import rate_limited_joints
+    from jaxstiff.plots import rate_limited_joints
     from jaxstiff.runtime._io import atomic_write_text
     from jaxstiff.solvers import PGD, SLSQP
     from jaxstiff.stiffness._criteria import f1_of

@@ -33,9 +33,8 @@ def limits_in_use(res, robot) -> dict:
     """The path's turning per waypoint against the joint rate limit, and how often the limits hold joints."""
     import numpy as np
 
-    from jaxstiff.paths import Path
-    from jaxstiff.paths._generators import turning_deg
-    from jaxstiff.plots._shape_path import rate_limited_joints
+    from jaxstiff.paths import Path, turning_deg
+    from jaxstiff.plots import rate_limited_joints
 
     lim = rate_limited_joints(res, robot)
     return {

@@ -49,8 +49,7 @@ from jaxstiff.results._target import RATIO_REL_TOL, target_masks  # noqa: E402
 
 def curved_path(quick: bool = False):
     """The elliptic arc of :data:`CURVED_PATH_SPEC` (its first :data:`QUICK_WAYPOINTS` with ``quick``)."""
-    from jaxstiff.paths import Path
-    from jaxstiff.paths._generators import ellipse_arc
+    from jaxstiff.paths import Path, ellipse_arc
 
     spec = {k: v for k, v in CURVED_PATH_SPEC.items() if k != "generator"}
     p = ellipse_arc(**spec)
@@ -63,7 +62,7 @@ def setup_text(criterion: str) -> str:
     """The interpretations of the curved run, with the path's numbers computed from the path."""
     import numpy as np
 
-    from jaxstiff.paths._generators import ellipse_curvature, turning_deg
+    from jaxstiff.paths import ellipse_curvature, turning_deg
 
     s = CURVED_PATH_SPEC
     p = curved_path()
@@ -175,7 +174,7 @@ def curved_extra(tag: str):
     """The ``extra`` of :func:`fig4_f1.run` for a curved run: the turning figure and where it holds."""
 
     def extra(res, robot, limits, out) -> list[str]:
-        from jaxstiff.plots._shape_path import figure_turning
+        from jaxstiff.plots import figure_turning
 
         name = f"{tag}_turning.png"
         crit = res.meta["criterion"]

@@ -121,7 +121,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     import jaxstiff
-    from jaxstiff.plots._base import pyplot, save_figure
+    from jaxstiff.plots import pyplot, save_figure
     from jaxstiff.runtime._io import atomic_write_text
 
     warnings.simplefilter("ignore")  # missed-target warnings: the tables say it all

@@ -62,7 +62,7 @@ def main(argv=None) -> int:
     prefer_sync_cpu_dispatch()
 
     import jaxstiff
-    from jaxstiff.plots._task_modes import figure_task_modes, held_and_free
+    from jaxstiff.plots import figure_task_modes, held_and_free
     from jaxstiff.runtime._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)

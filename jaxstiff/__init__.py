@@ -15,10 +15,29 @@ from typing import TYPE_CHECKING
 # its early signal handlers and tunes glibc's allocator; a script opts in with
 # jaxstiff.runtime.tune_allocator() (why and the cost: jaxstiff.runtime._allocator).
 from .runtime._lazy import lazy_exports
-from .runtime._moved import install_moved_modules, keep_public_names
+from .runtime._moved import install_moved_modules, keep_public_names, private_module_paths
 from .runtime._version import __version__ as __version__
 
-#: former module paths -> where the code lives now (importing one warns and gives the new module)
+#: the packages whose implementation modules are private (``_name.py``; each package's
+#: ``__init__`` is its way in): every former path ``jaxstiff.<package>.<name>`` is answered
+_PRIVATE_MODULES = (
+    "cli",
+    "csc",
+    "model",
+    "paths",
+    "plots",
+    "results",
+    "runtime",
+    "settings",
+    "sim",
+    "stiffness",
+    "sweep",
+    "view",
+)
+
+#: former module paths -> where the code lives now (importing one warns and gives the new module):
+#: the top-level modules from before the package layout, then the implementation modules of
+#: _PRIVATE_MODULES from before they became private (made from the package folders)
 MOVED = {
     "jaxstiff.robot": "jaxstiff.model._robot",
     "jaxstiff.kinematics": "jaxstiff.model._kinematics",
@@ -30,28 +49,43 @@ MOVED = {
     "jaxstiff.sweep_store": "jaxstiff.sweep._store",
     "jaxstiff.shaping_inputs": "jaxstiff.shaping._inputs",
     "jaxstiff.shaping_steps": "jaxstiff.shaping._steps",
+    **private_module_paths(__name__, __path__[0], _PRIVATE_MODULES),
 }
 install_moved_modules(MOVED)
 
-#: public name -> the module (relative to this package) that defines it. ``Ellipsoid``,
-#: ``ellipsoid`` and ``orientation_error`` come from ``stiffness.ellipsoid``, not from the former
-#: module path ``jaxstiff.ellipsoid``, whose import would rebind the name ``jaxstiff.ellipsoid``.
+#: public name -> the public package (relative to this one) that exports it. ``Ellipsoid``,
+#: ``ellipsoid`` and ``orientation_error`` are public here only (from the private module
+#: ``stiffness._ellipsoid``, not from the former path ``jaxstiff.ellipsoid``, whose import would
+#: rebind the name ``jaxstiff.ellipsoid``; not from ``stiffness``, where a function ``ellipsoid``
+#: would hide the former module ``jaxstiff.stiffness.ellipsoid`` from ``import ... as m``).
 _SOURCES = {
-    ".stiffness._criteria": ("f1", "f2", "frobenius", "get_criterion", "offdiag", "register_criterion"),
     ".csc": ("CSCResult", "csc_rollout", "csc_rollout_segments"),
-    ".stiffness._ellipsoid": ("Ellipsoid", "ellipsoid", "orientation_error"),
-    ".model._kinematics": ("fk", "fk_and_jacobian", "jacobian", "position_and_jacobian"),
+    ".model": (
+        "Robot",
+        "fk",
+        "fk_and_jacobian",
+        "jacobian",
+        "position_and_jacobian",
+        "robot_path",
+        "shipped_robots",
+    ),
     ".paths": ("Path", "default_path"),
     ".results": ("ShapeResult",),
-    ".model._robot": ("Robot", "robot_path", "shipped_robots"),
     ".settings": ("RobotSpec", "ShapeSettings"),
     ".shaping": ("shape",),
+    ".stiffness._ellipsoid": ("Ellipsoid", "ellipsoid", "orientation_error"),
     ".stiffness": (
         "cartesian_stiffness",
         "cms_factor",
         "cms_scale",
         "compliance_condition",
+        "f1",
+        "f2",
+        "frobenius",
+        "get_criterion",
         "joint_stiffness",
+        "offdiag",
+        "register_criterion",
         "translational_axes",
         "translational_compliance",
         "translational_stiffness",
@@ -104,13 +138,13 @@ if TYPE_CHECKING:  # the names as the type checker and the IDE see them
     from .csc import CSCResult as CSCResult
     from .csc import csc_rollout as csc_rollout
     from .csc import csc_rollout_segments as csc_rollout_segments
-    from .model._kinematics import fk as fk
-    from .model._kinematics import fk_and_jacobian as fk_and_jacobian
-    from .model._kinematics import jacobian as jacobian
-    from .model._kinematics import position_and_jacobian as position_and_jacobian
-    from .model._robot import Robot as Robot
-    from .model._robot import robot_path as robot_path
-    from .model._robot import shipped_robots as shipped_robots
+    from .model import Robot as Robot
+    from .model import fk as fk
+    from .model import fk_and_jacobian as fk_and_jacobian
+    from .model import jacobian as jacobian
+    from .model import position_and_jacobian as position_and_jacobian
+    from .model import robot_path as robot_path
+    from .model import shipped_robots as shipped_robots
     from .paths import Path as Path
     from .paths import default_path as default_path
     from .results import ShapeResult as ShapeResult
@@ -121,16 +155,16 @@ if TYPE_CHECKING:  # the names as the type checker and the IDE see them
     from .stiffness import cms_factor as cms_factor
     from .stiffness import cms_scale as cms_scale
     from .stiffness import compliance_condition as compliance_condition
+    from .stiffness import f1 as f1
+    from .stiffness import f2 as f2
+    from .stiffness import frobenius as frobenius
+    from .stiffness import get_criterion as get_criterion
     from .stiffness import joint_stiffness as joint_stiffness
+    from .stiffness import offdiag as offdiag
+    from .stiffness import register_criterion as register_criterion
     from .stiffness import translational_axes as translational_axes
     from .stiffness import translational_compliance as translational_compliance
     from .stiffness import translational_stiffness as translational_stiffness
-    from .stiffness._criteria import f1 as f1
-    from .stiffness._criteria import f2 as f2
-    from .stiffness._criteria import frobenius as frobenius
-    from .stiffness._criteria import get_criterion as get_criterion
-    from .stiffness._criteria import offdiag as offdiag
-    from .stiffness._criteria import register_criterion as register_criterion
     from .stiffness._ellipsoid import Ellipsoid as Ellipsoid
     from .stiffness._ellipsoid import ellipsoid as ellipsoid
     from .stiffness._ellipsoid import orientation_error as orientation_error

@@ -2,6 +2,6 @@
 
 import sys
 
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 
 sys.exit(main())

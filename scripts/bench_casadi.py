@@ -628,7 +628,7 @@ def make_path(robot, name: str):
 
 def make_case(robot_key: str, path_name: str, crit: str, ratio: float, task: str) -> Case:
     from jaxstiff.ik import ik_position
-    from jaxstiff.settings._shape import ShapeSettings
+    from jaxstiff.settings import ShapeSettings
 
     robot = make_robot(robot_key)
     path = make_path(robot, path_name)
@@ -890,7 +890,7 @@ def many_paths(args, form: str) -> dict[str, Any]:
 
 
 def ShapeDefaults():
-    from jaxstiff.settings._shape import ShapeSettings
+    from jaxstiff.settings import ShapeSettings
 
     return ShapeSettings()
 

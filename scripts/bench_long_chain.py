@@ -39,12 +39,12 @@ def one_kernel(kind: str, n: int, kernel: str, batch: int, calls: int) -> dict:
 
     from jaxstiff.model._generate import serial_chain
     from jaxstiff.model._kinematics import fk_and_jacobian_raw
-    from jaxstiff.runtime._xla import kernel_compiler_options
+    from jaxstiff.runtime import kernel_compiler_options
 
     if kind == "generic" or kind == "aligned":
         robot = serial_chain(n, seed=0, aligned=kind == "aligned")
     else:  # a shipped robot by name (n is ignored)
-        from jaxstiff.model._robot import Robot
+        from jaxstiff.model import Robot
 
         robot = Robot.from_urdf(kind)
         n = robot.n

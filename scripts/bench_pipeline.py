@@ -70,8 +70,8 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901, PLR0915 - the ben
     import importlib
 
     import jaxstiff
-    from jaxstiff._numerics.eig import eigh_descending, gap_tol  # noqa: PLC2701 - times the package's private numerics
-    from jaxstiff._numerics.safe import safe_ratio  # noqa: PLC2701 - times the package's private numerics
+    from jaxstiff._numerics.eig import eigh_descending, gap_tol  # times the package's private numerics
+    from jaxstiff._numerics.safe import safe_ratio  # times the package's private numerics
     from jaxstiff.stiffness._ellipsoid import alpha_rad
 
     # jaxstiff.stiffness is also reached as a package attribute; fetch the module itself

@@ -23,7 +23,7 @@ def _release_compiled_programs():
     compile crashes the worker with a segfault (it did, twice, at ~80 % of the suite). Between
     modules, a worker that holds more than a third of its limit lets its compiled programs go
     (jaxstiff.runtime._programs); they compile again, or load from the cache, when needed."""
-    from jaxstiff.runtime._programs import release_if_near_map_limit
+    from jaxstiff.runtime import release_if_near_map_limit
 
     release_if_near_map_limit(share=1 / 3)
     yield

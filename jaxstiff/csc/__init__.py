@@ -8,19 +8,42 @@ JVPs, orientation error), :mod:`._projections` (damped J+ and I - J+ J), :mod:`.
 stiffness), :mod:`._step` (one step), :mod:`._inputs` (settings and checks), :mod:`._rollout`
 (csc_rollout), :mod:`._segments` (long runs), :mod:`._direction` (single-posture tools)."""
 
-from ._direction import null_space_direction as null_space_direction
-from ._direction import project_to_target as project_to_target
-from ._frobenius import frobenius_gradient as frobenius_gradient
-from ._offdiag import offdiag_gradient as offdiag_gradient
-from ._result import STATUS_DAMPED as STATUS_DAMPED
-from ._result import STATUS_JOINT_LIMIT as STATUS_JOINT_LIMIT
-from ._result import STATUS_NAMES as STATUS_NAMES
-from ._result import STATUS_NAN as STATUS_NAN
-from ._result import STATUS_NULL_SMALL as STATUS_NULL_SMALL
-from ._result import STATUS_OK as STATUS_OK
-from ._result import CSCResult as CSCResult
-from ._result import CSCStatus as CSCStatus
-from ._result import describe_status as describe_status
-from ._rollout import csc_rollout as csc_rollout
-from ._segments import CSCInterrupted as CSCInterrupted
-from ._segments import csc_rollout_segments as csc_rollout_segments
+from jaxstiff.runtime._moved import former_names
+
+from ._direction import null_space_direction, project_to_target
+from ._frobenius import frobenius_gradient
+from ._offdiag import offdiag_gradient
+from ._result import (
+    STATUS_DAMPED,
+    STATUS_JOINT_LIMIT,
+    STATUS_NAMES,
+    STATUS_NAN,
+    STATUS_NULL_SMALL,
+    STATUS_OK,
+    CSCResult,
+    CSCStatus,
+    describe_status,
+)
+from ._rollout import csc_rollout
+from ._segments import CSCInterrupted, csc_rollout_segments
+
+__all__ = [
+    "CSCInterrupted",
+    "CSCResult",
+    "CSCStatus",
+    "STATUS_DAMPED",
+    "STATUS_JOINT_LIMIT",
+    "STATUS_NAMES",
+    "STATUS_NAN",
+    "STATUS_NULL_SMALL",
+    "STATUS_OK",
+    "csc_rollout",
+    "csc_rollout_segments",
+    "describe_status",
+    "frobenius_gradient",
+    "null_space_direction",
+    "offdiag_gradient",
+    "project_to_target",
+]
+
+__getattr__ = former_names(__name__, {})  # the former modules (jaxstiff.csc.X read as an attribute)

@@ -18,7 +18,7 @@ def robot_path(name: str) -> str:
     Raises:
         FileNotFoundError: no shipped robot of that name; the message lists the shipped ones.
     """
-    stem = name[:-5] if name.endswith("._urdf") else name
+    stem = name[:-5] if name.endswith(".urdf") else name
     candidate = _urdf_dir() / f"{stem}.urdf"
     if not candidate.is_file():
         raise FileNotFoundError(f"no shipped robot named {name!r}; shipped robots: {', '.join(shipped_robots())}")
@@ -27,7 +27,7 @@ def robot_path(name: str) -> str:
 
 def shipped_robots() -> list[str]:
     """Names of the robot descriptions shipped in ``urdf/``."""
-    return sorted(p.name[:-5] for p in _urdf_dir().iterdir() if p.name.endswith("._urdf"))
+    return sorted(p.name[:-5] for p in _urdf_dir().iterdir() if p.name.endswith(".urdf"))
 
 
 def _urdf_dir():

@@ -103,7 +103,7 @@ def _check_joint_xml(path: str, elem: Any) -> None:  # noqa: C901 - a flat list 
 def _resolve_path(path: str | os.PathLike) -> str:
     """The URDF file to read: ``path`` itself, or the shipped robot of that name."""
     path = os.fspath(path)
-    if not os.path.exists(path) and os.sep not in path and not path.endswith("._urdf"):
+    if not os.path.exists(path) and os.sep not in path and not path.endswith(".urdf"):
         try:
             path = robot_path(path)  # a shipped robot's name
         except FileNotFoundError:

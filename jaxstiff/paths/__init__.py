@@ -30,38 +30,43 @@ Example:
 
 from __future__ import annotations
 
-from ._core import ZERO_SEGMENT_M as ZERO_SEGMENT_M
-from ._core import Path as Path
-from ._core import tangents as tangents
-from ._csv_io import format_csv as format_csv
-from ._csv_io import read_csv as read_csv
-from ._default import DEFAULT_PATH_SPEC as DEFAULT_PATH_SPEC
-from ._default import default_path as default_path
-from ._generators import WAYPOINT_BYTES as WAYPOINT_BYTES
-from ._generators import arc as arc
-from ._generators import check_waypoints as check_waypoints
-from ._generators import circle as circle
-from ._generators import ellipse_arc as ellipse_arc
-from ._generators import ellipse_curvature as ellipse_curvature
-from ._generators import half_sine as half_sine
-from ._generators import line as line
-from ._generators import spline as spline
-from ._generators import turning_deg as turning_deg
+from jaxstiff.runtime._moved import former_names
+
+from ._core import ZERO_SEGMENT_M, Path, tangents
+from ._csv_io import format_csv, read_csv
+from ._default import DEFAULT_PATH_SPEC, default_path
+from ._generators import (
+    WAYPOINT_BYTES,
+    arc,
+    check_waypoints,
+    circle,
+    ellipse_arc,
+    ellipse_curvature,
+    half_sine,
+    line,
+    spline,
+    turning_deg,
+)
 
 __all__ = [
+    "DEFAULT_PATH_SPEC",
     "Path",
-    "read_csv",
-    "tangents",
-    "line",
+    "WAYPOINT_BYTES",
+    "ZERO_SEGMENT_M",
     "arc",
+    "check_waypoints",
     "circle",
-    "half_sine",
-    "spline",
+    "default_path",
     "ellipse_arc",
     "ellipse_curvature",
+    "format_csv",
+    "half_sine",
+    "line",
+    "read_csv",
+    "spline",
+    "tangents",
     "turning_deg",
-    "check_waypoints",
-    "WAYPOINT_BYTES",
-    "default_path",
-    "DEFAULT_PATH_SPEC",
 ]
+
+
+__getattr__ = former_names(__name__, {})  # the former modules (jaxstiff.paths.X read as an attribute)

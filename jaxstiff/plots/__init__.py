@@ -32,6 +32,7 @@ from jaxstiff.plots._planar import figure_cds, figure_cms, figure_criteria, figu
 from jaxstiff.plots._shape_path import figure_shape_path, figure_turning, rate_limited_joints, stiffness_axes
 from jaxstiff.plots._tables import experiment_parser, markdown_table, save_table_csv, text_table
 from jaxstiff.plots._task_modes import figure_task_modes, held_and_free
+from jaxstiff.runtime._moved import former_names
 
 __all__ = [
     "pyplot",
@@ -57,3 +58,5 @@ __all__ = [
     "text_table",
     "save_table_csv",
 ]
+
+__getattr__ = former_names(__name__, {})  # the former modules (jaxstiff.plots.X read as an attribute)

@@ -1,4 +1,4 @@
-"""Shaping results: the :class:`ShapeResult` container, its ``._npz`` file, status codes, verification.
+"""Shaping results: the :class:`ShapeResult` container, its ``.npz`` file, status codes, verification.
 
 Result file (DESIGN.md contract), loadable with ``numpy.load(file, allow_pickle=False)``; leading
 axis B over trajectories (B = 1 for one path), P waypoints, n actuated joints in chain order:
@@ -181,7 +181,7 @@ class ShapeResult(PathGrid):
 
     # ------------------------------------------------------------------ files
     def save(self, file: str | os.PathLike) -> str:
-        """Write the ``._npz`` result file atomically (temp file in the same folder, then rename).
+        """Write the ``.npz`` result file atomically (temp file in the same folder, then rename).
 
         Returns the path written. An interrupted save leaves no partial file.
         """

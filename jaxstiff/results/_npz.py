@@ -1,5 +1,5 @@
 """The parts of a result file that need no :class:`~jaxstiff.results._files.ShapeResult`: the atomic
-``._npz`` write and the per-path parameters read back from ``meta`` (format: :mod:`jaxstiff.results._files`)."""
+``.npz`` write and the per-path parameters read back from ``meta`` (format: :mod:`jaxstiff.results._files`)."""
 
 from __future__ import annotations
 
@@ -20,8 +20,8 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
         FileNotFoundError: the target folder does not exist.
     """
     file = os.fspath(file)
-    if not file.lower().endswith("._npz"):  # x.NPZ is taken as it is (numpy would write x.NPZ.npz)
-        file = file + "._npz"
+    if not file.lower().endswith(".npz"):  # x.NPZ is taken as it is (numpy would write x.NPZ.npz)
+        file = file + ".npz"
     # numpy's stub lets **arrays bind savez's allow_pickle (bool); no result key has that name
     return atomic_write(file, lambda fh: np.savez(fh, **arrays), binary=True)  # pyright: ignore[reportArgumentType]
 

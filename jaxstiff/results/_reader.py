@@ -5,7 +5,7 @@ goes through it, so they accept and refuse the same files.
 Two levels:
 
 * :func:`read_arrays` (the schema; what ``ShapeResult.load`` / ``CSCResult.load`` use): the file
-  is a regular ``._npz`` (no pickles), its meta a JSON record, every array present with the shape
+  is a regular ``.npz`` (no pickles), its meta a JSON record, every array present with the shape
   the meta and ``q`` give (B >= 1, P >= 1, n the meta's joint count), the dtypes of the format
   (q, kj, positions float32 or float64 only: int, bool, complex, float16 refused; codes integers;
   names text), the values that must be finite finite (q and positions at usable waypoints, the

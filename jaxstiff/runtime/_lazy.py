@@ -9,11 +9,16 @@ import importlib.util
 from collections.abc import Callable, Mapping, MutableMapping
 from typing import Any
 
+from ._moved import former_names
+
 __all__: list[str] = []
 
 
 def lazy_exports(
-    package: str, namespace: MutableMapping[str, Any], sources: Mapping[str, tuple[str, ...]]
+    package: str,
+    namespace: MutableMapping[str, Any],
+    sources: Mapping[str, tuple[str, ...]],
+    former: Mapping[str, str] | None = None,
 ) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
     """The module-level ``__getattr__`` and ``__dir__`` of ``package``.
 
@@ -21,15 +26,20 @@ def lazy_exports(
         package: the package's ``__name__`` (relative module names are resolved against it).
         namespace: the package's ``globals()``; a loaded name is stored there (``__getattr__`` is
             then not called again for it).
-        sources: module (relative, e.g. ``".robot"``) -> the public names it defines.
+        sources: module (relative, e.g. ``"._robot"``) -> the public names it defines.
+        former: names the package no longer exports -> the module that defines each, answered
+            with a ``DeprecationWarning`` (:func:`jaxstiff.runtime._moved.former_names`).
 
     Returns:
         ``(__getattr__, __dir__)``; an unknown name raises ``AttributeError`` as a module would.
     """
     where = {name: module for module, names in sources.items() for name in names}
+    deprecated = former_names(package, former or {})
 
     def getattr_(name: str) -> Any:
         module = where.get(name)
+        if former and name in former:
+            return deprecated(name)
         if module is None:
             # a submodule not imported yet (``jaxstiff.paths.line(...)`` right after ``import jaxstiff``)
             if not name.startswith("_") and importlib.util.find_spec(f"{package}.{name}") is not None:

@@ -346,7 +346,7 @@ class SweepStore:
         """Write one finished chunk: its array files, then its rows file, then the manifest.
 
         Args:
-            payload: from :func:`jaxstiff.sweep.compute_chunk`: ``chunk``, ``rows`` (list of
+            payload: from :func:`jaxstiff.sweep._run.compute_chunk`: ``chunk``, ``rows`` (list of
                 dicts), ``arrays`` (list of ``(relative name, data)``: a
                 :class:`~jaxstiff.results.ShapeResult` or a dict of arrays), ``wall_s``,
                 ``worker``, ``devices``.

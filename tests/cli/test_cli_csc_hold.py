@@ -10,7 +10,7 @@ import json
 import numpy as np
 
 import jaxstiff
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 
 ARGV = ["csc", "--robot", "planar_3r", "--hold", "1.50005,0", "--kxd", "3000,1000@30"]
 Q0_DEG = "75,-74.74,-76.30"

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import _main as cli_main
+from jaxstiff.cli import main as cli_main
 
 LWR = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
 Q_DEG = "20,40,-30,-70,25,50,0"
@@ -62,7 +62,7 @@ def test_csc_settings_errors_read_as_flags(settings, expected):
     '--kmax must be >= --kmin (Nm/rad) (5)' when units held parentheses or values looked like units;
     dimensionless fields ('1') show no unit."""
     from jaxstiff.cli._csc_flags import flag_message
-    from jaxstiff.settings._csc import CSCSettings
+    from jaxstiff.settings import CSCSettings
 
     with pytest.raises(ValueError) as e:
         CSCSettings(**settings)

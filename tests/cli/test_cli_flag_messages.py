@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import _main as main
-from jaxstiff.cli._common import parse_locks
+from jaxstiff.cli import main, parse_locks
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data")
 BRANCHED = os.path.join(DATA, "branched_tree.urdf")

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
+from jaxstiff.sweep import run_sweep
 from jaxstiff.sweep._config import SweepConfigError, parse_config
-from jaxstiff.sweep._run import run_sweep
 
 LOCK = {"lwr_a7": 0.0}
 

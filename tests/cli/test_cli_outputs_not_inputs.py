@@ -16,9 +16,8 @@ import re
 
 import pytest
 
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import build_parser, main
 from jaxstiff.cli._common import FileFlag, check_outputs_not_inputs, file_flags
-from jaxstiff.cli._main import build_parser
 
 #: each command's other required arguments (values that need not exist: the check comes first)
 REQUIRED: dict[str, list[str]] = {
@@ -164,7 +163,7 @@ def test_folder_output_that_would_write_an_input(tmp_path, monkeypatch, capsys):
 
 def test_shipped_robot_name_is_its_file(tmp_path, capsys):
     """``--robot planar_3r`` reads the shipped URDF: writing over that file is refused too."""
-    from jaxstiff.model._shipped import robot_path
+    from jaxstiff.model import robot_path
 
     urdf = robot_path("planar_3r")
     before = open(urdf, "rb").read()

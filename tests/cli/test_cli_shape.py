@@ -11,7 +11,7 @@ import pytest
 from helpers import numpy_fk
 
 import jaxstiff
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 from jaxstiff.results import _files as R
 
 

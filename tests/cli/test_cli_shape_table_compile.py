@@ -47,7 +47,7 @@ def test_shape_shares_count_usable_waypoints_only():
 def test_pgd_times_are_run_time_only_and_its_progress_line_counts_the_waypoints(tmp_path, capsys):
     # pgd's time_s is its compiled program's run alone: no footnote, however long the compilation;
     # and the batch solvers tick no waypoint, so the final line read "shape: 0/3 waypoints"
-    from jaxstiff.cli import _main as main
+    from jaxstiff.cli import main
 
     csv = tmp_path / "p.csv"
     np.savetxt(

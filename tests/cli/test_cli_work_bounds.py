@@ -10,7 +10,7 @@ import os
 import numpy as np
 import pytest
 
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 from jaxstiff.settings._csc import MAX_NEWTON, CSCSettings
 
 
@@ -80,8 +80,7 @@ def test_check_sim_force_must_be_finite_and_positive(tmp_path, capsys, force) ->
 def test_mujoco_leaves_no_log_file_and_a_warning_is_a_divergence(tmp_path, monkeypatch) -> None:
     pytest.importorskip("mujoco")
     import jaxstiff
-    from jaxstiff.sim import SimCase, check_case
-    from jaxstiff.sim._measure import SettleError
+    from jaxstiff.sim import SettleError, SimCase, check_case
 
     monkeypatch.chdir(tmp_path)
     robot = jaxstiff.Robot.from_urdf("planar_3r")

@@ -21,8 +21,14 @@ from helpers import DATA_DIR, assert_close, central_diff, numpy_fk
 
 import jaxstiff
 from jaxstiff import csc
-from jaxstiff.cli import _main as cli_main
-from jaxstiff.csc import _algebra as algebra, _measures as measures, _offdiag as offdiag, _pose as pose, _projections as projections, _result as result, _rollout as rollout
+from jaxstiff.cli import main as cli_main
+from jaxstiff.csc import _algebra as algebra
+from jaxstiff.csc import _measures as measures
+from jaxstiff.csc import _offdiag as offdiag
+from jaxstiff.csc import _pose as pose
+from jaxstiff.csc import _projections as projections
+from jaxstiff.csc import _result as result
+from jaxstiff.csc import _rollout as rollout
 
 DATA = DATA_DIR
 

@@ -20,7 +20,7 @@ from helpers import DATA_DIR
 
 import jaxstiff
 from jaxstiff.plots import _shape_path as shape_path
-from jaxstiff.plots._base import pyplot
+from jaxstiff.plots import pyplot
 
 BRANCHED = str(DATA_DIR / "branched_tree.urdf")  # j1 revolute, j2 prismatic, j3 continuous, j4 revolute
 

@@ -10,7 +10,7 @@ import textwrap
 
 import pytest
 
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 from jaxstiff.cli._reproduce import load_runner
 
 reproduce = load_runner()  # the runner lives in the checkout's experiments/_reproduce

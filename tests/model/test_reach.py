@@ -16,7 +16,7 @@ import pytest
 from helpers import DATA_DIR
 
 import jaxstiff
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 from jaxstiff.model._reach import UnreachableError, check_reach, unreachable_mask
 from jaxstiff.results import _files as R
 
@@ -195,8 +195,7 @@ def test_unattainable_waypoint_inside_the_shell_is_given_up_without_slsqp():
 def test_sweep_marks_rows_out_of_reach_instead_of_refusing(tmp_path):
     """Arcs of radius 1.5 m and 4 m for a 3 m planar arm: the 4 m rows are not solved, their
     waypoints count as unreachable (status 3); the 1.5 m rows are solved as usual."""
-    from jaxstiff.sweep._run import run_sweep
-    from jaxstiff.sweep._store import read_table
+    from jaxstiff.sweep import read_table, run_sweep
 
     cfg = {
         "sweep": {"kind": "shape", "name": "reach", "chunk_size": 4},

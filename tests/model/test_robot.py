@@ -17,7 +17,7 @@ import pytest
 from helpers import DATA_DIR, assert_close
 
 import jaxstiff
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 
 BRANCHED = str(DATA_DIR / "branched_tree.urdf")
 

@@ -13,7 +13,7 @@ import pytest
 from helpers import DATA_DIR
 
 import jaxstiff
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 from jaxstiff.model._urdf import tip_candidates
 
 ROBOTS = DATA_DIR / "robots"

@@ -421,7 +421,7 @@ def test_position_and_jacobian_rows_are_checked(lwr, rows):
 def test_cli_prints_a_urdf_warning_as_one_line(write, capsys):
     """A joint with an empty range warns (UserWarning from Python); the command line prints it as
     one 'jaxstiff: warning:' line like its other warnings, without Python's file:line and source."""
-    from jaxstiff.cli import _main as cli_main
+    from jaxstiff.cli import main as cli_main
 
     path = write(two_joint_urdf(j2='<origin xyz="1 0 0"/><axis xyz="0 0 1"/><limit effort="1" velocity="1"/>'))
     with pytest.warns(UserWarning, match="empty range"):  # the Python API keeps a real warning

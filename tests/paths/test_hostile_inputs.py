@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 from jaxstiff.paths import Path, format_csv, line, read_csv
 from jaxstiff.runtime._io import check_regular_file
 from jaxstiff.sweep._config import SweepConfigError, load_config, parse_config

@@ -31,8 +31,8 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import _main as main
-from jaxstiff.model._shipped import robot_path
+from jaxstiff.cli import main
+from jaxstiff.model import robot_path
 from jaxstiff.results._reader import ResultFileError, read_result
 from jaxstiff.runtime._io import file_sha256
 

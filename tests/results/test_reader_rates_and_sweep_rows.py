@@ -15,7 +15,7 @@ from helpers import tamper_result
 
 import jaxstiff
 from jaxstiff.results._reader import ResultFileError, read_result
-from jaxstiff.sweep._run import run_sweep
+from jaxstiff.sweep import run_sweep
 from jaxstiff.sweep._stored import read_sweep_row
 
 Q_START = [0.3, 0.5, -0.2, -1.2, 0.4, 0.6, 0.0]  # the LWR, lwr_a7 locked at 0

@@ -51,7 +51,7 @@ def _child(cache: str, out: int) -> None:
     from jax import export
 
     from jaxstiff.ik import ik_position
-    from jaxstiff.model._robot import Robot
+    from jaxstiff.model import Robot
 
     traced = []
     real_export = export.export

@@ -47,7 +47,7 @@ def _run_flips(tmp_path, n, edit=None, env=None):
 
 
 def _check_report(rep, n):
-    from jaxstiff.model._robot import Robot
+    from jaxstiff.model import Robot
 
     rc, clean = rep["clean"]
     assert rep["first"][0] == 0 and rc == 0

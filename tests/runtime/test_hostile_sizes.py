@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from jaxstiff import paths as P
-from jaxstiff.cli import _main as main
+from jaxstiff.cli import main
 from jaxstiff.runtime._plan_size import (
     MEMORY_LIMIT_ENV,
     PlanTooLargeError,
@@ -164,7 +164,7 @@ def test_cli_csc_streamed_steps_are_not_refused(monkeypatch):
 
 def test_shape_refuses_a_plan_that_cannot_fit(monkeypatch):
     from jaxstiff import shape
-    from jaxstiff.model._robot import Robot
+    from jaxstiff.model import Robot
 
     robot = Robot.from_urdf("planar_3r")
     path = P.Path(np.c_[np.linspace(1.0, 1.2, 50), np.full(50, 0.5), np.zeros(50)])

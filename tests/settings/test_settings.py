@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli._common import add_robot_flags, robot_spec_from_args
-from jaxstiff.cli._main import build_parser, main
+from jaxstiff.cli import add_robot_flags, build_parser, main, robot_spec_from_args
 from jaxstiff.runtime._progress import Progress, progress
 from jaxstiff.settings import DEFAULT_LOCKS, RobotSpec, ShapeSettings
 from jaxstiff.settings._robot import tcp_transform
@@ -211,7 +210,7 @@ def test_units_and_robot_spec_recorded_in_meta(default_run):
 
 
 def test_prismatic_joint_units_say_metres(tmp_path):
-    from jaxstiff.shaping._steps import array_units  # noqa: PLC2701 - the units meta["units"] records
+    from jaxstiff.shaping._steps import array_units  # the units meta["units"] records
 
     assert array_units(jaxstiff.Robot.from_urdf("planar_3r"))["q"] == "rad"
     src = open(jaxstiff.robot_path("planar_3r")).read()
@@ -260,7 +259,7 @@ def test_task_dim_is_the_size_of_the_task_translational_rows():
     """settings.shape.task_dim, the one rule for the size of K_T and of a task's position targets,
     against the task's Jacobian rows: the translational ones among them (rows 0-2)."""
     from jaxstiff.settings._shape import TASKS, task_dim
-    from jaxstiff.stiffness._tasks import task_rows
+    from jaxstiff.stiffness import task_rows
 
     for task in TASKS:
         assert task_dim(task) == len([i for i in task_rows(task) if i < 3])

@@ -17,9 +17,10 @@ import math
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import _csc_flags as csc_flags, _shape_flags as shape_flags
+from jaxstiff.cli import _csc_flags as csc_flags
 from jaxstiff.cli import _shape as shape_cmd
-from jaxstiff.cli._main import build_parser
+from jaxstiff.cli import _shape_flags as shape_flags
+from jaxstiff.cli import build_parser
 from jaxstiff.settings import CSCSettings, ShapeSettings
 from jaxstiff.settings._base import positive, setting
 from jaxstiff.sweep import _axis_specs as axis_specs

@@ -61,7 +61,7 @@ def test_cases_skip_unusable_waypoints(tmp_path):
     """A status 3-5 row holds the reference state, not a solution: check-sim picked such rows and
     reported them as agreeing (found by an independent check). N evenly spaced cases are taken among
     the usable waypoints, a given list loses its unusable entries, and none usable is an error."""
-    from jaxstiff.sim._setup import cases_from_result
+    from jaxstiff.sim import cases_from_result
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     pts = np.c_[np.linspace(1.50, 1.58, 6), np.full(6, 0.5), np.zeros(6)]

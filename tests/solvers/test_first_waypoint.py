@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.model._kinematics import fk
+from jaxstiff.model import fk
 from jaxstiff.results._target import MissedTargetWarning, first_free_waypoints, missed_target_warning
 
 UR10 = os.path.join(os.path.dirname(__file__), "..", "data", "robots", "ur10.urdf")

@@ -386,7 +386,7 @@ def test_task_the_robot_cannot_control_is_refused(tmp_path, capsys, task, match)
     path = paths.arc([0.0, 0.0, 0.0], 1.5, 20.0, 40.0, n=2)
     with pytest.raises(ValueError, match=match):
         jaxstiff.shape(robot, path, "f2", 3.0, task=task)
-    from jaxstiff.cli import _main as main
+    from jaxstiff.cli import main
 
     out = tmp_path / "r.npz"
     assert main(["shape", "--robot", "planar_3r", "--task", task, "--out", str(out)]) == 2

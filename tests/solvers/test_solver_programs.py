@@ -14,7 +14,7 @@ import jaxstiff
 from jaxstiff.model._kinematics_scan import SOLVER_UNROLL_MAX_JOINTS, solver_uses_scan
 from jaxstiff.solvers.problem import WaypointProblem, compiled_report, report_rows, warm_report
 from jaxstiff.solvers.problem.compiled import REPORT_ROWS
-from jaxstiff.stiffness._criteria import f2
+from jaxstiff.stiffness import f2
 
 
 @pytest.mark.parametrize("name", ["kuka_lwr4", "planar_3r"])

@@ -16,7 +16,7 @@ from helpers import assert_close
 
 import jaxstiff
 from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.stiffness._core import compliance
+from jaxstiff.stiffness import compliance
 from jaxstiff.stiffness._schur import (
     schur_compliance,
     stiffness_and_tangents,

@@ -18,7 +18,7 @@ import pytest
 from helpers import assert_close
 
 import jaxstiff
-from jaxstiff.stiffness._core import translational_axes, translational_compliance
+from jaxstiff.stiffness import translational_axes, translational_compliance
 
 Q_CASE = np.array([-2.6390270612749482, -1.5696481420537225, -1.6765694625953258, 0.0, -2.4352979896566778, 1.529683441680743, -1.700039111412567])  # fmt: skip
 KJ_CASE = np.array([27.65831725056191, 1.2340370506030465, 1.5808087305479992, 8.171333436700865, 15.822027075893665, 4.129801856805123, 3.5070456973858075])  # fmt: skip

@@ -33,8 +33,8 @@ import pandas as pd
 import pytest
 from helpers import CSC_TOML
 
-from jaxstiff.cli import _main as main
-from jaxstiff.sweep._store import read_table
+from jaxstiff.cli import main
+from jaxstiff.sweep import read_table
 
 SHAPE_TOML = """\
 [sweep]

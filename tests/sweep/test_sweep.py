@@ -21,8 +21,8 @@ from helpers import CSC_TOML, REPO_ROOT
 
 import jaxstiff
 from jaxstiff.results._files import ShapeResult, is_usable, np_jacobian_rows, np_translational_stiffness, verify
+from jaxstiff.sweep import run_sweep
 from jaxstiff.sweep._config import kxd_matrix, parse_config
-from jaxstiff.sweep._run import run_sweep
 from jaxstiff.sweep._store import SweepStore, read_table
 
 REPO = str(REPO_ROOT)
@@ -406,7 +406,7 @@ def test_ray_backend_gives_the_same_table(csc_cfg, csc_run, tmp_path, monkeypatc
 
 # ---------------------------------------------------------------------------- command line
 def test_cli_validates_before_any_work(tmp_path, capsys):
-    from jaxstiff.cli import _main as main
+    from jaxstiff.cli import main
 
     bad = tmp_path / "bad.toml"
     bad.write_text('[robot]\nname = "planar_3r"\n[[paths]]\ngenerator = "default"\nn = 5\n[axes]\nratio = []\n')
@@ -432,7 +432,7 @@ def test_cli_sigterm_is_an_interrupt_with_exit_143(tmp_path, capsys, monkeypatch
     import threading
 
     import jaxstiff.sweep as sweep_mod
-    from jaxstiff.cli import _main as main
+    from jaxstiff.cli import main
 
     if threading.current_thread() is not threading.main_thread():
         pytest.skip("signal handlers can only be installed in the main thread")

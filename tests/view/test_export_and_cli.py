@@ -12,7 +12,7 @@ import pytest
 from viewer_files import MISSING_MESHES_URDF, make_csc_file, make_shape_result
 
 import jaxstiff
-from jaxstiff.cli._main import main
+from jaxstiff.cli import main
 from jaxstiff.view._data import load_view_data
 from jaxstiff.view._export import csv_columns, export_csv, read_csv
 

@@ -11,7 +11,7 @@ import re
 import numpy as np
 import pytest
 
-from jaxstiff.cli._main import main
+from jaxstiff.cli import main
 from jaxstiff.view._framing import MANTISSAS, arm_sizes, choose_view, nice_scale
 
 

@@ -84,7 +84,7 @@ def test_png_shows_the_ellipsoid(name: str, tmp_path, capsys) -> None:
     pytest.importorskip("viser")
     from PIL import Image
 
-    from jaxstiff.cli._main import main
+    from jaxstiff.cli import main
 
     res = _result(name, str(tmp_path / "shape.npz"))
     png, html = str(tmp_path / "view.png"), str(tmp_path / "view.html")

@@ -13,8 +13,8 @@ import pytest
 from helpers import tamper_result
 
 import jaxstiff
-from jaxstiff.cli import _main as main
-from jaxstiff.model._shipped import robot_path
+from jaxstiff.cli import main
+from jaxstiff.model import robot_path
 from jaxstiff.runtime._io import file_sha256
 
 
