@@ -51,7 +51,10 @@ MOVED = {
     "jaxstiff.shaping_steps": "jaxstiff.shaping._steps",
     **private_module_paths(__name__, __path__[0], _PRIVATE_MODULES),
 }
-install_moved_modules(MOVED)
+#: the public module to name in a former path's warning where it is not the private module's own
+#: package: the ellipsoid's names are public at the top level only (see _SOURCES)
+_WAY_IN = {"jaxstiff.stiffness._ellipsoid": "jaxstiff"}
+install_moved_modules(MOVED, _WAY_IN)
 
 #: public name -> the public package (relative to this one) that exports it. ``Ellipsoid``,
 #: ``ellipsoid`` and ``orientation_error`` are public here only (from the private module

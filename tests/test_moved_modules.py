@@ -21,7 +21,7 @@ import jaxstiff
 @pytest.mark.parametrize("old, new", sorted(jaxstiff.MOVED.items()))
 def test_old_path_imports_the_new_module_with_a_warning(old, new):
     sys.modules.pop(old, None)
-    public = new.split("._")[0]  # jaxstiff.shaping._steps -> jaxstiff.shaping
+    public = jaxstiff._WAY_IN.get(new, new.split("._")[0])  # jaxstiff.shaping._steps -> jaxstiff.shaping
     with pytest.warns(DeprecationWarning, match=f"import {public} instead") as rec:
         mod = importlib.import_module(old)
     assert mod is importlib.import_module(new)
@@ -43,6 +43,15 @@ def test_from_import_of_an_old_path_in_a_fresh_process():
     assert out.returncode != 0 and "import jaxstiff.model instead" in out.stderr
     ok = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
+
+
+def test_the_ellipsoid_paths_name_the_top_level_where_its_names_are_public():
+    for old in ("jaxstiff.ellipsoid", "jaxstiff.stiffness.ellipsoid"):
+        sys.modules.pop(old, None)
+        with pytest.warns(DeprecationWarning, match=f"module {old} is deprecated; import jaxstiff instead"):
+            mod = importlib.import_module(old)
+        assert all(getattr(jaxstiff, n) is getattr(mod, n) for n in ("Ellipsoid", "ellipsoid", "orientation_error"))
+        sys.modules.pop(old, None)
 
 
 def test_importing_a_former_path_keeps_the_public_name_of_the_same_name():
@@ -147,8 +156,9 @@ def test_every_former_implementation_module_is_in_the_table():
 @pytest.mark.parametrize("old", sorted(FORMER_MODULES))
 def test_former_module_imports_warns_and_has_every_name(old):
     package, _, name = old.rpartition(".")
+    way_in = jaxstiff._WAY_IN.get(f"{package}._{name}", package)  # the ellipsoid: the top level
     sys.modules.pop(old, None)
-    with pytest.warns(DeprecationWarning, match=rf"module {old} is deprecated; import {package} instead") as rec:
+    with pytest.warns(DeprecationWarning, match=rf"module {old} is deprecated; import {way_in} instead") as rec:
         mod = importlib.import_module(old)
     assert f"{package}._{name}" in str(rec[0].message) and rec[0].filename == __file__
     assert mod.__name__ == f"{package}._{name}"

@@ -20,11 +20,11 @@ __all__ = ["former_module", "former_names", "install_moved_modules", "keep_publi
 
 
 class _Alias(importlib.abc.Loader):
-    def __init__(self, old: str, new: str):
-        self.old, self.new = old, new
+    def __init__(self, old: str, new: str, public: str):
+        self.old, self.new, self.public = old, new, public
 
     def create_module(self, spec: importlib.machinery.ModuleSpec) -> ModuleType:
-        public = _public_part(self.new)
+        public = self.public
         where = "" if public == self.new else f" (its code is now the private module {self.new})"
         warnings.warn(
             f"module {self.old} is deprecated; import {public} instead{where}",
@@ -75,23 +75,26 @@ def _importer() -> int:
 
 
 class _MovedFinder(importlib.abc.MetaPathFinder):
-    def __init__(self, moved: Mapping[str, str]):
-        self.moved = dict(moved)
+    def __init__(self, moved: Mapping[str, str], way_in: Mapping[str, str]):
+        self.moved, self.way_in = dict(moved), dict(way_in)
 
     def find_spec(self, name: str, path: Any = None, target: Any = None) -> importlib.machinery.ModuleSpec | None:
         new = self.moved.get(name)
         if new is None:
             return None
-        return importlib.machinery.ModuleSpec(name, _Alias(name, new))
+        return importlib.machinery.ModuleSpec(name, _Alias(name, new, self.way_in.get(new, _public_part(new))))
 
 
-def install_moved_modules(moved: Mapping[str, str]) -> None:
-    """Answer every former module path of ``moved`` (old -> new full names). Idempotent."""
+def install_moved_modules(moved: Mapping[str, str], way_in: Mapping[str, str] | None = None) -> None:
+    """Answer every former module path of ``moved`` (old -> new full names). The warning names the
+    public package that is the way in to the new module: the path up to its first private part,
+    or ``way_in[new]`` where the names are public elsewhere. Idempotent."""
     for f in sys.meta_path:
         if isinstance(f, _MovedFinder):
             f.moved.update(moved)
+            f.way_in.update(way_in or {})
             return
-    sys.meta_path.append(_MovedFinder(moved))
+    sys.meta_path.append(_MovedFinder(moved, way_in or {}))
 
 
 def private_module_paths(root: str, folder: str, packages: Iterable[str]) -> dict[str, str]:
