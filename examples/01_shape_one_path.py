@@ -9,7 +9,7 @@ move at most 2 deg and 5 Nm/rad per waypoint. Then CMS scales kj to a common ell
 from _common import figure, size
 
 import jaxstiff
-from jaxstiff.plots.shape_path import figure_shape_path
+from jaxstiff.plots import figure_shape_path
 
 robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
 path = jaxstiff.default_path(n=30)  # a half-sine bump in the plane z = 0.30 m, 30 waypoints

@@ -12,7 +12,7 @@ import numpy as np
 from _common import HERE, figure, size
 
 import jaxstiff
-from jaxstiff.plots.shape_path import figure_shape_path
+from jaxstiff.plots import figure_shape_path
 
 urdf = os.path.join(HERE, "..", "tests", "data", "robots", "ur10.urdf")
 robot = jaxstiff.Robot.from_urdf(

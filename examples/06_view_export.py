@@ -13,7 +13,7 @@ from _common import figure, size
 
 import jaxstiff
 from jaxstiff.cli import main as jaxstiff_command
-from jaxstiff.view.export import export_csv, read_csv
+from jaxstiff.view import export_csv, read_csv
 
 robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
 full = jaxstiff.default_path(n=60)

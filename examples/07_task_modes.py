@@ -13,7 +13,7 @@ import numpy as np
 from _common import figure
 
 import jaxstiff
-from jaxstiff.plots.base import ellipse_points
+from jaxstiff.plots import ellipse_points
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

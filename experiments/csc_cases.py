@@ -151,7 +151,7 @@ def status_counts(status: np.ndarray) -> dict[str, int]:
 
 def write_summary(out: str, title: str, case_setup: list[str], body: list[str], figures: list[str]) -> str:
     """Write ``out/summary.md``: the title, :data:`PROJECT_OWN`, the setup bullets, the body, the figures."""
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.runtime._io import atomic_write_text
 
     lines = [f"# {title}", "", PROJECT_OWN, "", "Setup (every interpretation made here):", ""]
     lines += [f"- {s}" for s in case_setup]

@@ -212,10 +212,10 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="shorter cases (T / 3)")
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
 
     enable_x64()
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.runtime._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     cases = _cases(args.quick)

@@ -251,7 +251,7 @@ def figure_prop2_rankings(rankings: dict, file: str) -> str:
     ``beta = b`` where the label covers no other label or point (two runs close together had their
     labels on top of each other, issue 40 item 4)."""
     from jaxstiff import plots
-    from jaxstiff.plots.base import label_points
+    from jaxstiff.plots._base import label_points
 
     plt = plots.pyplot()
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.4))
@@ -283,7 +283,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
     ap.add_argument("--quick", action="store_true", help="fewer samples, LWR path refined 4x")
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
 
     enable_x64()
     import csc_cases
@@ -291,7 +291,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.runtime._io import atomic_write_text
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)

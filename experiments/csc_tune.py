@@ -46,7 +46,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
     ap.add_argument("--lr", type=float, default=0.05, help="Adam step size")
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
 
     enable_x64()
     import csc_cases
@@ -57,7 +57,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the experiment's procedure, read 
     import jaxstiff
     from jaxstiff import plots
     from jaxstiff.csc import project_to_target
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.runtime._io import atomic_write_text
 
     plt = plots.pyplot()
     os.makedirs(args.out, exist_ok=True)

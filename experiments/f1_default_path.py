@@ -48,7 +48,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - one linear study, each step print
     ap = experiment_parser("f1_default_path", __doc__ or "")
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
@@ -59,10 +59,10 @@ def main(argv=None) -> int:  # noqa: PLR0915 - one linear study, each step print
     import numpy as np
 
     import jaxstiff
-    from jaxstiff.plots.shape_path import rate_limited_joints
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.plots import rate_limited_joints
+    from jaxstiff.runtime._io import atomic_write_text
     from jaxstiff.solvers import PGD, SLSQP
-    from jaxstiff.stiffness.criteria import f1_of
+    from jaxstiff.stiffness._criteria import f1_of
 
     warnings.simplefilter("ignore")  # the missed-target warnings: the table below says it all
     os.makedirs(args.out, exist_ok=True)

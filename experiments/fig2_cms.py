@@ -40,7 +40,7 @@ def _parse(argv=None):
 
 def main(argv=None) -> int:
     args = _parse(argv)
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
 
     enable_x64()
     import jax.numpy as jnp
@@ -48,7 +48,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.runtime._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("planar_3r")

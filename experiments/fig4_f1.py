@@ -33,9 +33,8 @@ def limits_in_use(res, robot) -> dict:
     """The path's turning per waypoint against the joint rate limit, and how often the limits hold joints."""
     import numpy as np
 
-    from jaxstiff.paths import Path
-    from jaxstiff.paths.generators import turning_deg
-    from jaxstiff.plots.shape_path import rate_limited_joints
+    from jaxstiff.paths import Path, turning_deg
+    from jaxstiff.plots import rate_limited_joints
 
     lim = rate_limited_joints(res, robot)
     return {
@@ -52,7 +51,7 @@ def summary_rows(res, verification, limits):
     """The summary table of the experiment as (metric, value) rows (``limits``: :func:`limits_in_use`)."""
     import numpy as np
 
-    from jaxstiff.results import files as R
+    from jaxstiff.results import _files as R
 
     s = R.summary(res)
     t = limits["turning"]
@@ -172,7 +171,7 @@ def run(criterion: str, tag: str, title: str, argv=None, path_fn=None, setup=Non
     ap.add_argument("--quick", action="store_true", help="a shorter path (see above)")
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
@@ -180,8 +179,8 @@ def run(criterion: str, tag: str, title: str, argv=None, path_fn=None, setup=Non
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff.results import files as R
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.results import _files as R
+    from jaxstiff.runtime._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})

@@ -4,7 +4,7 @@ The seed's Fig. 4/5 path is "a curved path in the xy plane" and it says the limi
 trajectory curves most". The shipped default path turns at most 1.9 deg per waypoint, below the
 2 deg joint rate limit, so there they never show (``fig4_f1.py``, ``fig5_f2.py``). This run uses the
 same setup on an elliptic arc in the horizontal plane z = 0.30 m
-(:func:`jaxstiff.paths.generators.ellipse_arc`, :data:`CURVED_PATH_SPEC`): centre (0.55, 0) m,
+(:func:`jaxstiff.paths._generators.ellipse_arc`, :data:`CURVED_PATH_SPEC`): centre (0.55, 0) m,
 semi-axes 0.20 m along x and 0.12 m along y, from (0.55, 0.12) through the apex (0.75, 0) to
 (0.55, -0.12), 60 waypoints equally spaced (8.6 mm). Its curvature runs from 3 1/m at the two ends to
 13.9 1/m at the apex, so the tangent turns about 1.5 deg per waypoint at the ends (below the limit)
@@ -43,14 +43,13 @@ CURVED_PATH_SPEC = {
 QUICK_WAYPOINTS = 36  #: --quick: the first waypoints only (the apex is at 29-30)
 
 #: "holds": alpha below this (deg) and the ratio within 2% (f2) or at least 98% of r (f1), as in the table
-from jaxstiff.results.target import ALPHA_TOL_DEG as ALPHA_OK_DEG  # noqa: E402  (the one "in target" rule)
-from jaxstiff.results.target import RATIO_REL_TOL, target_masks  # noqa: E402
+from jaxstiff.results._target import ALPHA_TOL_DEG as ALPHA_OK_DEG  # noqa: E402  (the one "in target" rule)
+from jaxstiff.results._target import RATIO_REL_TOL, target_masks  # noqa: E402
 
 
 def curved_path(quick: bool = False):
     """The elliptic arc of :data:`CURVED_PATH_SPEC` (its first :data:`QUICK_WAYPOINTS` with ``quick``)."""
-    from jaxstiff.paths import Path
-    from jaxstiff.paths.generators import ellipse_arc
+    from jaxstiff.paths import Path, ellipse_arc
 
     spec = {k: v for k, v in CURVED_PATH_SPEC.items() if k != "generator"}
     p = ellipse_arc(**spec)
@@ -63,7 +62,7 @@ def setup_text(criterion: str) -> str:
     """The interpretations of the curved run, with the path's numbers computed from the path."""
     import numpy as np
 
-    from jaxstiff.paths.generators import ellipse_curvature, turning_deg
+    from jaxstiff.paths import ellipse_curvature, turning_deg
 
     s = CURVED_PATH_SPEC
     p = curved_path()
@@ -175,7 +174,7 @@ def curved_extra(tag: str):
     """The ``extra`` of :func:`fig4_f1.run` for a curved run: the turning figure and where it holds."""
 
     def extra(res, robot, limits, out) -> list[str]:
-        from jaxstiff.plots.shape_path import figure_turning
+        from jaxstiff.plots import figure_turning
 
         name = f"{tag}_turning.png"
         crit = res.meta["criterion"]

@@ -110,7 +110,7 @@ def main(argv=None) -> int:
     ap.add_argument("--quick", action="store_true", help="2 paths of each family")
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
@@ -121,8 +121,8 @@ def main(argv=None) -> int:
     import numpy as np
 
     import jaxstiff
-    from jaxstiff.plots.base import pyplot, save_figure
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.plots import pyplot, save_figure
+    from jaxstiff.runtime._io import atomic_write_text
 
     warnings.simplefilter("ignore")  # missed-target warnings: the tables say it all
     os.makedirs(args.out, exist_ok=True)

@@ -52,7 +52,7 @@ def stiffness_with(alpha_deg, rho, phi_deg: float = 30.0, lam2: float = 100.0):
 
 def main(argv=None) -> int:
     args = _parse(argv)
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
 
     enable_x64()
     import jax.numpy as jnp
@@ -60,7 +60,7 @@ def main(argv=None) -> int:
 
     import jaxstiff
     from jaxstiff import plots
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.runtime._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     r, c = args.ratio, args.c

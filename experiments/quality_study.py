@@ -47,7 +47,7 @@ def main(argv: list[str] | None = None) -> int:  # noqa: PLR0915 - the experimen
 
     import jaxstiff
     from jaxstiff.ik import ik_position
-    from jaxstiff.results import files as R
+    from jaxstiff.results import _files as R
     from jaxstiff.shaping import SOLVERS, register_solver
     from jaxstiff.solvers import trajectory
     from jaxstiff.solvers.configs import solver_from_name

@@ -55,8 +55,8 @@ def _cases(quick: bool) -> list:
 
 def main(argv: list[str] | None = None) -> int:
     from jaxstiff.plots import experiment_parser
-    from jaxstiff.runtime.io import atomic_write_text, json_default
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._io import atomic_write_text, json_default
+    from jaxstiff.runtime._x64 import enable_x64
 
     ap = experiment_parser("sim_check", __doc__ or "")
     ap.add_argument("--quick", action="store_true", help="hand-picked postures only (no shape run)")
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     enable_x64()
     from jaxstiff.sim import check_case, markdown_table, rows_json
-    from jaxstiff.sim.report import worst
+    from jaxstiff.sim._report import worst
 
     os.makedirs(args.out, exist_ok=True)
     cases = _cases(args.quick)

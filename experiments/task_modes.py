@@ -25,7 +25,7 @@ def summary_lines(both: dict, own: dict, res_full, res_xyz) -> list[str]:
     """Markdown: the three stiffnesses at :data:`WAYPOINTS` and the share in target of each."""
     import numpy as np
 
-    from jaxstiff.results.target import target_masks
+    from jaxstiff.results._target import target_masks
 
     r = float(res_full.meta["ratio"])
     rows = [("(i) full, held", both["held"]), ("(ii) full, free", both["free"]), ("(iii) xyz, free", own)]
@@ -55,15 +55,15 @@ def main(argv=None) -> int:
     ap = experiment_parser("task_modes", __doc__ or "")
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
     prefer_sync_cpu_dispatch()
 
     import jaxstiff
-    from jaxstiff.plots.task_modes import figure_task_modes, held_and_free
-    from jaxstiff.runtime.io import atomic_write_text
+    from jaxstiff.plots import figure_task_modes, held_and_free
+    from jaxstiff.runtime._io import atomic_write_text
 
     os.makedirs(args.out, exist_ok=True)
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})

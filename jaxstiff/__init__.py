@@ -13,45 +13,82 @@ from typing import TYPE_CHECKING
 
 # Importing the package changes nothing process-wide: the command line (jaxstiff.cli) installs
 # its early signal handlers and tunes glibc's allocator; a script opts in with
-# jaxstiff.runtime.tune_allocator() (why and the cost: jaxstiff.runtime.allocator).
-from .runtime.lazy import lazy_exports
-from .runtime.moved import install_moved_modules, keep_public_names
-from .runtime.version import __version__ as __version__
+# jaxstiff.runtime.tune_allocator() (why and the cost: jaxstiff.runtime._allocator).
+from .runtime._lazy import lazy_exports
+from .runtime._moved import install_moved_modules, keep_public_names, private_module_paths
+from .runtime._version import __version__ as __version__
 
-#: former module paths -> where the code lives now (importing one warns and gives the new module)
+#: the packages whose implementation modules are private (``_name.py``; each package's
+#: ``__init__`` is its way in): every former path ``jaxstiff.<package>.<name>`` is answered
+_PRIVATE_MODULES = (
+    "cli",
+    "csc",
+    "model",
+    "paths",
+    "plots",
+    "results",
+    "runtime",
+    "settings",
+    "sim",
+    "stiffness",
+    "sweep",
+    "view",
+)
+
+#: former module paths -> where the code lives now (importing one warns and gives the new module):
+#: the top-level modules from before the package layout, then the implementation modules of
+#: _PRIVATE_MODULES from before they became private (made from the package folders)
 MOVED = {
-    "jaxstiff.robot": "jaxstiff.model.robot",
-    "jaxstiff.kinematics": "jaxstiff.model.kinematics",
-    "jaxstiff.ellipsoid": "jaxstiff.stiffness.ellipsoid",
-    "jaxstiff.criteria": "jaxstiff.stiffness.criteria",
-    "jaxstiff.sweep_config": "jaxstiff.sweep.config",
-    "jaxstiff.sweep_metrics": "jaxstiff.sweep.metrics",
-    "jaxstiff.sweep_report": "jaxstiff.sweep.report",
-    "jaxstiff.sweep_store": "jaxstiff.sweep.store",
+    "jaxstiff.robot": "jaxstiff.model._robot",
+    "jaxstiff.kinematics": "jaxstiff.model._kinematics",
+    "jaxstiff.ellipsoid": "jaxstiff.stiffness._ellipsoid",
+    "jaxstiff.criteria": "jaxstiff.stiffness._criteria",
+    "jaxstiff.sweep_config": "jaxstiff.sweep._config",
+    "jaxstiff.sweep_metrics": "jaxstiff.sweep._metrics",
+    "jaxstiff.sweep_report": "jaxstiff.sweep._report",
+    "jaxstiff.sweep_store": "jaxstiff.sweep._store",
     "jaxstiff.shaping_inputs": "jaxstiff.shaping._inputs",
     "jaxstiff.shaping_steps": "jaxstiff.shaping._steps",
+    **private_module_paths(__name__, __path__[0], _PRIVATE_MODULES),
 }
-install_moved_modules(MOVED)
+#: the public module to name in a former path's warning where it is not the private module's own
+#: package: the ellipsoid's names are public at the top level only (see _SOURCES)
+_WAY_IN = {"jaxstiff.stiffness._ellipsoid": "jaxstiff"}
+install_moved_modules(MOVED, _WAY_IN)
 
-#: public name -> the module (relative to this package) that defines it. ``Ellipsoid``,
-#: ``ellipsoid`` and ``orientation_error`` come from ``stiffness.ellipsoid``, not from the former
-#: module path ``jaxstiff.ellipsoid``, whose import would rebind the name ``jaxstiff.ellipsoid``.
+#: public name -> the public package (relative to this one) that exports it. ``Ellipsoid``,
+#: ``ellipsoid`` and ``orientation_error`` are public here only (from the private module
+#: ``stiffness._ellipsoid``, not from the former path ``jaxstiff.ellipsoid``, whose import would
+#: rebind the name ``jaxstiff.ellipsoid``; not from ``stiffness``, where a function ``ellipsoid``
+#: would hide the former module ``jaxstiff.stiffness.ellipsoid`` from ``import ... as m``).
 _SOURCES = {
-    ".stiffness.criteria": ("f1", "f2", "frobenius", "get_criterion", "offdiag", "register_criterion"),
     ".csc": ("CSCResult", "csc_rollout", "csc_rollout_segments"),
-    ".stiffness.ellipsoid": ("Ellipsoid", "ellipsoid", "orientation_error"),
-    ".model.kinematics": ("fk", "fk_and_jacobian", "jacobian", "position_and_jacobian"),
+    ".model": (
+        "Robot",
+        "fk",
+        "fk_and_jacobian",
+        "jacobian",
+        "position_and_jacobian",
+        "robot_path",
+        "shipped_robots",
+    ),
     ".paths": ("Path", "default_path"),
     ".results": ("ShapeResult",),
-    ".model.robot": ("Robot", "robot_path", "shipped_robots"),
     ".settings": ("RobotSpec", "ShapeSettings"),
     ".shaping": ("shape",),
+    ".stiffness._ellipsoid": ("Ellipsoid", "ellipsoid", "orientation_error"),
     ".stiffness": (
         "cartesian_stiffness",
         "cms_factor",
         "cms_scale",
         "compliance_condition",
+        "f1",
+        "f2",
+        "frobenius",
+        "get_criterion",
         "joint_stiffness",
+        "offdiag",
+        "register_criterion",
         "translational_axes",
         "translational_compliance",
         "translational_stiffness",
@@ -104,13 +141,13 @@ if TYPE_CHECKING:  # the names as the type checker and the IDE see them
     from .csc import CSCResult as CSCResult
     from .csc import csc_rollout as csc_rollout
     from .csc import csc_rollout_segments as csc_rollout_segments
-    from .model.kinematics import fk as fk
-    from .model.kinematics import fk_and_jacobian as fk_and_jacobian
-    from .model.kinematics import jacobian as jacobian
-    from .model.kinematics import position_and_jacobian as position_and_jacobian
-    from .model.robot import Robot as Robot
-    from .model.robot import robot_path as robot_path
-    from .model.robot import shipped_robots as shipped_robots
+    from .model import Robot as Robot
+    from .model import fk as fk
+    from .model import fk_and_jacobian as fk_and_jacobian
+    from .model import jacobian as jacobian
+    from .model import position_and_jacobian as position_and_jacobian
+    from .model import robot_path as robot_path
+    from .model import shipped_robots as shipped_robots
     from .paths import Path as Path
     from .paths import default_path as default_path
     from .results import ShapeResult as ShapeResult
@@ -121,16 +158,16 @@ if TYPE_CHECKING:  # the names as the type checker and the IDE see them
     from .stiffness import cms_factor as cms_factor
     from .stiffness import cms_scale as cms_scale
     from .stiffness import compliance_condition as compliance_condition
+    from .stiffness import f1 as f1
+    from .stiffness import f2 as f2
+    from .stiffness import frobenius as frobenius
+    from .stiffness import get_criterion as get_criterion
     from .stiffness import joint_stiffness as joint_stiffness
+    from .stiffness import offdiag as offdiag
+    from .stiffness import register_criterion as register_criterion
     from .stiffness import translational_axes as translational_axes
     from .stiffness import translational_compliance as translational_compliance
     from .stiffness import translational_stiffness as translational_stiffness
-    from .stiffness.criteria import f1 as f1
-    from .stiffness.criteria import f2 as f2
-    from .stiffness.criteria import frobenius as frobenius
-    from .stiffness.criteria import get_criterion as get_criterion
-    from .stiffness.criteria import offdiag as offdiag
-    from .stiffness.criteria import register_criterion as register_criterion
-    from .stiffness.ellipsoid import Ellipsoid as Ellipsoid
-    from .stiffness.ellipsoid import ellipsoid as ellipsoid
-    from .stiffness.ellipsoid import orientation_error as orientation_error
+    from .stiffness._ellipsoid import Ellipsoid as Ellipsoid
+    from .stiffness._ellipsoid import ellipsoid as ellipsoid
+    from .stiffness._ellipsoid import orientation_error as orientation_error

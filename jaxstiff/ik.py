@@ -25,11 +25,11 @@ import jax.numpy as jnp
 import numpy as np
 from numpy.typing import ArrayLike
 
-from jaxstiff.model.chain import check_locked_values
-from jaxstiff.model.kinematics import position_and_jacobian
-from jaxstiff.model.robot import JOINT_REVOLUTE, Robot
-from jaxstiff.runtime.export_cache import DiskJit
-from jaxstiff.runtime.programs import program_cache
+from jaxstiff.model._chain import check_locked_values
+from jaxstiff.model._kinematics import position_and_jacobian
+from jaxstiff.model._robot import JOINT_REVOLUTE, Robot
+from jaxstiff.runtime._export_cache import DiskJit
+from jaxstiff.runtime._programs import program_cache
 
 __all__: list[str] = []
 
@@ -53,7 +53,7 @@ def nominal_posture(robot: Robot) -> np.ndarray:
 @program_cache(maxsize=64)
 def ik_program(robot: Robot, iters: int, rows: tuple[int, ...]) -> DiskJit:
     """:func:`_ik` jitted for one robot, iteration count and rows (its traced program kept on disk:
-    :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""
+    :class:`~jaxstiff.runtime._export_cache.DiskJit`)."""
     key = f"ik|{robot.fingerprint()}|{iters}|{rows}"
     return DiskJit(functools.partial(_ik, robot, iters=iters, rows=rows), key)
 
@@ -99,7 +99,7 @@ def ik_position(
         robot: the chain; locked joints stay at their locked values.
         target: (3,) m, base frame.
         q_start: (n,) start posture, locked joints at their locked values (another value is
-            refused: :func:`jaxstiff.model.chain.check_locked_values`); default :func:`nominal_posture`.
+            refused: :func:`jaxstiff.model._chain.check_locked_values`); default :func:`nominal_posture`.
         iters: iterations (fixed; the first two thirds damped, the rest Gauss-Newton).
         planar: match only x and y (task "xy": a planar chain cannot move along z).
 

@@ -42,7 +42,7 @@ def random_reachable_paths(robot, B: int, P: int, seed: int = 0, span: float = 0
     """
     import jax
 
-    from jaxstiff.model.kinematics import fk
+    from jaxstiff.model import fk
 
     rng = np.random.default_rng(seed)
     n = robot.n
@@ -73,7 +73,7 @@ def bench_problem(B: int, P: int, criterion: str = "f2", seed: int = 0, robot_na
     ratio 5, c 0.01 (also :mod:`profile_pgd`, :mod:`profile_compile`)."""
     import jaxstiff
     from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
-    from jaxstiff.stiffness.criteria import get_criterion
+    from jaxstiff.stiffness import get_criterion
 
     if robot_name is None:
         robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})

@@ -52,7 +52,7 @@ The numpy check (independent of both: its own FK and Jacobian from this script's
 ``K_T`` as the 3x3 block of ``numpy.linalg.inv`` of the 6x6 compliance, eigen-decomposition with
 ``numpy.linalg.eigh``): TCP error, rate and bound violations, criterion; feasible = TCP error <=
 1e-9 m and violations <= 1e-9; in target = alpha < 1 deg and |rho - r| / r < 2 % (f2; f1: rho >=
-0.98 r), the rule of :mod:`jaxstiff.results.target`.
+0.98 r), the rule of :mod:`jaxstiff.results._target`.
 
 Many paths: ``--many B,P`` (default 64,50; quick 8,20): B random reachable paths of the LWR
 (scripts/bench_batch.py's ``random_reachable_paths``) through ``shape(solver="pgd")`` and
@@ -102,7 +102,7 @@ RATE_LIMITED = ("arc90-20",)  #: the paths where the rate limits bind (the traje
 
 POS_TOL = 1e-9  #: m, the numpy check's TCP tolerance (jaxstiff's POS_TOL)
 VIOL_TOL = 1e-9  #: rad, Nm/rad: the numpy check's tolerance on rate and bound violations
-ALPHA_TOL_DEG, RATIO_REL_TOL = 1.0, 0.02  #: "in target" (jaxstiff.results.target)
+ALPHA_TOL_DEG, RATIO_REL_TOL = 1.0, 0.02  #: "in target" (jaxstiff.results._target)
 
 
 # ====================================================================== the chain, from the URDF
@@ -628,7 +628,7 @@ def make_path(robot, name: str):
 
 def make_case(robot_key: str, path_name: str, crit: str, ratio: float, task: str) -> Case:
     from jaxstiff.ik import ik_position
-    from jaxstiff.settings.shape import ShapeSettings
+    from jaxstiff.settings import ShapeSettings
 
     robot = make_robot(robot_key)
     path = make_path(robot, path_name)
@@ -890,7 +890,7 @@ def many_paths(args, form: str) -> dict[str, Any]:
 
 
 def ShapeDefaults():
-    from jaxstiff.settings.shape import ShapeSettings
+    from jaxstiff.settings import ShapeSettings
 
     return ShapeSettings()
 

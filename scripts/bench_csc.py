@@ -70,7 +70,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the benchmark's procedure, read t
     import jaxstiff
     from jaxstiff.ik import ik_position
     from jaxstiff.paths import default_path
-    from jaxstiff.runtime.xla import kernel_compiler_options
+    from jaxstiff.runtime import kernel_compiler_options
 
     dt = jnp.float64 if args.dtype == "float64" else jnp.float32
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})

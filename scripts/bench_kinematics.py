@@ -81,7 +81,7 @@ def bench_jaxstiff(robot, q_np, dtype_name, min_time, max_repeats, kernel=None):
     import jax.numpy as jnp
 
     import jaxstiff
-    from jaxstiff.model.kinematics import fk_and_jacobian_raw
+    from jaxstiff.model._kinematics import fk_and_jacobian_raw
 
     q = jax.block_until_ready(jnp.asarray(q_np, dtype=getattr(jnp, dtype_name)))
     if kernel is None:
@@ -298,7 +298,7 @@ def _measure_cell(robot, pk_chain, q_np, dtype_name: str, args: argparse.Namespa
     """One row: jaxstiff (and pytorch-kinematics if ``pk_chain``) at one batch size and dtype."""
     import numpy as np
 
-    from jaxstiff.model.kinematics_scan import kernel_for
+    from jaxstiff.model._kinematics_scan import kernel_for
 
     size = q_np.shape[0]
     kernel = None if args.kernel == "auto" or robot.name == "kuka_lwr4" else args.kernel
@@ -347,7 +347,7 @@ def main(argv: list[str] | None = None) -> int:
     args, dtypes = _parse_args(argv)
 
     from jaxstiff.runtime import tune_allocator
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
 
     tuned = False if args.no_tune else tune_allocator()
     print(f"allocator setting (jaxstiff.runtime.tune_allocator): {'on' if tuned else 'off'}")

@@ -4,7 +4,7 @@ scan over joints (issue 24, finding 2), and the compile time of shaping and a CS
 Every case runs in a fresh Python process (no compilation cache, a hard timeout, its own peak
 memory), repeated ``--repeat`` times; the table shows medians. Compile time is ``jit(...).lower(q)
 .compile()``; run time is the median of ``--calls`` calls of the compiled function after one warm-up
-call. Chains come from :func:`jaxstiff.model.generate.serial_chain` (``generic``: random axes and
+call. Chains come from :func:`jaxstiff.model._generate.serial_chain` (``generic``: random axes and
 rotated origins, nothing axis-aligned; ``aligned``: coordinate axes and right-angle origins, like
 most real arms); a shipped robot's name as a kind measures that robot (``--kinds kuka_lwr4 --n 7``).
 
@@ -37,14 +37,14 @@ def one_kernel(kind: str, n: int, kernel: str, batch: int, calls: int) -> dict:
     import jax.numpy as jnp
     import numpy as np
 
-    from jaxstiff.model.generate import serial_chain
-    from jaxstiff.model.kinematics import fk_and_jacobian_raw
-    from jaxstiff.runtime.xla import kernel_compiler_options
+    from jaxstiff.model._generate import serial_chain
+    from jaxstiff.model._kinematics import fk_and_jacobian_raw
+    from jaxstiff.runtime import kernel_compiler_options
 
     if kind == "generic" or kind == "aligned":
         robot = serial_chain(n, seed=0, aligned=kind == "aligned")
     else:  # a shipped robot by name (n is ignored)
-        from jaxstiff.model.robot import Robot
+        from jaxstiff.model import Robot
 
         robot = Robot.from_urdf(kind)
         n = robot.n
@@ -74,7 +74,7 @@ def one_pipeline(n: int) -> dict:
 
     import jaxstiff
     from jaxstiff.csc import csc_rollout
-    from jaxstiff.model.generate import serial_chain
+    from jaxstiff.model._generate import serial_chain
 
     robot = serial_chain(n, seed=0)
     q0 = np.zeros(n)

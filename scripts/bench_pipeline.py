@@ -63,16 +63,16 @@ def main(argv: list[str] | None = None) -> int:  # noqa: C901, PLR0915 - the ben
     import jax
     import jax.numpy as jnp
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
 
     if not args.float32:
         enable_x64()
     import importlib
 
     import jaxstiff
-    from jaxstiff._numerics.eig import eigh_descending, gap_tol  # noqa: PLC2701 - times the package's private numerics
-    from jaxstiff._numerics.safe import safe_ratio  # noqa: PLC2701 - times the package's private numerics
-    from jaxstiff.stiffness.ellipsoid import alpha_rad
+    from jaxstiff._numerics.eig import eigh_descending, gap_tol  # times the package's private numerics
+    from jaxstiff._numerics.safe import safe_ratio  # times the package's private numerics
+    from jaxstiff.stiffness._ellipsoid import alpha_rad
 
     # jaxstiff.stiffness is also reached as a package attribute; fetch the module itself
     stiffness = importlib.import_module("jaxstiff.stiffness")

@@ -41,7 +41,7 @@ def task_for(robot) -> str:
 
 def refuse_in_process(robot, pts: np.ndarray) -> tuple[float, str]:
     import jaxstiff
-    from jaxstiff.model.reach import UnreachableError
+    from jaxstiff.model import UnreachableError
 
     t = time.perf_counter()
     try:

@@ -54,7 +54,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the benchmark's procedure, read t
     )
     args = ap.parse_args(argv)
 
-    from jaxstiff.runtime.x64 import enable_x64
+    from jaxstiff.runtime._x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
@@ -64,7 +64,7 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the benchmark's procedure, read t
     import scipy
 
     import jaxstiff
-    from jaxstiff.results import files as R
+    from jaxstiff.results import _files as R
     from jaxstiff.shaping import DEFAULTS
     from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, compiled
     from jaxstiff.solvers.slsqp import make_slsqp_solver

@@ -47,7 +47,7 @@ def compare(old: str, new: str, timing: tuple[str, ...] = ("time_s",)) -> int:
                 diff = f", max |diff| {np.nanmax(np.abs(x.astype(float) - y.astype(float))):.3g}"
             print(f"array {key}: DIFFERS ({x.dtype}{x.shape} vs {y.dtype}{y.shape}{diff})")
     if "meta" in a.files and "meta" in b.files:
-        from jaxstiff.runtime.io import meta_loads
+        from jaxstiff.runtime._io import meta_loads
 
         ma, mb = _flatten(meta_loads(str(a["meta"]))), _flatten(meta_loads(str(b["meta"])))
         for k in sorted(set(ma) | set(mb)):

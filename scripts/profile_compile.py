@@ -33,7 +33,7 @@ import jax  # noqa: E402
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from profile_pgd import capture_program, hlo_computations  # noqa: E402
 
-from jaxstiff.runtime.xla import kernel_compiler_options  # noqa: E402
+from jaxstiff.runtime import kernel_compiler_options  # noqa: E402
 
 
 def jaxpr_equations(jaxpr) -> int:

@@ -35,7 +35,7 @@ import jax
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_batch import bench_problem  # noqa: E402
 
-from jaxstiff.runtime.xla import kernel_compiler_options  # noqa: E402
+from jaxstiff.runtime import kernel_compiler_options  # noqa: E402
 from jaxstiff.solvers.pgd import batch as pgd_batch  # noqa: E402
 
 

@@ -18,7 +18,7 @@ each solver's default options (``--pgd-options`` JSON adds pgd/hybrid options, e
 ``'{"first_exact": "none"}'`` for pgd before issue 37).
 
 Printed per arm and solver: the in-target share of the usable waypoints and of all waypoints
-(:mod:`jaxstiff.results.target`: alpha < 1 deg and |rho - r| / r < 2 %), the in-target share of
+(:mod:`jaxstiff.results._target`: alpha < 1 deg and |rho - r| / r < 2 %), the in-target share of
 waypoint 0, mean and minimum rho at waypoint 0, and, at the waypoints 0 where slsqp is in target,
 how many of pgd's/hybrid's rho lie within 2 % of slsqp's; and the wall time of each solve.
 

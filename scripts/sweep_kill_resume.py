@@ -60,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
 
     import pandas as pd
 
-    from jaxstiff.sweep.config import load_config
+    from jaxstiff.sweep import load_config
 
     plan = load_config(args.config)
     n_chunks = len(plan.chunks)

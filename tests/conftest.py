@@ -22,8 +22,8 @@ def _release_compiled_programs():
     about 13 memory mappings, and past the kernel's limit (vm.max_map_count, 65530) the next
     compile crashes the worker with a segfault (it did, twice, at ~80 % of the suite). Between
     modules, a worker that holds more than a third of its limit lets its compiled programs go
-    (jaxstiff.runtime.programs); they compile again, or load from the cache, when needed."""
-    from jaxstiff.runtime.programs import release_if_near_map_limit
+    (jaxstiff.runtime._programs); they compile again, or load from the cache, when needed."""
+    from jaxstiff.runtime import release_if_near_map_limit
 
     release_if_near_map_limit(share=1 / 3)
     yield

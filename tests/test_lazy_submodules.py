@@ -1,4 +1,4 @@
-"""``import jaxstiff`` loads its public names lazily (jaxstiff.runtime.lazy); its submodules must be
+"""``import jaxstiff`` loads its public names lazily (jaxstiff.runtime._lazy); its submodules must be
 reachable the same way: the README's ``jaxstiff.paths.line(...)`` right after ``import jaxstiff``
 raised AttributeError (found by an independent check). Checked in a fresh interpreter, where
 nothing else has imported them."""

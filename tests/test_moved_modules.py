@@ -1,11 +1,15 @@
 """Former module paths (``jaxstiff.MOVED``) still import, as the new module itself, with a
 DeprecationWarning naming the new path (for a private module: the public package that is its way
 in); the new module keeps its own name and spec. Names a module no longer exports
-(``jaxstiff.shaping``'s former list) still resolve, with a DeprecationWarning."""
+(``jaxstiff.shaping``'s former list) still resolve, with a DeprecationWarning. The implementation
+modules of the public packages became private (``jaxstiff.model.chain`` -> ``jaxstiff.model._chain``):
+every former path imports, warns naming its package, and has every name it had."""
 
 from __future__ import annotations
 
 import importlib
+import json
+import pathlib
 import subprocess
 import sys
 
@@ -17,7 +21,7 @@ import jaxstiff
 @pytest.mark.parametrize("old, new", sorted(jaxstiff.MOVED.items()))
 def test_old_path_imports_the_new_module_with_a_warning(old, new):
     sys.modules.pop(old, None)
-    public = new.split("._")[0]  # jaxstiff.shaping._steps -> jaxstiff.shaping
+    public = jaxstiff._WAY_IN.get(new, new.split("._")[0])  # jaxstiff.shaping._steps -> jaxstiff.shaping
     with pytest.warns(DeprecationWarning, match=f"import {public} instead") as rec:
         mod = importlib.import_module(old)
     assert mod is importlib.import_module(new)
@@ -32,13 +36,22 @@ def test_no_shim_file_is_left():
 
 
 def test_from_import_of_an_old_path_in_a_fresh_process():
-    code = "from jaxstiff.robot import Robot; import jaxstiff.model.robot as m; assert Robot is m.Robot"
+    code = "from jaxstiff.robot import Robot; import jaxstiff.model._robot as m; assert Robot is m.Robot"
     out = subprocess.run(
         [sys.executable, "-W", "error::DeprecationWarning", "-c", code], capture_output=True, text=True
     )
-    assert out.returncode != 0 and "import jaxstiff.model.robot instead" in out.stderr
+    assert out.returncode != 0 and "import jaxstiff.model instead" in out.stderr
     ok = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
+
+
+def test_the_ellipsoid_paths_name_the_top_level_where_its_names_are_public():
+    for old in ("jaxstiff.ellipsoid", "jaxstiff.stiffness.ellipsoid"):
+        sys.modules.pop(old, None)
+        with pytest.warns(DeprecationWarning, match=f"module {old} is deprecated; import jaxstiff instead"):
+            mod = importlib.import_module(old)
+        assert all(getattr(jaxstiff, n) is getattr(mod, n) for n in ("Ellipsoid", "ellipsoid", "orientation_error"))
+        sys.modules.pop(old, None)
 
 
 def test_importing_a_former_path_keeps_the_public_name_of_the_same_name():
@@ -52,7 +65,7 @@ def test_importing_a_former_path_keeps_the_public_name_of_the_same_name():
     with pytest.warns(DeprecationWarning):
         importlib.import_module("jaxstiff.ellipsoid")
     assert callable(jaxstiff.ellipsoid) and jaxstiff.ellipsoid.__name__ == "ellipsoid"
-    assert jaxstiff.ellipsoid is importlib.import_module("jaxstiff.stiffness.ellipsoid").ellipsoid
+    assert jaxstiff.ellipsoid is importlib.import_module("jaxstiff.stiffness._ellipsoid").ellipsoid
     sys.modules.pop("jaxstiff.ellipsoid", None)
 
 
@@ -120,3 +133,132 @@ def test_the_shaping_package_exports_what_is_called_and_no_more():
     assert shaping.shape is jaxstiff.shape
     with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
         shaping.no_such_name  # noqa: B018 - the attribute read is the test
+
+
+# --- the implementation modules made private: every former path is answered -------------------
+
+#: every implementation module of the public packages as it was before it became private
+#: (``jaxstiff.<package>.<name>``), with the public names it defined or listed in ``__all__``:
+#: read from the source tree of that time, not from the code under test
+FORMER_MODULES = json.loads((pathlib.Path(__file__).parent / "data" / "former_modules.json").read_text())
+PACKAGES = sorted({old.rpartition(".")[0] for old in FORMER_MODULES})
+
+
+def test_every_former_implementation_module_is_in_the_table():
+    missing = sorted(set(FORMER_MODULES) - set(jaxstiff.MOVED))
+    assert not missing, missing
+    for old in FORMER_MODULES:
+        package, _, name = old.rpartition(".")
+        assert jaxstiff.MOVED[old] == f"{package}._{name}"  # the private module of the same name
+        assert importlib.util.find_spec(f"{package}._{name}").origin.endswith(f"_{name}.py")
+
+
+@pytest.mark.parametrize("old", sorted(FORMER_MODULES))
+def test_former_module_imports_warns_and_has_every_name(old):
+    package, _, name = old.rpartition(".")
+    way_in = jaxstiff._WAY_IN.get(f"{package}._{name}", package)  # the ellipsoid: the top level
+    sys.modules.pop(old, None)
+    with pytest.warns(DeprecationWarning, match=rf"module {old} is deprecated; import {way_in} instead") as rec:
+        mod = importlib.import_module(old)
+    assert f"{package}._{name}" in str(rec[0].message) and rec[0].filename == __file__
+    assert mod.__name__ == f"{package}._{name}"
+    lost = [n for n in FORMER_MODULES[old] if not hasattr(mod, n)]
+    assert not lost, f"{old} lost {lost}"
+    sys.modules.pop(old, None)
+
+
+def test_from_imports_of_former_modules_in_a_fresh_process():
+    """``from jaxstiff.<package>.<name> import X`` for a name of every former module, in a process
+    that has imported nothing else: the warning once per module, the object the private module has."""
+    picks = {old: names[0] for old, names in FORMER_MODULES.items() if names}
+    lines = [f"from {old} import {n} as v{i}" for i, (old, n) in enumerate(sorted(picks.items()))]
+    checks = [
+        f"assert v{i} is importlib.import_module({old.rpartition('.')[0] + '._' + old.rpartition('.')[2]!r}).{n}"
+        for i, (old, n) in enumerate(sorted(picks.items()))
+    ]
+    code = "\n".join(
+        ["import importlib, warnings", "with warnings.catch_warnings(record=True) as rec:"]
+        + ["    warnings.simplefilter('always')"]
+        + [f"    {line}" for line in lines]
+        + checks
+        + ["moved = [str(r.message).split()[1] for r in rec if r.category is DeprecationWarning]", "print(len(moved))"]
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert int(out.stdout) == len(picks)  # one warning a module
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_former_module_read_as_an_attribute_of_its_package(package):
+    """``jaxstiff.csc.rollout`` worked before the rename where the package had imported the
+    module; it still does, through the package's ``__getattr__`` (lazy packages: their lazy
+    lookup), with the warning of the import hook."""
+    pkg = importlib.import_module(package)
+    old = next(o for o in sorted(FORMER_MODULES) if o.rpartition(".")[0] == package)
+    name = old.rpartition(".")[2]
+    if name in getattr(pkg, "__all__", ()):
+        pytest.skip(f"{name} is a public name of {package}")
+    sys.modules.pop(old, None)
+    vars(pkg).pop(name, None)
+    with pytest.warns(DeprecationWarning, match=f"module {old} is deprecated"):
+        mod = getattr(pkg, name)
+    assert mod is importlib.import_module(f"{package}._{name}")
+    sys.modules.pop(old, None)
+    vars(pkg).pop(name, None)
+    with pytest.raises(AttributeError, match="no attribute 'no_such_module'"):
+        pkg.no_such_module  # noqa: B018 - the attribute read is the test
+
+
+def test_the_entry_point_main_survives_the_former_module_of_its_name():
+    """``jaxstiff.cli.main`` is the command's entry point (pyproject's ``jaxstiff.cli:main``) and
+    was a module's path: importing the path must leave the function in place."""
+    import jaxstiff.cli
+
+    sys.modules.pop("jaxstiff.cli.main", None)
+    with pytest.warns(DeprecationWarning, match="module jaxstiff.cli.main is deprecated; import jaxstiff.cli instead"):
+        from jaxstiff.cli.main import build_parser
+    assert callable(jaxstiff.cli.main) and jaxstiff.cli.main.__name__ == "main"
+    assert build_parser is jaxstiff.cli.build_parser
+    sys.modules.pop("jaxstiff.cli.main", None)
+    out = subprocess.run([sys.executable, "-m", "jaxstiff.cli", "--version"], capture_output=True, text=True)
+    assert out.returncode == 0 and out.stdout.strip(), out.stderr
+
+
+@pytest.mark.parametrize(
+    "package, name, home",
+    [
+        ("jaxstiff.model", "jacobian_tangent", "jaxstiff.model._kinematics"),
+        ("jaxstiff.sweep", "start_posture_and_error", "jaxstiff.sweep._run"),
+        ("jaxstiff.sweep", "compute_chunk", "jaxstiff.sweep._run"),
+        ("jaxstiff.sweep", "IK_TOL_M", "jaxstiff.sweep._run"),
+    ],
+)
+def test_names_a_package_no_longer_exports_resolve_with_a_warning(package, name, home):
+    pkg = importlib.import_module(package)
+    assert name not in pkg.__all__
+    vars(pkg).pop(name, None)
+    with pytest.warns(DeprecationWarning, match=f"{package}.{name} is deprecated.*{home}") as rec:
+        value = getattr(pkg, name)
+    assert value is getattr(importlib.import_module(home), name)
+    assert len(rec) == 1 and rec[0].filename == __file__  # past a lazy package's __getattr__ too
+
+
+@pytest.mark.parametrize("package", ["jaxstiff", *PACKAGES])
+def test_every_exported_name_resolves_without_a_warning(package):
+    import warnings
+
+    pkg = importlib.import_module(package)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name in getattr(pkg, "__all__", ()):
+            assert getattr(pkg, name) is not None, name
+
+
+def test_the_public_surface_stays_small():
+    """About 60 names at the top level at most; every public package lists what it exports once
+    (its ``__all__`` or its ``X as X`` re-exports) and has no public module left."""
+    assert len(jaxstiff.__all__) <= 60
+    for package in PACKAGES:
+        folder = pathlib.Path(importlib.import_module(package).__file__).parent
+        public_modules = [p.name for p in folder.glob("*.py") if not p.name.startswith("_")]
+        assert not public_modules, (package, public_modules)

@@ -1,6 +1,6 @@
 """mkdocs hook: a line ``<!-- settings-table: module.Class -->`` in a page becomes the table of that
 settings class's fields (name, default, unit, meaning), read from the fields themselves
-(:meth:`jaxstiff.settings.base.Settings.fields_info`): the one place a setting is written."""
+(:meth:`jaxstiff.settings._base.Settings.fields_info`): the one place a setting is written."""
 
 from __future__ import annotations
 

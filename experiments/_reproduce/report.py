@@ -13,7 +13,7 @@ import shutil
 import sys
 from collections.abc import Sequence
 
-from jaxstiff.runtime.io import atomic_write_text
+from jaxstiff.runtime._io import atomic_write_text
 
 __all__ = ["ExperimentRun", "section", "environment", "write_report"]
 
@@ -194,7 +194,7 @@ def environment() -> list[str]:
     import numpy as np
     import scipy
 
-    from jaxstiff.runtime.version import __version__
+    from jaxstiff.runtime._version import __version__
 
     try:
         devices = ", ".join(sorted({d.platform for d in jax.devices()})) + f" x{jax.device_count()}"

@@ -46,7 +46,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from _reproduce.report import ExperimentRun, write_report
-from jaxstiff.runtime.io import atomic_write_text
+from jaxstiff.runtime._io import atomic_write_text
 
 __all__ = ["find_experiments_dir", "discover", "run_reproduce", "ReproduceOutcome", "ExperimentRun"]
 

@@ -4,7 +4,7 @@ The matrix is handled as a dict ``{(i, j): entry (...,)}`` over ``i <= j`` (:dat
 structure of arrays): every closed form below is elementwise arithmetic on the batch, which XLA
 fuses into one loop (:func:`jaxstiff._numerics.linalg.fusion_boundary` separates the entries from
 their stacking). The factorisation, its damping and the JVP are described in
-:mod:`jaxstiff.stiffness.core` (SPEC section 2); why this form: docs/notes/model.md.
+:mod:`jaxstiff.stiffness._core` (SPEC section 2); why this form: docs/notes/model.md.
 """
 
 from __future__ import annotations

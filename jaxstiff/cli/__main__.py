@@ -2,6 +2,6 @@
 
 import sys
 
-from jaxstiff.cli.main import main
+from jaxstiff.cli._main import main
 
 sys.exit(main())

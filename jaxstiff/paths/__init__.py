@@ -16,8 +16,8 @@ metres in the base frame; ``#`` starts a comment line.
 The shipped default, :func:`default_path`: a half-sine bump in the LWR's xy plane; see its
 docstring for its geometry.
 
-Modules: :mod:`.core` (:class:`Path`, :func:`tangents`), :mod:`.csv_io` (reading and writing the
-CSV text), :mod:`.generators` (line, arc, circle, half_sine, spline, ellipse_arc; turning_deg), :mod:`.default` (the shipped
+Modules: :mod:`._core` (:class:`Path`, :func:`tangents`), :mod:`._csv_io` (reading and writing the
+CSV text), :mod:`._generators` (line, arc, circle, half_sine, spline, ellipse_arc; turning_deg), :mod:`._default` (the shipped
 default path). Every public name is importable from ``jaxstiff.paths``.
 
 Example:
@@ -30,38 +30,43 @@ Example:
 
 from __future__ import annotations
 
-from .core import ZERO_SEGMENT_M as ZERO_SEGMENT_M
-from .core import Path as Path
-from .core import tangents as tangents
-from .csv_io import format_csv as format_csv
-from .csv_io import read_csv as read_csv
-from .default import DEFAULT_PATH_SPEC as DEFAULT_PATH_SPEC
-from .default import default_path as default_path
-from .generators import WAYPOINT_BYTES as WAYPOINT_BYTES
-from .generators import arc as arc
-from .generators import check_waypoints as check_waypoints
-from .generators import circle as circle
-from .generators import ellipse_arc as ellipse_arc
-from .generators import ellipse_curvature as ellipse_curvature
-from .generators import half_sine as half_sine
-from .generators import line as line
-from .generators import spline as spline
-from .generators import turning_deg as turning_deg
+from jaxstiff.runtime._moved import former_names
+
+from ._core import ZERO_SEGMENT_M, Path, tangents
+from ._csv_io import format_csv, read_csv
+from ._default import DEFAULT_PATH_SPEC, default_path
+from ._generators import (
+    WAYPOINT_BYTES,
+    arc,
+    check_waypoints,
+    circle,
+    ellipse_arc,
+    ellipse_curvature,
+    half_sine,
+    line,
+    spline,
+    turning_deg,
+)
 
 __all__ = [
+    "DEFAULT_PATH_SPEC",
     "Path",
-    "read_csv",
-    "tangents",
-    "line",
+    "WAYPOINT_BYTES",
+    "ZERO_SEGMENT_M",
     "arc",
+    "check_waypoints",
     "circle",
-    "half_sine",
-    "spline",
+    "default_path",
     "ellipse_arc",
     "ellipse_curvature",
+    "format_csv",
+    "half_sine",
+    "line",
+    "read_csv",
+    "spline",
+    "tangents",
     "turning_deg",
-    "check_waypoints",
-    "WAYPOINT_BYTES",
-    "default_path",
-    "DEFAULT_PATH_SPEC",
 ]
+
+
+__getattr__ = former_names(__name__, {})  # the former modules (jaxstiff.paths.X read as an attribute)

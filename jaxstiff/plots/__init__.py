@@ -1,8 +1,8 @@
 """Figures of the experiments: stiffness ellipses of planar arms (seed 000 Fig. 2 CMS, Fig. 3 CDS),
 the criteria landscape (Fig. 6), the seven-panel path figure (Fig. 4/5) and CSC's u / Frobenius
 curves; plus the small pieces every experiment script shares (its ``--out`` parser, summary tables).
-Modules: :mod:`.base` (matplotlib, PNG writer, geometry), :mod:`.planar` (Fig. 2, 3, 6, CSC curves),
-:mod:`.shape_path` (Fig. 4/5), :mod:`.task_modes` (held against free tool orientation), :mod:`.tables`; every name is importable as ``jaxstiff.plots.X``.
+Modules: :mod:`._base` (matplotlib, PNG writer, geometry), :mod:`._planar` (Fig. 2, 3, 6, CSC curves),
+:mod:`._shape_path` (Fig. 4/5), :mod:`._task_modes` (held against free tool orientation), :mod:`._tables`; every name is importable as ``jaxstiff.plots.X``.
 Matplotlib (Agg backend) is imported only inside these functions: the core library never imports
 this module, and importing it pulls in numpy only.
 
@@ -18,7 +18,7 @@ Example:
     (5.0, 1.0)
 """
 
-from jaxstiff.plots.base import (
+from jaxstiff.plots._base import (
     chain_points,
     draw_arm,
     draw_scale_bar,
@@ -28,10 +28,11 @@ from jaxstiff.plots.base import (
     save_figure,
     style_ellipse_panel,
 )
-from jaxstiff.plots.planar import figure_cds, figure_cms, figure_criteria, figure_u_frobenius
-from jaxstiff.plots.shape_path import figure_shape_path, figure_turning, rate_limited_joints, stiffness_axes
-from jaxstiff.plots.tables import experiment_parser, markdown_table, save_table_csv, text_table
-from jaxstiff.plots.task_modes import figure_task_modes, held_and_free
+from jaxstiff.plots._planar import figure_cds, figure_cms, figure_criteria, figure_u_frobenius
+from jaxstiff.plots._shape_path import figure_shape_path, figure_turning, rate_limited_joints, stiffness_axes
+from jaxstiff.plots._tables import experiment_parser, markdown_table, save_table_csv, text_table
+from jaxstiff.plots._task_modes import figure_task_modes, held_and_free
+from jaxstiff.runtime._moved import former_names
 
 __all__ = [
     "pyplot",
@@ -57,3 +58,5 @@ __all__ = [
     "text_table",
     "save_table_csv",
 ]
+
+__getattr__ = former_names(__name__, {})  # the former modules (jaxstiff.plots.X read as an attribute)

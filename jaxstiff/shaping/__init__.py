@@ -29,7 +29,7 @@ Example:
 
 from __future__ import annotations
 
-from jaxstiff.runtime.moved import former_names
+from jaxstiff.runtime._moved import former_names
 from jaxstiff.shaping._inputs import first_start_postures
 from jaxstiff.shaping._shape import DEFAULTS, ShapeInterrupted, prefer_sync_cpu_dispatch, run_shape, shape
 from jaxstiff.solvers.base import SOLVERS, register_solver

@@ -15,12 +15,12 @@ import jax
 import numpy as np
 
 from jaxstiff.ik import ik_position, nominal_posture
-from jaxstiff.model.chain import LOCKED_JOINT_MODES, check_locked_values
-from jaxstiff.model.robot import Robot
+from jaxstiff.model._chain import LOCKED_JOINT_MODES, check_locked_values
+from jaxstiff.model._robot import Robot
 from jaxstiff.paths import Path
-from jaxstiff.settings.base import suggest
-from jaxstiff.settings.robot import RobotSpec
-from jaxstiff.settings.shape import (
+from jaxstiff.settings._base import suggest
+from jaxstiff.settings._robot import RobotSpec
+from jaxstiff.settings._shape import (
     SEGMENT_SPREAD_WARN,
     ShapeSettings,
     limit_per_joint,
@@ -29,11 +29,11 @@ from jaxstiff.settings.shape import (
     shortest_segments,
     task_dim,
 )
-from jaxstiff.settings.solvers import OPTIONS_OF, SLSQPOptions
+from jaxstiff.settings._solvers import OPTIONS_OF, SLSQPOptions
 from jaxstiff.solvers.base import SOLVERS, check_options
 from jaxstiff.solvers.problem import content_seed
-from jaxstiff.stiffness.core import check_task_feasible, task_rows
-from jaxstiff.stiffness.criteria import check_criterion_call, f1, f2, get_criterion
+from jaxstiff.stiffness._core import check_task_feasible, task_rows
+from jaxstiff.stiffness._criteria import check_criterion_call, f1, f2, get_criterion
 
 FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures, mixed with each path's own data
 FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg

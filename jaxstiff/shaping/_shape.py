@@ -13,17 +13,17 @@ from typing import Any
 import jax
 import numpy as np
 
-from jaxstiff.model.reach import check_reach
-from jaxstiff.model.robot import Robot
+from jaxstiff.model._reach import check_reach
+from jaxstiff.model._robot import Robot
 from jaxstiff.paths import Path
-from jaxstiff.results.files import ShapeResult
-from jaxstiff.results.singular import singular_meta, singular_waypoints, warn_singular
-from jaxstiff.results.target import warn_missed_target
-from jaxstiff.runtime.compile_cache import CompileClock, ensure_compile_cache
-from jaxstiff.runtime.dtypes import refuse_half_precision
-from jaxstiff.settings.base import suggest
-from jaxstiff.settings.robot import RobotSpec
-from jaxstiff.settings.shape import ShapeSettings
+from jaxstiff.results._files import ShapeResult
+from jaxstiff.results._singular import singular_meta, singular_waypoints, warn_singular
+from jaxstiff.results._target import warn_missed_target
+from jaxstiff.runtime._compile_cache import CompileClock, ensure_compile_cache
+from jaxstiff.runtime._dtypes import refuse_half_precision
+from jaxstiff.settings._base import suggest
+from jaxstiff.settings._robot import RobotSpec
+from jaxstiff.settings._shape import ShapeSettings
 from jaxstiff.shaping._inputs import ShapeInputs, check_inputs, make_start_states, robot_and_path
 from jaxstiff.shaping._steps import (
     assemble_result,

@@ -21,16 +21,16 @@ import jax
 import numpy as np
 
 from jaxstiff.ik import NOMINAL_OFFSET_DEG, nominal_posture
-from jaxstiff.model.robot import Robot
+from jaxstiff.model._robot import Robot
 from jaxstiff.paths import DEFAULT_PATH_SPEC, Path
-from jaxstiff.results import files as R
-from jaxstiff.results.numpy_check import np_alpha_ratio, np_criterion
-from jaxstiff.runtime.io import deferred_interrupts
-from jaxstiff.runtime.plan_size import check_plan_size
-from jaxstiff.settings.robot import robot_meta, versions
+from jaxstiff.results import _files as R
+from jaxstiff.results._numpy_check import np_alpha_ratio, np_criterion
+from jaxstiff.runtime._io import deferred_interrupts
+from jaxstiff.runtime._plan_size import check_plan_size
+from jaxstiff.settings._robot import robot_meta, versions
 from jaxstiff.shaping._inputs import FIRST_STARTS_SEED, FIRST_STARTS_SPREAD_DEG, ShapeInputs
 from jaxstiff.solvers.problem import WaypointProblem, report_rows
-from jaxstiff.stiffness.criteria import CRITERIA
+from jaxstiff.stiffness._criteria import CRITERIA
 
 
 @dataclasses.dataclass

@@ -13,17 +13,29 @@ Example:
     True
 """
 
-from .build import MUJOCO_MISSING as MUJOCO_MISSING
-from .build import build_model as build_model
-from .build import require_mujoco as require_mujoco
-from .check import TOL as TOL
-from .check import SimRow as SimRow
-from .check import check_case as check_case
-from .check import check_cases as check_cases
-from .measure import SettleError as SettleError
-from .report import markdown_table as markdown_table
-from .report import rows_json as rows_json
-from .setup import SimCase as SimCase
-from .setup import cases_from_result as cases_from_result
-from .setup import locked_joint_mode as locked_joint_mode
-from .setup import spring_mask as spring_mask
+from jaxstiff.runtime._moved import former_names
+
+from ._build import MUJOCO_MISSING, build_model, require_mujoco
+from ._check import TOL, SimRow, check_case, check_cases
+from ._measure import SettleError
+from ._report import markdown_table, rows_json
+from ._setup import SimCase, cases_from_result, locked_joint_mode, spring_mask
+
+__all__ = [
+    "MUJOCO_MISSING",
+    "SettleError",
+    "SimCase",
+    "SimRow",
+    "TOL",
+    "build_model",
+    "cases_from_result",
+    "check_case",
+    "check_cases",
+    "locked_joint_mode",
+    "markdown_table",
+    "require_mujoco",
+    "rows_json",
+    "spring_mask",
+]
+
+__getattr__ = former_names(__name__, {})  # the former modules (jaxstiff.sim.X read as an attribute)

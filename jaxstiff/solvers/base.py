@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from jaxstiff.settings.solvers import (
+from jaxstiff.settings._solvers import (
     OPTIONS_OF,
     WARM_STARTS,
     HybridOptions,
@@ -184,7 +184,7 @@ def check_options(solver: str, options: Mapping[str, Any] | None) -> None:
         return
     unknown = sorted(str(k) for k in options if k not in known)
     if unknown:
-        from jaxstiff.runtime.messages import suggest
+        from jaxstiff.runtime._messages import suggest
 
         hints = [f"{k!r}{suggest(k, sorted(known))}" for k in unknown]
         raise ValueError(

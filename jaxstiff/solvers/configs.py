@@ -26,7 +26,7 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
-from jaxstiff.settings.solvers import HybridOptions, PGDOptions, SLSQPOptions, SolverOptions, TrajectoryOptions
+from jaxstiff.settings._solvers import HybridOptions, PGDOptions, SLSQPOptions, SolverOptions, TrajectoryOptions
 
 __all__ = ["SLSQP", "SLSQPFD", "PGD", "Hybrid", "Trajectory", "Registered", "solver_from_name"]
 

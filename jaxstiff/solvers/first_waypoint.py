@@ -28,8 +28,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.results import files as R
-from jaxstiff.runtime.programs import program_cache
+from jaxstiff.results import _files as R
+from jaxstiff.runtime._programs import program_cache
 from jaxstiff.solvers.greedy import (
     Candidate,
     SolverOutput,

@@ -21,8 +21,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from jaxstiff.results import files as R
-from jaxstiff.results.target import ALPHA_TOL_DEG, RATIO_REL_TOL
+from jaxstiff.results import _files as R
+from jaxstiff.results._target import ALPHA_TOL_DEG, RATIO_REL_TOL
 from jaxstiff.solvers.base import SolveRequest, SolverInterrupted, outcomes_to_arrays
 from jaxstiff.solvers.problem import (
     BOUND_TOL,
@@ -35,7 +35,7 @@ from jaxstiff.solvers.problem import (
     jax_pos_and_jac,
     newton_project,
 )
-from jaxstiff.stiffness.criteria import f2
+from jaxstiff.stiffness._criteria import f2
 
 __all__ = ["CODE_MEANING", "GIVE_UP_REL"]
 

@@ -55,8 +55,8 @@ from typing import TYPE_CHECKING, Any
 import jax
 import numpy as np
 
-from jaxstiff.results import files as R
-from jaxstiff.settings.solvers import HybridOptions
+from jaxstiff.results import _files as R
+from jaxstiff.settings._solvers import HybridOptions
 from jaxstiff.solvers import pgd
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.first_waypoint import rows_program

@@ -26,8 +26,8 @@ from typing import Any, Protocol, cast
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.runtime.export_cache import DiskJit
-from jaxstiff.settings.solvers import SLSQPOptions
+from jaxstiff.runtime._export_cache import DiskJit
+from jaxstiff.settings._solvers import SLSQPOptions
 from jaxstiff.solvers.base import SolveRequest
 
 # re-exported: the greedy chaining lived here (jaxstiff.solvers.slsqp.X keeps working)

@@ -23,7 +23,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from jaxstiff.model.robot import Robot
+from jaxstiff.model._robot import Robot
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.greedy import Objective, PosAndJac, SolverOutput, WaypointSolver, check_single_start, run_greedy
 from jaxstiff.solvers.problem import WaypointProblem

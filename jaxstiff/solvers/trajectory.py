@@ -37,13 +37,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.results import files as R
-from jaxstiff.runtime.export_cache import DiskJit
-from jaxstiff.runtime.programs import program_cache
-from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
-from jaxstiff.runtime.xla import kernel_compiler_options
-from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
-from jaxstiff.settings.solvers import TrajectoryOptions
+from jaxstiff.results import _files as R
+from jaxstiff.runtime._export_cache import DiskJit
+from jaxstiff.runtime._programs import program_cache
+from jaxstiff.runtime._threads import chunk_rows, chunk_threads, map_chunks
+from jaxstiff.runtime._xla import kernel_compiler_options
+from jaxstiff.settings._solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
+from jaxstiff.settings._solvers import TrajectoryOptions
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
 from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem

@@ -1,16 +1,49 @@
-"""L2 stiffness: task rows (:mod:`.tasks`), Cartesian/translational stiffness (:mod:`.core`), CMS
-(:mod:`.cms`), the stiffness ellipsoid (:mod:`.ellipsoid`), the shaping criteria (:mod:`.criteria`).
-``jaxstiff.stiffness.X`` keeps working for every public name of the former ``jaxstiff/stiffness.py``."""
+"""L2 stiffness: the maps from joint stiffness to Cartesian stiffness and back, the stiffness
+ellipsoid and the shaping criteria, for users who compose their own loops. The code is in private
+modules: task rows (``_tasks``), Cartesian/translational stiffness (``_core``, the docs' API page
+shows it whole), CMS (``_cms``), the Schur complement's tangents (``_schur``), the ellipsoid
+(``_ellipsoid``; ``jaxstiff.Ellipsoid``, ``jaxstiff.ellipsoid`` and ``jaxstiff.orientation_error``
+are its public names: a function ``ellipsoid`` here would hide the former module of that name from
+``import jaxstiff.stiffness.ellipsoid as m``), the criteria and their registry (``_criteria``)."""
 
-from .core import TASK_ROWS as TASK_ROWS
-from .core import cartesian_stiffness as cartesian_stiffness
-from .core import check_task_feasible as check_task_feasible
-from .core import cms_factor as cms_factor
-from .core import cms_scale as cms_scale
-from .core import compliance as compliance
-from .core import compliance_condition as compliance_condition
-from .core import joint_stiffness as joint_stiffness
-from .core import task_rows as task_rows
-from .core import translational_axes as translational_axes
-from .core import translational_compliance as translational_compliance
-from .core import translational_stiffness as translational_stiffness
+from jaxstiff.runtime._moved import former_names
+
+from ._core import (
+    TASK_ROWS,
+    cartesian_stiffness,
+    check_task_feasible,
+    cms_factor,
+    cms_scale,
+    compliance,
+    compliance_condition,
+    joint_stiffness,
+    task_rows,
+    translational_axes,
+    translational_compliance,
+    translational_stiffness,
+)
+from ._criteria import f1, f2, frobenius, get_criterion, offdiag, register_criterion
+
+__all__ = [
+    "TASK_ROWS",
+    "cartesian_stiffness",
+    "check_task_feasible",
+    "cms_factor",
+    "cms_scale",
+    "compliance",
+    "compliance_condition",
+    "f1",
+    "f2",
+    "frobenius",
+    "get_criterion",
+    "joint_stiffness",
+    "offdiag",
+    "register_criterion",
+    "task_rows",
+    "translational_axes",
+    "translational_compliance",
+    "translational_stiffness",
+]
+
+
+__getattr__ = former_names(__name__, {})  # the former modules (jaxstiff.stiffness.core, ...)

@@ -1,18 +1,42 @@
-"""Parameter sweeps: TOML config (:mod:`.config`), the run (:mod:`.run`), the chunk store
-(:mod:`.store`), per-row metrics (:mod:`.metrics`), the report (:mod:`.report`).
-``jaxstiff.sweep.X`` keeps working for every public name of the former ``sweep.py``."""
+"""Parameter sweeps (``jaxstiff sweep CONFIG.toml``): :func:`run_sweep` runs a TOML config
+(:func:`load_config`; every key documented in the private module ``_config``, which the docs' API
+page shows whole) into a chunk store and returns a :class:`SweepOutcome`; :func:`read_table` reads
+the table back; :data:`BACKENDS` names where chunks run; a bad config raises
+:class:`SweepConfigError`. The code is in private modules: the config (``_config``, ``_schema``,
+``_axes``, ``_axis_specs``), the plan (``_plan``), the run (``_run``, ``_chunks``, ``_starts``,
+``_backends``), the store (``_store``, ``_stored``), per-row metrics (``_metrics``), the report
+(``_report``)."""
 
-from .config import load_config as load_config
-from .run import BACKENDS as BACKENDS
-from .run import IK_RETRIES as IK_RETRIES
-from .run import IK_TOL_M as IK_TOL_M
-from .run import Progress as Progress
-from .run import SweepOutcome as SweepOutcome
-from .run import compute_chunk as compute_chunk
-from .run import default_cache_dir as default_cache_dir
-from .run import enable_compile_cache as enable_compile_cache
-from .run import run_sweep as run_sweep
-from .run import shard_batch as shard_batch
-from .run import start_posture as start_posture
-from .run import start_posture_and_error as start_posture_and_error
-from .store import read_table as read_table
+from jaxstiff.runtime._moved import former_names
+
+from ._config import load_config
+from ._run import BACKENDS, SweepOutcome, run_sweep
+from ._schema import SweepConfigError
+from ._store import read_table
+
+__all__ = [
+    "BACKENDS",
+    "SweepConfigError",
+    "SweepOutcome",
+    "load_config",
+    "read_table",
+    "run_sweep",
+]
+
+#: names this package exported for the former module ``sweep.py``, answered with a
+#: DeprecationWarning naming the module that has them
+_FORMER: dict[str, str] = dict.fromkeys(
+    (
+        "IK_RETRIES",
+        "IK_TOL_M",
+        "Progress",
+        "compute_chunk",
+        "default_cache_dir",
+        "enable_compile_cache",
+        "shard_batch",
+        "start_posture",
+        "start_posture_and_error",
+    ),
+    "jaxstiff.sweep._run",
+)
+__getattr__ = former_names(__name__, _FORMER)

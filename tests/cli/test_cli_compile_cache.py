@@ -63,8 +63,8 @@ def test_a_subcommands_own_no_compile_cache_turns_the_command_cache_off(monkeypa
     import contextlib
     import importlib
 
-    cli_main = importlib.import_module("jaxstiff.cli.main")  # (the package exports a function named main)
-    from jaxstiff.runtime import compile_cache
+    cli_main = importlib.import_module("jaxstiff.cli._main")  # (the package exports a function named main)
+    from jaxstiff.runtime import _compile_cache as compile_cache
 
     seen = []
 

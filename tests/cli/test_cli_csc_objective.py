@@ -61,8 +61,8 @@ def test_csc_settings_errors_read_as_flags(settings, expected):
     unit to the end; it read '--beta or rad per step (constant; ...)) must be ... (1 (adaptive)' and
     '--kmax must be >= --kmin (Nm/rad) (5)' when units held parentheses or values looked like units;
     dimensionless fields ('1') show no unit."""
-    from jaxstiff.cli.csc_flags import flag_message
-    from jaxstiff.settings.csc import CSCSettings
+    from jaxstiff.cli._csc_flags import flag_message
+    from jaxstiff.settings import CSCSettings
 
     with pytest.raises(ValueError) as e:
         CSCSettings(**settings)

@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import main
-from jaxstiff.cli.common import parse_locks
+from jaxstiff.cli import main, parse_locks
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "data")
 BRANCHED = os.path.join(DATA, "branched_tree.urdf")
@@ -85,7 +84,7 @@ def test_lock_of_a_joint_unknown_to_the_urdf_still_says_unknown(capsys):
 
 # ------------------------------------------------------------------ 3. csc --help: SEGMENT_WORK
 def test_csc_help_states_segment_work_from_the_constant(capsys, monkeypatch):
-    import jaxstiff.cli.csc as cli_csc
+    import jaxstiff.cli._csc as cli_csc
 
     assert cli_csc.power_of_ten_text(cli_csc.SEGMENT_WORK) == "5 x 10^4"
     with pytest.raises(SystemExit):
@@ -140,7 +139,7 @@ def test_csc_q0_outside_limits_in_the_flags_unit(tmp_path, capsys, robot, q0, me
 
 def test_csc_q0_limit_message_tells_value_and_limit_apart():
     """A value just past a limit is shown with the digits that tell them apart."""
-    from jaxstiff.cli.csc import check_q0_limits
+    from jaxstiff.cli._csc import check_q0_limits
 
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
     typed = np.array([2.5 + 1e-7, 0.1, 0.0, 0.0])

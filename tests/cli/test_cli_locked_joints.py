@@ -6,8 +6,8 @@ import pytest
 
 import jaxstiff
 from jaxstiff.cli import main
-from jaxstiff.sweep.config import SweepConfigError, parse_config
-from jaxstiff.sweep.run import run_sweep
+from jaxstiff.sweep import run_sweep
+from jaxstiff.sweep._config import SweepConfigError, parse_config
 
 LOCK = {"lwr_a7": 0.0}
 

@@ -5,7 +5,7 @@ Every output flag of every command (and the global ``--compile-cache``) is tried
 input of that command, as the same path, through a symlink and through a hard link: each must end
 in exit 2 before any work, with one line naming both flags, and the file unchanged. The flags are
 found from the parser, so a new command or a new path flag that is not declared with
-:func:`jaxstiff.cli.common.reads` / :func:`~jaxstiff.cli.common.writes` fails here.
+:func:`jaxstiff.cli._common.reads` / :func:`~jaxstiff.cli._common.writes` fails here.
 """
 
 from __future__ import annotations
@@ -16,9 +16,8 @@ import re
 
 import pytest
 
-from jaxstiff.cli import main
-from jaxstiff.cli.common import FileFlag, check_outputs_not_inputs, file_flags
-from jaxstiff.cli.main import build_parser
+from jaxstiff.cli import build_parser, main
+from jaxstiff.cli._common import FileFlag, check_outputs_not_inputs, file_flags
 
 #: each command's other required arguments (values that need not exist: the check comes first)
 REQUIRED: dict[str, list[str]] = {
@@ -164,7 +163,7 @@ def test_folder_output_that_would_write_an_input(tmp_path, monkeypatch, capsys):
 
 def test_shipped_robot_name_is_its_file(tmp_path, capsys):
     """``--robot planar_3r`` reads the shipped URDF: writing over that file is refused too."""
-    from jaxstiff.model.shipped import robot_path
+    from jaxstiff.model import robot_path
 
     urdf = robot_path("planar_3r")
     before = open(urdf, "rb").read()
@@ -198,7 +197,7 @@ def test_outputs_that_are_not_inputs_pass(tmp_path):
         check_outputs_not_inputs(
             argparse.Namespace(out=str(tmp_path / "a"), json=None, result=None, paths=[str(tmp_path / "a.npz")]), flags
         )
-    from jaxstiff.cli.sweep import SWEEP_WRITES
+    from jaxstiff.cli._sweep import SWEEP_WRITES
 
     sweep = [("config", "CONFIG.toml", FileFlag(writes=False)), ("out", "--out", FileFlag(True, True, SWEEP_WRITES))]
     check_outputs_not_inputs(

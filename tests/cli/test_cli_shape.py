@@ -12,7 +12,7 @@ from helpers import numpy_fk
 
 import jaxstiff
 from jaxstiff.cli import main
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 
 
 @pytest.fixture
@@ -207,7 +207,7 @@ def _swallowed_sigint():
     callback): delivered inside deferred_interrupts, the command's handler records it."""
     import signal
 
-    from jaxstiff.runtime.io import deferred_interrupts, interrupt_pending
+    from jaxstiff.runtime._io import deferred_interrupts, interrupt_pending
 
     with deferred_interrupts():
         os.kill(os.getpid(), signal.SIGINT)
@@ -256,7 +256,7 @@ def test_sigterm_during_the_save_still_writes_the_complete_file(tmp_path, small_
 
 
 def test_atomic_write_removes_its_temporary_file_on_an_interrupt(tmp_path):
-    from jaxstiff.runtime.io import atomic_write
+    from jaxstiff.runtime._io import atomic_write
 
     def half_then_ctrl_c(fh):
         fh.write(b"partial")
@@ -310,7 +310,7 @@ def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, mon
     """Ctrl-C during a two-path SLSQP run, after 5 of 6 waypoints: the file is written with the 5
     finished ones (they verify from the file alone, rate limits included) and the last as
     NOT_RUN (5) at its reference state; exit 130, and stderr says what was kept."""
-    import jaxstiff.cli.shape as cs
+    import jaxstiff.cli._shape as cs
 
     _main_thread_only()
     real = cs.WaypointProgress.__call__
@@ -383,7 +383,7 @@ def test_a_signal_while_the_command_starts_up_stops_it():
     code = dfl + (
         "import os, signal, sys\n"
         "sys.argv[0] = 'jaxstiff'\n"
-        "import jaxstiff.runtime.command_start  # what the console script's import of jaxstiff.cli runs first\n"
+        "import jaxstiff.runtime._command_start  # what the console script's import of jaxstiff.cli runs first\n"
         "os.kill(os.getpid(), signal.SIGINT)  # during the start-up: remembered, not raised\n"
         "from jaxstiff.cli import main\n"
         "sys.exit(main(['robot', '--robot', 'planar_3r']))\n"

@@ -8,7 +8,7 @@ import types
 import numpy as np
 
 import jaxstiff
-from jaxstiff.cli.shape import summary_table
+from jaxstiff.cli._shape import summary_table
 
 
 def _res(inside: float) -> types.SimpleNamespace:

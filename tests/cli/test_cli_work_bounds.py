@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from jaxstiff.cli import main
-from jaxstiff.settings.csc import MAX_NEWTON, CSCSettings
+from jaxstiff.settings._csc import MAX_NEWTON, CSCSettings
 
 
 @pytest.mark.parametrize("newton", ["1000", str(MAX_NEWTON + 1), "-1"])
@@ -45,8 +45,8 @@ dq_deg = [1.0, 2.0]
 
 
 def test_sweep_rows_are_counted_before_the_axes_are_expanded(tmp_path, capsys, monkeypatch) -> None:
-    import jaxstiff.sweep.axes as axes_mod
-    import jaxstiff.sweep.schema as schema_mod
+    import jaxstiff.sweep._axes as axes_mod
+    import jaxstiff.sweep._schema as schema_mod
 
     def expanded(*a, **k):
         raise AssertionError("an axis was expanded before the row count was checked")
@@ -80,8 +80,7 @@ def test_check_sim_force_must_be_finite_and_positive(tmp_path, capsys, force) ->
 def test_mujoco_leaves_no_log_file_and_a_warning_is_a_divergence(tmp_path, monkeypatch) -> None:
     pytest.importorskip("mujoco")
     import jaxstiff
-    from jaxstiff.sim import SimCase, check_case
-    from jaxstiff.sim.measure import SettleError
+    from jaxstiff.sim import SettleError, SimCase, check_case
 
     monkeypatch.chdir(tmp_path)
     robot = jaxstiff.Robot.from_urdf("planar_3r")

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import jaxstiff
-import jaxstiff.shaping._steps as steps  # noqa: PLC2701 - counts the rows the report step computes
-from jaxstiff.results import files as R
+import jaxstiff.shaping._steps as steps  # counts the rows the report step computes
+from jaxstiff.results import _files as R
 
 
 def _counting(monkeypatch) -> list[int]:

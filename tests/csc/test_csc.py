@@ -22,7 +22,13 @@ from helpers import DATA_DIR, assert_close, central_diff, numpy_fk
 import jaxstiff
 from jaxstiff import csc
 from jaxstiff.cli import main as cli_main
-from jaxstiff.csc import algebra, measures, offdiag, pose, projections, result, rollout
+from jaxstiff.csc import _algebra as algebra
+from jaxstiff.csc import _measures as measures
+from jaxstiff.csc import _offdiag as offdiag
+from jaxstiff.csc import _pose as pose
+from jaxstiff.csc import _projections as projections
+from jaxstiff.csc import _result as result
+from jaxstiff.csc import _rollout as rollout
 
 DATA = DATA_DIR
 
@@ -833,7 +839,7 @@ def test_cli_errors_are_one_line(tmp_path, capsys, argv, match):
 
 def test_cli_takes_negative_comma_lists_as_values(tmp_path):
     """`--hold -1.2,0.9` (argparse alone takes '-1.2,0.9' for an unknown option and refuses)."""
-    from jaxstiff.cli.common import join_negative_values as _join_negative_values
+    from jaxstiff.cli._common import join_negative_values as _join_negative_values
 
     assert _join_negative_values(["csc", "--hold", "-1.2,0.9", "--beta", "-1", "--q0", ".5,1", "-x"]) == [
         "csc",
@@ -1038,7 +1044,7 @@ def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(t
     """A run longer than one segment prints a progress line per segment; an interrupt after the
     second writes the finished steps (meta: interrupted, steps) and exits 130. The rows equal the
     library's uninterrupted rollout."""
-    from jaxstiff.cli import csc as _cli_csc
+    from jaxstiff.cli import _csc as _cli_csc
 
     monkeypatch.setattr(_cli_csc, "SEGMENT_WORK", 300)
     argv = [
@@ -1169,7 +1175,7 @@ def test_cli_joint_limit_avoidance_has_a_gain_by_default(tmp_path, capsys):
     q_off, meta_off, _ = runs[()]
     q_pr, meta_pr, err_pr = runs[("--joint-limits", "priority")]
     q_0, _, err_0 = runs[("--joint-limits", "priority", "--jl-gain", "0")]
-    from jaxstiff.cli.csc import DEFAULT_JL_GAIN
+    from jaxstiff.cli._csc import DEFAULT_JL_GAIN
 
     assert meta_off["jl_gain"] == 0.0 and meta_pr["jl_gain"] == DEFAULT_JL_GAIN > 0
     assert np.abs(q_pr - q_off).max() > 1e-6 and "does nothing" not in err_pr
@@ -1203,7 +1209,7 @@ def _csc_flag_defaults() -> dict:
     """The defaults of `jaxstiff csc`'s settings flags, parsed from a real command line."""
     import argparse
 
-    from jaxstiff.cli.csc import SETTING_FLAGS, add_setting_flags
+    from jaxstiff.cli._csc import SETTING_FLAGS, add_setting_flags
 
     p = argparse.ArgumentParser()
     add_setting_flags(p)
@@ -1217,9 +1223,9 @@ def test_settings_defaults_are_the_api_and_cli_defaults():
     defaults; csc_rollout's own keywords default to None ("from the settings")."""
     import inspect
 
-    from jaxstiff.csc.inputs import rollout_settings
+    from jaxstiff.csc._inputs import rollout_settings
     from jaxstiff.settings import CSCSettings
-    from jaxstiff.settings.csc import DEFAULT_JL_GAIN
+    from jaxstiff.settings._csc import DEFAULT_JL_GAIN
 
     defaults = CSCSettings.defaults()
     assert rollout_settings() == {**defaults, "jl_gain": 0.0}
@@ -1229,7 +1235,7 @@ def test_settings_defaults_are_the_api_and_cli_defaults():
     assert _csc_flag_defaults() == defaults
     params = inspect.signature(jaxstiff.csc_rollout).parameters
     assert params["beta"].default is None  # the others are taken inline, every field of the settings
-    from jaxstiff.csc.rollout import INLINE_CSC_SETTINGS
+    from jaxstiff.csc._rollout import INLINE_CSC_SETTINGS
 
     assert set(defaults) - {"beta"} <= INLINE_CSC_SETTINGS
     # the effective default reaches the rollout: no keywords == every default given explicitly
@@ -1382,7 +1388,7 @@ def test_cli_tcp_flag_is_accepted_and_recorded(tmp_path):
     recorded in meta (robot_spec.tcp as given, robot.tcp as the 4x4 transform)."""
     out = tmp_path / "t.npz"
     tcp = [0.0, 0.0, 0.1, 0.0, 0.0, 0.5]
-    from jaxstiff.settings.robot import tcp_transform
+    from jaxstiff.settings._robot import tcp_transform
 
     robot = jaxstiff.Robot.from_urdf("planar_3r", tcp=tcp_transform(tcp))
     q0 = np.deg2rad([20.0, 40.0, 30.0])

@@ -2,7 +2,7 @@
 (``locked_joints="rigid"`` / ``"spring"``), SPEC sections 1 and 6 (issue 21, items 2 and 4).
 
 References outside the code under test: the planar 3R in closed form (numpy), the numpy Jacobian
-of :mod:`jaxstiff.results.numpy_check` (4x4 products), central finite differences, and a result
+of :mod:`jaxstiff.results._numpy_check` (4x4 products), central finite differences, and a result
 file written by the code before ``locked_joints`` existed (``data/csc_lwr_full_spring_before.npz``:
 the LWR, lwr_a7 locked, task "full", 40 steps of the default path, beta 2) for ``"spring"``.
 """
@@ -20,7 +20,7 @@ from helpers import central_diff
 
 import jaxstiff
 from jaxstiff import csc
-from jaxstiff.results.numpy_check import np_jacobian_rows
+from jaxstiff.results._numpy_check import np_jacobian_rows
 
 HERE = os.path.dirname(__file__)
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")

@@ -29,8 +29,9 @@ from matplotlib.colors import same_color
 
 import jaxstiff
 from jaxstiff import plots
-from jaxstiff.plots import shape_path
-from jaxstiff.plots.base import label_points
+from jaxstiff.plots import _planar as planar
+from jaxstiff.plots import _shape_path as shape_path
+from jaxstiff.plots._base import label_points
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -294,18 +295,18 @@ def criteria_figure(tmp_path_factory):
     F1 = (np.abs(A) + c) / (np.minimum(P, r) / r)
     F2 = (1 + np.abs(A)) * (1 + np.abs(r - P))
     seen = {}
-    original = plots.planar.save_figure
+    original = planar.save_figure
 
     def keep(fig, file, **kw):
         fig.canvas.draw()
         seen["fig"], seen["renderer"] = fig, fig.canvas.get_renderer()
         return original(fig, file, **kw)
 
-    plots.planar.save_figure = keep
+    planar.save_figure = keep
     try:
         plots.figure_criteria(alpha, rho, F1, F2, r, c, tmp_path_factory.mktemp("fig6") / "fig6.png")
     finally:
-        plots.planar.save_figure = original
+        planar.save_figure = original
     yield seen, (A, P, F1, F2, r, c)
     plt.close(seen["fig"])
 

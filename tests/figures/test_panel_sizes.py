@@ -12,7 +12,8 @@ import pytest
 from helpers import numpy_fk
 
 import jaxstiff
-from jaxstiff.plots import shape_path, task_modes
+from jaxstiff.plots import _shape_path as shape_path
+from jaxstiff.plots import _task_modes as task_modes
 
 MIN_SHARE = 0.12  #: an axes box narrower or lower than this share of the drawn figure fails
 

@@ -220,7 +220,7 @@ def test_figure_shape_path_planar_result_and_unusable_waypoints(tmp_path):
     panels (NaN), not the reference state the file holds for them; a path without any usable
     waypoint is refused by name."""
     import jaxstiff
-    from jaxstiff.plots.shape_path import usable_only
+    from jaxstiff.plots._shape_path import usable_only
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     pts = np.c_[np.linspace(1.50, 1.58, 6), np.full(6, 0.5), np.zeros(6)]

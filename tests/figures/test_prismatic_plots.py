@@ -19,8 +19,8 @@ from hand_made_results import arc_result
 from helpers import DATA_DIR
 
 import jaxstiff
-from jaxstiff.plots import shape_path
-from jaxstiff.plots.base import pyplot
+from jaxstiff.plots import _shape_path as shape_path
+from jaxstiff.plots import pyplot
 
 BRANCHED = str(DATA_DIR / "branched_tree.urdf")  # j1 revolute, j2 prismatic, j3 continuous, j4 revolute
 

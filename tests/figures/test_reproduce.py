@@ -11,7 +11,7 @@ import textwrap
 import pytest
 
 from jaxstiff.cli import main
-from jaxstiff.cli.reproduce import load_runner
+from jaxstiff.cli._reproduce import load_runner
 
 reproduce = load_runner()  # the runner lives in the checkout's experiments/_reproduce
 
@@ -143,7 +143,7 @@ def test_cli_only_and_errors(fake_experiments, tmp_path, capsys):
 
 
 def test_without_a_source_checkout_the_message_says_what_to_do(tmp_path, monkeypatch):
-    from jaxstiff.cli import reproduce as cli_reproduce
+    from jaxstiff.cli import _reproduce as cli_reproduce
 
     monkeypatch.setattr(reproduce, "__file__", str(tmp_path / "site-packages" / "experiments" / "_reproduce" / "r.py"))
     monkeypatch.delenv("JAXSTIFF_EXPERIMENTS", raising=False)

@@ -9,8 +9,7 @@ import pytest
 from hand_made_results import arc_result
 
 import jaxstiff
-from jaxstiff.plots.base import nice_value, pyplot
-from jaxstiff.plots.shape_path import figure_turning, rate_limited_joints
+from jaxstiff.plots import figure_turning, nice_value, pyplot, rate_limited_joints
 
 DQ, DK = np.radians(2.0), 5.0
 

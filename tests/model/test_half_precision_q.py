@@ -1,5 +1,5 @@
 """float16 joint values were accepted silently by Robot.fk/jacobian (FK off by 0.9 mm): refused,
-naming the argument, by the same rule as shape and csc_rollout (jaxstiff.runtime.dtypes)."""
+naming the argument, by the same rule as shape and csc_rollout (jaxstiff.runtime._dtypes)."""
 
 import numpy as np
 import pytest

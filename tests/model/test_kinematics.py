@@ -21,6 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
+from jaxstiff.model._kinematics import jacobian_tangent
 
 BRANCHED = str(DATA_DIR / "branched_tree.urdf")
 
@@ -183,7 +184,7 @@ def test_separate_and_fused_calls_agree():
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_cos_sin_polynomial_is_accurate_and_has_exact_derivative(dtype):
     """The kernel's own cos/sin (used for CPU batches) vs numpy in extended precision: <= 2 ulp."""
-    from jaxstiff.model.kinematics import cos_sin
+    from jaxstiff.model._kinematics import cos_sin
 
     rng = np.random.default_rng(11)
     x = np.concatenate(
@@ -214,7 +215,7 @@ def test_cos_sin_polynomial_is_accurate_and_has_exact_derivative(dtype):
 @pytest.mark.parametrize("dtype", [jnp.float32, jnp.float64])
 def test_large_batches_match_numpy_and_autodiff(dtype):
     """Batches of >= 64 take the polynomial cos/sin path on the CPU: same answers, same dtype."""
-    from jaxstiff.model.kinematics import POLY_MIN_BATCH
+    from jaxstiff.model._kinematics import POLY_MIN_BATCH
 
     robot = get_robot("branched")
     q64 = random_q(robot, (2, 3 * POLY_MIN_BATCH), seed=12)
@@ -511,7 +512,7 @@ def test_jacobian_tangent_matches_autodiff_on_random_chains(joints, seed):
     qd = jnp.asarray(rng.normal(size=robot.n))
     T, J = jaxstiff.fk_and_jacobian(robot, q)
     (_, J_ad), (dT, dJ_ad) = jax.jvp(lambda x: jaxstiff.fk_and_jacobian(robot, x), (q,), (qd,))
-    dp, dJ, omega = jaxstiff.kinematics.jacobian_tangent(J, qd)
+    dp, dJ, omega = jacobian_tangent(J, qd)
     assert_close(dp, dT[:3, 3], rtol=0, atol=1e-12, what="dp")
     assert_close(dJ, dJ_ad, rtol=0, atol=1e-12, what="dJ")
     # omega: dR = [omega]x R
@@ -535,7 +536,7 @@ def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
     want = np.flip(np.cumsum(np.flip(x, -1), -1), -1) if reverse else np.cumsum(x, -1)
     if exclusive:
         want = want - x
-    from jaxstiff.model.kinematics import running_sum
+    from jaxstiff.model._kinematics import running_sum
 
     f = jax.jit(lambda a: running_sum(a, reverse=reverse, exclusive=exclusive))
     assert_close(f(jnp.asarray(x)), want, rtol=1e-14, atol=1e-14, what="running sum")
@@ -549,13 +550,13 @@ def test_running_sum_matches_numpy_cumsum(n, reverse, exclusive):
     )
 
 
-# ------------------------------------------------------------------ the host (numpy) Jacobian (jaxstiff.model.host)
+# ------------------------------------------------------------------ the host (numpy) Jacobian (jaxstiff.model._host)
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(joints=random_chains(), seed=st.integers(0, 2**31 - 1))
 def test_host_jacobian_matches_finite_differences_on_random_chains(joints, seed):
     """The numpy Jacobian of the task rank check against finite differences of an FK built from
     the drawn URDF numbers, revolute, prismatic, continuous and fixed joints mixed."""
-    from jaxstiff.model.host import position_jacobian
+    from jaxstiff.model._host import position_jacobian
 
     with tempfile.TemporaryDirectory() as tmp:
         path = os.path.join(tmp, "random.urdf")
@@ -573,7 +574,7 @@ def test_host_jacobian_matches_finite_differences_on_random_chains(joints, seed)
 
 @pytest.mark.parametrize("key", ROBOT_KEYS)
 def test_host_jacobian_matches_the_kernel(key):
-    from jaxstiff.model.host import position_jacobian
+    from jaxstiff.model._host import position_jacobian
 
     robot = get_robot(key)
     q = random_q(robot, (5,), seed=3)

@@ -22,9 +22,9 @@ import pytest
 from helpers import DATA_DIR, assert_close, numpy_fk
 
 import jaxstiff
-from jaxstiff.model.generate import serial_chain
-from jaxstiff.model.kinematics import fk_and_jacobian_raw
-from jaxstiff.model.kinematics_scan import kernel_for
+from jaxstiff.model._generate import serial_chain
+from jaxstiff.model._kinematics import fk_and_jacobian_raw
+from jaxstiff.model._kinematics_scan import kernel_for
 
 ROBOTS_DIR = DATA_DIR / "robots"
 

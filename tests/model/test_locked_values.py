@@ -1,5 +1,5 @@
 """A value for a locked joint that is not its locked value is refused, with one message, by every
-entry point that takes q (jaxstiff.model.chain.check_locked_values; SPEC section 1, issue 21)."""
+entry point that takes q (jaxstiff.model._chain.check_locked_values; SPEC section 1, issue 21)."""
 
 import re
 
@@ -10,7 +10,7 @@ import pytest
 
 import jaxstiff
 from jaxstiff.ik import ik_position
-from jaxstiff.model.chain import LOCKED_TOL, check_locked_values
+from jaxstiff.model._chain import LOCKED_TOL, check_locked_values
 
 MSG = re.escape("= 0.3 for joint 'lwr_a7' of robot 'kuka_lwr4', which is locked at 0; pass the locked value (0)")
 

@@ -12,9 +12,9 @@ import pytest
 from helpers import assert_close, numpy_fk
 
 import jaxstiff
-from jaxstiff.model.generate import GENERATED_TIP_LINK, serial_chain, serial_chain_urdf
-from jaxstiff.model.kinematics import fk_and_jacobian_raw, jacobian_tangent
-from jaxstiff.model.kinematics_scan import FRAMED_MAX_JOINTS, UNROLL_MAX_JOINTS, kernel_for, uses_scan
+from jaxstiff.model._generate import GENERATED_TIP_LINK, serial_chain, serial_chain_urdf
+from jaxstiff.model._kinematics import fk_and_jacobian_raw, jacobian_tangent
+from jaxstiff.model._kinematics_scan import FRAMED_MAX_JOINTS, UNROLL_MAX_JOINTS, kernel_for, uses_scan
 
 
 def _q(robot: jaxstiff.Robot, size: tuple[int, ...], seed: int) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.model.kinematics_scan import kernel_for
+from jaxstiff.model._kinematics_scan import kernel_for
 
 
 def _robot(axis) -> jaxstiff.Robot:

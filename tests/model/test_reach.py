@@ -1,4 +1,4 @@
-"""The reach check (jaxstiff.model.reach): the shell ``inner <= |p_tcp - centre| <= outer`` holds for
+"""The reach check (jaxstiff.model._reach): the shell ``inner <= |p_tcp - centre| <= outer`` holds for
 every posture within the limits on every arm (random and corner postures, FK from the kinematics
 kernel), matches closed forms where the geometry gives them, and refuses waypoints outside it in
 ``shape``, ``csc_rollout``, their commands and the sweep (a row marked, not the sweep refused), with a
@@ -17,8 +17,8 @@ from helpers import DATA_DIR
 
 import jaxstiff
 from jaxstiff.cli import main
-from jaxstiff.model.reach import UnreachableError, check_reach, unreachable_mask
-from jaxstiff.results import files as R
+from jaxstiff.model._reach import UnreachableError, check_reach, unreachable_mask
+from jaxstiff.results import _files as R
 
 ROBOTS = DATA_DIR / "robots"
 LWR = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
@@ -195,8 +195,7 @@ def test_unattainable_waypoint_inside_the_shell_is_given_up_without_slsqp():
 def test_sweep_marks_rows_out_of_reach_instead_of_refusing(tmp_path):
     """Arcs of radius 1.5 m and 4 m for a 3 m planar arm: the 4 m rows are not solved, their
     waypoints count as unreachable (status 3); the 1.5 m rows are solved as usual."""
-    from jaxstiff.sweep.run import run_sweep
-    from jaxstiff.sweep.store import read_table
+    from jaxstiff.sweep import read_table, run_sweep
 
     cfg = {
         "sweep": {"kind": "shape", "name": "reach", "chunk_size": 4},
@@ -222,7 +221,7 @@ def test_sweep_marks_rows_out_of_reach_instead_of_refusing(tmp_path):
     assert far.iloc[0]["result_file"] == "" and far.iloc[0]["result_index"] == -1
     assert far.iloc[0]["share_usable"] == 0.0 and math.isnan(far.iloc[0]["q0_ik_error_m"])
     assert near.iloc[0]["share_usable"] == 1.0 and near.iloc[0]["result_file"].startswith("arrays/")
-    from jaxstiff.view.data import sweep_row_file
+    from jaxstiff.view._data import sweep_row_file
 
     with pytest.raises(ValueError, match=r"sweep row \d+ was not solved \(its path leaves the robot's reach\)"):
         sweep_row_file(str(tmp_path / "run"), int(far.iloc[0]["row_id"]))

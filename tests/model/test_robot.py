@@ -59,7 +59,7 @@ def test_lwr_matches_published_kinematic_facts():
 
 def test_planar_3r_is_seed_000s_arm():
     robot = jaxstiff.Robot.from_urdf("planar_3r")
-    assert robot.n == 3 and robot.joint_types == (jaxstiff.robot.JOINT_REVOLUTE,) * 3
+    assert robot.n == 3 and robot.joint_types == (jaxstiff.model.JOINT_REVOLUTE,) * 3
     assert_close(robot.fk(jnp.zeros(3))[:3, 3], [3.0, 0.0, 0.0], atol=1e-15)  # three 1 m links
     assert all(ax == (0.0, 0.0, 1.0) for ax in robot.axes)
 
@@ -67,7 +67,7 @@ def test_planar_3r_is_seed_000s_arm():
 def test_branched_tree_chain_folds_fixed_joints_and_reads_joint_kinds():
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
     assert robot.joint_names == ("j1", "j2", "j3", "j4")  # mount, elbow_offset, tool_joint folded
-    R, P = jaxstiff.robot.JOINT_REVOLUTE, jaxstiff.robot.JOINT_PRISMATIC
+    R, P = jaxstiff.model.JOINT_REVOLUTE, jaxstiff.model.JOINT_PRISMATIC
     assert robot.joint_types == (R, P, R, R)
     assert robot.lower.tolist()[:2] == [-2.5, 0.0] and robot.upper.tolist()[:2] == [2.5, 0.5]
     assert robot.lower[2] == -math.inf and robot.upper[2] == math.inf  # continuous
@@ -228,11 +228,11 @@ def test_prismatic_joints_get_lengths_not_degrees():
     """A prismatic joint's value is a length: the nominal posture puts it at mid-range (not
     mid-range + 30 deg read as 0.52 m, which the clip sent to its limit), `csc --q0-deg` leaves its
     entry in metres, and `shape --dq-m` sets its rate limit apart from --dq-deg."""
-    from jaxstiff.cli.shape import rate_limits
+    from jaxstiff.cli._shape import rate_limits
     from jaxstiff.ik import nominal_posture
 
     robot = jaxstiff.Robot.from_urdf(BRANCHED, tip_link="tool")
-    pris = np.asarray(robot.joint_types) == jaxstiff.robot.JOINT_PRISMATIC
+    pris = np.asarray(robot.joint_types) == jaxstiff.model.JOINT_PRISMATIC
     assert pris.tolist() == [False, True, False, False]
     assert robot.prismatic.tolist() == pris.tolist()
     lo, hi = robot.lower, robot.upper
@@ -342,7 +342,7 @@ def test_repr_is_one_short_line_with_name_joints_links_and_locks():
 def test_float64_values_without_x64_warn_once_and_give_float32(monkeypatch):
     import jax
 
-    from jaxstiff.model import kinematics
+    from jaxstiff.model import _kinematics as kinematics
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     monkeypatch.setattr(kinematics, "_warned_float32", False)

@@ -1,4 +1,4 @@
-"""The automatic tip link (jaxstiff.model.urdf.tip_candidates): on every URDF of the repository the
+"""The automatic tip link (jaxstiff.model._urdf.tip_candidates): on every URDF of the repository the
 expected tip, read off each file's tree by hand (not from the code), and the rules one at a time on
 small trees: gripper joints are cut off (by name, by the parallel-jaw rule, mimic joints of a
 gripper), most actuated joints, finger parts yield, end-effector names break ties, the rest is an
@@ -14,7 +14,7 @@ from helpers import DATA_DIR
 
 import jaxstiff
 from jaxstiff.cli import main
-from jaxstiff.model.urdf import tip_candidates
+from jaxstiff.model._urdf import tip_candidates
 
 ROBOTS = DATA_DIR / "robots"
 

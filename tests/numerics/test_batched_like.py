@@ -9,7 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff._numerics.batch import batched_like  # noqa: PLC2701 - tests a function of the private numerics module
+from jaxstiff._numerics.batch import batched_like  # tests a function of the private numerics module
 
 
 def test_values_come_back_unchanged():

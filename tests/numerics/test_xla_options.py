@@ -6,7 +6,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff.runtime import kernel_compiler_options
 
 
 def test_options_compile_and_do_not_change_results():

@@ -13,8 +13,8 @@ import pytest
 import jaxstiff
 from jaxstiff.cli import main
 from jaxstiff.paths import Path, format_csv, line, read_csv
-from jaxstiff.runtime.io import check_regular_file
-from jaxstiff.sweep.config import SweepConfigError, load_config, parse_config
+from jaxstiff.runtime._io import check_regular_file
+from jaxstiff.sweep._config import SweepConfigError, load_config, parse_config
 
 CSC = ["csc", "--robot", "planar_3r", "--kxd", "3000,1000@30", "--q0-deg", "75,-74.74,-76.30"]
 
@@ -135,7 +135,7 @@ def test_half_precision_refused_at_the_boundaries():
 
 # ------------------------------------------------------------------ bounded messages (for the URDF parser's lists)
 def test_short_list_and_text_bound_a_message():
-    from jaxstiff.runtime.messages import short_list, short_text
+    from jaxstiff.runtime._messages import short_list, short_text
 
     names = [f"link_{i}" for i in range(2_000_000)]
     msg = short_list(names)

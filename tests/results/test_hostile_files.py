@@ -8,7 +8,7 @@ level down) deleted and retyped (number / text / list), plus the lies a tampered
 robot with its correct hash, the TCP moved 0.5 m, another task, joint names permuted, a locked
 joint moved or its recorded value changed) and harmless changes (an extra field, an extra array).
 
-Each case goes through :func:`jaxstiff.results.reader.read_result`, the schema loaders
+Each case goes through :func:`jaxstiff.results._reader.read_result`, the schema loaders
 (``ShapeResult.load`` / ``CSCResult.load``), ``jaxstiff export`` in-process, and (shape)
 ``jaxstiff.results.verify``. Each must end in a clean refusal (a ResultFileError / exit 2 with one
 line on stderr) or the right answer (the CSV of the unmutated file, byte for byte), never a
@@ -32,9 +32,9 @@ import pytest
 
 import jaxstiff
 from jaxstiff.cli import main
-from jaxstiff.model.shipped import robot_path
-from jaxstiff.results.reader import ResultFileError, read_result
-from jaxstiff.runtime.io import file_sha256
+from jaxstiff.model import robot_path
+from jaxstiff.results._reader import ResultFileError, read_result
+from jaxstiff.runtime._io import file_sha256
 
 Q_START = [0.3, 0.5, -0.2, -1.2, 0.4, 0.6, 0.0]  # the LWR, lwr_a7 locked at 0 (its default)
 

@@ -14,9 +14,9 @@ import pytest
 from helpers import tamper_result
 
 import jaxstiff
-from jaxstiff.results.reader import ResultFileError, read_result
-from jaxstiff.sweep.run import run_sweep
-from jaxstiff.sweep.stored import read_sweep_row
+from jaxstiff.results._reader import ResultFileError, read_result
+from jaxstiff.sweep import run_sweep
+from jaxstiff.sweep._stored import read_sweep_row
 
 Q_START = [0.3, 0.5, -0.2, -1.2, 0.4, 0.6, 0.0]  # the LWR, lwr_a7 locked at 0
 

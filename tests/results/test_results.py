@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 
 
 def make_result(B=2, P=4, n=3, status=None, first_rate_limit=False):

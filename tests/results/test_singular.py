@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.results.singular import SINGULAR_COND, SingularPostureWarning, singular_waypoints
+from jaxstiff.results._singular import SINGULAR_COND, SingularPostureWarning, singular_waypoints
 
 
 def test_condition_rule_on_given_matrices():

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 
 
 @pytest.fixture(scope="module")

@@ -38,8 +38,8 @@ import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
-from jaxstiff.runtime import compile_cache as cc  # noqa: E402
-from jaxstiff.runtime import export_cache as ec  # noqa: E402
+from jaxstiff.runtime import _compile_cache as cc  # noqa: E402
+from jaxstiff.runtime import _export_cache as ec  # noqa: E402
 
 TARGET = np.array([1.2, 0.5, 0.0])
 #: seconds a run may take (about 1 s from intact caches): a longer one is killed and counted as a hang
@@ -51,7 +51,7 @@ def _child(cache: str, out: int) -> None:
     from jax import export
 
     from jaxstiff.ik import ik_position
-    from jaxstiff.model.robot import Robot
+    from jaxstiff.model import Robot
 
     traced = []
     real_export = export.export
@@ -111,7 +111,7 @@ def pin_code() -> str:
     program file, whatever happens to the sources on disk meanwhile (module docstring). The
     fingerprint."""
     import jaxstiff.ik  # noqa: F401 - imported for the forks (no backend is started by it)
-    import jaxstiff.model.robot  # noqa: F401
+    import jaxstiff.model._robot  # noqa: F401
 
     return ec.code_fingerprint()
 

@@ -4,7 +4,7 @@ import jax
 import pytest
 from jax.experimental.compilation_cache import compilation_cache
 
-from jaxstiff.runtime import compile_cache as cc
+from jaxstiff.runtime import _compile_cache as cc
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""jaxstiff.runtime.allocator: a large block freed and made again does not page-fault again.
+"""jaxstiff.runtime._allocator: a large block freed and made again does not page-fault again.
 
 Measured with the process's own minor page-fault counter (``getrusage``), in fresh interpreters
 (the allocator's state is per process), on blocks from ``malloc`` as XLA gets them: without the
@@ -80,7 +80,7 @@ def test_importing_the_package_leaves_the_allocator_alone():
 
 
 def test_opt_out_user_settings_and_non_linux_are_no_ops(monkeypatch):
-    from jaxstiff.runtime import allocator
+    from jaxstiff.runtime import _allocator as allocator
 
     for k in ("MALLOC_ARENA_MAX", "MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_", "GLIBC_TUNABLES"):
         monkeypatch.delenv(k, raising=False)
@@ -99,7 +99,7 @@ def test_opt_out_user_settings_and_non_linux_are_no_ops(monkeypatch):
 
 
 def test_threshold_out_of_range_is_refused():
-    from jaxstiff.runtime import allocator
+    from jaxstiff.runtime import _allocator as allocator
 
     for bad in (0, -1, 2**31):
         with pytest.raises(ValueError, match="threshold"):

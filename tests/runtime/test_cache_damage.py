@@ -10,7 +10,7 @@ caches, and its q is checked independently by forward kinematics.
 
 In-process checks: the header format (key, length, sha256) refuses each kind of damage before
 deserialization; a whole file whose program does not deserialize or compile is replaced; JAX's
-cache goes through :class:`~jaxstiff.runtime.compile_cache.CheckedCache`.
+cache goes through :class:`~jaxstiff.runtime._compile_cache.CheckedCache`.
 """
 
 from __future__ import annotations
@@ -27,8 +27,8 @@ import numpy as np
 import pytest
 from helpers import REPO_ROOT
 
-from jaxstiff.runtime import compile_cache as cc
-from jaxstiff.runtime import export_cache as ec
+from jaxstiff.runtime import _compile_cache as cc
+from jaxstiff.runtime import _export_cache as ec
 
 RUNNER = os.path.join(os.path.dirname(__file__), "cache_damage_runner.py")
 
@@ -47,7 +47,7 @@ def _run_flips(tmp_path, n, edit=None, env=None):
 
 
 def _check_report(rep, n):
-    from jaxstiff.model.robot import Robot
+    from jaxstiff.model import Robot
 
     rc, clean = rep["clean"]
     assert rep["first"][0] == 0 and rc == 0
@@ -141,8 +141,8 @@ import jax
 jax.config.update("jax_enable_x64", True)
 import jax.numpy as jnp
 import numpy as np
-from jaxstiff.runtime import compile_cache as cc
-from jaxstiff.runtime import export_cache as ec
+from jaxstiff.runtime import _compile_cache as cc
+from jaxstiff.runtime import _export_cache as ec
 
 os.environ.pop(ec.EXPORT_ENV, None)
 jax.config.update("jax_compilation_cache_dir", os.path.join(sys.argv[1], "xla"))

@@ -1,4 +1,4 @@
-"""The persistent compilation cache (jaxstiff.runtime.compile_cache) in one process: files appear
+"""The persistent compilation cache (jaxstiff.runtime._compile_cache) in one process: files appear
 in the folder once it is on, none once it is off, a cache the user configured is left alone; and
 CompileClock's union of time spans against a brute-force count, and against real compilations."""
 
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from jax import monitoring
 
-from jaxstiff.runtime import compile_cache as cc
+from jaxstiff.runtime import _compile_cache as cc
 
 
 def _compile_new_program(tag: float) -> None:

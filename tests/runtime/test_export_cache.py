@@ -1,4 +1,4 @@
-"""Traced programs kept on disk (jaxstiff.runtime.export_cache): a second compile of the same key
+"""Traced programs kept on disk (jaxstiff.runtime._export_cache): a second compile of the same key
 and shapes reads the file instead of tracing (a trace counter in the function proves it), gives
 the function's values (against numpy), and every ingredient of the key (caller's key, shapes,
 jaxstiff's code) leads to its own file; damaged files are replaced; key None and the environment
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.runtime import export_cache as ec
+from jaxstiff.runtime import _export_cache as ec
 from jaxstiff.solvers.pgd import batch as pgd_batch
 from jaxstiff.solvers.problem import WaypointProblem
 
@@ -23,7 +23,7 @@ from jaxstiff.solvers.problem import WaypointProblem
 @pytest.fixture
 def cache(tmp_path, restore_jax_cache, monkeypatch):
     monkeypatch.delenv(ec.EXPORT_ENV, raising=False)
-    monkeypatch.setattr("jaxstiff.runtime.compile_cache._WARNED", set())  # each test sees its first warning
+    monkeypatch.setattr("jaxstiff.runtime._compile_cache._WARNED", set())  # each test sees its first warning
     jax.config.update("jax_compilation_cache_dir", str(tmp_path / "xla"))
     return tmp_path / "xla" / ec.EXPORT_SUBDIR
 
@@ -133,7 +133,7 @@ def test_problem_fingerprint_follows_the_content():
 
 
 @pytest.mark.slow  # pgd's whole program compiled twice; the fast lane checks the file format with smaller programs
-@pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")  # not about targets
+@pytest.mark.filterwarnings("ignore::jaxstiff.results._target.MissedTargetWarning")  # not about targets
 def test_pgd_from_the_file_equals_pgd_traced(cache, monkeypatch):
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     q = np.array([[0.3, 0.9, -0.6], [0.1, 0.7, -0.4]])

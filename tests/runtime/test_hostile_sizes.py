@@ -12,14 +12,14 @@ import pytest
 
 from jaxstiff import paths as P
 from jaxstiff.cli import main
-from jaxstiff.runtime.plan_size import (
+from jaxstiff.runtime._plan_size import (
     MEMORY_LIMIT_ENV,
     PlanTooLargeError,
     available_memory_bytes,
     check_plan_size,
     format_bytes,
 )
-from jaxstiff.sweep.config import SweepConfigError, parse_config
+from jaxstiff.sweep._config import SweepConfigError, parse_config
 
 HUGE = 10**12  # the audit's count: 14.6 TiB and more
 
@@ -152,8 +152,8 @@ def test_cli_csc_steps_refused_before_work(tmp_path, capsys):
 def test_cli_csc_streamed_steps_are_not_refused(monkeypatch):
     """More steps than one segment holds are fine when the result fits: the estimate is the
     result rows (which the file holds whole), not the work, which goes in segments."""
-    from jaxstiff.cli.common import check_rollout_size, rollout_row_bytes
-    from jaxstiff.cli.csc import SEGMENT_WORK
+    from jaxstiff.cli._common import check_rollout_size, rollout_row_bytes
+    from jaxstiff.cli._csc import SEGMENT_WORK
 
     assert rollout_row_bytes(3, "xy") == 2 * 8 * (6 + 4 + 3 + 2 + 7) + 16  # independent count of the arrays
     monkeypatch.setenv(MEMORY_LIMIT_ENV, str(4 * SEGMENT_WORK * rollout_row_bytes(3, "xy")))
@@ -164,7 +164,7 @@ def test_cli_csc_streamed_steps_are_not_refused(monkeypatch):
 
 def test_shape_refuses_a_plan_that_cannot_fit(monkeypatch):
     from jaxstiff import shape
-    from jaxstiff.model.robot import Robot
+    from jaxstiff.model import Robot
 
     robot = Robot.from_urdf("planar_3r")
     path = P.Path(np.c_[np.linspace(1.0, 1.2, 50), np.full(50, 0.5), np.zeros(50)])

@@ -1,4 +1,4 @@
-"""jaxstiff.runtime.programs: compiled programs are let go, and with them their memory mappings
+"""jaxstiff.runtime._programs: compiled programs are let go, and with them their memory mappings
 (counted independently, from /proc/self/maps), without changing a result."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from jaxstiff.runtime import programs
+from jaxstiff.runtime import _programs as programs
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/maps")
 

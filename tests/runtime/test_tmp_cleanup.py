@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from jaxstiff.runtime.io import (
+from jaxstiff.runtime._io import (
     STALE_TMP_S,
     atomic_write,
     atomic_write_text,
@@ -86,7 +86,7 @@ def test_a_live_writer_is_not_disturbed_however_old_its_file(tmp_path):
 _WRITER = textwrap.dedent(
     """
     import sys, time
-    from jaxstiff.runtime.io import atomic_write, interrupt_handlers
+    from jaxstiff.runtime._io import atomic_write, interrupt_handlers
 
     def slow(fh):
         fh.write(b"x" * 100000)

@@ -13,11 +13,10 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli.common import add_robot_flags, robot_spec_from_args
-from jaxstiff.cli.main import build_parser, main
-from jaxstiff.runtime.progress import Progress, progress
+from jaxstiff.cli import add_robot_flags, build_parser, main, robot_spec_from_args
+from jaxstiff.runtime._progress import Progress, progress
 from jaxstiff.settings import DEFAULT_LOCKS, RobotSpec, ShapeSettings
-from jaxstiff.settings.robot import tcp_transform
+from jaxstiff.settings._robot import tcp_transform
 
 S = ShapeSettings()
 ROBOT_FLAGS = ("--robot", "--base-link", "--tip-link", "--lock", "--tcp")
@@ -146,8 +145,8 @@ def test_robot_command_locks_lwr_a7_by_default(capsys):
 
 
 def test_sweep_robot_table_defaults_are_robot_spec_defaults(tmp_path):
-    from jaxstiff.sweep.plan import build_robot
-    from jaxstiff.sweep.schema import RobotTable
+    from jaxstiff.sweep._plan import build_robot
+    from jaxstiff.sweep._schema import RobotTable
 
     d = RobotSpec()
     for name in ("locked", "tcp", "base_link", "tip_link"):
@@ -211,7 +210,7 @@ def test_units_and_robot_spec_recorded_in_meta(default_run):
 
 
 def test_prismatic_joint_units_say_metres(tmp_path):
-    from jaxstiff.shaping._steps import array_units  # noqa: PLC2701 - the units meta["units"] records
+    from jaxstiff.shaping._steps import array_units  # the units meta["units"] records
 
     assert array_units(jaxstiff.Robot.from_urdf("planar_3r"))["q"] == "rad"
     src = open(jaxstiff.robot_path("planar_3r")).read()
@@ -259,8 +258,8 @@ def test_progress_on_a_terminal_draws_a_bar():
 def test_task_dim_is_the_size_of_the_task_translational_rows():
     """settings.shape.task_dim, the one rule for the size of K_T and of a task's position targets,
     against the task's Jacobian rows: the translational ones among them (rows 0-2)."""
-    from jaxstiff.settings.shape import TASKS, task_dim
-    from jaxstiff.stiffness.tasks import task_rows
+    from jaxstiff.settings._shape import TASKS, task_dim
+    from jaxstiff.stiffness import task_rows
 
     for task in TASKS:
         assert task_dim(task) == len([i for i in task_rows(task) if i < 3])

@@ -17,14 +17,15 @@ import math
 import pytest
 
 import jaxstiff
-from jaxstiff.cli import csc_flags, shape_flags
-from jaxstiff.cli import shape as shape_cmd
-from jaxstiff.cli.main import build_parser
+from jaxstiff.cli import _csc_flags as csc_flags
+from jaxstiff.cli import _shape as shape_cmd
+from jaxstiff.cli import _shape_flags as shape_flags
+from jaxstiff.cli import build_parser
 from jaxstiff.settings import CSCSettings, ShapeSettings
-from jaxstiff.settings.base import positive, setting
-from jaxstiff.sweep import axis_specs
-from jaxstiff.sweep.chunks import setting_values
-from jaxstiff.sweep.config import AXES, SweepConfigError, parse_config
+from jaxstiff.settings._base import positive, setting
+from jaxstiff.sweep import _axis_specs as axis_specs
+from jaxstiff.sweep._chunks import setting_values
+from jaxstiff.sweep._config import AXES, SweepConfigError, parse_config
 
 MARGIN_DOC = "room kept from the wrist's joint limits"
 SETTLE_DOC = "steps the arm rests at the first target before it moves"

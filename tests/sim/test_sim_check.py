@@ -14,7 +14,7 @@ pytest.importorskip("mujoco", reason='the physics check needs MuJoCo: pip instal
 
 import jaxstiff  # noqa: E402
 from jaxstiff.results import ShapeResult  # noqa: E402
-from jaxstiff.settings.robot import robot_meta  # noqa: E402
+from jaxstiff.settings._robot import robot_meta  # noqa: E402
 from jaxstiff.sim import SimCase, check_case  # noqa: E402
 
 DATA = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data")
@@ -74,9 +74,9 @@ def test_third_party_tree_with_tip_link_lock_and_rotated_tcp(mode):
 
 def _result_file(path, robot, q, kj, task, locked_joints):
     """A result file as the readers accept it: positions the FK of q, the axis ratio that of (q, kj)
-    with the task, rate limits its steps keep (jaxstiff.results.reader checks all three),
+    with the task, rate limits its steps keep (jaxstiff.results._reader checks all three),
     placeholders elsewhere."""
-    from jaxstiff.results.numpy_check import np_alpha_ratio, np_fk_position, np_translational_stiffness
+    from jaxstiff.results._numpy_check import np_alpha_ratio, np_fk_position, np_translational_stiffness
 
     B, P, n = q.shape
     zeros = np.zeros((B, P))
@@ -101,7 +101,7 @@ def _result_file(path, robot, q, kj, task, locked_joints):
 
 
 def test_cli_check_sim_table_json_and_errors(tmp_path, capsys):
-    from jaxstiff.cli.main import main
+    from jaxstiff.cli import main
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     q = np.deg2rad([[[75.0, -74.74, -76.30], [60.0, -50.0, -60.0], [40.0, 30.0, -90.0]]])
@@ -130,7 +130,7 @@ def test_cli_check_sim_table_json_and_errors(tmp_path, capsys):
 def test_cli_on_a_real_shape_result_with_rigid_lock_recorded(tmp_path):
     """`jaxstiff shape` output for the LWR (task full, lwr_a7 locked) checked end to end; the
     locked-joint mode read from meta decides the MuJoCo model and the prediction alike."""
-    from jaxstiff.cli.main import main
+    from jaxstiff.cli import main
 
     f = str(tmp_path / "shape.npz")
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
@@ -166,7 +166,7 @@ def test_both_modes_measured_whatever_the_task(task):
 
 
 def test_cli_prints_held_and_free(tmp_path, capsys):
-    from jaxstiff.cli.main import main
+    from jaxstiff.cli import main
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     q = np.array([[[0.3, 0.5, -0.2, 1.0, 0.4, -0.6, 0.0]]])

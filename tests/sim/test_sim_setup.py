@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.sim.setup import locked_joint_mode, select_waypoints, spring_mask
+from jaxstiff.sim._setup import locked_joint_mode, select_waypoints, spring_mask
 
 
 def test_locked_joint_mode_reads_meta_and_defaults_to_spring():
@@ -39,7 +39,7 @@ def test_import_and_cli_work_without_mujoco(tmp_path):
     code = (
         "import sys; sys.modules['mujoco'] = None\n"
         "import jaxstiff, jaxstiff.sim\n"
-        "from jaxstiff.cli.main import main\n"
+        "from jaxstiff.cli._main import main\n"
         "assert main(['robot', '--robot', 'planar_3r']) == 0\n"
         f"sys.exit(main(['check-sim', {str(tmp_path / 'r.npz')!r}]))\n"
     )
@@ -49,7 +49,7 @@ def test_import_and_cli_work_without_mujoco(tmp_path):
 
 
 def testprobe_directions_are_unit_and_span_the_task():
-    from jaxstiff.sim.check import probe_directions
+    from jaxstiff.sim._check import probe_directions
 
     for task, k in (("xy", 2), ("xyz", 3), ("full", 6)):
         axes, extra = probe_directions(task)
@@ -61,7 +61,7 @@ def test_cases_skip_unusable_waypoints(tmp_path):
     """A status 3-5 row holds the reference state, not a solution: check-sim picked such rows and
     reported them as agreeing (found by an independent check). N evenly spaced cases are taken among
     the usable waypoints, a given list loses its unusable entries, and none usable is an error."""
-    from jaxstiff.sim.setup import cases_from_result
+    from jaxstiff.sim import cases_from_result
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     pts = np.c_[np.linspace(1.50, 1.58, 6), np.full(6, 0.5), np.zeros(6)]

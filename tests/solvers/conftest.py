@@ -11,7 +11,7 @@ from helpers import joint_motion_traces, numpy_fk
 from pgd_cases import OPTS, STARTS
 
 import jaxstiff
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 
 
 @pytest.fixture(scope="session")

@@ -16,7 +16,7 @@ import pytest
 from helpers import joint_motion_traces
 
 import jaxstiff
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
 PGD_OPTS = {"starts": 2, "iters": 5, "iters_first": 10, "starts_first": 2, "chunk": 8}

@@ -56,7 +56,7 @@ def test_numpy_check_kinematics_match_jaxstiff(key):
 def test_casadi_waypoint_matches_jaxstiff_slsqp(crit):
     from jaxstiff.solvers.problem import WaypointProblem, box
     from jaxstiff.solvers.slsqp import make_slsqp_solver
-    from jaxstiff.stiffness.criteria import get_criterion
+    from jaxstiff.stiffness import get_criterion
 
     robot = bench.make_robot("lwr")
     urdf, kw = bench.ROBOTS["lwr"]

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.model.kinematics import fk
-from jaxstiff.results.target import MissedTargetWarning, first_free_waypoints, missed_target_warning
+from jaxstiff.model import fk
+from jaxstiff.results._target import MissedTargetWarning, first_free_waypoints, missed_target_warning
 
 UR10 = os.path.join(os.path.dirname(__file__), "..", "data", "robots", "ur10.urdf")
 
@@ -146,7 +146,7 @@ def test_retry_warm_up_thread_changes_no_result(monkeypatch):
     SLSQP programs (jaxstiff.solvers.pgd.batch._warm_retry). It must run there, be finished when
     the call returns, and change nothing: the same result bit for bit as with it switched off
     (JAXSTIFF_WARM_RETRY=0), on a UR10 case where the retry fires."""
-    from jaxstiff.runtime.programs import release_compiled
+    from jaxstiff.runtime import release_compiled
     from jaxstiff.solvers import first_waypoint as fw
     from jaxstiff.solvers.pgd import batch as pgd_batch
 

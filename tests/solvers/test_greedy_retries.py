@@ -15,7 +15,7 @@ import pytest
 import jaxstiff
 from jaxstiff.paths import arc
 from jaxstiff.results import verify
-from jaxstiff.results.target import MissedTargetWarning
+from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.solvers import SLSQP
 from jaxstiff.solvers.greedy import BOX_STARTS, box_starts
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pgd_cases import OPTS
 
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 
 
 @pytest.mark.slow
@@ -45,7 +45,7 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box(planar, planar_pat
     import jaxstiff
     from jaxstiff.solvers import hybrid
     from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
-    from jaxstiff.stiffness.criteria import get_criterion
+    from jaxstiff.stiffness import get_criterion
 
     path, q0 = planar_paths(1, 4, seed=1)
     pts = path.points.copy()

@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.cli.shape import summary_table
-from jaxstiff.cli.shape_flags import add_shape_flags, limit_kwargs
+from jaxstiff.cli._shape import summary_table
+from jaxstiff.cli._shape_flags import add_shape_flags, limit_kwargs
 from jaxstiff.paths import arc
-from jaxstiff.results.target import (
+from jaxstiff.results._target import (
     MissedTargetWarning,
     compress_ranges,
     missed_target_warning,
@@ -28,7 +28,7 @@ from jaxstiff.results.target import (
     warn_missed_target,
 )
 from jaxstiff.settings import ShapeSettings
-from jaxstiff.settings.shape import per_metre_limit, shortest_segments
+from jaxstiff.settings._shape import per_metre_limit, shortest_segments
 from jaxstiff.solvers import SLSQP
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")

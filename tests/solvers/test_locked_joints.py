@@ -16,7 +16,7 @@ import pytest
 from helpers import assert_close, numpy_fk
 
 import jaxstiff
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 from jaxstiff.solvers.problem import Limits, WaypointProblem, box
 
 LOCK = {"lwr_a7": 0.0}

@@ -11,7 +11,7 @@ import pytest
 from pgd_cases import OPTS
 
 import jaxstiff
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 from jaxstiff.solvers import lockstep
 from jaxstiff.solvers.greedy import kernel_objective
 from jaxstiff.solvers.problem import WaypointProblem, compiled_scaled_rows
@@ -106,7 +106,7 @@ def test_slsqp_solves_in_lockstep_equal_the_solver_called_alone():
 
 
 @pytest.mark.slow  # two hybrid solves; the fast lane keeps the lockstep-equals-alone check
-@pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
+@pytest.mark.filterwarnings("ignore::jaxstiff.results._target.MissedTargetWarning")
 def test_hybrid_path_result_does_not_depend_on_its_batch(planar_paths, run_planar):
     path, q0 = planar_paths(3, 5, seed=2)
     opts = {**OPTS, "polish_skip_tol": 0.0}
@@ -117,7 +117,7 @@ def test_hybrid_path_result_does_not_depend_on_its_batch(planar_paths, run_plana
 
 
 @pytest.mark.slow  # hybrid solves with and without the skip
-@pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
+@pytest.mark.filterwarnings("ignore::jaxstiff.results._target.MissedTargetWarning")
 def test_polish_skip_keeps_the_criterion_and_saves_solves(monkeypatch, planar_paths, run_planar):
     from jaxstiff.solvers import slsqp
 

@@ -13,7 +13,7 @@ from helpers import numpy_fk, one_value_joint_urdf
 from pgd_cases import OPTS, STARTS
 
 import jaxstiff
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 from jaxstiff.solvers import pgd
 
 
@@ -109,7 +109,7 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
     import jax
 
     from jaxstiff.solvers.problem import WaypointProblem
-    from jaxstiff.stiffness.criteria import get_criterion
+    from jaxstiff.stiffness import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name)
     rng = np.random.default_rng(4)
@@ -157,7 +157,7 @@ def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked, mode
     import jax
 
     from jaxstiff.solvers.problem import WaypointProblem
-    from jaxstiff.stiffness.criteria import get_criterion
+    from jaxstiff.stiffness import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)
     rng = np.random.default_rng(11)
@@ -221,7 +221,7 @@ def test_lm_stage_never_raises_the_residual_and_stays_in_the_box(robot_name, tas
 
     from jaxstiff.solvers.pgd.ops import box_scales
     from jaxstiff.solvers.problem import WaypointProblem
-    from jaxstiff.stiffness.criteria import get_criterion
+    from jaxstiff.stiffness import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name)
     rng = np.random.default_rng(21)
@@ -262,7 +262,7 @@ def test_pick_leaves_out_a_joint_whose_range_is_one_value(tmp_path):
     it made every start's room 0, so the first tied start won whatever its room on other joints."""
     import jax.numpy as jnp
 
-    from jaxstiff.settings.solvers import PGDOptions
+    from jaxstiff.settings import PGDOptions
     from jaxstiff.solvers.pgd.kernel import PGDKernel
     from jaxstiff.solvers.problem import WaypointProblem
 

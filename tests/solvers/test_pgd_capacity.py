@@ -10,7 +10,7 @@ import numpy as np
 from pgd_cases import OPTS, STARTS
 
 import jaxstiff
-from jaxstiff.settings.solvers import PGDOptions
+from jaxstiff.settings import PGDOptions
 from jaxstiff.solvers.pgd import batch as pgd_batch
 from jaxstiff.solvers.pgd.kernel import PGDKernel, waypoint_keys
 from jaxstiff.solvers.problem import WaypointProblem

@@ -11,7 +11,7 @@ import pytest
 
 import jaxstiff
 from jaxstiff.ik import ik_position
-from jaxstiff.settings.solvers import PGDOptions
+from jaxstiff.settings import PGDOptions
 from jaxstiff.solvers.pgd.kernel import PGDKernel
 from jaxstiff.solvers.problem import WaypointProblem
 

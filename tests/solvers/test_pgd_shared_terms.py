@@ -16,7 +16,7 @@ from helpers import numpy_fk
 import jaxstiff
 from jaxstiff.solvers import pgd
 from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.stiffness.criteria import get_criterion
+from jaxstiff.stiffness import get_criterion
 
 
 def _user_criterion(K, d, r):

@@ -16,8 +16,8 @@ from helpers import assert_close, numpy_fk, one_value_joint_urdf
 
 import jaxstiff
 from jaxstiff import paths
-from jaxstiff.results import files as R
-from jaxstiff.results.target import MissedTargetWarning
+from jaxstiff.results import _files as R
+from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.solvers.problem import WaypointProblem, compiled
 
 LOCK = {"lwr_a7": 0.0}
@@ -525,7 +525,7 @@ def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane(lwr):
 def test_meta_tcp_is_the_offset_given(tmp_path):
     """meta.robot.tcp is recovered from the URDF's bare tip by a solve; on a chain with rpy origins
     its round-off (0.09999999999999996 for 0.1) is not passed on: the offset reads as given."""
-    from jaxstiff.settings.robot import robot_meta
+    from jaxstiff.settings._robot import robot_meta
 
     urdf = tmp_path / "r.urdf"
     urdf.write_text(

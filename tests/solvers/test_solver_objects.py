@@ -15,7 +15,7 @@ import pytest
 from helpers import numpy_fk
 
 import jaxstiff
-from jaxstiff.results.target import MissedTargetWarning
+from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.settings import ShapeSettings
 from jaxstiff.solvers import PGD, SLSQP, SLSQPFD, Hybrid, Registered, Trajectory
 from jaxstiff.solvers.configs import solver_call, solver_from_name

@@ -11,10 +11,10 @@ import pytest
 from helpers import numpy_fk
 
 import jaxstiff
-from jaxstiff.model.kinematics_scan import SOLVER_UNROLL_MAX_JOINTS, solver_uses_scan
+from jaxstiff.model._kinematics_scan import SOLVER_UNROLL_MAX_JOINTS, solver_uses_scan
 from jaxstiff.solvers.problem import WaypointProblem, compiled_report, report_rows, warm_report
 from jaxstiff.solvers.problem.compiled import REPORT_ROWS
-from jaxstiff.stiffness.criteria import f2
+from jaxstiff.stiffness import f2
 
 
 @pytest.mark.parametrize("name", ["kuka_lwr4", "planar_3r"])
@@ -66,7 +66,7 @@ def test_report_warm_up_gives_the_same_report_and_survives_any_robot():
     (infinite limits) and prismatic ones, and a criterion of the user's own, warm up without error."""
     import threading
 
-    from jaxstiff.model.generate import serial_chain
+    from jaxstiff.model._generate import serial_chain
 
     robot = serial_chain(5, seed=4)  # joint 3 continuous, joints 2 and 4 prismatic
     assert np.isinf(robot.lower[3]) and 1 in robot.joint_types
@@ -96,7 +96,7 @@ import threading
 
 import jaxstiff
 from jaxstiff.solvers.problem import WaypointProblem, warm_report
-from jaxstiff.stiffness.criteria import f2
+from jaxstiff.stiffness._criteria import f2
 
 robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
 warm_report(WaypointProblem(robot, "full", f2))

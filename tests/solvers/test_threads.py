@@ -1,4 +1,4 @@
-"""Chunks of a batch run on several CPU threads at once (jaxstiff.runtime.threads, issue 23): the
+"""Chunks of a batch run on several CPU threads at once (jaxstiff.runtime._threads, issue 23): the
 chunk sizes and thread counts, results in order, and pgd's and the trajectory solver's results
 bit-identical with one thread (one chunk) and with several (several chunks at once)."""
 
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from pgd_cases import OPTS
 
-from jaxstiff.runtime import threads as th
+from jaxstiff.runtime import _threads as th
 
 
 def test_chunk_rows():
@@ -63,7 +63,7 @@ def test_map_chunks_keeps_order_and_runs_concurrently():
     assert th.map_chunks(slow, [2], 4) == [4]
 
 
-@pytest.mark.filterwarnings("ignore::jaxstiff.results.target.MissedTargetWarning")
+@pytest.mark.filterwarnings("ignore::jaxstiff.results._target.MissedTargetWarning")
 @pytest.mark.parametrize("solver", ["pgd", "trajectory"])
 def test_results_do_not_depend_on_the_thread_count(solver, planar_paths, run_planar):
     path, q0 = planar_paths(5, 4, seed=5)

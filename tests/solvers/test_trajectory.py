@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from pgd_cases import OPTS
 
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 from jaxstiff.solvers import pgd
 
 TOPTS = {**OPTS, "traj_iters": 16, "blocks": 2, "chunk": 2}

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
-from jaxstiff.stiffness.criteria import CRITERIA, alpha_and_ratio
+from jaxstiff.stiffness._criteria import CRITERIA, alpha_and_ratio
 
 RNG = np.random.default_rng(99)
 N = 64
@@ -483,7 +483,7 @@ def test_every_caller_passes_c_by_one_rule(fn, expected):
     so the value does not depend on which path called the criterion. The two rules differed for
     an unreadable signature: the solvers called it without c (its default 0.01, silently)."""
     from jaxstiff.solvers.problem import WaypointProblem
-    from jaxstiff.stiffness.criteria import accepts_c, get_criterion
+    from jaxstiff.stiffness._criteria import accepts_c, get_criterion
 
     K = jnp.eye(3) * 2.0
     d = jnp.array([1.0, 0.0, 0.0])

@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
-from jaxstiff.stiffness.ellipsoid import alpha_rad, eigh_descending
+from jaxstiff.stiffness._ellipsoid import alpha_rad, eigh_descending
 
 RNG = np.random.default_rng(1234)
 N = 64  # one batch size throughout: each new shape compiles anew

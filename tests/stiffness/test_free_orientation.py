@@ -54,9 +54,9 @@ def test_free_and_held_orientation_stiffness_against_numpy(name):
 
 
 def test_held_and_free_of_the_figure_match_numpy():
-    """jaxstiff.plots.task_modes.held_and_free (the figure's numbers): angle to d, ratio and major
+    """jaxstiff.plots._task_modes.held_and_free (the figure's numbers): angle to d, ratio and major
     axis from numpy's eigen-decomposition of the independent matrices."""
-    from jaxstiff.plots.task_modes import held_and_free
+    from jaxstiff.plots import held_and_free
 
     robot = ARMS["lwr"]()
     q, kj = _postures(robot, 3, seed=7)

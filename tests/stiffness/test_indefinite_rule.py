@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.stiffness.criteria import alpha_and_ratio
+from jaxstiff.stiffness._criteria import alpha_and_ratio
 
 INDEFINITE = np.diag([3.0, 1.0, -2.0])
 D = np.array([1.0, 0.0, 0.0])

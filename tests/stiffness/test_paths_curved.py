@@ -8,7 +8,7 @@ import pytest
 from helpers import assert_close, load_script, numpy_fk
 
 from jaxstiff import paths
-from jaxstiff.paths.generators import ellipse_arc, ellipse_curvature, turning_deg
+from jaxstiff.paths import ellipse_arc, ellipse_curvature, turning_deg
 
 
 def _param(p, c, a, b):

@@ -16,8 +16,8 @@ from helpers import assert_close
 
 import jaxstiff
 from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.stiffness.core import compliance
-from jaxstiff.stiffness.schur import (
+from jaxstiff.stiffness import compliance
+from jaxstiff.stiffness._schur import (
     schur_compliance,
     stiffness_and_tangents,
     stiffness_eig_of_compliance,

@@ -18,7 +18,7 @@ import pytest
 from helpers import assert_close
 
 import jaxstiff
-from jaxstiff.stiffness.core import translational_axes, translational_compliance
+from jaxstiff.stiffness import translational_axes, translational_compliance
 
 Q_CASE = np.array([-2.6390270612749482, -1.5696481420537225, -1.6765694625953258, 0.0, -2.4352979896566778, 1.529683441680743, -1.700039111412567])  # fmt: skip
 KJ_CASE = np.array([27.65831725056191, 1.2340370506030465, 1.5808087305479992, 8.171333436700865, 15.822027075893665, 4.129801856805123, 3.5070456973858075])  # fmt: skip
@@ -125,7 +125,7 @@ def test_random_elbow_straight_postures(task):
     ax_k = np.asarray(ell.axes)
     assert np.all(ax_k > 0) and np.all(np.asarray(ell.volume) > 0)
     # K_T is exact for every axis whose compliance exceeds 40 delta times the mean (module docstring
-    # of jaxstiff.stiffness.schur); the few axes within 100x of that are left out
+    # of jaxstiff.stiffness._schur); the few axes within 100x of that are left out
     exact = mu > 100 * 1e-8 * mu.sum(-1, keepdims=True) / 3
     assert exact.sum() > 0.95 * fin.sum()
     assert_close(ax_k[exact], ref[exact], rtol=1e-6, what="ellipsoid(translational_stiffness)")
@@ -185,7 +185,7 @@ def test_stiffness_jvp_matches_finite_differences(where):
     """The JVP of K_T (Daleckii-Krein, floor included) against central differences of C -> K_T:
     at a regular posture, where the floor acts (an eigenvalue of S 3x the floor ``a``; at exactly
     zero the differences would need steps far below ``a`` and drown in rounding), and at S = I."""
-    from jaxstiff.stiffness.schur import stiffness_of_compliance
+    from jaxstiff.stiffness._schur import stiffness_of_compliance
 
     rng = np.random.default_rng(7)
     if where == "regular":

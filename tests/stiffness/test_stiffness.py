@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import jaxstiff
-from jaxstiff.stiffness.core import TASK_ROWS, cms_scale, compliance_condition
+from jaxstiff.stiffness import TASK_ROWS, cms_scale, compliance_condition
 
 RNG = np.random.default_rng(42)
 N = 64  # batch size used throughout (each new shape compiles anew)
@@ -391,7 +391,7 @@ def test_property_spd_finite_and_exact_when_regular(data):
 def test_fusion_boundary_is_an_identity_for_every_transformation():
     """The CPU fusion boundary (a primitive of its own) is the identity in value, under vmap
     (nested too), and for derivatives: forward, reverse, reverse over vmap, second order."""
-    from jaxstiff.stiffness.core import fusion_boundary
+    from jaxstiff.stiffness._core import fusion_boundary
 
     def f(x):
         y = fusion_boundary({"a": jnp.sin(x) * x, "b": x[..., :2] ** 3})
@@ -443,7 +443,7 @@ def test_task_check_samples_each_joint_inside_its_own_range(tmp_path):
     """An elbow whose range [3.3, 3.8] rad lies beyond pi: clipping it to [-pi, pi] sampled only the
     folded (singular) elbow and refused a controllable 'xyz' task. numpy (independent): the
     position Jacobian has 3 singular values well above 0 inside the range."""
-    from jaxstiff.stiffness.core import check_task_feasible
+    from jaxstiff.stiffness import check_task_feasible
 
     f = tmp_path / "elbow.urdf"
     f.write_text(_ELBOW_BEYOND_PI)
@@ -461,7 +461,7 @@ def test_task_check_counts_the_joints_with_a_spring():
     number), while a CSC rollout, whose free joints must follow all six rows, is refused. Rigid (the
     default), only the five free joints give, so K along one direction is infinite: refused, with
     the spring option named (it ran and stored a K_T of ~1e15 N/m)."""
-    from jaxstiff.stiffness.core import check_task_feasible
+    from jaxstiff.stiffness import check_task_feasible
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a3": 0.0, "lwr_a7": 0.2})
     q = np.where(robot.free, np.deg2rad([20.0, 40.0, 0.0, -70.0, 25.0, 50.0, 0.0]), robot.locked_values)
@@ -509,7 +509,7 @@ def test_task_check_hint_when_no_task_fits():
     """Every joint locked (rigid): no task has a spring, so the hint must not send the user to task
     'xy' as if it would work (it said "task 'xy' needs a chain that moves in the base xy plane"
     for the planar 3R, which does move in that plane); it says no smaller task fits and why."""
-    from jaxstiff.stiffness.core import check_task_feasible
+    from jaxstiff.stiffness import check_task_feasible
 
     robot = jaxstiff.Robot.from_urdf("planar_3r", locked={"joint_1": 0.0, "joint_2": 0.3, "joint_3": 0.2})
     with pytest.raises(ValueError, match=r"only 0 joint\(s\) have a spring.*no smaller task fits either") as e:

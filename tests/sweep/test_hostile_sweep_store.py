@@ -34,7 +34,7 @@ import pytest
 from helpers import CSC_TOML
 
 from jaxstiff.cli import main
-from jaxstiff.sweep.store import read_table
+from jaxstiff.sweep import read_table
 
 SHAPE_TOML = """\
 [sweep]

@@ -20,10 +20,10 @@ import pytest
 from helpers import CSC_TOML, REPO_ROOT
 
 import jaxstiff
-from jaxstiff.results.files import ShapeResult, is_usable, np_jacobian_rows, np_translational_stiffness, verify
-from jaxstiff.sweep.config import kxd_matrix, parse_config
-from jaxstiff.sweep.run import run_sweep
-from jaxstiff.sweep.store import SweepStore, read_table
+from jaxstiff.results._files import ShapeResult, is_usable, np_jacobian_rows, np_translational_stiffness, verify
+from jaxstiff.sweep import run_sweep
+from jaxstiff.sweep._config import kxd_matrix, parse_config
+from jaxstiff.sweep._store import SweepStore, read_table
 
 REPO = str(REPO_ROOT)
 
@@ -109,7 +109,7 @@ def test_shape_table_rows_and_settings(shape_run):
     assert not any(c.endswith("time_s") or c == "wall_s" for c in df.columns)
     # the start posture's IK error is a column (the docs and the IK warning name it; it was only in
     # the chunk files): here the IK reaches the first waypoint, so it is below the IK tolerance
-    from jaxstiff.sweep.run import IK_TOL_M
+    from jaxstiff.sweep._run import IK_TOL_M
 
     assert df["q0_ik_error_m"].dtype == np.float64 and np.all(df["q0_ik_error_m"] < IK_TOL_M)
 
@@ -248,7 +248,7 @@ def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch)
     is the row's q0_ik_error_m (a failed IK was used silently before, its rows then "unreachable")."""
     import jaxstiff.ik as ik
     from jaxstiff.ik import nominal_posture
-    from jaxstiff.sweep.run import IK_RETRIES, IK_TOL_M, Q0_CACHE, start_posture_and_error
+    from jaxstiff.sweep._run import IK_RETRIES, IK_TOL_M, Q0_CACHE, start_posture_and_error
 
     far = {
         **SHAPE_CFG,
@@ -458,7 +458,7 @@ def test_heatmap_of_an_all_nan_metric_is_written_without_warnings(tmp_path):
     the CLI) no longer appear."""
     import warnings
 
-    from jaxstiff.sweep.report import heatmap
+    from jaxstiff.sweep._report import heatmap
 
     plan = parse_config(SHAPE_CFG)
     df = pd.DataFrame({"ratio": [2.0, 2.0, 3.0, 3.0], "dk": [5.0, 10.0, 5.0, 10.0], "max_alpha_deg": [np.nan] * 4})

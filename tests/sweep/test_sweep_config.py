@@ -13,7 +13,7 @@ import pytest
 from helpers import REPO_ROOT
 
 from jaxstiff import paths as P
-from jaxstiff.sweep.config import AXES, SweepConfigError, kxd_matrix, load_config, parse_config
+from jaxstiff.sweep._config import AXES, SweepConfigError, kxd_matrix, load_config, parse_config
 
 
 def base() -> dict:
@@ -660,7 +660,7 @@ def test_shipped_robot_gets_the_commands_default_lock():
 
 def test_robot_tcp_takes_three_or_six_values():
     """tcp = [x, y, z] (m) or [x, y, z, roll, pitch, yaw] (m, rad; RobotSpec's), or a 4x4 transform."""
-    from jaxstiff.settings.robot import tcp_transform
+    from jaxstiff.settings._robot import tcp_transform
 
     six = [0.1, 0.0, 0.0, 0.0, 0.0, math.pi / 2]
     plan = parse_config(_set(base(), "robot.tcp", six))

@@ -9,9 +9,9 @@ import os
 import numpy as np
 import pytest
 
-from jaxstiff.settings.csc import CSCSettings
-from jaxstiff.sweep.config import AXES, SweepConfigError, parse_config
-from jaxstiff.sweep.run import run_sweep
+from jaxstiff.settings import CSCSettings
+from jaxstiff.sweep import run_sweep
+from jaxstiff.sweep._config import AXES, SweepConfigError, parse_config
 
 
 def _cfg(**axes) -> dict:

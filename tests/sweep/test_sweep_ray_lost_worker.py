@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 from helpers import CSC_TOML, REPO_ROOT
 
-from jaxstiff.sweep.run import run_sweep
+from jaxstiff.sweep import run_sweep
 
 TOML = CSC_TOML.replace("n = 20", "n = 400")  # long enough to be killed mid-chunk
 
@@ -81,9 +81,9 @@ def test_a_killed_worker_chunk_is_recomputed_and_the_table_is_unchanged(tmp_path
 
 def test_exhausted_retries_say_how_to_finish(monkeypatch, tmp_path, capsys):
     """When Ray gives up on a chunk, the command says so and names --resume (no traceback)."""
-    import jaxstiff.sweep.run as run_mod
-    from jaxstiff.cli.main import main
-    from jaxstiff.sweep.backends import ChunkLostError
+    import jaxstiff.sweep._run as run_mod
+    from jaxstiff.cli import main
+    from jaxstiff.sweep._backends import ChunkLostError
 
     def lost(*a, **k):
         raise ChunkLostError(

@@ -33,7 +33,7 @@ def _pixels(png: bytes) -> np.ndarray:
 
 
 def _counts(img: np.ndarray) -> dict[str, int]:
-    """Pixels of the scene's colours (jaxstiff.view.scene.COLORS, shaded by the lights)."""
+    """Pixels of the scene's colours (jaxstiff.view._scene.COLORS, shaded by the lights)."""
     r, g, b = img[..., 0], img[..., 1], img[..., 2]
     return {
         "arm": int(np.sum((b > 140) & (r < 110) & (g < 140) & (b - r > 60))),

@@ -12,9 +12,9 @@ import pytest
 from viewer_files import MISSING_MESHES_URDF, make_csc_file, make_shape_result
 
 import jaxstiff
-from jaxstiff.cli.main import main
-from jaxstiff.view.data import load_view_data
-from jaxstiff.view.export import csv_columns, export_csv, read_csv
+from jaxstiff.cli import main
+from jaxstiff.view._data import load_view_data
+from jaxstiff.view._export import csv_columns, export_csv, read_csv
 
 
 def test_csv_round_trip_shape(shape_file, tmp_path, lwr) -> None:
@@ -86,7 +86,7 @@ def test_plot_pick_list_draws_those_waypoints(shape_file, tmp_path, capsys) -> N
 
 def test_missing_meshes_capsules_one_warning(tmp_path) -> None:
     viser = pytest.importorskip("viser")
-    from jaxstiff.view.scene import Scene
+    from jaxstiff.view._scene import Scene
 
     robot = jaxstiff.Robot.from_urdf(MISSING_MESHES_URDF)
     f = make_shape_result(robot, 1, 4, task="xyz").save(str(tmp_path / "arm4.npz"))

@@ -1,4 +1,4 @@
-"""The scene's scale, sizes and camera (jaxstiff.view.framing), the static page's panel data, and
+"""The scene's scale, sizes and camera (jaxstiff.view._framing), the static page's panel data, and
 `view --png`'s refusals (no browser, bad size) - without a browser run."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import re
 import numpy as np
 import pytest
 
-from jaxstiff.cli.main import main
-from jaxstiff.view.framing import MANTISSAS, arm_sizes, choose_view, nice_scale
+from jaxstiff.cli import main
+from jaxstiff.view._framing import MANTISSAS, arm_sizes, choose_view, nice_scale
 
 
 def test_nice_scale_draws_the_largest_semi_axis_near_its_intended_length() -> None:
@@ -103,8 +103,8 @@ def test_static_page_carries_the_panel(batch_file, tmp_path) -> None:
     """--html: the per-waypoint numbers of every path (the live panel's text), the start state,
     the panel's script; viser's recording holds 2 slots (all ellipsoids off / on) per waypoint."""
     pytest.importorskip("viser")
-    from jaxstiff.view.app import panel_markdown
-    from jaxstiff.view.data import load_view_data
+    from jaxstiff.view._app import panel_markdown
+    from jaxstiff.view._data import load_view_data
 
     html = str(tmp_path / "b.html")
     assert main(["view", batch_file, "--html", html, "--path", "2", "--waypoint", "4", "--all"]) == 0

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from jaxstiff.cli import main
-from jaxstiff.runtime.io import MAX_URDF_BYTES
+from jaxstiff.runtime._io import MAX_URDF_BYTES
 
 DATA = os.path.join(os.path.dirname(os.path.dirname(__file__)), "data")
 
@@ -90,7 +90,7 @@ def test_a_hostile_recorded_urdf_is_refused_not_read(shape_file, tmp_path, capsy
 
 
 def test_urdf_flag_must_be_the_results_robot(shape_file, tmp_path, capsys) -> None:
-    from jaxstiff.model.shipped import robot_path
+    from jaxstiff.model import robot_path
 
     ur10 = os.path.join(DATA, "robots", "ur10.urdf")
     renamed = str(tmp_path / "renamed.urdf")  # the LWR's chain under another robot's name

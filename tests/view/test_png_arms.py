@@ -61,7 +61,7 @@ def _orange(img: np.ndarray) -> np.ndarray:
 def _expected_area(name: str, res: jaxstiff.ShapeResult, page: dict, p: int) -> float:
     """Pixels the ellipsoid at waypoint p covers on screen (perspective at the TCP's depth), from
     an independent K_T and the page's camera and scale."""
-    from jaxstiff.results.numpy_check import np_translational_stiffness
+    from jaxstiff.results._numpy_check import np_translational_stiffness
 
     urdf, tip, locked = ARMS[name]
     robot = jaxstiff.Robot.from_urdf(urdf, tip_link=tip, locked=locked)
@@ -84,7 +84,7 @@ def test_png_shows_the_ellipsoid(name: str, tmp_path, capsys) -> None:
     pytest.importorskip("viser")
     from PIL import Image
 
-    from jaxstiff.cli.main import main
+    from jaxstiff.cli import main
 
     res = _result(name, str(tmp_path / "shape.npz"))
     png, html = str(tmp_path / "view.png"), str(tmp_path / "view.html")
@@ -114,9 +114,9 @@ def test_png_shows_the_ellipsoid(name: str, tmp_path, capsys) -> None:
 def test_png_timeout_writes_nothing(shape_file, tmp_path) -> None:
     """A deadline too short for Chromium to start and draw: a TimeoutError naming the step, no file."""
     pytest.importorskip("viser")
-    from jaxstiff.view.data import load_view_data
-    from jaxstiff.view.png import screenshot
-    from jaxstiff.view.static import write_html
+    from jaxstiff.view._data import load_view_data
+    from jaxstiff.view._png import screenshot
+    from jaxstiff.view._static import write_html
 
     html = write_html(load_view_data(shape_file), str(tmp_path / "p.html"))
     out = str(tmp_path / "p.png")

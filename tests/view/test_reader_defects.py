@@ -1,6 +1,6 @@
 """Issue 42 item 4, "readers do not check what they read": one test per defect of the list. Each
 tampered file was exported, viewed and physics-checked as if it were right (or refused by some
-readers only); now every reader goes through :func:`jaxstiff.results.reader.read_result` and each
+readers only); now every reader goes through :func:`jaxstiff.results._reader.read_result` and each
 command ends in exit 2 with one line naming what disagrees, and writes nothing.
 """
 
@@ -14,8 +14,8 @@ from helpers import tamper_result
 
 import jaxstiff
 from jaxstiff.cli import main
-from jaxstiff.model.shipped import robot_path
-from jaxstiff.runtime.io import file_sha256
+from jaxstiff.model import robot_path
+from jaxstiff.runtime._io import file_sha256
 
 
 def _refused(argv: list[str], capsys, *words: str) -> str:
@@ -43,7 +43,7 @@ def _all_refuse(f: str, tmp_path, capsys, *words: str, plot: bool = True) -> Non
 
 
 def test_defect_another_robot_with_its_correct_hash(shape_file, tmp_path, capsys) -> None:
-    from jaxstiff.settings.robot import robot_meta
+    from jaxstiff.settings._robot import robot_meta
 
     planar = robot_path("planar_3r")
     record = robot_meta(jaxstiff.Robot.from_urdf("planar_3r"))  # its whole record, hash included
@@ -123,7 +123,7 @@ def test_defect_q_of_another_dtype(shape_file, csc_file, tmp_path, capsys, dtype
 
 
 def test_defect_stored_positions_not_the_fk_of_q(shape_file, csc_file, tmp_path, capsys) -> None:
-    from jaxstiff.view.data import check_positions, load_view_data
+    from jaxstiff.view._data import check_positions, load_view_data
 
     assert check_positions(load_view_data(shape_file)) < 1e-9
     for src in (shape_file, csc_file):

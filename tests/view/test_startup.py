@@ -15,18 +15,18 @@ import numpy as np
 import pytest
 from viewer_files import DATA, make_shape_result
 
-from jaxstiff.cli.plot import parse_waypoints
-from jaxstiff.model.urdf import parse_urdf_model as parse_model
-from jaxstiff.view.data import load_view_data
-from jaxstiff.view.geometry import capsule, cylinder, icosphere
+from jaxstiff.cli._plot import parse_waypoints
+from jaxstiff.model._urdf import parse_urdf_model as parse_model
+from jaxstiff.view._data import load_view_data
+from jaxstiff.view._geometry import capsule, cylinder, icosphere
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 _LOAD = """
 import json, sys
-from jaxstiff.cli.main import build_parser
-from jaxstiff.view.data import load_view_data
-from jaxstiff.view.app import Viewer
+from jaxstiff.cli._main import build_parser
+from jaxstiff.view._data import load_view_data
+from jaxstiff.view._app import Viewer
 build_parser("view")
 data = load_view_data(sys.argv[1])
 
@@ -108,8 +108,8 @@ def test_numpy_shapes_closed_outward() -> None:
 
 def test_csc_ellipsoids_side_by_side(csc_file) -> None:
     viser = pytest.importorskip("viser")
-    from jaxstiff.view.kinematics import ellipsoid_axes
-    from jaxstiff.view.scene import Scene
+    from jaxstiff.view._kinematics import ellipsoid_axes
+    from jaxstiff.view._scene import Scene
 
     data = load_view_data(csc_file)
     server = viser.ViserServer(host="127.0.0.1", port=8094, verbose=False)
@@ -149,7 +149,7 @@ def test_lazy_public_names() -> None:
     assert callable(jaxstiff.ellipsoid) and jaxstiff.Robot.__name__ == "Robot"
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
         _ = jaxstiff.nope  # pyright: ignore[reportAttributeAccessIssue]
-    import jaxstiff.model as model  # the same mechanism (jaxstiff.runtime.lazy)
+    import jaxstiff.model as model  # the same mechanism (jaxstiff.runtime._lazy)
 
     assert set(model.__all__) <= set(dir(model)) and model.Robot is jaxstiff.Robot
     with pytest.raises(AttributeError, match="module 'jaxstiff.model' has no attribute 'nope'"):

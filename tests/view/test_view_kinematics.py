@@ -1,5 +1,5 @@
 """The viewer's numpy FK, Jacobian and stiffness against the JAX kernels and an independent numpy
-computation (jaxstiff.results.numpy_check)."""
+computation (jaxstiff.results._numpy_check)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import pytest
 from viewer_files import MISSING_MESHES_URDF
 
 import jaxstiff
-from jaxstiff.results.numpy_check import np_translational_stiffness
-from jaxstiff.view.kinematics import chain_frames, ellipsoid_axes, position_jacobian, stiffness_T, tcp_transform
+from jaxstiff.results._numpy_check import np_translational_stiffness
+from jaxstiff.view._kinematics import chain_frames, ellipsoid_axes, position_jacobian, stiffness_T, tcp_transform
 
 
 @pytest.mark.parametrize("name", ["kuka_lwr4", "planar_3r", MISSING_MESHES_URDF])

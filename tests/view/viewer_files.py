@@ -12,7 +12,7 @@ import os
 import numpy as np
 
 import jaxstiff
-from jaxstiff.settings.robot import robot_meta
+from jaxstiff.settings._robot import robot_meta
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 MISSING_MESHES_URDF = os.path.join(DATA, "arm4_missing_meshes.urdf")
@@ -32,8 +32,8 @@ def make_shape_result(
     d = rng.normal(size=(B, P, 3))
     d /= np.linalg.norm(d, axis=-1, keepdims=True)
     z = np.zeros((B, P))
-    from jaxstiff.results.numpy_check import np_alpha_ratio
-    from jaxstiff.view.kinematics import stiffness_T
+    from jaxstiff.results._numpy_check import np_alpha_ratio
+    from jaxstiff.view._kinematics import stiffness_T
 
     K = stiffness_T(robot, q, kj, task)
     alpha, ratio = np_alpha_ratio(K[..., :2, :2] if task == "xy" else K, d)
@@ -88,7 +88,7 @@ def make_csc_file(
 
     ``status``: the (B, T) status bit masks (default 0); ``status_bits``: meta's names of the bits
     (default one of them; ``{}``: none in meta, as in files written before they were recorded)."""
-    from jaxstiff.view.kinematics import stiffness_T
+    from jaxstiff.view._kinematics import stiffness_T
 
     rng = np.random.default_rng(seed)
     q = np.clip(rng.uniform(-1, 1, (B, T, robot.n)), robot.lower, robot.upper)

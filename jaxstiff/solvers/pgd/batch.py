@@ -15,12 +15,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.results import files as R
-from jaxstiff.runtime.export_cache import compile_with_export_cache
-from jaxstiff.runtime.programs import program_cache, register_cache
-from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
-from jaxstiff.runtime.xla import kernel_compiler_options
-from jaxstiff.settings.solvers import PGDOptions
+from jaxstiff.results import _files as R
+from jaxstiff.runtime._export_cache import compile_with_export_cache
+from jaxstiff.runtime._programs import program_cache, register_cache
+from jaxstiff.runtime._threads import chunk_rows, chunk_threads, map_chunks
+from jaxstiff.runtime._xla import kernel_compiler_options
+from jaxstiff.settings._solvers import PGDOptions
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.pgd.kernel import PGDKernel, waypoint_keys
 from jaxstiff.solvers.pgd.ops import lm_kind
@@ -292,9 +292,9 @@ def _ranking(
     not solved, solved waypoints not in target, sum of the criterion over the solved ones)``: lower
     is better, compared in that order. In target: alpha and rho of the report at ``X``
     (:func:`jaxstiff.results.target.target_masks`, the rule of the result's ``in_target``)."""
-    from jaxstiff.results.target import target_masks
+    from jaxstiff.results._target import target_masks
     from jaxstiff.solvers.problem import report_rows
-    from jaxstiff.stiffness.criteria import f1 as _f1
+    from jaxstiff.stiffness._criteria import f1 as _f1
 
     k, P = status.shape
     r = batch.ratios[rows]
@@ -501,7 +501,7 @@ def _run_chunks(
                 np.int32(P),
             )
             if sharded:  # split the batch across all local devices (jaxstiff.runtime.sharding)
-                from jaxstiff.runtime.sharding import shard_rows
+                from jaxstiff.runtime._sharding import shard_rows
 
                 placed, _ = shard_rows({str(i): args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})
                 args = tuple(placed.get(str(i), a) for i, a in enumerate(args))

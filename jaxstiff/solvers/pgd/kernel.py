@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff._numerics.batch import batched_like
-from jaxstiff.results import files as R
+from jaxstiff.results import _files as R
 from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
 from jaxstiff.solvers.pgd.stages import judge, optimise
 from jaxstiff.solvers.problem import WaypointProblem

@@ -11,16 +11,16 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff._numerics.batch import batched_like
-from jaxstiff.model.kinematics import jacobian_tangent
+from jaxstiff.model._kinematics import jacobian_tangent
 from jaxstiff.solvers.problem import WaypointProblem, rate_bounds
-from jaxstiff.stiffness.core import (
+from jaxstiff.stiffness._core import (
     compliance,
     fusion_boundary,
     task_rows,
 )
-from jaxstiff.stiffness.criteria import f1 as _f1
-from jaxstiff.stiffness.criteria import f2 as _f2
-from jaxstiff.stiffness.schur import stiffness_and_tangents
+from jaxstiff.stiffness._criteria import f1 as _f1
+from jaxstiff.stiffness._criteria import f2 as _f2
+from jaxstiff.stiffness._schur import stiffness_and_tangents
 
 __all__ = [
     "WaypointOps",

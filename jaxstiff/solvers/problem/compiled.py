@@ -10,9 +10,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff.runtime.export_cache import DiskJit
-from jaxstiff.runtime.programs import program_cache
-from jaxstiff.runtime.xla import kernel_compiler_options
+from jaxstiff.runtime._export_cache import DiskJit
+from jaxstiff.runtime._programs import program_cache
+from jaxstiff.runtime._xla import kernel_compiler_options
 from jaxstiff.solvers.problem.waypoint import WaypointProblem
 
 __all__ = ["compiled", "compiled_report_rows", "REPORT_ROWS"]

@@ -12,14 +12,14 @@ import jax.numpy as jnp
 import numpy as np
 from numpy.typing import ArrayLike
 
-from jaxstiff.model.chain import LOCKED_JOINT_MODES
-from jaxstiff.model.kinematics import position_and_jacobian, position_and_jacobian_raw
-from jaxstiff.model.kinematics_scan import solver_uses_scan
-from jaxstiff.model.robot import Robot
-from jaxstiff.settings.shape import task_dim
-from jaxstiff.stiffness.core import compliance, task_rows, translational_stiffness
-from jaxstiff.stiffness.criteria import accepts_c, alpha_and_ratio, alpha_and_ratio_of_eig, f1, f1_of, f2, f2_of
-from jaxstiff.stiffness.schur import stiffness_eig_of_compliance
+from jaxstiff.model._chain import LOCKED_JOINT_MODES
+from jaxstiff.model._kinematics import position_and_jacobian, position_and_jacobian_raw
+from jaxstiff.model._kinematics_scan import solver_uses_scan
+from jaxstiff.model._robot import Robot
+from jaxstiff.settings._shape import task_dim
+from jaxstiff.stiffness._core import compliance, task_rows, translational_stiffness
+from jaxstiff.stiffness._criteria import accepts_c, alpha_and_ratio, alpha_and_ratio_of_eig, f1, f1_of, f2, f2_of
+from jaxstiff.stiffness._schur import stiffness_eig_of_compliance
 
 __all__: list[str] = []
 

@@ -1,0 +1,105 @@
+"""``jaxstiff robot``: print a robot's chain, limits, and FK/Jacobian at a posture.
+
+The robot flags are every command's (:func:`~jaxstiff.cli._common.add_robot_flags`): the shipped
+kuka_lwr4 has its 7th joint locked at 0 here too, as in ``jaxstiff shape`` (``--lock none`` frees it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+from typing import Any
+
+from ._common import add_robot_flags, command, parse_floats, reads, robot_spec_from_args
+
+
+@command("robot", "print a robot's candidate tip links, chain, limits, and FK/Jacobian at a posture")
+def _add_robot(p: argparse.ArgumentParser) -> Any:
+    reads(
+        p.add_argument(
+            "urdf",
+            nargs="?",
+            default=None,
+            metavar="URDF",
+            help="URDF file or shipped robot name (the same as --robot)",
+        ),
+        shipped_robot=True,
+    )
+    add_robot_flags(p)
+    p.add_argument(
+        "--q",
+        default=None,
+        help="posture, comma-separated rad (m for prismatic joints; default: the nominal posture, mid-range + 30 deg per revolute joint, mid-range for a prismatic one)",
+    )
+
+    def run(args: argparse.Namespace) -> int:
+        import numpy as np
+
+        from ..runtime._x64 import enable_x64
+
+        enable_x64()
+        from ..settings._robot import DEFAULT_ROBOT
+
+        if args.urdf is not None:
+            if args.robot not in (DEFAULT_ROBOT, args.urdf):
+                raise ValueError(f"give the robot once: URDF {args.urdf!r} or --robot {args.robot!r}")
+            args.robot = args.urdf
+        spec = robot_spec_from_args(args)
+        print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)
+        robot = spec.build()
+        if args.q is None:
+            from ..ik import nominal_posture
+
+            q = nominal_posture(robot)  # +30 deg (revolute), mid-range (prismatic), within the limits
+        else:
+            q = np.asarray(parse_floats(args.q, "--q"), dtype=float)
+            if q.shape != (robot.n,):
+                raise ValueError(f"--q needs {robot.n} values for {robot.name!r}, got {q.size}")
+            for i in np.flatnonzero(~robot.free):
+                if q[i] != robot.locked_values[i]:
+                    raise ValueError(
+                        f"--q gives joint {robot.joint_names[i]!r} = {q[i]:g}, but it is locked at "
+                        f"{robot.locked_values[i]:g} (--lock); give the locked value or drop the lock"
+                    )
+            out = np.flatnonzero((q < robot.lower) | (q > robot.upper))
+            if out.size:
+                i = int(out[0])
+                warnings.warn(
+                    f"--q: joint {robot.joint_names[i]!r} = {q[i]:g} is outside its limits "
+                    f"[{robot.lower[i]:g}, {robot.upper[i]:g}] (FK and Jacobian shown anyway)",
+                    stacklevel=1,
+                )
+        T, J = robot.fk_and_jacobian(q)
+        np.set_printoptions(precision=5, suppress=True, linewidth=120)
+        print(robot.describe())
+        pris = robot.prismatic
+        unit = "deg; m for prismatic joints" if pris.any() else "deg"
+        print(f"\nposture q ({unit}): {np.round(np.where(pris, q, np.rad2deg(q)), 4).tolist()}")
+        print("\nT_base_tcp (m):")
+        print(np.asarray(T) + 0.0)  # + 0.0 turns -0.0 into 0.0
+        print("\nJ_base (rows vx vy vz [m/s per rad/s], wx wy wz [rad/s per rad/s]):")
+        print(np.asarray(J) + 0.0)
+        return 0
+
+    return run
+
+
+def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None) -> None:
+    """The leaf links a chain from ``base_link`` can end at, with their actuated-joint counts, the
+    automatic choice first and gripper/finger leaves marked (:func:`jaxstiff.model._urdf.tip_candidates`)."""
+    from ..model._urdf import tip_candidates
+
+    ranked, chosen, base = tip_candidates(urdf, base_link)
+    print(f"candidate tip links below {base!r} (automatic choice first; --tip-link to choose another):")
+    width = max(len(c.link) for c in ranked) if ranked else 0
+    for c in ranked:
+        mark = "*" if c.link == chosen else " "
+        note = c.note()
+        used = "  <- --tip-link" if c.link == tip_link else ""
+        s = "" if c.joints == 1 else "s"
+        print(f" {mark} {c.link:<{width}}  {c.joints:>2} actuated joint{s}{'  (' + note + ')' if note else ''}{used}")
+    if chosen is None:
+        print("   (no automatic choice: the rule leaves a tie; pass --tip-link)")
+    else:
+        print(f"   * automatic tip: {chosen!r}")
+    print()

@@ -1,0 +1,339 @@
+"""``jaxstiff shape``: stiffness-ellipsoid shaping along TCP paths, result file ``.npz`` (seed 000).
+
+With no arguments it runs the shipped default: the KUKA LWR 4 with its 7th joint locked at 0 (as
+in seed 000), the shipped default path, criterion f2 with ratio 5, written to ``shape.npz``. The
+flags' defaults, units and help come from :class:`~jaxstiff.settings.ShapeSettings` and the robot
+flags from :func:`~jaxstiff.cli._common.add_robot_flags`, like every command's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from typing import TYPE_CHECKING, Any
+
+from jaxstiff.cli._common import check_out_file, command, robot_spec_from_args
+from jaxstiff.cli._setting_flags import read_setting_flags, setting_flags
+from jaxstiff.cli._shape_flags import EPILOG as EPILOG
+from jaxstiff.cli._shape_flags import add_shape_flags as add_shape_flags
+from jaxstiff.cli._shape_flags import limit_kwargs
+from jaxstiff.runtime._io import deferred_interrupts, interrupt_pending, raise_if_interrupted
+from jaxstiff.runtime._progress import Progress, progress
+from jaxstiff.settings._shape import ShapeSettings
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from jaxstiff.model._robot import Robot
+    from jaxstiff.paths import Path
+    from jaxstiff.results._files import ShapeResult
+
+__all__ = ["summary_table", "rate_limits", "joint_rate_limits", "WaypointProgress", "add_shape_flags", "run_shape"]
+
+
+def _num(text: Any, flag: str, cast: Any = float) -> Any:
+    if text is None:
+        return None
+    try:
+        return cast(text)
+    except (TypeError, ValueError):
+        what = "an integer" if cast is int else "a number"
+        raise ValueError(f"{flag}: expected {what}, got {text!r}") from None
+
+
+def _nums(text: str | None, flag: str) -> list[float] | None:
+    if text is None:
+        return None
+    out = []
+    for part in str(text).split(","):
+        part = part.strip()
+        if not part:
+            continue
+        try:
+            out.append(float(part))
+        except ValueError:
+            raise ValueError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
+    if not out:
+        raise ValueError(f"{flag}: no numbers given")
+    return out
+
+
+class WaypointProgress:
+    """``shape(progress=...)``'s callback for the command: a checkpoint for interrupts (a Ctrl-C
+    that JAX swallowed stops the run at the next waypoint) and a :class:`~jaxstiff.runtime._progress.Progress`
+    tick (``done`` counts the waypoints finished)."""
+
+    def __init__(self, bar: Progress):
+        self.bar = bar
+        self.done = 0
+
+    def __call__(self, b: int, p: int) -> None:
+        raise_if_interrupted()
+        self.done += 1
+        self.bar.update(1, note=f"path {b}")  # 0-based, as the result file and the warnings
+
+
+def summary_table(res: ShapeResult) -> str:
+    """Per path: waypoints, statuses, share with alpha < 1 deg, share with the ratio met, share in
+    target (both; the one rule of :mod:`jaxstiff.results._target`), errors, time. The three shape
+    shares count usable waypoints only (status 0-2, shares of all the path's waypoints): an
+    unreachable waypoint's ellipsoid is that of a posture off the path (an independent check read
+    "usable 17 %, in target 67 %")."""
+    import numpy as np
+
+    from jaxstiff.results._files import SOLVED, is_usable
+    from jaxstiff.results._target import ALPHA_TOL_DEG, RATIO_REL_TOL, ratio_targets, target_masks
+
+    r_b = ratio_targets(res.meta, res.B)
+    crit = str(res.meta["criterion"])
+    tol = f"{100 * RATIO_REL_TOL:g}%"
+    rlabel = f"rho>={1 - RATIO_REL_TOL:g}r" if crit == "f1" else f"|rho-r|<{tol}"
+    names = res.meta.get("path_files") or [res.meta.get("path", {}).get("name", "path")] * res.B
+    lines = [
+        f"{'path':<24} {'P':>4} {'solved':>7} {'usable':>7} {f'a<{ALPHA_TOL_DEG:g}deg':>7} {rlabel:>11} "
+        f"{'in target':>9} {'max pos err (m)':>16} {'ms/waypoint':>12}"
+    ]
+    for b in range(res.B):
+        a_ok, r_ok = target_masks(res.alpha_deg[b], res.ratio[b], r_b[b], crit)
+        usable = is_usable(res.status[b])
+        a_ok, r_ok = a_ok & usable, r_ok & usable
+        perr = f"{float(res.pos_error[b][usable].max()):.2e}" if usable.any() else "n/a"
+        name = os.path.basename(str(names[b])) if b < len(names) else f"path {b}"
+        lines.append(
+            f"{name[:24]:<24} {res.P:>4} {np.mean(res.status[b] == SOLVED):>7.0%} {np.mean(usable):>7.0%} "
+            f"{np.mean(a_ok):>7.0%} {np.mean(r_ok):>11.0%} {np.mean(a_ok & r_ok):>9.0%} {perr:>16} "
+            f"{1e3 * np.median(res.time_s[b]):>12.1f}"
+        )
+    inside = float((res.meta.get("timing_s") or {}).get("compile_in_time_s") or 0.0)
+    # worth a line when it is a visible share of the times and a visible time (a warm cache leaves
+    # a few hundredths of a second, which read as "up to 0.0 s")
+    if inside >= 0.1 and inside > 0.05 * float(np.sum(res.time_s)):
+        lines.append(
+            f"(ms/waypoint includes up to {inside:.1f} s of JAX compilation inside the timed calls of solver "
+            f"{res.meta.get('solver')!r}; a second run with the compilation cache shows the run time)"
+        )
+    return "\n".join(lines)
+
+
+def rate_limits(robot: Robot, dq_deg: float, dq_m: float | None) -> float | np.ndarray:
+    """Per-joint rate limit (n,): revolute joints from --dq-deg (rad), prismatic ones from --dq-m
+    (m; default the same number as the revolute joints' radians), a scalar when all are revolute."""
+    return joint_rate_limits(robot, math.radians(dq_deg), dq_m)
+
+
+def joint_rate_limits(robot: Robot, dq: float, dq_m: float | None) -> float | np.ndarray:
+    """:func:`rate_limits` from ``dq`` in rad (the field's unit, as :func:`read_setting_flags` gives it)."""
+    import numpy as np
+
+    prismatic = robot.prismatic
+    if not prismatic.any():
+        return dq
+    return np.where(prismatic, dq if dq_m is None else dq_m, dq)
+
+
+# ---------------------------------------------------------------------- run
+def _read_numbers(args: argparse.Namespace) -> dict[str, Any]:
+    """The settings flags (``{field: value}``, dq in rad) and the other numeric flags, checked
+    (errors name the flag)."""
+    v = read_setting_flags(args, ShapeSettings)
+    v.update(
+        cms_volume=_num(args.cms_volume, "--cms-volume"),
+        cms_major=_num(args.cms_major, "--cms-major"),
+        dq_m=_num(args.dq_m, "--dq-m"),
+    )
+    for key, flag, unit in (("dq", "--dq-deg", "degrees"), ("dq_m", "--dq-m", "m"), ("dk", "--dk", "Nm/rad")):
+        x = v[key]
+        if x is not None and (math.isnan(x) or x < 0):
+            raise ValueError(
+                f"{flag} must be >= 0 ({unit} per waypoint), got {getattr(args, flag[2:].replace('-', '_'))}"
+            )
+    return v
+
+
+def _settings(args: argparse.Namespace, v: dict[str, Any], robot: Robot) -> dict[str, Any]:
+    """The keywords of :func:`~jaxstiff.shaping.run_shape` for the settings flags: each setting
+    that ``run_shape`` names as a keyword (checked there, with its messages), the rate limits as
+    ``dq`` / ``dk`` (per joint, or left out for the per-metre ones: :func:`limit_kwargs`), and
+    every other setting (per-metre limits, a field ``run_shape`` does not name) in ``settings``."""
+    import inspect
+
+    from jaxstiff.shaping import run_shape
+
+    limits = limit_kwargs(args, joint_rate_limits(robot, v["dq"], v["dq_m"]), v["dk"])
+    settings = limits.pop("settings", None)
+    named = inspect.signature(run_shape).parameters
+    fields = {k: v[k] for k in setting_flags(ShapeSettings) if k not in ("dq", "dk", "dq_per_m", "dk_per_m")}
+    rest = {k: x for k, x in fields.items() if k not in named and x is not None}
+    if rest:
+        settings = (settings or ShapeSettings()).replace(**rest)
+    out = {k: x for k, x in fields.items() if k in named}
+    return {**out, **limits, **({} if settings is None else {"settings": settings})}
+
+
+def _read_paths(files: list[str] | None) -> tuple[Path, list[str]]:
+    """The --path files as one batch (equal lengths), and their names for meta; default path."""
+    from jaxstiff.paths import Path, default_path
+
+    if not files:
+        return default_path(), ["(shipped default path)"]
+    paths = [Path.from_csv(f) for f in files]
+    Ps = sorted({pp.P for pp in paths})
+    if len(Ps) > 1:
+        raise ValueError(
+            f"--path: all paths of one run need the same number of waypoints, got {Ps}; run them separately"
+        )
+    return (paths[0] if len(paths) == 1 else Path.stack(paths)), [os.path.abspath(f) for f in files]
+
+
+def _read_start_states(args: argparse.Namespace, robot: Robot) -> tuple[list[float] | None, Any]:
+    """--q0 (n values) and --kj0 (1, n or, with rigid locked joints, n_free values)."""
+    q0 = _nums(args.q0, "--q0")
+    if q0 is not None and len(q0) != robot.n:
+        raise ValueError(
+            f"--q0 needs {robot.n} values (one per joint of {robot.name!r}: {', '.join(robot.joint_names)}), got {len(q0)}"
+        )
+    kj0 = _nums(args.kj0, "--kj0")
+    rigid = getattr(args, "locked_joints", "rigid") == "rigid" and robot.n_free < robot.n
+    if kj0 is not None and len(kj0) not in (1, robot.n) and not (rigid and len(kj0) == robot.n_free):
+        also = f" or {robot.n_free} (one per free joint: the locked ones are rigid)" if rigid else ""
+        raise ValueError(f"--kj0 needs 1 or {robot.n} values{also}, got {len(kj0)}")
+    return q0, (kj0[0] if kj0 is not None and len(kj0) == 1 else kj0)
+
+
+def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], total: int) -> tuple[ShapeResult, str]:
+    """Run :func:`jaxstiff.shape` with a progress bar; an interrupt keeps what was finished (SLSQP)."""
+    import numpy as np
+
+    from jaxstiff.results import _files as R
+    from jaxstiff.shaping import ShapeInterrupted
+    from jaxstiff.shaping import run_shape as shape_all_inputs
+
+    if args.solver in ("pgd", "trajectory", "hybrid") and not args.quiet:
+        print(
+            f"shape: solver {args.solver} solves all {kw['path'].B} path(s) x {kw['path'].P} waypoints as one batch "
+            "(compiling, then solving; no per-waypoint progress until then, and Ctrl-C takes effect when it ends) ...",
+            file=sys.stderr,
+            flush=True,
+        )
+    try:
+        with progress(total, "shape", "waypoints", enabled=not args.quiet) as bar:
+            res = shape_all_inputs(progress=WaypointProgress(bar), **kw)
+            # the batch solvers tick no waypoint: the line says what was done ("60/60", not "0/60")
+            bar.update(int(np.sum(res.status != R.NOT_RUN)) - bar.n)
+    except ShapeInterrupted as e:  # keep what was finished, then stop as interrupted
+        st = e.result.status
+        if np.all(st == R.NOT_RUN):
+            print("\njaxstiff: nothing was written (no waypoint was finished)", file=sys.stderr)
+            raise
+        with deferred_interrupts():
+            written = e.result.save(out)
+        print(
+            f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
+            f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)",
+            file=sys.stderr,
+        )
+        raise
+    except KeyboardInterrupt:
+        why = (
+            "it solves all paths together"
+            if args.solver not in ("slsqp", "slsqp-fd")
+            else "the interrupt came before the first waypoint was finished, or after the last, while the "
+            "result was assembled"
+        )
+        print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
+        raise
+    with deferred_interrupts():  # the work is done: an interrupt now still gets the file
+        written = res.save(out)
+    if interrupt_pending() is not None:
+        print(f"\njaxstiff: interrupted after the last waypoint: wrote the complete result {written}", file=sys.stderr)
+        raise KeyboardInterrupt
+    return res, written
+
+
+def _report(args: argparse.Namespace, res: ShapeResult, written: str) -> int:
+    """The summary table, and a warning (exit 3 when nothing is usable) for unusable waypoints."""
+    import numpy as np
+
+    from jaxstiff.results import _files as R
+
+    if not args.quiet:
+        print(summary_table(res))
+        print(f"wrote {written}  ({res.B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")
+    usable = R.is_usable(res.status)
+    if usable.all():
+        return 0
+    worst = int(np.argmin(usable.sum(axis=1)))
+    far = float(np.max(res.pos_error[~usable]))
+    # the first waypoint has no rate limit (unless --first-rate-limit): if it was reached and later
+    # ones were not, the limits per waypoint are the likelier cause
+    after_first = bool(np.all(usable[:, 0])) and not args.first_rate_limit
+    if after_first:
+        hint = (
+            "the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
+            "tight for the waypoint spacing, or the path leaves the robot's reach"
+        )
+    elif args.first_rate_limit:
+        # the first waypoint is held within one rate step of the start state as well
+        hint = (
+            "with --first-rate-limit the first waypoint must be within one rate step (--dq-deg, --dk) of "
+            "the start state (--q0, or IK to the first waypoint): start on the path, or drop the flag; "
+            "else check the path's units and the robot's reach"
+        )
+    else:
+        hint = "check the path's units and the robot's reach"
+    print(
+        f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
+        f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
+        f"{hint} (status codes: see jaxstiff.results)",
+        file=sys.stderr,
+    )
+    return 0 if usable.any() else 3  # 3: the file is written, but holds no usable waypoint
+
+
+def run_shape(args: argparse.Namespace) -> int:
+    """``jaxstiff shape``: check everything before any work (bad input never leaves a file), solve,
+    save, report. Returns the exit status (see the epilog)."""
+    import numpy as np
+
+    from jaxstiff.runtime._x64 import enable_x64
+    from jaxstiff.shaping import prefer_sync_cpu_dispatch
+
+    out = check_out_file(args.out)
+    v = _read_numbers(args)
+    spec = robot_spec_from_args(args)
+    robot = spec.build()
+    path, path_files = _read_paths(args.path)
+    q0, kj0 = _read_start_states(args, robot)
+    enable_x64()
+    prefer_sync_cpu_dispatch()  # per-waypoint SLSQP is latency-bound: see its docstring
+    kw = dict(
+        robot=robot,
+        path=path,
+        q0=None if q0 is None else np.asarray(q0),
+        kj0=kj0,
+        **_settings(args, v, robot),
+        cms_volume=v["cms_volume"],
+        cms_major=v["cms_major"],
+        meta_extra={"path_files": path_files, "robot_spec": spec.meta(), "cli": cli_record(args)},
+    )
+    res, written = _solve_and_save(args, out, kw, path.B * path.P)
+    return _report(args, res, written)
+
+
+@command("shape", "shape the stiffness ellipsoid along TCP paths (seed 000): per-waypoint SLSQP -> .npz")
+def _add_shape(p: argparse.ArgumentParser) -> Any:
+    add_shape_flags(p)
+    return run_shape
+
+
+def cli_record(args: argparse.Namespace) -> dict:
+    """``meta["cli"]``: the flags as the command line gave them. Numbers are text, as typed (a default
+    as ``str(value)``, e.g. ``"2.0"``), so a file says what was asked, not what it was parsed into."""
+    out = {}
+    for k, val in vars(args).items():
+        if k.startswith("_"):
+            continue
+        out[k] = str(val) if isinstance(val, (int, float)) and not isinstance(val, bool) else val
+    return out

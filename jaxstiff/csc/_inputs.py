@@ -1,0 +1,383 @@
+"""The Python boundary of a CSC rollout: settings with their defaults, checks, and the flat batch.
+
+:func:`rollout_settings` merges a :class:`~jaxstiff.settings.CSCSettings` with the keywords of
+:func:`jaxstiff.csc_rollout` (a keyword left at None takes the settings' value; the settings'
+defaults are the only defaults). :func:`prepare_rollout` checks every input (clear
+``ValueError``s naming the argument; value checks only for concrete inputs) and flattens the
+broadcast batch to one axis, without compiling anything.
+
+``null_eps`` default: ``1e-9 * |K_xd|_F * 1 m^2`` (1e-5 in float32) plus a floor of ``tiny^(1/4)``
+(1e-77 in float64: derivatives stay finite at K_xd = 0).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from jaxstiff._numerics.batch import broadcast_batch
+from jaxstiff._numerics.safe import safe_sqrt
+from jaxstiff.csc._step import StaticSettings
+from jaxstiff.model._chain import check_locked_values
+from jaxstiff.model._reach import check_reach as refuse_unreachable
+from jaxstiff.model._robot import Robot
+from jaxstiff.runtime._dtypes import refuse_half_precision
+from jaxstiff.settings._csc import (
+    DEFAULT_JL_GAIN,
+    JOINT_LIMIT_MODES,
+    LOCKED_JOINT_MODES,
+    OBJECTIVES,
+    STEP_RULES,
+    TASK_BY_SIZE,
+    CSCSettings,
+)
+from jaxstiff.settings._shape import task_dim
+from jaxstiff.stiffness._core import TASK_ROWS, check_task_feasible
+
+__all__ = ["rollout_settings", "validate_values", "path_points", "SCALAR_SETTINGS"]
+
+#: the numeric settings that reach the compiled rollout as (differentiable) scalars
+SCALAR_SETTINGS = ("kmin", "kmax", "nu0", "damping", "jl_gain")
+
+
+#: rad (m for prismatic joints): how far a start posture may lie outside a joint's limits (rounding)
+Q0_LIMIT_SLACK = 1e-9
+
+
+def joints_outside_limits(robot: Robot, q: np.ndarray) -> np.ndarray:
+    """(n,) bool: the free joints with a value of ``q`` (..., n) outside their limits by more than
+    :data:`Q0_LIMIT_SLACK` (the rule for a rollout's start posture)."""
+    qn = np.asarray(q, float).reshape(-1, robot.n)
+    lo, hi = robot.lower - Q0_LIMIT_SLACK, robot.upper + Q0_LIMIT_SLACK
+    return robot.free & (np.any(qn < lo, axis=0) | np.any(qn > hi, axis=0))
+
+
+def is_concrete(x: Any) -> bool:
+    """Whether ``x`` is a value (not a tracer of a caller's jit or grad)."""
+    return not isinstance(x, jax.core.Tracer)  # pyright: ignore[reportAttributeAccessIssue]
+
+
+def path_points(path: Any) -> Any:
+    """The (..., T, 2 or 3) targets of a :class:`jaxstiff.Path` or an array."""
+    pts = getattr(path, "points", path)
+    if isinstance(pts, (list, tuple)):
+        pts = np.asarray(pts, dtype=float)
+    if not hasattr(pts, "shape"):
+        raise ValueError(
+            f"path must be a jaxstiff Path or an array (..., T, 2 or 3) of TCP targets, got {type(path).__name__}"
+        )
+    return pts
+
+
+def rollout_settings(settings: CSCSettings | None = None, **given: Any) -> dict[str, Any]:
+    """The settings a rollout runs with: ``settings`` (default :class:`CSCSettings`'s defaults),
+    overridden by every keyword in ``given`` that is not None; ``jl_gain`` None resolves to
+    :data:`DEFAULT_JL_GAIN` with joint-limit avoidance on, else 0. Keyword values are not checked
+    here (they may be traced arrays): :func:`prepare_rollout` checks them."""
+    if settings is None:
+        settings = CSCSettings()
+    if not isinstance(settings, CSCSettings):
+        raise ValueError(f"settings must be a jaxstiff.settings.CSCSettings, got {type(settings).__name__}")
+    unknown = sorted(set(given) - set(CSCSettings.field_names()))
+    if unknown:
+        raise TypeError(f"csc_rollout() got an unexpected keyword argument {unknown[0]!r}")
+    out = {name: getattr(settings, name) for name in CSCSettings.field_names()}
+    out.update({k: v for k, v in given.items() if v is not None})
+    if out["jl_gain"] is None:
+        out["jl_gain"] = DEFAULT_JL_GAIN if out["joint_limits"] != "off" else 0.0
+    return out
+
+
+def _check_static(robot: Robot, s: dict[str, Any], chunk: Any) -> None:
+    """The settings that select the program: robot, step rule, joint-limit mode, objective, locked
+    joints, newton, chunk."""
+    if not isinstance(robot, Robot):
+        raise ValueError(f"robot must be a jaxstiff.Robot, got {type(robot).__name__}")
+    if s["step"] not in STEP_RULES:
+        raise ValueError(f"step must be 'adaptive' or 'constant', got {s['step']!r}")
+    for name, allowed in (
+        ("joint_limits", JOINT_LIMIT_MODES),
+        ("objective", OBJECTIVES),
+        ("locked_joints", LOCKED_JOINT_MODES),
+    ):
+        if s[name] not in allowed:
+            raise ValueError(f"{name} must be {' or '.join(map(repr, allowed))}, got {s[name]!r}")
+    newton = s["newton"]
+    if not isinstance(newton, (int, np.integer)) or isinstance(newton, bool) or newton < 0:
+        raise ValueError(f"newton must be an integer >= 0, got {newton!r}")
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
+        raise ValueError(f"chunk must be a positive integer (rollouts per vmap chunk) or None, got {chunk!r}")
+
+
+def _start_posture(robot: Robot, q0: Any) -> jax.Array:
+    """q0 as an array of the rollout's dtype: the caller's floating dtype of q0 (or JAX's default float)."""
+    q0 = jnp.asarray(q0) if not isinstance(q0, (list, tuple)) else jnp.asarray(np.asarray(q0, dtype=float))
+    dtype = q0.dtype if jnp.issubdtype(q0.dtype, jnp.floating) else jnp.asarray(1.0).dtype
+    if jnp.finfo(dtype).bits < 32:
+        raise ValueError(
+            f"q0 has dtype {jnp.dtype(dtype).name}: the rollout computes in q0's dtype, and {jnp.dtype(dtype).name} "
+            "overflows (u ~ 1e3 Nm/rad squared) and cannot hold a step; pass float32 or float64"
+        )
+    return q0.astype(dtype)
+
+
+def _refuse_planar_path_for_3d_kxd(path: Any, K_xd: jax.Array, task: str | None) -> None:
+    """A path of (x, y) points with a 3x3 or 6x6 K_xd and no task: the task follows K_xd's size, so
+    say that the two disagree (the task check below would blame the robot's rows instead)."""
+    pts = getattr(path, "points", path)
+    if task is not None or np.ndim(pts) < 1 or np.shape(pts)[-1] != 2 or K_xd.ndim < 2:
+        return
+    m = K_xd.shape[-1]
+    if m in TASK_BY_SIZE and m != 2:
+        raise ValueError(
+            f"K_xd is {m}x{m}, so the task is {TASK_BY_SIZE[m]!r}, but the path has 2 coordinates per point "
+            "(x, y): give a 2x2 K_xd for task 'xy', or points with x, y, z"
+        )
+
+
+def _task_of(robot: Robot, K_xd: jax.Array, task: str | None) -> str:
+    """The task rows, checked against K_xd's size and the robot (S1: m rows need m free joints)."""
+    if K_xd.ndim < 2 or K_xd.shape[-1] != K_xd.shape[-2] or K_xd.shape[-1] not in TASK_BY_SIZE:
+        raise ValueError(f"K_xd must have shape (..., m, m) with m = 2, 3 or 6, got {tuple(K_xd.shape)}")
+    m = K_xd.shape[-1]
+    if task is None:
+        task = TASK_BY_SIZE[m]
+    if task not in TASK_ROWS:
+        raise ValueError(f"unknown task {task!r}; choose one of {', '.join(TASK_ROWS)}")
+    if len(TASK_ROWS[task]) != m:
+        raise ValueError(
+            f"task {task!r} needs K_xd of shape (..., {len(TASK_ROWS[task])}, {len(TASK_ROWS[task])}), got {tuple(K_xd.shape)}"
+        )
+    # Fewer free joints than task rows, or free joints' rows that are dead at every posture: the
+    # primary task could not be followed (the damped step would only approximate it). As many free
+    # joints as rows is allowed: no redundancy, so the null-space step is zero and the rollout only
+    # tracks. (A rigid locked joint has no spring, so the free joints carry the stiffness too; with
+    # locked_joints="spring" the locked ones add their springs.)
+    check_task_feasible(robot, task, motion=True)
+    return task
+
+
+def _targets(path: Any, task: str, dtype: Any) -> jax.Array:
+    """The path's (..., T, d) targets in the rollout's dtype (d = 2 for ``"xy"``, else 3)."""
+    targets = jnp.asarray(path_points(path), dtype=dtype)
+    if targets.ndim < 2 or targets.shape[-1] not in (2, 3) or targets.shape[-2] < 1:
+        raise ValueError(f"path points must have shape (..., T, 2 or 3) with T >= 1, got {tuple(targets.shape)}")
+    d = task_dim(task)
+    if targets.shape[-1] < d:
+        raise ValueError(f"task {task!r} needs 3-D path points (x, y, z), got shape {tuple(targets.shape)}")
+    return targets[..., :d]
+
+
+def _null_eps(null_eps: Any, K_xd: jax.Array, varying: bool, dtype: Any) -> jax.Array:
+    """``null_eps`` as an array: the given scalar, or the default of the module docstring (per rollout)."""
+    if null_eps is None:
+        rel = 1e-9 if jnp.finfo(dtype).bits >= 64 else 1e-5
+        knorm = safe_sqrt(jnp.sum(K_xd * K_xd, axis=(-2, -1)))  # finite gradient at K_xd = 0
+        # floor tiny^(1/4) (1e-77 in float64): 1 / null_eps^2, which a tangent of the null step
+        # carries, stays finite for K_xd = 0 (tiny itself made it inf, and inf * 0 = NaN)
+        return rel * (knorm if not varying else jnp.max(knorm, axis=-1)) + jnp.finfo(dtype).tiny ** 0.25
+    null_eps_a = jnp.asarray(null_eps, dtype=dtype)
+    if null_eps_a.ndim != 0:
+        raise ValueError(f"null_eps must be a scalar, got shape {tuple(null_eps_a.shape)}")
+    return null_eps_a
+
+
+def _hold_rotation(hold_orientation: Any, task: str, dtype: Any) -> jax.Array | None:
+    """The held tool rotation (..., 3, 3) of task ``"full"``, checked (None: q0's, set per rollout)."""
+    if hold_orientation is None:
+        return None
+    if task != "full":
+        raise ValueError(
+            f"hold_orientation is for task 'full' (the held tool orientation); task {task!r} has no orientation rows"
+        )
+    R_hold = jnp.asarray(hold_orientation, dtype=dtype)
+    if R_hold.ndim < 2 or R_hold.shape[-2:] != (3, 3):
+        raise ValueError(f"hold_orientation must be a rotation matrix of shape (..., 3, 3), got {tuple(R_hold.shape)}")
+    if is_concrete(R_hold):
+        Rn = np.asarray(R_hold, dtype=float)
+        orth = np.max(np.abs(np.swapaxes(Rn, -1, -2) @ Rn - np.eye(3))) if np.all(np.isfinite(Rn)) else np.inf
+        if not (orth < 1e-6 and np.all(np.linalg.det(Rn) > 0)):
+            raise ValueError(
+                f"hold_orientation must be a finite rotation matrix (R^T R = I, det R = +1), max |R^T R - I| = {orth:g}"
+            )
+    return R_hold
+
+
+def _check_complex(path: Any, K_xd: Any, q0: Any, beta: Any) -> None:
+    for name, v in (("K_xd", K_xd), ("q0", q0), ("path", getattr(path, "points", path)), ("beta", beta)):
+        if not isinstance(v, (list, tuple)) and np.iscomplexobj(v):  # (a cast would drop the imaginary part)
+            raise ValueError(f"{name} is complex ({v.dtype}): stiffnesses, postures and paths are real")
+
+
+def prepare_rollout(
+    robot: Robot,
+    path: Any,
+    K_xd: Any,
+    q0: Any,
+    beta: Any = None,
+    *,
+    settings: CSCSettings | None = None,
+    remat: bool = True,
+    chunk: int | None = 128,
+    check_reach: bool = True,
+    **given: Any,
+) -> tuple[StaticSettings, int | None, tuple, tuple[int, ...]]:
+    """Every check of :func:`jaxstiff.csc_rollout` and its inputs flattened to one batch axis:
+    ``(static settings, chunk, arrays for rollout_batch, batch shape)``. No compilation: the
+    command line calls it to report bad input before it announces the run. Arguments as
+    :func:`jaxstiff.csc_rollout` (``given``: its inline keywords)."""
+    kxd_varying, hold_orientation = given.pop("kxd_varying", None), given.pop("hold_orientation", None)
+    s = rollout_settings(settings, **given)
+    beta = s["beta"] if beta is None else beta
+    _check_static(robot, s, chunk)
+    _check_complex(path, K_xd, q0, beta)
+    refuse_half_precision("csc_rollout", path=getattr(path, "points", path), K_xd=K_xd, q0=q0, beta=beta)
+    q0 = _start_posture(robot, q0)
+    dtype = q0.dtype
+    if q0.ndim == 0 or q0.shape[-1] != robot.n:
+        raise ValueError(f"q0 must have shape (..., {robot.n}) for robot {robot.name!r}, got {tuple(q0.shape)}")
+    K_xd = jnp.asarray(K_xd, dtype=dtype)
+    _refuse_planar_path_for_3d_kxd(path, K_xd, s["task"])
+    task = _task_of(robot, K_xd, s["task"])
+    m = K_xd.shape[-1]
+    targets = _targets(path, task, dtype)
+    T = targets.shape[-2]
+    if kxd_varying is None:
+        kxd_varying = K_xd.ndim >= 3 and K_xd.shape[-3] == T
+    if kxd_varying and (K_xd.ndim < 3 or K_xd.shape[-3] != T):
+        raise ValueError(f"K_xd varying along the path must have shape (..., T={T}, {m}, {m}), got {tuple(K_xd.shape)}")
+    k_batch = K_xd.shape[:-3] if kxd_varying else K_xd.shape[:-2]
+    beta = jnp.asarray(beta, dtype=dtype)
+    scalars = {}
+    for name in SCALAR_SETTINGS:
+        a = jnp.asarray(s[name], dtype=dtype)
+        if a.ndim != 0:
+            raise ValueError(f"{name} must be a scalar, got shape {tuple(a.shape)}")
+        scalars[name] = a
+    null_eps_a = _null_eps(s["null_eps"], K_xd, bool(kxd_varying), dtype)
+    R_hold = _hold_rotation(hold_orientation, task, dtype)
+    validate_values(robot, targets, K_xd, q0, beta, scalars, null_eps_a, check_reach)
+    K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
+    batches = [("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch)]
+    if R_hold is not None:
+        batches.append(("hold_orientation", R_hold.shape[:-2]))
+    batch = broadcast_batch(*batches)
+    flat = _flatten(robot, batch, targets, K_xd, q0, beta, null_eps_a, R_hold, bool(kxd_varying))
+    st = StaticSettings(
+        task=task,
+        step=s["step"],
+        newton=int(s["newton"]),
+        joint_limits=s["joint_limits"],
+        remat=bool(remat),
+        varying=bool(kxd_varying),
+        objective=s["objective"],
+        locked_joints=s["locked_joints"],
+    )
+    tb, kb, qb, bb, eb, rb = flat
+    args = (
+        tb,
+        kb,
+        qb,
+        bb,
+        scalars["kmin"],
+        scalars["kmax"],
+        scalars["nu0"],
+        scalars["damping"],
+        eb,
+        scalars["jl_gain"],
+        rb,
+    )
+    return st, chunk, args, batch
+
+
+def _flatten(
+    robot: Robot,
+    batch: tuple[int, ...],
+    targets: jax.Array,
+    K_xd: jax.Array,
+    q0: jax.Array,
+    beta: jax.Array,
+    null_eps: jax.Array,
+    R_hold: jax.Array | None,
+    varying: bool,
+) -> tuple:
+    """The per-rollout inputs broadcast to ``batch`` and flattened to one axis B."""
+    B = math.prod(batch)
+    k_tail = K_xd.shape[-3:] if varying else K_xd.shape[-2:]
+    tb = jnp.broadcast_to(targets, batch + targets.shape[-2:]).reshape((B,) + targets.shape[-2:])
+    kb = jnp.broadcast_to(K_xd, batch + k_tail).reshape((B,) + k_tail)
+    qb = jnp.broadcast_to(q0, batch + (robot.n,)).reshape((B, robot.n))
+    bb = jnp.broadcast_to(beta, batch).reshape((B,))
+    eb = jnp.broadcast_to(null_eps, batch).reshape((B,)) if null_eps.ndim else jnp.broadcast_to(null_eps, (B,))
+    rb = None if R_hold is None else jnp.broadcast_to(R_hold, batch + (3, 3)).reshape((B, 3, 3))
+    return tb, kb, qb, bb, eb, rb
+
+
+def validate_values(  # noqa: C901 - a flat list of independent input checks
+    robot: Robot,
+    targets: jax.Array,
+    K_xd: jax.Array,
+    q0: jax.Array,
+    beta: jax.Array,
+    scalars: dict[str, jax.Array],
+    null_eps: jax.Array,
+    check_reach_: bool = True,
+) -> None:
+    """Value checks at the Python boundary, in numpy (skipped for traced inputs); ``check_reach_``:
+    refuse waypoints out of the robot's reach (:func:`jaxstiff.model._reach.check_reach`)."""
+
+    def val(x: Any) -> np.ndarray | None:
+        return None if not is_concrete(x) else np.asarray(x, dtype=float)
+
+    for name, a in (("path", targets), ("K_xd", K_xd), ("q0", q0), ("beta", beta)):
+        v = val(a)
+        if v is not None and not np.all(np.isfinite(v)):
+            raise ValueError(f"{name} contains NaN or Inf")
+    pts = val(targets) if check_reach_ else None
+    if pts is not None and pts.size:
+        # waypoints out of the robot's reach, before any compilation (task "xy": (x, y) points)
+        refuse_unreachable(robot, pts.reshape((-1,) + pts.shape[-2:]), planar=pts.shape[-1] == 2)
+    b = val(beta)
+    if b is not None and np.any(b < 0):
+        raise ValueError(f"beta must be >= 0, got min {b.min():g}")
+    K = val(K_xd)
+    if K is not None:
+        asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)))
+        if asym > 1e-6 * np.max(np.abs(K)) + 1e-12:
+            raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {asym:g})")
+        w = np.linalg.eigvalsh(0.5 * (K + np.swapaxes(K, -1, -2)))
+        worst = np.unravel_index(np.argmin(w[..., 0]), w.shape[:-1]) if w.ndim > 1 else ()
+        if w[worst][0] < -1e-9 * np.max(np.abs(w[worst])):
+            at = f" (K_xd{list(worst)})" if worst else ""
+            raise ValueError(f"K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue {w[worst][0]:g}{at}")
+    kmin, kmax = val(scalars["kmin"]), val(scalars["kmax"])
+    if kmin is not None and not kmin > 0:
+        raise ValueError(f"kmin must be > 0 Nm/rad, got {float(kmin):g}")
+    if kmin is not None and kmax is not None and not kmax >= kmin:
+        raise ValueError(f"kmax ({float(kmax):g}) must be >= kmin ({float(kmin):g})")
+    for name in ("nu0", "damping", "jl_gain"):
+        v = val(scalars[name])
+        if v is not None and not (np.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be finite and >= 0, got {float(v):g}")
+    v = val(scalars["nu0"])
+    if v is not None and not v < 1:
+        raise ValueError(f"nu0 must be < 1 (the isotropy is in [0, 1]), got {float(v):g}")
+    e = val(null_eps)
+    if e is not None and not np.all(e > 0):
+        raise ValueError("null_eps must be > 0")
+    qn = val(q0)
+    if qn is not None and qn.size:
+        check_locked_values(robot, q0, "q0")  # the one rule (SPEC section 1), in q0's own dtype
+        qn = qn.reshape(-1, robot.n)
+        lo, hi = robot.lower, robot.upper
+        bad = joints_outside_limits(robot, qn)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValueError(
+                f"q0 of joint {robot.joint_names[i]!r} is outside its limits [{lo[i]:g}, {hi[i]:g}] "
+                f"(got values in [{qn[:, i].min():g}, {qn[:, i].max():g}])"
+            )

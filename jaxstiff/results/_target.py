@@ -1,0 +1,235 @@
+""" "In target": the one rule for whether a waypoint's ellipsoid meets the wanted shape.
+
+A waypoint is *in target* when its ellipsoid points along the desired direction and has the
+wanted axis ratio, within the tolerances every report uses:
+
+* alpha: ``alpha_deg < ALPHA_TOL_DEG`` (1 degree);
+* rho: criterion f1 asks for *at least* r: ``rho >= (1 - RATIO_REL_TOL) r``; f2 and any other
+  criterion ask for r itself: ``|rho - r| / r < RATIO_REL_TOL`` (2 %).
+
+A NaN alpha or rho is never in target. The flag is about the shape only; whether the point is
+feasible is its status (0-2 usable, :mod:`jaxstiff.results._status`). Status 0 keeps its meaning
+(feasible and, for SLSQP, the optimiser converged): a greedy solver can converge at every waypoint
+while the rate limits hold the ellipsoid away from the target, so :func:`missed_target_warning`
+names the usable waypoints that miss it.
+
+The flag is derived from the file's ``alpha_deg``, ``ratio`` and ``meta`` (``criterion``,
+``ratio``), not stored as an array: :attr:`jaxstiff.ShapeResult.in_target` computes it, so old
+files get it too and it cannot disagree with the arrays it comes from. With numpy alone:
+``(alpha_deg < 1) & (abs(ratio - r) / r < 0.02)`` (f2).
+
+Used by :func:`jaxstiff.results.summary` (``share_alpha``, ``share_ratio``, ``share_both``), the
+``jaxstiff shape`` summary table and the warning at the end of :func:`jaxstiff.shape`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from jaxstiff.results._status import is_usable
+
+__all__ = [
+    "ALPHA_TOL_DEG",
+    "RATIO_REL_TOL",
+    "GREEDY_SOLVERS",
+    "target_masks",
+    "ratio_targets",
+    "in_target",
+    "compress_ranges",
+    "waypoints_by_path",
+    "waypoints_text",
+    "missed_target_waypoints",
+    "first_free_waypoints",
+    "first_waypoint_cause",
+    "missed_target_warning",
+    "MissedTargetWarning",
+    "warn_missed_target",
+]
+
+ALPHA_TOL_DEG = 1.0  #: largest orientation error of a waypoint in target, degrees (exclusive)
+RATIO_REL_TOL = 0.02  #: largest relative axis-ratio error of a waypoint in target (exclusive)
+#: solvers that go waypoint by waypoint (each waypoint's best within its rate box, never looking ahead)
+GREEDY_SOLVERS = ("slsqp", "slsqp-fd", "pgd")
+
+
+def target_masks(
+    alpha_deg: Any,
+    ratio: Any,
+    r: Any,
+    criterion: str,
+    alpha_tol_deg: float = ALPHA_TOL_DEG,
+    ratio_rel_tol: float = RATIO_REL_TOL,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(alpha_ok, ratio_ok)``, boolean arrays of the broadcast shape of ``alpha_deg``,
+    ``ratio`` and the wanted ratio ``r`` (the module docstring's rule)."""
+    alpha = np.asarray(alpha_deg, float)
+    rho = np.asarray(ratio, float)
+    r = np.asarray(r, float)
+    a_ok = alpha < alpha_tol_deg
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if criterion == "f1":
+            r_ok = rho >= (1.0 - ratio_rel_tol) * r
+        else:
+            r_ok = np.abs(rho - r) / r < ratio_rel_tol
+    return a_ok, r_ok
+
+
+def ratio_targets(meta: Mapping[str, Any], B: int) -> np.ndarray:
+    """The wanted ratio of each path (B,) from a result's ``meta["ratio"]`` (a number or B
+    numbers; missing: NaN, so nothing is in target)."""
+    raw = meta.get("ratio")
+    return np.broadcast_to(np.asarray(np.nan if raw is None else raw, float), (B,)).copy()
+
+
+def in_target(
+    alpha_deg: np.ndarray,
+    ratio: np.ndarray,
+    meta: Mapping[str, Any],
+    alpha_tol_deg: float = ALPHA_TOL_DEG,
+    ratio_rel_tol: float = RATIO_REL_TOL,
+) -> np.ndarray:
+    """Per waypoint (B, P) bool: alpha and rho both within the tolerances (module docstring), the
+    wanted ratio and criterion taken from ``meta``."""
+    B = np.shape(alpha_deg)[0]
+    r = ratio_targets(meta, B)[:, None]
+    a_ok, r_ok = target_masks(alpha_deg, ratio, r, str(meta.get("criterion", "")), alpha_tol_deg, ratio_rel_tol)
+    return a_ok & r_ok
+
+
+def compress_ranges(indices: Sequence[int] | np.ndarray) -> str:
+    """``[0, 1, 2, 5, 7, 8]`` -> ``"0-2, 5, 7-8"`` (sorted, duplicates dropped; ``""`` if empty)."""
+    idx = sorted({int(i) for i in np.asarray(indices).ravel()})
+    parts: list[str] = []
+    i = 0
+    while i < len(idx):
+        j = i
+        while j + 1 < len(idx) and idx[j + 1] == idx[j] + 1:
+            j += 1
+        parts.append(str(idx[i]) if i == j else f"{idx[i]}-{idx[j]}")
+        i = j + 1
+    return ", ".join(parts)
+
+
+def waypoints_by_path(mask: np.ndarray) -> dict[int, np.ndarray]:
+    """Per path b (only those with any), the waypoints where ``mask`` (B, P) is true."""
+    mask = np.asarray(mask, bool)
+    return {int(b): np.flatnonzero(mask[b]) for b in range(mask.shape[0]) if mask[b].any()}
+
+
+def waypoints_text(per_path: Mapping[int, Sequence[int] | np.ndarray]) -> str:
+    """``{0: [1, 2, 3], 2: [5]}`` -> ``"path 0: waypoints 1-3; path 2: waypoints 5"`` (the way every
+    warning names waypoints)."""
+    return "; ".join(f"path {b}: waypoints {compress_ranges(v)}" for b, v in per_path.items())
+
+
+def missed_target_waypoints(status: np.ndarray, flag: np.ndarray) -> dict[int, np.ndarray]:
+    """Per path b (only those with any): the usable waypoints (status 0-2) that are not in target."""
+    return waypoints_by_path(is_usable(np.asarray(status)) & ~np.asarray(flag, bool))
+
+
+def first_free_waypoints(status: np.ndarray, meta: Mapping[str, Any]) -> np.ndarray:
+    """(B,) per path the first usable waypoint when it was solved without rate limit (the whole
+    joint and stiffness ranges: ``meta["limits"]["first_rate_limit"]`` false, the default), else
+    -1 (a path with no usable waypoint, or a rate-limited first waypoint)."""
+    usable = is_usable(np.asarray(status))
+    limits = meta.get("limits") or {}
+    first = np.where(usable.any(axis=1), np.argmax(usable, axis=1), -1)
+    return np.full(usable.shape[0], -1) if limits.get("first_rate_limit", False) else first
+
+
+def first_waypoint_cause(
+    kj: np.ndarray | None, meta: Mapping[str, Any], joint_names: Sequence[str] | None = None, rtol: float = 1e-6
+) -> str:
+    """Why an unconstrained first waypoint (``kj`` (n,) its joint stiffnesses, rigid locked joints
+    inf or NaN) misses the target, as far as its state tells: f1 and f2 depend only on the
+    stiffnesses' ratios, so the stiffness range binds where some joint sits at kmin and another at
+    kmax (within ``rtol``); otherwise the search ended in a local optimum (no bound holds it)."""
+    limits = meta.get("limits") or {}
+    kmin, kmax = limits.get("kmin"), limits.get("kmax")
+    rest = (
+        "the solver's starts ended in a local optimum: more first-waypoint starts (first_starts, "
+        "--first-starts) or solver 'slsqp' or 'hybrid' may reach it"
+    )
+    if kj is None or kmin is None or kmax is None:
+        return rest
+    k = np.asarray(kj, float)
+    names = list(joint_names) if joint_names is not None else [str(i) for i in range(k.size)]
+    finite = np.isfinite(k)
+    lo = np.flatnonzero(finite & (k <= float(kmin) * (1 + rtol)))
+    hi = np.flatnonzero(finite & (k >= float(kmax) * (1 - rtol)))
+    if lo.size and hi.size:
+        return (
+            f"its joint stiffnesses span the whole range [{float(kmin):g}, {float(kmax):g}] Nm/rad "
+            f"({', '.join(names[i] for i in lo)} at kmin; {', '.join(names[i] for i in hi)} at kmax): the "
+            "range binds, a wider one (kmin/kmax, --kmin/--kmax) may reach the target"
+        )
+    return f"its joint stiffnesses lie inside [{float(kmin):g}, {float(kmax):g}] Nm/rad, so {rest}"
+
+
+def missed_target_warning(
+    status: np.ndarray,
+    flag: np.ndarray,
+    meta: Mapping[str, Any],
+    kj: np.ndarray | None = None,
+    joint_names: Sequence[str] | None = None,
+) -> str | None:
+    """The text of the one warning at the end of :func:`jaxstiff.shape`: which usable waypoints
+    miss the target (compressed ranges per path, 0-based) and what to try; None when none does.
+
+    A path's first usable waypoint solved without rate limit (:func:`first_free_waypoints`) gets
+    its own cause: nothing before it binds it, so "cannot look ahead" does not apply; from its
+    stiffnesses ``kj`` (B, P, n) where given (:func:`first_waypoint_cause`)."""
+    missed = missed_target_waypoints(status, flag)
+    if not missed:
+        return None
+    count = sum(len(v) for v in missed.values())
+    usable = int(is_usable(np.asarray(status)).sum())
+    where = waypoints_text(missed)
+    crit = str(meta.get("criterion", ""))
+    rule = f"rho >= {1 - RATIO_REL_TOL:g} r" if crit == "f1" else f"|rho - r| / r < {RATIO_REL_TOL:g}"
+    solver = str(meta.get("solver", ""))
+    settings = meta.get("settings") or {}
+    per_m = "" if settings.get("dq_per_m") is not None else ", or limits per metre of path (dq_per_m / dk_per_m)"
+    first = first_free_waypoints(status, meta)
+    firsts = {b: int(first[b]) for b, v in missed.items() if first[b] >= 0 and first[b] in v}
+    causes = [
+        f"path {b}: waypoint {p} has no rate limit (nothing before it binds it), and "
+        + first_waypoint_cause(None if kj is None else np.asarray(kj)[b, p], meta, joint_names)
+        for b, p in firsts.items()
+    ]
+    head = f"{count} of {usable} usable waypoints miss the target (alpha < {ALPHA_TOL_DEG:g} deg and {rule}): {where}; "
+    if len(firsts) == count:  # only first waypoints miss: their own causes, nothing about looking ahead
+        return head + "; ".join(causes)
+    lead = ("; ".join(causes) + "; the others: ") if causes else ""
+    if solver in GREEDY_SOLVERS:
+        advice = (
+            f"solver {solver!r} goes waypoint by waypoint and cannot look ahead, so its status 0 (solved: "
+            "feasible, optimiser converged) does not mean in target; try solver='trajectory' "
+            f"(--solver trajectory) or 'hybrid', or looser rate limits{per_m}"
+        )
+    else:
+        advice = (
+            "status 0 (solved) means feasible, not in target; the rate limits may be too tight for the "
+            f"path's turns: try looser limits{per_m}"
+            + ("" if solver == "trajectory" else ", or solver='trajectory' (--solver trajectory)")
+        )
+    return head + lead + advice
+
+
+class MissedTargetWarning(UserWarning):
+    """Usable waypoints whose ellipsoid misses the target (:func:`warn_missed_target`)."""
+
+
+def warn_missed_target(res: Any, stacklevel: int = 3) -> str | None:
+    """Warn once (:class:`MissedTargetWarning`) when usable waypoints of ``res`` (a
+    :class:`~jaxstiff.ShapeResult`; typed loosely: this module sits below it) miss the target;
+    returns the text (None: every usable waypoint is in target). Called at the end of
+    :func:`jaxstiff.shape` (``stacklevel`` 3 points at shape's caller)."""
+    text = missed_target_warning(res.status, res.in_target, res.meta, res.kj, res.joint_names)
+    if text is not None:
+        warnings.warn(text, MissedTargetWarning, stacklevel=stacklevel)
+    return text
