@@ -69,7 +69,7 @@ class ShapeInputs:
     pos_tol: float
     settings: ShapeSettings  #: the settings that ran, per-path arrays aside (meta["settings"])
     robot_spec: dict[str, Any] | None = None  #: the RobotSpec's meta, when one was given
-    locked_joints: str = "rigid"  #: "rigid" or "spring" (SPEC section 1; jaxstiff.model.chain.LOCKED_JOINT_MODES)
+    locked_joints: str = "rigid"  #: "rigid" or "spring" (SPEC section 1; jaxstiff.model._chain.LOCKED_JOINT_MODES)
     q0: np.ndarray | None = None
     kj0: np.ndarray | None = None
     q0_given: bool = False
@@ -273,7 +273,7 @@ def _same_value(a: np.ndarray) -> float | None:
 
 
 def _locked_mode(value: Any) -> str:
-    """``locked_joints`` checked: one of :data:`~jaxstiff.model.chain.LOCKED_JOINT_MODES`."""
+    """``locked_joints`` checked: one of :data:`~jaxstiff.model._chain.LOCKED_JOINT_MODES`."""
     if value not in LOCKED_JOINT_MODES:
         raise ValueError(
             f"locked_joints must be one of {', '.join(map(repr, LOCKED_JOINT_MODES))}, got {value!r}"
@@ -286,7 +286,7 @@ def _rate_limits(
     values: Mapping[str, Any], base: ShapeSettings, path: Path, n: int
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """Per-waypoint rate limits dq, dk ((n,) or (B, n)): given per waypoint, or per metre of path
-    times each path's shortest segment (:mod:`jaxstiff.settings.shape`); and the per-metre values
+    times each path's shortest segment (:mod:`jaxstiff.settings._shape`); and the per-metre values
     for the recorded settings (numbers only; arrays are recorded through dq/dk)."""
     out, per_m = [], {}
     default = ShapeSettings()

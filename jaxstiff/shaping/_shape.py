@@ -186,7 +186,7 @@ def shape(
     Raises:
         TypeError: an unknown keyword (the message names the nearest setting).
         ValueError: bad input, before any work (the message names the value, path and joint);
-            :class:`~jaxstiff.model.reach.UnreachableError` for a waypoint out of reach.
+            :class:`~jaxstiff.model._reach.UnreachableError` for a waypoint out of reach.
         ShapeInterrupted: a ``KeyboardInterrupt`` after some waypoints were finished: its ``result``
             holds them, the others with status NOT_RUN (5).
 
@@ -288,7 +288,7 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
         starts: starts per waypoint for multi-start solvers (default: their ``starts`` option, 8 for
             pgd and the hybrid; SLSQP: 1). Recorded in ``meta["starts"]``.
         q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values
-            (another value is refused: :func:`jaxstiff.model.chain.check_locked_values`);
+            (another value is refused: :func:`jaxstiff.model._chain.check_locked_values`);
             default: IK from the nominal posture to each path's first waypoint.
         kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
             With rigid locked joints their entries are ignored (any value, ``inf`` included).
@@ -298,7 +298,7 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
             (n,) entries of rigid locked joints are ignored.
         dq_per_m, dk_per_m: rate limits per metre of path instead of dq / dk (rad/m, m/m for
             prismatic joints; Nm/rad/m): a number, (n,) or (B, n); each path's per-waypoint
-            limit is this times its shortest segment (:mod:`jaxstiff.settings.shape`), so the
+            limit is this times its shortest segment (:mod:`jaxstiff.settings._shape`), so the
             result does not depend on the sampling density. Giving dq and dq_per_m (or dk and
             dk_per_m) is a ValueError. Recorded in ``meta["settings"]``.
         kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax; not applied
@@ -326,7 +326,7 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
         ValueError: bad input (ratio <= 1, kmin <= 0 or kmin >= kmax, negative rate limits,
             per-path values of the wrong shape, q0/kj0 of the wrong length or outside the limits,
             unknown solver/criterion/task); per-path values name the offending path.
-        UnreachableError: (a ValueError, :mod:`jaxstiff.model.reach`) a waypoint lies outside the
+        UnreachableError: (a ValueError, :mod:`jaxstiff.model._reach`) a waypoint lies outside the
             robot's reach (``robot.reach()``; task "xy": its radius in the xy plane), checked before
             any IK or solve; the message names the path, waypoint, distance and reach (and says so
             when the numbers look like millimetres). A waypoint inside the reach that no posture
@@ -403,7 +403,7 @@ def _timing(
     """``meta["timing_s"]``: wall seconds of the call (``total``) and its phases (``setup``: inputs,
     IK, start states; ``solve``; ``report``: report, CMS, meta), each with its compilation;
     ``compile``: JAX compilation in the whole call (tracing, lowering, XLA compile or cache load:
-    :class:`~jaxstiff.runtime.compile_cache.CompileClock`), ``compile_solve`` the part in the solve,
+    :class:`~jaxstiff.runtime._compile_cache.CompileClock`), ``compile_solve`` the part in the solve,
     ``run`` = ``total - compile``; ``solver_compile``: the solver's own measurement of what it
     compiled before its first waypoint (kept out of the per-waypoint ``time_s``), None when the
     solver reports none; ``compile_in_time_s``: compilation during the solve that the solver did

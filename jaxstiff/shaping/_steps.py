@@ -113,7 +113,7 @@ def check_shape_size(inp: ShapeInputs) -> None:
     40 reported values) and each start's state (4 n values), float64, twice (solver and result).
 
     Raises:
-        jaxstiff.runtime.plan_size.PlanTooLargeError: a ``ValueError`` naming the sizes.
+        jaxstiff.runtime._plan_size.PlanTooLargeError: a ``ValueError`` naming the sizes.
     """
     B, P, n = inp.path.B, inp.path.P, inp.robot.n
     starts = max(int(inp.starts or 1), int(inp.first_starts or 1))

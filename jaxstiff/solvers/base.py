@@ -139,7 +139,7 @@ def solver_defaults(solver: str) -> dict[str, Any]:
 
     The hybrid is pgd followed by an SLSQP polish, so its options are both sets plus its own two.
     The trajectory solver's own options are here; those of its warm start go to ``warm_options``.
-    The defaults are those of :mod:`jaxstiff.settings.solvers`."""
+    The defaults are those of :mod:`jaxstiff.settings._solvers`."""
     out: dict[str, Any] = {}
     for cls in OPTIONS_OF.get(solver, ()):
         out.update(cls.defaults())

@@ -2,12 +2,12 @@
 
 ``jaxstiff.shape(robot, path, solver=PGD(iters=60, starts=4))`` instead of a solver name and an
 options dict: a misspelt option is a ``TypeError`` naming it when the object is made, a bad value a
-``ValueError`` naming the option (the checks of :mod:`jaxstiff.settings.solvers`, where every
+``ValueError`` naming the option (the checks of :mod:`jaxstiff.settings._solvers`, where every
 option's default, unit and meaning are written once), and an editor completes the names.
 
 * :class:`SLSQP`, :class:`SLSQPFD`: greedy per-waypoint SLSQP (JAX derivatives / the seed's finite
-  differences), the fields of :class:`~jaxstiff.settings.solvers.SLSQPOptions`;
-* :class:`PGD`: batched multi-start projected gradient (:class:`~jaxstiff.settings.solvers.PGDOptions`);
+  differences), the fields of :class:`~jaxstiff.settings._solvers.SLSQPOptions`;
+* :class:`PGD`: batched multi-start projected gradient (:class:`~jaxstiff.settings._solvers.PGDOptions`);
 * :class:`Hybrid`: a :class:`PGD` run, then an :class:`SLSQP` polish, plus its own options;
 * :class:`Trajectory`: a greedy warm start (a :class:`PGD`, :class:`Hybrid` or :class:`SLSQP`),
   then the whole trajectory at once;
@@ -76,7 +76,7 @@ class PGD(PGDOptions, _Named):
 @dataclasses.dataclass(frozen=True)
 class Hybrid(HybridOptions, _Named):
     """pgd, then SLSQP from pgd's answers (``"hybrid"``): ``pgd`` and ``slsqp`` configure the two
-    stages, the other fields are the hybrid's own (:class:`~jaxstiff.settings.solvers.HybridOptions`)."""
+    stages, the other fields are the hybrid's own (:class:`~jaxstiff.settings._solvers.HybridOptions`)."""
 
     name: ClassVar[str] = "hybrid"
     pgd: PGD = dataclasses.field(default_factory=PGD)
@@ -100,7 +100,7 @@ WarmStart = PGD | Hybrid | SLSQP
 class Trajectory(TrajectoryOptions, _Named):
     """A greedy warm start, then the whole trajectory at once (``"trajectory"``): ``warm`` is the
     warm-start solver with its own options; the other fields are the trajectory stage's
-    (:class:`~jaxstiff.settings.solvers.TrajectoryOptions`)."""
+    (:class:`~jaxstiff.settings._solvers.TrajectoryOptions`)."""
 
     name: ClassVar[str] = "trajectory"
     warm: WarmStart = dataclasses.field(default_factory=PGD)  # type: ignore[assignment]

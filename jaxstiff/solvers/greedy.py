@@ -210,7 +210,7 @@ def target_bound(problem: WaypointProblem, r: Any, c: float) -> np.ndarray | Non
     """The criterion value below which a waypoint is provably in target, for the wanted ratio(s)
     ``r`` (a number or an array: the bound has its shape), or None for a criterion without such a
     bound (a user's own) or a problem without stiffness variables. With the tolerances a = 1 deg
-    and tol = 2 % (:mod:`jaxstiff.results.target`): f2 = (1 + alpha)(1 + |r - rho|) <
+    and tol = 2 % (:mod:`jaxstiff.results._target`): f2 = (1 + alpha)(1 + |r - rho|) <
     min(1 + a, 1 + tol r) gives alpha < a and |rho - r| < tol r; f1 = (alpha + c) r / min(rho, r)
     < min(a + c, c / (1 - tol)) gives alpha < a and rho > (1 - tol) r."""
     if problem.criterion_minimum(c) is None or problem.n_spring == 0:

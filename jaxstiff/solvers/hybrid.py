@@ -81,7 +81,7 @@ if TYPE_CHECKING:
 
 __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 
-#: The hybrid's own options (besides pgd's and SLSQP's), from :class:`~jaxstiff.settings.solvers.HybridOptions`:
+#: The hybrid's own options (besides pgd's and SLSQP's), from :class:`~jaxstiff.settings._solvers.HybridOptions`:
 #: ``polish_slsqp`` "all" (every waypoint) or "unusable" (only where pgd found no usable point);
 #: ``chain`` "greedy" or "pgd" (module docstring).
 DEFAULT_OPTIONS = HybridOptions.defaults()

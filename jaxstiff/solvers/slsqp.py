@@ -66,7 +66,7 @@ __all__ = [
 ]
 
 #: SLSQP settings used unless overridden (``shape(..., options=...)``), from
-#: :class:`~jaxstiff.settings.solvers.SLSQPOptions`: ``maxiter`` iterations per waypoint
+#: :class:`~jaxstiff.settings._solvers.SLSQPOptions`: ``maxiter`` iterations per waypoint
 #: (``first_maxiter`` for a first waypoint that is not rate-limited: a long way from the start
 #: posture), ``ftol`` SLSQP's accuracy goal (objective change and constraint violation), and the
 #: scaling SLSQP sees: stiffness in units of ``kj_scale`` Nm/rad (so q in rad and kj are both of

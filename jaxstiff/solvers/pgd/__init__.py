@@ -65,7 +65,7 @@ all starts of that waypoint.
 
 Runs unchanged on a GPU (pure ``jax.numpy``, no host callbacks). On a CPU the batch is split into
 at least one chunk per usable core and the chunks run concurrently (option ``threads``;
-:mod:`jaxstiff.runtime.threads`, rows bit-identical; measured gain: docs/benchmarks.md); ``time_s`` is the
+:mod:`jaxstiff.runtime._threads`, rows bit-identical; measured gain: docs/benchmarks.md); ``time_s`` is the
 run's wall time spread evenly over all waypoints.
 
 Modules: :mod:`.ops` (the traceable pieces of one waypoint problem: box, Newton, LM, Adam),

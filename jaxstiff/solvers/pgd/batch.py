@@ -41,7 +41,7 @@ __all__ = [
 ]
 
 #: Settings (``shape(..., solver="pgd", starts=S, options=...)``), from
-#: :class:`~jaxstiff.settings.solvers.PGDOptions` (what each one does is documented there).
+#: :class:`~jaxstiff.settings._solvers.PGDOptions` (what each one does is documented there).
 DEFAULT_OPTIONS: dict[str, Any] = PGDOptions.defaults()
 
 #: options of the other shipped solvers that may share an options dict with pgd's
@@ -271,7 +271,7 @@ def _signature(args: Sequence[Any]) -> tuple:
 
 
 def _program_for(fn: Any, args: Sequence[Any], disk_key: str | None, options: Mapping[str, Any]) -> Any:
-    """``fn`` compiled for ``args`` (:func:`~jaxstiff.runtime.export_cache.compile_with_export_cache`),
+    """``fn`` compiled for ``args`` (:func:`~jaxstiff.runtime._export_cache.compile_with_export_cache`),
     kept for the process (:data:`_PROGRAMS`, the last few): the same compiled program, so the same
     results, as compiling again."""
     sig = (id(fn), disk_key, _signature(args), bool(jax.config.read("jax_enable_x64")), repr(sorted(options.items())))
@@ -291,7 +291,7 @@ def _ranking(
     """Per path of ``rows`` (with ``X`` (k, P, nx), ``status``, ``f`` (k, P) their results), ``(waypoints
     not solved, solved waypoints not in target, sum of the criterion over the solved ones)``: lower
     is better, compared in that order. In target: alpha and rho of the report at ``X``
-    (:func:`jaxstiff.results.target.target_masks`, the rule of the result's ``in_target``)."""
+    (:func:`jaxstiff.results._target.target_masks`, the rule of the result's ``in_target``)."""
     from jaxstiff.results._target import target_masks
     from jaxstiff.solvers.problem import report_rows
     from jaxstiff.stiffness._criteria import f1 as _f1
@@ -459,10 +459,10 @@ def _run_chunks(
     disk_key: str | None = None,
 ) -> tuple[np.ndarray, dict[str, Any], float, float]:
     """The compiled kernel ``fn`` over the paths in chunks of C rows (the last one padded), up to
-    ``threads`` chunks at once (``chunking = (C, threads)``; :mod:`jaxstiff.runtime.threads`).
+    ``threads`` chunks at once (``chunking = (C, threads)``; :mod:`jaxstiff.runtime._threads`).
 
     ``disk_key``: the kernel's key for the traced-program cache
-    (:func:`~jaxstiff.runtime.export_cache.compile_with_export_cache`; None: trace every time).
+    (:func:`~jaxstiff.runtime._export_cache.compile_with_export_cache`; None: trace every time).
 
     ``per_path``: ``(targets, directions, x0, path_data, dq_f, dk, ratio, extra)``, B rows each;
     ``shared``: ``(kmin, kmax, c, pos_tol)``; ``base``: the seed's key, folded with each path's
@@ -500,7 +500,7 @@ def _run_chunks(
                 pad_rows(extra[sl], C),
                 np.int32(P),
             )
-            if sharded:  # split the batch across all local devices (jaxstiff.runtime.sharding)
+            if sharded:  # split the batch across all local devices (jaxstiff.runtime._sharding)
                 from jaxstiff.runtime._sharding import shard_rows
 
                 placed, _ = shard_rows({str(i): args[i] for i in (0, 1, 2, 3, 4, 5, 8, 11)})

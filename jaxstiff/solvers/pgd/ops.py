@@ -218,7 +218,7 @@ class WaypointOps:
         ``C = J_s W J_s^T`` (``W = diag(1/kj)``) has the closed-form tangents
         ``dC/dq_j = dJ_s W J_s^T + J_s W dJ_s^T`` and ``dC/dkj_i = -w_i^2 j_i j_i^T``; ``K_T`` and
         its tangents come from the same map ``C -> K_T`` as :func:`jaxstiff.stiffness.translational_stiffness`
-        (:func:`jaxstiff.stiffness.schur.stiffness_of_compliance`, whose JVP is exact), so the LM
+        (:func:`jaxstiff.stiffness._schur.stiffness_of_compliance`, whose JVP is exact), so the LM
         stage and the reported stiffness agree also next to a singular posture. Only the small maps
         ``C -> K_T -> shape rows`` are differentiated by JAX. Several times cheaper than
         ``jax.jacrev`` of :meth:`lm_residual` through the chain.

@@ -21,7 +21,7 @@ __all__ = ["compiled", "compiled_report_rows", "REPORT_ROWS"]
 @program_cache(maxsize=64)
 def compiled_scaled(problem: WaypointProblem) -> DiskJit:
     """The jitted ``fused_scaled(y, params, scale)`` of a problem, compiled once per problem and dtype
-    (its traced program kept on disk for the built-in criteria: :class:`~jaxstiff.runtime.export_cache.DiskJit`)."""
+    (its traced program kept on disk for the built-in criteria: :class:`~jaxstiff.runtime._export_cache.DiskJit`)."""
     fp = problem.fingerprint()
     return DiskJit(problem.fused_scaled, None if fp is None else f"fused_scaled|{fp}")
 

@@ -79,7 +79,7 @@ class WaypointProblem:
     def kinematics(self, q: jax.Array, rows: tuple[int, ...] = (0, 1, 2, 3, 4, 5)) -> tuple[jax.Array, jax.Array]:
         """TCP position (..., 3) and Jacobian rows (..., len(rows), n) at ``q`` (..., n), as every
         solver program computes them: the kernel of
-        :func:`jaxstiff.model.kinematics_scan.solver_uses_scan` (traceable, no checks)."""
+        :func:`jaxstiff.model._kinematics_scan.solver_uses_scan` (traceable, no checks)."""
         if solver_uses_scan(self.robot):
             return position_and_jacobian_raw(self.robot, jnp.asarray(q), rows, kernel="scan")
         return position_and_jacobian(self.robot, q, rows)
@@ -201,7 +201,7 @@ class WaypointProblem:
         """Criterion value ``f(K_T(q, kj), d, r[, c])`` (...,). ``d`` (..., 3): only its first m entries are used.
 
         For the built-in f1 and f2 the axes and the major direction come from one eigen-decomposition
-        of the translational compliance (:func:`jaxstiff.stiffness.schur.stiffness_eig_of_compliance`)
+        of the translational compliance (:func:`jaxstiff.stiffness._schur.stiffness_eig_of_compliance`)
         instead of forming ``K_T`` and decomposing it again: the same value to rounding (up to ~1e-7
         relative next to a singular posture, where ``K_T``'s own decomposition is the less accurate
         of the two) at a lower cost per evaluation and gradient."""
