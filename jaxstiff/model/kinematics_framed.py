@@ -129,6 +129,28 @@ def _split(D: np.ndarray) -> tuple[float, float, np.ndarray]:
     return alpha, gamma, F
 
 
+def _sparsest_turn(G: np.ndarray) -> float:
+    """The turn ``phi`` about the first joint's axis for which ``G Rz(phi)`` has the most entries that
+    snap to 0 (0 if none beats ``G``): each row's first two entries turned onto one coordinate.
+
+    The first joint's frame is free to turn about its axis (the joint-angle offset takes the turn
+    back), and every output entry is walked from a row of ``G_0``: a row with one nonzero of the
+    two entries the joint mixes costs two products at the first joint instead of four."""
+
+    def zeros(phi: float) -> int:
+        return sum(snap(float(v)) == 0.0 for v in (G @ _rz(phi))[:, :2].ravel())
+
+    best, best_zeros = 0.0, zeros(0.0)
+    for a, b in G[:, :2]:
+        if a == 0.0 and b == 0.0:
+            continue
+        for phi in (math.atan2(-a, b), math.atan2(b, a)):  # first entry to 0, second entry to 0
+            z = zeros(phi)
+            if z > best_zeros:
+                best, best_zeros = phi, z
+    return best
+
+
 @functools.lru_cache(maxsize=64)
 def framed_plan(robot: Chain) -> FramedPlan:
     """The constants of :func:`framed_chain` for ``robot`` (numpy, float64, cached per chain)."""
@@ -136,6 +158,8 @@ def framed_plan(robot: Chain) -> FramedPlan:
     R0 = [robot.origin_matrix(i)[:3, :3] for i in range(n)]
     P0 = [robot.origin_matrix(i)[:3, 3] for i in range(n)]
     Q = _axis_frame(robot.axes[0])
+    if robot.joint_types[0] != JOINT_PRISMATIC:
+        Q = Q @ _rz(_sparsest_turn(R0[0] @ Q))
     G0 = R0[0] @ Q
     theta, C, t = [], [], []
     for i in range(n):
