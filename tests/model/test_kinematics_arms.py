@@ -19,7 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import DATA_DIR, assert_close, numpy_fk
+from helpers import DATA_DIR, assert_close, load_script, numpy_fk
 
 import jaxstiff
 from jaxstiff.model.generate import serial_chain
@@ -284,3 +284,17 @@ def test_framed_kernel_with_a_prismatic_joint_at_either_end(where):
         p, Jr = jaxstiff.position_and_jacobian(robot, jnp.asarray(q), (1, 5))
         assert_close(p, T[:, :3, 3], rtol=0, atol=1e-15, what="position")
         assert_close(Jr, J[:, [1, 5]], rtol=0, atol=1e-15, what="rows 1, 5")
+
+
+@pytest.mark.parametrize("case", ["kinova", "ur10", "so101"])
+def test_framed_kernel_walks_each_entry_with_less_than_half_the_arithmetic(case):
+    """XLA's CPU backend evaluates every stacked output entry on its own, so what a batch costs is the
+    arithmetic summed over the entries (``scripts/bench_kinematics.py: entry_ops``, read from the
+    traced program). The framed kernel walks each entry by a rotation row forward and the TCP's
+    offset backward: less than half what the same chain costs walked as written (the unrolled
+    kernel forced on it; the framed walk with world cross products was at 0.74-0.85 of it)."""
+    bench = load_script("scripts/bench_kinematics.py")
+    robot = arm(case)
+    framed, as_written = bench.entry_ops(robot, "framed"), bench.entry_ops(robot, "unrolled")
+    assert framed is not None and as_written is not None and framed > 0
+    assert framed < 0.5 * as_written, f"{case}: {framed} operations over the entries, walked as written {as_written}"
