@@ -18,6 +18,12 @@ kinematics kernel jaxstiff picks for the chain (``kernel_for``: unrolled, framed
 also records the largest difference between the two results (pytorch-kinematics parses URDF
 numbers in float32, so ~1e-7 is agreement).
 
+"ops" is a count that does not depend on the machine's load: the arithmetic operations per
+configuration as XLA's CPU backend runs the unrolled kernels (:func:`entry_ops`). Their stacked
+outputs are evaluated in one loop over the batch, each entry of the pose and the Jacobian from the
+joint cosines and sines on its own, so the cost is the operations each entry depends on, summed
+over the entries (docs/notes/model.md); "-" for the scan.
+
 The process opts in to jaxstiff's allocator setting (``jaxstiff.runtime.tune_allocator()``, what
 the ``jaxstiff`` command does and the docs tell a script with large batches to do; ``import
 jaxstiff`` alone leaves glibc's defaults, about 2x slower at B = 1e5); ``--no-tune`` measures
@@ -74,6 +80,51 @@ def _time_calls(call, first_seconds: float, min_time: float, max_repeats: int) -
         call()
         out.append(time.perf_counter() - t0)
     return out
+
+
+def entry_ops(robot, kernel: str) -> int | None:
+    """Multiplications, additions, subtractions and negations per configuration that the entries of
+    ``fk_and_jacobian`` depend on, summed over the entries of the pose and the Jacobian (the joint
+    cosines and sines taken as given); None for the scan kernel (a loop, not straight-line code).
+
+    Read from the traced program: every operand of an innermost stack of the outputs is one entry,
+    and its cone is followed back to the cosines and sines."""
+    import jax
+    import jax.numpy as jnp
+
+    from jaxstiff.model.kinematics import fk_and_jacobian_raw
+
+    if kernel == "scan":
+        return None
+    jaxpr = jax.make_jaxpr(lambda q: fk_and_jacobian_raw(robot, q, poly=False, kernel=kernel))(
+        jnp.zeros((2, robot.n))
+    ).jaxpr
+    producer = {v: e for e in jaxpr.eqns for v in e.outvars}
+    arith = {"mul", "add", "sub", "neg"}
+    cones: dict = {}
+
+    def cone(v) -> frozenset:
+        if v not in producer:  # a literal, a constant or q itself
+            return frozenset()
+        if v in cones:
+            return cones[v]
+        eqn = producer[v]
+        out: frozenset = frozenset()
+        if eqn.primitive.name not in ("sin", "cos"):
+            for u in eqn.invars:
+                if not hasattr(u, "val"):  # (a Literal carries its value)
+                    out |= cone(u)
+            if eqn.primitive.name in arith:
+                out |= {id(eqn)}
+        cones[v] = out
+        return out
+
+    stacking = ("stack", "concatenate")  # (JAX's jnp.stack is a primitive of its own in recent versions)
+    stacks = [e for e in jaxpr.eqns if e.primitive.name in stacking]
+    innermost = [
+        e for e in stacks if not any(u in producer and producer[u].primitive.name in stacking for u in e.invars)
+    ]
+    return sum(len(cone(u)) for e in innermost for u in e.invars if not hasattr(u, "val"))
 
 
 def bench_jaxstiff(robot, q_np, dtype_name, min_time, max_repeats, kernel=None):
@@ -189,7 +240,7 @@ def _fmt_s(x):
 
 
 HEADER = (
-    f"{'robot':<16} {'n':>2} {'kernel':>8} {'batch':>7} {'dtype':>7} | {'jx first':>9} {'jx run':>9} "
+    f"{'robot':<16} {'n':>2} {'kernel':>8} {'ops':>5} {'batch':>7} {'dtype':>7} | {'jx first':>9} {'jx run':>9} "
     f"{'jx cfg/s':>9} {'vs LWR':>6} | {'pk first':>9} {'pk run':>9} {'pk cfg/s':>9} | {'vs pk':>7} {'max|diff|':>9}"
 )
 
@@ -199,7 +250,8 @@ def format_row(r: dict) -> str:
     diff = "-" if r["max_abs_diff"] is None else f"{r['max_abs_diff']:.1e}"
     lwr = "-" if r.get("vs_lwr") is None else f"{r['vs_lwr']:.2f}"
     return (
-        f"{r['robot']:<16} {r['n']:>2} {r['kernel']:>8} {r['batch']:>7} {r['dtype']:>7} | "
+        f"{r['robot']:<16} {r['n']:>2} {r['kernel']:>8} {'-' if r.get('ops') is None else r['ops']:>5} "
+        f"{r['batch']:>7} {r['dtype']:>7} | "
         f"{_fmt_s(r['jaxstiff_first_s']):>9} "
         f"{_fmt_s(r['jaxstiff_run_median_s']):>9} {_fmt_rate(r['jaxstiff_configs_per_s']):>9} {lwr:>6} | "
         f"{_fmt_s(r['torch_first_s']):>9} {_fmt_s(r['torch_run_median_s']):>9} "
@@ -304,10 +356,12 @@ def _measure_cell(robot, pk_chain, q_np, dtype_name: str, args: argparse.Namespa
     kernel = None if args.kernel == "auto" or robot.name == "kuka_lwr4" else args.kernel
     first, times, (T, J) = bench_jaxstiff(robot, q_np, dtype_name, args.min_time, args.max_repeats, kernel)
     med = statistics.median(times)
+    kernel_name = kernel_for(robot) if kernel is None else kernel
     row = {
         "n": robot.n,
         "tip_link": robot.tip_link,
-        "kernel": kernel_for(robot) if args.kernel == "auto" or robot.name == "kuka_lwr4" else args.kernel,
+        "kernel": kernel_name,
+        "ops": entry_ops(robot, kernel_name),
         "batch": size,
         "dtype": dtype_name,
         "jaxstiff_first_s": first,

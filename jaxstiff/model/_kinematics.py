@@ -135,10 +135,14 @@ def _pick(robot: Chain, kernel: str | None) -> str:
 
 
 def _walk(robot: Chain, q: jax.Array, want_jacobian: bool, poly: bool | None, kernel: str):
-    """The unrolled walk of ``kernel`` ("unrolled" or "framed"): (R, p, frames) as scalar entries."""
+    """The unrolled walk of ``kernel`` ("unrolled" or "framed"): (R, p) as scalar entries and a function
+    that returns the Jacobian's columns (called after the caller's pose entries, so that the unrolled
+    kernel traces its operations in the order it always had)."""
     if kernel == "framed":
-        return framed_chain(robot, q, want_jacobian, poly)
-    return _chain(robot, q, want_jacobian, poly)
+        R, p, cols = framed_chain(robot, q, want_jacobian, poly)
+        return R, p, lambda: cols
+    R, p, frames = _chain(robot, q, want_jacobian, poly)
+    return R, p, lambda: _jacobian_entries(p, frames)
 
 
 def _full(x: Scalar, like: jax.Array) -> jax.Array:
@@ -274,8 +278,8 @@ def jacobian(robot: Chain, q: jax.Array) -> jax.Array:
     kernel = kernel_for(robot)
     if kernel == "scan":
         return scan_pose_and_jacobian(robot, q)[2]
-    _, p, frames = _walk(robot, q, True, None, kernel)
-    return _jacobian_array(_jacobian_entries(p, frames), q)
+    _, _, columns = _walk(robot, q, True, None, kernel)
+    return _jacobian_array(columns(), q)
 
 
 @_locked_checked
@@ -299,8 +303,8 @@ def fk_and_jacobian_raw(
     if kernel == "scan":
         R, p, J = scan_pose_and_jacobian(robot, q, poly)
         return _pose_array(R, p), J
-    R, p, frames = _walk(robot, q, True, poly, kernel)
-    return _pose(R, p, q), _jacobian_array(_jacobian_entries(p, frames), q)
+    R, p, columns = _walk(robot, q, True, poly, kernel)
+    return _pose(R, p, q), _jacobian_array(columns(), q)
 
 
 @_locked_checked
@@ -332,9 +336,9 @@ def position_and_jacobian_raw(
     if kernel == "scan":
         _, p, J = scan_pose_and_jacobian(robot, q, poly)
         return p, J[..., list(rows), :]
-    _, p, frames = _walk(robot, q, True, poly, kernel)
+    _, p, columns = _walk(robot, q, True, poly, kernel)
     pos = jnp.stack([_full(v, q) for v in p], axis=-1)
-    return pos, _jacobian_array(_jacobian_entries(p, frames), q, rows=rows)
+    return pos, _jacobian_array(columns(), q, rows=rows)
 
 
 # ------------------------------------------------------------------ derivatives from J alone

@@ -22,9 +22,26 @@ re-expressed once, in numpy, before tracing:
 
 With ``G_i`` the world rotation of joint i's aligned frame (``z_i = G_i e_z`` its world axis),
 ``H_i = G_i Rz(q_i + theta_i)`` (``H_i = G_i`` and ``p_i += z_i q_i`` for a prismatic joint):
-``G_{i+1} = H_i C_{i+1}``, ``p_{i+1} = p_i + H_i t_{i+1}``, ``R_tcp = H_{n-1} C_tip``,
-``p_tcp = p_{n-1} + H_{n-1} t_tip``; the Jacobian columns are ``[z_i x (p_tcp - p_i); z_i]``
+``G_{i+1} = H_i C_i``, ``p_{i+1} = p_i + H_i t_i`` (:class:`FramedPlan`; for the last joint
+``C_{n-1}`` and ``t_{n-1}`` lead to the TCP), ``R_tcp = H_{n-1} C_{n-1}``,
+``p_tcp = p_{n-1} + H_{n-1} t_{n-1}``; the Jacobian columns are ``[z_i x (p_tcp - p_i); z_i]``
 (revolute) and ``[z_i; 0]`` (prismatic), as in :mod:`jaxstiff.model.kinematics`.
+
+How they are computed is set by how XLA's CPU backend runs them: the output entries are stacked
+into the pose and the Jacobian, and the fused loop evaluates each entry from the joint cosines and
+sines on its own, without sharing the arithmetic of one entry with another (materialising the
+shared frames between them costs more: docs/notes/model.md). The cost is the sum over the entries
+of the arithmetic each one depends on, so every entry is given the shortest recursion there is:
+
+* row k of the rotations, forward: ``g <- g Rz(q_i + theta_i) C_i`` on a row 3-vector from row k of ``G_0`` (four
+  products for the joint, at most four for ``Rx(beta)``); the rows of ``G_i`` give the axes ``z_i``
+  and the last one the row of ``R_tcp``. A row needs no other row.
+* the TCP's offset from joint i in joint i's frame, backward from the tip:
+  ``e_i = G_i^T (p_tcp - p_i) = Rz(q_i + theta_i) (t_i + C_i e_{i+1})`` (a prismatic joint adds
+  ``q_i e_z`` instead of turning), so ``p_tcp = p_0 + G_0 e_0`` and, with ``z_i = G_i e_z``,
+  ``z_i x (p_tcp - p_i) = G_i (e_z x e_i) = G_i[:, 1] e_i,x - G_i[:, 0] e_i,y``: the entry in row
+  k reads row k of ``G_i`` (joints before i) and ``e_i`` (joints from i on), where the cross
+  product of world vectors would read two full rows of every frame and the whole position walk.
 
 All constants enter as Python floats (:mod:`jaxstiff.model.scalars` folds 0, 1 and -1), and for
 batches on the CPU the joint cosines and sines are computed once, apart from the rest
@@ -112,6 +129,28 @@ def _split(D: np.ndarray) -> tuple[float, float, np.ndarray]:
     return alpha, gamma, F
 
 
+def _sparsest_turn(G: np.ndarray) -> float:
+    """The turn ``phi`` about the first joint's axis for which ``G Rz(phi)`` has the most entries that
+    snap to 0 (0 if none beats ``G``): each row's first two entries turned onto one coordinate.
+
+    The first joint's frame is free to turn about its axis (the joint-angle offset takes the turn
+    back), and every output entry is walked from a row of ``G_0``: a row with one nonzero of the
+    two entries the joint mixes costs two products at the first joint instead of four."""
+
+    def zeros(phi: float) -> int:
+        return sum(snap(float(v)) == 0.0 for v in (G @ _rz(phi))[:, :2].ravel())
+
+    best, best_zeros = 0.0, zeros(0.0)
+    for a, b in G[:, :2]:
+        if a == 0.0 and b == 0.0:
+            continue
+        for phi in (math.atan2(-a, b), math.atan2(b, a)):  # first entry to 0, second entry to 0
+            z = zeros(phi)
+            if z > best_zeros:
+                best, best_zeros = phi, z
+    return best
+
+
 @functools.lru_cache(maxsize=64)
 def framed_plan(robot: Chain) -> FramedPlan:
     """The constants of :func:`framed_chain` for ``robot`` (numpy, float64, cached per chain)."""
@@ -119,6 +158,8 @@ def framed_plan(robot: Chain) -> FramedPlan:
     R0 = [robot.origin_matrix(i)[:3, :3] for i in range(n)]
     P0 = [robot.origin_matrix(i)[:3, 3] for i in range(n)]
     Q = _axis_frame(robot.axes[0])
+    if robot.joint_types[0] != JOINT_PRISMATIC:
+        Q = Q @ _rz(_sparsest_turn(R0[0] @ Q))
     G0 = R0[0] @ Q
     theta, C, t = [], [], []
     for i in range(n):
@@ -143,9 +184,12 @@ def framed_plan(robot: Chain) -> FramedPlan:
 
 
 def framed_chain(robot: Chain, q: jax.Array, want_jacobian: bool = True, poly: bool | None = None):
-    """Walk the chain in joint-axis frames. Returns ``(R_tcp 3x3, p_tcp 3, [(kind, z_i, p_i)])``
-    as scalar entries (Python floats or arrays of q's batch shape), as
-    :func:`jaxstiff.model.kinematics._chain` does; ``poly`` as there."""
+    """Walk the chain in joint-axis frames. Returns ``(R_tcp 3x3, p_tcp 3, columns)`` as scalar entries
+    (Python floats or arrays of q's batch shape), ``columns`` the n Jacobian columns of six entries
+    ``[v; w]`` (none unless ``want_jacobian``); ``poly`` as in :func:`jaxstiff.model.kinematics._chain`.
+
+    Every output entry is computed by a short recursion of its own (see the module doc): a row of
+    the rotations forward from the base, the TCP's offset backward from the tip."""
     plan = framed_plan(robot)
     theta = np.asarray(plan.theta)
     qa = q + jnp.asarray(theta, dtype=q.dtype) if np.any(theta != 0.0) else q
@@ -155,20 +199,44 @@ def framed_chain(robot: Chain, q: jax.Array, want_jacobian: bool = True, poly: b
     cos_q, sin_q = joint_cos_sin(qa, poly)
     if poly:  # the polynomial once, not once in every output entry that reads it
         cos_q, sin_q = fusion_boundary((cos_q, sin_q))
-    G: list[list[Scalar]] = [list(r) for r in plan.G0]
-    p: list[Scalar] = list(plan.p0)
-    frames = []
-    for i in range(robot.n):
-        z = [G[0][2], G[1][2], G[2][2]]
-        if robot.joint_types[i] == JOINT_PRISMATIC:
-            p = [add(p[k], mul(z[k], q[..., i])) for k in range(3)]
-            H = G
-            frames.append((JOINT_PRISMATIC, z if want_jacobian else None, None))
-        else:
-            frames.append((0, z if want_jacobian else None, p))
-            c, s = cos_q[..., i], sin_q[..., i]
-            H = [[add(mul(g[0], c), mul(g[1], s)), sub(mul(g[1], c), mul(g[0], s)), g[2]] for g in G]
+    n = robot.n
+    revolute = [robot.joint_types[i] != JOINT_PRISMATIC for i in range(n)]
+    cs = [(cos_q[..., i], sin_q[..., i]) for i in range(n)]
+    # forward, one row of the rotations at a time: row k of G_i for every joint, and of R_tcp
+    rows: list[list[list[Scalar]]] = [[] for _ in range(n)]
+    R: list[list[Scalar]] = []
+    for k in range(3):
+        g: list[Scalar] = list(plan.G0[k])
+        for i in range(n):
+            rows[i].append(g)
+            h = g
+            if revolute[i]:  # row k of H_i = G_i Rz(q_i + theta_i)
+                c, s = cs[i]
+                h = [add(mul(g[0], c), mul(g[1], s)), sub(mul(g[1], c), mul(g[0], s)), g[2]]
+            Ci = plan.C[i]
+            g = [dot3(h, (Ci[0][j], Ci[1][j], Ci[2][j])) for j in range(3)]
+        R.append(g)
+    # backward: e_i = G_i^T (p_tcp - p_i), the TCP's offset from joint i in joint i's frame
+    e: list[Scalar] = [0.0, 0.0, 0.0]
+    offsets: list[list[Scalar]] = [[] for _ in range(n)]
+    for i in reversed(range(n)):
         Ci, ti = plan.C[i], plan.t[i]
-        p = [add(p[k], dot3(H[k], ti)) for k in range(3)]
-        G = [[dot3(h, (Ci[0][j], Ci[1][j], Ci[2][j])) for j in range(3)] for h in H]
-    return G, p, frames
+        v = [add(ti[k], dot3(Ci[k], e)) for k in range(3)]
+        if revolute[i]:
+            c, s = cs[i]
+            e = [sub(mul(c, v[0]), mul(s, v[1])), add(mul(s, v[0]), mul(c, v[1])), v[2]]
+        else:
+            e = [v[0], v[1], add(v[2], q[..., i])]
+        offsets[i] = e
+    p = [add(plan.p0[k], dot3(plan.G0[k], e)) for k in range(3)]
+    cols: list[list[Scalar]] = []
+    if not want_jacobian:
+        return R, p, cols
+    for i in range(n):
+        z = [rows[i][k][2] for k in range(3)]
+        if revolute[i]:  # z_i x (p_tcp - p_i) = G_i (e_z x e_i) = G_i[:, 1] e_i,x - G_i[:, 0] e_i,y
+            ex, ey = offsets[i][0], offsets[i][1]
+            cols.append([sub(mul(rows[i][k][1], ex), mul(rows[i][k][0], ey)) for k in range(3)] + z)
+        else:
+            cols.append(z + [0.0, 0.0, 0.0])
+    return R, p, cols

@@ -19,7 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import DATA_DIR, assert_close, numpy_fk
+from helpers import DATA_DIR, assert_close, load_script, numpy_fk
 
 import jaxstiff
 from jaxstiff.model._generate import serial_chain
@@ -229,3 +229,72 @@ def test_framed_kernel_with_prismatic_joints_locks_and_a_rotated_tcp():
     T32 = jaxstiff.fk(robot, jnp.asarray(q, dtype=jnp.float32))
     assert T32.dtype == jnp.float32
     assert_close(T32, T, rtol=0, atol=1e-5, what="float32 vs float64")
+
+
+def _numpy_frames_jacobian(robot: jaxstiff.Robot, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pose and geometric Jacobian from plain 4x4 products of the chain's constants (numpy): world
+    axis and point of every joint recorded on the way, columns ``[z x (p_tcp - p); z]`` / ``[z; 0]``."""
+    T, axes, points = np.eye(4), [], []
+    for i in range(robot.n):
+        T = T @ robot.origin_matrix(i)
+        a = np.asarray(robot.axes[i])
+        axes.append(T[:3, :3] @ a)
+        points.append(T[:3, 3].copy())
+        M = np.eye(4)
+        if robot.prismatic[i]:
+            M[:3, 3] = a * q[i]
+        else:
+            K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+            M[:3, :3] = np.eye(3) + math.sin(q[i]) * K + (1 - math.cos(q[i])) * K @ K
+        T = T @ M
+    T = T @ robot.tip_matrix
+    J = np.zeros((6, robot.n))
+    for i, (z, p) in enumerate(zip(axes, points, strict=True)):
+        J[:, i] = np.r_[z, 0, 0, 0] if robot.prismatic[i] else np.r_[np.cross(z, T[:3, 3] - p), z]
+    return T, J
+
+
+@pytest.mark.parametrize("where", ["first", "last", "both"])
+def test_framed_kernel_with_a_prismatic_joint_at_either_end(where):
+    """The framed kernel's offsets run backward from the tool and its rotation rows forward from the
+    base: chains whose first and/or last joint slides (its offset gains ``q e_z`` instead of a turn),
+    against numpy products of the chain's constants, at a batch below and above the size where the
+    joint cosines come from the polynomial (two programs); fk, jacobian and position_and_jacobian
+    agree with fk_and_jacobian."""
+
+    def ends(r):
+        return (bool(r.prismatic[0]), bool(r.prismatic[-1]))
+
+    want = {"first": (True, False), "last": (False, True), "both": (True, True)}[where]
+    robot = next(
+        r
+        for r in (serial_chain(6, seed=s, prismatic_share=0.5, fixed_share=0.5) for s in range(200))
+        if ends(r) == want
+    )
+    assert kernel_for(robot) == "framed"
+    for batch in (5, 100):
+        q = random_q(robot, (batch,), seed=batch)
+        T, J = jaxstiff.fk_and_jacobian(robot, jnp.asarray(q))
+        for k in (0, batch // 2, batch - 1):
+            T_ref, J_ref = _numpy_frames_jacobian(robot, q[k])
+            assert_close(T[k], T_ref, rtol=0, atol=1e-12, what=f"{where} T[{k}] of {batch}")
+            assert_close(J[k], J_ref, rtol=0, atol=1e-12, what=f"{where} J[{k}] of {batch}")
+        assert_close(jaxstiff.fk(robot, jnp.asarray(q)), T, rtol=0, atol=1e-15, what="fk")
+        assert_close(jaxstiff.jacobian(robot, jnp.asarray(q)), J, rtol=0, atol=1e-15, what="jacobian")
+        p, Jr = jaxstiff.position_and_jacobian(robot, jnp.asarray(q), (1, 5))
+        assert_close(p, T[:, :3, 3], rtol=0, atol=1e-15, what="position")
+        assert_close(Jr, J[:, [1, 5]], rtol=0, atol=1e-15, what="rows 1, 5")
+
+
+@pytest.mark.parametrize("case", ["kinova", "ur10", "so101"])
+def test_framed_kernel_walks_each_entry_with_less_than_half_the_arithmetic(case):
+    """XLA's CPU backend evaluates every stacked output entry on its own, so what a batch costs is the
+    arithmetic summed over the entries (``scripts/bench_kinematics.py: entry_ops``, read from the
+    traced program). The framed kernel walks each entry by a rotation row forward and the TCP's
+    offset backward: less than half what the same chain costs walked as written (the unrolled
+    kernel forced on it; the framed walk with world cross products was at 0.74-0.85 of it)."""
+    bench = load_script("scripts/bench_kinematics.py")
+    robot = arm(case)
+    framed, as_written = bench.entry_ops(robot, "framed"), bench.entry_ops(robot, "unrolled")
+    assert framed is not None and as_written is not None and framed > 0
+    assert framed < 0.5 * as_written, f"{case}: {framed} operations over the entries, walked as written {as_written}"
