@@ -92,7 +92,7 @@ def entry_ops(robot, kernel: str) -> int | None:
     import jax
     import jax.numpy as jnp
 
-    from jaxstiff.model.kinematics import fk_and_jacobian_raw
+    from jaxstiff.model._kinematics import fk_and_jacobian_raw
 
     if kernel == "scan":
         return None
