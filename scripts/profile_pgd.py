@@ -36,7 +36,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_batch import bench_problem  # noqa: E402
 
 from jaxstiff.runtime import kernel_compiler_options  # noqa: E402
-from jaxstiff.solvers.pgd import batch as pgd_batch  # noqa: E402
+from jaxstiff.solvers._pgd import batch as pgd_batch  # noqa: E402
 
 
 class _Captured(Exception):
@@ -62,7 +62,7 @@ def capture_program(B: int, P: int, starts: int, seed: int = 0, robot: str | Non
     finally:
         pgd_batch.compile_with_export_cache = real
     if "fn" not in got:
-        raise RuntimeError("pgd did not reach its compile step (jaxstiff.solvers.pgd.batch changed?)")
+        raise RuntimeError("pgd did not reach its compile step (jaxstiff.solvers._pgd.batch changed?)")
     return got["fn"], got["args"]
 
 
