@@ -54,7 +54,7 @@ def capture_program(B: int, P: int, starts: int, seed: int = 0, robot: str | Non
         raise _Captured
 
     real = pgd_batch.compile_with_export_cache
-    pgd_batch.compile_with_export_cache = hook  # pgd's single compile point (solvers/pgd/batch.py)
+    pgd_batch.compile_with_export_cache = hook  # pgd's single compile point (solvers/_pgd/batch.py)
     try:
         pgd_batch.solve_batch(batch, starts=starts, options={"threads": 1, "chunk": B})
     except _Captured:

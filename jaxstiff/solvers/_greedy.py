@@ -3,8 +3,8 @@ solved from the last usable state inside its rate-limited box, the answer made e
 and judged (status codes of :mod:`jaxstiff.results`).
 
 * :func:`greedy_path` one path, any per-waypoint solver ``(x0, lb, ub, params, maxiter=None) ->
-  SolverOutput`` (SLSQP with JAX derivatives in :mod:`.slsqp`, with finite differences in
-  :mod:`.slsqp_fd`);
+  SolverOutput`` (SLSQP with JAX derivatives in :mod:`._slsqp`, with finite differences in
+  :mod:`._slsqp_fd`);
 * :func:`judge` the verdict on one solver answer: clip into the box, Newton projection back onto
   the path inside the box if needed, then the checks (position error, box, finiteness);
 * :func:`run_greedy` every path of a :class:`~jaxstiff.solvers._base.SolveRequest` in the

@@ -1,7 +1,7 @@
-"""``solver="hybrid"``: multi-start projected gradient (:mod:`.pgd`), then a per-waypoint SLSQP polish.
+"""``solver="hybrid"``: multi-start projected gradient (:mod:`._pgd`), then a per-waypoint SLSQP polish.
 
 pgd finds a good basin for every waypoint of every path at once; SLSQP (exact JAX derivatives,
-:mod:`.slsqp`) then converges each waypoint to high accuracy from pgd's point. The polish walks
+:mod:`._slsqp`) then converges each waypoint to high accuracy from pgd's point. The polish walks
 each path in order and must never undo pgd:
 
 With ``chain="pgd"``:
@@ -11,7 +11,7 @@ With ``chain="pgd"``:
   the rate box around pgd's next usable waypoint** p' > p. So pgd's waypoint p' stays feasible
   with respect to the (possibly changed) waypoint p, and by induction pgd's own point x_p is
   always inside waypoint p's box;
-* SLSQP starts from pgd's x_p; its answer (made exactly feasible and judged as in :mod:`.slsqp`)
+* SLSQP starts from pgd's x_p; its answer (made exactly feasible and judged as in :mod:`._slsqp`)
   replaces x_p only if it is usable and its criterion is lower. Hence, per waypoint, the hybrid's
   criterion is never above pgd's, and every constraint holds exactly;
 * where pgd found no usable point, SLSQP starts from the reference state (clipped into the box);

@@ -36,7 +36,7 @@ Modules: :mod:`.waypoint` (:class:`WaypointProblem`), :mod:`.compiled` (the jitt
 
 Example:
     >>> import jaxstiff
-    >>> from jaxstiff.solvers._problem import WaypointProblem
+    >>> from jaxstiff.solvers import WaypointProblem
     >>> robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     >>> prob = WaypointProblem(robot, "full", jaxstiff.f2)
     >>> prob.n_free, prob.nx  # lwr_a7 rigid: 6 joint + 6 stiffness variables
