@@ -49,8 +49,8 @@ def main(argv: list[str] | None = None) -> int:  # noqa: PLR0915 - the experimen
     from jaxstiff.ik import ik_position
     from jaxstiff.results import _files as R
     from jaxstiff.shaping import SOLVERS, register_solver
-    from jaxstiff.solvers import trajectory
-    from jaxstiff.solvers.configs import solver_from_name
+    from jaxstiff.solvers import _trajectory as trajectory
+    from jaxstiff.solvers._configs import solver_from_name
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     dp = jaxstiff.default_path()

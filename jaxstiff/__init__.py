@@ -18,8 +18,9 @@ from .runtime._lazy import lazy_exports
 from .runtime._moved import install_moved_modules, keep_public_names, private_module_paths
 from .runtime._version import __version__ as __version__
 
-#: the packages whose implementation modules are private (``_name.py``; each package's
-#: ``__init__`` is its way in): every former path ``jaxstiff.<package>.<name>`` is answered
+#: the packages whose implementation modules are private (``_name.py``, or a subpackage ``_name/``
+#: and its modules; each package's ``__init__`` is its way in): every former path
+#: ``jaxstiff.<package>.<name>`` (and ``jaxstiff.<package>.<name>.<module>``) is answered
 _PRIVATE_MODULES = (
     "cli",
     "csc",
@@ -30,6 +31,7 @@ _PRIVATE_MODULES = (
     "runtime",
     "settings",
     "sim",
+    "solvers",
     "stiffness",
     "sweep",
     "view",

@@ -67,12 +67,12 @@ def random_reachable_paths(robot, B: int, P: int, seed: int = 0, span: float = 0
 
 
 def bench_problem(B: int, P: int, criterion: str = "f2", seed: int = 0, robot_name: str | None = None):
-    """The benchmark's robot and :class:`~jaxstiff.solvers.problem.WaypointBatch`: the LWR with its
+    """The benchmark's robot and :class:`~jaxstiff.solvers._problem.WaypointBatch`: the LWR with its
     7th joint locked (or ``robot_name``, a shipped robot or a URDF file, no joint locked), B x P
     :func:`random_reachable_paths`, kj0 50.5 Nm/rad, dq 2 deg, dk 5 Nm/rad, stiffness 1-100 Nm/rad,
     ratio 5, c 0.01 (also :mod:`profile_pgd`, :mod:`profile_compile`)."""
     import jaxstiff
-    from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
+    from jaxstiff.solvers._problem import Limits, WaypointBatch, WaypointProblem
     from jaxstiff.stiffness import get_criterion
 
     if robot_name is None:
@@ -112,7 +112,7 @@ def main(argv=None) -> int:
     import jax
 
     import jaxstiff
-    from jaxstiff.solvers import pgd
+    from jaxstiff.solvers import _pgd as pgd
 
     robot, batch = bench_problem(args.B, args.P, args.criterion)
     pts, dirs, q0, kj0 = batch.targets, batch.directions, batch.q0, batch.kj0

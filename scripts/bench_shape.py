@@ -66,9 +66,9 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the benchmark's procedure, read t
     import jaxstiff
     from jaxstiff.results import _files as R
     from jaxstiff.shaping import DEFAULTS
-    from jaxstiff.solvers.problem import Limits, WaypointProblem, clip_to_box, compiled
-    from jaxstiff.solvers.slsqp import make_slsqp_solver
-    from jaxstiff.solvers.slsqp_fd import make_fd_solver, numpy_objective
+    from jaxstiff.solvers._problem import Limits, WaypointProblem, clip_to_box, compiled
+    from jaxstiff.solvers._slsqp import make_slsqp_solver
+    from jaxstiff.solvers._slsqp_fd import make_fd_solver, numpy_objective
 
     robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     full = jaxstiff.default_path()

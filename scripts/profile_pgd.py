@@ -36,7 +36,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from bench_batch import bench_problem  # noqa: E402
 
 from jaxstiff.runtime import kernel_compiler_options  # noqa: E402
-from jaxstiff.solvers.pgd import batch as pgd_batch  # noqa: E402
+from jaxstiff.solvers._pgd import batch as pgd_batch  # noqa: E402
 
 
 class _Captured(Exception):
@@ -54,7 +54,7 @@ def capture_program(B: int, P: int, starts: int, seed: int = 0, robot: str | Non
         raise _Captured
 
     real = pgd_batch.compile_with_export_cache
-    pgd_batch.compile_with_export_cache = hook  # pgd's single compile point (solvers/pgd/batch.py)
+    pgd_batch.compile_with_export_cache = hook  # pgd's single compile point (solvers/_pgd/batch.py)
     try:
         pgd_batch.solve_batch(batch, starts=starts, options={"threads": 1, "chunk": B})
     except _Captured:
@@ -62,7 +62,7 @@ def capture_program(B: int, P: int, starts: int, seed: int = 0, robot: str | Non
     finally:
         pgd_batch.compile_with_export_cache = real
     if "fn" not in got:
-        raise RuntimeError("pgd did not reach its compile step (jaxstiff.solvers.pgd.batch changed?)")
+        raise RuntimeError("pgd did not reach its compile step (jaxstiff.solvers._pgd.batch changed?)")
     return got["fn"], got["args"]
 
 

@@ -78,7 +78,7 @@ def main(argv=None) -> int:
     jax.config.update("jax_enable_x64", True)
     import jaxstiff
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
-    from jaxstiff.solvers.configs import solver_from_name
+    from jaxstiff.solvers._configs import solver_from_name
 
     prefer_sync_cpu_dispatch()
     sys.path.insert(0, HERE)

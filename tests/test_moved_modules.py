@@ -12,6 +12,7 @@ import json
 import pathlib
 import subprocess
 import sys
+import warnings
 
 import pytest
 
@@ -32,7 +33,10 @@ def test_old_path_imports_the_new_module_with_a_warning(old, new):
 
 def test_no_shim_file_is_left():
     for old in jaxstiff.MOVED:
-        assert importlib.util.find_spec(old).origin is None, old  # answered by the hook, no file
+        sys.modules.pop(old, None)  # else find_spec answers the module's own spec (a former subpackage)
+        with warnings.catch_warnings():  # find_spec imports the parent: a former subpackage warns
+            warnings.simplefilter("ignore", DeprecationWarning)
+            assert importlib.util.find_spec(old).origin is None, old  # answered by the hook, no file
 
 
 def test_from_import_of_an_old_path_in_a_fresh_process():
@@ -102,9 +106,9 @@ def test_shaping_modules_moved_into_the_package():
         ("FIRST_STARTS_SEED", "jaxstiff.shaping._inputs"),
         ("INLINE_SETTINGS", "jaxstiff.shaping._shape"),
         ("cpu_async_dispatch", "jaxstiff.shaping._shape"),
-        ("SolveRequest", "jaxstiff.solvers.base"),
-        ("SolverInterrupted", "jaxstiff.solvers.base"),
-        ("options_for_solver", "jaxstiff.solvers.base"),
+        ("SolveRequest", "jaxstiff.solvers._base"),
+        ("SolverInterrupted", "jaxstiff.solvers._base"),
+        ("options_for_solver", "jaxstiff.solvers._base"),
     ],
 )
 def test_former_names_of_shaping_resolve_with_a_warning(name, home):
@@ -123,7 +127,6 @@ def test_former_names_of_shaping_resolve_with_a_warning(name, home):
 def test_the_shaping_package_exports_what_is_called_and_no_more():
     """Every name of jaxstiff.shaping.__all__ resolves without a warning; an unknown name is an
     AttributeError, not a warning."""
-    import warnings
 
     import jaxstiff.shaping as shaping
 
@@ -138,30 +141,48 @@ def test_the_shaping_package_exports_what_is_called_and_no_more():
 # --- the implementation modules made private: every former path is answered -------------------
 
 #: every implementation module of the public packages as it was before it became private
-#: (``jaxstiff.<package>.<name>``), with the public names it defined or listed in ``__all__``:
-#: read from the source tree of that time, not from the code under test
+#: (``jaxstiff.<package>.<name>``, and ``jaxstiff.solvers.<subpackage>[.<module>]``), with the public
+#: names it defined or listed in ``__all__``: read from the source tree of that time, not from the
+#: code under test
 FORMER_MODULES = json.loads((pathlib.Path(__file__).parent / "data" / "former_modules.json").read_text())
-PACKAGES = sorted({old.rpartition(".")[0] for old in FORMER_MODULES})
+PACKAGES = sorted({".".join(old.split(".")[:2]) for old in FORMER_MODULES})
+
+
+def private_path(old: str) -> str:
+    """Where a former module's code lives: its name under the package made private
+    (``jaxstiff.model.chain`` -> ``jaxstiff.model._chain``, ``jaxstiff.solvers.pgd.batch`` ->
+    ``jaxstiff.solvers._pgd.batch``: the subpackage is private, its modules keep their names)."""
+    parts = old.split(".")
+    parts[2] = "_" + parts[2]
+    return ".".join(parts)
 
 
 def test_every_former_implementation_module_is_in_the_table():
     missing = sorted(set(FORMER_MODULES) - set(jaxstiff.MOVED))
     assert not missing, missing
     for old in FORMER_MODULES:
-        package, _, name = old.rpartition(".")
-        assert jaxstiff.MOVED[old] == f"{package}._{name}"  # the private module of the same name
-        assert importlib.util.find_spec(f"{package}._{name}").origin.endswith(f"_{name}.py")
+        new = private_path(old)
+        assert jaxstiff.MOVED[old] == new  # the private module of the same name
+        origin = importlib.util.find_spec(new).origin
+        tail = new.split(".", 2)[2].replace(".", "/")  # _chain, _pgd/batch, _pgd (a package)
+        assert origin.endswith((f"{tail}.py", f"{tail}/__init__.py")), (old, origin)
 
 
 @pytest.mark.parametrize("old", sorted(FORMER_MODULES))
 def test_former_module_imports_warns_and_has_every_name(old):
-    package, _, name = old.rpartition(".")
-    way_in = jaxstiff._WAY_IN.get(f"{package}._{name}", package)  # the ellipsoid: the top level
+    new = private_path(old)
+    package = ".".join(old.split(".")[:2])
+    way_in = jaxstiff._WAY_IN.get(new, package)  # the ellipsoid: the top level
+    parent = old.rpartition(".")[0]
+    if parent != package:  # a module of a former subpackage: the subpackage's path first (it warns too)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)
+            importlib.import_module(parent)
     sys.modules.pop(old, None)
     with pytest.warns(DeprecationWarning, match=rf"module {old} is deprecated; import {way_in} instead") as rec:
         mod = importlib.import_module(old)
-    assert f"{package}._{name}" in str(rec[0].message) and rec[0].filename == __file__
-    assert mod.__name__ == f"{package}._{name}"
+    assert any(new in str(r.message) and r.filename == __file__ for r in rec)
+    assert mod.__name__ == new and mod is importlib.import_module(new)  # one module, not a second copy
     lost = [n for n in FORMER_MODULES[old] if not hasattr(mod, n)]
     assert not lost, f"{old} lost {lost}"
     sys.modules.pop(old, None)
@@ -173,7 +194,7 @@ def test_from_imports_of_former_modules_in_a_fresh_process():
     picks = {old: names[0] for old, names in FORMER_MODULES.items() if names}
     lines = [f"from {old} import {n} as v{i}" for i, (old, n) in enumerate(sorted(picks.items()))]
     checks = [
-        f"assert v{i} is importlib.import_module({old.rpartition('.')[0] + '._' + old.rpartition('.')[2]!r}).{n}"
+        f"assert v{i} is importlib.import_module({private_path(old)!r}).{n}"
         for i, (old, n) in enumerate(sorted(picks.items()))
     ]
     code = "\n".join(
@@ -245,7 +266,6 @@ def test_names_a_package_no_longer_exports_resolve_with_a_warning(package, name,
 
 @pytest.mark.parametrize("package", ["jaxstiff", *PACKAGES])
 def test_every_exported_name_resolves_without_a_warning(package):
-    import warnings
 
     pkg = importlib.import_module(package)
     with warnings.catch_warnings():
@@ -261,4 +281,37 @@ def test_the_public_surface_stays_small():
     for package in PACKAGES:
         folder = pathlib.Path(importlib.import_module(package).__file__).parent
         public_modules = [p.name for p in folder.glob("*.py") if not p.name.startswith("_")]
+        public_modules += [p.name for p in folder.glob("*/__init__.py") if not p.parent.name.startswith("_")]
         assert not public_modules, (package, public_modules)
+
+
+def test_a_module_of_a_former_subpackage_is_the_private_one_not_a_copy():
+    """``import jaxstiff.solvers.pgd.batch`` (a module of a subpackage made private) in a fresh
+    process: both former paths warn, naming jaxstiff.solvers, and give the modules of
+    ``jaxstiff.solvers._pgd``; the module is not loaded a second time from the private folder
+    under its old name (its compiled-program cache and option tables would be split in two)."""
+    code = (
+        "import sys, warnings\n"
+        "with warnings.catch_warnings(record=True) as rec:\n"
+        "    warnings.simplefilter('always')\n"
+        "    import jaxstiff.solvers.pgd.batch as b\n"
+        "    from jaxstiff.solvers.problem.box import Limits\n"
+        "import jaxstiff.solvers._pgd.batch as b2, jaxstiff.solvers as s\n"
+        "assert b is b2 and sys.modules['jaxstiff.solvers.pgd'] is sys.modules['jaxstiff.solvers._pgd']\n"
+        "assert Limits is s.Limits\n"
+        "mods = {id(m): m for m in list(sys.modules.values())}  # an alias is the same module\n"
+        "files = [m.__file__ for m in mods.values() if getattr(m, '__file__', None)]\n"
+        "assert len(files) == len(set(files)), 'a module loaded twice'\n"
+        "for r in rec:\n"
+        "    print(r.message)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-3000:]
+    lines = out.stdout.splitlines()
+    assert [line.split()[1] for line in lines] == [
+        "jaxstiff.solvers.pgd",
+        "jaxstiff.solvers.pgd.batch",
+        "jaxstiff.solvers.problem",
+        "jaxstiff.solvers.problem.box",
+    ], lines
+    assert all("import jaxstiff.solvers instead" in line for line in lines), lines

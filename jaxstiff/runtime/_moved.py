@@ -94,19 +94,33 @@ def install_moved_modules(moved: Mapping[str, str], way_in: Mapping[str, str] | 
             f.moved.update(moved)
             f.way_in.update(way_in or {})
             return
-    sys.meta_path.append(_MovedFinder(moved, way_in or {}))
+    # first: a former module inside a former package path (jaxstiff.solvers.pgd.batch) would
+    # otherwise be found by the path finder in the package's folder and run a second time
+    sys.meta_path.insert(0, _MovedFinder(moved, way_in or {}))
 
 
 def private_module_paths(root: str, folder: str, packages: Iterable[str]) -> dict[str, str]:
     """The former path of every private implementation module of ``packages`` (subpackages of
     ``root``, whose folder is ``folder``): ``jaxstiff.model._chain`` was ``jaxstiff.model.chain``.
+    A private subpackage and its modules, one level down, likewise: ``jaxstiff.solvers._pgd`` was
+    ``jaxstiff.solvers.pgd``, ``jaxstiff.solvers._pgd.batch`` was ``jaxstiff.solvers.pgd.batch``.
     Read from the folders (a listing each, no import): a module made private later is answered too."""
     moved = {}
     for package in packages:
-        for entry in sorted(os.listdir(os.path.join(folder, package))):
+        where = os.path.join(folder, package)
+        for entry in sorted(os.listdir(where)):
             name, ext = os.path.splitext(entry)
-            if ext == ".py" and name.startswith("_") and not name.startswith("__"):
-                moved[f"{root}.{package}.{name[1:]}"] = f"{root}.{package}.{name}"
+            if not name.startswith("_") or name.startswith("__"):
+                continue
+            old, new = f"{root}.{package}.{name[1:]}", f"{root}.{package}.{name}"
+            if ext == ".py":
+                moved[old] = new
+            elif not ext and os.path.isfile(os.path.join(where, entry, "__init__.py")):
+                moved[old] = new
+                for sub in sorted(os.listdir(os.path.join(where, entry))):
+                    subname, subext = os.path.splitext(sub)
+                    if subext == ".py" and subname != "__init__":
+                        moved[f"{old}.{subname}"] = f"{new}.{subname}"
     return moved
 
 

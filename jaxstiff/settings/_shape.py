@@ -123,7 +123,7 @@ class ShapeSettings(Settings):
             "pgd (batched projected gradient), hybrid (pgd + SLSQP polish), trajectory (whole "
             "trajectory after a greedy warm start), or another registered solver"
         ),
-        axis=Axis(static=True, registry="jaxstiff.solvers.base:SOLVERS"),
+        axis=Axis(static=True, registry="jaxstiff.solvers._base:SOLVERS"),
     )
     starts: int | None = setting(
         None,

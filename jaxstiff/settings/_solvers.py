@@ -4,8 +4,8 @@
 ``solver_options`` pass options as a dict; :meth:`SolverOptions.check_values` checks and normalises
 those values (a ``ValueError`` naming the solver, the option, what is allowed and the value), and
 each solver's ``DEFAULT_OPTIONS`` dict is :meth:`~jaxstiff.settings._base.Settings.defaults` of its
-class here. What the options do is documented in the solver modules (:mod:`jaxstiff.solvers.slsqp`,
-:mod:`jaxstiff.solvers.pgd`, :mod:`jaxstiff.solvers.hybrid`, :mod:`jaxstiff.solvers.trajectory`).
+class here. What the options do is documented in the solver modules (:mod:`jaxstiff.solvers._slsqp`,
+:mod:`jaxstiff.solvers._pgd`, :mod:`jaxstiff.solvers._hybrid`, :mod:`jaxstiff.solvers._trajectory`).
 """
 
 from __future__ import annotations
@@ -144,7 +144,7 @@ class SolverOptions(Settings):
 
 @dataclasses.dataclass(frozen=True)
 class SLSQPOptions(SolverOptions):
-    """Greedy per-waypoint SLSQP (``"slsqp"``, ``"slsqp-fd"``; :mod:`jaxstiff.solvers.slsqp`)."""
+    """Greedy per-waypoint SLSQP (``"slsqp"``, ``"slsqp-fd"``; :mod:`jaxstiff.solvers._slsqp`)."""
 
     label = "SLSQP"
     section = "slsqp"
@@ -186,7 +186,7 @@ class SLSQPOptions(SolverOptions):
 
 @dataclasses.dataclass(frozen=True)
 class PGDOptions(SolverOptions):
-    """Multi-start projected gradient, batched (``"pgd"``; :mod:`jaxstiff.solvers.pgd`)."""
+    """Multi-start projected gradient, batched (``"pgd"``; :mod:`jaxstiff.solvers._pgd`)."""
 
     label = "pgd"
     section = "pgd"
@@ -239,7 +239,7 @@ class PGDOptions(SolverOptions):
     first_exact: str = option(
         "retry",
         "first waypoint without rate limit: retry: paths whose first waypoint pgd leaves out of "
-        "target are solved again from greedy SLSQP's answers there (jaxstiff.solvers.first_waypoint), "
+        "target are solved again from greedy SLSQP's answers there (jaxstiff.solvers._first_waypoint), "
         "the better rollout kept; slsqp: every path starts from those answers; none: pgd's own stages alone",
         choices=("retry", "slsqp", "none"),
     )
@@ -247,7 +247,7 @@ class PGDOptions(SolverOptions):
 
 @dataclasses.dataclass(frozen=True)
 class HybridOptions(SolverOptions):
-    """The hybrid's own options, besides pgd's and SLSQP's (``"hybrid"``; :mod:`jaxstiff.solvers.hybrid`)."""
+    """The hybrid's own options, besides pgd's and SLSQP's (``"hybrid"``; :mod:`jaxstiff.solvers._hybrid`)."""
 
     label = "hybrid"
     section = "hybrid"
@@ -271,7 +271,7 @@ class HybridOptions(SolverOptions):
 @dataclasses.dataclass(frozen=True)
 class TrajectoryOptions(SolverOptions):
     """The trajectory solver's own options; its warm start's are those of that solver
-    (``"trajectory"``; :mod:`jaxstiff.solvers.trajectory`)."""
+    (``"trajectory"``; :mod:`jaxstiff.solvers._trajectory`)."""
 
     label = "trajectory"
     section = "trajectory"

@@ -32,7 +32,7 @@ from __future__ import annotations
 from jaxstiff.runtime._moved import former_names
 from jaxstiff.shaping._inputs import first_start_postures
 from jaxstiff.shaping._shape import DEFAULTS, ShapeInterrupted, prefer_sync_cpu_dispatch, run_shape, shape
-from jaxstiff.solvers.base import SOLVERS, register_solver
+from jaxstiff.solvers._base import SOLVERS, register_solver
 
 __all__ = [
     "DEFAULTS",
@@ -56,9 +56,9 @@ _FORMER = {
     "first_start_rng": "jaxstiff.shaping._inputs",
     "FIRST_STARTS_SEED": "jaxstiff.shaping._inputs",
     "FIRST_STARTS_SPREAD_DEG": "jaxstiff.shaping._inputs",
-    "SolveRequest": "jaxstiff.solvers.base",
-    "SolverInterrupted": "jaxstiff.solvers.base",
-    "options_for_solver": "jaxstiff.solvers.base",
-    "solver_option_names": "jaxstiff.solvers.base",
+    "SolveRequest": "jaxstiff.solvers._base",
+    "SolverInterrupted": "jaxstiff.solvers._base",
+    "options_for_solver": "jaxstiff.solvers._base",
+    "solver_option_names": "jaxstiff.solvers._base",
 }
 __getattr__ = former_names(__name__, _FORMER)

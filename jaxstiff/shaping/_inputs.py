@@ -30,8 +30,8 @@ from jaxstiff.settings._shape import (
     task_dim,
 )
 from jaxstiff.settings._solvers import OPTIONS_OF, SLSQPOptions
-from jaxstiff.solvers.base import SOLVERS, check_options
-from jaxstiff.solvers.problem import content_seed
+from jaxstiff.solvers._base import SOLVERS, check_options
+from jaxstiff.solvers._problem import content_seed
 from jaxstiff.stiffness._core import check_task_feasible, task_rows
 from jaxstiff.stiffness._criteria import check_criterion_call, f1, f2, get_criterion
 
@@ -250,7 +250,7 @@ def _with_kj_unit(solver: str, options: Mapping[str, Any] | None, kmin: float, k
         return opts
     if SLSQPOptions not in OPTIONS_OF.get(greedy, ()) or opts.get("kj_scale") is not None:
         return options
-    from jaxstiff.solvers.slsqp import kj_unit
+    from jaxstiff.solvers._slsqp import kj_unit
 
     opts["kj_scale"] = kj_unit(None, kmin, kmax)
     return opts

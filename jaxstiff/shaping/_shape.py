@@ -33,11 +33,11 @@ from jaxstiff.shaping._steps import (
     shape_meta,
     warn_off_plane,
 )
-from jaxstiff.solvers.base import SOLVERS, SolveRequest, SolverInterrupted
-from jaxstiff.solvers.base import first_starts_use as _first_starts_use
-from jaxstiff.solvers.base import options_meta as _options_meta
-from jaxstiff.solvers.configs import Solver, solver_call
-from jaxstiff.solvers.problem import POS_TOL, Limits, WaypointProblem, warm_report
+from jaxstiff.solvers._base import SOLVERS, SolveRequest, SolverInterrupted
+from jaxstiff.solvers._base import first_starts_use as _first_starts_use
+from jaxstiff.solvers._base import options_meta as _options_meta
+from jaxstiff.solvers._configs import Solver, solver_call
+from jaxstiff.solvers._problem import POS_TOL, Limits, WaypointProblem, warm_report
 
 _DEFAULT_SETTINGS = ShapeSettings()
 
@@ -310,9 +310,9 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
         cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m (default
             ``settings.cms_mean_axis ** m``).
         cms_major: CMS target: the major axis lambda1, N/m (instead of the volume).
-        options: solver options: SLSQP's :data:`jaxstiff.solvers.slsqp.DEFAULT_OPTIONS`, pgd's
-            :data:`jaxstiff.solvers.pgd.DEFAULT_OPTIONS`, both (plus ``polish_slsqp``, ``chain``) for
-            the hybrid, :data:`jaxstiff.solvers.trajectory.DEFAULT_OPTIONS` plus those of its warm
+        options: solver options: SLSQP's :data:`jaxstiff.solvers._slsqp.DEFAULT_OPTIONS`, pgd's
+            :data:`jaxstiff.solvers._pgd.DEFAULT_OPTIONS`, both (plus ``polish_slsqp``, ``chain``) for
+            the hybrid, :data:`jaxstiff.solvers._trajectory.DEFAULT_OPTIONS` plus those of its warm
             start for the trajectory solver. An unknown name or a bad value is a ValueError before
             any work; ``meta["options"]`` records every option the run used, defaults included.
         pos_tol: m, largest position error of a usable waypoint (default 1e-9).

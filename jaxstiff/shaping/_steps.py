@@ -29,7 +29,7 @@ from jaxstiff.runtime._io import deferred_interrupts
 from jaxstiff.runtime._plan_size import check_plan_size
 from jaxstiff.settings._robot import robot_meta, versions
 from jaxstiff.shaping._inputs import FIRST_STARTS_SEED, FIRST_STARTS_SPREAD_DEG, ShapeInputs
-from jaxstiff.solvers.problem import WaypointProblem, report_rows
+from jaxstiff.solvers._problem import WaypointProblem, report_rows
 from jaxstiff.stiffness._criteria import CRITERIA
 
 
@@ -49,7 +49,7 @@ def report_at_solution(
     problem: WaypointProblem, inp: ShapeInputs, arrays: Mapping[str, np.ndarray], ratios: np.ndarray
 ) -> Report:
     """Recompute the reported quantities at every solver's final points with one compiled program
-    over rows (:func:`jaxstiff.solvers.problem.report_rows`: a compile, then about a millisecond
+    over rows (:func:`jaxstiff.solvers._problem.report_rows`: a compile, then about a millisecond
     per 128 waypoints; the command line's Ctrl-C waits for it rather than lose the solve).
 
     A waypoint with status NOT_RUN (an interrupted run) holds its path's reference state
@@ -224,7 +224,7 @@ def shape_meta(
     async_dispatch: bool,
 ) -> dict[str, Any]:
     """The ``meta`` record of a result file: every input, the defaults, the solver's settings
-    (``opts_meta``: :func:`jaxstiff.solvers.base.options_meta`; ``first_starts_use``: what the
+    (``opts_meta``: :func:`jaxstiff.solvers._base.options_meta`; ``first_starts_use``: what the
     solver does with the first waypoint's starts), timing and versions, and ``settings`` and
     ``units`` with the unit of each value and array."""
     bpath, first_rate_limit = inp.path, inp.first_rate_limit

@@ -248,7 +248,7 @@ def accepts_c(fn: Callable) -> bool:
     """Whether a criterion takes the ``c`` keyword (a parameter named ``c`` or ``**kwargs``); a
     callable whose signature Python cannot read is called with it (the one rule of every caller:
     :func:`get_criterion`'s wrapper and :meth:`WaypointProblem.criterion_value
-    <jaxstiff.solvers.problem.WaypointProblem.criterion_value>`)."""
+    <jaxstiff.solvers._problem.WaypointProblem.criterion_value>`)."""
     try:
         params = inspect.signature(fn).parameters.values()
     except (TypeError, ValueError):

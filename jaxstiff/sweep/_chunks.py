@@ -115,7 +115,7 @@ def _shape_call(
     """One batched ``shape()`` call over the paths of rows ``rids`` (one setting): ``(name, result, starts)``."""
     from jaxstiff.paths import Path
     from jaxstiff.shaping import run_shape
-    from jaxstiff.solvers.base import options_for_solver
+    from jaxstiff.solvers._base import options_for_solver
 
     st = plan.row_settings(rids[0])
     trajs = [plan.row_trajectory(r) for r in rids]

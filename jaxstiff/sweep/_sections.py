@@ -1,7 +1,7 @@
 """The ``[solver_options]`` and ``[report]`` tables of a sweep, checked against its axes.
 
 Every solver of the sweep must know every option (a typo would otherwise be ignored) and accept
-its value (:func:`jaxstiff.solvers.base.check_options`), before any work starts; the report's heat
+its value (:func:`jaxstiff.solvers._base.check_options`), before any work starts; the report's heat
 maps must name varying axes (or ``"path"``) and its metrics those of the kind.
 """
 
@@ -20,8 +20,8 @@ __all__: list[str] = []
 
 def solver_options(cfg: Mapping[str, Any], axes: Mapping[str, list], source: str = "") -> dict:
     """``[solver_options]``: numbers or strings; each solver of the sweep must know and accept them."""
-    from jaxstiff.solvers.base import check_options, options_for_solver, solver_option_names
-    from jaxstiff.solvers.trajectory import WARM_STARTS
+    from jaxstiff.solvers._base import check_options, options_for_solver, solver_option_names
+    from jaxstiff.solvers._trajectory import WARM_STARTS
 
     tbl = check_table(cfg.get("solver_options", {}), "solver_options", source)
     known = None

@@ -16,8 +16,8 @@ import pytest
 
 import jaxstiff
 from jaxstiff.runtime import _export_cache as ec
-from jaxstiff.solvers.pgd import batch as pgd_batch
-from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers._pgd import batch as pgd_batch
+from jaxstiff.solvers._problem import WaypointProblem
 
 
 @pytest.fixture

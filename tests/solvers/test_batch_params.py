@@ -167,7 +167,8 @@ def test_every_solver_honours_per_path_parameters(solver):
     res = shape(PTS, DIRS, Q0, solver=solver, **kw)
     assert R.is_usable(res.status).mean() >= 0.8
     # meta says how the run was made: the given options over the solver's own defaults
-    from jaxstiff.solvers import pgd, slsqp
+    from jaxstiff.solvers import _pgd as pgd
+    from jaxstiff.solvers import _slsqp as slsqp
 
     meta = res.meta
     if solver == "hybrid":  # pgd (2 starts given) then SLSQP

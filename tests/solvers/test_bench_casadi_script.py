@@ -54,8 +54,8 @@ def test_numpy_check_kinematics_match_jaxstiff(key):
 @pytest.mark.slow
 @pytest.mark.parametrize("crit", ["f2", "f1"])
 def test_casadi_waypoint_matches_jaxstiff_slsqp(crit):
-    from jaxstiff.solvers.problem import WaypointProblem, box
-    from jaxstiff.solvers.slsqp import make_slsqp_solver
+    from jaxstiff.solvers._problem import WaypointProblem, box
+    from jaxstiff.solvers._slsqp import make_slsqp_solver
     from jaxstiff.stiffness import get_criterion
 
     robot = bench.make_robot("lwr")

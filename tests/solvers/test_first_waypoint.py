@@ -106,8 +106,8 @@ def test_retry_reruns_a_path_only_where_slsqp_found_a_lower_first_criterion(monk
     target out of every solver's reach), no second run, and the result is pgd's own bit for bit;
     with its real answers, the path is run again (the UR10 case, where pgd's own stages stall)."""
     from jaxstiff.solvers import PGD
-    from jaxstiff.solvers import first_waypoint as fw
-    from jaxstiff.solvers.pgd import batch as pgd_batch
+    from jaxstiff.solvers import _first_waypoint as fw
+    from jaxstiff.solvers._pgd import batch as pgd_batch
 
     robot = jaxstiff.Robot.from_urdf(UR10, tip_link="tool0")
     q = np.clip(0.5 * (robot.lower + robot.upper) + 0.4, robot.lower, robot.upper)
@@ -143,12 +143,12 @@ def test_retry_reruns_a_path_only_where_slsqp_found_a_lower_first_criterion(monk
 @pytest.mark.slow
 def test_retry_warm_up_thread_changes_no_result(monkeypatch):
     """While pgd's kernel compiles for the first time in a process, a thread compiles the retry's
-    SLSQP programs (jaxstiff.solvers.pgd.batch._warm_retry). It must run there, be finished when
+    SLSQP programs (jaxstiff.solvers._pgd.batch._warm_retry). It must run there, be finished when
     the call returns, and change nothing: the same result bit for bit as with it switched off
     (JAXSTIFF_WARM_RETRY=0), on a UR10 case where the retry fires."""
     from jaxstiff.runtime import release_compiled
-    from jaxstiff.solvers import first_waypoint as fw
-    from jaxstiff.solvers.pgd import batch as pgd_batch
+    from jaxstiff.solvers import _first_waypoint as fw
+    from jaxstiff.solvers._pgd import batch as pgd_batch
 
     robot = jaxstiff.Robot.from_urdf(UR10, tip_link="tool0")
     q = np.clip(0.5 * (robot.lower + robot.upper) + 0.4, robot.lower, robot.upper)

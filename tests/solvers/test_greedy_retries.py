@@ -17,7 +17,7 @@ from jaxstiff.paths import arc
 from jaxstiff.results import verify
 from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.solvers import SLSQP
-from jaxstiff.solvers.greedy import BOX_STARTS, box_starts
+from jaxstiff.solvers._greedy import BOX_STARTS, box_starts
 
 
 @pytest.fixture(scope="module")

@@ -43,8 +43,8 @@ def test_hybrid_unreachable_waypoint_stays_inside_its_own_box(planar, planar_pat
     the hybrid's own chain (pgd's chain differs): the hybrid reports it unreachable with a state
     inside its box, so the rate limits hold at every waypoint (the file check tests them all)."""
     import jaxstiff
-    from jaxstiff.solvers import hybrid
-    from jaxstiff.solvers.problem import Limits, WaypointBatch, WaypointProblem
+    from jaxstiff.solvers import _hybrid as hybrid
+    from jaxstiff.solvers._problem import Limits, WaypointBatch, WaypointProblem
     from jaxstiff.stiffness import get_criterion
 
     path, q0 = planar_paths(1, 4, seed=1)

@@ -17,7 +17,7 @@ from helpers import assert_close, numpy_fk
 
 import jaxstiff
 from jaxstiff.results import _files as R
-from jaxstiff.solvers.problem import Limits, WaypointProblem, box
+from jaxstiff.solvers._problem import Limits, WaypointProblem, box
 
 LOCK = {"lwr_a7": 0.0}
 Q = np.array([0.3, 0.5, -0.2, -1.0, 0.4, 0.6, 0.0])  # a generic LWR posture, lwr_a7 at its lock

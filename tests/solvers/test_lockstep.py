@@ -1,4 +1,4 @@
-"""Solves advanced in lockstep with batched evaluations (jaxstiff.solvers.lockstep, issue 23):
+"""Solves advanced in lockstep with batched evaluations (jaxstiff.solvers._lockstep, issue 23):
 the same results as each solve run alone (toy Newton solves against numpy's closed form, and
 SLSQP waypoint solves against the same solver called directly), bucketed batch sizes, exceptions;
 and the hybrid on a batch: each path's result as when it is solved alone, and the polish skip
@@ -12,10 +12,10 @@ from pgd_cases import OPTS
 
 import jaxstiff
 from jaxstiff.results import _files as R
-from jaxstiff.solvers import lockstep
-from jaxstiff.solvers.greedy import kernel_objective
-from jaxstiff.solvers.problem import WaypointProblem, compiled_scaled_rows
-from jaxstiff.solvers.slsqp import make_slsqp_solver
+from jaxstiff.solvers import _lockstep as lockstep
+from jaxstiff.solvers._greedy import kernel_objective
+from jaxstiff.solvers._problem import WaypointProblem, compiled_scaled_rows
+from jaxstiff.solvers._slsqp import make_slsqp_solver
 
 
 def newton_sqrt(a: float, iters: int):
@@ -119,7 +119,7 @@ def test_hybrid_path_result_does_not_depend_on_its_batch(planar_paths, run_plana
 @pytest.mark.slow  # hybrid solves with and without the skip
 @pytest.mark.filterwarnings("ignore::jaxstiff.results._target.MissedTargetWarning")
 def test_polish_skip_keeps_the_criterion_and_saves_solves(monkeypatch, planar_paths, run_planar):
-    from jaxstiff.solvers import slsqp
+    from jaxstiff.solvers import _slsqp as slsqp
 
     # count the SLSQP solves the polish starts (a skipped waypoint's nfev is pgd's either way, and
     # the other paths' nfev may differ at rounding level between batch compositions)
@@ -200,7 +200,7 @@ import atexit
 import jax
 import jax.numpy as jnp
 
-from jaxstiff.solvers import lockstep
+from jaxstiff.solvers import _lockstep as lockstep
 
 
 def rows(Y, params, k):

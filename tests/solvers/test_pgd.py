@@ -14,7 +14,7 @@ from pgd_cases import OPTS, STARTS
 
 import jaxstiff
 from jaxstiff.results import _files as R
-from jaxstiff.solvers import pgd
+from jaxstiff.solvers import _pgd as pgd
 
 
 @pytest.fixture(scope="module")
@@ -108,7 +108,7 @@ def test_lm_residual_against_numpy_eigen(robot_name, task):
     log(rho / r) (f2) or min(log(rho / r), 0) (f1); rho from numpy's eigenvalues."""
     import jax
 
-    from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.solvers._problem import WaypointProblem
     from jaxstiff.stiffness import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name)
@@ -156,7 +156,7 @@ def test_lm_jacobian_closed_form_matches_autodiff(robot_name, task, locked, mode
     at random postures and stiffnesses (f1 with the ratio row active and inactive, f2)."""
     import jax
 
-    from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.solvers._problem import WaypointProblem
     from jaxstiff.stiffness import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name, locked=locked)
@@ -219,8 +219,8 @@ def test_lm_stage_never_raises_the_residual_and_stays_in_the_box(robot_name, tas
     import jax
     import jax.numpy as jnp
 
-    from jaxstiff.solvers.pgd.ops import box_scales
-    from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.solvers._pgd.ops import box_scales
+    from jaxstiff.solvers._problem import WaypointProblem
     from jaxstiff.stiffness import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name)
@@ -263,8 +263,8 @@ def test_pick_leaves_out_a_joint_whose_range_is_one_value(tmp_path):
     import jax.numpy as jnp
 
     from jaxstiff.settings import PGDOptions
-    from jaxstiff.solvers.pgd.kernel import PGDKernel
-    from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.solvers._pgd.kernel import PGDKernel
+    from jaxstiff.solvers._problem import WaypointProblem
 
     urdf = one_value_joint_urdf(tmp_path)
     with pytest.warns(UserWarning, match="empty range"):

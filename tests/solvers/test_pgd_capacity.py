@@ -11,9 +11,9 @@ from pgd_cases import OPTS, STARTS
 
 import jaxstiff
 from jaxstiff.settings import PGDOptions
-from jaxstiff.solvers.pgd import batch as pgd_batch
-from jaxstiff.solvers.pgd.kernel import PGDKernel, waypoint_keys
-from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers._pgd import batch as pgd_batch
+from jaxstiff.solvers._pgd.kernel import PGDKernel, waypoint_keys
+from jaxstiff.solvers._problem import WaypointProblem
 
 
 def test_waypoint_capacity_covers_the_path_with_few_sizes():

@@ -12,8 +12,8 @@ import pytest
 import jaxstiff
 from jaxstiff.ik import ik_position
 from jaxstiff.settings import PGDOptions
-from jaxstiff.solvers.pgd.kernel import PGDKernel
-from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers._pgd.kernel import PGDKernel
+from jaxstiff.solvers._problem import WaypointProblem
 
 
 def _run(kernel: PGDKernel, args: tuple) -> dict:

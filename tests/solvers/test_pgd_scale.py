@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import jaxstiff
-from jaxstiff.solvers.pgd.kernel import length_unit
+from jaxstiff.solvers._pgd.kernel import length_unit
 
 
 def planar_4r(tmp_path, link: float) -> jaxstiff.Robot:

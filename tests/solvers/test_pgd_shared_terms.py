@@ -14,8 +14,8 @@ import pytest
 from helpers import numpy_fk
 
 import jaxstiff
-from jaxstiff.solvers import pgd
-from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers import _pgd as pgd
+from jaxstiff.solvers._problem import WaypointProblem
 from jaxstiff.stiffness import get_criterion
 
 

@@ -18,7 +18,7 @@ import jaxstiff
 from jaxstiff import paths
 from jaxstiff.results import _files as R
 from jaxstiff.results._target import MissedTargetWarning
-from jaxstiff.solvers.problem import WaypointProblem, compiled
+from jaxstiff.solvers._problem import WaypointProblem, compiled
 
 LOCK = {"lwr_a7": 0.0}
 
@@ -257,7 +257,7 @@ def test_slsqp_fd_baseline_agrees(lwr, f2_file, tmp_path):
 def test_problem_derivatives_match_finite_differences_and_numpy(lwr):
     """fused(): gradient vs central differences of the numpy objective of the baseline (an independent
     numpy implementation), constraint Jacobian vs differences of the independent FK."""
-    from jaxstiff.solvers.slsqp_fd import numpy_objective
+    from jaxstiff.solvers._slsqp_fd import numpy_objective
 
     rng = np.random.default_rng(3)
     for crit, mode in ((jaxstiff.f1, "rigid"), (jaxstiff.f2, "rigid"), (jaxstiff.f2, "spring")):
@@ -474,8 +474,8 @@ def test_verify_can_fail(f2_file):
 
 def test_lean_driver_equals_scipy_minimize(lwr, f2_file):
     """The lean SLSQP loop runs scipy's own routine: the same iterates as scipy.optimize.minimize."""
-    from jaxstiff.solvers.problem import Limits, clip_to_box
-    from jaxstiff.solvers.slsqp import make_slsqp_solver
+    from jaxstiff.solvers._problem import Limits, clip_to_box
+    from jaxstiff.solvers._slsqp import make_slsqp_solver
 
     res = f2_file[1]
     prob = WaypointProblem(lwr, "full", jaxstiff.f2)
@@ -497,7 +497,7 @@ def test_newton_projection_stops_cleanly_when_no_joint_moves_the_tcp():
     (a numpy warning) and a NaN step. The projection must stop and return a finite point in its box."""
     import warnings
 
-    from jaxstiff.solvers.problem import newton_project
+    from jaxstiff.solvers._problem import newton_project
 
     robot = jaxstiff.Robot.from_urdf("planar_3r")
     prob = WaypointProblem(robot, "xy", jaxstiff.f2)
@@ -615,7 +615,7 @@ def test_first_waypoint_rescue_finds_the_minimum_the_usual_starts_miss(tmp_path,
     posture is given alone (``q0``, ``first_starts=1``), from several postures: those that end at a
     local minimum without the rescue must end no higher with it, and at least one must reach f2 = 1
     at every waypoint."""
-    from jaxstiff.solvers import greedy
+    from jaxstiff.solvers import _greedy as greedy
 
     with open(jaxstiff.robot_path("planar_3r")) as fh:
         text = fh.read().replace('<origin xyz="1 0 0"', '<origin xyz="3 0 0"')

@@ -18,7 +18,7 @@ import jaxstiff
 from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.settings import ShapeSettings
 from jaxstiff.solvers import PGD, SLSQP, SLSQPFD, Hybrid, Registered, Trajectory
-from jaxstiff.solvers.configs import solver_call, solver_from_name
+from jaxstiff.solvers._configs import solver_call, solver_from_name
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
 SMALL = {"starts": 2, "iters": 5, "iters_first": 10, "starts_first": 2, "chunk": 8}

@@ -12,8 +12,8 @@ from helpers import numpy_fk
 
 import jaxstiff
 from jaxstiff.model._kinematics_scan import SOLVER_UNROLL_MAX_JOINTS, solver_uses_scan
-from jaxstiff.solvers.problem import WaypointProblem, compiled_report, report_rows, warm_report
-from jaxstiff.solvers.problem.compiled import REPORT_ROWS
+from jaxstiff.solvers._problem import WaypointProblem, compiled_report, report_rows, warm_report
+from jaxstiff.solvers._problem.compiled import REPORT_ROWS
 from jaxstiff.stiffness import f2
 
 
@@ -95,7 +95,7 @@ import atexit
 import threading
 
 import jaxstiff
-from jaxstiff.solvers.problem import WaypointProblem, warm_report
+from jaxstiff.solvers._problem import WaypointProblem, warm_report
 from jaxstiff.stiffness._criteria import f2
 
 robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})

@@ -6,7 +6,7 @@ import pytest
 from pgd_cases import OPTS
 
 from jaxstiff.results import _files as R
-from jaxstiff.solvers import pgd
+from jaxstiff.solvers import _pgd as pgd
 
 TOPTS = {**OPTS, "traj_iters": 16, "blocks": 2, "chunk": 2}
 

@@ -482,7 +482,7 @@ def test_every_caller_passes_c_by_one_rule(fn, expected):
     criterion gets c (a c parameter, **kwargs, or a signature Python cannot read: it is passed),
     so the value does not depend on which path called the criterion. The two rules differed for
     an unreadable signature: the solvers called it without c (its default 0.01, silently)."""
-    from jaxstiff.solvers.problem import WaypointProblem
+    from jaxstiff.solvers._problem import WaypointProblem
     from jaxstiff.stiffness._criteria import accepts_c, get_criterion
 
     K = jnp.eye(3) * 2.0

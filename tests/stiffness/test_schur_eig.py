@@ -15,7 +15,7 @@ import pytest
 from helpers import assert_close
 
 import jaxstiff
-from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers._problem import WaypointProblem
 from jaxstiff.stiffness import compliance
 from jaxstiff.stiffness._schur import (
     schur_compliance,

@@ -1,6 +1,6 @@
 """Seed 000's method with exact derivatives: one SLSQP solve per waypoint, greedy along the path.
 
-Each waypoint is the problem of :mod:`jaxstiff.solvers.problem` (S0-10 ... S0-14), solved with
+Each waypoint is the problem of :mod:`jaxstiff.solvers._problem` (S0-10 ... S0-14), solved with
 ``scipy.optimize.minimize(method="SLSQP")`` from the previous waypoint's state. Objective,
 gradient, equality constraint and its Jacobian come from one jitted JAX function (compiled once
 per robot/task/criterion, not per waypoint), called once per distinct point SLSQP asks about and
@@ -11,8 +11,8 @@ After SLSQP the answer is made exactly feasible and judged (status codes of
 inside the box if needed, then checked (position error, box, finiteness). A waypoint that cannot
 be reached keeps its status and the run goes on from the last usable state.
 
-:func:`~jaxstiff.solvers.greedy.greedy_path` is the chaining loop (:mod:`jaxstiff.solvers.greedy`,
-re-exported here), shared with the finite-difference baseline (:mod:`jaxstiff.solvers.slsqp_fd`)
+:func:`~jaxstiff.solvers._greedy.greedy_path` is the chaining loop (:mod:`jaxstiff.solvers._greedy`,
+re-exported here), shared with the finite-difference baseline (:mod:`jaxstiff.solvers._slsqp_fd`)
 and reusable by any per-waypoint solver.
 """
 
@@ -28,24 +28,24 @@ import numpy as np
 
 from jaxstiff.runtime._export_cache import DiskJit
 from jaxstiff.settings._solvers import SLSQPOptions
-from jaxstiff.solvers.base import SolveRequest
+from jaxstiff.solvers._base import SolveRequest
 
-# re-exported: the greedy chaining lived here (jaxstiff.solvers.slsqp.X keeps working)
-from jaxstiff.solvers.greedy import CODE_MEANING as CODE_MEANING
-from jaxstiff.solvers.greedy import PATH_RETRIES
-from jaxstiff.solvers.greedy import REPAIR_POS as REPAIR_POS
-from jaxstiff.solvers.greedy import TIE_RTOL as TIE_RTOL
-from jaxstiff.solvers.greedy import PathInterrupted as PathInterrupted
-from jaxstiff.solvers.greedy import SolverOutput as SolverOutput
-from jaxstiff.solvers.greedy import WaypointOutcome as WaypointOutcome
-from jaxstiff.solvers.greedy import WaypointSolver as WaypointSolver
-from jaxstiff.solvers.greedy import check_single_start as check_single_start
-from jaxstiff.solvers.greedy import greedy_path as greedy_path
-from jaxstiff.solvers.greedy import judge as judge
-from jaxstiff.solvers.greedy import not_run_outcomes as not_run_outcomes
-from jaxstiff.solvers.greedy import run_greedy as run_greedy
-from jaxstiff.solvers.lockstep import Steps, run_steps
-from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, compiled_position, compiled_scaled
+# re-exported: the greedy chaining lived here (jaxstiff.solvers._slsqp.X keeps working)
+from jaxstiff.solvers._greedy import CODE_MEANING as CODE_MEANING
+from jaxstiff.solvers._greedy import PATH_RETRIES
+from jaxstiff.solvers._greedy import REPAIR_POS as REPAIR_POS
+from jaxstiff.solvers._greedy import TIE_RTOL as TIE_RTOL
+from jaxstiff.solvers._greedy import PathInterrupted as PathInterrupted
+from jaxstiff.solvers._greedy import SolverOutput as SolverOutput
+from jaxstiff.solvers._greedy import WaypointOutcome as WaypointOutcome
+from jaxstiff.solvers._greedy import WaypointSolver as WaypointSolver
+from jaxstiff.solvers._greedy import check_single_start as check_single_start
+from jaxstiff.solvers._greedy import greedy_path as greedy_path
+from jaxstiff.solvers._greedy import judge as judge
+from jaxstiff.solvers._greedy import not_run_outcomes as not_run_outcomes
+from jaxstiff.solvers._greedy import run_greedy as run_greedy
+from jaxstiff.solvers._lockstep import Steps, run_steps
+from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, compiled_position, compiled_scaled
 
 __all__ = [
     "WaypointOutcome",
@@ -122,7 +122,7 @@ def _compile_now(problem: WaypointProblem, fused_s: DiskJit) -> float:
 
 class SLSQPSolver(WaypointSolver, Protocol):
     """:func:`make_slsqp_solver`'s solver: a :class:`WaypointSolver` that can also be driven step by
-    step (``steps``, :mod:`jaxstiff.solvers.lockstep`), with its kernel's ``scale`` vector, the
+    step (``steps``, :mod:`jaxstiff.solvers._lockstep`), with its kernel's ``scale`` vector, the
     seconds its kernels took to compile and its ``driver`` ("lean" or "scipy.optimize.minimize")."""
 
     compile_s: float
@@ -164,7 +164,7 @@ def make_slsqp_solver(
         x0: np.ndarray, lb: np.ndarray, ub: np.ndarray, params: np.ndarray, maxiter: int | None = None
     ) -> Steps[SolverOutput]:
         """The solve as a generator of kernel requests ``(y, params)`` (scaled point), sent back
-        ``fused_scaled(y, params, scale)`` (:mod:`jaxstiff.solvers.lockstep`); returns its
+        ``fused_scaled(y, params, scale)`` (:mod:`jaxstiff.solvers._lockstep`); returns its
         :class:`SolverOutput`. A point asked for twice in a row is evaluated once. The "scipy"
         driver cannot be driven this way: it solves at once and yields nothing."""
         iters = int(maxiter or opts["maxiter"])
@@ -398,6 +398,6 @@ def solve_path(
 
 
 def run_request(req: SolveRequest) -> dict[str, Any]:
-    """Adapter for :data:`~jaxstiff.solvers.base.SOLVERS` (``solver="slsqp"``)."""
+    """Adapter for :data:`~jaxstiff.solvers._base.SOLVERS` (``solver="slsqp"``)."""
     check_single_start(req, "slsqp")
     return run_greedy(req, make_slsqp_solver(req.problem, req.options, (req.limits.kmin, req.limits.kmax)), {})

@@ -22,7 +22,7 @@ from jaxstiff.settings._solvers import (
     SLSQPOptions,
     TrajectoryOptions,
 )
-from jaxstiff.solvers.problem import WaypointBatch
+from jaxstiff.solvers._problem import WaypointBatch
 
 __all__ = ["SolveRequest", "SOLVERS", "register_solver", "solver_defaults", "check_options"]
 
@@ -30,7 +30,7 @@ __all__ = ["SolveRequest", "SOLVERS", "register_solver", "solver_defaults", "che
 # ---------------------------------------------------------------------- solver registry
 @dataclasses.dataclass(frozen=True, eq=False)
 class SolveRequest(WaypointBatch):
-    """Everything a registered solver gets: the paths (the :class:`~jaxstiff.solvers.problem.WaypointBatch`
+    """Everything a registered solver gets: the paths (the :class:`~jaxstiff.solvers._problem.WaypointBatch`
     fields, so a request is passed as is to the batch solvers) and how to solve them.
 
     Attributes (besides ``problem``, ``targets``, ``directions``, ``q0``, ``kj0``, ``limits``, ``ratio``, ``c``):
@@ -117,20 +117,20 @@ def outcomes_to_arrays(
 
 
 def _lazy_solver(module: str, attr: str = "run_request") -> Callable[[SolveRequest], dict[str, Any]]:
-    """The solver ``jaxstiff.solvers.<module>.<attr>``, imported on first use."""
+    """The solver ``jaxstiff.solvers._<module>.<attr>`` (a private module), imported on first use."""
 
     def run(req: SolveRequest) -> dict[str, Any]:
-        return getattr(importlib.import_module(f"jaxstiff.solvers.{module}"), attr)(req)
+        return getattr(importlib.import_module(f"jaxstiff.solvers._{module}"), attr)(req)
 
     run.__name__ = f"{module}.{attr}"
     return run
 
 
-register_solver("slsqp", _lazy_solver("slsqp"))  # greedy per-waypoint SLSQP, JAX derivatives (solvers/slsqp.py)
+register_solver("slsqp", _lazy_solver("slsqp"))  # greedy per-waypoint SLSQP, JAX derivatives (solvers/_slsqp.py)
 register_solver("slsqp-fd", _lazy_solver("slsqp_fd"))  # the same, numpy + finite differences
-register_solver("pgd", _lazy_solver("pgd"))  # multi-start projected gradient, batched (solvers/pgd)
-register_solver("hybrid", _lazy_solver("hybrid"))  # pgd + SLSQP polish (solvers/hybrid.py)
-register_solver("trajectory", _lazy_solver("trajectory"))  # whole-trajectory optimisation (solvers/trajectory.py)
+register_solver("pgd", _lazy_solver("pgd"))  # multi-start projected gradient, batched (solvers/_pgd)
+register_solver("hybrid", _lazy_solver("hybrid"))  # pgd + SLSQP polish (solvers/_hybrid.py)
+register_solver("trajectory", _lazy_solver("trajectory"))  # whole-trajectory optimisation (solvers/_trajectory.py)
 
 
 # ---------------------------------------------------------------------- solver options
@@ -200,7 +200,7 @@ def check_options(solver: str, options: Mapping[str, Any] | None) -> None:
 
 def _check_split_trajectory(options: Mapping[str, Any]) -> None:
     """:func:`check_options` of the trajectory solver given its warm start's options apart
-    (``warm_options``, as :class:`jaxstiff.solvers.configs.Trajectory` passes them)."""
+    (``warm_options``, as :class:`jaxstiff.solvers._configs.Trajectory` passes them)."""
     warm, wopts = options.get("warm", "pgd"), options["warm_options"]
     if warm not in WARM_STARTS:
         raise ValueError(f"option warm must be one of {', '.join(map(repr, WARM_STARTS))}, got {warm!r}")

@@ -12,11 +12,11 @@ in this: the LWR's first waypoints are easier, not different (docs/notes/solvers
 
 What: :func:`exact_first_answers` runs greedy SLSQP's own first-waypoint search (its starts, its
 iteration budget ``first_maxiter``, its rescue starts drawn over the whole ranges when no start
-is provably in target: :func:`jaxstiff.solvers.greedy.greedy_path`) for every path at once, the
+is provably in target: :func:`jaxstiff.solvers._greedy.greedy_path`) for every path at once, the
 SLSQP solves advancing in lockstep with their kernel calls batched
-(:mod:`jaxstiff.solvers.lockstep`). Its usable answers, best first, become pgd's first-waypoint
+(:mod:`jaxstiff.solvers._lockstep`). Its usable answers, best first, become pgd's first-waypoint
 starts; pgd keeps a start that its own stages do not improve, so its first waypoint is at least
-as good as the best answer it was given (:meth:`jaxstiff.solvers.pgd.kernel.PGDKernel.one_start`).
+as good as the best answer it was given (:meth:`jaxstiff.solvers._pgd.kernel.PGDKernel.one_start`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ import numpy as np
 
 from jaxstiff.results import _files as R
 from jaxstiff.runtime._programs import program_cache
-from jaxstiff.solvers.greedy import (
+from jaxstiff.solvers._greedy import (
     Candidate,
     SolverOutput,
     judge,
@@ -38,8 +38,8 @@ from jaxstiff.solvers.greedy import (
     maybe_off_target,
     rescue_starts,
 )
-from jaxstiff.solvers.lockstep import RowsProgram, Steps, bucket_size, run_lockstep
-from jaxstiff.solvers.problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
+from jaxstiff.solvers._lockstep import RowsProgram, Steps, bucket_size, run_lockstep
+from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
 
 __all__ = ["SLSQP_OPTION_NAMES", "rows_program", "warm_first_waypoint"]
 
@@ -50,7 +50,7 @@ SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale",
 @program_cache(maxsize=16)
 def rows_program(problem: WaypointProblem, scale: tuple[float, ...], x64: bool) -> RowsProgram:
     """The lockstep evaluations of SLSQP's scaled kernel for ``problem`` (scale: SLSQP's variable
-    scale, :func:`jaxstiff.solvers.slsqp.variable_scale`, with the criterion's), one object per
+    scale, :func:`jaxstiff.solvers._slsqp.variable_scale`, with the criterion's), one object per
     problem, scale and x64 flag (the one in force when it is called): its programs, once compiled for a row count, serve every later search of the
     process (a row's result has the same bits at every row count, :class:`RowsProgram`)."""
     return RowsProgram(compiled_scaled_rows(problem), jnp.asarray(np.asarray(scale, float)))
@@ -99,7 +99,7 @@ def warm_first_waypoint(
 
 def _program(batch: WaypointBatch, options: Mapping[str, Any] | None) -> tuple[RowsProgram, Any]:
     """The shared rows program of ``batch``'s problem and SLSQP's solver for ``options``."""
-    from jaxstiff.solvers.slsqp import make_slsqp_solver
+    from jaxstiff.solvers._slsqp import make_slsqp_solver
 
     sl_opts = {k: v for k, v in (options or {}).items() if k in SLSQP_OPTION_NAMES}
     solver = make_slsqp_solver(batch.problem, sl_opts, (batch.limits.kmin, batch.limits.kmax))
@@ -117,7 +117,7 @@ def exact_first_answers(
     """Per path, the usable SLSQP answers (decision vectors ``x = [q_free, kj]``) of its first
     waypoint, lowest criterion first, from greedy SLSQP's starts: the start state ``(q0, kj0)``,
     the given ``first_starts`` and, where none of those answers is provably in target, as many
-    rescue starts again (:func:`jaxstiff.solvers.greedy.greedy_path`'s first waypoint, for every
+    rescue starts again (:func:`jaxstiff.solvers._greedy.greedy_path`'s first waypoint, for every
     path in lockstep). The first waypoint's box is the whole range (no rate limit: the caller
     runs this only then). A path with no usable answer gets an empty list. ``criteria``, a list
     given by the caller, receives each path's lowest criterion there (inf without a usable answer).

@@ -1,6 +1,6 @@
 """Multi-start projected gradient for the waypoint problem, batched over many paths (``"pgd"``).
 
-The waypoint problem of :mod:`jaxstiff.solvers.problem` (SPEC section 5, S0-10 ... S0-14) solved
+The waypoint problem of :mod:`jaxstiff.solvers._problem` (SPEC section 5, S0-10 ... S0-14) solved
 for B trajectories x S starts at once in one jitted JAX function: ``vmap`` over trajectories,
 ``vmap`` over starts, a loop over the P waypoints (the rate limits chain waypoint p to the
 last usable waypoint before it, exactly as :func:`jaxstiff.results.reference_states` rebuilds it),
@@ -71,10 +71,10 @@ run's wall time spread evenly over all waypoints.
 Modules: :mod:`.ops` (the traceable pieces of one waypoint problem: box, Newton, LM, Adam),
 :mod:`.stages` (one start's optimisation: surrogate, LM, projected Adam, final verdict),
 :mod:`.kernel` (one trajectory: starts, rollouts/best, the loop over waypoints), :mod:`.batch`
-(options, compiled chunks over many paths, the :data:`~jaxstiff.solvers.base.SOLVERS` adapter).
+(options, compiled chunks over many paths, the :data:`~jaxstiff.solvers._base.SOLVERS` adapter).
 """
 
-from jaxstiff.solvers.pgd.batch import (
+from jaxstiff.solvers._pgd.batch import (
     CODE_MEANING,
     DEFAULT_OPTIONS,
     check_options,
@@ -83,9 +83,9 @@ from jaxstiff.solvers.pgd.batch import (
     run_request,
     solve_batch,
 )
-from jaxstiff.solvers.pgd.kernel import make_kernel
-from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, lm_kind, spd_solve
-from jaxstiff.solvers.pgd.stages import finish
+from jaxstiff.solvers._pgd.kernel import make_kernel
+from jaxstiff.solvers._pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, lm_kind, spd_solve
+from jaxstiff.solvers._pgd.stages import finish
 
 __all__ = [
     "DEFAULT_OPTIONS",

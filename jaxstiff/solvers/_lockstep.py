@@ -1,7 +1,7 @@
 """Many sequential solves advanced in lockstep, their kernel evaluations batched into one call.
 
 A per-waypoint SLSQP solve asks for one kernel evaluation per iteration (reverse communication,
-:func:`jaxstiff.solvers.slsqp.make_slsqp_solver`'s ``steps``). Solving B paths one after another
+:func:`jaxstiff.solvers._slsqp.make_slsqp_solver`'s ``steps``). Solving B paths one after another
 pays B x (iterations) small kernel calls, each mostly dispatch overhead (tens of microseconds for
 a few microseconds of arithmetic). Written as generators that ``yield`` their evaluation requests,
 the B solves advance together instead: each round collects every pending request and evaluates
@@ -60,7 +60,7 @@ class RowsProgram:
     A lockstep run starts with many paths (128 rows for 17-128 of them) and ends with a few (16,
     then 2): compiled in turn, each of those programs held the run up 2-3 s on a 2-core CPU (7 s
     of a cold 64 x 50 hybrid). A row's result has the same bits at every R >= 2
-    (:func:`jaxstiff.solvers.problem.compiled_scaled_rows`), so which program answers a request
+    (:func:`jaxstiff.solvers._problem.compiled_scaled_rows`), so which program answers a request
     does not change the result.
     """
 

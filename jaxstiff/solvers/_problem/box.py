@@ -1,6 +1,6 @@
 """The numpy side of the waypoint problem: the rate-limited box (S0-11 ... S0-14) and its
 :class:`Limits`, clipping, the Newton projection onto the path inside the box, the per-point
-check and the per-path random seed (:mod:`jaxstiff.solvers.problem`)."""
+check and the per-path random seed (:mod:`jaxstiff.solvers._problem`)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from jaxstiff.solvers.problem.compiled import jax_pos_and_jac
-from jaxstiff.solvers.problem.waypoint import WaypointProblem
+from jaxstiff.solvers._problem.compiled import jax_pos_and_jac
+from jaxstiff.solvers._problem.waypoint import WaypointProblem
 
 __all__ = ["box", "Limits"]
 

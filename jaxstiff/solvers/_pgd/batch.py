@@ -1,5 +1,5 @@
 """pgd over many paths: options, one compiled kernel per problem and settings, chunks of paths
-padded to the chunk size, and the :data:`~jaxstiff.solvers.base.SOLVERS` adapter."""
+padded to the chunk size, and the :data:`~jaxstiff.solvers._base.SOLVERS` adapter."""
 
 from __future__ import annotations
 
@@ -21,10 +21,10 @@ from jaxstiff.runtime._programs import program_cache, register_cache
 from jaxstiff.runtime._threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime._xla import kernel_compiler_options
 from jaxstiff.settings._solvers import PGDOptions
-from jaxstiff.solvers.base import SolveRequest
-from jaxstiff.solvers.pgd.kernel import PGDKernel, waypoint_keys
-from jaxstiff.solvers.pgd.ops import lm_kind
-from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem, content_seed
+from jaxstiff.solvers._base import SolveRequest
+from jaxstiff.solvers._pgd.kernel import PGDKernel, waypoint_keys
+from jaxstiff.solvers._pgd.ops import lm_kind
+from jaxstiff.solvers._problem import POS_TOL, WaypointBatch, WaypointProblem, content_seed
 
 __all__ = [
     "DEFAULT_OPTIONS",
@@ -77,7 +77,7 @@ def check_options(options: Mapping[str, Any] | None, starts: int | None = None) 
 
 @program_cache(maxsize=32)
 def compiled_kernel(problem: WaypointProblem, opts_items: tuple[tuple[str, Any], ...], first_rate: bool) -> Any:
-    """:meth:`PGDKernel.traj_batch <jaxstiff.solvers.pgd.kernel.PGDKernel.traj_batch>` (the
+    """:meth:`PGDKernel.traj_batch <jaxstiff.solvers._pgd.kernel.PGDKernel.traj_batch>` (the
     kernel over a batch of paths) jitted, cached per problem, settings (sorted ``(name, value)``
     pairs) and first-waypoint rate limit."""
     opts = dict(opts_items)
@@ -99,7 +99,7 @@ def waypoint_capacity(P: int) -> int:
 def chunk_keys(base: jax.Array, path_data: Any, P: int, cap: int) -> jax.Array:
     """The waypoints' random keys (C, cap, 2) of a chunk of paths: each path's key is ``base``
     folded with its data (C,), its waypoints' keys those of its own length P
-    (:func:`~jaxstiff.solvers.pgd.kernel.waypoint_keys`), padded to the capacity with the last one:
+    (:func:`~jaxstiff.solvers._pgd.kernel.waypoint_keys`), padded to the capacity with the last one:
     the same random starts whatever program runs the path. One program (its steps run eagerly
     were nine small compilations, ~0.25 s of every run)."""
     path_keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(path_data)
@@ -141,7 +141,7 @@ def solve_batch(
 
     Returns:
         dict with ``q``, ``kj`` (B,P,n), ``status``, ``pos_error``, ``solver_code``, ``nit``,
-        ``nfev``, ``time_s``, ``criterion`` (B,P) in the :data:`jaxstiff.solvers.base.SOLVERS` format.
+        ``nfev``, ``time_s``, ``criterion`` (B,P) in the :data:`jaxstiff.solvers._base.SOLVERS` format.
     """
     opts = check_options(options, starts)
     problem, limits, q0 = batch.problem, batch.limits, np.asarray(batch.q0, float)
@@ -221,7 +221,7 @@ def _warm_retry(
 ) -> threading.Thread | None:
     """Where the first-waypoint retry may run and pgd's kernel is not compiled in this process yet,
     a thread that compiles the retry's SLSQP programs while the kernel compiles
-    (:func:`jaxstiff.solvers.first_waypoint.warm_first_waypoint`): the kernel's compilation keeps
+    (:func:`jaxstiff.solvers._first_waypoint.warm_first_waypoint`): the kernel's compilation keeps
     one core busy for seconds, the retry's programs then cost the first call no time of their own.
     Results do not depend on it. None where there is nothing to warm."""
     if first_rate or opts["first_exact"] != "retry" or os.environ.get(WARM_ENV, "1").strip().lower() in _OFF:
@@ -229,7 +229,7 @@ def _warm_retry(
     fn, C, _ = program
     if any(entry[0] is fn and sig[2][0][1][0] == C for sig, entry in _PROGRAMS.items()):
         return None  # compiled in this process: so are the retry's programs, or they load quickly
-    from jaxstiff.solvers.first_waypoint import warm_first_waypoint
+    from jaxstiff.solvers._first_waypoint import warm_first_waypoint
 
     x64 = bool(jax.config.read("jax_enable_x64"))  # the caller's (a thread starts from the global flag)
 
@@ -293,7 +293,7 @@ def _ranking(
     is better, compared in that order. In target: alpha and rho of the report at ``X``
     (:func:`jaxstiff.results._target.target_masks`, the rule of the result's ``in_target``)."""
     from jaxstiff.results._target import target_masks
-    from jaxstiff.solvers.problem import report_rows
+    from jaxstiff.solvers._problem import report_rows
     from jaxstiff.stiffness._criteria import f1 as _f1
 
     k, P = status.shape
@@ -344,7 +344,7 @@ def _retry_first(  # noqa: PLR0913 - solve_batch's state handed to its retry ste
     UR10, few of the LWR's). ``out`` is updated in place; returns the new ``X`` and run time."""
     X, out, run_s = done
     problem = batch.problem
-    from jaxstiff.solvers.greedy import target_bound
+    from jaxstiff.solvers._greedy import target_bound
 
     bound = target_bound(problem, batch.ratios, float(batch.c))
     if bound is None:
@@ -411,11 +411,11 @@ def exact_first_starts(
     criteria: list[float] | None = None,
 ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
     """Per path, the first waypoint's start states for pgd's starts 1..S-1: greedy SLSQP's usable
-    answers there, best first (:func:`jaxstiff.solvers.first_waypoint.exact_first_answers`, from
+    answers there, best first (:func:`jaxstiff.solvers._first_waypoint.exact_first_answers`, from
     ``(q0, kj0)``, ``first_starts`` and its rescue starts), then the given ``first_starts``
     themselves, at most S - 1 in all (option ``first_exact``). ``criteria``: as
-    :func:`~jaxstiff.solvers.first_waypoint.exact_first_answers`'s."""
-    from jaxstiff.solvers.first_waypoint import exact_first_answers
+    :func:`~jaxstiff.solvers._first_waypoint.exact_first_answers`'s."""
+    from jaxstiff.solvers._first_waypoint import exact_first_answers
 
     problem = batch.problem
     answers = exact_first_answers(batch, first_starts, options, pos_tol, criteria)
@@ -546,7 +546,7 @@ CODE_MEANING = "index of the start that won (-1 = none); no convergence flag (fi
 
 
 def run_request(req: SolveRequest) -> dict[str, Any]:
-    """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="pgd"``)."""
+    """Adapter for :data:`jaxstiff.solvers._base.SOLVERS` (``solver="pgd"``)."""
     res = solve_batch(
         req,
         starts=req.starts,

@@ -1,5 +1,5 @@
 """The waypoint problem's static part, :class:`WaypointProblem` (robot, task, criterion), and its
-pure, traceable building blocks (SPEC section 5, S0-10; :mod:`jaxstiff.solvers.problem`)."""
+pure, traceable building blocks (SPEC section 5, S0-10; :mod:`jaxstiff.solvers._problem`)."""
 
 from __future__ import annotations
 

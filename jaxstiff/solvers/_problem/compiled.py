@@ -1,5 +1,5 @@
-"""Jitted kernels of a :class:`~jaxstiff.solvers.problem.waypoint.WaypointProblem`, compiled once per
-problem (cached), and their numpy wrappers (:mod:`jaxstiff.solvers.problem`)."""
+"""Jitted kernels of a :class:`~jaxstiff.solvers._problem.waypoint.WaypointProblem`, compiled once per
+problem (cached), and their numpy wrappers (:mod:`jaxstiff.solvers._problem`)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 from jaxstiff.runtime._export_cache import DiskJit
 from jaxstiff.runtime._programs import program_cache
 from jaxstiff.runtime._xla import kernel_compiler_options
-from jaxstiff.solvers.problem.waypoint import WaypointProblem
+from jaxstiff.solvers._problem.waypoint import WaypointProblem
 
 __all__ = ["compiled", "compiled_report_rows", "REPORT_ROWS"]
 
@@ -29,7 +29,7 @@ def compiled_scaled(problem: WaypointProblem) -> DiskJit:
 @program_cache(maxsize=64)
 def compiled_scaled_rows(problem: WaypointProblem) -> Callable[..., jax.Array]:
     """``fused_scaled`` over rows: ``(Y (R, nx), params (R, np), scale) -> (R, out)``, jitted with
-    jaxstiff's kernel compiler options (:mod:`jaxstiff.solvers.lockstep`'s batched evaluations;
+    jaxstiff's kernel compiler options (:mod:`jaxstiff.solvers._lockstep`'s batched evaluations;
     with these options a row's result has the same bits at every R >= 2, measured on CPU)."""
     return jax.jit(jax.vmap(problem.fused_scaled, in_axes=(0, 0, None)), compiler_options=kernel_compiler_options())
 

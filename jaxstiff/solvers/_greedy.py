@@ -3,12 +3,12 @@ solved from the last usable state inside its rate-limited box, the answer made e
 and judged (status codes of :mod:`jaxstiff.results`).
 
 * :func:`greedy_path` one path, any per-waypoint solver ``(x0, lb, ub, params, maxiter=None) ->
-  SolverOutput`` (SLSQP with JAX derivatives in :mod:`.slsqp`, with finite differences in
-  :mod:`.slsqp_fd`);
+  SolverOutput`` (SLSQP with JAX derivatives in :mod:`._slsqp`, with finite differences in
+  :mod:`._slsqp_fd`);
 * :func:`judge` the verdict on one solver answer: clip into the box, Newton projection back onto
   the path inside the box if needed, then the checks (position error, box, finiteness);
-* :func:`run_greedy` every path of a :class:`~jaxstiff.solvers.base.SolveRequest` in the
-  :data:`~jaxstiff.solvers.base.SOLVERS` format, the waypoints not reached before an interrupt
+* :func:`run_greedy` every path of a :class:`~jaxstiff.solvers._base.SolveRequest` in the
+  :data:`~jaxstiff.solvers._base.SOLVERS` format, the waypoints not reached before an interrupt
   marked NOT_RUN (:func:`not_run_outcomes`).
 """
 
@@ -23,8 +23,8 @@ import numpy as np
 
 from jaxstiff.results import _files as R
 from jaxstiff.results._target import ALPHA_TOL_DEG, RATIO_REL_TOL
-from jaxstiff.solvers.base import SolveRequest, SolverInterrupted, outcomes_to_arrays
-from jaxstiff.solvers.problem import (
+from jaxstiff.solvers._base import SolveRequest, SolverInterrupted, outcomes_to_arrays
+from jaxstiff.solvers._problem import (
     BOUND_TOL,
     POS_TOL,
     WaypointBatch,
@@ -609,8 +609,8 @@ def run_greedy(
     req: SolveRequest, solver: WaypointSolver, extra: Mapping[str, Any], seed_scheme: bool = False
 ) -> dict[str, Any]:
     """Greedy SLSQP (``solver``, with :func:`greedy_path`'s keyword arguments ``extra``) over every
-    path of ``req``, in the :data:`~jaxstiff.solvers.base.SOLVERS` dict format; raises
-    :class:`~jaxstiff.solvers.base.SolverInterrupted` with the finished part on an interrupt.
+    path of ``req``, in the :data:`~jaxstiff.solvers._base.SOLVERS` dict format; raises
+    :class:`~jaxstiff.solvers._base.SolverInterrupted` with the finished part on an interrupt.
     ``seed_scheme``: option ``path_retries`` None means 0 (seed 000's greedy scheme alone), else
     :data:`PATH_RETRIES`."""
     prob = req.problem

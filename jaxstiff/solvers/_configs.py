@@ -11,7 +11,7 @@ option's default, unit and meaning are written once), and an editor completes th
 * :class:`Hybrid`: a :class:`PGD` run, then an :class:`SLSQP` polish, plus its own options;
 * :class:`Trajectory`: a greedy warm start (a :class:`PGD`, :class:`Hybrid` or :class:`SLSQP`),
   then the whole trajectory at once;
-* :class:`Registered`: a solver added with :func:`~jaxstiff.solvers.base.register_solver`, by name,
+* :class:`Registered`: a solver added with :func:`~jaxstiff.solvers._base.register_solver`, by name,
   with a free options dict.
 
 A name (``solver="pgd"``) still works everywhere: the command line and sweep files name solvers,
@@ -122,7 +122,7 @@ class Trajectory(TrajectoryOptions, _Named):
 
 @dataclasses.dataclass(frozen=True)
 class Registered(_Named):
-    """A solver added with :func:`~jaxstiff.solvers.base.register_solver`: its name and its options
+    """A solver added with :func:`~jaxstiff.solvers._base.register_solver`: its name and its options
     (a free dict: such a solver checks its own)."""
 
     solver: str
@@ -152,8 +152,8 @@ def solver_from_name(name: str, options: Mapping[str, Any] | None = None) -> Sol
     trajectory solver, the options of its warm start (named by ``warm``) are the dict's entries
     that the warm start reads (those it shares with the trajectory stage, such as ``newton``, go
     to both, as in a flat dict). A name not shipped gives :class:`Registered`. Unknown options or
-    bad values: ``ValueError`` naming them (:func:`~jaxstiff.solvers.base.check_options`)."""
-    from jaxstiff.solvers.base import check_options
+    bad values: ``ValueError`` naming them (:func:`~jaxstiff.solvers._base.check_options`)."""
+    from jaxstiff.solvers._base import check_options
 
     opts = dict(options or {})
     check_options(name, opts)
@@ -163,7 +163,7 @@ def solver_from_name(name: str, options: Mapping[str, Any] | None = None) -> Sol
     if cls is Hybrid:
         return Hybrid(pgd=PGD(**PGDOptions.own(opts)), slsqp=SLSQP(**SLSQPOptions.own(opts)), **HybridOptions.own(opts))
     if cls is Trajectory:
-        from jaxstiff.solvers.base import solver_option_names
+        from jaxstiff.solvers._base import solver_option_names
 
         own = {k: v for k, v in TrajectoryOptions.own(opts).items() if k not in ("warm", "warm_options")}
         wname = str(opts.get("warm", "pgd"))

@@ -36,7 +36,7 @@ Modules: :mod:`.waypoint` (:class:`WaypointProblem`), :mod:`.compiled` (the jitt
 
 Example:
     >>> import jaxstiff
-    >>> from jaxstiff.solvers.problem import WaypointProblem
+    >>> from jaxstiff.solvers import WaypointProblem
     >>> robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
     >>> prob = WaypointProblem(robot, "full", jaxstiff.f2)
     >>> prob.n_free, prob.nx  # lwr_a7 rigid: 6 joint + 6 stiffness variables
@@ -45,24 +45,24 @@ Example:
     13
 """
 
-from jaxstiff.solvers.problem.box import BOUND_TOL as BOUND_TOL
-from jaxstiff.solvers.problem.box import POS_TOL as POS_TOL
-from jaxstiff.solvers.problem.box import Limits as Limits
-from jaxstiff.solvers.problem.box import PointCheck as PointCheck
-from jaxstiff.solvers.problem.box import WaypointBatch as WaypointBatch
-from jaxstiff.solvers.problem.box import box as box
-from jaxstiff.solvers.problem.box import check_point as check_point
-from jaxstiff.solvers.problem.box import clip_to_box as clip_to_box
-from jaxstiff.solvers.problem.box import content_seed as content_seed
-from jaxstiff.solvers.problem.box import newton_project as newton_project
-from jaxstiff.solvers.problem.box import rate_bounds as rate_bounds
-from jaxstiff.solvers.problem.compiled import compiled as compiled
-from jaxstiff.solvers.problem.compiled import compiled_evaluate as compiled_evaluate
-from jaxstiff.solvers.problem.compiled import compiled_position as compiled_position
-from jaxstiff.solvers.problem.compiled import compiled_report as compiled_report
-from jaxstiff.solvers.problem.compiled import compiled_scaled as compiled_scaled
-from jaxstiff.solvers.problem.compiled import compiled_scaled_rows as compiled_scaled_rows
-from jaxstiff.solvers.problem.compiled import jax_pos_and_jac as jax_pos_and_jac
-from jaxstiff.solvers.problem.compiled import report_rows as report_rows
-from jaxstiff.solvers.problem.compiled import warm_report as warm_report
-from jaxstiff.solvers.problem.waypoint import WaypointProblem as WaypointProblem
+from jaxstiff.solvers._problem.box import BOUND_TOL as BOUND_TOL
+from jaxstiff.solvers._problem.box import POS_TOL as POS_TOL
+from jaxstiff.solvers._problem.box import Limits as Limits
+from jaxstiff.solvers._problem.box import PointCheck as PointCheck
+from jaxstiff.solvers._problem.box import WaypointBatch as WaypointBatch
+from jaxstiff.solvers._problem.box import box as box
+from jaxstiff.solvers._problem.box import check_point as check_point
+from jaxstiff.solvers._problem.box import clip_to_box as clip_to_box
+from jaxstiff.solvers._problem.box import content_seed as content_seed
+from jaxstiff.solvers._problem.box import newton_project as newton_project
+from jaxstiff.solvers._problem.box import rate_bounds as rate_bounds
+from jaxstiff.solvers._problem.compiled import compiled as compiled
+from jaxstiff.solvers._problem.compiled import compiled_evaluate as compiled_evaluate
+from jaxstiff.solvers._problem.compiled import compiled_position as compiled_position
+from jaxstiff.solvers._problem.compiled import compiled_report as compiled_report
+from jaxstiff.solvers._problem.compiled import compiled_scaled as compiled_scaled
+from jaxstiff.solvers._problem.compiled import compiled_scaled_rows as compiled_scaled_rows
+from jaxstiff.solvers._problem.compiled import jax_pos_and_jac as jax_pos_and_jac
+from jaxstiff.solvers._problem.compiled import report_rows as report_rows
+from jaxstiff.solvers._problem.compiled import warm_report as warm_report
+from jaxstiff.solvers._problem.waypoint import WaypointProblem as WaypointProblem

@@ -1,7 +1,7 @@
-"""``solver="hybrid"``: multi-start projected gradient (:mod:`.pgd`), then a per-waypoint SLSQP polish.
+"""``solver="hybrid"``: multi-start projected gradient (:mod:`._pgd`), then a per-waypoint SLSQP polish.
 
 pgd finds a good basin for every waypoint of every path at once; SLSQP (exact JAX derivatives,
-:mod:`.slsqp`) then converges each waypoint to high accuracy from pgd's point. The polish walks
+:mod:`._slsqp`) then converges each waypoint to high accuracy from pgd's point. The polish walks
 each path in order and must never undo pgd:
 
 With ``chain="pgd"``:
@@ -11,7 +11,7 @@ With ``chain="pgd"``:
   the rate box around pgd's next usable waypoint** p' > p. So pgd's waypoint p' stays feasible
   with respect to the (possibly changed) waypoint p, and by induction pgd's own point x_p is
   always inside waypoint p's box;
-* SLSQP starts from pgd's x_p; its answer (made exactly feasible and judged as in :mod:`.slsqp`)
+* SLSQP starts from pgd's x_p; its answer (made exactly feasible and judged as in :mod:`._slsqp`)
   replaces x_p only if it is usable and its criterion is lower. Hence, per waypoint, the hybrid's
   criterion is never above pgd's, and every constraint holds exactly;
 * where pgd found no usable point, SLSQP starts from the reference state (clipped into the box);
@@ -39,7 +39,7 @@ Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``chain``; ``polish_sl
 pgd's point is admissible and its criterion is within this (relative) of the criterion's least
 possible value (f2: 1, f1: c), SLSQP is not run there (it could only tie); 0 runs it everywhere.
 
-Speed: the B paths' polishes advance together (:mod:`jaxstiff.solvers.lockstep`): each path's
+Speed: the B paths' polishes advance together (:mod:`jaxstiff.solvers._lockstep`): each path's
 sequential logic is a generator of SLSQP kernel requests, and each round evaluates all pending
 requests in one batched call. The per-waypoint ``time_s`` is pgd's plus an equal share of the
 polish's wall time.
@@ -57,10 +57,10 @@ import numpy as np
 
 from jaxstiff.results import _files as R
 from jaxstiff.settings._solvers import HybridOptions
-from jaxstiff.solvers import pgd
-from jaxstiff.solvers.base import SolveRequest
-from jaxstiff.solvers.first_waypoint import rows_program
-from jaxstiff.solvers.greedy import (
+from jaxstiff.solvers import _pgd as pgd
+from jaxstiff.solvers._base import SolveRequest
+from jaxstiff.solvers._first_waypoint import rows_program
+from jaxstiff.solvers._greedy import (
     Objective,
     PosAndJac,
     SolverOutput,
@@ -68,8 +68,8 @@ from jaxstiff.solvers.greedy import (
     judge,
     kernel_objective,
 )
-from jaxstiff.solvers.lockstep import Steps, run_lockstep
-from jaxstiff.solvers.problem import (
+from jaxstiff.solvers._lockstep import Steps, run_lockstep
+from jaxstiff.solvers._problem import (
     WaypointBatch,
     WaypointProblem,
     clip_to_box,
@@ -77,7 +77,7 @@ from jaxstiff.solvers.problem import (
 )
 
 if TYPE_CHECKING:
-    from jaxstiff.solvers.slsqp import SLSQPSolver
+    from jaxstiff.solvers._slsqp import SLSQPSolver
 
 __all__ = ["DEFAULT_OPTIONS", "polish", "run_request"]
 
@@ -134,7 +134,7 @@ def polish(
 
     ``batch``: the paths (``ratio`` a number or (B,); ``limits.dq``/``dk`` (n,) or (B, n), per path).
     ``first_starts``: per path, the extra start states ``(q, kj)`` greedy SLSQP tries at a first
-    waypoint without rate limit (:func:`jaxstiff.solvers.greedy.greedy_path`); with the greedy
+    waypoint without rate limit (:func:`jaxstiff.solvers._greedy.greedy_path`); with the greedy
     chain SLSQP runs from them there too, so the hybrid's first waypoint is never worse than
     greedy SLSQP's from those starts (greedy SLSQP's rescue starts, where none of them is in
     target, are not run here: pgd's own random first-waypoint starts cover the ranges).
@@ -142,7 +142,7 @@ def polish(
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
     """
-    from jaxstiff.solvers.slsqp import make_slsqp_solver
+    from jaxstiff.solvers._slsqp import make_slsqp_solver
 
     opts = dict(options or {})
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
@@ -190,7 +190,7 @@ def _next_usable(usable: np.ndarray) -> np.ndarray:
 
 def _polish_path(ctx: _Polish, b: int, chain: str, dst: dict[str, np.ndarray]) -> Steps[None]:
     """Polish path b along ``chain`` ("greedy" or "pgd", module docstring), writing into ``dst``
-    (a generator of SLSQP's kernel requests, :mod:`jaxstiff.solvers.lockstep`)."""
+    (a generator of SLSQP's kernel requests, :mod:`jaxstiff.solvers._lockstep`)."""
     problem = ctx.problem
     limits = ctx.batch.limits.for_path(b)  # path b's rate limits ((n,) dq, dk)
     dx = np.r_[np.asarray(limits.dq, float)[list(problem.free_idx)], problem.spring_cols(np.asarray(limits.dk, float))]
@@ -327,7 +327,7 @@ def _best_slsqp(  # noqa: PLR0913 - one waypoint's state beside the shared conte
 
 
 def _criterion(ctx: _Polish, x: np.ndarray, params: np.ndarray) -> Steps[float]:
-    """The criterion at ``x`` as a kernel request like SLSQP's (:mod:`jaxstiff.solvers.lockstep`:
+    """The criterion at ``x`` as a kernel request like SLSQP's (:mod:`jaxstiff.solvers._lockstep`:
     batched with the other paths' requests instead of a kernel call of its own)."""
     nx = ctx.problem.nx
     out = yield (x / ctx.solver.scale[:nx], params)
@@ -369,7 +369,7 @@ def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> Ste
 
 
 def run_request(req: SolveRequest) -> dict[str, Any]:
-    """Adapter for :data:`jaxstiff.solvers.base.SOLVERS` (``solver="hybrid"``)."""
+    """Adapter for :data:`jaxstiff.solvers._base.SOLVERS` (``solver="hybrid"``)."""
     opts = dict(req.options or {})
     pg_opts = {k: v for k, v in opts.items() if k in pgd.DEFAULT_OPTIONS}
     base = pgd.solve_batch(
@@ -387,7 +387,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
         pos_tol=req.pos_tol,
         first_starts=req.first_starts,
     )
-    from jaxstiff.solvers.slsqp import CODE_MEANING
+    from jaxstiff.solvers._slsqp import CODE_MEANING
 
     out["code_meaning"] = (
         f"{CODE_MEANING}, where the polish's answer was taken; else the index of pgd's "

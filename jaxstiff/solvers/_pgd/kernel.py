@@ -1,5 +1,5 @@
 """One pgd trajectory as a traceable function: the starts of every waypoint, a loop over the
-waypoints, the "rollout" and "best" modes (:mod:`jaxstiff.solvers.pgd`)."""
+waypoints, the "rollout" and "best" modes (:mod:`jaxstiff.solvers._pgd`)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ import numpy as np
 
 from jaxstiff._numerics.batch import batched_like
 from jaxstiff.results import _files as R
-from jaxstiff.solvers.pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
-from jaxstiff.solvers.pgd.stages import judge, optimise
-from jaxstiff.solvers.problem import WaypointProblem
+from jaxstiff.solvers._pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
+from jaxstiff.solvers._pgd.stages import judge, optimise
+from jaxstiff.solvers._problem import WaypointProblem
 
 __all__ = ["make_kernel", "length_unit"]
 
@@ -118,8 +118,8 @@ class PGDKernel:
         rate: jax.Array,
         first: bool | jax.Array = False,
     ):
-        """One start's optimisation (:func:`~jaxstiff.solvers.pgd.stages.optimise`) and verdict
-        (:func:`~jaxstiff.solvers.pgd.stages.finish`): ``(x, f, err, usable, finite)``. ``first``:
+        """One start's optimisation (:func:`~jaxstiff.solvers._pgd.stages.optimise`) and verdict
+        (:func:`~jaxstiff.solvers._pgd.stages.finish`): ``(x, f, err, usable, finite)``. ``first``:
         the first waypoint's settings, a Python bool or a traced bool (:attr:`one_program`)."""
         ops, nf = self.ops, self.nf
         if isinstance(first, bool):
@@ -140,7 +140,7 @@ class PGDKernel:
         steps = (8, 3 if lm is not None else 0, self.polish)
         x, fv, err = optimise(ops, x0, lb, ub, tgt, d, r, c, kspan, self.opts, first, lm=lm, newton_steps=steps)
         # a start already on the path that the stages did not improve is kept: a first-waypoint
-        # start given by the exact solver (:mod:`jaxstiff.solvers.first_waypoint`) is often
+        # start given by the exact solver (:mod:`jaxstiff.solvers._first_waypoint`) is often
         # optimal, and the surrogate and LM stages can leave its basin. Starts of later
         # waypoints lie on the previous target, not on this one, so this never picks them
         # (unless the path stands still, where keeping the previous state is right too)

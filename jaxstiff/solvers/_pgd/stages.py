@@ -1,5 +1,5 @@
 """One pgd start at one waypoint: surrogate warm-up, LM stage, projected Adam on the criterion,
-then the final Newton polish and the verdict (the numbered steps 3-6 of :mod:`jaxstiff.solvers.pgd`).
+then the final Newton polish and the verdict (the numbered steps 3-6 of :mod:`jaxstiff.solvers._pgd`).
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxstiff._numerics.batch import batched_like
-from jaxstiff.solvers.pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, spd_solve
+from jaxstiff.solvers._pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, spd_solve
 
 __all__ = ["finish", "verdict"]
 

@@ -10,7 +10,7 @@ by forward differences (scipy's default step, ``sqrt(machine eps)``).
 It exists as the baseline that the JAX solver's speed-up is measured against
 (``scripts/bench_shape.py``), and as an independent cross-check of the problem definition. The
 greedy chaining, the bounds and the final checks are the same as the JAX solver's
-(:func:`jaxstiff.solvers.greedy.greedy_path`), run with the numpy kinematics here.
+(:func:`jaxstiff.solvers._greedy.greedy_path`), run with the numpy kinematics here.
 
 Only the built-in criteria f1 and f2 are available (a custom criterion is a JAX function).
 """
@@ -24,10 +24,10 @@ from typing import Any, cast
 import numpy as np
 
 from jaxstiff.model._robot import Robot
-from jaxstiff.solvers.base import SolveRequest
-from jaxstiff.solvers.greedy import Objective, PosAndJac, SolverOutput, WaypointSolver, check_single_start, run_greedy
-from jaxstiff.solvers.problem import WaypointProblem
-from jaxstiff.solvers.slsqp import check_options, variable_scale
+from jaxstiff.solvers._base import SolveRequest
+from jaxstiff.solvers._greedy import Objective, PosAndJac, SolverOutput, WaypointSolver, check_single_start, run_greedy
+from jaxstiff.solvers._problem import WaypointProblem
+from jaxstiff.solvers._slsqp import check_options, variable_scale
 
 __all__ = ["make_fd_solver", "numpy_objective", "numpy_pos_and_jac", "NumpyChain", "run_request"]
 
@@ -139,7 +139,7 @@ def make_fd_solver(
     """Per-waypoint SLSQP ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, finite differences.
 
     Same options and the same variable/objective scaling as the JAX solver
-    (:data:`jaxstiff.solvers.slsqp.DEFAULT_OPTIONS`), so the two differ only in where the
+    (:data:`jaxstiff.solvers._slsqp.DEFAULT_OPTIONS`), so the two differ only in where the
     derivatives come from.
     """
     from scipy.optimize import Bounds, minimize
@@ -181,7 +181,7 @@ def make_fd_solver(
 
 
 def run_request(req: SolveRequest) -> dict[str, Any]:
-    """Adapter for :data:`~jaxstiff.solvers.base.SOLVERS` (``solver="slsqp-fd"``): greedy SLSQP with
+    """Adapter for :data:`~jaxstiff.solvers._base.SOLVERS` (``solver="slsqp-fd"``): greedy SLSQP with
     numpy derivatives by finite differences."""
     check_single_start(req, "slsqp-fd")
     prob = req.problem

@@ -44,9 +44,9 @@ from jaxstiff.runtime._threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime._xla import kernel_compiler_options
 from jaxstiff.settings._solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
 from jaxstiff.settings._solvers import TrajectoryOptions
-from jaxstiff.solvers.base import SolveRequest
-from jaxstiff.solvers.pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
-from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem
+from jaxstiff.solvers._base import SolveRequest
+from jaxstiff.solvers._pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
+from jaxstiff.solvers._problem import POS_TOL, WaypointBatch, WaypointProblem
 
 __all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]
 
@@ -262,15 +262,15 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     split = opts.pop("warm_options", None)  # the warm start's options apart (else: the same dict)
     wreq = req if split is None else dataclasses.replace(req, options=dict(split))
     if warm_kind == "pgd":
-        from jaxstiff.solvers import pgd
+        from jaxstiff.solvers import _pgd as pgd
 
         warm = pgd.run_request(wreq)
     elif warm_kind == "hybrid":
-        from jaxstiff.solvers import hybrid
+        from jaxstiff.solvers import _hybrid as hybrid
 
         warm = hybrid.run_request(wreq)
     elif warm_kind == "slsqp":
-        from jaxstiff.solvers.base import SOLVERS, SolverInterrupted
+        from jaxstiff.solvers._base import SOLVERS, SolverInterrupted
 
         if req.starts not in (None, 1):
             raise ValueError(

@@ -12,7 +12,7 @@ import numpy as np
 
 from jaxstiff._numerics.batch import batched_like
 from jaxstiff.model._kinematics import jacobian_tangent
-from jaxstiff.solvers.problem import WaypointProblem, rate_bounds
+from jaxstiff.solvers._problem import WaypointProblem, rate_bounds
 from jaxstiff.stiffness._core import (
     compliance,
     fusion_boundary,
