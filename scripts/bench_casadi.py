@@ -97,8 +97,10 @@ JAX_METHODS = ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory")
 CASADI_METHODS = ("casadi", "casadi-jit", "casadi-traj")
 PATHS = ("default", "line", "arc-wide", "arc90-60", "arc90-20")  #: the default family
 #: on request: a 180 deg arc in 20 waypoints (9.5 deg turn per waypoint; CasADi's IPOPT loses the path there)
-EXTRA_PATHS = ("arc180-20",)
-RATE_LIMITED = ("arc90-20",)  #: the paths where the rate limits bind (the trajectory family)
+EXTRA_PATHS = ("arc180-20", "arc90-15", "arc90-30")
+#: the paths where the rate limits bind (the trajectory family): the 90 deg arc in 15, 20 and 30
+#: waypoints (6.4, 4.7 and 3.1 deg turn per waypoint)
+RATE_LIMITED = ("arc90-15", "arc90-20", "arc90-30")
 
 POS_TOL = 1e-9  #: m, the numpy check's TCP tolerance (jaxstiff's POS_TOL)
 VIOL_TOL = 1e-9  #: rad, Nm/rad: the numpy check's tolerance on rate and bound violations
@@ -616,10 +618,9 @@ def make_path(robot, name: str):
     if name == "arc-wide":
         R = 0.2 * L
         return arc(centre - [R, 0, 0], R, -30.0, 30.0, n=40)
-    if name in ("arc90-60", "arc90-20"):
+    if name.startswith("arc90-") and name[6:].isdigit():
         R = 0.1 * L
-        n = 60 if name == "arc90-60" else 20
-        return arc(centre - [R, 0, 0], R, -45.0, 45.0, n=n)
+        return arc(centre - [R, 0, 0], R, -45.0, 45.0, n=int(name[6:]))
     if name == "arc180-20":
         R = 0.1 * L
         return arc(centre - [R, 0, 0], R, -90.0, 90.0, n=20)

@@ -43,10 +43,13 @@ from jaxstiff.runtime.programs import program_cache
 from jaxstiff.runtime.threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime.xla import kernel_compiler_options
 from jaxstiff.settings.solvers import WARM_STARTS as WARM_STARTS  # re-exported (sweep)
-from jaxstiff.settings.solvers import TrajectoryOptions
+from jaxstiff.settings.solvers import PGDOptions, TrajectoryOptions
 from jaxstiff.solvers.base import SolveRequest
 from jaxstiff.solvers.pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
+from jaxstiff.solvers.pgd.kernel import length_unit
+from jaxstiff.solvers.pgd.ops import lm_kind
 from jaxstiff.solvers.problem import POS_TOL, WaypointBatch, WaypointProblem
+from jaxstiff.solvers.trajectory_lm import make_lm_stage
 
 __all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]
 
@@ -115,6 +118,21 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) ->
     mu0 = float(opts["mu0"])
 
     feasible_pass = make_feasible_pass(ops, first_rate, npol)
+    kind = lm_kind(problem)
+    lm_rounds = int(opts["traj_lm_rounds"]) if kind is not None else 0
+    if lm_rounds:
+        pgd_defaults = PGDOptions.defaults()
+        lm_stage = make_lm_stage(
+            ops,
+            first_rate,
+            kind or "f2",
+            float(pgd_defaults["lm_wpos"]) / length_unit(problem.robot.length_scale),
+            float(pgd_defaults["lm_walign"]),
+            lm_rounds,
+            int(opts["traj_lm_iters"]),
+            float(opts["traj_lm_rho0"]),
+            nn,
+        )
 
     def traj(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol):  # noqa: PLR0913 - traced arrays, one argument each (a jitted signature)
         P = targets.shape[0]
@@ -136,6 +154,14 @@ def _kernel(problem: WaypointProblem, opts: dict[str, Any], first_rate: bool) ->
             return null_space_step(ops, scale, X, U)
 
         Xb, Fb, Eb, STb, scb = feasible_pass(Xw, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol)
+        if lm_rounds:  # the second-order stage (jaxstiff.solvers.trajectory_lm), kept if better
+            Xls = lm_stage(Xb, targets, dirs, x0, dq_f, dk, kmin, kmax, r)  # (rounds, P, nx)
+            for k in range(lm_rounds):  # each round's trajectory made feasible, the best kept
+                Xl = jnp.where(jnp.all(jnp.isfinite(Xls[k])), Xls[k], Xb)
+                Xo, F, E, ST, sc = feasible_pass(Xl, targets, dirs, x0, dq_f, dk, kmin, kmax, r, c, pos_tol)
+                better = sc < scb
+                Xb, Fb, Eb, STb = (jnp.where(better, a, b_) for a, b_ in ((Xo, Xb), (F, Fb), (E, Eb), (ST, STb)))
+                scb = jnp.minimum(sc, scb)
 
         def block(i, carry):
             X, m1, m2, t, Xb, Fb, Eb, STb, scb = carry
@@ -250,7 +276,9 @@ def refine_batch(
         out["kj"][sl] = problem.kj_full(res["x"][:m, :, nf:])
         out["status"][sl] = res["status"][:m]
         out["pos_error"][sl] = res["err"][:m]
-        out["nit"][sl] += int(opts["traj_iters"])
+        out["nit"][sl] += int(opts["traj_iters"]) + (
+            int(opts["traj_lm_rounds"]) * int(opts["traj_lm_iters"]) if lm_kind(problem) else 0
+        )
     out["time_s"] += dt / (B * P)  # the refinement's wall time over all waypoints (chunks ran concurrently)
     return out
 
