@@ -914,7 +914,9 @@ def main(argv=None) -> int:  # noqa: C901, PLR0912, PLR0915 - the benchmark's pr
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--robots", default=",".join(ROBOTS), help=f"comma list of {', '.join(ROBOTS)}")
     ap.add_argument(
-        "--paths", default=",".join(PATHS), help=f"comma list of {', '.join(PATHS + EXTRA_PATHS)} (default: LWR only)"
+        "--paths",
+        default=",".join(PATHS),
+        help=f"comma list of {', '.join(PATHS + EXTRA_PATHS)} (default: LWR only); rate-limited: {', '.join(RATE_LIMITED)}",
     )
     ap.add_argument("--methods", default=",".join(JAX_METHODS + CASADI_METHODS))
     ap.add_argument("--criterion", default="f2", choices=["f1", "f2"])
@@ -950,7 +952,7 @@ def main(argv=None) -> int:  # noqa: C901, PLR0912, PLR0915 - the benchmark's pr
 
     prefer_sync_cpu_dispatch()  # as the jaxstiff command and the other benchmarks do
     robots = args.robots.split(",")
-    paths = args.paths.split(",")
+    paths = [q for p in args.paths.split(",") for q in (RATE_LIMITED if p == "rate-limited" else (p,))]
     methods = args.methods.split(",")
     if args.cold_child:
         case = make_case(robots[0], paths[0], args.criterion, args.ratio, args.task)

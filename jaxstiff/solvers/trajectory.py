@@ -12,6 +12,13 @@ by projected gradient over the whole (P, nx) array, batched over B paths with ``
 
 1. warm start from a greedy solution (``options["warm"]``: ``"pgd"`` (default), ``"hybrid"`` or
    ``"slsqp"``), which is feasible;
+1b. for the built-in f1/f2: ``traj_lm_rounds`` rounds of whole-trajectory Levenberg-Marquardt on
+   the smooth residuals whose zeros are the criterion's minimum set, the rate limits as an
+   augmented Lagrangian (:mod:`jaxstiff.solvers.trajectory_lm`); each round's trajectory goes
+   through the feasibility pass of step 3 and is kept if it is better. This second-order stage is
+   what reaches the trajectory that keeps every waypoint in target where the rate limits bind (LWR,
+   90 deg arcs of 15 and 20 waypoints: mean f2 1.90 / 1.24 with the Adam steps alone, 1.0000 with
+   it, as CasADi + IPOPT's whole-trajectory NLP); the Adam steps then start from the best so far;
 2. ``traj_iters`` Adam steps on ``sum f + mu * sum_p |relu(|x_p - x_{p-1}| - d) / d|^2`` (the rate
    limits as a quadratic penalty, so that a waypoint that needs to move pulls its neighbours along
    ahead of time), each step projected per waypoint onto the null space of its position Jacobian,
