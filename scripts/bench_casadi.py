@@ -97,8 +97,10 @@ JAX_METHODS = ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory")
 CASADI_METHODS = ("casadi", "casadi-jit", "casadi-traj")
 PATHS = ("default", "line", "arc-wide", "arc90-60", "arc90-20")  #: the default family
 #: on request: a 180 deg arc in 20 waypoints (9.5 deg turn per waypoint; CasADi's IPOPT loses the path there)
-EXTRA_PATHS = ("arc180-20",)
-RATE_LIMITED = ("arc90-20",)  #: the paths where the rate limits bind (the trajectory family)
+EXTRA_PATHS = ("arc180-20", "arc90-15", "arc90-30")
+#: the paths where the rate limits bind (the trajectory family): the 90 deg arc in 15, 20 and 30
+#: waypoints (6.4, 4.7 and 3.1 deg turn per waypoint)
+RATE_LIMITED = ("arc90-15", "arc90-20", "arc90-30")
 
 POS_TOL = 1e-9  #: m, the numpy check's TCP tolerance (jaxstiff's POS_TOL)
 VIOL_TOL = 1e-9  #: rad, Nm/rad: the numpy check's tolerance on rate and bound violations
@@ -616,10 +618,9 @@ def make_path(robot, name: str):
     if name == "arc-wide":
         R = 0.2 * L
         return arc(centre - [R, 0, 0], R, -30.0, 30.0, n=40)
-    if name in ("arc90-60", "arc90-20"):
+    if name.startswith("arc90-") and name[6:].isdigit():
         R = 0.1 * L
-        n = 60 if name == "arc90-60" else 20
-        return arc(centre - [R, 0, 0], R, -45.0, 45.0, n=n)
+        return arc(centre - [R, 0, 0], R, -45.0, 45.0, n=int(name[6:]))
     if name == "arc180-20":
         R = 0.1 * L
         return arc(centre - [R, 0, 0], R, -90.0, 90.0, n=20)
@@ -913,7 +914,9 @@ def main(argv=None) -> int:  # noqa: C901, PLR0912, PLR0915 - the benchmark's pr
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--robots", default=",".join(ROBOTS), help=f"comma list of {', '.join(ROBOTS)}")
     ap.add_argument(
-        "--paths", default=",".join(PATHS), help=f"comma list of {', '.join(PATHS + EXTRA_PATHS)} (default: LWR only)"
+        "--paths",
+        default=",".join(PATHS),
+        help=f"comma list of {', '.join(PATHS + EXTRA_PATHS)} (default: LWR only); rate-limited: {', '.join(RATE_LIMITED)}",
     )
     ap.add_argument("--methods", default=",".join(JAX_METHODS + CASADI_METHODS))
     ap.add_argument("--criterion", default="f2", choices=["f1", "f2"])
@@ -949,7 +952,7 @@ def main(argv=None) -> int:  # noqa: C901, PLR0912, PLR0915 - the benchmark's pr
 
     prefer_sync_cpu_dispatch()  # as the jaxstiff command and the other benchmarks do
     robots = args.robots.split(",")
-    paths = args.paths.split(",")
+    paths = [q for p in args.paths.split(",") for q in (RATE_LIMITED if p == "rate-limited" else (p,))]
     methods = args.methods.split(",")
     if args.cold_child:
         case = make_case(robots[0], paths[0], args.criterion, args.ratio, args.task)

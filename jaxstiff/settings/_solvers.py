@@ -286,6 +286,22 @@ class TrajectoryOptions(SolverOptions):
     mu0: float = option(10.0, "first penalty weight; x10 per block", kind="positive")
     newton: int = option(2, "Newton corrections after each step", kind="int", lo=0)
     polish: int = option(8, "Newton corrections of the final point", kind="int", lo=0)
+    traj_lm_rounds: int = option(
+        4,
+        "rounds of the whole-trajectory Levenberg-Marquardt stage before the Adam steps (built-in f1/f2; "
+        "augmented-Lagrangian rate limits, multipliers updated and penalty x10 per round; 0: no such stage)",
+        kind="int",
+        lo=0,
+    )
+    traj_lm_iters: int = option(
+        200,
+        "Levenberg-Marquardt steps per round (at most: a round ends early once no step is accepted)",
+        kind="int",
+        lo=1,
+    )
+    traj_lm_rho0: float = option(
+        1.0, "first penalty weight of the rate limits in that stage (per rate limit squared)", kind="positive"
+    )
     chunk: int = option(64, "trajectories per compiled call", kind="int", lo=1)
     threads: int = option(
         0, "compiled calls running at once on a CPU (0: one per usable core; 1 on a GPU)", kind="int", lo=0
