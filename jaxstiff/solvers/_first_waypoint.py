@@ -38,10 +38,10 @@ from jaxstiff.solvers._greedy import (
     maybe_off_target,
     rescue_starts,
 )
-from jaxstiff.solvers._lockstep import RowsProgram, Steps, bucket_size, run_lockstep
+from jaxstiff.solvers._lockstep import RowsProgram, Steps, run_lockstep
 from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
 
-__all__ = ["SLSQP_OPTION_NAMES", "rows_program", "warm_first_waypoint"]
+__all__ = ["SLSQP_OPTION_NAMES", "rows_program"]
 
 #: the SLSQP options a batch solver's options may carry for this stage
 SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver")
@@ -54,47 +54,6 @@ def rows_program(problem: WaypointProblem, scale: tuple[float, ...], x64: bool) 
     problem, scale and x64 flag (the one in force when it is called): its programs, once compiled for a row count, serve every later search of the
     process (a row's result has the same bits at every row count, :class:`RowsProgram`)."""
     return RowsProgram(compiled_scaled_rows(problem), jnp.asarray(np.asarray(scale, float)))
-
-
-def warm_first_waypoint(
-    batch: WaypointBatch,
-    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
-    options: Mapping[str, Any] | None = None,
-    pos_tol: float = 1e-9,
-) -> None:
-    """Compile what :func:`exact_first_answers` runs for ``batch``, by running it on the first path
-    (at most two) and building its row programs for up to 16 paths: a caller that may need the
-    search later starts this on a thread while its own program compiles (pgd's first-waypoint
-    retry: on a 2-core CPU the compilation of pgd's kernel keeps one core busy, this the other).
-    Results are not kept; errors are swallowed (the later search then compiles as it would have)."""
-    import dataclasses
-
-    try:
-        k = min(int(batch.targets.shape[0]), 2)
-        rows = np.arange(k)
-        lim = batch.limits
-        sub = dataclasses.replace(
-            batch,
-            targets=np.asarray(batch.targets, float)[rows],
-            directions=np.asarray(batch.directions, float)[rows],
-            q0=np.asarray(batch.q0, float)[rows],
-            kj0=np.asarray(batch.kj0, float)[rows],
-            limits=dataclasses.replace(
-                lim,
-                dq=np.asarray(lim.dq)[rows] if np.ndim(lim.dq) == 2 else lim.dq,
-                dk=np.asarray(lim.dk)[rows] if np.ndim(lim.dk) == 2 else lim.dk,
-            ),
-            ratio=batch.ratios[rows],
-        )
-        given = [first_starts[int(b)] for b in rows] if first_starts else None
-        exact_first_answers(sub, given, options, pos_tol)
-        if batch.targets.shape[0] > k:  # the row count of a search for up to 16 paths
-            program, _ = _program(batch, options)
-            per_path = 1 + (min(len(fs) for fs in first_starts) if first_starts else 0)
-            n_params = len(WaypointProblem.params(batch.targets[0, 0], batch.directions[0, 0], 1.0, batch.c))
-            program.prepare(bucket_size(min(batch.targets.shape[0], 16) * per_path), batch.problem.nx, n_params)
-    except Exception:  # noqa: BLE001, S110 - a warm-up only: the search itself reports its errors
-        pass
 
 
 def _program(batch: WaypointBatch, options: Mapping[str, Any] | None) -> tuple[RowsProgram, Any]:

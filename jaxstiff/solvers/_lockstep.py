@@ -115,16 +115,6 @@ class RowsProgram:
     def __call__(self, Y: np.ndarray, params: np.ndarray) -> Any:
         return self._ready[len(Y)](Y, params, *self._consts)
 
-    def prepare(self, R: int, nx: int, n_params: int) -> None:
-        """Compile the program for ``R`` rows now (nothing when it is ready): a caller that knows
-        which row counts a later run will ask for builds them ahead, e.g. on another thread."""
-        import jax
-
-        with self._lock:
-            if R in self._ready:
-                return
-        self._compile(R, nx, n_params, bool(jax.config.read("jax_enable_x64")))
-
 
 def run_lockstep(
     gens: Sequence[Generator[Request, np.ndarray, Any]],

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import os
-import threading
 import time
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -175,7 +173,6 @@ def solve_batch(
     dq_f = dq_all[:, list(problem.free_idx)]
     dk = problem.spring_cols(dk)  # (B, nk): the sprung joints' (rigid locked joints have no stiffness)
     S1 = max(int(opts["starts"]), int(opts["starts_first"])) if opts["mode"] == "best" else int(opts["starts"])
-    warm = _warm_retry(batch, first_starts, options, pos_tol, first_rate, opts, (fn, C, disk_key))
     if not first_rate and opts["first_exact"] == "slsqp":
         first_starts = exact_first_starts(batch, first_starts, options, pos_tol, S1)
     extra = first_start_rows(problem, first_starts, B)
@@ -187,8 +184,6 @@ def solve_batch(
     X, out, compile_s, run_s = _run_chunks(
         fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
     )
-    if warm is not None:  # its programs are the retry's (an interrupt above does not wait for it)
-        warm.join()
     if not first_rate and opts["first_exact"] == "retry":
         X, run_s = _retry_first(
             batch,
@@ -211,44 +206,6 @@ def solve_batch(
     if return_timing:
         out["compile_s"], out["run_s"] = compile_s, run_s
     return out
-
-
-def _warm_retry(
-    batch: WaypointBatch,
-    first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
-    options: Mapping[str, Any] | None,
-    pos_tol: float,
-    first_rate: bool,
-    opts: Mapping[str, Any],
-    program: tuple[Any, int, str | None],
-) -> threading.Thread | None:
-    """Where the first-waypoint retry may run and pgd's kernel is not compiled in this process yet,
-    a thread that compiles the retry's SLSQP programs while the kernel compiles
-    (:func:`jaxstiff.solvers._first_waypoint.warm_first_waypoint`): the kernel's compilation keeps
-    one core busy for seconds, the retry's programs then cost the first call no time of their own.
-    Results do not depend on it. None where there is nothing to warm."""
-    if first_rate or opts["first_exact"] != "retry" or os.environ.get(WARM_ENV, "1").strip().lower() in _OFF:
-        return None
-    fn, C, _ = program
-    if any(entry[0] is fn and sig[2][0][1][0] == C for sig, entry in _PROGRAMS.items()):
-        return None  # compiled in this process: so are the retry's programs, or they load quickly
-    from jaxstiff.solvers._first_waypoint import warm_first_waypoint
-
-    x64 = bool(jax.config.read("jax_enable_x64"))  # the caller's (a thread starts from the global flag)
-
-    def warm() -> None:
-        with jax.enable_x64(x64):
-            warm_first_waypoint(batch, first_starts, options, pos_tol)
-
-    # not a daemon: joined before the call returns (a daemon stopped inside XLA at exit can abort)
-    t = threading.Thread(target=warm, name="pgd-warm-retry", daemon=False)
-    t.start()
-    return t
-
-
-#: environment variable that turns the retry's warm-up thread off (0, false, no, off)
-WARM_ENV = "JAXSTIFF_WARM_RETRY"
-_OFF = ("0", "false", "no", "off")
 
 
 #: the chunk programs compiled in this process: (id of the kernel, its disk key, the arguments'
