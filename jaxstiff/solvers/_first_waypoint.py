@@ -41,7 +41,7 @@ from jaxstiff.solvers._greedy import (
 from jaxstiff.solvers._lockstep import RowsProgram, Steps, run_lockstep
 from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
 
-__all__ = ["SLSQP_OPTION_NAMES", "rows_program"]
+__all__ = ["SLSQP_OPTION_NAMES", "rows_program", "solver_rows_program"]
 
 #: the SLSQP options a batch solver's options may carry for this stage
 SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver")
@@ -51,9 +51,16 @@ SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale",
 def rows_program(problem: WaypointProblem, scale: tuple[float, ...], x64: bool) -> RowsProgram:
     """The lockstep evaluations of SLSQP's scaled kernel for ``problem`` (scale: SLSQP's variable
     scale, :func:`jaxstiff.solvers._slsqp.variable_scale`, with the criterion's), one object per
-    problem, scale and x64 flag (the one in force when it is called): its programs, once compiled for a row count, serve every later search of the
-    process (a row's result has the same bits at every row count, :class:`RowsProgram`)."""
+    problem, scale and x64 flag (the one in force when it is called): its programs, once compiled
+    for a row count, serve every later search of the process (a row's result has the same bits at every row count, :class:`RowsProgram`)."""
     return RowsProgram(compiled_scaled_rows(problem), jnp.asarray(np.asarray(scale, float)))
+
+
+def solver_rows_program(problem: WaypointProblem, solver: Any) -> RowsProgram:
+    """:func:`rows_program` for an SLSQP ``solver`` of ``problem`` (its scale), under the x64 flag
+    in force: what a lockstep run of that solver's steps evaluates with."""
+    scale = tuple(float(v) for v in np.asarray(solver.scale, float).ravel())
+    return rows_program(problem, scale, bool(jax.config.read("jax_enable_x64")))
 
 
 def _program(batch: WaypointBatch, options: Mapping[str, Any] | None) -> tuple[RowsProgram, Any]:
@@ -62,8 +69,7 @@ def _program(batch: WaypointBatch, options: Mapping[str, Any] | None) -> tuple[R
 
     sl_opts = {k: v for k, v in (options or {}).items() if k in SLSQP_OPTION_NAMES}
     solver = make_slsqp_solver(batch.problem, sl_opts, (batch.limits.kmin, batch.limits.kmax))
-    scale = tuple(float(v) for v in np.asarray(solver.scale, float).ravel())
-    return rows_program(batch.problem, scale, bool(jax.config.read("jax_enable_x64"))), solver
+    return solver_rows_program(batch.problem, solver), solver
 
 
 def exact_first_answers(

@@ -52,14 +52,13 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-import jax
 import numpy as np
 
 from jaxstiff.results import _files as R
 from jaxstiff.settings._solvers import HybridOptions
 from jaxstiff.solvers import _pgd as pgd
 from jaxstiff.solvers._base import SolveRequest
-from jaxstiff.solvers._first_waypoint import rows_program
+from jaxstiff.solvers._first_waypoint import solver_rows_program
 from jaxstiff.solvers._greedy import (
     Objective,
     PosAndJac,
@@ -170,8 +169,7 @@ def polish(
     ]
     # the B paths' SLSQP solves advance together, their kernel calls batched (one call per round)
     # (one rows program per problem and scale for the process: its compiled row counts are reused)
-    scale = tuple(float(v) for v in np.asarray(solver.scale, float).ravel())
-    run_lockstep(gens, rows_program(problem, scale, bool(jax.config.read("jax_enable_x64"))))
+    run_lockstep(gens, solver_rows_program(problem, solver))
     # the polish's wall time, shared equally by the waypoints (the paths ran interleaved)
     out["time_s"] = out["time_s"] + (time.perf_counter() - t0) / max(out["time_s"].size, 1)
     return out

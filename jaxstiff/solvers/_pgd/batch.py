@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import threading
 import time
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -218,6 +219,7 @@ class _Programs(dict):
 
 _PROGRAMS: dict[tuple, tuple[Any, Any]] = register_cache(_Programs())
 _PROGRAMS_MAX = 8
+_PROGRAMS_LOCK = threading.Lock()
 
 
 def _signature(args: Sequence[Any]) -> tuple:
@@ -239,9 +241,10 @@ def _program_for(fn: Any, args: Sequence[Any], disk_key: str | None, options: Ma
     if hit is not None and hit[0] is fn:
         return hit[1]
     comp = compile_with_export_cache(fn, args, disk_key, dict(options))
-    _PROGRAMS[sig] = (fn, comp)  # fn held: its id stays its own while the entry lives
-    while len(_PROGRAMS) > _PROGRAMS_MAX:
-        _PROGRAMS.pop(next(iter(_PROGRAMS)))
+    with _PROGRAMS_LOCK:  # threads of one process solving at once must not trim the same entry
+        _PROGRAMS[sig] = (fn, comp)  # fn held: its id stays its own while the entry lives
+        while len(_PROGRAMS) > _PROGRAMS_MAX:
+            _PROGRAMS.pop(next(iter(_PROGRAMS)))
     return comp
 
 
