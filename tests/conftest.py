@@ -15,6 +15,41 @@ os.environ.setdefault(
 )
 jax.config.update("jax_enable_x64", True)
 
+#: the tests that take 20 s or more on a quiet 2-core machine (``--durations``), longest first: they
+#: start first, so that no worker is left with one of them while the others have run out of tests
+_LONGEST = (
+    "runtime/test_cache_damage.py::test_bit_flips_in_every_cache_kind_many",
+    "sweep/test_hostile_sweep_store.py::test_hostile_sweep_stores_all",
+    "solvers/test_trajectory_lm.py::",
+    "stiffness/test_stress_numerics.py::",
+    "results/test_hostile_files.py::test_hostile_files_all",
+    "runtime/test_export_cache.py::test_pgd_from_the_file_equals_pgd_traced",
+    "sweep/test_sweep_ray_lost_worker.py::",
+    "view/test_png_arms.py::",
+    "sweep/test_sweep.py::test_ray_backend_gives_the_same_table",
+    "view/test_browser.py::",
+    "test_examples.py::",
+    "sweep/test_hostile_sweep_store.py::test_hostile_sweep_stores_sample",
+)
+
+
+def _rank(item: pytest.Item) -> int:
+    rel = item.nodeid.split("tests/", 1)[-1]
+    return next((i for i, p in enumerate(_LONGEST) if rel.startswith(p)), len(_LONGEST))
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The longest tests first, the rest in the order pytest collected them (a stable sort)."""
+    items.sort(key=_rank)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """With test workers (``-n``), hand each worker one test at a time, so that the long tests that
+    start first spread over all workers (pytest-xdist otherwise sends a worker a quarter of its
+    share of the tests at once, in collection order). ``--maxschedchunk`` given on the command line wins."""
+    if getattr(config.option, "maxschedchunk", 0) is None:
+        config.option.maxschedchunk = 1
+
 
 @pytest.fixture(autouse=True, scope="module")
 def _release_compiled_programs():
