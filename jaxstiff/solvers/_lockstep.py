@@ -42,10 +42,14 @@ def run_steps(gen: Generator[Q, A, T], evaluate: Callable[[Q], A]) -> T:
 
 
 def bucket_size(rows: int) -> int:
-    """Rows of a batched call for ``rows`` requests: 2, 16, 128, 1024, ... (padded: few compiled
-    sizes, each a few seconds of compilation, and never 1, which XLA compiles differently; a call
-    costs nearly the same at 2 and at 64 rows on a CPU: docs/notes/speed.md)."""
-    size = 2
+    """Rows of a batched call for ``rows`` requests: 16, 128, 1024, ... (padded: few compiled
+    sizes, each a few seconds of compilation; a call costs nearly the same at 2 and at 64 rows on
+    a CPU: docs/notes/speed.md). Never fewer than 16: XLA:CPU compiles a row count below the
+    vector width differently, and a row's result at 2 rows differed in the last bits from the same
+    row's at 16, 128 and 1024 (on 6 % of the LWR's evaluations; those three agreed on all of them),
+    so that a result depended on which compiled row count answered, a matter of timing
+    (:class:`RowsProgram`)."""
+    size = 16
     while size < rows:
         size *= 8
     return size
@@ -59,9 +63,8 @@ class RowsProgram:
 
     A lockstep run starts with many paths (128 rows for 17-128 of them) and ends with a few (16,
     then 2): compiled in turn, each of those programs held the run up 2-3 s on a 2-core CPU (7 s
-    of a cold 64 x 50 hybrid). A row's result has the same bits at every R >= 2
-    (:func:`jaxstiff.solvers._problem.compiled_scaled_rows`), so which program answers a request
-    does not change the result.
+    of a cold 64 x 50 hybrid). A row's result has the same bits at every R >= 16
+    (:func:`bucket_size`), so which program answers a request does not change the result.
     """
 
     def __init__(self, fn: Any, *consts: Any, dtype: Any = np.float64):

@@ -30,7 +30,7 @@ def compiled_scaled(problem: WaypointProblem) -> DiskJit:
 def compiled_scaled_rows(problem: WaypointProblem) -> Callable[..., jax.Array]:
     """``fused_scaled`` over rows: ``(Y (R, nx), params (R, np), scale) -> (R, out)``, jitted with
     jaxstiff's kernel compiler options (:mod:`jaxstiff.solvers._lockstep`'s batched evaluations;
-    with these options a row's result has the same bits at every R >= 2, measured on CPU)."""
+    with these options a row's result has the same bits at every R >= 16, measured on CPU; not at 2: :func:`jaxstiff.solvers._lockstep.bucket_size`)."""
     return jax.jit(jax.vmap(problem.fused_scaled, in_axes=(0, 0, None)), compiler_options=kernel_compiler_options())
 
 
