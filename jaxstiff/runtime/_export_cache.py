@@ -46,6 +46,7 @@ __all__ = [
     "CacheDamageWarning",  # (defined in compile_cache: both caches warn with it)
     "EXPORT_ENV",
     "EXPORT_SUBDIR",
+    "arg_signature",
     "code_fingerprint",
     "export_dir",
 ]
@@ -56,6 +57,23 @@ EXPORT_ENV = "JAXSTIFF_EXPORT_CACHE"
 EXPORT_SUBDIR = "jaxstiff-programs"
 
 _OFF = ("0", "false", "no", "off")
+
+
+def arg_signature(args: Sequence[Any]) -> tuple:
+    """What a program compiled for ``args`` is specialised on, as a hashable key: the x64 flag, and
+    per argument a numpy array's shape and dtype, a JAX array's shape, dtype, weak type and
+    sharding, or any other value's type."""
+    import jax
+
+    sig: list[Any] = [bool(jax.config.read("jax_enable_x64"))]
+    for a in args:
+        if isinstance(a, np.ndarray):
+            sig.append((0, a.shape, a.dtype))
+        elif isinstance(a, jax.Array):
+            sig.append((1, a.shape, a.dtype, a.weak_type, a.sharding))
+        else:
+            sig.append((2, type(a)))
+    return tuple(sig)
 
 
 @functools.cache
@@ -228,19 +246,6 @@ class DiskJit:
         self._opts = compiler_options or None
         self._by_sig: dict[tuple, Any] = {}
 
-    def _signature(self, args: tuple) -> tuple:
-        import jax
-
-        sig: list[Any] = [getattr(jax.config, "jax_enable_x64")]  # noqa: B009
-        for a in args:
-            if isinstance(a, np.ndarray):
-                sig.append((0, a.shape, a.dtype))
-            elif isinstance(a, jax.Array):
-                sig.append((1, a.shape, a.dtype, a.weak_type))
-            else:
-                sig.append((2, type(a)))
-        return tuple(sig)
-
     def __call__(self, *args: Any) -> Any:
         return self.specialize(*args)(*args)
 
@@ -251,7 +256,7 @@ class DiskJit:
         it accepts only arguments of that signature (shapes, dtypes, numpy or JAX, x64 flag)."""
         if self._key is None:
             return self._jit
-        sig = self._signature(args)
+        sig = arg_signature(args)
         f = self._by_sig.get(sig)
         if f is None:
             if export_dir() is None:

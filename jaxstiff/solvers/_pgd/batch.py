@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.results import _files as R
-from jaxstiff.runtime._export_cache import compile_with_export_cache
+from jaxstiff.runtime._export_cache import arg_signature, compile_with_export_cache
 from jaxstiff.runtime._programs import program_cache, register_cache
 from jaxstiff.runtime._threads import chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime._xla import kernel_compiler_options
@@ -222,21 +222,11 @@ _PROGRAMS_MAX = 8
 _PROGRAMS_LOCK = threading.Lock()
 
 
-def _signature(args: Sequence[Any]) -> tuple:
-    sig = []
-    for a in args:
-        if isinstance(a, (np.ndarray, jax.Array)):
-            sig.append((type(a).__name__, tuple(a.shape), str(a.dtype), repr(getattr(a, "sharding", None))))
-        else:
-            sig.append((type(a).__name__, (), type(a).__name__, None))
-    return tuple(sig)
-
-
 def _program_for(fn: Any, args: Sequence[Any], disk_key: str | None, options: Mapping[str, Any]) -> Any:
     """``fn`` compiled for ``args`` (:func:`~jaxstiff.runtime._export_cache.compile_with_export_cache`),
     kept for the process (:data:`_PROGRAMS`, the last few): the same compiled program, so the same
     results, as compiling again."""
-    sig = (id(fn), disk_key, _signature(args), bool(jax.config.read("jax_enable_x64")), repr(sorted(options.items())))
+    sig = (id(fn), disk_key, arg_signature(args), repr(sorted(options.items())))
     hit = _PROGRAMS.get(sig)
     if hit is not None and hit[0] is fn:
         return hit[1]
