@@ -153,22 +153,21 @@ def _read_numbers(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _settings(args: argparse.Namespace, v: dict[str, Any], robot: Robot) -> dict[str, Any]:
-    """The keywords of :func:`~jaxstiff.shaping.run_shape` for the settings flags: each setting
-    that ``run_shape`` names as a keyword (checked there, with its messages), the rate limits as
-    ``dq`` / ``dk`` (per joint, or left out for the per-metre ones: :func:`limit_kwargs`), and
-    every other setting (per-metre limits, a field ``run_shape`` does not name) in ``settings``."""
-    import inspect
-
-    from jaxstiff.shaping import run_shape
+    """The keywords of :func:`~jaxstiff.shaping.run_shape` for the settings flags: every field of
+    :class:`jaxstiff.settings.ShapeSettings` as a keyword (checked there, with its messages), the
+    rate limits as ``dq`` / ``dk`` per joint or as a ``settings`` object for the per-metre ones
+    (:func:`limit_kwargs`), and a field that ``run_shape`` does not take (one of a settings class
+    derived from it, the flags' ``ShapeSettings``) in ``settings``."""
+    from jaxstiff import settings as real
 
     limits = limit_kwargs(args, joint_rate_limits(robot, v["dq"], v["dq_m"]), v["dk"])
     settings = limits.pop("settings", None)
-    named = inspect.signature(run_shape).parameters
+    taken = set(real.ShapeSettings.field_names())
     fields = {k: v[k] for k in setting_flags(ShapeSettings) if k not in ("dq", "dk", "dq_per_m", "dk_per_m")}
-    rest = {k: x for k, x in fields.items() if k not in named and x is not None}
+    rest = {k: x for k, x in fields.items() if k not in taken and x is not None}
     if rest:
         settings = (settings or ShapeSettings()).replace(**rest)
-    out = {k: x for k, x in fields.items() if k in named}
+    out = {k: x for k, x in fields.items() if k in taken and x is not None}
     return {**out, **limits, **({} if settings is None else {"settings": settings})}
 
 

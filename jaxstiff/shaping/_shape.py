@@ -1,5 +1,5 @@
-"""The call itself: :func:`shape` (settings inline, a solver object) and :func:`run_shape` (every
-input a parameter), the solve step between the inputs (``_inputs``) and the report (``_steps``),
+"""The call itself: :func:`shape` (settings inline, a solver object) and :func:`run_shape` (the
+solver by name, its options as a dict), the solve step between the inputs (``_inputs``) and the report (``_steps``),
 and the CPU dispatch switch of the entry points. Private to :mod:`jaxstiff.shaping`."""
 
 from __future__ import annotations
@@ -130,9 +130,11 @@ def _solve(
 
 
 # ---------------------------------------------------------------------- shape
+#: the settings :func:`run_shape` takes as keywords: every ShapeSettings field
+_FIELDS = frozenset(ShapeSettings.field_names())
 #: the keyword arguments :func:`shape` takes besides its own: every ShapeSettings field, and the
 #: CMS target given as a volume or a major axis instead of ``cms_mean_axis``
-INLINE_SETTINGS = frozenset(ShapeSettings.field_names()) - {"criterion", "ratio", "solver"} | {
+INLINE_SETTINGS = _FIELDS - {"criterion", "ratio", "solver"} | {
     "cms_volume",
     "cms_major",
 }
@@ -190,7 +192,8 @@ def shape(
         ShapeInterrupted: a ``KeyboardInterrupt`` after some waypoints were finished: its ``result``
             holds them, the others with status NOT_RUN (5).
 
-    :func:`run_shape` is the same call with every input as a parameter (the command line's way in).
+    :func:`run_shape` is the same call with the solver by name and its options as a dict (the command
+    line's way in).
     """
     kw: dict[str, Any] = {}
     for k, v in inline.items():
@@ -201,10 +204,6 @@ def shape(
         elif k not in INLINE_SETTINGS:
             raise TypeError(f"shape() got an unexpected keyword argument {k!r}{suggest(k, sorted(INLINE_SETTINGS))}")
         kw[k] = v
-    if "cms_mean_axis" in kw:  # a setting run_shape reads from the settings object
-        settings = (settings if settings is not None else _DEFAULT_SETTINGS).replace(
-            cms_mean_axis=kw.pop("cms_mean_axis")
-        )
     name: str | None = None
     if solver is not None:
         name, sopts = solver_call(solver)
@@ -227,28 +226,15 @@ def shape(
     )
 
 
-def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a parameter, for the CLI and sweeps
+def run_shape(  # noqa: PLR0913 - the full form behind shape(): solver by name, options as a dict, for the CLI and sweeps
     robot: Robot | RobotSpec | str,
     path: Path | np.ndarray | None = None,
     criterion: str | Callable[..., Any] | None = None,
     ratio: float | np.ndarray | None = None,
     *,
     settings: ShapeSettings | None = None,
-    task: str | None = None,
-    locked_joints: str | None = None,
-    solver: str | None = None,
-    starts: int | None = None,
     q0: Any = None,
     kj0: Any = None,
-    dq: float | np.ndarray | None = None,
-    dk: float | np.ndarray | None = None,
-    dq_per_m: float | np.ndarray | None = None,
-    dk_per_m: float | np.ndarray | None = None,
-    kmin: float | None = None,
-    kmax: float | None = None,
-    c: float | None = None,
-    first_rate_limit: bool | None = None,
-    first_starts: int | None = None,
     cms_volume: float | None = None,
     cms_major: float | None = None,
     options: Mapping[str, Any] | None = None,
@@ -256,89 +242,38 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
     progress: Callable[[int, int], None] | None = None,
     meta_extra: Mapping[str, Any] | None = None,
     _stacklevel: int = 3,
+    **given: Any,
 ) -> ShapeResult:
-    """:func:`shape` with every input as a parameter (solver by name, options as a dict): the way
-    in of the command line and the sweeps.
-
-    Every setting left out (None) comes from ``settings`` (default :class:`ShapeSettings()
-    <jaxstiff.settings.ShapeSettings>`, where every default, unit and meaning is written); one
-    given here wins over ``settings``. The body is the named steps of the module docstring
+    """:func:`shape` with the solver by name and its options as a dict: the way in of the command
+    line and the sweeps. The body is the named steps of the module docstring
     (:func:`check_inputs`, :func:`make_start_states`, solve, report, meta, result).
 
     Args:
-        robot: the chain (its locked joints stay fixed), a :class:`~jaxstiff.settings.RobotSpec`
-            (recorded in ``meta["robot_spec"]``), or a URDF path / shipped robot name.
-        path: a :class:`~jaxstiff.paths.Path` (P waypoints, or a batch of B paths), or points
-            (P, 3) / (B, P, 3) in metres (directions: the tangent); default: the shipped
-            :func:`~jaxstiff.paths.default_path`.
-        criterion: ``"f1"`` (S0-9, ratio >= r), ``"f2"`` (S0-15, ratio = r; default), a registered
-            name, or a JAX-traceable ``crit(K, d, r[, c])``.
-        ratio: wanted axis ratio r = lambda1 / lambda2, > 1: a number (default 5), or (B,) one per path.
-        settings: the defaults of every setting here that is left out.
-        task: ``"full"`` (K_T = top-left 3x3 of the 6x6 K_C, seed; default), ``"xyz"`` or ``"xy"``.
-        locked_joints: ``"rigid"`` (default, SPEC section 1): a locked joint has no spring, adds no
-            compliance (``K_C^-1`` sums over the free joints) and has no stiffness variable; its
-            ``kj`` entry in the result is ``+inf`` (infinite stiffness). ``"spring"``: a locked
-            joint keeps its spring, whose stiffness is optimised, rate-limited and kept in
-            [kmin, kmax] like a free joint's. Recorded in ``meta["settings"]["locked_joints"]``.
-        solver: a name in :data:`SOLVERS`: ``"slsqp"`` (JAX derivatives; default), ``"slsqp-fd"``
-            (the seed's own way: numpy + finite differences; the speed baseline), ``"pgd"`` (batched
-            projected gradient, multi-start), ``"hybrid"`` (pgd, then an SLSQP polish) or
-            ``"trajectory"`` (a greedy warm start, then the whole trajectory at once).
-        starts: starts per waypoint for multi-start solvers (default: their ``starts`` option, 8 for
-            pgd and the hybrid; SLSQP: 1). Recorded in ``meta["starts"]``.
-        q0: start posture (n,) or (B, n), rad, inside the limits, locked joints at their values
-            (another value is refused: :func:`jaxstiff.model._chain.check_locked_values`);
-            default: IK from the nominal posture to each path's first waypoint.
-        kj0: start stiffness: a number, (n,) or (B, n), Nm/rad in [kmin, kmax]; default mid-range.
-            With rigid locked joints their entries are ignored (any value, ``inf`` included).
-        dq: joint rate limit per waypoint, rad (m for prismatic joints): a number, (n,) per joint,
-            or (B, n) per path and joint; ``inf`` = none.
-        dk: stiffness rate limit per waypoint, Nm/rad: a number, (n,) or (B, n).
-            (n,) entries of rigid locked joints are ignored.
-        dq_per_m, dk_per_m: rate limits per metre of path instead of dq / dk (rad/m, m/m for
-            prismatic joints; Nm/rad/m): a number, (n,) or (B, n); each path's per-waypoint
-            limit is this times its shortest segment (:mod:`jaxstiff.settings._shape`), so the
-            result does not depend on the sampling density. Giving dq and dq_per_m (or dk and
-            dk_per_m) is a ValueError. Recorded in ``meta["settings"]``.
-        kmin, kmax: stiffness range, Nm/rad, 0 < kmin < kmax; not applied
-            to rigid locked joints.
-        c: f1's offset, deg, a number (the same for every path).
-        first_rate_limit: apply dq/dk between (q0, kj0) and the first waypoint.
-        first_starts: when the first waypoint is not rate-limited, solve it from this many start
-            postures (q0, then :func:`first_start_postures`) and keep the best.
-        cms_volume: CMS target: product of the ellipsoid axes, (N/m)^m (default
-            ``settings.cms_mean_axis ** m``).
-        cms_major: CMS target: the major axis lambda1, N/m (instead of the volume).
-        options: solver options: SLSQP's :data:`jaxstiff.solvers._slsqp.DEFAULT_OPTIONS`, pgd's
-            :data:`jaxstiff.solvers._pgd.DEFAULT_OPTIONS`, both (plus ``polish_slsqp``, ``chain``) for
-            the hybrid, :data:`jaxstiff.solvers._trajectory.DEFAULT_OPTIONS` plus those of its warm
-            start for the trajectory solver. An unknown name or a bad value is a ValueError before
-            any work; ``meta["options"]`` records every option the run used, defaults included.
-        pos_tol: m, largest position error of a usable waypoint (default 1e-9).
-        progress: ``progress(b, p)`` called after each waypoint (for progress bars).
+        robot, path, criterion, ratio, q0, kj0, progress: as for :func:`shape`.
+        settings: a :class:`~jaxstiff.settings.ShapeSettings`: every setting not given here
+            (default ``ShapeSettings()``, where every default, unit, check and meaning is written).
+        cms_volume, cms_major: the CMS target as the ellipsoid's volume, (N/m)^m, or its major
+            axis lambda1, N/m, instead of ``cms_mean_axis``.
+        options: the solver's options (names and defaults: the solver objects of
+            :mod:`jaxstiff.solvers`); an unknown name or a bad value is a ValueError before any
+            work; ``meta["options"]`` records every option the run used, defaults included.
+        pos_tol: m, largest position error of a usable waypoint.
         meta_extra: more entries for ``meta`` (e.g. the CLI's path file names).
+        **given: any :class:`~jaxstiff.settings.ShapeSettings` field (``solver`` by name). Per-path
+            values: ``ratio`` (B,), ``dq`` / ``dk`` / ``dq_per_m`` / ``dk_per_m`` a number, (n,)
+            per joint or (B, n) per path and joint; a path's result does not depend on the other
+            paths of its batch, and ``meta`` records them (a list where the paths differ:
+            :func:`jaxstiff.results.path_parameters`).
 
     Returns:
         :class:`~jaxstiff.results.ShapeResult` with leading axis B (B = 1 for one path).
 
     Raises:
-        ValueError: bad input (ratio <= 1, kmin <= 0 or kmin >= kmax, negative rate limits,
-            per-path values of the wrong shape, q0/kj0 of the wrong length or outside the limits,
-            unknown solver/criterion/task); per-path values name the offending path.
-        UnreachableError: (a ValueError, :mod:`jaxstiff.model._reach`) a waypoint lies outside the
-            robot's reach (``robot.reach()``; task "xy": its radius in the xy plane), checked before
-            any IK or solve; the message names the path, waypoint, distance and reach (and says so
-            when the numbers look like millimetres). A waypoint inside the reach that no posture
-            attains gets status 3.
+        TypeError: a keyword that is no setting (the message names the nearest one).
+        ValueError: bad input before any work (the message names the value, path and joint);
+            :class:`~jaxstiff.model._reach.UnreachableError` for a waypoint out of reach.
         ShapeInterrupted: a ``KeyboardInterrupt`` after some waypoints were finished (SLSQP
             solvers): its ``result`` holds them, the others with status NOT_RUN (5).
-
-    Per-path parameters: ``ratio`` (B,), ``dq``/``dk`` (B, n) give each path of the batch its
-    own values; every solver honours them, and a path's result does not depend on the other paths
-    of its batch (nor on its position there). ``meta`` records them: ``meta["ratio"]`` a number,
-    or a list of B numbers when the paths differ; ``meta["limits"]["dq"]``/``["dk"]`` n numbers,
-    or B lists of n when the paths differ (see :func:`jaxstiff.results.path_parameters`).
     """
     ensure_compile_cache()  # before the first compilation (cheap when already on)
     t_start, w_start = time.perf_counter(), time.time()
@@ -346,23 +281,14 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): every input a pa
         base = settings if settings is not None else _DEFAULT_SETTINGS
         if not isinstance(base, ShapeSettings):
             raise ValueError(f"settings must be a jaxstiff.settings.ShapeSettings, got {type(base).__name__}")
-        given = {
-            "criterion": criterion,
-            "ratio": ratio,
-            "task": task,
-            "locked_joints": locked_joints,
-            "solver": solver,
-            "starts": starts,
-            "dq": dq,
-            "dk": dk,
-            "dq_per_m": dq_per_m,
-            "dk_per_m": dk_per_m,
-            "kmin": kmin,
-            "kmax": kmax,
-            "c": c,
-            "first_rate_limit": first_rate_limit,
-            "first_starts": first_starts,
-        }
+        unknown = sorted(set(given) - _FIELDS)
+        if unknown:
+            raise TypeError(
+                f"run_shape() got an unexpected keyword argument {unknown[0]!r}{suggest(unknown[0], sorted(_FIELDS))}"
+            )
+        if given.get("cms_mean_axis") is not None:  # the CMS target is read from the settings object
+            base = base.replace(cms_mean_axis=given["cms_mean_axis"])
+        given = {**given, "criterion": criterion, "ratio": ratio}
         values = {**dataclass_values(base), **{k: v for k, v in given.items() if v is not None}}
         refuse_half_precision("shape", q0=q0, kj0=kj0)  # (the path: Path refuses it)
         robot_, spec_meta, bpath = robot_and_path(robot, path)

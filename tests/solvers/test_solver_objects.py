@@ -17,6 +17,7 @@ from helpers import numpy_fk
 import jaxstiff
 from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.settings import ShapeSettings
+from jaxstiff.shaping import run_shape
 from jaxstiff.solvers import PGD, SLSQP, SLSQPFD, Hybrid, Registered, Trajectory
 from jaxstiff.solvers._configs import solver_call, solver_from_name
 
@@ -145,6 +146,8 @@ def test_unknown_keyword_names_the_nearest_setting():
     path, q0 = _path()
     with pytest.raises(TypeError, match="'task'"):
         jaxstiff.shape(PLANAR, path, "f2", 3.0, q0=q0, tsk="xy")
+    with pytest.raises(TypeError, match="run_shape.*'tsk'.*did you mean 'task'"):
+        run_shape(PLANAR, path, "f2", 3.0, q0=q0, tsk="xy")
     with pytest.raises(TypeError, match="solver object or in options"):
         _run(PGD(iters=3), options={"iters": 4})
 
