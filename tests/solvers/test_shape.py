@@ -602,6 +602,7 @@ def test_slsqp_result_does_not_depend_on_the_stiffness_units(solver):
     assert np.all((b.kj >= 1e4) & (b.kj <= 1e6))
 
 
+@pytest.mark.slow  # a 12 s solver run; the fast lane keeps tests/solvers/test_first_waypoint.py
 def test_first_waypoint_rescue_finds_the_minimum_the_usual_starts_miss(tmp_path, monkeypatch):
     """The planar 3R with 3 m links on a line at (4.5..4.74, 1.5) (the CSV of an independent check):
     from some start postures greedy SLSQP's first waypoint ends at a local minimum (f2 17-80000,

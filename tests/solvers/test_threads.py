@@ -64,7 +64,7 @@ def test_map_chunks_keeps_order_and_runs_concurrently():
 
 
 @pytest.mark.filterwarnings("ignore::jaxstiff.results._target.MissedTargetWarning")
-@pytest.mark.parametrize("solver", ["pgd", "trajectory"])
+@pytest.mark.parametrize("solver", ["pgd", pytest.param("trajectory", marks=pytest.mark.slow)])  # pgd: the fast lane
 def test_results_do_not_depend_on_the_thread_count(solver, planar_paths, run_planar):
     path, q0 = planar_paths(5, 4, seed=5)
     opts = {**OPTS, **({"traj_iters": 40, "blocks": 2} if solver == "trajectory" else {})}
