@@ -52,3 +52,16 @@ def pytest_configure(config: pytest.Config) -> None:
     on the command line wins."""
     if getattr(config.option, "maxschedchunk", 0) is None:
         config.option.maxschedchunk = 8
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_compiled_programs():
+    """A test worker compiles thousands of programs and keeps them: every XLA:CPU executable holds
+    about 13 memory mappings, and past the kernel's limit (vm.max_map_count, 65530) the next
+    compile crashes the worker with a segfault (it did, twice, at ~80 % of the suite). Between
+    modules, a worker that holds more than a third of its limit lets its compiled programs go
+    (jaxstiff.runtime._programs); they compile again, or load from the cache, when needed."""
+    from jaxstiff.runtime import release_if_near_map_limit
+
+    release_if_near_map_limit(share=1 / 3)
+    yield
