@@ -15,9 +15,10 @@ This package is the one way in to the pipeline; its steps are private modules: c
 and make the start states (``_inputs``) -> solve (a solver in :data:`SOLVERS`; add one with
 :func:`register_solver`; ``_shape``) -> report, CMS and meta (``_steps``) ->
 :class:`~jaxstiff.ShapeResult`. What it exports: :func:`shape` (also ``jaxstiff.shape``),
-:func:`run_shape` (the solver by name, its options as a dict: the command line and the sweeps), the solver registry,
-:data:`DEFAULTS` (``meta["defaults"]``), :func:`first_start_postures` (the extra first-waypoint
-starts), :class:`ShapeInterrupted` and :func:`prefer_sync_cpu_dispatch` (for entry points).
+:func:`run_shape` (the solver by name, its options as a dict: the command line and the sweeps),
+the solver registry, :data:`DEFAULTS` (``meta["defaults"]``), :func:`first_start_postures` (the
+extra first-waypoint starts), :class:`ShapeInterrupted` and :func:`prefer_sync_cpu_dispatch` (for
+entry points).
 
 Example:
     >>> import jaxstiff

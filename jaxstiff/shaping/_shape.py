@@ -1,6 +1,7 @@
 """The call itself: :func:`shape` (settings inline, a solver object) and :func:`run_shape` (the
-solver by name, its options as a dict), the solve step between the inputs (``_inputs``) and the report (``_steps``),
-and the CPU dispatch switch of the entry points. Private to :mod:`jaxstiff.shaping`."""
+solver by name, its options as a dict), the solve step between the inputs (``_inputs``) and the
+report (``_steps``), and the CPU dispatch switch of the entry points. Private to
+:mod:`jaxstiff.shaping`."""
 
 from __future__ import annotations
 
