@@ -21,7 +21,7 @@ as good as the best answer it was given (:meth:`jaxstiff.solvers._pgd.kernel.PGD
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import jax
@@ -34,14 +34,13 @@ from jaxstiff.solvers._greedy import (
     Candidate,
     SolverOutput,
     judge,
-    kernel_objective,
     maybe_off_target,
     rescue_starts,
 )
 from jaxstiff.solvers._lockstep import RowsProgram, Steps, run_lockstep
 from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
 
-__all__ = ["SLSQP_OPTION_NAMES", "rows_program", "solver_rows_program"]
+__all__ = ["SLSQP_OPTION_NAMES", "rows_program", "solver_rows_program", "rows_objective", "prepare_first_answers"]
 
 #: the SLSQP options a batch solver's options may carry for this stage
 SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver")
@@ -64,13 +63,38 @@ def solver_rows_program(problem: WaypointProblem, solver: Any) -> RowsProgram:
     return rows_program(problem, scale, bool(jax.config.read("jax_enable_x64")))
 
 
+def rows_objective(program: RowsProgram) -> Callable[[np.ndarray, np.ndarray], float]:
+    """``(x, params) -> f`` on a :func:`rows_program` itself, called with a unit scale (x as it is,
+    f unscaled; the scale is an argument of the compiled programs): a lockstep caller's criterion
+    for its answers without a single-point program to compile (2 s of a cold first pgd call on
+    the LWR, 2-core CPU). A row's value is the one it has in any of the program's calls."""
+    unit = jnp.ones_like(program.consts[0])
+
+    def objective(x: np.ndarray, params: np.ndarray) -> float:
+        return float(program.at_points(np.asarray(x, float)[None], np.asarray(params, float)[None], unit)[0, 0])
+
+    return objective
+
+
 def _program(batch: WaypointBatch, options: Mapping[str, Any] | None) -> tuple[RowsProgram, Any]:
     """The shared rows program of ``batch``'s problem and SLSQP's solver for ``options``."""
     from jaxstiff.solvers._slsqp import make_slsqp_solver
 
     sl_opts = {k: v for k, v in (options or {}).items() if k in SLSQP_OPTION_NAMES}
-    solver = make_slsqp_solver(batch.problem, sl_opts, (batch.limits.kmin, batch.limits.kmax))
+    solver = make_slsqp_solver(batch.problem, sl_opts, (batch.limits.kmin, batch.limits.kmax), compile_now=False)
     return solver_rows_program(batch.problem, solver), solver
+
+
+def prepare_first_answers(batch: WaypointBatch, options: Mapping[str, Any] | None = None) -> None:
+    """Start building, on a background thread, the 16-row program that :func:`exact_first_answers`
+    evaluates ``batch``'s search with (its first program for a few paths, and its last rounds'
+    for any number): for a caller that may run the search after a compilation of its own. pgd
+    calls it before tracing its kernel, seconds of Python on one core that leave the other idle
+    on a CPU; the program's XLA compilation (about 2 s on a 2-core CPU) runs there instead of
+    after pgd's run. Costs a compilation nobody uses when the search does not run."""
+    program, _ = _program(batch, options)
+    n_params = len(WaypointProblem.params(np.zeros(3), np.ones(3), 1.0, 0.0))
+    program.prepare(16, batch.problem.nx, n_params)
 
 
 def exact_first_answers(
@@ -91,7 +115,7 @@ def exact_first_answers(
     problem, limits = batch.problem, batch.limits
     program, solver = _program(batch, options)
     maxiter = int(solver.options["first_maxiter"])
-    pos_and_jac, objective = jax_pos_and_jac(problem), kernel_objective(problem)
+    pos_and_jac, objective = jax_pos_and_jac(problem), rows_objective(program)
     B = batch.targets.shape[0]
 
     def one(b: int, x_start: np.ndarray, lb: np.ndarray, ub: np.ndarray) -> Steps[Candidate]:

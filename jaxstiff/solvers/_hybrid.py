@@ -58,14 +58,13 @@ from jaxstiff.results import _files as R
 from jaxstiff.settings._solvers import HybridOptions
 from jaxstiff.solvers import _pgd as pgd
 from jaxstiff.solvers._base import SolveRequest
-from jaxstiff.solvers._first_waypoint import solver_rows_program
+from jaxstiff.solvers._first_waypoint import rows_objective, solver_rows_program
 from jaxstiff.solvers._greedy import (
     Objective,
     PosAndJac,
     SolverOutput,
     give_up,
     judge,
-    kernel_objective,
 )
 from jaxstiff.solvers._lockstep import Steps, run_lockstep
 from jaxstiff.solvers._problem import (
@@ -147,7 +146,9 @@ def polish(
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
     sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
     problem = batch.problem
-    solver = make_slsqp_solver(problem, sl_opts, (batch.limits.kmin, batch.limits.kmax))
+    # driven only by steps on the shared rows program: no single-point programs to compile
+    solver = make_slsqp_solver(problem, sl_opts, (batch.limits.kmin, batch.limits.kmax), compile_now=False)
+    program = solver_rows_program(problem, solver)
     B = batch.targets.shape[0]
     ctx = _Polish(
         batch,
@@ -157,7 +158,7 @@ def polish(
         float(own["polish_skip_tol"]),
         solver,
         jax_pos_and_jac(problem),
-        kernel_objective(problem),
+        rows_objective(program),
         pos_tol,
         first_starts,
     )
@@ -169,7 +170,7 @@ def polish(
     ]
     # the B paths' SLSQP solves advance together, their kernel calls batched (one call per round)
     # (one rows program per problem and scale for the process: its compiled row counts are reused)
-    run_lockstep(gens, solver_rows_program(problem, solver))
+    run_lockstep(gens, program)
     # the polish's wall time, shared equally by the waypoints (the paths ran interleaved)
     out["time_s"] = out["time_s"] + (time.perf_counter() - t0) / max(out["time_s"].size, 1)
     return out

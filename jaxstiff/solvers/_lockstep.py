@@ -41,18 +41,25 @@ def run_steps(gen: Generator[Q, A, T], evaluate: Callable[[Q], A]) -> T:
         return stop.value
 
 
+#: the largest compiled row count: a round of more requests runs in calls of this many rows
+MAX_ROWS = 128
+
+
 def bucket_size(rows: int) -> int:
-    """Rows of a batched call for ``rows`` requests: 16, 128, 1024, ... (padded: few compiled
-    sizes, each a few seconds of compilation; a call costs nearly the same at 2 and at 64 rows on
-    a CPU: docs/notes/speed.md). Never fewer than 16: XLA:CPU compiles a row count below the
-    vector width differently, and a row's result at 2 rows differed in the last bits from the same
-    row's at 16, 128 and 1024 (on 6 % of the LWR's evaluations; those three agreed on all of them),
-    so that a result depended on which compiled row count answered, a matter of timing
-    (:class:`RowsProgram`)."""
-    size = 16
-    while size < rows:
-        size *= 8
-    return size
+    """Rows of a batched call for ``rows`` requests: 16 or 128, above that the next multiple of
+    :data:`MAX_ROWS` (a :class:`RowsProgram` evaluates those in calls of 128 rows, on as many
+    threads as the machine has cores). Padded: few compiled sizes, each a few seconds of
+    compilation, and a call costs nearly the same at 2 and at 16 rows on a CPU
+    (docs/notes/speed.md). Never fewer than 16: XLA:CPU compiles a row count below the vector
+    width differently, and a row's result at 2 rows differed in the last bits from the same row's
+    at 16, 128 and 1024 (on 6 % of the LWR's evaluations; those three agreed on all of them), so
+    that a result depended on which compiled row count answered, a matter of timing
+    (:class:`RowsProgram`). No program above 128 rows: on a 2-core CPU a 1024-row call (UR10)
+    took 1.74 ms against 1.40 ms for its eight 128-row pieces on two threads, and compiled for
+    as long as the 128-row program (1.7-2.3 s) in the cold first call of a batch solve."""
+    if rows <= 16:
+        return 16
+    return MAX_ROWS * -(-int(rows) // MAX_ROWS)
 
 
 class RowsProgram:
@@ -61,16 +68,17 @@ class RowsProgram:
     count is compiled at once; a later, smaller one is compiled on a background thread while the
     calls go, padded, to the smallest row count already compiled above it (:meth:`rows_for`).
 
-    A lockstep run starts with many paths (128 rows for 17-128 of them) and ends with a few (16,
-    then 2): compiled in turn, each of those programs held the run up 2-3 s on a 2-core CPU (7 s
-    of a cold 64 x 50 hybrid). A row's result has the same bits at every R >= 16
-    (:func:`bucket_size`), so which program answers a request does not change the result.
+    A lockstep run starts with many paths (128 rows for 17-128 of them) and ends with a few (16):
+    compiled in turn, each of those programs held the run up 2-3 s on a 2-core CPU (7 s of a
+    cold 64 x 50 hybrid, when the sizes were 2, 16, 128 and 1024). A row's result has the same
+    bits at every R >= 16 (:func:`bucket_size`), so which program answers a request does not change the result.
     """
 
     def __init__(self, fn: Any, *consts: Any, dtype: Any = np.float64):
         self._fn, self._consts, self._dtype = fn, consts, dtype
         self._ready: dict[int, Callable[..., Any]] = {}
-        self._building: set[int] = set()
+        self._building: dict[int, threading.Event] = {}  # row count -> set when its build ends
+        self._failed: set[int] = set()  # background builds that raised: not started again
         self._lock = threading.Lock()
 
     def _compile(self, R: int, nx: int, n_params: int, x64: bool) -> None:
@@ -82,41 +90,105 @@ class RowsProgram:
         with self._lock:
             self._ready[R] = compiled
 
-    def _background(self, R: int, nx: int, n_params: int, x64: bool) -> None:
+    def _background(self, R: int, nx: int, n_params: int, x64: bool, done: threading.Event) -> None:
         try:
             self._compile(R, nx, n_params, x64)
-        except Exception:  # noqa: BLE001 - a failed build only means the larger program keeps answering
-            pass
+        except Exception:  # noqa: BLE001 - a failed build: the caller that needs it compiles it and sees the error
+            with self._lock:
+                self._failed.add(R)
+        finally:
+            with self._lock:
+                self._building.pop(R, None)
+            done.set()
 
-    def rows_for(self, R: int, nx: int, n_params: int) -> int:
-        """The row count to call for a round of ``R`` rows (a :func:`bucket_size`): R when its
-        program is ready or no larger one is (then R is compiled now), else the smallest ready
-        larger row count while R's program is built on a background thread."""
+    def _start_build(self, R: int, nx: int, n_params: int) -> None:
+        """Build R's program on a background thread unless it is ready or being built."""
         import jax
 
         with self._lock:
-            ready = sorted(self._ready)
-            if R in self._ready:
-                return R
-            larger = [r for r in ready if r > R]
-            start = bool(larger) and R not in self._building
-            if start:
-                self._building.add(R)
+            if R in self._ready or R in self._building or R in self._failed:
+                return
+            done = self._building[R] = threading.Event()
         x64 = bool(jax.config.read("jax_enable_x64"))
-        if not larger:
-            self._compile(R, nx, n_params, x64)
-            return R
-        if start:
-            # not a daemon: the interpreter waits for it at exit (a daemon thread stopped by the
-            # interpreter's finalisation inside JAX's lowering or XLA's compiler aborted the
-            # process, exit status 134, after a script's cold hybrid solve)
-            threading.Thread(
-                target=self._background, args=(R, nx, n_params, x64), name=f"RowsProgram-{R}", daemon=False
-            ).start()
-        return larger[0]
+        # not a daemon: the interpreter waits for it at exit (a daemon thread stopped by the
+        # interpreter's finalisation inside JAX's lowering or XLA's compiler aborted the process,
+        # exit status 134, after a script's cold hybrid solve)
+        threading.Thread(
+            target=self._background, args=(R, nx, n_params, x64, done), name=f"RowsProgram-{R}", daemon=False
+        ).start()
+
+    def prepare(self, R: int, nx: int, n_params: int) -> None:
+        """Start building the program a round of ``R`` rows will call (:func:`bucket_size`'s row
+        count, at most :data:`MAX_ROWS`) on a background thread, for a caller that knows it may
+        need it soon and has a core idle meanwhile; :meth:`rows_for` then waits for that build
+        instead of starting its own."""
+        self._start_build(min(bucket_size(R), MAX_ROWS), nx, n_params)
+
+    def rows_for(self, R: int, nx: int, n_params: int) -> int:
+        """The row count to call for a round of ``R`` rows (a :func:`bucket_size`): R when its
+        program is ready; else the smallest ready larger row count while R's program is built on
+        a background thread; else R, once its program is built (here, or by a build already under
+        way). Above :data:`MAX_ROWS`, R itself (called in pieces of 128 rows, whose program this
+        builds)."""
+        size = min(int(R), MAX_ROWS)
+        with self._lock:
+            if size in self._ready:
+                return max(size, int(R))
+            larger = [r for r in sorted(self._ready) if r > size]
+            building = self._building.get(size)
+        if larger:
+            self._start_build(size, nx, n_params)
+            return larger[0]
+        if building is not None:
+            building.wait()
+        with self._lock:
+            ready = size in self._ready
+        if not ready:
+            import jax
+
+            self._compile(size, nx, n_params, bool(jax.config.read("jax_enable_x64")))
+        return max(size, int(R))
+
+    @property
+    def consts(self) -> tuple[Any, ...]:
+        """The arguments after ``(Y, params)`` that :meth:`__call__` passes."""
+        return self._consts
 
     def __call__(self, Y: np.ndarray, params: np.ndarray) -> Any:
-        return self._ready[len(Y)](Y, params, *self._consts)
+        return self.evaluate(Y, params, *self._consts)
+
+    def evaluate(self, Y: np.ndarray, params: np.ndarray, *consts: Any) -> Any:
+        """The kernel at the rows of ``Y`` (R, nx) and ``params`` (R, np) with ``consts`` in place of
+        the program's own (the compiled programs take them as arguments): R a compiled row count,
+        or a multiple of :data:`MAX_ROWS` (pieces of 128 rows, run on several threads at once,
+        :func:`jaxstiff.runtime._threads.map_chunks`; each row has the bits it has in any call)."""
+        R = len(Y)
+        if R <= MAX_ROWS or R in self._ready:
+            return self._ready[R](Y, params, *consts)
+        from jaxstiff.runtime._threads import chunk_threads, map_chunks
+
+        prog = self._ready[MAX_ROWS]
+        pieces = []
+        for s in range(0, R, MAX_ROWS):
+            y, p = Y[s : s + MAX_ROWS], params[s : s + MAX_ROWS]
+            if len(y) < MAX_ROWS:  # repeat the last row (rows are independent)
+                y = np.concatenate([y, np.repeat(y[-1:], MAX_ROWS - len(y), axis=0)])
+                p = np.concatenate([p, np.repeat(p[-1:], MAX_ROWS - len(p), axis=0)])
+            pieces.append((y, p))
+        outs = map_chunks(lambda yp: np.asarray(prog(yp[0], yp[1], *consts)), pieces, chunk_threads())
+        return np.concatenate(outs)[:R]
+
+    def at_points(self, X: np.ndarray, params: np.ndarray, *consts: Any) -> np.ndarray:
+        """The kernel at the k rows of ``X`` (k, nx) and ``params`` (k, np) with ``consts`` (see
+        :meth:`evaluate`), padded to the smallest ready row count (compiling 16 rows if none is):
+        a row's values are those it has in a lockstep round."""
+        X, params = np.asarray(X, self._dtype), np.asarray(params, self._dtype)
+        k = len(X)
+        R = self.rows_for(bucket_size(k), X.shape[1], params.shape[1])
+        if R > k:
+            X = np.concatenate([X, np.repeat(X[-1:], R - k, axis=0)])
+            params = np.concatenate([params, np.repeat(params[-1:], R - k, axis=0)])
+        return np.asarray(self.evaluate(X, params, *consts))[:k]
 
 
 def run_lockstep(

@@ -138,15 +138,19 @@ def make_slsqp_solver(
     problem: WaypointProblem,
     options: Mapping[str, Any] | None = None,
     kj_range: tuple[float, float] | None = None,
+    compile_now: bool = True,
 ) -> SLSQPSolver:
     """A per-waypoint SLSQP solver ``(x0, lb, ub, params, maxiter=None) -> SolverOutput``, JAX
     derivatives (:class:`SLSQPSolver`). ``kj_range``: ``(kmin, kmax)``, for the stiffness unit
-    when the option ``kj_scale`` is None (:func:`kj_unit`)."""
+    when the option ``kj_scale`` is None (:func:`kj_unit`). ``compile_now``: compile its
+    single-point kernels here (``compile_s`` their seconds), so that waypoint timings exclude
+    them; False for a caller that drives only ``steps`` on a batched program of its own
+    (:mod:`jaxstiff.solvers._lockstep`): they then compile at their first call, if any."""
     from scipy.optimize import Bounds, minimize
 
     opts = check_options(options)
     fused_s = compiled_scaled(problem)
-    compile_s = _compile_now(problem, fused_s)
+    compile_s = _compile_now(problem, fused_s) if compile_now else 0.0
     nx, k = problem.nx, len(problem.pos_rows)
     sl_f, sl_g, sl_c = 0, slice(1, 1 + nx), slice(1 + nx, 1 + nx + k)
     sl_a = slice(1 + nx + k, None)

@@ -58,7 +58,7 @@ def test_bucket_sizes():
         16,
         128,
         128,
-        1024,
+        256,
         1024,
     ]
 
@@ -67,7 +67,8 @@ def test_bucket_sizes():
 def test_a_row_has_the_same_bits_at_every_bucket_size(name):
     """The lockstep answers a round with whichever compiled row count is ready (RowsProgram), so a
     row's values must not depend on the row count: checked at 16, 128 and 1024 rows on random
-    postures, stiffnesses and targets. (At 2 rows XLA:CPU gave other last bits on 6 % of a hybrid
+    postures, stiffnesses and targets, and through a RowsProgram: a round of 300 rows (pieces of
+    128 on threads) and a few points alone (``at_points``, the first-waypoint search's criterion). (At 2 rows XLA:CPU gave other last bits on 6 % of a hybrid
     run's evaluations, and a path's result then depended on the order its programs compiled in.)"""
     robot = jaxstiff.Robot.from_urdf(name)
     task = "xy" if name == "planar_3r" else "full"
@@ -94,6 +95,14 @@ def test_a_row_has_the_same_bits_at_every_bucket_size(name):
     assert np.all(np.isfinite(out[16]))
     np.testing.assert_array_equal(out[16], out[128])
     np.testing.assert_array_equal(out[16], out[1024])
+    prog = lockstep.RowsProgram(rows, scale)
+    n = prog.rows_for(lockstep.bucket_size(300), Y.shape[1], Pm.shape[1])
+    assert n == 384
+    big = np.asarray(prog(np.r_[Y, np.repeat(Y[-1:], n - k, 0)], np.r_[Pm, np.repeat(Pm[-1:], n - k, 0)]))
+    assert big.shape[0] == n
+    np.testing.assert_array_equal(big[:k], out[16])
+    np.testing.assert_array_equal(big[k:], np.repeat(out[16][-1:], n - k, 0))
+    np.testing.assert_array_equal(prog.at_points(Y[3:6], Pm[3:6], scale), out[16][3:6])
 
 
 def test_an_exception_in_one_solve_propagates_and_closes_the_others():
@@ -233,6 +242,57 @@ def test_rows_program_builds_smaller_row_counts_without_holding_the_run_up():
         gens = [newton_sqrt(v, 30) for v in a]
         got = lockstep.run_lockstep(gens, lockstep.RowsProgram(rows, jnp.asarray(2.0)))
     np.testing.assert_allclose(got, np.sqrt(a), rtol=1e-12)
+
+
+class _CountingJit:
+    """A jitted function whose ``lower`` counts its calls (one per compiled row count) and can be
+    made to fail."""
+
+    def __init__(self, fn, fail=False):
+        import jax
+
+        self.fn, self.fail, self.lowered = jax.jit(fn), fail, []
+
+    def lower(self, *args):
+        self.lowered.append(args[0].shape[0])
+        if self.fail:
+            raise RuntimeError("no compiler today")
+        return self.fn.lower(*args)
+
+
+def test_a_prepared_row_count_is_built_once_and_waited_for():
+    """RowsProgram.prepare builds a row count on a background thread; a round that needs it before
+    it is ready waits for that build instead of compiling it a second time. A failed background
+    build is not started again, and the round that needs it compiles it and sees the error."""
+    import jax
+    import jax.numpy as jnp
+
+    def rows(Y, Pm, two):
+        return jnp.stack([Y[:, 0] ** 2 - Pm[:, 0], two * Y[:, 0]], axis=1)
+
+    with jax.enable_x64(True):
+        fn = _CountingJit(rows)
+        prog = lockstep.RowsProgram(fn, jnp.asarray(2.0))
+        prog.prepare(5, 1, 1)  # a round of 5 requests: the 16-row program
+        assert prog.rows_for(16, 1, 1) == 16
+        prog.prepare(3, 1, 1)  # ready: nothing more to build
+        assert prog.rows_for(lockstep.bucket_size(300), 1, 1) == 384  # pieces of 128: that program now
+        assert sorted(fn.lowered) == [16, 128]
+        Y = np.linspace(0.5, 3.0, 384)[:, None]
+        Pm = np.full((384, 1), 3.0)
+        got = np.asarray(prog(Y, Pm))  # three pieces of 128 rows, on threads
+        np.testing.assert_allclose(got, _evaluate(Y, Pm), rtol=1e-14)
+        one = fn.fn.lower(Y[:128], Pm[:128], jnp.asarray(2.0)).compile()
+        for s in (0, 128, 256):  # each piece has the bits of a call of its own
+            np.testing.assert_array_equal(got[s : s + 128], np.asarray(one(Y[s : s + 128], Pm[s : s + 128], 2.0)))
+
+        bad = _CountingJit(rows, fail=True)
+        prog = lockstep.RowsProgram(bad, jnp.asarray(2.0))
+        prog.prepare(16, 1, 1)
+        with pytest.raises(RuntimeError, match="no compiler today"):
+            prog.rows_for(16, 1, 1)  # waits for the failed build, then compiles here: the error
+        prog.prepare(16, 1, 1)  # failed once in the background: not started again
+        assert bad.lowered == [16, 16]
 
 
 _EXIT_SCRIPT = """

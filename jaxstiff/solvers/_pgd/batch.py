@@ -182,6 +182,10 @@ def solve_batch(
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
     shared = (float(limits.kmin), float(limits.kmax), float(batch.c), float(pos_tol))
+    if not first_rate and opts["first_exact"] == "retry" and _may_retry(problem, batch):
+        from jaxstiff.solvers._first_waypoint import prepare_first_answers
+
+        prepare_first_answers(batch, options)  # compiles beside pgd's kernel tracing, if that runs
     X, out, compile_s, run_s = _run_chunks(
         fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
     )
@@ -270,6 +274,14 @@ def _ranking(
     tot = np.sum(np.where(solved, f, 0.0), axis=1)
     tot = np.where(np.isfinite(tot), tot, np.inf)
     return [(int(a), int(b), float(t)) for a, b, t in zip(np.sum(~solved, 1), np.sum(~hit, 1), tot, strict=True)]
+
+
+def _may_retry(problem: WaypointProblem, batch: WaypointBatch) -> bool:
+    """Whether :func:`_retry_first` can run: the criterion has an in-target bound
+    (:func:`jaxstiff.solvers._greedy.target_bound`)."""
+    from jaxstiff.solvers._greedy import target_bound
+
+    return target_bound(problem, batch.ratios, float(batch.c)) is not None
 
 
 def _retry_first(  # noqa: PLR0913 - solve_batch's state handed to its retry step
