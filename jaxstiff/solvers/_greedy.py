@@ -440,9 +440,13 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
     t0 = time.perf_counter()
     for alt in alternatives[:path_retries]:
         try:
-            o2, f2s, _ = walk.run(alt, None)
+            # a walk whose unsolved and off-target counts (which only grow along it) already
+            # exceed the best walk's cannot rank better: it stops there (the choice is the same)
+            o2, f2s, _ = walk.run(alt, None, stop_above=rank[:2])
         except PathInterrupted:
             raise PathInterrupted(out) from None  # the best complete walk so far
+        except _Outranked:
+            continue
         r2 = _walk_rank(o2, f2s, float(bound))
         if r2 < rank:
             out, rank = o2, r2
@@ -450,6 +454,10 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
             break
     extra = (time.perf_counter() - t0) / max(len(out), 1)  # the retries' time, spread over the path
     return [dataclasses.replace(o, time_s=o.time_s + extra) for o in out]
+
+
+class _Outranked(Exception):
+    """A retry walk stopped where it can no longer rank better than the best walk so far."""
 
 
 def _walk_rank(out: Sequence[WaypointOutcome], fs: Sequence[float], bound: float) -> tuple[int, int, float]:
@@ -490,11 +498,16 @@ class _GreedyWalk:
         self.bound = target_bound(self.problem, self.ratio, self.c)
 
     def run(
-        self, first: Candidate | None, progress: Callable[[int], None] | None
+        self,
+        first: Candidate | None,
+        progress: Callable[[int], None] | None,
+        stop_above: tuple[int, int] | None = None,
     ) -> tuple[list[WaypointOutcome], list[float], list[Candidate]]:
         """The walk: outcomes, the criterion of each, and the first waypoint's other optima (when
         it was solved here, not rate-limited); ``first`` given: the walk leaves from that answer
-        of the first waypoint instead of solving it."""
+        of the first waypoint instead of solving it. ``stop_above``: ``(unsolved, off target)``
+        of the best walk so far (:func:`_walk_rank`'s first two counts); the walk raises
+        :class:`_Outranked` as soon as its own counts, which only grow, exceed them."""
         problem, limits, targets = self.problem, self.limits, self.targets
         q_ref, kj_ref = self.q0, self.kj0
         at_start = True
@@ -517,6 +530,10 @@ class _GreedyWalk:
                         alternatives = alts
                 out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
                 fs.append(f)
+                if stop_above is not None and self.bound is not None:
+                    rank = _walk_rank(out, fs, float(self.bound))
+                    if rank[:2] > stop_above:
+                        raise _Outranked
                 if status in R.USABLE:
                     if at_start:
                         box_ok = self.rescue_rate_limited and self.bound is not None and f < float(self.bound)

@@ -48,6 +48,36 @@ def test_the_walk_leaves_the_trap_from_another_first_optimum(trap):
     assert not np.allclose(retried.q[0, 0], seed_scheme.q[0, 0], atol=1e-2)
 
 
+@pytest.mark.slow
+def test_a_retry_walk_stops_once_it_cannot_rank_better_with_the_same_result(trap, monkeypatch):
+    """A retry walk whose unsolved and off-target counts already exceed the best walk's stops
+    there: the same walk wins as when every retry walks the whole path, for fewer waypoints."""
+    from jaxstiff.solvers import _greedy as G
+
+    robot, path = trap
+    solved = []
+    real_waypoint, real_run = G._GreedyWalk._waypoint, G._GreedyWalk.run
+
+    def counting(self, p, *a):
+        solved.append(p)
+        return real_waypoint(self, p, *a)
+
+    monkeypatch.setattr(G._GreedyWalk, "_waypoint", counting)
+    early = jaxstiff.shape(robot, path, "f2", 5.0, solver=SLSQP())
+    n_early = len(solved)
+    solved.clear()
+    monkeypatch.setattr(
+        G._GreedyWalk, "run", lambda self, first, progress, stop_above=None: real_run(self, first, progress)
+    )
+    full = jaxstiff.shape(robot, path, "f2", 5.0, solver=SLSQP())
+    n_full = len(solved)
+    for k in ("q", "kj", "criterion", "status"):
+        np.testing.assert_array_equal(getattr(early, k), getattr(full, k))
+    assert early.in_target.all()
+    assert n_full > 2 * path.points.shape[0]  # retries ran (else this test proves nothing)
+    assert n_early < n_full - path.points.shape[0] // 2
+
+
 def test_a_path_in_target_is_walked_once(trap):
     robot, path = trap
     short = jaxstiff.Path(path.points[:8], path.directions[:8])  # in target before the trap
