@@ -231,7 +231,14 @@ class PGDOptions(SolverOptions):
         "starts within this (relative) of the best criterion tie; the one farthest from the limits is kept",
         kind="nonnegative",
     )
-    chunk: int = option(256, "trajectories per compiled call (memory bound)", kind="int", lo=1)
+    chunk: int = option(
+        0,
+        "trajectories per compiled call (0: automatic: 8 on a CPU, where a call's cost per trajectory "
+        "does not fall with its size and the first-waypoint retry reruns its few paths in a whole "
+        "call; 256 on an accelerator, a memory bound)",
+        kind="int",
+        lo=0,
+    )
     threads: int = option(
         0, "compiled calls running at once on a CPU (0: one per usable core; 1 on a GPU)", kind="int", lo=0
     )

@@ -17,7 +17,7 @@ import numpy as np
 from jaxstiff.results import _files as R
 from jaxstiff.runtime._export_cache import arg_signature, compile_with_export_cache
 from jaxstiff.runtime._programs import program_cache, register_cache
-from jaxstiff.runtime._threads import chunk_rows, chunk_threads, map_chunks
+from jaxstiff.runtime._threads import auto_chunk, chunk_rows, chunk_threads, map_chunks
 from jaxstiff.runtime._xla import kernel_compiler_options
 from jaxstiff.settings._solvers import PGDOptions
 from jaxstiff.solvers._base import SolveRequest
@@ -157,7 +157,7 @@ def solve_batch(
     # from the same path in a batch in the last bits; batches of 2 or more rows give every row
     # bit-identical results, measured on CPU), at least one per thread (runtime.threads)
     threads = chunk_threads(int(opts["threads"]))
-    C = chunk_rows(B, int(opts["chunk"]), threads)
+    C = chunk_rows(B, auto_chunk(int(opts["chunk"])), threads)
     key_items = tuple(
         sorted(
             (k, v)
