@@ -69,9 +69,9 @@ class RowsProgram:
     calls go, padded, to the smallest row count already compiled above it (:meth:`rows_for`).
 
     A lockstep run starts with many paths (128 rows for 17-128 of them) and ends with a few (16):
-    compiled in turn, each of those programs held the run up 2-3 s on a 2-core CPU (7 s of a
-    cold 64 x 50 hybrid, when the sizes were 2, 16, 128 and 1024). A row's result has the same
-    bits at every R >= 16 (:func:`bucket_size`), so which program answers a request does not change the result.
+    compiled in turn, each program would hold the run up 2-3 s on a 2-core CPU. A row's result has
+    the same bits at every R >= 16 (:func:`bucket_size`), so which program answers a request does
+    not change the result. :meth:`prepare` starts a build early, for a caller with an idle core.
     """
 
     def __init__(self, fn: Any, *consts: Any, dtype: Any = np.float64):
