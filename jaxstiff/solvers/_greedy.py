@@ -517,6 +517,7 @@ class _GreedyWalk:
         out: list[WaypointOutcome] = []
         fs: list[float] = []
         alternatives: list[Candidate] = []
+        counts = (0, 0)  # unsolved and off-target waypoints so far (with stop_above)
         try:
             for p in range(targets.shape[0]):
                 t0 = time.perf_counter()
@@ -531,8 +532,10 @@ class _GreedyWalk:
                 out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
                 fs.append(f)
                 if stop_above is not None and self.bound is not None:
-                    rank = _walk_rank(out, fs, float(self.bound))
-                    if rank[:2] > stop_above:
+                    # _walk_rank's first two counts, kept as the walk goes
+                    usable = status in R.USABLE
+                    counts = (counts[0] + (not usable), counts[1] + (usable and not f < float(self.bound)))
+                    if counts > stop_above:
                         raise _Outranked
                 if status in R.USABLE:
                     if at_start:
