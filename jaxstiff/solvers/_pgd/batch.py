@@ -182,16 +182,24 @@ def solve_batch(
     path_data = np.array([content_seed(targets[b], directions[b], x0[b]) for b in range(B)], dtype=np.uint32)
     per_path = (targets, directions, x0, path_data, dq_f, dk, r_arr, extra)
     shared = (float(limits.kmin), float(limits.kmax), float(batch.c), float(pos_tol))
-    if not first_rate and opts["first_exact"] == "retry" and _may_retry(problem, batch):
+    # option first_exact="retry" (the default): the criterion's in-target bound, None where the
+    # retry cannot run (a rate-limited first waypoint, or a criterion without such a bound)
+    retry_bound = None
+    if not first_rate and opts["first_exact"] == "retry":
+        from jaxstiff.solvers._greedy import target_bound
+
+        retry_bound = target_bound(problem, batch.ratios, float(batch.c))
+    if retry_bound is not None:
         from jaxstiff.solvers._first_waypoint import prepare_first_answers
 
         prepare_first_answers(batch, options)  # compiles beside pgd's kernel tracing, if that runs
     X, out, compile_s, run_s = _run_chunks(
         fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
     )
-    if not first_rate and opts["first_exact"] == "retry":
+    if retry_bound is not None:
         X, run_s = _retry_first(
             batch,
+            retry_bound,
             first_starts,
             options,
             pos_tol,
@@ -276,16 +284,9 @@ def _ranking(
     return [(int(a), int(b), float(t)) for a, b, t in zip(np.sum(~solved, 1), np.sum(~hit, 1), tot, strict=True)]
 
 
-def _may_retry(problem: WaypointProblem, batch: WaypointBatch) -> bool:
-    """Whether :func:`_retry_first` can run: the criterion has an in-target bound
-    (:func:`jaxstiff.solvers._greedy.target_bound`)."""
-    from jaxstiff.solvers._greedy import target_bound
-
-    return target_bound(problem, batch.ratios, float(batch.c)) is not None
-
-
 def _retry_first(  # noqa: PLR0913 - solve_batch's state handed to its retry step
     batch: WaypointBatch,
+    bound: np.ndarray,
     first_starts: Sequence[Sequence[tuple[np.ndarray, np.ndarray]]] | None,
     options: Mapping[str, Any] | None,
     pos_tol: float,
@@ -306,14 +307,11 @@ def _retry_first(  # noqa: PLR0913 - solve_batch's state handed to its retry ste
     first waypoint is what the rerun is for, and a lower sum bought with it off target is not
     what a user asks for). Paths already in target are untouched, so the cost is paid only
     where pgd's own stages stalled (measured: most first waypoints of third-party arms such as the
-    UR10, few of the LWR's). ``out`` is updated in place; returns the new ``X`` and run time."""
+    UR10, few of the LWR's). ``bound``: the criterion's in-target bound per path
+    (:func:`jaxstiff.solvers._greedy.target_bound`). ``out`` is updated in place; returns the new
+    ``X`` and run time."""
     X, out, run_s = done
     problem = batch.problem
-    from jaxstiff.solvers._greedy import target_bound
-
-    bound = target_bound(problem, batch.ratios, float(batch.c))
-    if bound is None:
-        return X, run_s
     status, f = np.asarray(out["status"]), np.asarray(out["criterion"])
     redo = np.flatnonzero(~(np.isin(status[:, 0], list(R.USABLE)) & (f[:, 0] < bound)))
     if redo.size == 0:
