@@ -40,7 +40,13 @@ from jaxstiff.solvers._greedy import (
 from jaxstiff.solvers._lockstep import RowsProgram, Steps, run_lockstep
 from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
 
-__all__ = ["SLSQP_OPTION_NAMES", "rows_program", "solver_rows_program", "rows_objective", "prepare_first_answers"]
+__all__ = [
+    "SLSQP_OPTION_NAMES",
+    "rows_program",
+    "lockstep_slsqp",
+    "rows_objective",
+    "prepare_first_answers",
+]
 
 #: the SLSQP options a batch solver's options may carry for this stage
 SLSQP_OPTION_NAMES = ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver")
@@ -56,13 +62,6 @@ def rows_program(problem: WaypointProblem, scale: tuple[float, ...], x64: bool) 
     return RowsProgram(compiled_scaled_rows(problem), jnp.asarray(np.asarray(scale, float)))
 
 
-def solver_rows_program(problem: WaypointProblem, solver: Any) -> RowsProgram:
-    """:func:`rows_program` for an SLSQP ``solver`` of ``problem`` (its scale), under the x64 flag
-    in force: what a lockstep run of that solver's steps evaluates with."""
-    scale = tuple(float(v) for v in np.asarray(solver.scale, float).ravel())
-    return rows_program(problem, scale, bool(jax.config.read("jax_enable_x64")))
-
-
 def rows_objective(program: RowsProgram) -> Callable[[np.ndarray, np.ndarray], float]:
     """``(x, params) -> f`` on a :func:`rows_program` itself, called with a unit scale (x as it is,
     f unscaled; the scale is an argument of the compiled programs): a lockstep caller's criterion
@@ -76,13 +75,17 @@ def rows_objective(program: RowsProgram) -> Callable[[np.ndarray, np.ndarray], f
     return objective
 
 
-def _program(batch: WaypointBatch, options: Mapping[str, Any] | None) -> tuple[RowsProgram, Any]:
-    """The shared rows program of ``batch``'s problem and SLSQP's solver for ``options``."""
+def lockstep_slsqp(batch: WaypointBatch, options: Mapping[str, Any] | None) -> tuple[RowsProgram, Any]:
+    """SLSQP's solver for ``batch`` with the SLSQP options among ``options``
+    (:data:`SLSQP_OPTION_NAMES`), driven only through its ``steps`` (no single-point programs
+    compiled), and the shared rows program those steps are evaluated with: ``(program, solver)``
+    for a lockstep caller (this search, the hybrid's polish)."""
     from jaxstiff.solvers._slsqp import make_slsqp_solver
 
     sl_opts = {k: v for k, v in (options or {}).items() if k in SLSQP_OPTION_NAMES}
     solver = make_slsqp_solver(batch.problem, sl_opts, (batch.limits.kmin, batch.limits.kmax), compile_now=False)
-    return solver_rows_program(batch.problem, solver), solver
+    scale = tuple(float(v) for v in np.asarray(solver.scale, float).ravel())  # the x64 flag in force
+    return rows_program(batch.problem, scale, bool(jax.config.read("jax_enable_x64"))), solver
 
 
 def prepare_first_answers(batch: WaypointBatch, options: Mapping[str, Any] | None = None) -> None:
@@ -92,7 +95,7 @@ def prepare_first_answers(batch: WaypointBatch, options: Mapping[str, Any] | Non
     calls it before tracing its kernel, seconds of Python on one core that leave the other idle
     on a CPU; the program's XLA compilation (about 2 s on a 2-core CPU) runs there instead of
     after pgd's run. Costs a compilation nobody uses when the search does not run."""
-    program, _ = _program(batch, options)
+    program, _ = lockstep_slsqp(batch, options)
     n_params = len(WaypointProblem.params(np.zeros(3), np.ones(3), 1.0, 0.0))
     program.prepare(16, batch.problem.nx, n_params)
 
@@ -113,7 +116,7 @@ def exact_first_answers(
     given by the caller, receives each path's lowest criterion there (inf without a usable answer).
     """
     problem, limits = batch.problem, batch.limits
-    program, solver = _program(batch, options)
+    program, solver = lockstep_slsqp(batch, options)
     maxiter = int(solver.options["first_maxiter"])
     pos_and_jac, objective = jax_pos_and_jac(problem), rows_objective(program)
     B = batch.targets.shape[0]

@@ -58,7 +58,7 @@ from jaxstiff.results import _files as R
 from jaxstiff.settings._solvers import HybridOptions
 from jaxstiff.solvers import _pgd as pgd
 from jaxstiff.solvers._base import SolveRequest
-from jaxstiff.solvers._first_waypoint import rows_objective, solver_rows_program
+from jaxstiff.solvers._first_waypoint import lockstep_slsqp, rows_objective
 from jaxstiff.solvers._greedy import (
     Objective,
     PosAndJac,
@@ -140,15 +140,10 @@ def polish(
     Returns a new dict in the same format; per waypoint the criterion is never above ``base``'s
     where ``base`` was usable.
     """
-    from jaxstiff.solvers._slsqp import make_slsqp_solver
-
     opts = dict(options or {})
     own = {**DEFAULT_OPTIONS, **check_options(opts)}
-    sl_opts = {k: opts[k] for k in ("maxiter", "first_maxiter", "ftol", "kj_scale", "f_scale", "driver") if k in opts}
     problem = batch.problem
-    # driven only by steps on the shared rows program: no single-point programs to compile
-    solver = make_slsqp_solver(problem, sl_opts, (batch.limits.kmin, batch.limits.kmax), compile_now=False)
-    program = solver_rows_program(problem, solver)
+    program, solver = lockstep_slsqp(batch, opts)
     B = batch.targets.shape[0]
     ctx = _Polish(
         batch,
