@@ -22,9 +22,10 @@ criterion       (B,P)       criterion value at (q, kj)
 status          (B,P)       per-waypoint status, codes below
 q0, kj0         (B,n)       start state (rad; Nm/rad, +inf rigid) the rate limits of waypoint 0 refer to
 solver_code     (B,P)       the solver's own code, per solver (meta ``solver_code_meaning``): slsqp /
-                            slsqp-fd the SLSQP exit mode (0 = converged, -1 = exception); pgd and
-                            trajectory the index of the start that won (-1 = none); hybrid the
-                            SLSQP mode where the polish's answer was taken, else pgd's start index
+                            slsqp-fd the SLSQP exit mode (0 = converged, 10 = stalled, -1 =
+                            exception); pgd and trajectory the index of the start that won (-1 =
+                            none); hybrid the SLSQP mode where the polish's answer was taken, else
+                            pgd's start index
 nit, nfev       (B,P)       solver iterations and objective evaluations
 time_s          (B,P)       wall time per waypoint, s
 meta            ()          JSON string: every input, default, solver setting, versions, robot

@@ -48,7 +48,10 @@ GIVE_UP_REL = 1e-3
 TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count as equally good
 
 #: meaning of the result file's ``solver_code`` for the SLSQP solvers (meta ``solver_code_meaning``)
-CODE_MEANING = "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise), -1 = exception"
+CODE_MEANING = (
+    "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise, 10 = stalled: infeasible and no "
+    "longer moving), -1 = exception"
+)
 
 #: ``q (n,) -> (position (3,), J[rows][:, free] (k, n_free))``
 PosAndJac = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]

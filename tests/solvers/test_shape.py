@@ -492,6 +492,47 @@ def test_lean_driver_equals_scipy_minimize(lwr, f2_file):
             assert (a.nit, a.code, a.nfev) == (b.nit, b.code, b.nfev)
 
 
+def test_lean_driver_stops_a_stalled_infeasible_solve_where_scipy_would_end():
+    """An equality constraint no point of the box satisfies (sin(3 x0) + x1^2 = 3, at most 2 in
+    [-1, 1]^2) with a kink in the objective: scipy's SLSQP then takes line-search steps of nothing
+    until its iteration limit (about 190 iterations here). The lean driver stops once its iterates
+    stop moving (STALLED, within STALL_ITERS + a few iterations) at the point scipy.optimize.minimize
+    returns; on a problem it solves, it still runs to scipy's own exit."""
+    from scipy.optimize import Bounds, minimize
+
+    from jaxstiff.solvers._slsqp import STALL_ITERS, STALLED, _slsqp_lean
+
+    def stuck(x):
+        return (
+            abs(x[0] - 0.5) + x[1] ** 2,
+            np.array([np.sign(x[0] - 0.5), 2 * x[1]]),
+            np.array([np.sin(3 * x[0]) + x[1] ** 2 - 3.0]),
+            np.array([[3 * np.cos(3 * x[0]), 2 * x[1]]]),
+        )
+
+    def solvable(x):
+        return (x @ x, 2 * x, np.array([x[0] + 2 * x[1] - 1.0]), np.array([[1.0, 2.0]]))
+
+    lb, ub = -np.ones(2), np.ones(2)
+    for fgca, stalls in ((stuck, True), (solvable, False)):
+        x0 = np.array([0.1, 0.2])
+        x, mode, nit = _slsqp_lean(fgca, x0, lb, ub, 1, 500, 1e-10)
+        ref = minimize(
+            lambda y, f=fgca: f(y)[:2],
+            x0,
+            jac=True,
+            bounds=Bounds(lb, ub),  # pyright: ignore[reportArgumentType] (stub: float; arrays are documented)
+            constraints=[{"type": "eq", "fun": lambda y, f=fgca: f(y)[2], "jac": lambda y, f=fgca: f(y)[3]}],
+            method="SLSQP",
+            options={"maxiter": 500, "ftol": 1e-10},
+        )
+        np.testing.assert_allclose(x, ref.x, atol=1e-9)
+        if stalls:
+            assert mode == STALLED and ref.status != 0 and nit <= STALL_ITERS + 10 < ref.nit
+        else:
+            assert (mode, nit) == (ref.status, ref.nit) == (0, ref.nit)
+
+
 def test_newton_projection_stops_cleanly_when_no_joint_moves_the_tcp():
     """J = 0 (no free joint moves the TCP) used to solve with a 1e-312 damping: inf * 0 = NaN
     (a numpy warning) and a NaN step. The projection must stop and return a finite point in its box."""
