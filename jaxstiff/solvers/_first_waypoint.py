@@ -58,7 +58,7 @@ def rows_program(problem: WaypointProblem, scale: tuple[float, ...], x64: bool) 
     scale, :func:`jaxstiff.solvers._slsqp.variable_scale`, with the criterion's), one object per
     problem, scale and x64 flag (the one in force when it is called): its programs, once compiled
     for a row count, serve every later search of the process (a row's result has the same bits at
-    every bucket size, :func:`~jaxstiff.solvers._lockstep.bucket_size`)."""
+    every bucket size almost everywhere, :class:`~jaxstiff.solvers._lockstep.RowsProgram`)."""
     return RowsProgram(compiled_scaled_rows(problem), jnp.asarray(np.asarray(scale, float)))
 
 

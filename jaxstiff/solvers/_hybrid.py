@@ -41,7 +41,9 @@ possible value (f2: 1, f1: c), SLSQP is not run there (it could only tie); 0 run
 
 Speed: the B paths' polishes advance together (:mod:`jaxstiff.solvers._lockstep`): each path's
 sequential logic is a generator of SLSQP kernel requests, and each round evaluates all pending
-requests in one batched call. The per-waypoint ``time_s`` is pgd's plus an equal share of the
+requests in one batched call. Within a waypoint, the SLSQP solves from its several starts are
+independent and advance side by side too (:func:`~jaxstiff.solvers._lockstep.gather`), so a path
+takes as many rounds as its longest solve there, not their sum. The per-waypoint ``time_s`` is pgd's plus an equal share of the
 polish's wall time.
 """
 
@@ -66,7 +68,7 @@ from jaxstiff.solvers._greedy import (
     give_up,
     judge,
 )
-from jaxstiff.solvers._lockstep import Steps, run_lockstep
+from jaxstiff.solvers._lockstep import Steps, gather, run_lockstep
 from jaxstiff.solvers._problem import (
     WaypointBatch,
     WaypointProblem,
@@ -301,8 +303,8 @@ def _best_slsqp(  # noqa: PLR0913 - one waypoint's state beside the shared conte
         t, d = ctx.batch.targets[b, p], ctx.batch.directions[b, p]
         if give_up(problem, boxed, lb, ub, t, d, ctx.pos_and_jac) is not None:
             return None
-    take = None
-    for xs in starts:
+
+    def one(xs: np.ndarray) -> Steps[tuple[_Answer, float] | None]:
         x_start = clip_to_box(xs, lb, ub)
         try:
             sol = yield from ctx.solver.steps(
@@ -313,10 +315,16 @@ def _best_slsqp(  # noqa: PLR0913 - one waypoint's state beside the shared conte
         x, status, err = judge(
             problem, sol, x_start, lb, ub, ctx.batch.targets[b, p], params, ctx.pos_and_jac, ctx.objective, ctx.pos_tol
         )
-        if status in R.USABLE:
-            f_new = yield from _criterion(ctx, x, params)
-            if f_new < f_best:
-                take, f_best = (x, status, err, sol), f_new
+        if status not in R.USABLE:
+            return None
+        f_new = yield from _criterion(ctx, x, params)
+        return (x, status, err, sol), f_new
+
+    # the starts' solves are independent: run side by side (one round per step of the longest)
+    take = None
+    for res in (yield from gather([one(xs) for xs in starts])):
+        if res is not None and res[1] < f_best:
+            take, f_best = res
     return take
 
 
@@ -333,10 +341,13 @@ def _path_key(ctx: _Polish, d: Mapping[str, np.ndarray], b: int) -> Steps[tuple[
     values as kernel requests, :func:`_criterion`: one kernel call per waypoint was 4 s of a 64 x 50
     polish)."""
     u = R.is_usable(d["status"][b])
-    tot = 0.0
-    for p in np.flatnonzero(u):
-        tot += yield from _criterion(ctx, ctx.problem.x_of(d["q"][b, p], d["kj"][b, p]), ctx.params(b, int(p)))
-    return int((~u).sum()), tot
+    values = yield from gather(
+        [
+            _criterion(ctx, ctx.problem.x_of(d["q"][b, p], d["kj"][b, p]), ctx.params(b, int(p)))
+            for p in np.flatnonzero(u)
+        ]
+    )
+    return int((~u).sum()), float(sum(values, 0.0))
 
 
 def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> Steps[None]:
@@ -349,8 +360,7 @@ def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> Ste
     """
     base = ctx.base
     yield from _polish_path(ctx, b, "greedy", out)
-    k_g = yield from _path_key(ctx, out, b)
-    k_b = yield from _path_key(ctx, base, b)
+    k_g, k_b = yield from gather([_path_key(ctx, out, b), _path_key(ctx, base, b)])
     if k_g[0] > k_b[0] or (k_g[0] == k_b[0] and k_g[1] > k_b[1] * (1 + 1e-9) + 1e-12):
         greedy = {k: out[k][b].copy() for k in out}
         for k in out:

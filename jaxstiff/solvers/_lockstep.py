@@ -8,7 +8,11 @@ the B solves advance together instead: each round collects every pending request
 them in one vmapped call. Each generator still runs its own, unchanged, sequential logic.
 
 Protocol: a generator yields a request ``(y (nx,), params (np,))`` and is sent back the kernel's
-output row for it; its return value is the solve's result.
+output row for it; its return value is the solve's result. A generator may also yield
+:class:`Many` requests at once (the independent solves of one waypoint, :func:`gather`): they
+are answered in the same round, and it is sent back the list of their rows. A path's chain of
+rounds is then as long as its longest solve, not the sum of them: when few paths are left, a
+round costs the same for 1 row as for 16, so the rounds, not the rows, set the time.
 """
 
 from __future__ import annotations
@@ -19,24 +23,87 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-__all__ = ["Request", "bucket_size"]
+__all__ = ["Many", "Request", "bucket_size", "gather"]
 
 #: one evaluation request: the point and the waypoint's parameters
 Request = tuple[np.ndarray, np.ndarray]
 T = TypeVar("T")
 Q = TypeVar("Q")
 A = TypeVar("A")
-#: a solve written as a generator of requests (sent the kernel's output) returning ``T``
-Steps = Generator[Request, np.ndarray, T]
+
+
+class Many(list):
+    """Several requests (each a :data:`Request` or, nested, a :class:`Many`) that one generator
+    yields at once; it is sent back the list of their answers, in order (:func:`gather`)."""
+
+
+#: a solve written as a generator of requests (sent the kernel's output row, or for :class:`Many`
+#: requests the list of their answers) returning ``T``
+Steps = Generator[Request | Many, Any, T]
+
+
+def _flatten(item: Request | Many, into: list[Request]) -> None:
+    """Append the requests of ``item`` (a request, or a nest of :class:`Many`) to ``into``."""
+    if isinstance(item, Many):
+        for sub in item:
+            _flatten(sub, into)
+    else:
+        into.append(item)
+
+
+def _answers(item: Request | Many, rows: Any, at: int) -> tuple[Any, int]:
+    """The answer to ``item`` from the output ``rows`` starting at row ``at`` (:func:`_flatten`'s
+    order): a row, or for a :class:`Many` the list of its answers; and the next row's index."""
+    if not isinstance(item, Many):
+        return rows[at], at + 1
+    out = []
+    for sub in item:
+        ans, at = _answers(sub, rows, at)
+        out.append(ans)
+    return out, at
+
+
+def gather(gens: Sequence[Generator[Any, Any, T]]) -> Generator[Many, list[Any], list[T]]:
+    """Run independent generators of requests side by side inside one lockstep generator
+    (``results = yield from gather([...])``): each round yields all their pending requests as one
+    :class:`Many`; returns their results, in order. Each generator sees the answers it would see
+    alone, up to the rare last-bit differences of a row's place in a call (:class:`RowsProgram`)."""
+    results: list[Any] = [None] * len(gens)
+    pending: dict[int, Any] = {}
+
+    def advance(i: int, value: Any) -> None:
+        try:
+            pending[i] = next(gens[i]) if value is None else gens[i].send(value)
+        except StopIteration as stop:
+            pending.pop(i, None)
+            results[i] = stop.value
+
+    try:
+        for i in range(len(gens)):
+            advance(i, None)
+        while pending:
+            idx = list(pending)
+            outs = yield Many(pending[i] for i in idx)
+            for i, out in zip(idx, outs, strict=True):
+                advance(i, out)
+    finally:
+        for g in gens:
+            g.close()
+    return results
 
 
 def run_steps(gen: Generator[Q, A, T], evaluate: Callable[[Q], A]) -> T:
     """Drive one generator to its end, sending back ``evaluate(request)`` for each request it
-    yields; its result (any request/answer types: also SLSQP's own reverse-communication loop)."""
+    yields (for :class:`Many` requests, the list of their answers, one by one); its result (any
+    request/answer types: also SLSQP's own reverse-communication loop)."""
+
+    def answer(req: Any) -> Any:
+        return [answer(r) for r in req] if isinstance(req, Many) else evaluate(req)
+
     try:
         req = next(gen)
         while True:
-            req = gen.send(evaluate(req))
+            req = gen.send(answer(req))
     except StopIteration as stop:
         return stop.value
 
@@ -70,8 +137,14 @@ class RowsProgram:
 
     A lockstep run starts with many paths (128 rows for 17-128 of them) and ends with a few (16):
     compiled in turn, each program would hold the run up 2-3 s on a 2-core CPU. A row's result has
-    the same bits at every R >= 16 (:func:`bucket_size`), so which program answers a request does
-    not change the result. :meth:`prepare` starts a build early, for a caller with an idle core.
+    the same bits at every R >= 16 (:func:`bucket_size`) almost everywhere, so which program answers
+    a request does not change the result. Not everywhere: on 256 random postures, stiffnesses and
+    targets of the LWR and the UR10, 1 to 4 rows had other last bits in some gradient entries (f
+    agreed) between a 16- and a 128-row call, or at another place in the same call, all of them
+    at strongly elongated ellipsoids (f from 20 to 1e4). A lockstep result is the same for the
+    same rounds; rounds grouped otherwise (a change of schedule, or a smaller program ready
+    earlier or later) can change the last bits of a solve that meets such a point, and from there
+    its path. :meth:`prepare` starts a build early, for a caller with an idle core.
     """
 
     def __init__(self, fn: Any, *consts: Any, dtype: Any = np.float64):
@@ -192,16 +265,17 @@ class RowsProgram:
 
 
 def run_lockstep(
-    gens: Sequence[Generator[Request, np.ndarray, Any]],
+    gens: Sequence[Steps[Any]],
     evaluate: Callable[[np.ndarray, np.ndarray], Any],
 ) -> list[Any]:
     """Advance every generator until all have ended; each round evaluates all pending requests in
     one call ``evaluate(Y (R, nx), params (R, np)) -> (R, out)`` (R a :func:`bucket_size`, or, for
     a :class:`RowsProgram`, the row count its :meth:`~RowsProgram.rows_for` gives; the rows
-    beyond the requests repeat the last one). Returns the generators' results, in order. An
-    exception raised by a generator propagates (the others are closed)."""
+    beyond the requests repeat the last one; a generator's :class:`Many` requests are rows of the
+    same call). Returns the generators' results, in order. An exception raised by a generator
+    propagates (the others are closed)."""
     results: list[Any] = [None] * len(gens)
-    pending: dict[int, Request] = {}
+    pending: dict[int, Request | Many] = {}
 
     def advance(i: int, value: np.ndarray | None) -> None:
         try:
@@ -215,16 +289,24 @@ def run_lockstep(
             advance(i, None)
         while pending:
             idx = list(pending)
-            R = bucket_size(len(idx))
+            reqs: list[Request] = []
+            for i in idx:
+                _flatten(pending[i], reqs)
+            if not reqs:  # only empty Many: answered without a call
+                for i in idx:
+                    advance(i, _answers(pending[i], [], 0)[0])
+                continue
+            R = bucket_size(len(reqs))
             if isinstance(evaluate, RowsProgram):
-                req = pending[idx[0]]
-                R = evaluate.rows_for(R, len(req[0]), len(req[1]))
-            rows = idx + [idx[-1]] * (R - len(idx))
-            Y = np.stack([pending[i][0] for i in rows])
-            Pm = np.stack([pending[i][1] for i in rows])
+                R = evaluate.rows_for(R, len(reqs[0][0]), len(reqs[0][1]))
+            rows = reqs + [reqs[-1]] * (R - len(reqs))
+            Y = np.stack([r[0] for r in rows])
+            Pm = np.stack([r[1] for r in rows])
             out = np.asarray(evaluate(Y, Pm))
-            for j, i in enumerate(idx):
-                advance(i, out[j])
+            at = 0
+            for i in idx:
+                ans, at = _answers(pending[i], out, at)
+                advance(i, ans)
     finally:
         for g in gens:
             g.close()

@@ -50,6 +50,32 @@ def test_lockstep_gives_each_solve_its_own_result():
     assert set(sizes) == {16} and len(sizes) == max(iters)  # 1-5 requests: the smallest bucket
 
 
+def test_gathered_solves_share_rounds_and_keep_their_results():
+    """``gather`` runs independent solves side by side inside one lockstep generator: each gets
+    its closed-form answer, the generator gets them in its own order, and its rounds are as many
+    as its longest solve's (5 and 8 Newton steps: 8 rounds, not 13); nested and empty gathers;
+    ``run_steps`` answers gathered requests one by one with the same results."""
+    calls: list[int] = []
+
+    def counting(Y: np.ndarray, Pm: np.ndarray) -> np.ndarray:
+        calls.append(len(Y))
+        return _evaluate(Y, Pm)
+
+    def two_then_one(a: float, b: float, c: float):
+        first = yield from lockstep.gather([newton_sqrt(a, 5), newton_sqrt(b, 8)])
+        nested = yield from lockstep.gather([lockstep.gather([newton_sqrt(c, 3)]), lockstep.gather([])])
+        return first, nested
+
+    (first, nested), alone = lockstep.run_lockstep([two_then_one(2.0, 9.0, 16.0), newton_sqrt(5.0, 4)], counting)
+    assert len(calls) == 8 + 3
+    np.testing.assert_allclose(first, [np.sqrt(2.0), 3.0], rtol=1e-6)
+    assert nested[1] == [] and nested[0] == lockstep.run_lockstep([newton_sqrt(16.0, 3)], _evaluate)
+    assert np.isclose(alone, np.sqrt(5.0), rtol=1e-6)
+    # driven alone, one request at a time: the same numbers
+    one_by_one = lockstep.run_steps(two_then_one(2.0, 9.0, 16.0), lambda req: _evaluate(req[0][None], req[1][None])[0])
+    assert one_by_one == (first, nested)
+
+
 def test_bucket_sizes():
     assert [lockstep.bucket_size(r) for r in (1, 2, 3, 16, 17, 128, 129, 1000)] == [
         16,

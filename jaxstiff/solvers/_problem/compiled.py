@@ -30,7 +30,9 @@ def compiled_scaled(problem: WaypointProblem) -> DiskJit:
 def compiled_scaled_rows(problem: WaypointProblem) -> Callable[..., jax.Array]:
     """``fused_scaled`` over rows: ``(Y (R, nx), params (R, np), scale) -> (R, out)``, jitted with
     jaxstiff's kernel compiler options (:mod:`jaxstiff.solvers._lockstep`'s batched evaluations;
-    with these options a row's result has the same bits at every R >= 16, measured on CPU; not at 2: :func:`jaxstiff.solvers._lockstep.bucket_size`)."""
+    with these options a row's result has the same bits at every R >= 16 almost everywhere,
+    measured on CPU; not at 2: :func:`jaxstiff.solvers._lockstep.bucket_size`, and the exceptions
+    in :class:`jaxstiff.solvers._lockstep.RowsProgram`)."""
     return jax.jit(jax.vmap(problem.fused_scaled, in_axes=(0, 0, None)), compiler_options=kernel_compiler_options())
 
 
