@@ -12,6 +12,7 @@ from pgd_cases import OPTS, STARTS
 
 import jaxstiff
 from jaxstiff.results import _files as R
+from jaxstiff.shaping import run_shape
 
 
 @pytest.fixture(scope="session")
@@ -37,10 +38,11 @@ def run_planar(planar):
     the shared options (OPTS), STARTS starts (none for SLSQP) and dq = 0.1 unless ``kw`` says."""
 
     def run(path, q0, solver="pgd", **kw):
-        kw.setdefault("options", OPTS)
+        options = kw.pop("options", OPTS)
         kw.setdefault("dq", 0.1)  # rad per waypoint: room for the null-space motion of the short test paths
         kw.setdefault("starts", STARTS if solver != "slsqp" else None)
-        return jaxstiff.shape(planar, path, "f2", 3.0, task="xy", solver=solver, q0=q0, **kw)
+        # the solver by name with its options as a dict: run_shape, shape()'s full form
+        return run_shape(planar, path, "f2", 3.0, task="xy", solver=solver, q0=q0, options=options, **kw)
 
     return run
 
