@@ -8,9 +8,21 @@ import ast
 import os
 
 import pytest
-from conftest import _LONGEST
 
 TESTS = os.path.dirname(os.path.abspath(__file__))
+
+
+def _longest() -> tuple[str, ...]:
+    """``_LONGEST`` as written in tests/conftest.py (read from the file: ``import conftest`` can
+    find another directory's conftest module first)."""
+    tree = ast.parse(open(os.path.join(TESTS, "conftest.py"), encoding="utf-8").read())
+    for node in tree.body:
+        if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "_LONGEST" for t in node.targets):
+            return tuple(ast.literal_eval(node.value))
+    raise AssertionError("tests/conftest.py has no _LONGEST")
+
+
+_LONGEST = _longest()
 
 
 @pytest.mark.parametrize("entry", _LONGEST)
