@@ -43,8 +43,8 @@ Speed: the B paths' polishes advance together (:mod:`jaxstiff.solvers._lockstep`
 sequential logic is a generator of SLSQP kernel requests, and each round evaluates all pending
 requests in one batched call. Within a waypoint, the SLSQP solves from its several starts are
 independent and advance side by side too (:func:`~jaxstiff.solvers._lockstep.gather`), so a path
-takes as many rounds as its longest solve there, not their sum. The per-waypoint ``time_s`` is pgd's plus an equal share of the
-polish's wall time.
+takes as many rounds as its longest solve there, not their sum. The per-waypoint ``time_s`` is
+pgd's plus an equal share of the polish's wall time.
 """
 
 from __future__ import annotations
