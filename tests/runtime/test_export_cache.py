@@ -16,6 +16,7 @@ import pytest
 
 import jaxstiff
 from jaxstiff.runtime import _export_cache as ec
+from jaxstiff.shaping import run_shape
 from jaxstiff.solvers._pgd import batch as pgd_batch
 from jaxstiff.solvers._problem import WaypointProblem
 
@@ -144,7 +145,7 @@ def test_pgd_from_the_file_equals_pgd_traced(cache, monkeypatch):
 
     def run():
         pgd_batch.compiled_kernel.cache_clear()  # no in-memory program: trace, or read the file
-        res = jaxstiff.shape(robot, pts, "f2", 3.0, task="xy", solver="pgd", starts=3, q0=q, dq=0.1, options=opts)
+        res = run_shape(robot, pts, "f2", 3.0, task="xy", solver="pgd", starts=3, q0=q, dq=0.1, options=opts)
         return np.concatenate([res.q.ravel(), res.kj.ravel(), res.criterion.ravel()])
 
     first = run()

@@ -17,6 +17,7 @@ from helpers import joint_motion_traces
 
 import jaxstiff
 from jaxstiff.results import _files as R
+from jaxstiff.shaping import run_shape
 
 PLANAR = jaxstiff.Robot.from_urdf("planar_3r")
 PGD_OPTS = {"starts": 2, "iters": 5, "iters_first": 10, "starts_first": 2, "chunk": 8}
@@ -31,7 +32,9 @@ def shape(pts, d, q0, solver="slsqp", ratio=3.0, **kw):
     if solver in ("pgd", "hybrid"):
         kw.setdefault("options", PGD_OPTS)
     kw.setdefault("first_starts", 3)
-    return jaxstiff.shape(PLANAR, jaxstiff.Path(pts, d), "f2", ratio, task="xy", solver=solver, q0=q0, **kw)
+    # solver options as a dict: run_shape, shape()'s full form (shape(options=...) is deprecated)
+    call = run_shape if "options" in kw else jaxstiff.shape
+    return call(PLANAR, jaxstiff.Path(pts, d), "f2", ratio, task="xy", solver=solver, q0=q0, **kw)
 
 
 def rate_excess(res, b, dq, dk):

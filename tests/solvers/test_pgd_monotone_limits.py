@@ -17,6 +17,7 @@ import pytest
 
 import jaxstiff
 from jaxstiff.paths import default_path, line
+from jaxstiff.shaping import run_shape
 
 # small, fixed settings: one compilation serves every limit (dq and dk are traced arguments)
 OPTS = {"iters": 30, "iters_first": 60, "starts_first": 8, "chunk": 1}
@@ -24,7 +25,7 @@ REL_TOL = 1e-6  # of the total criterion: the f2 minimum is reached to ~1e-12 pe
 
 
 def _total(robot: jaxstiff.Robot, path: jaxstiff.Path, task: str, dq: float, dk: float) -> float:
-    res = jaxstiff.shape(
+    res = run_shape(
         robot, path, "f2", 3.0 if task == "xy" else 5.0, task=task, solver="pgd", starts=4, options=OPTS, dq=dq, dk=dk
     )
     assert np.all(res.status == 0), res.status
