@@ -274,27 +274,14 @@ def run_lockstep(
     beyond the requests repeat the last one; a generator's :class:`Many` requests are rows of the
     same call). Returns the generators' results, in order. An exception raised by a generator
     propagates (the others are closed)."""
-    results: list[Any] = [None] * len(gens)
-    pending: dict[int, Request | Many] = {}
-
-    def advance(i: int, value: np.ndarray | None) -> None:
-        try:
-            pending[i] = next(gens[i]) if value is None else gens[i].send(value)
-        except StopIteration as stop:
-            pending.pop(i, None)
-            results[i] = stop.value
-
+    group = gather(gens)  # one generator: each round, every pending request as one Many
     try:
-        for i in range(len(gens)):
-            advance(i, None)
-        while pending:
-            idx = list(pending)
+        many = next(group)
+        while True:
             reqs: list[Request] = []
-            for i in idx:
-                _flatten(pending[i], reqs)
+            _flatten(many, reqs)
             if not reqs:  # only empty Many: answered without a call
-                for i in idx:
-                    advance(i, _answers(pending[i], [], 0)[0])
+                many = group.send(_answers(many, [], 0)[0])
                 continue
             R = bucket_size(len(reqs))
             if isinstance(evaluate, RowsProgram):
@@ -302,12 +289,8 @@ def run_lockstep(
             rows = reqs + [reqs[-1]] * (R - len(reqs))
             Y = np.stack([r[0] for r in rows])
             Pm = np.stack([r[1] for r in rows])
-            out = np.asarray(evaluate(Y, Pm))
-            at = 0
-            for i in idx:
-                ans, at = _answers(pending[i], out, at)
-                advance(i, ans)
+            many = group.send(_answers(many, np.asarray(evaluate(Y, Pm)), 0)[0])
+    except StopIteration as stop:
+        return stop.value
     finally:
-        for g in gens:
-            g.close()
-    return results
+        group.close()
