@@ -44,11 +44,14 @@ Steps = Generator[Request | Many, Any, T]
 
 def _flatten(item: Request | Many, into: list[Request]) -> None:
     """Append the requests of ``item`` (a request, or a nest of :class:`Many`) to ``into``."""
-    if isinstance(item, Many):
-        for sub in item:
-            _flatten(sub, into)
-    else:
+    if not isinstance(item, Many):
         into.append(item)
+        return
+    for sub in item:  # plain requests without a call each: a round holds hundreds of them
+        if isinstance(sub, Many):
+            _flatten(sub, into)
+        else:
+            into.append(sub)
 
 
 def _answers(item: Request | Many, rows: Any, at: int) -> tuple[Any, int]:
@@ -58,8 +61,12 @@ def _answers(item: Request | Many, rows: Any, at: int) -> tuple[Any, int]:
         return rows[at], at + 1
     out = []
     for sub in item:
-        ans, at = _answers(sub, rows, at)
-        out.append(ans)
+        if isinstance(sub, Many):
+            ans, at = _answers(sub, rows, at)
+            out.append(ans)
+        else:
+            out.append(rows[at])
+            at += 1
     return out, at
 
 
@@ -83,9 +90,13 @@ def gather(gens: Sequence[Generator[Any, Any, T]]) -> Generator[Many, list[Any],
             advance(i, None)
         while pending:
             idx = list(pending)
-            outs = yield Many(pending[i] for i in idx)
+            outs = yield Many(pending.values())  # a dict keeps its keys' order: idx's
             for i, out in zip(idx, outs, strict=True):
-                advance(i, out)
+                try:  # advance(i, out), written out: once per request and round
+                    pending[i] = gens[i].send(out)
+                except StopIteration as stop:
+                    del pending[i]
+                    results[i] = stop.value
     finally:
         for g in gens:
             g.close()
@@ -264,6 +275,23 @@ class RowsProgram:
         return np.asarray(self.evaluate(X, params, *consts))[:k]
 
 
+def _fill(reqs: Sequence[Request], R: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(Y (R, nx), params (R, np))`` of a round: its requests' rows, then the last one repeated
+    up to R rows; the values ``np.stack`` would give, written into one buffer each (9x faster for
+    a round of 44 requests in 128 rows). The dtypes are the first request's: a round's rows are
+    one program's arguments, so they share one."""
+    y0, p0 = reqs[0]
+    Y = np.empty((R, len(y0)), np.asarray(y0).dtype)
+    Pm = np.empty((R, len(p0)), np.asarray(p0).dtype)
+    for i, (y, p) in enumerate(reqs):
+        Y[i] = y
+        Pm[i] = p
+    n = len(reqs)
+    Y[n:] = Y[n - 1]
+    Pm[n:] = Pm[n - 1]
+    return Y, Pm
+
+
 def run_lockstep(
     gens: Sequence[Steps[Any]],
     evaluate: Callable[[np.ndarray, np.ndarray], Any],
@@ -286,9 +314,7 @@ def run_lockstep(
             R = bucket_size(len(reqs))
             if isinstance(evaluate, RowsProgram):
                 R = evaluate.rows_for(R, len(reqs[0][0]), len(reqs[0][1]))
-            rows = reqs + [reqs[-1]] * (R - len(reqs))
-            Y = np.stack([r[0] for r in rows])
-            Pm = np.stack([r[1] for r in rows])
+            Y, Pm = _fill(reqs, R)
             many = group.send(_answers(many, np.asarray(evaluate(Y, Pm)), 0)[0])
     except StopIteration as stop:
         return stop.value

@@ -89,6 +89,19 @@ def test_bucket_sizes():
     ]
 
 
+@pytest.mark.parametrize("n, R", [(1, 16), (5, 16), (16, 16), (44, 128), (130, 256)])
+def test_a_round_fills_its_rows_as_stacking_its_requests_would(n, R):
+    """A round's arguments written into one buffer: the same arrays as stacking the requests and
+    repeating the last one (the construction run_lockstep used before), dtype included."""
+    rng = np.random.default_rng(n)
+    reqs = [(rng.normal(size=7), rng.normal(size=8)) for _ in range(n)]
+    Y, Pm = lockstep._fill(reqs, R)
+    rows = reqs + [reqs[-1]] * (R - n)
+    Y_ref, P_ref = np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
+    assert Y.dtype == Y_ref.dtype and Pm.dtype == P_ref.dtype
+    assert np.array_equal(Y, Y_ref) and np.array_equal(Pm, P_ref)
+
+
 @pytest.mark.parametrize("name", ["kuka_lwr4", "planar_3r"])
 def test_a_row_has_the_same_bits_at_every_bucket_size(name):
     """The lockstep answers a round with whichever compiled row count is ready (RowsProgram), so a
