@@ -77,26 +77,20 @@ def gather(gens: Sequence[Generator[Any, Any, T]]) -> Generator[Many, list[Any],
     alone, up to the rare last-bit differences of a row's place in a call (:class:`RowsProgram`)."""
     results: list[Any] = [None] * len(gens)
     pending: dict[int, Any] = {}
-
-    def advance(i: int, value: Any) -> None:
-        try:
-            pending[i] = next(gens[i]) if value is None else gens[i].send(value)
-        except StopIteration as stop:
-            pending.pop(i, None)
-            results[i] = stop.value
-
+    sends: Any = [(i, None) for i in range(len(gens))]  # sending None starts a generator
     try:
-        for i in range(len(gens)):
-            advance(i, None)
-        while pending:
-            idx = list(pending)
-            outs = yield Many(pending.values())  # a dict keeps its keys' order: idx's
-            for i, out in zip(idx, outs, strict=True):
-                try:  # advance(i, out), written out: once per request and round
+        while True:
+            for i, out in sends:  # once per request and round: no helper call
+                try:
                     pending[i] = gens[i].send(out)
                 except StopIteration as stop:
-                    del pending[i]
+                    pending.pop(i, None)
                     results[i] = stop.value
+            if not pending:
+                break
+            idx = list(pending)
+            outs = yield Many(pending.values())  # a dict keeps its keys' order: idx's
+            sends = zip(idx, outs, strict=True)
     finally:
         for g in gens:
             g.close()
