@@ -54,11 +54,13 @@ def main(argv=None) -> int:  # noqa: PLR0915 - the benchmark's procedure, read t
     )
     args = ap.parse_args(argv)
 
+    if args.async_dispatch:  # shape() would otherwise switch to inline dispatch at its first call
+        os.environ["JAXSTIFF_CPU_ASYNC_DISPATCH"] = "1"
     from jaxstiff.runtime._x64 import enable_x64
     from jaxstiff.shaping import prefer_sync_cpu_dispatch
 
     enable_x64()
-    sync = prefer_sync_cpu_dispatch() if not args.async_dispatch else False
+    sync = prefer_sync_cpu_dispatch()
     import jax
     import numpy as np
     import scipy

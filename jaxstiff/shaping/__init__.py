@@ -17,8 +17,8 @@ and make the start states (``_inputs``) -> solve (a solver in :data:`SOLVERS`; a
 :class:`~jaxstiff.ShapeResult`. What it exports: :func:`shape` (also ``jaxstiff.shape``),
 :func:`run_shape` (the solver by name, its options as a dict: the command line and the sweeps),
 the solver registry, :data:`DEFAULTS` (``meta["defaults"]``), :func:`first_start_postures` (the
-extra first-waypoint starts), :class:`ShapeInterrupted` and :func:`prefer_sync_cpu_dispatch` (for
-entry points).
+extra first-waypoint starts), :class:`ShapeInterrupted` and :func:`prefer_sync_cpu_dispatch` (the CPU
+dispatch switch that :func:`run_shape` makes first).
 
 Example:
     >>> import jaxstiff

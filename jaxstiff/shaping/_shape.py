@@ -6,6 +6,7 @@ report (``_steps``), and the CPU dispatch switch of the entry points. Private to
 from __future__ import annotations
 
 import math
+import os
 import time
 import warnings
 from collections.abc import Callable, Mapping
@@ -58,20 +59,33 @@ DEFAULTS: dict[str, Any] = {
 }
 
 
-def prefer_sync_cpu_dispatch() -> bool:
-    """Run JAX CPU computations inline (no async dispatch), if JAX has not started its backend yet.
+#: set to 1, this environment variable keeps JAX's asynchronous CPU dispatch in a process where
+#: :func:`prefer_sync_cpu_dispatch` would turn it off (JAX itself reads no variable for it)
+ASYNC_DISPATCH_ENV = "JAXSTIFF_CPU_ASYNC_DISPATCH"
 
-    SLSQP calls one tiny kernel per point it asks about (about 80 per waypoint); with JAX's default
-    asynchronous CPU dispatch each call pays a thread hand-off that costs more than the kernel
-    itself (docs/notes/shape.md). The setting (``jax_cpu_enable_async_dispatch``) is process-wide
-    and read once when the CPU backend starts, so only entry points call this (the ``jaxstiff
-    shape`` command, the shaping benchmark and experiments); the library never changes it on its
-    own. From your own script: ``jax.config.update("jax_cpu_enable_async_dispatch", False)``
-    before the first computation.
+
+def prefer_sync_cpu_dispatch() -> bool:
+    """Run JAX CPU computations inline (no async dispatch), if JAX has not started its backend yet
+    and the environment does not keep async dispatch (``JAXSTIFF_CPU_ASYNC_DISPATCH=1``).
+
+    SLSQP calls one small kernel per point it asks about (80-400 per waypoint), and pgd's
+    first-waypoint search and the hybrid's polish one batched kernel per lockstep round; with JAX's
+    default asynchronous CPU dispatch each call pays a hand-off to a worker thread that costs more
+    than the kernel when the caller does other work between calls (measured on a 2-core CPU, the
+    LWR's SLSQP kernel: 34-40 us inline against 82-127 us async). The setting
+    (``jax_cpu_enable_async_dispatch``) is process-wide and read once, when the CPU backend
+    starts: :func:`run_shape` (so :func:`shape`, the command line and the sweeps) calls this
+    first, and it takes effect where that call is the process's first JAX work; results are the
+    same to the bit either way, only the time differs. A process that must keep async dispatch
+    sets ``JAXSTIFF_CPU_ASYNC_DISPATCH=1``, or runs a JAX computation of its own before its first
+    ``shape`` call (then nothing changes). Like the compilation cache (``ensure_compile_cache``),
+    the setting is made by the call, never by ``import jaxstiff``.
 
     Returns:
         True if CPU dispatch is (now) synchronous.
     """
+    if os.environ.get(ASYNC_DISPATCH_ENV, "").strip() == "1":  # the process keeps JAX's default
+        return not cpu_async_dispatch()
     try:
         from jax._src import xla_bridge  # noqa: PLC2701 - jax has no public query for initialised backends
 
@@ -194,7 +208,9 @@ def shape(
             holds them, the others with status NOT_RUN (5).
 
     :func:`run_shape` is the same call with the solver by name and its options as a dict (the command
-    line's way in).
+    line's way in). Where the call is the process's first JAX work it makes JAX's CPU dispatch
+    synchronous, which the per-waypoint solvers' small kernels need (:func:`prefer_sync_cpu_dispatch`:
+    why, and how to keep async dispatch).
     """
     kw: dict[str, Any] = {}
     for k, v in inline.items():
@@ -276,6 +292,7 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): solver by name, 
         ShapeInterrupted: a ``KeyboardInterrupt`` after some waypoints were finished (SLSQP
             solvers): its ``result`` holds them, the others with status NOT_RUN (5).
     """
+    prefer_sync_cpu_dispatch()  # before JAX starts its backend, where this call is the first JAX work
     ensure_compile_cache()  # before the first compilation (cheap when already on)
     t_start, w_start = time.perf_counter(), time.time()
     with CompileClock() as clock:
