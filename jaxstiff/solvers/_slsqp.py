@@ -255,10 +255,10 @@ def make_slsqp_solver(
 #: iteration limit, moving less than 1e-9 after their first few iterations. But standing still is
 #: not always the end: after repeated line-search failures SLSQP resets its quasi-Newton matrix
 #: and can move on. On an AMD EPYC the same 64 x 50 hybrid had 35 solves still for 10 iterations or
-#: more, and 26 of them moved on afterwards (still for up to 62 iterations first; 12 reached a
-#: feasible point); the window is therefore 100 iterations, beyond every such escape seen, where
-#: the result equals scipy's own on those arms and the stuck solves above still save half their
-#: iterations.
+#: more, and 26 of them moved on afterwards (after up to 62 still iterations; 12 to a feasible
+#: point). Hence a window of 100 iterations: beyond every escape seen (the one solve still that
+#: long there, for 115 iterations, never moved again), while a solve stuck to its limit of 200
+#: still ends about halfway.
 STALLED = 10
 STALL_ITERS = 100
 STALL_STEP = 1e-9
