@@ -141,6 +141,29 @@ def first_free_waypoints(status: np.ndarray, meta: Mapping[str, Any]) -> np.ndar
     return np.full(usable.shape[0], -1) if limits.get("first_rate_limit", False) else first
 
 
+#: the advice where an unconstrained first waypoint ended in a local optimum
+_LOCAL_OPTIMUM = (
+    "the solver's starts ended in a local optimum: more first-waypoint starts (first_starts, "
+    "--first-starts) or solver 'slsqp' or 'hybrid' may reach it"
+)
+
+
+def _range_bound_joints(
+    kj: np.ndarray | None, meta: Mapping[str, Any], rtol: float = 1e-6
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The joints at kmin and at kmax (indices) of a first waypoint's stiffnesses ``kj`` (n,),
+    where both kinds exist (the stiffness range binds); None otherwise or without ``kj``/limits."""
+    limits = meta.get("limits") or {}
+    kmin, kmax = limits.get("kmin"), limits.get("kmax")
+    if kj is None or kmin is None or kmax is None:
+        return None
+    k = np.asarray(kj, float)
+    finite = np.isfinite(k)
+    lo = np.flatnonzero(finite & (k <= float(kmin) * (1 + rtol)))
+    hi = np.flatnonzero(finite & (k >= float(kmax) * (1 - rtol)))
+    return (lo, hi) if lo.size and hi.size else None
+
+
 def first_waypoint_cause(
     kj: np.ndarray | None, meta: Mapping[str, Any], joint_names: Sequence[str] | None = None, rtol: float = 1e-6
 ) -> str:
@@ -150,24 +173,46 @@ def first_waypoint_cause(
     kmax (within ``rtol``); otherwise the search ended in a local optimum (no bound holds it)."""
     limits = meta.get("limits") or {}
     kmin, kmax = limits.get("kmin"), limits.get("kmax")
-    rest = (
-        "the solver's starts ended in a local optimum: more first-waypoint starts (first_starts, "
-        "--first-starts) or solver 'slsqp' or 'hybrid' may reach it"
-    )
     if kj is None or kmin is None or kmax is None:
-        return rest
-    k = np.asarray(kj, float)
-    names = list(joint_names) if joint_names is not None else [str(i) for i in range(k.size)]
-    finite = np.isfinite(k)
-    lo = np.flatnonzero(finite & (k <= float(kmin) * (1 + rtol)))
-    hi = np.flatnonzero(finite & (k >= float(kmax) * (1 - rtol)))
-    if lo.size and hi.size:
+        return _LOCAL_OPTIMUM
+    bound = _range_bound_joints(kj, meta, rtol)
+    if bound is not None:
+        names = list(joint_names) if joint_names is not None else [str(i) for i in range(np.asarray(kj).size)]
+        lo, hi = bound
         return (
             f"its joint stiffnesses span the whole range [{float(kmin):g}, {float(kmax):g}] Nm/rad "
             f"({', '.join(names[i] for i in lo)} at kmin; {', '.join(names[i] for i in hi)} at kmax): the "
             "range binds, a wider one (kmin/kmax, --kmin/--kmax) may reach the target"
         )
-    return f"its joint stiffnesses lie inside [{float(kmin):g}, {float(kmax):g}] Nm/rad, so {rest}"
+    return f"its joint stiffnesses lie inside [{float(kmin):g}, {float(kmax):g}] Nm/rad, so {_LOCAL_OPTIMUM}"
+
+
+#: paths a missed-target warning names one by one (their waypoints, their first waypoint's
+#: cause); beyond that many it names the first ones and counts the rest, and gives the first
+#: waypoints' causes by kind with the paths of each (the result's ``in_target`` says the rest)
+WARN_PATHS = 8
+
+
+def _first_causes_grouped(firsts: Mapping[int, int], kj: np.ndarray | None, meta: Mapping[str, Any]) -> list[str]:
+    """The first waypoints' causes of a warning about many paths, by kind: the paths whose
+    stiffness range binds, then those that ended in a local optimum."""
+    binds = [b for b, p in firsts.items() if kj is not None and _range_bound_joints(np.asarray(kj)[b, p], meta)]
+    local = [b for b in firsts if b not in binds]
+    limits = meta.get("limits") or {}
+    out = []
+    if binds:
+        out.append(
+            f"paths {compress_ranges(binds)}: the first waypoint has no rate limit (nothing before it binds "
+            f"it) and its joint stiffnesses span the whole range [{float(limits['kmin']):g}, "
+            f"{float(limits['kmax']):g}] Nm/rad: the range binds, a wider one (kmin/kmax, --kmin/--kmax) "
+            "may reach the target"
+        )
+    if local:
+        out.append(
+            f"paths {compress_ranges(local)}: the first waypoint has no rate limit (nothing before it binds "
+            f"it), and {_LOCAL_OPTIMUM}"
+        )
+    return out
 
 
 def missed_target_warning(
@@ -188,7 +233,10 @@ def missed_target_warning(
         return None
     count = sum(len(v) for v in missed.values())
     usable = int(is_usable(np.asarray(status)).sum())
-    where = waypoints_text(missed)
+    many = len(missed) > WARN_PATHS
+    where = waypoints_text(dict(list(missed.items())[:WARN_PATHS]))
+    if many:
+        where += f"; and {len(missed) - WARN_PATHS} more paths (the result's in_target says which)"
     crit = str(meta.get("criterion", ""))
     rule = f"rho >= {1 - RATIO_REL_TOL:g} r" if crit == "f1" else f"|rho - r| / r < {RATIO_REL_TOL:g}"
     solver = str(meta.get("solver", ""))
@@ -196,15 +244,19 @@ def missed_target_warning(
     per_m = "" if settings.get("dq_per_m") is not None else ", or limits per metre of path (dq_per_m / dk_per_m)"
     first = first_free_waypoints(status, meta)
     firsts = {b: int(first[b]) for b, v in missed.items() if first[b] >= 0 and first[b] in v}
-    causes = [
-        f"path {b}: waypoint {p} has no rate limit (nothing before it binds it), and "
-        + first_waypoint_cause(None if kj is None else np.asarray(kj)[b, p], meta, joint_names)
-        for b, p in firsts.items()
-    ]
+    causes = (
+        _first_causes_grouped(firsts, kj, meta)
+        if many
+        else [
+            f"path {b}: waypoint {p} has no rate limit (nothing before it binds it), and "
+            + first_waypoint_cause(None if kj is None else np.asarray(kj)[b, p], meta, joint_names)
+            for b, p in firsts.items()
+        ]
+    )
     head = f"{count} of {usable} usable waypoints miss the target (alpha < {ALPHA_TOL_DEG:g} deg and {rule}): {where}; "
     if len(firsts) == count:  # only first waypoints miss: their own causes, nothing about looking ahead
         return head + "; ".join(causes)
-    lead = ("; ".join(causes) + "; the others: ") if causes else ""
+    lead = ("; ".join(causes) + "; the other waypoints: ") if causes else ""
     if solver in GREEDY_SOLVERS:
         advice = (
             f"solver {solver!r} goes waypoint by waypoint and cannot look ahead, so its status 0 (solved: "

@@ -106,6 +106,36 @@ def test_later_waypoints_keep_the_look_ahead_advice_and_first_gets_its_own():
     assert text is not None and "no rate limit" not in text and "cannot look ahead" in text
 
 
+def test_a_warning_about_many_paths_names_eight_and_groups_the_first_waypoint_causes():
+    """On a third-party arm a 64-path pgd run missed the target on 34 paths, and the warning named
+    each path's waypoints and each first waypoint's cause with its joints: one line of 10 kB.
+    Beyond WARN_PATHS paths it names the first ones, counts the others, and gives the first
+    waypoints' causes once per kind with the paths of each."""
+    from jaxstiff.results._target import WARN_PATHS
+
+    B, P = 20, 5
+    status = np.zeros((B, P), int)
+    flag = np.ones((B, P), bool)
+    flag[:, 0] = False  # every path misses at its first waypoint ...
+    flag[::2, 3] = False  # ... and the even paths at waypoint 3 too
+    kj = np.full((B, P, 3), 50.0)
+    kj[:12, 0] = [1.0, 100.0, 37.0]  # paths 0-11: the range binds; 12-19: a local optimum
+    text = missed_target_warning(status, flag, META, kj, NAMES)
+    assert text is not None
+    assert text.startswith(f"{B + B // 2} of {B * P} usable waypoints miss the target")
+    for b in range(WARN_PATHS):
+        assert f"path {b}: waypoints {'0, 3' if b % 2 == 0 else '0'};" in text
+    assert f"path {WARN_PATHS}: waypoints" not in text
+    assert f"and {B - WARN_PATHS} more paths" in text
+    assert "paths 0-11: the first waypoint has no rate limit" in text and "range binds" in text
+    assert "paths 12-19: the first waypoint has no rate limit" in text and "local optimum" in text
+    assert "a1 at kmin" not in text  # the joints are per path: not in the grouped form
+    assert "the other waypoints: solver 'pgd' goes waypoint by waypoint and cannot look ahead" in text
+    assert len(text) < 1200
+    few = missed_target_warning(status[:WARN_PATHS], flag[:WARN_PATHS], META, kj[:WARN_PATHS], NAMES)
+    assert few is not None and "more paths" not in few and "path 1: waypoint 0 has no rate limit" in few
+
+
 # ---------------------------------------------------------------------- the retry's cost
 @pytest.mark.slow
 def test_retry_reruns_a_path_only_where_slsqp_found_a_lower_first_criterion(monkeypatch):
