@@ -141,6 +141,10 @@ def first_free_waypoints(status: np.ndarray, meta: Mapping[str, Any]) -> np.ndar
     return np.full(usable.shape[0], -1) if limits.get("first_rate_limit", False) else first
 
 
+#: what a first waypoint solved without rate limit is, in the warning's words
+_NO_RATE_LIMIT = "has no rate limit (nothing before it binds it)"
+#: the advice where an unconstrained first waypoint's stiffnesses span the whole range
+_RANGE_BINDS = "the range binds, a wider one (kmin/kmax, --kmin/--kmax) may reach the target"
 #: the advice where an unconstrained first waypoint ended in a local optimum
 _LOCAL_OPTIMUM = (
     "the solver's starts ended in a local optimum: more first-waypoint starts (first_starts, "
@@ -181,8 +185,7 @@ def first_waypoint_cause(
         lo, hi = bound
         return (
             f"its joint stiffnesses span the whole range [{float(kmin):g}, {float(kmax):g}] Nm/rad "
-            f"({', '.join(names[i] for i in lo)} at kmin; {', '.join(names[i] for i in hi)} at kmax): the "
-            "range binds, a wider one (kmin/kmax, --kmin/--kmax) may reach the target"
+            f"({', '.join(names[i] for i in lo)} at kmin; {', '.join(names[i] for i in hi)} at kmax): {_RANGE_BINDS}"
         )
     return f"its joint stiffnesses lie inside [{float(kmin):g}, {float(kmax):g}] Nm/rad, so {_LOCAL_OPTIMUM}"
 
@@ -202,16 +205,11 @@ def _first_causes_grouped(firsts: Mapping[int, int], kj: np.ndarray | None, meta
     out = []
     if binds:
         out.append(
-            f"paths {compress_ranges(binds)}: the first waypoint has no rate limit (nothing before it binds "
-            f"it) and its joint stiffnesses span the whole range [{float(limits['kmin']):g}, "
-            f"{float(limits['kmax']):g}] Nm/rad: the range binds, a wider one (kmin/kmax, --kmin/--kmax) "
-            "may reach the target"
+            f"paths {compress_ranges(binds)}: the first waypoint {_NO_RATE_LIMIT} and its joint stiffnesses "
+            f"span the whole range [{float(limits['kmin']):g}, {float(limits['kmax']):g}] Nm/rad: {_RANGE_BINDS}"
         )
     if local:
-        out.append(
-            f"paths {compress_ranges(local)}: the first waypoint has no rate limit (nothing before it binds "
-            f"it), and {_LOCAL_OPTIMUM}"
-        )
+        out.append(f"paths {compress_ranges(local)}: the first waypoint {_NO_RATE_LIMIT}, and {_LOCAL_OPTIMUM}")
     return out
 
 
@@ -248,7 +246,7 @@ def missed_target_warning(
         _first_causes_grouped(firsts, kj, meta)
         if many
         else [
-            f"path {b}: waypoint {p} has no rate limit (nothing before it binds it), and "
+            f"path {b}: waypoint {p} {_NO_RATE_LIMIT}, and "
             + first_waypoint_cause(None if kj is None else np.asarray(kj)[b, p], meta, joint_names)
             for b, p in firsts.items()
         ]
