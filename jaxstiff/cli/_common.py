@@ -34,8 +34,14 @@ def command(name: str, help: str) -> Callable[[AddCommand], AddCommand]:
 
 
 def parse_floats(text: str, what: str) -> list[float]:
+    """Comma-separated numbers of the flag ``what``; an error names the flag and the text. An empty
+    item ("1,,2") is an error, not skipped: a value left out would shift the ones after it."""
+    items = str(text).split(",")
+    if str(text).strip() and any(not v.strip() for v in items):
+        at = next(i for i, v in enumerate(items) if not v.strip()) + 1
+        raise ValueError(f"{what}: item {at} of {text!r} is empty; give one number per item, like 1,0,2")
     try:
-        return [float(v) for v in text.split(",") if v.strip() != ""]
+        return [float(v) for v in items if v.strip() != ""]
     except ValueError:
         raise ValueError(f"{what}: expected comma-separated numbers, got {text!r}") from None
 

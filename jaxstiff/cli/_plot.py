@@ -23,7 +23,10 @@ def parse_waypoints(text: str, P: int) -> list[int]:
     """``--waypoints``: a spacing ``N`` (every N-th waypoint from 0) or a pick list ``I,J,...`` of
     0-based waypoint indices (sorted, repeats dropped); a ValueError for other text or an index
     outside 0..P-1."""
-    parts = [t.strip() for t in str(text).split(",") if t.strip()]
+    parts = [t.strip() for t in str(text).split(",")]
+    if "," in str(text) and not all(parts):
+        raise ValueError(f"--waypoints {text!r}: an index is empty; give indices like 0,10,20")
+    parts = [t for t in parts if t]
     try:
         values = [int(t) for t in parts]
     except ValueError:

@@ -14,7 +14,7 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
-from jaxstiff.cli._common import check_out_file, command, robot_spec_from_args
+from jaxstiff.cli._common import check_out_file, command, parse_floats, robot_spec_from_args
 from jaxstiff.cli._setting_flags import read_setting_flags, setting_flags
 from jaxstiff.cli._shape_flags import EPILOG as EPILOG
 from jaxstiff.cli._shape_flags import add_shape_flags as add_shape_flags
@@ -46,15 +46,7 @@ def _num(text: Any, flag: str, cast: Any = float) -> Any:
 def _nums(text: str | None, flag: str) -> list[float] | None:
     if text is None:
         return None
-    out = []
-    for part in str(text).split(","):
-        part = part.strip()
-        if not part:
-            continue
-        try:
-            out.append(float(part))
-        except ValueError:
-            raise ValueError(f"{flag}: expected comma-separated numbers, got {text!r}") from None
+    out = parse_floats(text, flag)
     if not out:
         raise ValueError(f"{flag}: no numbers given")
     return out
