@@ -355,8 +355,8 @@ def validate_values(  # noqa: C901 - a flat list of independent input checks
             at = f" (K_xd{list(worst)})" if worst else ""
             raise ValueError(f"K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue {w[worst][0]:g}{at}")
     kmin, kmax = val(scalars["kmin"]), val(scalars["kmax"])
-    if kmin is not None and not kmin > 0:
-        raise ValueError(f"kmin must be > 0 Nm/rad, got {float(kmin):g}")
+    if kmin is not None and not (kmin > 0 and np.isfinite(kmin)):
+        raise ValueError(f"kmin must be a finite number > 0 Nm/rad (kmax may be inf), got {float(kmin):g}")
     if kmin is not None and kmax is not None and not kmax >= kmin:
         raise ValueError(f"kmax ({float(kmax):g}) must be >= kmin ({float(kmin):g})")
     for name in ("nu0", "damping", "jl_gain"):

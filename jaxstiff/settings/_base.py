@@ -149,6 +149,11 @@ def positive(v: Any) -> str | None:
     return None if _is_number(v) and v > 0 else "must be a number > 0"
 
 
+def positive_finite(v: Any) -> str | None:
+    """Check: a finite number > 0."""
+    return None if _is_number(v) and math.isfinite(v) and v > 0 else "must be a finite number > 0"
+
+
 def non_negative(v: Any) -> str | None:
     """Check: a number >= 0."""
     return None if _is_number(v) and v >= 0 else "must be a number >= 0"

@@ -41,6 +41,10 @@ def _positive(v: object) -> str | None:
     return None if _is_real(v) and v > 0 else "must be a number > 0"  # type: ignore[operator]
 
 
+def _positive_finite(v: object) -> str | None:
+    return None if _is_real(v) and math.isfinite(v) and v > 0 else "must be a finite number > 0"  # type: ignore[arg-type, operator]
+
+
 def _isotropy_threshold(v: object) -> str | None:
     return None if _is_real(v) and 0 <= v < 1 else "must be a number in [0, 1) (the isotropy is in [0, 1])"  # type: ignore[operator]
 
@@ -104,7 +108,9 @@ class CSCSettings(Settings):
         check=_finite_non_negative,
         axis=Axis(static=False, unit=""),  # one value per rollout: csc_rollout's fifth argument
     )
-    kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive)
+    kmin: float = setting(
+        1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive_finite
+    )
     kmax: float = setting(
         math.inf, unit="Nm/rad", doc="actuator range: highest joint stiffness (inf: open)", check=_positive
     )

@@ -30,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 
 from jaxstiff.model._chain import LOCKED_JOINT_MODES
-from jaxstiff.settings._base import Axis, Flag, Settings, at_least, non_negative, positive, setting
+from jaxstiff.settings._base import Axis, Flag, Settings, at_least, non_negative, positive, positive_finite, setting
 
 __all__ = ["ShapeSettings", "LOCKED_JOINT_MODES", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG", "dq_to_deg"]
 
@@ -194,10 +194,14 @@ class ShapeSettings(Settings):
         axis=None,
     )
     kmin: float = setting(
-        1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive, flag=Flag(metavar="A", extra=", > 0")
+        1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive_finite, flag=Flag(metavar="A", extra=", > 0")
     )
     kmax: float = setting(
-        100.0, unit="Nm/rad", doc="highest joint stiffness", check=positive, flag=Flag(metavar="B", extra=", > kmin")
+        100.0,
+        unit="Nm/rad",
+        doc="highest joint stiffness",
+        check=positive_finite,
+        flag=Flag(metavar="B", extra=", > kmin"),
     )
     c: float = setting(
         0.01,
@@ -223,7 +227,7 @@ class ShapeSettings(Settings):
         1000.0,
         unit="N/m",
         doc="CMS: the common geometric-mean axis of every waypoint",
-        check=positive,
+        check=positive_finite,
         flag=None,  # the command line's --cms-volume / --cms-major say the target instead
         axis=None,
     )

@@ -232,10 +232,10 @@ def _numbers(
         raise ValueError(f"pos_tol must be > 0 (m), got {pos_tol}")
     if cms_volume is not None and cms_major is not None:
         raise ValueError("give at most one of cms_volume and cms_major")
-    if cms_major is not None and not (cms_major > 0):
-        raise ValueError(f"cms_major must be > 0 (N/m), got {cms_major}")
-    if cms_volume is not None and not (cms_volume > 0):
-        raise ValueError(f"cms_volume must be > 0 ((N/m)^{m}), got {cms_volume}")
+    if cms_major is not None and not (cms_major > 0 and math.isfinite(cms_major)):
+        raise ValueError(f"cms_major must be a finite number > 0 (N/m), got {cms_major}")
+    if cms_volume is not None and not (cms_volume > 0 and math.isfinite(cms_volume)):
+        raise ValueError(f"cms_volume must be a finite number > 0 ((N/m)^{m}), got {cms_volume}")
     return kmin, kmax, c
 
 
