@@ -120,6 +120,10 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         for flag, out, like in (("--html", args.html, "shape.html"), ("--png", args.png, "shape.png")):
             if out:  # before anything starts (the browser, the scene): a folder or a missing folder is refused here
                 check_out_path(out, flag, like=like)
+                suffix = os.path.splitext(out)[1].lower()
+                want = (".html", ".htm") if flag == "--html" else (".png",)
+                if suffix not in want:
+                    raise ValueError(f"{flag} {out}: the file is {want[0][1:].upper()}; name it like {like}")
         if not (args.html or args.png):
             check_port(args.host, args.port)
         browser, size = None, (0, 0)
@@ -145,9 +149,12 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
                 if args.html:
                     print(f"wrote {args.html}")
                 if args.png:
-                    from jaxstiff.view._png import screenshot
+                    from jaxstiff.view._png import BrowserError, screenshot
 
-                    screenshot(page, args.png, browser=browser, width=size[0], height=size[1], timeout=args.timeout)
+                    try:
+                        screenshot(page, args.png, browser=browser, width=size[0], height=size[1], timeout=args.timeout)
+                    except BrowserError as e:  # the environment's browser, not the command: one line, exit 2
+                        raise OSError(f"--png: {e}; nothing written") from None
                     print(f"wrote {args.png}")
             return 0
         from jaxstiff.view._app import open_viewer, serve_forever

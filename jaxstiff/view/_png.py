@@ -91,6 +91,10 @@ def chromium_flags(width: int, height: int, profile: str) -> list[str]:
     return flags
 
 
+class BrowserError(RuntimeError):
+    """The browser did not start, or did not do what the screenshot asked of it."""
+
+
 class _Deadline:
     def __init__(self, seconds: float) -> None:
         self.seconds, self.end = seconds, time.monotonic() + seconds
@@ -123,7 +127,7 @@ class _DevTools:
             reply = json.loads(self.ws.recv(timeout=self.deadline.left(what or method)))
             if reply.get("id") == self.next_id:
                 if "error" in reply:
-                    raise RuntimeError(f"Chromium: {method}: {reply['error'].get('message', reply['error'])}")
+                    raise BrowserError(f"Chromium: {method}: {reply['error'].get('message', reply['error'])}")
                 return reply.get("result", {})
 
     def close(self) -> None:
@@ -158,13 +162,13 @@ def _launch(browser: str, flags: list[str], deadline: _Deadline) -> tuple[subpro
         found.set()  # the browser ended
 
     threading.Thread(target=read, daemon=True).start()
-    found.wait(deadline.left("starting Chromium"))
+    ended = found.wait(deadline.left("starting Chromium"))  # False: the wait timed out
     if not url:
-        _stop(proc)
-        if not found.is_set():
+        _stop(proc)  # its output then ends, which sets `found`: decide on the wait's own answer
+        if not ended:
             raise TimeoutError("starting Chromium")
         tail = " | ".join(lines[-3:]) or f"exit status {proc.poll()}"
-        raise RuntimeError(f"{browser} did not start: {tail}")
+        raise BrowserError(f"{browser} did not start: {tail}")
     return proc, url[0], lines
 
 
@@ -209,7 +213,7 @@ def screenshot(
 ) -> str:
     """Screenshot of the page ``html`` (a file) opened at ``#fragment``, written to ``out`` (PNG,
     atomically). Raises FileNotFoundError (no browser), TimeoutError (naming the unfinished step:
-    nothing is written) or RuntimeError (the browser failed)."""
+    nothing is written) or :class:`BrowserError` (the browser failed)."""
     from jaxstiff.runtime._io import atomic_write
 
     exe = find_browser(browser)
@@ -220,7 +224,12 @@ def screenshot(
     step = "starting Chromium"
     try:
         proc, url, _ = _launch(exe, chromium_flags(width, height, profile), deadline)
-        tools = _DevTools(url, deadline)
+        try:
+            tools = _DevTools(url, deadline)
+        except TimeoutError:
+            raise
+        except OSError as e:  # refused or reset: the address the browser printed does not answer
+            raise BrowserError(f"{exe} printed the DevTools address {url}, which does not answer: {e}") from None
         step = "opening the page"
         target = tools.call("Target.createTarget", {"url": "about:blank"})["targetId"]
         tools.session = tools.call("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
