@@ -87,9 +87,9 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
 def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None) -> None:
     """The leaf links a chain from ``base_link`` can end at, with their actuated-joint counts, the
     automatic choice first and gripper/finger leaves marked (:func:`jaxstiff.model._urdf.tip_candidates`)."""
-    from ..model._urdf import tip_candidates
+    from ..model._urdf import tip_candidates_and_why
 
-    ranked, chosen, base = tip_candidates(urdf, base_link)
+    ranked, chosen, base, why = tip_candidates_and_why(urdf, base_link)
     print(f"candidate tip links below {base!r} (automatic choice first; --tip-link to choose another):")
     width = max(len(c.link) for c in ranked) if ranked else 0
     for c in ranked:
@@ -99,7 +99,8 @@ def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None)
         s = "" if c.joints == 1 else "s"
         print(f" {mark} {c.link:<{width}}  {c.joints:>2} actuated joint{s}{'  (' + note + ')' if note else ''}{used}")
     if chosen is None:
-        print("   (no automatic choice: the rule leaves a tie; pass --tip-link)")
+        pick = "; pass --tip-link" if any(c.joints for c in ranked) else ""
+        print(f"   (no automatic choice: {why}{pick})")
     else:
         print(f"   * automatic tip: {chosen!r}")
     print()

@@ -53,6 +53,14 @@ def _read_xml(path: str) -> Any:
     if root is None or root.tag != "robot":
         tag = None if root is None else root.tag
         raise ValueError(f"{path}: the root element must be <robot>, got <{tag}>")
+    for elem in root.iter():
+        # a xacro macro, property or include: read as URDF it would drop the links and joints it makes
+        if isinstance(elem.tag, str) and elem.tag.startswith("{") and "xacro" in elem.tag.lower():
+            name = elem.tag.rpartition("}")[2]
+            raise ValueError(
+                f"{path}: a xacro file, not a URDF (<xacro:{name}> at line {elem.sourceline}); expand it "
+                f"first, e.g. `xacro {os.path.basename(path)} > robot.urdf` (ROS's xacro package)"
+            )
     return root
 
 
@@ -60,7 +68,8 @@ def _float_attr(path: str, where: str, text: str) -> list[float]:
     try:
         return [float(v) for v in text.split()]
     except ValueError:
-        raise ValueError(f"{path}: {where}: cannot read numbers from {short_text(text)}") from None
+        hint = " (a xacro expression: expand the file with xacro first)" if "${" in text or "$(" in text else ""
+        raise ValueError(f"{path}: {where}: cannot read numbers from {short_text(text)}{hint}") from None
 
 
 def _check_joint_xml(path: str, elem: Any) -> None:  # noqa: C901 - a flat list of independent checks of one element
@@ -241,7 +250,8 @@ def _link_tree(path: str, model: UrdfModel) -> _Tree:
         raise ValueError(f"{path}: duplicate link names: {short_list(dup)}")
     joints = {j.name: j for j in model.joints}
     if len(joints) != len(model.joints):
-        raise ValueError(f"{path}: duplicate joint names")
+        names = [j.name for j in model.joints]
+        raise ValueError(f"{path}: duplicate joint names: {short_list(sorted({n for n in names if names.count(n) > 1}))}")
     link_set = set(links)
     parent_joint: dict[str, Any] = {}
     children: dict[str, list[Any]] = {l: [] for l in links}
@@ -263,7 +273,9 @@ def _pick_base(path: str, tree: _Tree, base_link: str | None) -> str:
         raise ValueError(f"{path}: the joints form a loop; no root link")
     if base_link is None:
         if len(roots) != 1:
-            raise ValueError(f"{path}: several root links ({short_list(roots)}); pass base_link")
+            raise ValueError(
+                f"{path}: several root links ({short_list(roots)}); choose one with base_link= (--base-link)"
+            )
         return roots[0]
     if base_link not in tree.links:
         raise ValueError(
@@ -470,12 +482,20 @@ def tip_candidates(path: str | os.PathLike, base_link: str | None = None) -> tup
        ``tcp``, ``tool`` (``tool0``), ``end_effector`` / ``eef`` / ``ee`` (``ee_link``), ``flange``.
     5. Still tied: no automatic tip (an error that lists the tied leaves).
     """
+    ranked, chosen, base, _ = tip_candidates_and_why(path, base_link)
+    return ranked, chosen, base
+
+
+def tip_candidates_and_why(
+    path: str | os.PathLike, base_link: str | None = None
+) -> tuple[list[TipCandidate], str | None, str, str]:
+    """:func:`tip_candidates` and, where there is no automatic tip, why (else "")."""
     path = _resolve_path(path)
     model = parse_urdf_model(path)
     tree = _link_tree(path, model)
     base = _pick_base(path, tree, base_link)
-    ranked, chosen, _ = _tip_choice(tree, base)
-    return ranked, chosen, base
+    ranked, chosen, why = _tip_choice(tree, base)
+    return ranked, chosen, base, why
 
 
 def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> str:

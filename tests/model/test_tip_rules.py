@@ -171,3 +171,21 @@ def test_robot_command_lists_candidates_first_the_automatic_one(capsys):
     out = capsys.readouterr().out
     assert re.search(r" \* j2s6s200_end_effector\s+6 actuated joints  \(end-effector name\)", out)
     assert re.search(r"   j2s6s200_link_finger_tip_1\s+6 actuated joints  \(finger part\)", out)
+
+
+def test_robot_command_says_why_there_is_no_automatic_tip(write, capsys):
+    """`jaxstiff robot` on a file without an automatic tip printed "the rule leaves a tie" whatever
+    the reason, also for a chain of fixed joints with one leaf; it now prints the rule's reason."""
+    left = jaw("l_joint", "left_end", kind="revolute")
+    right = jaw("r_joint", "right_end", kind="revolute")
+    rc = main(["robot", write(arm(left + right))])
+    out = capsys.readouterr()
+    assert rc == 2
+    assert "(no automatic choice: leaves 'left_end', 'right_end' each have 3 actuated joints" in out.out
+    assert "pass --tip-link)" in out.out
+    fixed = """<?xml version="1.0"?><robot name="fixed"><link name="base"/><link name="l1"/>
+      <joint name="j1" type="fixed"><parent link="base"/><child link="l1"/></joint></robot>"""
+    rc = main(["robot", write(fixed)])
+    out = capsys.readouterr()
+    assert rc == 2 and "(no automatic choice: no actuated joint below base link 'base'; nothing to move)" in out.out
+    assert "tie" not in out.out

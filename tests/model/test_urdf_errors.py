@@ -81,6 +81,26 @@ def test_root_must_be_robot(write):
         jaxstiff.Robot.from_urdf(path)
 
 
+def test_a_xacro_file_is_refused_naming_its_first_macro(write):
+    """An unexpanded xacro file read as URDF lost the links and joints its macros make (a 7-joint
+    arm loaded with 5 joints, no warning); now refused, naming the element and the fix."""
+    wrist = two_joint_urdf().replace(
+        '<robot name="two">', '<robot name="two" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+    ).replace("</robot>", '<xacro:include filename="$(find my_pkg)/wrist.xacro"/>\n<xacro:wrist parent="l2"/></robot>')
+    path = write(wrist, "arm.urdf.xacro")
+    with raises(ValueError, path, "a xacro file, not a URDF", "<xacro:include>", "xacro arm.urdf.xacro > robot.urdf"):
+        jaxstiff.Robot.from_urdf(path)
+    # the namespace declared but every macro expanded: a URDF like any other
+    expanded = two_joint_urdf().replace('<robot name="two">', '<robot name="two" xmlns:xacro="http://www.ros.org/wiki/xacro">')
+    assert jaxstiff.Robot.from_urdf(write(expanded, "expanded.urdf")).n == 2
+
+
+def test_a_xacro_expression_in_a_number_says_so(write):
+    path = write(two_joint_urdf(j1=f'<origin xyz="0 0 ${{l1}}" rpy="0 0 0"/><axis xyz="0 0 1"/>{LIMIT}'))
+    with raises(ValueError, "joint 'j1' origin xyz", "${l1}", "a xacro expression"):
+        jaxstiff.Robot.from_urdf(path)
+
+
 BILLION_LAUGHS = """<?xml version="1.0"?>
 <!DOCTYPE robot [
   <!ENTITY lol "lol">
@@ -178,6 +198,7 @@ def test_chain_without_actuated_joints():
     "extra,message",
     [
         ('<link name="l1"/>', "duplicate link names: l1"),
+        ('<link name="l3"/><joint name="j2" type="fixed"><parent link="l2"/><child link="l3"/></joint>', "duplicate joint names: j2"),
         (
             '<link name="l3"/><joint name="j3" type="fixed"><parent link="base"/><child link="l2"/></joint>',
             "link 'l2' is the child of two joints",
@@ -192,7 +213,7 @@ def test_chain_without_actuated_joints():
             "joint 'j3' has unknown type 'ball'",
         ),
     ],
-    ids=["duplicate-link", "two-parents", "unknown-link", "no-child", "unknown-type"],
+    ids=["duplicate-link", "duplicate-joint", "two-parents", "unknown-link", "no-child", "unknown-type"],
 )
 def test_broken_trees(write, extra, message):
     path = write(two_joint_urdf(extra=extra))
@@ -202,7 +223,7 @@ def test_broken_trees(write, extra, message):
 
 def test_several_roots_need_a_base_link(write):
     path = write(two_joint_urdf(extra='<link name="floating_box"/>'))
-    with raises(ValueError, "several root links", "floating_box", "pass base_link"):
+    with raises(ValueError, "several root links", "floating_box", "choose one with base_link= (--base-link)"):
         jaxstiff.Robot.from_urdf(path)
     assert jaxstiff.Robot.from_urdf(path, base_link="base").n == 2
 
