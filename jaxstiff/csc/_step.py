@@ -103,7 +103,7 @@ class StepContext(NamedTuple):
     Joint arrays are (n,) in q's dtype: ``free`` (1 free, 0 locked), ``lock_vals`` (locked values,
     0 for free joints), ``lower``/``upper`` (limits, +-inf for locked joints), ``mid``/``half``
     (middle and half range of the finite limits, 0/1 elsewhere), ``finite_j`` (1 where both limits
-    are finite). Scalars (rollout's or traced): beta, kmin, kmax, nu0, damping, null_eps, jl_gain.
+    are finite and apart: the joints of the Liegeois term). Scalars (rollout's or traced): beta, kmin, kmax, nu0, damping, null_eps, jl_gain.
     """
 
     robot: Robot
@@ -137,7 +137,10 @@ def _joint_constants(robot: Robot, dtype: Any) -> dict[str, Any]:
     """The chain's per-joint constants of :class:`StepContext` (numpy, then q's dtype)."""
     free_b = np.asarray(robot.free)
     lo_f, hi_f = robot.lower, robot.upper
+    # the Liegeois term's joints: finite limits with room between them (a one-value range, which a
+    # URDF may give, has half range 0: its term would be 0 / 0 at every step; that joint cannot move)
     finite = np.isfinite(lo_f) & np.isfinite(hi_f) & free_b
+    finite &= np.where(finite, hi_f, 0.0) > np.where(finite, lo_f, 0.0)
     lo_f, hi_f = np.where(finite, lo_f, 0.0), np.where(finite, hi_f, 0.0)  # continuous joints: no inf - inf
     return dict(
         free=jnp.asarray(robot.free, dtype=dtype),

@@ -1204,6 +1204,32 @@ def test_saturation_keeps_tracking_when_the_resolve_pushes_another_joint_out():
     assert float(r.u[-1]) < float(r.u_start)
 
 
+@pytest.mark.parametrize("mode", ["sum", "priority"])
+def test_a_joint_with_a_one_value_range_does_not_stop_joint_limit_avoidance(tmp_path, mode):
+    """A URDF may give a joint lower == upper. Its Liegeois term was (q - mid) / half = 0 / 0, so
+    with joint-limit avoidance on every step was dropped by the NaN guard and the rollout stood
+    still without a word (found by an adversarial run). That joint is now out of the term: the
+    rollout moves as with avoidance off, keeps the joint at its one value, and no step is NaN."""
+    planar = (DATA / "planar_4r_tight_limits.urdf").read_text()
+    # joint 3's range made one value, at q0's value for it
+    text = re.sub(r'(<joint name="[^"]*3[^"]*".*?<limit )lower="[^"]*" upper="[^"]*"', r'\1lower="-0.6" upper="-0.6"', planar, count=1, flags=re.S)
+    assert text != planar
+    path = tmp_path / "one_value.urdf"
+    path.write_text(text)
+    with pytest.warns(UserWarning):  # the loader says the range is one value
+        robot = jaxstiff.Robot.from_urdf(str(path))
+    assert robot.lower[2] == robot.upper[2] == -0.6
+    q0 = np.array([0.4, 0.8, -0.6, 0.9])
+    x0 = numpy_fk(robot, q0)[:2, 3]
+    K = rot2(30.0) @ np.diag([3000.0, 1000.0]) @ rot2(30.0).T
+    r = jaxstiff.csc_rollout(robot, np.tile(x0, (100, 1)), K, q0, 5e-3, step="constant", joint_limits=mode, jl_gain=0.02)
+    status = np.asarray(r.status)
+    assert not np.any(status & csc.STATUS_NAN), status
+    q = np.asarray(r.q)
+    assert np.all(np.isfinite(q)) and np.all(q[:, 2] == -0.6)
+    assert float(r.u[-1]) < float(r.u_start)  # it moved in its null space
+
+
 # ---------------------------------------------------------------- settings, status bits, robot flags
 def _csc_flag_defaults() -> dict:
     """The defaults of `jaxstiff csc`'s settings flags, parsed from a real command line."""
