@@ -716,7 +716,15 @@ def _compliance(chain: Chain, q: np.ndarray, kj: np.ndarray, task: str) -> np.nd
     return np.einsum("...in,...n,...jn->...ij", J, comp, J)
 
 
-def _well_conditioned(C: np.ndarray) -> np.ndarray:
+def _well_conditioned(C: np.ndarray, length_scale: float) -> np.ndarray:
+    """Where the compliance ``C`` is well enough conditioned to compare, judged in the arm's own
+    units: with task "full" its translational rows are m/N and its rotational ones rad/(N m), so
+    their ratio scales with the arm's size squared; the translational rows and columns are divided
+    by ``length_scale`` first (which leaves K_T's axis ratio as it is). A millimetre-sized arm's
+    well-posed compliance was otherwise taken for singular."""
+    if C.shape[-1] == 6:
+        d = np.r_[np.full(3, 1.0 / length_scale), np.ones(3)]
+        C = C * d[:, None] * d[None, :]
     with np.errstate(all="ignore"):
         c = np.linalg.cond(C) if C.size else np.zeros(C.shape[:-2])
     return np.isfinite(c) & (c < COND_MAX)
@@ -727,7 +735,7 @@ def _check_shape_task(file: str, chain: Chain, arr: dict[str, np.ndarray], task:
     if not rows.any():
         return
     C = _compliance(chain, arr["q"][rows], arr["kj"][rows], task)
-    ok = _well_conditioned(C)
+    ok = _well_conditioned(C, chain.length_scale)
     stored = arr["ratio"][rows]
     if (~ok & np.isfinite(stored)).any():
         i = int(np.argwhere(~ok & np.isfinite(stored))[0][0])
@@ -759,7 +767,7 @@ def _check_shape_task(file: str, chain: Chain, arr: dict[str, np.ndarray], task:
 def _check_csc_task(file: str, chain: Chain, arr: dict[str, np.ndarray], task: str) -> None:
     """The stored K_C against the inverse compliance of (q, kj) with the recorded task."""
     C = _compliance(chain, arr["q"], arr["kj"], task)
-    ok = _well_conditioned(C)
+    ok = _well_conditioned(C, chain.length_scale)
     K = np.linalg.inv(np.where(ok[..., None, None], C, np.eye(C.shape[-1])))
     stored = arr["K_C"]
     scale = np.linalg.norm(K, axis=(-2, -1))
