@@ -144,6 +144,18 @@ def _read_numbers(args: argparse.Namespace) -> dict[str, Any]:
     return v
 
 
+def _unused_flags(v: dict[str, Any], robot: Robot) -> list[str]:
+    """Flags given that this run does not read (said before any work, as ``jaxstiff csc`` does)."""
+    notes = []
+    default = ShapeSettings()
+    criterion = v.get("criterion") or default.criterion
+    if v.get("c") is not None and v["c"] != default.c and criterion != "f1":  # the flags fill in the default
+        notes.append(f"--c is the offset of criterion f1; unused with --criterion {criterion}")
+    if v.get("dq_m") is not None and not robot.prismatic.any():
+        notes.append(f"--dq-m is the rate limit of prismatic joints; {robot.name!r} has none, so it is unused")
+    return notes
+
+
 def _settings(args: argparse.Namespace, v: dict[str, Any], robot: Robot) -> dict[str, Any]:
     """The keywords of :func:`~jaxstiff.shaping.run_shape` for the settings flags: every field of
     :class:`jaxstiff.settings.ShapeSettings` as a keyword (checked there, with its messages), the
@@ -230,8 +242,8 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
         why = (
             "it solves all paths together"
             if args.solver not in ("slsqp", "slsqp-fd")
-            else "the interrupt came before the first waypoint was finished, or after the last, while the "
-            "result was assembled"
+            else "the interrupt came before the first waypoint was finished, or while the result was "
+            "assembled, or a second interrupt came before the finished waypoints were saved"
         )
         print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
         raise
@@ -297,6 +309,8 @@ def run_shape(args: argparse.Namespace) -> int:
     robot = spec.build()
     path, path_files = _read_paths(args.path)
     q0, kj0 = _read_start_states(args, robot)
+    for note in _unused_flags(v, robot):
+        print(f"jaxstiff: warning: {note}", file=sys.stderr)
     enable_x64()
     prefer_sync_cpu_dispatch()  # per-waypoint SLSQP is latency-bound: see its docstring
     kw = dict(

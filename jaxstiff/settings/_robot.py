@@ -96,13 +96,23 @@ class RobotSpec(Settings):
     def build(self) -> Robot:
         """Read the URDF into a :class:`~jaxstiff.Robot` (errors name the file, link or joint)."""
         locks = self.resolved_locks()
-        return Robot.from_urdf(
-            self.urdf,
-            base_link=self.base_link,
-            tip_link=self.tip_link,
-            locked=locks or None,
-            tcp=None if self.tcp is None else tcp_transform(self.tcp),
-        )
+        try:
+            return Robot.from_urdf(
+                self.urdf,
+                base_link=self.base_link,
+                tip_link=self.tip_link,
+                locked=locks or None,
+                tcp=None if self.tcp is None else tcp_transform(self.tcp),
+            )
+        except ValueError as e:
+            if self.locked is None and locks and str(e).startswith("cannot lock joint"):
+                # a lock the user never asked for: say where it came from and how to drop it
+                given = ", ".join(f"{k}={v:g}" for k, v in locks.items())
+                raise ValueError(
+                    f"{e}. That lock ({given}) is the shipped robot's default: give other locks, or none "
+                    f"(locked={{}}; command line: --lock none)"
+                ) from None
+            raise
 
     def meta(self) -> dict[str, Any]:
         out = super().meta()

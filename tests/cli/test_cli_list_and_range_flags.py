@@ -99,3 +99,38 @@ def test_settings_refuse_an_infinite_stiffness_range() -> None:
     with pytest.raises(ValueError, match="finite"):
         ShapeSettings(kmax=float("inf"))
     assert CSCSettings(kmax=float("inf")).kmax == float("inf")  # an open csc range stays allowed
+
+
+@pytest.mark.parametrize(
+    ("argv", "note"),
+    [
+        (["--c", "50"], "--c is the offset of criterion f1; unused with --criterion f2"),
+        (["--dq-m", "0.001"], "--dq-m is the rate limit of prismatic joints; 'kuka_lwr4' has none, so it is unused"),
+    ],
+    ids=["c-with-f2", "dq-m-without-prismatic"],
+)
+def test_shape_warns_of_a_flag_it_does_not_read(tmp_path, capsys, monkeypatch, argv, note) -> None:
+    """`--c 50` with f2 and `--dq-m` on an arm without prismatic joints gave results bit for bit the
+    default run's, without a word; the note now comes before any work (here the solve is replaced
+    by one that stops the command, so no solver runs)."""
+    import jaxstiff.cli._shape as cli_shape
+
+    def stop(*_a, **_k):
+        raise ValueError("stopped before the solve")
+
+    monkeypatch.setattr(cli_shape, "_solve_and_save", stop)
+    rc = main(["shape", *argv, "--out", str(tmp_path / "r.npz")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "stopped before the solve" in err, err
+    assert f"jaxstiff: warning: {note}" in err, err
+    rc = main(["shape", *argv, "--criterion", "f1", "--out", str(tmp_path / "r.npz")]) if argv[0] == "--c" else 2
+    assert "warning" not in capsys.readouterr().err  # f1 reads --c
+
+
+def test_a_default_lock_off_the_chain_says_it_is_the_default(capsys) -> None:
+    """`jaxstiff robot --tip-link lwr_link_5` without --lock: the shipped LWR's default lock of
+    lwr_a7 is off that chain; the error said so without saying the user never asked for it."""
+    line = _one_error(capsys, ["robot", "--tip-link", "lwr_link_5"])
+    assert "cannot lock joint 'lwr_a7'" in line and "is the shipped robot's default" in line and "--lock none" in line
+    assert main(["robot", "--tip-link", "lwr_link_5", "--lock", "none"]) == 0
+    capsys.readouterr()
