@@ -41,6 +41,10 @@ from jaxstiff.stiffness._core import TASK_ROWS, check_task_feasible
 __all__ = ["rollout_settings", "validate_values", "path_points", "SCALAR_SETTINGS"]
 
 #: the numeric settings that reach the compiled rollout as (differentiable) scalars
+#: the largest |K_xd| entry taken, N/m (u and the Frobenius error square the entries of K_xd and of
+#: J^T K_xd J: far beyond any real stiffness, far below float64's overflow)
+K_XD_MAX = 1e100
+
 SCALAR_SETTINGS = ("kmin", "kmax", "nu0", "damping", "jl_gain")
 
 
@@ -346,6 +350,11 @@ def validate_values(  # noqa: C901 - a flat list of independent input checks
         raise ValueError(f"beta must be >= 0, got min {b.min():g}")
     K = val(K_xd)
     if K is not None:
+        if K.size and np.max(np.abs(K)) > K_XD_MAX:
+            raise ValueError(
+                f"K_xd has an entry of {np.max(np.abs(K)):g} N/m; at most {K_XD_MAX:g} (u and the Frobenius "
+                "error sum squares of such entries, which overflow float64 beyond about 1e154)"
+            )
         asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)))
         if asym > 1e-6 * np.max(np.abs(K)) + 1e-12:
             raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {asym:g})")

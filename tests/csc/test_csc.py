@@ -660,7 +660,10 @@ def test_path_object_is_accepted(hold):
         (dict(path=np.zeros((5, 4))), "path points"),
         (dict(path=np.array([[np.nan, 0.0]])), "path contains NaN"),
         (dict(step="fast"), "step must be"),
-        (dict(kmin=0.0), "kmin must be > 0"),
+        (dict(kmin=0.0), "kmin must be a finite number > 0"),
+        (dict(kmin=np.inf), "kmin must be a finite number > 0"),
+        # finite, but u and the Frobenius error would square it into inf (found by an adversarial run)
+        (dict(K_xd=np.diag([1e300, 1e299])), r"K_xd has an entry of 1e\+300 N/m; at most 1e\+100"),
         (dict(newton=-1), "newton"),
         (dict(joint_limits="hard"), "joint_limits"),
         (dict(q0=Q_SEED.astype(np.float16)), "q0 has dtype float16.*pass float32 or float64"),
