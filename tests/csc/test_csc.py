@@ -1301,7 +1301,8 @@ def test_settings_object_and_its_checks():
         atol=0,
     )
     for kwargs, match in (
-        (dict(kmin=0.0), r"csc\.kmin \(Nm/rad\) must be a number > 0"),
+        (dict(kmin=0.0), r"csc\.kmin \(Nm/rad\) must be a finite number > 0"),
+        (dict(kmin=math.inf), r"csc\.kmin \(Nm/rad\) must be a finite number > 0"),
         (dict(nu0=1.0), r"csc\.nu0.*\[0, 1\)"),
         (dict(kmin=5.0, kmax=2.0), r"csc\.kmax \(2\) must be >= csc\.kmin \(5\)"),
         (dict(step="fast"), "csc.step"),
