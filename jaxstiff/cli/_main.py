@@ -139,6 +139,12 @@ def _run_command(args: argparse.Namespace) -> int:
     # a subcommand's own --no-compile-cache (the sweep's) turns the cache off here as well
     no_cache = bool(args.global_no_compile_cache or getattr(args, "no_compile_cache", False))
     with compile_cache_flags(no_cache, args.global_compile_cache) as cache_dir:
+        if args.global_compile_cache and not no_cache and cache_dir is None:
+            print(
+                f"jaxstiff: warning: --compile-cache {args.global_compile_cache}: the folder cannot be made or "
+                "written; running without a compilation cache",
+                file=sys.stderr,
+            )
         with CompileClock() as clock:
             rc = int(args._run(args) or 0)
     if clock.programs and not getattr(args, "quiet", False):

@@ -81,3 +81,27 @@ def test_a_subcommands_own_no_compile_cache_turns_the_command_cache_off(monkeypa
         assert seen[-1] is want
     args = argparse.Namespace(**{**base, "global_no_compile_cache": True}, _run=lambda a: 0)  # no own flag
     assert cli_main._run_command(args) == 0 and seen[-1] is True
+
+
+def test_a_compile_cache_folder_that_cannot_be_used_is_said(monkeypatch, capsys):
+    """`--compile-cache /proc/nope` ran without a cache and said so only in the timing line
+    (which --quiet drops); it now warns before the command runs. A usable folder: no warning."""
+    import argparse
+    import contextlib
+    import importlib
+
+    cli_main = importlib.import_module("jaxstiff.cli._main")
+    from jaxstiff.runtime import _compile_cache as compile_cache
+
+    usable = {"/proc/nope": None, "/tmp/ok": "/tmp/ok"}
+
+    @contextlib.contextmanager
+    def flags(no_cache, cache_dir):
+        yield None if no_cache else usable[cache_dir]
+
+    monkeypatch.setattr(compile_cache, "compile_cache_flags", flags)
+    base = {"command": "shape", "global_no_compile_cache": False, "quiet": True, "_run": lambda a: 0}
+    assert cli_main._run_command(argparse.Namespace(**base, global_compile_cache="/proc/nope")) == 0
+    assert "warning: --compile-cache /proc/nope: the folder cannot be made or written" in capsys.readouterr().err
+    assert cli_main._run_command(argparse.Namespace(**base, global_compile_cache="/tmp/ok")) == 0
+    assert "warning" not in capsys.readouterr().err
