@@ -90,11 +90,18 @@ _PACKAGE_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # ja
 _default_showwarning = warnings.showwarning
 
 
+_SHOWN: set[str] = set()  #: jaxstiff warnings printed so far by this process's command
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     """jaxstiff's own warnings (a URDF joint with an empty range, ...) as one line like the
     commands' other warnings, not Python's file:line: Category + source line; others unchanged."""
     if os.path.abspath(filename).startswith(_PACKAGE_DIR + os.sep):
-        print(f"jaxstiff: warning: {message}", file=sys.stderr if file is None else file)
+        text = str(message)
+        if text in _SHOWN:  # one robot read twice by a command (its checks, then its run) warns once
+            return
+        _SHOWN.add(text)
+        print(f"jaxstiff: warning: {text}", file=sys.stderr if file is None else file)
     else:
         _default_showwarning(message, category, filename, lineno, file, line)
 
@@ -170,6 +177,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         with warnings.catch_warnings(), interrupt_handlers():
+            _SHOWN.clear()
             warnings.showwarning = _show_warning
             raise_if_interrupted()  # a Ctrl-C while the command was starting up: stop before any work
             check_outputs_not_inputs(args, args._files)  # before any work: no output replaces an input

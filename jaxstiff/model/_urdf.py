@@ -583,7 +583,7 @@ def _limits(path: str, j: Any) -> tuple[float, float]:
         missing = [a for a in ("lower", "upper") if getattr(j.limit, a) is None]
         why = f" (<limit> omits {' and '.join(missing)}, which URDF defaults to 0)" if missing else ""
         warnings.warn(
-            f"{path}: {j.type} joint {j.name!r} has an empty range [{lo:g}, {hi:g}]{why}; "
+            f"{os.path.abspath(path)}: {j.type} joint {j.name!r} has an empty range [{lo:g}, {hi:g}]{why}; "
             f"it cannot move within its limits (lock it, or give it real limits or type "
             f'"continuous")',
             UserWarning,

@@ -508,3 +508,25 @@ def test_a_floating_joint_names_the_base_link_to_choose(write):
     path = write(two_joint_urdf().replace('name="j1" type="revolute"', 'name="j1" type="floating"'))
     with raises(ValueError, "joint 'j1' is floating", "choose a base link below it ('l1'", "--base-link"):
         jaxstiff.Robot.from_urdf(path)
+
+
+def test_a_command_that_reads_the_urdf_twice_warns_once(tmp_path, monkeypatch, capsys):
+    """`jaxstiff csc --robot one.urdf` (a relative path) printed the empty-range warning twice, once
+    with the path as given and once made absolute (the command reads the robot for its checks and
+    again for its run). The warning names the absolute path and a command prints each once."""
+    from jaxstiff.cli import main as cli_main
+
+    planar = (DATA_DIR / "planar_4r_tight_limits.urdf").read_text()
+    text = re.sub(r'(<joint name="a3".*?<limit )lower="[^"]*" upper="[^"]*"', r'\1lower="-0.6" upper="-0.6"', planar, count=1, flags=re.S)
+    (tmp_path / "one.urdf").write_text(text)
+    monkeypatch.chdir(tmp_path)
+    with pytest.warns(UserWarning, match="empty range"):
+        robot = jaxstiff.Robot.from_urdf("one.urdf")
+    x, y = np.asarray(robot.fk(np.array([0.4, 0.8, -0.6, 0.9])))[:2, 3]
+    argv = ["csc", "--robot", "one.urdf", "--hold", f"{float(x)!r},{float(y)!r}", "--steps", "3", "--kxd", "3000,1000"]
+    rc = cli_main([*argv, "--q0", "0.4,0.8,-0.6,0.9", "--out", "r.npz"])
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if "empty range" in ln]
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"jaxstiff: warning: {tmp_path / 'one.urdf'}: revolute joint 'a3'"), lines[0]
+    assert rc == 0, err
