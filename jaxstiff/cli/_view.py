@@ -70,6 +70,19 @@ def viser_or_error() -> Any:
     return viser
 
 
+def _check_view_outputs(args: argparse.Namespace) -> None:
+    """--html and --png before anything starts (the browser, the scene): a folder, a missing folder
+    or a name of another format (an HTML page in ``v.png``) is refused here."""
+    import os
+
+    for flag, out, like in (("--html", args.html, "shape.html"), ("--png", args.png, "shape.png")):
+        if out:
+            check_out_path(out, flag, like=like)
+            want = (".html", ".htm") if flag == "--html" else (".png",)
+            if os.path.splitext(out)[1].lower() not in want:
+                raise ValueError(f"{flag} {out}: the file is {want[0][1:].upper()}; name it like {like}")
+
+
 @command("view", "look at a result in the browser: arm, path, stiffness ellipsoids (viser)")
 def _add_view(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
@@ -117,13 +130,7 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
             raise ValueError(f"--scale must be a positive finite number (N/m per m), got {args.scale}")
         if args.every < 1:
             raise ValueError(f"--every must be a whole number >= 1 (every N-th waypoint's ellipsoid), got {args.every}")
-        for flag, out, like in (("--html", args.html, "shape.html"), ("--png", args.png, "shape.png")):
-            if out:  # before anything starts (the browser, the scene): a folder or a missing folder is refused here
-                check_out_path(out, flag, like=like)
-                suffix = os.path.splitext(out)[1].lower()
-                want = (".html", ".htm") if flag == "--html" else (".png",)
-                if suffix not in want:
-                    raise ValueError(f"{flag} {out}: the file is {want[0][1:].upper()}; name it like {like}")
+        _check_view_outputs(args)
         if not (args.html or args.png):
             check_port(args.host, args.port)
         browser, size = None, (0, 0)

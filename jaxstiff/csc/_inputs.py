@@ -40,11 +40,11 @@ from jaxstiff.stiffness._core import TASK_ROWS, check_task_feasible
 
 __all__ = ["rollout_settings", "validate_values", "path_points", "SCALAR_SETTINGS"]
 
-#: the numeric settings that reach the compiled rollout as (differentiable) scalars
 #: the largest |K_xd| entry taken, N/m (u and the Frobenius error square the entries of K_xd and of
 #: J^T K_xd J: far beyond any real stiffness, far below float64's overflow)
 K_XD_MAX = 1e100
 
+#: the numeric settings that reach the compiled rollout as (differentiable) scalars
 SCALAR_SETTINGS = ("kmin", "kmax", "nu0", "damping", "jl_gain")
 
 
@@ -321,6 +321,24 @@ def _flatten(
     return tb, kb, qb, bb, eb, rb
 
 
+def _check_kxd(K: np.ndarray) -> None:
+    """K_xd's values (finite, checked before): not so large that u squares them into inf,
+    symmetric, positive semi-definite."""
+    if K.size and np.max(np.abs(K)) > K_XD_MAX:
+        raise ValueError(
+            f"K_xd has an entry of {np.max(np.abs(K)):g} N/m; at most {K_XD_MAX:g} (u and the Frobenius "
+            "error sum squares of such entries, which overflow float64 beyond about 1e154)"
+        )
+    asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)))
+    if asym > 1e-6 * np.max(np.abs(K)) + 1e-12:
+        raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {asym:g})")
+    w = np.linalg.eigvalsh(0.5 * (K + np.swapaxes(K, -1, -2)))
+    worst = np.unravel_index(np.argmin(w[..., 0]), w.shape[:-1]) if w.ndim > 1 else ()
+    if w[worst][0] < -1e-9 * np.max(np.abs(w[worst])):
+        at = f" (K_xd{list(worst)})" if worst else ""
+        raise ValueError(f"K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue {w[worst][0]:g}{at}")
+
+
 def validate_values(  # noqa: C901 - a flat list of independent input checks
     robot: Robot,
     targets: jax.Array,
@@ -350,19 +368,7 @@ def validate_values(  # noqa: C901 - a flat list of independent input checks
         raise ValueError(f"beta must be >= 0, got min {b.min():g}")
     K = val(K_xd)
     if K is not None:
-        if K.size and np.max(np.abs(K)) > K_XD_MAX:
-            raise ValueError(
-                f"K_xd has an entry of {np.max(np.abs(K)):g} N/m; at most {K_XD_MAX:g} (u and the Frobenius "
-                "error sum squares of such entries, which overflow float64 beyond about 1e154)"
-            )
-        asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)))
-        if asym > 1e-6 * np.max(np.abs(K)) + 1e-12:
-            raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {asym:g})")
-        w = np.linalg.eigvalsh(0.5 * (K + np.swapaxes(K, -1, -2)))
-        worst = np.unravel_index(np.argmin(w[..., 0]), w.shape[:-1]) if w.ndim > 1 else ()
-        if w[worst][0] < -1e-9 * np.max(np.abs(w[worst])):
-            at = f" (K_xd{list(worst)})" if worst else ""
-            raise ValueError(f"K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue {w[worst][0]:g}{at}")
+        _check_kxd(K)
     kmin, kmax = val(scalars["kmin"]), val(scalars["kmax"])
     if kmin is not None and not (kmin > 0 and np.isfinite(kmin)):
         raise ValueError(f"kmin must be a finite number > 0 Nm/rad (kmax may be inf), got {float(kmin):g}")

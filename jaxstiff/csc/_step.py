@@ -103,7 +103,8 @@ class StepContext(NamedTuple):
     Joint arrays are (n,) in q's dtype: ``free`` (1 free, 0 locked), ``lock_vals`` (locked values,
     0 for free joints), ``lower``/``upper`` (limits, +-inf for locked joints), ``mid``/``half``
     (middle and half range of the finite limits, 0/1 elsewhere), ``finite_j`` (1 where both limits
-    are finite and apart: the joints of the Liegeois term). Scalars (rollout's or traced): beta, kmin, kmax, nu0, damping, null_eps, jl_gain.
+    are finite and apart: the joints of the Liegeois term). Scalars (rollout's or traced): beta,
+    kmin, kmax, nu0, damping, null_eps, jl_gain.
     """
 
     robot: Robot

@@ -251,7 +251,9 @@ def _link_tree(path: str, model: UrdfModel) -> _Tree:
     joints = {j.name: j for j in model.joints}
     if len(joints) != len(model.joints):
         names = [j.name for j in model.joints]
-        raise ValueError(f"{path}: duplicate joint names: {short_list(sorted({n for n in names if names.count(n) > 1}))}")
+        raise ValueError(
+            f"{path}: duplicate joint names: {short_list(sorted({n for n in names if names.count(n) > 1}))}"
+        )
     link_set = set(links)
     parent_joint: dict[str, Any] = {}
     children: dict[str, list[Any]] = {l: [] for l in links}

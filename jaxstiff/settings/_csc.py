@@ -108,9 +108,7 @@ class CSCSettings(Settings):
         check=_finite_non_negative,
         axis=Axis(static=False, unit=""),  # one value per rollout: csc_rollout's fifth argument
     )
-    kmin: float = setting(
-        1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive_finite
-    )
+    kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive_finite)
     kmax: float = setting(
         math.inf, unit="Nm/rad", doc="actuator range: highest joint stiffness (inf: open)", check=_positive
     )

@@ -30,7 +30,7 @@ from typing import Any, Literal
 import numpy as np
 
 from jaxstiff.model._chain import LOCKED_JOINT_MODES
-from jaxstiff.settings._base import Axis, Flag, Settings, at_least, non_negative, positive, positive_finite, setting
+from jaxstiff.settings._base import Axis, Flag, Settings, at_least, non_negative, positive_finite, setting
 
 __all__ = ["ShapeSettings", "LOCKED_JOINT_MODES", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG", "dq_to_deg"]
 

@@ -1215,7 +1215,13 @@ def test_a_joint_with_a_one_value_range_does_not_stop_joint_limit_avoidance(tmp_
     rollout moves as with avoidance off, keeps the joint at its one value, and no step is NaN."""
     planar = (DATA / "planar_4r_tight_limits.urdf").read_text()
     # joint 3's range made one value, at q0's value for it
-    text = re.sub(r'(<joint name="[^"]*3[^"]*".*?<limit )lower="[^"]*" upper="[^"]*"', r'\1lower="-0.6" upper="-0.6"', planar, count=1, flags=re.S)
+    text = re.sub(
+        r'(<joint name="[^"]*3[^"]*".*?<limit )lower="[^"]*" upper="[^"]*"',
+        r'\1lower="-0.6" upper="-0.6"',
+        planar,
+        count=1,
+        flags=re.S,
+    )
     assert text != planar
     path = tmp_path / "one_value.urdf"
     path.write_text(text)
@@ -1225,7 +1231,9 @@ def test_a_joint_with_a_one_value_range_does_not_stop_joint_limit_avoidance(tmp_
     q0 = np.array([0.4, 0.8, -0.6, 0.9])
     x0 = numpy_fk(robot, q0)[:2, 3]
     K = rot2(30.0) @ np.diag([3000.0, 1000.0]) @ rot2(30.0).T
-    r = jaxstiff.csc_rollout(robot, np.tile(x0, (100, 1)), K, q0, 5e-3, step="constant", joint_limits=mode, jl_gain=0.02)
+    r = jaxstiff.csc_rollout(
+        robot, np.tile(x0, (100, 1)), K, q0, 5e-3, step="constant", joint_limits=mode, jl_gain=0.02
+    )
     status = np.asarray(r.status)
     assert not np.any(status & csc.STATUS_NAN), status
     q = np.asarray(r.q)

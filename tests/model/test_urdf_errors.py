@@ -84,14 +84,20 @@ def test_root_must_be_robot(write):
 def test_a_xacro_file_is_refused_naming_its_first_macro(write):
     """An unexpanded xacro file read as URDF lost the links and joints its macros make (a 7-joint
     arm loaded with 5 joints, no warning); now refused, naming the element and the fix."""
-    wrist = two_joint_urdf().replace(
-        '<robot name="two">', '<robot name="two" xmlns:xacro="http://www.ros.org/wiki/xacro">'
-    ).replace("</robot>", '<xacro:include filename="$(find my_pkg)/wrist.xacro"/>\n<xacro:wrist parent="l2"/></robot>')
+    wrist = (
+        two_joint_urdf()
+        .replace('<robot name="two">', '<robot name="two" xmlns:xacro="http://www.ros.org/wiki/xacro">')
+        .replace(
+            "</robot>", '<xacro:include filename="$(find my_pkg)/wrist.xacro"/>\n<xacro:wrist parent="l2"/></robot>'
+        )
+    )
     path = write(wrist, "arm.urdf.xacro")
     with raises(ValueError, path, "a xacro file, not a URDF", "<xacro:include>", "xacro arm.urdf.xacro > robot.urdf"):
         jaxstiff.Robot.from_urdf(path)
     # the namespace declared but every macro expanded: a URDF like any other
-    expanded = two_joint_urdf().replace('<robot name="two">', '<robot name="two" xmlns:xacro="http://www.ros.org/wiki/xacro">')
+    expanded = two_joint_urdf().replace(
+        '<robot name="two">', '<robot name="two" xmlns:xacro="http://www.ros.org/wiki/xacro">'
+    )
     assert jaxstiff.Robot.from_urdf(write(expanded, "expanded.urdf")).n == 2
 
 
@@ -198,7 +204,10 @@ def test_chain_without_actuated_joints():
     "extra,message",
     [
         ('<link name="l1"/>', "duplicate link names: l1"),
-        ('<link name="l3"/><joint name="j2" type="fixed"><parent link="l2"/><child link="l3"/></joint>', "duplicate joint names: j2"),
+        (
+            '<link name="l3"/><joint name="j2" type="fixed"><parent link="l2"/><child link="l3"/></joint>',
+            "duplicate joint names: j2",
+        ),
         (
             '<link name="l3"/><joint name="j3" type="fixed"><parent link="base"/><child link="l2"/></joint>',
             "link 'l2' is the child of two joints",
@@ -517,7 +526,13 @@ def test_a_command_that_reads_the_urdf_twice_warns_once(tmp_path, monkeypatch, c
     from jaxstiff.cli import main as cli_main
 
     planar = (DATA_DIR / "planar_4r_tight_limits.urdf").read_text()
-    text = re.sub(r'(<joint name="a3".*?<limit )lower="[^"]*" upper="[^"]*"', r'\1lower="-0.6" upper="-0.6"', planar, count=1, flags=re.S)
+    text = re.sub(
+        r'(<joint name="a3".*?<limit )lower="[^"]*" upper="[^"]*"',
+        r'\1lower="-0.6" upper="-0.6"',
+        planar,
+        count=1,
+        flags=re.S,
+    )
     (tmp_path / "one.urdf").write_text(text)
     monkeypatch.chdir(tmp_path)
     with pytest.warns(UserWarning, match="empty range"):
