@@ -444,7 +444,8 @@ def test_full_task_with_locked_joints_keeps_their_springs(tmp_path):
         (dict(solver="hybrid", options={"driver": "fast"}), "SLSQP option 'driver' must be 'lean' or 'scipy'"),
         (dict(solver="trajectory", options={"warm": "nope"}), "option warm must be"),
         (dict(starts=4), "single-start"),
-        (dict(cms_volume=-1.0), "cms_volume must be > 0"),
+        (dict(cms_volume=-1.0), "cms_volume must be a finite number > 0"),
+        (dict(cms_major=float("inf")), "cms_major must be a finite number > 0"),
         (dict(first_starts=0), "first_starts must be >= 1"),
     ],
 )
