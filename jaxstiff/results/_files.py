@@ -162,8 +162,10 @@ class ShapeResult(PathGrid):
 
     @property
     def in_target(self) -> np.ndarray:
-        """(B, P) bool: alpha and rho within the summary's tolerances (:mod:`jaxstiff.results._target`)."""
-        return in_target(self.alpha_deg, self.ratio, self.meta)
+        """(B, P) bool: a usable waypoint (status 0-2) whose alpha and rho are within the summary's
+        tolerances (:mod:`jaxstiff.results._target`); an unreachable waypoint's ellipsoid is that of a
+        posture off the path, so it is never in target."""
+        return in_target(self.alpha_deg, self.ratio, self.meta) & is_usable(self.status)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """All arrays by file key (``meta`` excluded)."""
@@ -257,20 +259,27 @@ class ShapeResult(PathGrid):
 
 
 # ---------------------------------------------------------------------- summaries
-def summary(res: ShapeResult, alpha_tol_deg: float = ALPHA_TOL_DEG, ratio_rel_tol: float = RATIO_REL_TOL) -> dict:
-    """Headline numbers of a result (over all B x P waypoints).
+def summary(
+    res: ShapeResult | str | os.PathLike, alpha_tol_deg: float = ALPHA_TOL_DEG, ratio_rel_tol: float = RATIO_REL_TOL
+) -> dict:
+    """Headline numbers of a result (over all B x P waypoints); ``res`` a :class:`ShapeResult` or its file.
 
-    * ``share_alpha`` : share of waypoints with alpha < ``alpha_tol_deg``;
-    * ``share_ratio`` : f2 and others: share with ``|rho - r| / r < ratio_rel_tol``; f1: share with
+    * ``share_alpha`` : share of waypoints that are usable (status 0-2) with alpha < ``alpha_tol_deg``;
+    * ``share_ratio`` : usable, and for f2 and others ``|rho - r| / r < ratio_rel_tol``; f1:
       ``rho >= (1 - ratio_rel_tol) r`` (f1 asks for *at least* r);
     * ``share_both``  : both (:attr:`ShapeResult.in_target`); ``share_usable``, ``share_solved``: status 0-2, 0;
     * ``max_pos_error`` (m), ``median_time_s`` and ``mean_time_s`` per waypoint, ``total_time_s``.
     """
+    if isinstance(res, (str, os.PathLike)):
+        res = ShapeResult.load(res)
+    if not isinstance(res, ShapeResult):
+        raise TypeError(f"summary: res must be a ShapeResult or a result file's path, got {type(res).__name__}")
     r_raw = res.meta.get("ratio", np.nan)
     r_b = ratio_targets(res.meta, res.B)  # one target per path; the rule: jaxstiff.results._target
     crit = str(res.meta.get("criterion", ""))
     a_ok, r_ok = target_masks(res.alpha_deg, res.ratio, r_b[:, None], crit, alpha_tol_deg, ratio_rel_tol)
     usable = is_usable(res.status)
+    a_ok, r_ok = a_ok & usable, r_ok & usable  # as the command's table: usable waypoints only
     return {
         "B": res.B,
         "P": res.P,
@@ -328,6 +337,22 @@ def reference_states(res: ShapeResult, b: int) -> tuple[np.ndarray, np.ndarray, 
     return np.asarray(Q), np.asarray(KJ), np.asarray(RATE)
 
 
+def _verify_args(res: Any, robot: Any, urdf: str | os.PathLike | None) -> ShapeResult:
+    """:func:`verify`'s ``res`` as a checked :class:`ShapeResult` (a path is read with
+    :meth:`ShapeResult.read`, which checks robot, joints, locks, positions, task), and ``robot``'s type."""
+    if isinstance(res, (str, os.PathLike)):
+        res = ShapeResult.read(res, urdf)
+    if not isinstance(res, ShapeResult):
+        raise TypeError(f"verify: res must be a ShapeResult or a result file's path, got {type(res).__name__}")
+    from jaxstiff.model._robot import Robot as _Robot  # (a runtime check; the module imports it for types only)
+
+    if robot is not None and not isinstance(robot, _Robot):
+        raise TypeError(
+            f"verify: robot must be a jaxstiff.Robot (or None: rebuilt from the file), got {type(robot).__name__}"
+        )
+    return res
+
+
 def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequence
     res: ShapeResult | str | os.PathLike, robot: Robot | None = None, urdf: str | os.PathLike | None = None
 ) -> dict[str, float]:
@@ -351,8 +376,7 @@ def verify(  # noqa: PLR0915 - one numpy re-check per reported quantity, in sequ
         stiffness, makes the checks it enters ``inf`` (never an error). The file's ``joint_names``
         must be the robot's, in chain order (ValueError otherwise).
     """
-    if isinstance(res, (str, os.PathLike)):
-        res = ShapeResult.read(res, urdf)  # the one reader: robot, joints, locks, positions, task checked
+    res = _verify_args(res, robot, urdf)
     if robot is None:
         robot = robot_from_meta(res.meta, urdf)
     lim = res.meta["limits"]

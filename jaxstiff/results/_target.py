@@ -7,8 +7,10 @@ wanted axis ratio, within the tolerances every report uses:
 * rho: criterion f1 asks for *at least* r: ``rho >= (1 - RATIO_REL_TOL) r``; f2 and any other
   criterion ask for r itself: ``|rho - r| / r < RATIO_REL_TOL`` (2 %).
 
-A NaN alpha or rho is never in target. The flag is about the shape only; whether the point is
-feasible is its status (0-2 usable, :mod:`jaxstiff.results._status`). Status 0 keeps its meaning
+A NaN alpha or rho is never in target. :func:`in_target` is about the shape only;
+:attr:`jaxstiff.ShapeResult.in_target`, :func:`jaxstiff.results.summary` and the command's table
+count usable waypoints only (status 0-2, :mod:`jaxstiff.results._status`): an unreachable
+waypoint's ellipsoid is that of a posture off the path, not the path's. Status 0 keeps its meaning
 (feasible and, for SLSQP, the optimiser converged): a greedy solver can converge at every waypoint
 while the rate limits hold the ellipsoid away from the target, so :func:`missed_target_warning`
 names the usable waypoints that miss it.

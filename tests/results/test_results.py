@@ -127,16 +127,18 @@ def test_summary_counts_by_hand():
     s = R.summary(res)
     alpha = res.alpha_deg.ravel()
     ratio = res.ratio.ravel()
-    a_ok = alpha < 1.0  # 0.5, 0.1, 0.9 | 0.2, 0.3, 0.4 -> 6 of 8
-    r_ok = np.abs(ratio - 5) / 5 < 0.02  # 5, 5.05 | 5, 4.95, 5.0 -> 5 of 8 (4.8, 5.2, 5.11 fail)
-    assert s["share_alpha"] == 6 / 8 and a_ok.sum() == 6
-    assert s["share_ratio"] == 5 / 8 and r_ok.sum() == 5
-    assert s["share_both"] == np.mean(a_ok & r_ok)
+    usable = np.isin(res.status.ravel(), [0, 1, 2])  # waypoints 2 (status 3) and 7 (status 4) are not
+    a_ok = (alpha < 1.0) & usable  # 0.5, 0.1, 0.9 | 0.2, 0.3, 0.4 -> 6 of 8, 4 of them usable
+    r_ok = (np.abs(ratio - 5) / 5 < 0.02) & usable  # 5, 5.05 | 5, 4.95, 5.0 -> 5 of 8 (4.8, 5.2, 5.11 fail)
+    assert (alpha < 1.0).sum() == 6 and (np.abs(ratio - 5) / 5 < 0.02).sum() == 5
+    assert s["share_alpha"] == a_ok.mean() and s["share_ratio"] == r_ok.mean()
+    assert s["share_both"] == np.mean(a_ok & r_ok) == res.in_target.mean()
+    assert not res.in_target.ravel()[~usable].any()  # an unreachable waypoint is never in target
     assert s["share_usable"] == 6 / 8 and s["share_solved"] == 4 / 8
     assert s["median_time_s"] == 0.045
     # f1 counts "at least 0.98 r"
     res.meta["criterion"] = "f1"
-    assert R.summary(res)["share_ratio"] == np.mean(ratio >= 4.9)
+    assert R.summary(res)["share_ratio"] == np.mean((ratio >= 4.9) & usable)
 
 
 @pytest.mark.parametrize("first_rate_limit", [False, True])
