@@ -235,6 +235,10 @@ def prepare_rollout(
     command line calls it to report bad input before it announces the run. Arguments as
     :func:`jaxstiff.csc_rollout` (``given``: its inline keywords)."""
     kxd_varying, hold_orientation = given.pop("kxd_varying", None), given.pop("hold_orientation", None)
+    if not isinstance(remat, (bool, np.bool_)):  # "no" would read as True
+        raise TypeError(f"remat must be True or False, got {remat!r}")
+    if isinstance(beta, (str, bytes)):
+        raise TypeError(f"beta must be a number or an array (rad per step, or 1 for the adaptive step), got {beta!r}")
     s = rollout_settings(settings, **given)
     beta = s["beta"] if beta is None else beta
     _check_static(robot, s, chunk)

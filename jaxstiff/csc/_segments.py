@@ -72,6 +72,8 @@ def csc_rollout_segments(
     """
     if isinstance(segment_steps, bool) or not isinstance(segment_steps, (int, np.integer)) or segment_steps < 1:
         raise ValueError(f"segment_steps must be a positive integer, got {segment_steps!r}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"progress must be a function progress(steps_done, steps_total) (or None), got {progress!r}")
     if "hold_orientation" in kwargs:
         raise ValueError("csc_rollout_segments holds q0's orientation itself; hold_orientation is not accepted")
     varying = kwargs.pop("kxd_varying", None)

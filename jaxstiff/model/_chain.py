@@ -311,6 +311,11 @@ def tcp_transform(tcp: Sequence[float]) -> np.ndarray:
     return T
 
 
+#: the largest tool offset taken, m (the path's coordinates have the same bound: their squares,
+#: summed into lengths, stay finite in float64)
+TCP_MAX_M = 1e150
+
+
 def tcp_matrix(tcp: Sequence[float] | np.ndarray | None) -> np.ndarray:
     """A tool offset as a 4x4 transform: None (identity), a 3-vector (m), a 6-vector ``(x, y, z,
     roll, pitch, yaw)`` (m, rad; :func:`tcp_transform`, as the commands' ``--tcp``) or a 4x4
@@ -328,6 +333,11 @@ def tcp_matrix(tcp: Sequence[float] | np.ndarray | None) -> np.ndarray:
         )
     if not np.all(np.isfinite(T)):
         raise ValueError(f"tcp contains NaN or Inf: {shown!r}")
+    offset = T[:3, 3] if T.shape == (4, 4) else T[:3]
+    if np.max(np.abs(offset)) > TCP_MAX_M:
+        raise ValueError(
+            f"tcp offset {shown!r}: beyond {TCP_MAX_M:g} m (the reach and lengths built from it overflow float64)"
+        )
     if T.shape == (6,):
         return tcp_transform(T.tolist())
     if T.shape == (3,):

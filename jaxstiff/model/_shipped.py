@@ -18,6 +18,8 @@ def robot_path(name: str) -> str:
     Raises:
         FileNotFoundError: no shipped robot of that name; the message lists the shipped ones.
     """
+    if not isinstance(name, str):
+        raise TypeError(f"robot_path: name must be a str, like 'kuka_lwr4', got {name!r}")
     stem = name[:-5] if name.endswith(".urdf") else name
     candidate = _urdf_dir() / f"{stem}.urdf"
     if not candidate.is_file():

@@ -72,6 +72,8 @@ def tangents(points: ArrayLike, where: str = "path") -> np.ndarray:
 def _checked_points(points: ArrayLike, has_directions: bool, where: str) -> np.ndarray:
     """``points`` as a fresh float64 (P, 3) or (B, P, 3) array of finite values, P >= 2 (>= 1 with directions)."""
     refuse_half_precision(where, points=points)
+    if np.iscomplexobj(points):  # float() would drop the imaginary part with only numpy's warning
+        raise ValueError(f"{where}: points are complex numbers; give real coordinates (m)")
     pts = np.array(points, dtype=float, copy=True)
     if pts.ndim not in (2, 3) or pts.shape[-1] != 3:
         raise ValueError(f"{where}: points must have shape (P, 3) or (B, P, 3), got {pts.shape}")
@@ -106,6 +108,8 @@ def _unit_directions(directions: ArrayLike | None, pts: np.ndarray, where: str) 
             return tangents(pts, where)
         return np.stack([tangents(p, f"{where}[{b}]") for b, p in enumerate(pts)])
     refuse_half_precision(where, directions=directions)
+    if np.iscomplexobj(directions):
+        raise ValueError(f"{where}: directions are complex numbers; give real vectors")
     d = np.array(directions, dtype=float, copy=True)
     if d.shape != pts.shape:
         raise ValueError(f"{where}: directions must have the shape of points {pts.shape}, got {d.shape}")
@@ -189,6 +193,11 @@ class Path:
         """Stack unbatched paths with the same P into one batch (B, P, 3)."""
         if not paths:
             raise ValueError("no paths to stack")
+        for i, p in enumerate(paths):
+            if not isinstance(p, Path):
+                raise TypeError(
+                    f"Path.stack takes Path objects; item {i} is a {type(p).__name__} (wrap points in jaxstiff.Path(...))"
+                )
         Ps = {p.P for p in paths}
         if len(Ps) != 1 or any(p.batched for p in paths):
             raise ValueError(f"can only stack unbatched paths with the same number of waypoints, got P = {sorted(Ps)}")

@@ -41,6 +41,6 @@ def default_path(n: int | None = None) -> Path:
     """
     spec = dict(DEFAULT_PATH_SPEC)
     if n is not None:
-        spec["n"] = int(n)
+        spec["n"] = n  # checked by half_sine (a whole number >= 2)
     p = half_sine(spec["start"], spec["end"], spec["amplitude"], n=spec["n"], periods=spec["periods"])
     return Path(p.points, p.directions, name="default")

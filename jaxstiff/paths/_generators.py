@@ -39,6 +39,10 @@ def check_waypoints(n: int, what: str = "path", bytes_per_waypoint: float = WAYP
         ValueError: fewer than 2 waypoints, or (:class:`~jaxstiff.runtime._plan_size.PlanTooLargeError`)
             more than the available memory holds (the message gives the estimate and the limit).
     """
+    if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer, float, np.floating)):
+        raise TypeError(f"n (the number of waypoints) must be an integer, got {n!r}")
+    if not (np.isfinite(n) and float(n).is_integer()):  # 2.5 cut to 2 would be another path
+        raise ValueError(f"n (the number of waypoints) must be a whole number, got {n!r}")
     n = int(n)
     if n < 2:
         raise ValueError(f"a path needs at least 2 waypoints, got n = {n}")

@@ -18,8 +18,13 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
 
     Raises:
         FileNotFoundError: the target folder does not exist.
+        ValueError: ``file`` is empty, or a folder (``x/`` would have written ``x.npz`` beside it).
     """
     file = os.fspath(file)
+    if not file.strip():
+        raise ValueError("the result file's name is empty; give one, like result.npz")
+    if os.path.isdir(file) or file.endswith((os.sep, "/")):
+        raise ValueError(f"{file} is a folder; give a file name inside it, like {os.path.join(file, 'result.npz')}")
     if not file.lower().endswith(".npz"):  # x.NPZ is taken as it is (numpy would write x.NPZ.npz)
         file = file + ".npz"
     # numpy's stub lets **arrays bind savez's allow_pickle (bool); no result key has that name

@@ -18,12 +18,15 @@ check and help, without another edit (``flag=None`` / ``axis=None`` keep a field
 from __future__ import annotations
 
 import dataclasses
+import functools
 import inspect
 import math
 import types
 import typing
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any, ClassVar, TypeVar
+
+import numpy as np
 
 from jaxstiff.runtime._messages import suggest as suggest  # (re-exported: its home before it moved down)
 
@@ -134,6 +137,39 @@ def setting(
     return dataclasses.field(default=default, metadata=meta)
 
 
+def kind_problem(kind: type | None, value: Any) -> str | None:
+    """What is wrong with ``value`` for a field of type ``kind`` (None: nothing): a yes/no field
+    takes a bool, a count an integer, a number not a string (``"no"`` read as True, or 2.5 starts
+    cut to 2, would change a run without a word). Arrays (per-joint or per-path values where a
+    field allows them) are left to the field's own check."""
+    if value is None or kind is None or isinstance(value, (np.ndarray, list, tuple)):
+        return None
+    if kind is bool and not isinstance(value, (bool, np.bool_)):
+        return f"must be True or False, got {value!r}"
+    if kind is int and (isinstance(value, (bool, np.bool_)) or not _is_whole(value)):
+        return f"must be an integer, got {value!r}"
+    if kind is float and isinstance(value, (str, bytes, bool, np.bool_)):
+        return f"must be a number, got {value!r}"
+    return None
+
+
+def _is_whole(v: Any) -> bool:
+    """An integer (Python or numpy), or a float with an integer value (8.0)."""
+    if isinstance(v, (int, np.integer)):
+        return True
+    return isinstance(v, (float, np.floating)) and math.isfinite(v) and float(v).is_integer()
+
+
+@functools.cache
+def _field_kinds(cls: type) -> dict[str, type | None]:
+    """``{field: bool | int | float | str | None}`` of a settings class (its type hints, once)."""
+    try:
+        hints = typing.get_type_hints(cls)
+    except (NameError, TypeError):  # a name only imported for type checking: no kinds
+        return {}
+    return {f.name: _kind(hints.get(f.name)) for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+
+
 def _kind(hint: Any) -> type | None:
     """bool, int, float or str of a field's type hint (``int | None`` -> int, ``Literal["a"]`` -> str)."""
     if typing.get_origin(hint) in (typing.Union, types.UnionType):
@@ -197,8 +233,27 @@ class Settings:
             cls.__doc__ = inspect.cleandoc(cls.__doc__) + "\n\nAttributes:\n" + "\n".join(lines) + "\n"
 
     def __post_init__(self) -> None:
+        kinds = _field_kinds(type(self))
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
-            self._check_field(f, getattr(self, f.name))
+            value = getattr(self, f.name)
+            self._check_kind(f.name, kinds.get(f.name), value)
+            self._check_field(f, value)
+
+    def _check_kind(self, name: str, kind: type | None, value: Any) -> None:
+        problem = kind_problem(kind, value)
+        if problem:
+            raise ValueError(f"{self.section}.{name} {problem}" if self.section else f"{name} {problem}")
+
+    @classmethod
+    def check_kinds(cls, values: Mapping[str, Any]) -> None:
+        """:meth:`__post_init__`'s type rule on the entries of ``values`` that are fields of this
+        class, for a caller that takes the fields as keywords without building the object
+        (``shape(first_rate_limit=...)``); an error names the keyword."""
+        kinds = _field_kinds(cls)
+        for name, value in values.items():
+            problem = kind_problem(kinds.get(name), value)
+            if problem:
+                raise ValueError(f"{name} {problem}")
 
     def _check_field(self, f: dataclasses.Field, value: Any) -> None:
         where = f"{self.section}.{f.name}" if self.section else f.name

@@ -34,6 +34,7 @@ from jaxstiff.solvers._base import SOLVERS, check_options
 from jaxstiff.solvers._problem import content_seed
 from jaxstiff.stiffness._core import check_task_feasible, task_rows
 from jaxstiff.stiffness._criteria import check_criterion_call, f1, f2, get_criterion
+from jaxstiff.stiffness._tasks import check_planar_arm
 
 FIRST_STARTS_SEED = 0  #: seed of the extra first-waypoint start postures, mixed with each path's own data
 FIRST_STARTS_SPREAD_DEG = 60.0  #: perturbation of the nominal posture for the extra starts, +- deg
@@ -343,7 +344,10 @@ def check_inputs(
     crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
     check_options(solver, options)
     task_rows(task)
+    ShapeSettings.check_kinds(values)
     check_task_feasible(robot, task, locked_joints=locked)
+    if task == "xy":
+        check_planar_arm(robot)
     ratio = ratio_per_path(values["ratio"], B)
     m = task_dim(task)
     kmin, kmax, c = _numbers(values, cms_volume, cms_major, pos_tol, m)
@@ -360,6 +364,12 @@ def check_inputs(
     n_first = int(values["first_starts"])
     if n_first < 1:
         raise ValueError(f"first_starts must be >= 1, got {values['first_starts']}")
+    if values["cms_mean_axis"] != ShapeSettings().cms_mean_axis and not (cms_volume is None and cms_major is None):
+        raise ValueError(
+            "give one CMS target: cms_mean_axis, cms_volume or cms_major (the other would be ignored); "
+            f"got cms_mean_axis={values['cms_mean_axis']!r} with "
+            + (f"cms_volume={cms_volume!r}" if cms_volume is not None else f"cms_major={cms_major!r}")
+        )
     if cms_volume is None and cms_major is None:
         cms_volume = float(values["cms_mean_axis"]) ** m
     scalars = {

@@ -226,6 +226,10 @@ def shape(
         name, sopts = solver_call(solver)
         if sopts and kw.get("options"):
             raise TypeError("give the solver's options in the solver object or in options=, not both")
+        if "starts" in sopts and kw.get("starts") is not None and kw["starts"] != sopts["starts"]:
+            raise TypeError(
+                f"starts given twice: {sopts['starts']} in the solver object and starts={kw['starts']}; give one"
+            )
         if sopts:
             kw["options"] = sopts
     return run_shape(
@@ -299,6 +303,8 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): solver by name, 
         base = settings if settings is not None else _DEFAULT_SETTINGS
         if not isinstance(base, ShapeSettings):
             raise ValueError(f"settings must be a jaxstiff.settings.ShapeSettings, got {type(base).__name__}")
+        if progress is not None and not callable(progress):
+            raise TypeError(f"progress must be a function progress(b, p) (or None), got {progress!r}")
         unknown = sorted(set(given) - _FIELDS)
         if unknown:
             raise TypeError(

@@ -128,6 +128,12 @@ class Registered(_Named):
     solver: str
     opts: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.solver, str):
+            raise TypeError(f"Registered.solver must be the registered name (a str), got {self.solver!r}")
+        if not isinstance(self.opts, Mapping):
+            raise TypeError(f"Registered.opts must be a mapping {{option: value}}, got {self.opts!r}")
+
     def options(self) -> dict[str, Any]:
         """The options dict as given."""
         return dict(self.opts)

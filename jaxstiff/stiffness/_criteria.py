@@ -319,6 +319,21 @@ def check_criterion_call(fn: Criterion, name: str, m: int, dtype: Any = "float64
     if shape != () or kind not in "fiub" or not kind:
         got = f"shape {shape}, dtype {getattr(out, 'dtype', type(out).__name__)}"
         raise ValueError(f"criterion {name!r} must return one real number per K ({got}); {want}")
+    # one value at a plain, well-posed stiffness: a criterion that is NaN or inf there would leave
+    # every waypoint non-finite after the whole solve
+    axes = [3000.0, 2000.0, 1000.0, 500.0, 400.0, 300.0][:m]
+    Kp, dp = jnp.diag(jnp.asarray(axes, dtype=jnp.dtype(dtype))), jnp.eye(m, dtype=jnp.dtype(dtype))[0]
+    try:
+        value = float(fn(Kp, dp, 5.0, c=0.01))
+    except Exception as exc:  # the user's function: any error it raises is its own
+        raise ValueError(
+            f"criterion {name!r} failed on K = diag{tuple(axes)} N/m ({type(exc).__name__}: {exc})"
+        ) from None
+    if not math.isfinite(value):
+        raise ValueError(
+            f"criterion {name!r} returned {value} at K = diag{tuple(axes)} N/m, d = (1, 0, ...), r = 5: "
+            "a criterion must be finite wherever the stiffness is well-posed (every waypoint would end non-finite)"
+        )
 
 
 def get_criterion(criterion: str | Criterion) -> Criterion:

@@ -60,16 +60,7 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False, springs: st
     # Structural rank: sample postures within the limits (continuous joints in [-pi, pi]); a task
     # whose Jacobian rows lose rank at every sample (a planar chain asked for z, an axis parallel
     # to another ...) is not a singular posture but a wrong task for this robot.
-    from jaxstiff.model._host import position_jacobian
-
-    rng = np.random.default_rng(0)
-    lo, hi = robot.lower, robot.upper  # a joint's own range; one turn where it is open
-    lo_ok, hi_ok = np.isfinite(lo), np.isfinite(hi)
-    lo = np.where(lo_ok, lo, np.where(hi_ok, np.where(hi_ok, hi, 0.0) - 2 * np.pi, -np.pi))
-    hi = np.where(hi_ok, hi, lo + 2 * np.pi)
-    q = lo + (hi - lo) * rng.uniform(0.05, 0.95, size=(6, robot.n))
-    q = np.where(robot.free, q, np.nan_to_num(robot.locked_values))
-    J = position_jacobian(robot, q)  # numpy: a JAX trace of the chain costs ~0.2 s per command
+    J = _sampled_jacobians(robot)
     Js = J[:, list(rows), :][:, :, cols]
     s = np.linalg.svd(Js, compute_uv=False)
     if np.any(s[:, -1] > 1e-9 * np.maximum(s[:, 0], 1e-300)):
@@ -83,6 +74,36 @@ def _task_rank_report(robot: Chain, task: str, motion: bool = False, springs: st
         else f"its {m} task rows have rank {rank} at every sampled posture"
     )
     return f"task {task!r} controls {m} Cartesian rows but {why}, " + lost.format("direction")
+
+
+def _sampled_jacobians(robot: Chain) -> np.ndarray:
+    """The geometric Jacobian (6, 6, n) at six postures drawn within the joint limits (continuous
+    joints in one turn), locked joints at their values: the same six for every call."""
+    from jaxstiff.model._host import position_jacobian
+
+    rng = np.random.default_rng(0)
+    lo, hi = robot.lower, robot.upper  # a joint's own range; one turn where it is open
+    lo_ok, hi_ok = np.isfinite(lo), np.isfinite(hi)
+    lo = np.where(lo_ok, lo, np.where(hi_ok, np.where(hi_ok, hi, 0.0) - 2 * np.pi, -np.pi))
+    hi = np.where(hi_ok, hi, lo + 2 * np.pi)
+    q = lo + (hi - lo) * rng.uniform(0.05, 0.95, size=(6, robot.n))
+    q = np.where(robot.free, q, np.nan_to_num(robot.locked_values))
+    return position_jacobian(robot, q)  # numpy: a JAX trace of the chain costs ~0.2 s per command
+
+
+def check_planar_arm(robot: Chain) -> None:
+    """Raise ValueError if the free joints of ``robot`` move its TCP along z at a sampled posture:
+    shaping with task ``"xy"`` constrains the TCP's x and y only, so on such an arm z drifts off
+    the path and every waypoint ends out of reach (its 3-D position error is what is checked)."""
+    J = _sampled_jacobians(robot)[:, :3, :][:, :, robot.free]
+    scale = float(np.max(np.abs(J[:, :2, :]), initial=0.0))
+    vz = float(np.max(np.abs(J[:, 2, :]), initial=0.0))
+    if vz > 1e-9 * max(scale, 1e-300):
+        raise ValueError(
+            f"task 'xy' is for planar arms, whose joints cannot move the TCP along z; {robot.name!r} can "
+            f"(its Jacobian's vz row reaches {vz:.3g} m/rad at a sampled posture), so z would be left free "
+            "and the waypoints' z not met: use task 'xyz' (position) or 'full'"
+        )
 
 
 def check_task_feasible(robot: Chain, task: str, *, motion: bool = False, locked_joints: str = "rigid") -> None:

@@ -571,16 +571,23 @@ def test_newton_projection_stops_cleanly_when_no_joint_moves_the_tcp():
     assert np.array_equal(out, x)
 
 
-def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane(lwr):
-    pts = short_default(3).points.copy()
-    pts[2, 2] += 0.01  # the path climbs at its end: the default tangents get a z component
+def test_task_xy_names_the_path_and_waypoint_that_leaves_the_plane():
+    planar = jaxstiff.Robot.from_urdf("planar_3r")
+    pts = np.array([[1.5, 0.0, 0.0], [1.5, 0.2, 0.0], [1.5, 0.4, 0.01]])  # climbs at its end
     path = jaxstiff.Path(pts, name="climb")
     with pytest.raises(
         ValueError,
         match=r"task 'xy' needs directions in the xy plane \(dz = 0\); path 0 \(climb\) "
         r"has dz = 0\.\d+ at waypoint 1 \(its z changes along the path",
     ):
-        jaxstiff.shape(lwr, path, "f2", 5.0, task="xy")
+        jaxstiff.shape(planar, path, "f2", 5.0, task="xy")
+
+
+def test_task_xy_on_a_spatial_arm_is_refused_before_any_solve(lwr):
+    """Task 'xy' constrains the TCP's x and y only; on the LWR, whose joints move the TCP along z,
+    every waypoint came back 'unreachable' (0.3-0.6 m off in z) after the whole solve."""
+    with pytest.raises(ValueError, match=r"task 'xy' is for planar arms.*'kuka_lwr4' can.*vz row reaches"):
+        jaxstiff.shape(lwr, short_default(3), "f2", 5.0, task="xy")
 
 
 def test_meta_tcp_is_the_offset_given(tmp_path):

@@ -1,0 +1,145 @@
+"""The Python API under misuse (an adversarial run of 2026-12-07): arguments that changed a run
+without a word or failed deep inside with an AttributeError now fail up front with a ValueError
+or TypeError naming the argument. No case here runs a solver: each stops at input checking
+(the one that would solve is stopped by its own error first)."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+import jaxstiff
+from jaxstiff.results import summary, verify
+from jaxstiff.settings import CSCSettings, ShapeSettings
+
+
+@pytest.fixture(scope="module")
+def lwr():
+    return jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+
+
+@pytest.fixture(scope="module")
+def pts():
+    return np.asarray(jaxstiff.default_path().points)[:5]
+
+
+# ------------------------------------------------------------------ values taken for something else
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        # "no" read as True: the opposite of what was asked
+        (dict(first_rate_limit="no"), r"first_rate_limit must be True or False, got 'no'"),
+        # counts cut to an integer: another run than asked
+        (dict(first_starts=2.5), r"first_starts must be an integer, got 2.5"),
+        (dict(solver="pgd", starts=2.5), r"starts must be an integer, got 2.5"),
+        (dict(kmin="5"), r"kmin must be a number, got '5'"),
+        # task 'xy' leaves z free: every waypoint of a spatial arm ended "unreachable" after the solve
+        (dict(task="xy"), r"task 'xy' is for planar arms.*'kuka_lwr4' can.*use task 'xyz'"),
+        # two CMS targets: cms_mean_axis was dropped but recorded in meta
+        (dict(cms_volume=1e9, cms_mean_axis=500.0), r"give one CMS target: cms_mean_axis, cms_volume or cms_major"),
+    ],
+    ids=["bool-string", "first-starts-float", "starts-float", "number-string", "xy-on-lwr", "two-cms-targets"],
+)
+def test_shape_refuses_what_it_would_have_changed(lwr, pts, kwargs, match) -> None:
+    with pytest.raises(ValueError, match=match):
+        jaxstiff.shape(lwr, pts, "f2", 5.0, **kwargs)
+
+
+def test_shape_refuses_a_string_ratio_and_a_complex_path(lwr, pts) -> None:
+    with pytest.raises(ValueError, match=r"ratio must be a number, got '5'"):
+        jaxstiff.shape(lwr, pts, "f2", "5")
+    with pytest.raises(ValueError, match=r"points are complex numbers"):
+        jaxstiff.shape(lwr, pts + 0.05j, "f2", 5.0)
+    with pytest.raises(ValueError, match=r"directions are complex numbers"):
+        jaxstiff.Path(pts, np.ones_like(pts) + 1j)
+
+
+def test_starts_given_twice_is_refused(lwr, pts) -> None:
+    with pytest.raises(TypeError, match=r"starts given twice: 5 in the solver object and starts=3"):
+        jaxstiff.shape(lwr, pts, "f2", 5.0, solver=jaxstiff.solvers.PGD(starts=5), starts=3)
+
+
+def test_a_criterion_that_is_nan_where_the_stiffness_is_plain_is_refused(lwr, pts) -> None:
+    import jax.numpy as jnp
+
+    with pytest.raises(ValueError, match=r"returned nan at K = diag\(3000.0, 2000.0, 1000.0\) N/m"):
+        jaxstiff.shape(lwr, pts, lambda K, d, r: jnp.nan * jnp.sum(K), 5.0)
+
+
+def test_progress_must_be_callable(lwr, pts) -> None:
+    with pytest.raises(TypeError, match=r"progress must be a function progress\(b, p\)"):
+        jaxstiff.shape(lwr, pts, "f2", 5.0, progress=5)
+
+
+def test_settings_objects_check_types() -> None:
+    with pytest.raises(ValueError, match=r"shape.first_rate_limit must be True or False"):
+        ShapeSettings(first_rate_limit="no")
+    with pytest.raises(ValueError, match=r"shape.first_starts must be an integer, got 2.5"):
+        ShapeSettings(first_starts=2.5)
+    with pytest.raises(ValueError, match=r"csc.newton must be an integer"):
+        CSCSettings(newton=1.5)
+    assert ShapeSettings(first_starts=4.0).first_starts == 4.0  # a whole float is a count
+    assert ShapeSettings(first_rate_limit=np.bool_(True)).first_rate_limit
+
+
+@pytest.mark.parametrize("make", ["line", "circle", "default"])
+def test_a_path_generator_refuses_a_fractional_count(make) -> None:
+    call = {
+        "line": lambda n: jaxstiff.paths.line((0, 0, 0), (1, 0, 0), n),
+        "circle": lambda n: jaxstiff.paths.circle((0, 0, 0), 1.0, n),
+        "default": lambda n: jaxstiff.paths.default_path(n),
+    }[make]
+    with pytest.raises(ValueError, match=r"must be a whole number, got 2.5"):
+        call(2.5)
+    with pytest.raises(TypeError, match=r"must be an integer, got '5'"):
+        call("5")
+    assert call(5.0).P == 5
+
+
+# ------------------------------------------------------------------ csc
+def test_csc_refuses_a_string_beta_and_remat() -> None:
+    arm = jaxstiff.Robot.from_urdf("planar_3r")
+    q0 = np.deg2rad([75.0, -74.74, -76.30])
+    hold = np.broadcast_to(np.asarray(arm.fk(q0))[:2, 3], (5, 2))
+    K = np.array([[2500.0, 866.0], [866.0, 1500.0]])
+    with pytest.raises(TypeError, match=r"remat must be True or False, got 'no'"):
+        jaxstiff.csc_rollout(arm, hold, K, q0, 0.002, step="constant", remat="no")
+    with pytest.raises(TypeError, match=r"beta must be a number or an array"):
+        jaxstiff.csc_rollout(arm, hold, K, q0, "0.002", step="constant")
+    from jaxstiff.csc import csc_rollout_segments
+
+    with pytest.raises(TypeError, match=r"progress must be a function"):
+        csc_rollout_segments(arm, hold, K, q0, 0.002, segment_steps=2, step="constant", progress=5)
+
+
+# ------------------------------------------------------------------ robots, files, results
+def test_a_tcp_offset_beyond_float64_lengths_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"tcp offset \(0, 0, 1e\+200\): beyond 1e\+150 m"):
+        jaxstiff.Robot.from_urdf("kuka_lwr4", tcp=(0, 0, 1e200))
+
+
+def test_save_refuses_a_folder_and_an_empty_name(tmp_path) -> None:
+    from jaxstiff.results._npz import atomic_save_npz
+
+    folder = tmp_path / "out"
+    folder.mkdir()
+    for bad, match in ((str(folder), "is a folder"), (str(folder) + os.sep, "is a folder"), ("", "name is empty")):
+        with pytest.raises(ValueError, match=match):
+            atomic_save_npz(bad, {"a": np.zeros(2)})
+    assert sorted(os.listdir(tmp_path)) == ["out"] and not os.listdir(folder)  # nothing written
+    assert atomic_save_npz(str(folder / "r"), {"a": np.zeros(2)}) == str(folder / "r.npz")
+
+
+def test_wrong_types_name_the_argument(tmp_path) -> None:
+    with pytest.raises(TypeError, match=r"verify: res must be a ShapeResult or a result file's path, got NoneType"):
+        verify(None)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"summary: res must be a ShapeResult"):
+        summary(42)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"robot_path: name must be a str"):
+        jaxstiff.robot_path(None)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"Path.stack takes Path objects; item 0 is a ndarray"):
+        jaxstiff.Path.stack([np.zeros((3, 3)), np.zeros((3, 3))])  # type: ignore[list-item]
+    with pytest.raises(TypeError, match=r"Registered.opts must be a mapping"):
+        jaxstiff.solvers.Registered("pgd", [1, 2])  # type: ignore[arg-type]
