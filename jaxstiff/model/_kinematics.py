@@ -54,6 +54,7 @@ from jaxstiff.model._scalars import matmul3 as _matmul3
 from jaxstiff.model._scalars import matvec3 as _matvec3
 from jaxstiff.model._scalars import mul as _mul
 from jaxstiff.model._scalars import sub as _sub
+from jaxstiff.runtime._dtypes import refuse_half_precision
 
 __all__ = [
     "fk",
@@ -224,6 +225,7 @@ def _locked_checked(fn):
     def checked(robot: Chain, q: jax.Array, *args, **kwargs):
         if isinstance(robot, Chain):  # anything else: the kernel's own check says what is wrong
             check_locked_values(robot, q)
+        refuse_half_precision(fn.__name__, q=q)  # as shape and csc_rollout: ~1 mm off in FK
         warn_if_float32(q)
         return fn(robot, q, *args, **kwargs)
 

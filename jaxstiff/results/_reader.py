@@ -373,6 +373,10 @@ def _check_shape_values(file: str, out: dict[str, np.ndarray], meta: dict, rmeta
     bad = ~np.isin(status, np.arange(6))
     if bad.any():
         raise ResultFileError(file, "status", "codes 0-5 (jaxstiff.results._status)", f"{status[bad][0]} {_where(bad)}")
+    for k in ("time_s", "nit", "nfev"):  # seconds and counts: a negative one is not what a solver wrote
+        neg = out[k] < 0
+        if neg.any():
+            raise ResultFileError(file, k, "values >= 0", f"{out[k][neg][0]} {_where(neg)}")
     usable = np.isin(status, np.asarray(USABLE))
     _check_finite(file, "q", out["q"], usable, " at usable waypoints (status 0-2)")
     _check_finite(file, "q0", out["q0"])

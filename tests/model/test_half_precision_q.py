@@ -16,3 +16,12 @@ def test_robot_methods_refuse_float16(method):
     ref = np.asarray(r.fk(q))  # float64 in, reference
     got = np.asarray(r.fk(q.astype(np.float32)))  # float32 still allowed
     assert np.abs(got - ref).max() < 1e-5
+
+
+@pytest.mark.parametrize("name", ["fk", "jacobian", "fk_and_jacobian"])
+def test_module_functions_refuse_float16_too(name):
+    """The Robot methods refused float16; the module functions jaxstiff.fk etc. computed in it
+    (z = 1.179 against 1.1785 m): the same rule now, naming the function."""
+    r = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={})
+    with pytest.raises(ValueError, match=rf"{name}: q has dtype float16 \(half precision\)"):
+        getattr(jaxstiff, name)(r, np.zeros(7, np.float16))

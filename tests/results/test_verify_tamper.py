@@ -52,3 +52,23 @@ def test_a_users_own_criterion_is_reported_as_not_checked(planar):
     v = R.verify(dataclasses.replace(planar, meta=meta))
     assert math.isnan(v["max_criterion_mismatch"])
     assert v["max_alpha_mismatch"] < 1e-8  # the rest is still checked
+
+
+@pytest.mark.parametrize("key", ["time_s", "nit", "nfev"])
+def test_a_negative_time_or_count_in_a_file_is_refused(planar, tmp_path, key):
+    """A file with a negative time or iteration count (an adversarial run's tampering) was read and
+    verified; a solver never writes one, so the reader refuses it, naming the array."""
+    from helpers import tamper_result
+
+    from jaxstiff.results._reader import ResultFileError
+
+    src = planar.save(str(tmp_path / "ok.npz"))
+    jaxstiff.ShapeResult.load(src)
+
+    def negative(d):
+        d[key] = d[key].copy()
+        d[key][0, 1] = -5
+
+    bad = tamper_result(src, str(tmp_path / "bad.npz"), arrays=negative)
+    with pytest.raises(ResultFileError, match=rf"{key}.*values >= 0.*-5"):
+        jaxstiff.ShapeResult.load(bad)
