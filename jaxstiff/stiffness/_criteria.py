@@ -322,7 +322,9 @@ def check_criterion_call(fn: Criterion, name: str, m: int, dtype: Any = "float64
     # one value at a plain, well-posed stiffness: a criterion that is NaN or inf there would leave
     # every waypoint non-finite after the whole solve
     axes = [3000.0, 2000.0, 1000.0, 500.0, 400.0, 300.0][:m]
-    Kp, dp = jnp.diag(jnp.asarray(axes, dtype=jnp.dtype(dtype))), jnp.eye(m, dtype=jnp.dtype(dtype))[0]
+    # (numpy float64 in: JAX takes it as its default float, without the warning an explicit float64
+    # request gives while x64 is off)
+    Kp, dp = jnp.asarray(np.diag(axes)), jnp.asarray(np.eye(m)[0])
     try:
         value = float(fn(Kp, dp, 5.0, c=0.01))
     except Exception as exc:  # the user's function: any error it raises is its own
