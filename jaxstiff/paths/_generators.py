@@ -39,6 +39,8 @@ def check_waypoints(n: int, what: str = "path", bytes_per_waypoint: float = WAYP
         ValueError: fewer than 2 waypoints, or (:class:`~jaxstiff.runtime._plan_size.PlanTooLargeError`)
             more than the available memory holds (the message gives the estimate and the limit).
     """
+    if isinstance(n, np.ndarray) and n.ndim == 0:  # a numpy scalar array: its value
+        n = n.item()
     if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer, float, np.floating)):
         raise TypeError(f"n (the number of waypoints) must be an integer, got {n!r}")
     if not (np.isfinite(n) and float(n).is_integer()):  # 2.5 cut to 2 would be another path
