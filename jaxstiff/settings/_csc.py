@@ -13,7 +13,7 @@ import dataclasses
 import math
 from typing import Literal
 
-from jaxstiff.settings._base import Axis, Settings, setting
+from jaxstiff.settings._base import Axis, Settings, positive, positive_finite, setting
 
 __all__ = ["CSCSettings", "CSC_TASKS"]
 
@@ -35,14 +35,6 @@ def _is_real(v: object) -> bool:
 
 def _finite_non_negative(v: object) -> str | None:
     return None if _is_real(v) and math.isfinite(v) and v >= 0 else "must be a finite number >= 0"  # type: ignore[arg-type]
-
-
-def _positive(v: object) -> str | None:
-    return None if _is_real(v) and v > 0 else "must be a number > 0"  # type: ignore[operator]
-
-
-def _positive_finite(v: object) -> str | None:
-    return None if _is_real(v) and math.isfinite(v) and v > 0 else "must be a finite number > 0"  # type: ignore[arg-type, operator]
 
 
 def _isotropy_threshold(v: object) -> str | None:
@@ -108,9 +100,9 @@ class CSCSettings(Settings):
         check=_finite_non_negative,
         axis=Axis(static=False, unit=""),  # one value per rollout: csc_rollout's fifth argument
     )
-    kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=_positive_finite)
+    kmin: float = setting(1.0, unit="Nm/rad", doc="actuator range: lowest joint stiffness", check=positive_finite)
     kmax: float = setting(
-        math.inf, unit="Nm/rad", doc="actuator range: highest joint stiffness (inf: open)", check=_positive
+        math.inf, unit="Nm/rad", doc="actuator range: highest joint stiffness (inf: open)", check=positive
     )
     nu0: float = setting(
         1e-2,
