@@ -179,3 +179,33 @@ def tamper_result(src: str, dst: str, arrays=None, meta=None) -> str:
         meta(m)
     np.savez(dst, meta=np.asarray(json.dumps(m)), **data)  # pyright: ignore[reportArgumentType]
     return dst
+
+
+def one_value_range_planar(folder: pathlib.Path, name: str = "one_value.urdf") -> pathlib.Path:
+    """tests/data/planar_4r_tight_limits.urdf with joint a3's range made the one value -0.6 rad
+    (a URDF may give lower == upper), written to ``folder / name``."""
+    import re
+
+    planar = (DATA_DIR / "planar_4r_tight_limits.urdf").read_text()
+    text = re.sub(
+        r'(<joint name="a3".*?<limit )lower="[^"]*" upper="[^"]*"',
+        r'\1lower="-0.6" upper="-0.6"',
+        planar,
+        count=1,
+        flags=re.S,
+    )
+    assert text != planar
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+def one_cli_error(capsys, argv: list[str]) -> str:
+    """Run the command line, which must fail with exit 2 and one line ``jaxstiff: error: ...``; that line."""
+    from jaxstiff.cli import main
+
+    rc = main(argv)
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert rc == 2 and len(lines) == 1 and lines[0].startswith("jaxstiff: error: "), err
+    return lines[0]

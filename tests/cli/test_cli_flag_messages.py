@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 import pytest
+from helpers import one_cli_error
 
 import jaxstiff
 from jaxstiff.cli import main, parse_locks
@@ -32,15 +33,6 @@ EQ_URDF = """<?xml version="1.0"?>
 """
 
 
-def _one_error(capsys, argv: list[str]) -> str:
-    """Run the command, which must fail with exit 2 and one line ``jaxstiff: error: ...``; that line."""
-    rc = main(argv)
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert rc == 2 and len(lines) == 1 and lines[0].startswith("jaxstiff: error: "), err
-    return lines[0]
-
-
 def _words(text: str) -> str:
     return " ".join(text.split())
 
@@ -53,15 +45,15 @@ def test_lock_splits_at_the_last_equals_sign(tmp_path, capsys):
     out = tmp_path / "x.npz"
     base = ["csc", "--robot", str(urdf), "--hold", "1,0", "--kxd", "1000,500", "--out", str(out)]
     # the lock is taken (the robot is built with joint 'j=1' locked); the run stops at --q0's count
-    err = _one_error(capsys, [*base, "--lock", "j=1=0.1", "--q0", "0.1"])
+    err = one_cli_error(capsys, [*base, "--lock", "j=1=0.1", "--q0", "0.1"])
     assert "--q0 needs 2 values for 'eq' (j=1, j2), got 1" in err, err
-    err = _one_error(capsys, [*base, "--lock", "j=1=0.1", "--q0", "0.2,0"])
+    err = one_cli_error(capsys, [*base, "--lock", "j=1=0.1", "--q0", "0.2,0"])
     assert "gives joint 'j=1' 0.2 rad, but it is locked at 0.1 rad" in err, err
     assert not out.exists()
 
 
 def test_lock_value_that_is_not_a_number_names_both_units(capsys):
-    err = _one_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "j=1=abc"])
+    err = one_cli_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "j=1=abc"])
     assert "--lock 'j=1=abc': 'abc' is not a number (rad, or m for a prismatic joint)" in err, err
     with pytest.raises(ValueError, match="expects JOINT=RAD"):
         parse_locks(["=0.1"])
@@ -70,13 +62,13 @@ def test_lock_value_that_is_not_a_number_names_both_units(capsys):
 # ------------------------------------------------------------------ 2. a joint off the chain
 @pytest.mark.parametrize("joint", ["side_joint", "camera_joint"])  # another branch: revolute, fixed
 def test_lock_of_a_urdf_joint_off_the_chain_says_so(capsys, joint):
-    err = _one_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", f"{joint}=0"])
+    err = one_cli_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", f"{joint}=0"])
     assert f"cannot lock joint {joint!r}: it is in the URDF but not on the chain from 'world' to 'tool'" in err
     assert "actuated joints are j1, j2, j3, j4" in err and "unknown" not in err, err
 
 
 def test_lock_of_a_joint_unknown_to_the_urdf_still_says_unknown(capsys):
-    err = _one_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "elbow=0"])
+    err = one_cli_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "elbow=0"])
     assert "cannot lock unknown joint 'elbow'; actuated joints of the chain: j1, j2, j3, j4" in err, err
     with pytest.raises(ValueError, match="not on the chain from 'world' to 'side_link'"):  # the API too
         jaxstiff.Robot.from_urdf(BRANCHED, tip_link="side_link", locked={"j2": 0.1})
@@ -132,7 +124,7 @@ def test_csc_help_states_segment_work_from_the_constant(capsys, monkeypatch):
 def test_csc_q0_outside_limits_in_the_flags_unit(tmp_path, capsys, robot, q0, message):
     out = tmp_path / "x.npz"
     hold, kxd = ("1.5,0", "3000,1000") if robot == ["planar_3r"] else ("0.5,0,0.5", "3000,1000,2000")
-    err = _one_error(capsys, ["csc", "--robot", *robot, "--hold", hold, "--kxd", kxd, *q0, "--out", str(out)])
+    err = one_cli_error(capsys, ["csc", "--robot", *robot, "--hold", hold, "--kxd", kxd, *q0, "--out", str(out)])
     assert err == f"jaxstiff: error: {message}", err
     assert not out.exists()
 
@@ -162,7 +154,7 @@ def test_csc_steps_with_a_path_is_refused(tmp_path, capsys):
     jaxstiff.Path(np.array([[1.5, 0.0, 0.0], [1.49, 0.01, 0.0], [1.48, 0.02, 0.0]])).to_csv(path)
     out = tmp_path / "x.npz"
     base = ["csc", "--robot", "planar_3r", "--path", str(path), "--kxd", "3000,1000@30", "--q0-deg", "30,60,-60"]
-    err = _one_error(capsys, [*base, "--steps", "10", "--out", str(out)])
+    err = one_cli_error(capsys, [*base, "--steps", "10", "--out", str(out)])
     assert (
         err
         == "jaxstiff: error: --steps applies to --hold; a --path has one step per row (repeat a row to hold it still)"

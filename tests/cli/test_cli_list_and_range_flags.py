@@ -10,17 +10,10 @@ from __future__ import annotations
 import os
 
 import pytest
+from helpers import one_cli_error
 
 from jaxstiff.cli import main
 from jaxstiff.cli._common import parse_floats
-
-
-def _one_error(capsys, argv: list[str]) -> str:
-    rc = main(argv)
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert rc == 2 and len(lines) == 1 and lines[0].startswith("jaxstiff: error: "), err
-    return lines[0]
 
 
 @pytest.mark.parametrize(
@@ -40,7 +33,7 @@ def _one_error(capsys, argv: list[str]) -> str:
 )
 def test_an_empty_item_in_a_list_is_refused(tmp_path, capsys, argv, flag, item) -> None:
     out = str(tmp_path / "r.npz")
-    line = _one_error(capsys, [*argv, "--out", out] if argv[0] != "robot" else argv)
+    line = one_cli_error(capsys, [*argv, "--out", out] if argv[0] != "robot" else argv)
     assert f"{flag}: item {item} of " in line and "is empty" in line, line
     assert not os.path.exists(out)
 
@@ -90,7 +83,7 @@ def test_parse_floats_keeps_every_value_in_place() -> None:
 )
 def test_an_infinite_target_or_range_is_refused(tmp_path, capsys, argv, says) -> None:
     out = str(tmp_path / "r.npz")
-    line = _one_error(capsys, [*argv, "--out", out])
+    line = one_cli_error(capsys, [*argv, "--out", out])
     assert says in line, line
     assert not os.path.exists(out)
 
@@ -134,7 +127,7 @@ def test_shape_warns_of_a_flag_it_does_not_read(tmp_path, capsys, monkeypatch, a
 def test_a_default_lock_off_the_chain_says_it_is_the_default(capsys) -> None:
     """`jaxstiff robot --tip-link lwr_link_5` without --lock: the shipped LWR's default lock of
     lwr_a7 is off that chain; the error said so without saying the user never asked for it."""
-    line = _one_error(capsys, ["robot", "--tip-link", "lwr_link_5"])
+    line = one_cli_error(capsys, ["robot", "--tip-link", "lwr_link_5"])
     assert "cannot lock joint 'lwr_a7'" in line and "is the shipped robot's default" in line and "--lock none" in line
     assert main(["robot", "--tip-link", "lwr_link_5", "--lock", "none"]) == 0
     capsys.readouterr()

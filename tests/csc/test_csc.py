@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import DATA_DIR, assert_close, central_diff, numpy_fk
+from helpers import DATA_DIR, assert_close, central_diff, numpy_fk, one_value_range_planar
 
 import jaxstiff
 from jaxstiff import csc
@@ -1213,18 +1213,7 @@ def test_a_joint_with_a_one_value_range_does_not_stop_joint_limit_avoidance(tmp_
     with joint-limit avoidance on every step was dropped by the NaN guard and the rollout stood
     still without a word (found by an adversarial run). That joint is now out of the term: the
     rollout moves as with avoidance off, keeps the joint at its one value, and no step is NaN."""
-    planar = (DATA / "planar_4r_tight_limits.urdf").read_text()
-    # joint 3's range made one value, at q0's value for it
-    text = re.sub(
-        r'(<joint name="[^"]*3[^"]*".*?<limit )lower="[^"]*" upper="[^"]*"',
-        r'\1lower="-0.6" upper="-0.6"',
-        planar,
-        count=1,
-        flags=re.S,
-    )
-    assert text != planar
-    path = tmp_path / "one_value.urdf"
-    path.write_text(text)
+    path = one_value_range_planar(tmp_path)  # joint a3 (index 2): [-0.6, -0.6], q0's value for it
     with pytest.warns(UserWarning):  # the loader says the range is one value
         robot = jaxstiff.Robot.from_urdf(str(path))
     assert robot.lower[2] == robot.upper[2] == -0.6

@@ -12,7 +12,7 @@ import re
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import DATA_DIR
+from helpers import DATA_DIR, one_value_range_planar
 
 import jaxstiff
 
@@ -525,15 +525,7 @@ def test_a_command_that_reads_the_urdf_twice_warns_once(tmp_path, monkeypatch, c
     again for its run). The warning names the absolute path and a command prints each once."""
     from jaxstiff.cli import main as cli_main
 
-    planar = (DATA_DIR / "planar_4r_tight_limits.urdf").read_text()
-    text = re.sub(
-        r'(<joint name="a3".*?<limit )lower="[^"]*" upper="[^"]*"',
-        r'\1lower="-0.6" upper="-0.6"',
-        planar,
-        count=1,
-        flags=re.S,
-    )
-    (tmp_path / "one.urdf").write_text(text)
+    one_value_range_planar(tmp_path, "one.urdf")
     monkeypatch.chdir(tmp_path)
     with pytest.warns(UserWarning, match="empty range"):
         robot = jaxstiff.Robot.from_urdf("one.urdf")
