@@ -242,8 +242,7 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
         why = (
             "it solves all paths together"
             if args.solver not in ("slsqp", "slsqp-fd")
-            else "the interrupt came before the first waypoint was finished, or while the result was "
-            "assembled, or a second interrupt came before the finished waypoints were saved"
+            else "the interrupt came before the first waypoint was finished"
         )
         print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
         raise

@@ -14,7 +14,7 @@ from jaxstiff.csc._inputs import path_points, prepare_rollout
 from jaxstiff.csc._result import START_FIELDS, CSCResult, concat_results, step_axis
 from jaxstiff.csc._rollout import csc_rollout
 from jaxstiff.model._robot import Robot
-from jaxstiff.runtime._io import raise_if_interrupted
+from jaxstiff.runtime._io import hold_interrupts, raise_if_interrupted
 from jaxstiff.runtime._progress import Progress
 
 __all__ = ["csc_rollout_segments"]
@@ -133,6 +133,7 @@ def _run_segments(
     except KeyboardInterrupt as e:
         if not parts:
             raise
+        hold_interrupts()  # a second Ctrl-C before the command has written the finished rows must not lose them
         raise CSCInterrupted(concat_results(parts), done, T) from e
     return concat_results(parts)
 

@@ -267,12 +267,30 @@ def json_default(o: object) -> object:
 # ----------------------------------------------------------------------------- interrupts
 _PENDING: dict[str, int | None] = {"signal": None}
 _DEFER = {"depth": 0}
+#: "" (interrupts raise), "held" (:func:`hold_interrupts`: remembered only), "told" (held, and the
+#: user was told why a second one did not stop the run)
+_HELD = {"state": ""}
 
 
 def _on_signal(signum: int, frame: object):  # noqa: ARG001 - the signal module's handler signature
     _PENDING["signal"] = signum
+    if _HELD["state"]:
+        if _HELD["state"] == "held":  # once: the user pressed again and waits
+            _HELD["state"] = "told"
+            print("\njaxstiff: saving what was finished first (stop at once: Ctrl-\\)", file=sys.stderr, flush=True)
+        return
     if not _DEFER["depth"]:
         raise KeyboardInterrupt
+
+
+def hold_interrupts() -> None:
+    """From now until the end of :func:`interrupt_handlers`, SIGINT/SIGTERM are only remembered: for
+    a run that an interrupt has already stopped and that is now keeping what was finished (a
+    solver's finished waypoints, up to the file that holds them), so that a second Ctrl-C, pressed
+    before that file is written, does not lose them. Outside :func:`interrupt_handlers` (library
+    use) it changes nothing."""
+    if not _HELD["state"]:
+        _HELD["state"] = "held"
 
 
 def _drop_interrupt_unraisable(hook: Callable) -> Callable:
@@ -313,6 +331,7 @@ def interrupt_handlers() -> Iterator[None]:
     from jaxstiff.runtime._early_signals import early_signal
 
     _PENDING["signal"] = early_signal()  # (one received while the command was starting up)
+    _HELD["state"] = ""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -325,6 +344,7 @@ def interrupt_handlers() -> Iterator[None]:
         sys.unraisablehook = old_hook
         for sig, handler in old.items():
             signal.signal(sig, handler)
+        _HELD["state"] = ""
 
 
 def interrupt_pending() -> int | None:

@@ -23,6 +23,7 @@ import numpy as np
 
 from jaxstiff.results import _files as R
 from jaxstiff.results._target import ALPHA_TOL_DEG, RATIO_REL_TOL
+from jaxstiff.runtime._io import hold_interrupts
 from jaxstiff.solvers._base import SolveRequest, SolverInterrupted, outcomes_to_arrays
 from jaxstiff.solvers._problem import (
     BOUND_TOL,
@@ -551,7 +552,9 @@ class _GreedyWalk:
                     progress(p)
         except KeyboardInterrupt:
             # the waypoints in `out` are finished and consistent (each is appended whole); the caller
-            # may keep them (shape marks the rest NOT_RUN)
+            # may keep them (shape marks the rest NOT_RUN), and a second Ctrl-C before the command
+            # has written them must not lose them
+            hold_interrupts()
             raise PathInterrupted(out) from None
         return out, fs, alternatives
 

@@ -349,6 +349,45 @@ def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, mon
     assert v["max_pos_error"] <= 1e-9 and v["max_bound_violation"] <= 0.0 and v["max_rate_violation"] <= 1e-12
 
 
+def test_a_second_interrupt_while_the_finished_part_is_assembled_still_writes_it(
+    tmp_path, small_csv, capsys, monkeypatch
+):
+    """A user who presses Ctrl-C twice: the second arrives while shape() assembles the finished
+    waypoints into a result (before, a KeyboardInterrupt there lost every finished waypoint and
+    wrote nothing). It is now only remembered until the file is written; exit 130."""
+    import signal
+
+    import jaxstiff.cli._shape as cs
+    import jaxstiff.shaping._shape as sh
+    from jaxstiff.runtime._io import interrupt_pending
+
+    _main_thread_only()
+    real_tick, real_assemble = cs.WaypointProgress.__call__, sh.assemble_result
+    seen = []
+
+    def tick(self, b, p):
+        real_tick(self, b, p)
+        if self.done == 1:
+            _swallowed_sigint()  # the first Ctrl-C: raised at the next waypoint's tick
+
+    def assemble(*a, **k):
+        os.kill(os.getpid(), signal.SIGINT)  # the second one, a real signal through the command's handler
+        for _ in range(1000):  # the handler runs at the next bytecode boundary of the main thread
+            seen.append(interrupt_pending())
+        return real_assemble(*a, **k)
+
+    monkeypatch.setattr(cs.WaypointProgress, "__call__", tick)
+    monkeypatch.setattr(sh, "assemble_result", assemble)
+    out = tmp_path / "part.npz"
+    rc = main(["shape", "--path", str(small_csv), "--out", str(out), "--first-starts", "1"])
+    err = capsys.readouterr().err
+    assert seen and rc == 130 and out.exists(), err
+    assert "with the 2 of 3 waypoints finished before it" in err and "saving what was finished first" in err
+    back = jaxstiff.ShapeResult.load(out)
+    assert back.meta["interrupted"] is True
+    assert R.is_usable(back.status[0, :2]).all() and back.status[0, 2] == R.NOT_RUN
+
+
 def test_library_interrupt_carries_the_finished_part():
     """shape() raises ShapeInterrupted, a KeyboardInterrupt that holds the finished part."""
     from jaxstiff.shaping import ShapeInterrupted

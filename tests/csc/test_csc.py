@@ -1094,6 +1094,48 @@ def test_cli_long_run_shows_progress_and_an_interrupt_keeps_the_finished_steps(t
     assert sorted(p.name for p in tmp_path.iterdir()) == ["full.npz", "part.npz"]  # no temporary file
 
 
+def test_cli_a_second_interrupt_before_the_write_still_writes_the_finished_steps(tmp_path, capsys, monkeypatch, hold):
+    """Ctrl-C twice: the second (a real SIGINT through the command's handler) arrives after the
+    first stopped the rollout at a segment and before the finished steps are written. It is only
+    remembered: the file holds the 600 finished steps, exit 130."""
+    import os
+    import signal
+    import threading
+
+    from jaxstiff.cli import _csc as _cli_csc
+    from jaxstiff.runtime._io import interrupt_pending
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signal handlers can only be installed in the main thread")
+    monkeypatch.setattr(_cli_csc, "SEGMENT_WORK", 300)
+
+    class Stop(_cli_csc.StepProgress):
+        def __call__(self, done, total):
+            super().__call__(done, total)
+            if done >= 600:
+                raise KeyboardInterrupt  # the first
+
+    real_meta = _cli_csc._meta
+
+    def meta(*a, **k):
+        os.kill(os.getpid(), signal.SIGINT)  # the second
+        for _ in range(1000):  # the handler runs at the next bytecode boundary of the main thread
+            interrupt_pending()
+        return real_meta(*a, **k)
+
+    monkeypatch.setattr(_cli_csc, "StepProgress", Stop)
+    monkeypatch.setattr(_cli_csc, "_meta", meta)
+    part = tmp_path / "part.npz"
+    argv = ["csc", "--robot", "planar_3r", "--hold", f"{float(X_SEED[0])!r},{float(X_SEED[1])!r}"]
+    argv += ["--kxd", "3000,1000@30", "--q0-deg", "75,-74.74,-76.30", "--beta", "2e-3", "--step", "constant"]
+    assert cli_main(argv + ["--steps", "1000", "--out", str(part)]) == 130
+    err = capsys.readouterr().err
+    assert "600 of 1000 steps" in err and "saving what was finished first" in err, err
+    with np.load(part) as f:
+        assert json.loads(str(f["meta"]))["steps"] == 600
+        assert_close(f["q"][0], np.asarray(hold.q)[:600], rtol=1e-12, atol=1e-14, what="rows kept")
+
+
 def test_cli_checks_numeric_flags_before_warning(tmp_path, capsys):
     """--kmin 0 with --hold and the adaptive step: the flag's error, and no hold warning first."""
     rc = cli_main(
