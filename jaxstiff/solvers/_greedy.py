@@ -552,9 +552,7 @@ class _GreedyWalk:
                     progress(p)
         except KeyboardInterrupt:
             # the waypoints in `out` are finished and consistent (each is appended whole); the caller
-            # may keep them (shape marks the rest NOT_RUN), and a second Ctrl-C before the command
-            # has written them must not lose them
-            hold_interrupts()
+            # may keep them (shape marks the rest NOT_RUN)
             raise PathInterrupted(out) from None
         return out, fs, alternatives
 
@@ -664,6 +662,8 @@ def run_greedy(
                 )
             )
         except PathInterrupted as e:
+            if e.done or any(per_path):
+                hold_interrupts()  # finished waypoints: a second Ctrl-C before they are written must not lose them
             per_path.append(e.done)
             interrupted = True
             break
