@@ -147,11 +147,26 @@ def first_free_waypoints(status: np.ndarray, meta: Mapping[str, Any]) -> np.ndar
 _NO_RATE_LIMIT = "has no rate limit (nothing before it binds it)"
 #: the advice where an unconstrained first waypoint's stiffnesses span the whole range
 _RANGE_BINDS = "the range binds, a wider one (kmin/kmax, --kmin/--kmax) may reach the target"
-#: the advice where an unconstrained first waypoint ended in a local optimum
-_LOCAL_OPTIMUM = (
-    "the solver's starts ended in a local optimum: more first-waypoint starts (first_starts, "
-    "--first-starts) or solver 'slsqp' or 'hybrid' may reach it"
-)
+#: solvers that search a first waypoint harder than the one named (the warning suggests those only)
+_FIRST_SEARCHERS = {
+    "pgd": ("slsqp", "hybrid"),
+    "slsqp-fd": ("slsqp", "hybrid"),
+    "slsqp": ("hybrid",),
+    "trajectory": ("hybrid",),
+}
+
+
+def _local_optimum(solver: str = "") -> str:
+    """The cause where an unconstrained first waypoint misses the target with no stiffness bound
+    holding it: a local optimum of the search, or a shape that no posture there gives (the arm's
+    geometry: parallel joint axes, say, fix an axis of the ellipsoid); the advice names other
+    solvers than ``solver`` only."""
+    others = _FIRST_SEARCHERS.get(solver, ("slsqp", "hybrid") if not solver else ())
+    alt = "".join(f" or solver {o!r}" for o in others)
+    return (
+        f"a local optimum (more first-waypoint starts (first_starts, --first-starts){alt} may reach "
+        "the target) or a shape no posture gives there (parallel joint axes can fix an ellipsoid axis)"
+    )
 
 
 def _range_bound_joints(
@@ -176,11 +191,13 @@ def first_waypoint_cause(
     """Why an unconstrained first waypoint (``kj`` (n,) its joint stiffnesses, rigid locked joints
     inf or NaN) misses the target, as far as its state tells: f1 and f2 depend only on the
     stiffnesses' ratios, so the stiffness range binds where some joint sits at kmin and another at
-    kmax (within ``rtol``); otherwise the search ended in a local optimum (no bound holds it)."""
+    kmax (within ``rtol``); otherwise no bound holds it: a local optimum of the search, or a shape
+    the arm cannot give there (:func:`_local_optimum`)."""
     limits = meta.get("limits") or {}
     kmin, kmax = limits.get("kmin"), limits.get("kmax")
+    local = _local_optimum(str(meta.get("solver", "")))
     if kj is None or kmin is None or kmax is None:
-        return _LOCAL_OPTIMUM
+        return local
     bound = _range_bound_joints(kj, meta, rtol)
     if bound is not None:
         names = list(joint_names) if joint_names is not None else [str(i) for i in range(np.asarray(kj).size)]
@@ -189,7 +206,7 @@ def first_waypoint_cause(
             f"its joint stiffnesses span the whole range [{float(kmin):g}, {float(kmax):g}] Nm/rad "
             f"({', '.join(names[i] for i in lo)} at kmin; {', '.join(names[i] for i in hi)} at kmax): {_RANGE_BINDS}"
         )
-    return f"its joint stiffnesses lie inside [{float(kmin):g}, {float(kmax):g}] Nm/rad, so {_LOCAL_OPTIMUM}"
+    return f"its joint stiffnesses lie inside [{float(kmin):g}, {float(kmax):g}] Nm/rad (no bound holds them): {local}"
 
 
 #: paths a missed-target warning names one by one (their waypoints, their first waypoint's
@@ -211,7 +228,8 @@ def _first_causes_grouped(firsts: Mapping[int, int], kj: np.ndarray | None, meta
             f"span the whole range [{float(limits['kmin']):g}, {float(limits['kmax']):g}] Nm/rad: {_RANGE_BINDS}"
         )
     if local:
-        out.append(f"paths {compress_ranges(local)}: the first waypoint {_NO_RATE_LIMIT}, and {_LOCAL_OPTIMUM}")
+        cause = _local_optimum(str(meta.get("solver", "")))
+        out.append(f"paths {compress_ranges(local)}: the first waypoint {_NO_RATE_LIMIT}, and {cause}")
     return out
 
 
@@ -260,8 +278,8 @@ def missed_target_warning(
     if solver in GREEDY_SOLVERS:
         advice = (
             f"solver {solver!r} goes waypoint by waypoint and cannot look ahead, so its status 0 (solved: "
-            "feasible, optimiser converged) does not mean in target; try solver='trajectory' "
-            f"(--solver trajectory) or 'hybrid', or looser rate limits{per_m}"
+            "feasible, optimiser converged) does not mean in target; try solver 'hybrid', or 'trajectory' from "
+            f"it (Trajectory(warm=Hybrid())), or looser rate limits{per_m}"
         )
     else:
         advice = (
