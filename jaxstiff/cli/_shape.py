@@ -255,42 +255,14 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
 
 
 def _report(args: argparse.Namespace, res: ShapeResult, written: str) -> int:
-    """The summary table, and a warning (exit 3 when nothing is usable) for unusable waypoints."""
-    import numpy as np
-
+    """The summary table; exit 3 when no waypoint is usable."""
     from jaxstiff.results import _files as R
 
     if not args.quiet:
         print(summary_table(res))
         print(f"wrote {written}  ({res.B} path(s) x {res.P} waypoints; status codes: see jaxstiff.results)")
+    # waypoints without a usable solution were named by shape()'s warning (UnusableWaypointsWarning)
     usable = R.is_usable(res.status)
-    if usable.all():
-        return 0
-    worst = int(np.argmin(usable.sum(axis=1)))
-    far = float(np.max(res.pos_error[~usable]))
-    # the first waypoint has no rate limit (unless --first-rate-limit): if it was reached and later
-    # ones were not, the limits per waypoint are the likelier cause
-    after_first = bool(np.all(usable[:, 0])) and not args.first_rate_limit
-    if after_first:
-        hint = (
-            "the joint and stiffness rate limits (--dq-deg, --dk: change allowed per waypoint) may be too "
-            "tight for the waypoint spacing, or the path leaves the robot's reach"
-        )
-    elif args.first_rate_limit:
-        # the first waypoint is held within one rate step of the start state as well
-        hint = (
-            "with --first-rate-limit the first waypoint must be within one rate step (--dq-deg, --dk) of "
-            "the start state (--q0, or IK to the first waypoint): start on the path, or drop the flag; "
-            "else check the path's units and the robot's reach"
-        )
-    else:
-        hint = "check the path's units and the robot's reach"
-    print(
-        f"jaxstiff: warning: {int((~usable).sum())} of {usable.size} waypoints have no usable solution "
-        f"(path {worst}: {int((~usable[worst]).sum())} of {res.P}; largest position error {far:.3g} m); "
-        f"{hint} (status codes: see jaxstiff.results)",
-        file=sys.stderr,
-    )
     return 0 if usable.any() else 3  # 3: the file is written, but holds no usable waypoint
 
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from jaxstiff.results._status import is_usable
+from jaxstiff.results._status import NOT_RUN, is_usable
 
 __all__ = [
     "ALPHA_TOL_DEG",
@@ -288,6 +288,54 @@ def missed_target_warning(
             + ("" if solver == "trajectory" else ", or solver='trajectory' (--solver trajectory)")
         )
     return head + lead + advice
+
+
+def unusable_warning(status: np.ndarray, pos_error: np.ndarray, meta: Mapping[str, Any]) -> str | None:
+    """The text of the warning at the end of :func:`jaxstiff.shape` (and of ``jaxstiff shape``)
+    where waypoints have no usable solution (status 3-4): how many, the worst path, the largest
+    position error and the likelier cause; None when every waypoint is usable (or not run)."""
+    st = np.asarray(status)
+    usable = is_usable(st)
+    bad = ~usable & (st != NOT_RUN)
+    if not bad.any():
+        return None
+    worst = int(np.argmax(bad.sum(axis=1)))
+    far = float(np.max(np.asarray(pos_error, float)[bad]))
+    first_rate = bool((meta.get("limits") or {}).get("first_rate_limit", False))
+    # the first waypoint has no rate limit (unless first_rate_limit): if it was reached and later
+    # ones were not, the limits per waypoint are the likelier cause
+    if bool(np.all(usable[:, 0])) and not first_rate:
+        hint = (
+            "the joint and stiffness rate limits (dq, dk; --dq-deg, --dk: change allowed per waypoint) may "
+            "be too tight for the waypoint spacing, or the path leaves the robot's reach"
+        )
+    elif first_rate:
+        # the first waypoint is held within one rate step of the start state as well
+        hint = (
+            "with first_rate_limit (--first-rate-limit) the first waypoint must be within one rate step of "
+            "the start state (q0, or IK to the first waypoint): start on the path, or drop it; else check "
+            "the path's units and the robot's reach"
+        )
+    else:
+        hint = "check the path's units and the robot's reach"
+    return (
+        f"{int(bad.sum())} of {st.size} waypoints have no usable solution (path {worst}: "
+        f"{int(bad[worst].sum())} of {st.shape[1]}; largest position error {far:.3g} m); {hint} "
+        "(status codes: see jaxstiff.results)"
+    )
+
+
+class UnusableWaypointsWarning(UserWarning):
+    """Waypoints without a usable solution (status 3-4; :func:`warn_unusable`)."""
+
+
+def warn_unusable(res: Any, stacklevel: int = 3) -> str | None:
+    """Warn once (:class:`UnusableWaypointsWarning`) when waypoints of ``res`` (a
+    :class:`~jaxstiff.ShapeResult`) have no usable solution; returns the text (None: none)."""
+    text = unusable_warning(res.status, res.pos_error, res.meta)
+    if text is not None:
+        warnings.warn(text, UnusableWaypointsWarning, stacklevel=stacklevel)
+    return text
 
 
 class MissedTargetWarning(UserWarning):

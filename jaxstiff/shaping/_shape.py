@@ -20,7 +20,7 @@ from jaxstiff.model._robot import Robot
 from jaxstiff.paths import Path
 from jaxstiff.results._files import ShapeResult
 from jaxstiff.results._singular import singular_meta, singular_waypoints, warn_singular
-from jaxstiff.results._target import warn_missed_target
+from jaxstiff.results._target import warn_missed_target, warn_unusable
 from jaxstiff.runtime._compile_cache import CompileClock, ensure_compile_cache
 from jaxstiff.runtime._dtypes import refuse_half_precision
 from jaxstiff.settings._base import suggest
@@ -342,6 +342,7 @@ def run_shape(  # noqa: PLR0913 - the full form behind shape(): solver by name, 
         result = assemble_result(inp, arrays, rep, cms, meta)
     if interrupted:
         raise ShapeInterrupted(result)
+    warn_unusable(result, stacklevel=_stacklevel)  # waypoints without a usable solution: one warning
     warn_missed_target(result, stacklevel=_stacklevel)  # usable waypoints off target: one warning, named
     warn_singular(singular, inp.task, stacklevel=_stacklevel)  # ... and those whose ratio is the regularisation's
     return result

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.results._singular import SingularPostureWarning
-from jaxstiff.results._target import MissedTargetWarning
+from jaxstiff.results._target import MissedTargetWarning, UnusableWaypointsWarning
 from jaxstiff.runtime._io import json_default
 from jaxstiff.settings._shape import ShapeSettings
 from jaxstiff.sweep._axes import AXES, kxd_matrix
@@ -131,6 +131,7 @@ def _shape_call(
     with warnings.catch_warnings():
         # the sweep's table reports misses per row (share_both): a warning per chunk would be noise
         warnings.simplefilter("ignore", MissedTargetWarning)
+        warnings.simplefilter("ignore", UnusableWaypointsWarning)  # the table's usable share and status keep it
         warnings.simplefilter("ignore", SingularPostureWarning)  # meta["singular"] of each chunk keeps it
         res = run_shape(
             plan.robot,
