@@ -34,7 +34,16 @@ def csc_status_note(meta: dict[str, Any]) -> str:
 @command("export", "write a result's joint trajectory (q, kj, TCP) as CSV for a controller")
 def _add_export(p: argparse.ArgumentParser) -> Any:
     add_result_flags(p)
-    writes(p.add_argument("--csv", required=True, metavar="OUT.csv", help="the CSV to write (written atomically)"))
+    writes(
+        p.add_argument(
+            "--csv",
+            "--out",
+            dest="csv",
+            required=True,
+            metavar="OUT.csv",
+            help="the CSV to write (written atomically); --out is the same flag, as in the other commands",
+        )
+    )
     p.add_argument("--path", type=int, default=None, help="only this path of a batch (default: all, column 'path')")
 
     def run(args: argparse.Namespace) -> int:

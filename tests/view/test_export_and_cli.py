@@ -134,6 +134,9 @@ def test_export_names_unusable_rows(shape_file, tmp_path, capsys) -> None:
     np.testing.assert_array_equal(read_csv(out)["status"], status.reshape(-1))
     assert main(["export", shape_file, "--csv", str(tmp_path / "ok.csv")]) == 0
     assert "warning" not in capsys.readouterr().err
+    # --out, as every other command names its output, writes the same file
+    assert main(["export", shape_file, "--out", str(tmp_path / "ok2.csv")]) == 0
+    assert (tmp_path / "ok2.csv").read_bytes() == (tmp_path / "ok.csv").read_bytes()
 
 
 def test_wrong_kind_of_file_and_output_folders_are_named(shape_file, csc_file, tmp_path, capsys) -> None:
