@@ -7,6 +7,7 @@ kuka_lwr4 has its 7th joint locked at 0 here too, as in ``jaxstiff shape`` (``--
 from __future__ import annotations
 
 import argparse
+import shlex
 import warnings
 from typing import Any
 
@@ -45,7 +46,7 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
                 raise ValueError(f"give the robot once: URDF {args.urdf!r} or --robot {args.robot!r}")
             args.robot = args.urdf
         spec = robot_spec_from_args(args)
-        print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)
+        print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)  # an ambiguous tip stops here
         robot = spec.build()
         if args.q is None:
             from ..ik import nominal_posture
@@ -77,17 +78,31 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
         print(f"\nposture q ({unit}): {np.round(np.where(pris, q, np.rad2deg(q)), 4).tolist()}")
         print("\nT_base_tcp (m):")
         print(np.asarray(T) + 0.0)  # + 0.0 turns -0.0 into 0.0
-        print("\nJ_base (rows vx vy vz [m/s per rad/s], wx wy wz [rad/s per rad/s]):")
+        print(f"\nJ_base ({jacobian_units(robot.joint_names, pris)}):")
         print(np.asarray(J) + 0.0)
         return 0
 
     return run
 
 
+def jacobian_units(joint_names: Any, prismatic: Any) -> str:
+    """The J_base header's units: per rad/s of a revolute joint, per m/s of a prismatic one."""
+    rows = "rows vx vy vz [m/s per rad/s], wx wy wz [rad/s per rad/s]"
+    if not any(prismatic):
+        return rows
+    if all(prismatic):
+        return "rows vx vy vz [m/s per m/s], wx wy wz [rad/s per m/s]"
+    cols = [f"{i} ({n})" for i, (n, p) in enumerate(zip(joint_names, prismatic, strict=True)) if p]
+    return f"{rows}; prismatic column{'s' if len(cols) > 1 else ''} {', '.join(cols)}: [m/s per m/s], [rad/s per m/s]"
+
+
 def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None) -> None:
     """The leaf links a chain from ``base_link`` can end at, with their actuated-joint counts, the
-    automatic choice first and gripper/finger leaves marked (:func:`jaxstiff.model._urdf.tip_candidates`)."""
-    from ..model._urdf import tip_candidates_and_why
+    automatic choice first and gripper/finger leaves marked (:func:`jaxstiff.model._urdf.tip_candidates`).
+    Without ``tip_link`` and without an automatic tip: a ValueError after the list, which says why
+    and how to pass --tip-link (not the API's error, which would list the candidates again and point
+    at `jaxstiff robot`)."""
+    from ..model._urdf import tip_candidates_and_why, tip_example
 
     ranked, chosen, base, why = tip_candidates_and_why(urdf, base_link)
     print(f"candidate tip links below {base!r} (automatic choice first; --tip-link to choose another):")
@@ -96,11 +111,17 @@ def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None)
         mark = "*" if c.link == chosen else " "
         note = c.note()
         used = "  <- --tip-link" if c.link == tip_link else ""
-        s = "" if c.joints == 1 else "s"
-        print(f" {mark} {c.link:<{width}}  {c.joints:>2} actuated joint{s}{'  (' + note + ')' if note else ''}{used}")
+        pad = " " if c.joints < 10 else ""  # the counts right-aligned, as "%2d"
+        print(f" {mark} {c.link:<{width}}  {pad}{c.count()}{'  (' + note + ')' if note else ''}{used}")
+    movable = any(c.moving for c in ranked if c.gripper_joint is None)
     if chosen is None:
-        pick = "; pass --tip-link" if any(c.joints for c in ranked) else ""
+        pick = "; pass --tip-link" if movable and tip_link is None else ""
         print(f"   (no automatic choice: {why}{pick})")
     else:
         print(f"   * automatic tip: {chosen!r}")
     print()
+    if chosen is None and tip_link is None and movable:
+        raise ValueError(
+            f"{urdf}: the automatic tip link is ambiguous below {base!r} (candidates listed above): {why}; "
+            f"pass --tip-link LINK, e.g. --tip-link {shlex.quote(tip_example(ranked))}"
+        )

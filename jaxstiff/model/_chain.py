@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.runtime._dtypes import refuse_half_precision
+from jaxstiff.runtime._messages import suggest
 
 __all__ = ["JointType", "JOINT_REVOLUTE", "JOINT_PRISMATIC", "tuple_to_mat", "LOCKED_TOL"]
 
@@ -255,18 +256,28 @@ def check_locked(
     *,
     off_chain: Collection[str] = (),
     ends: tuple[str, str] | None = None,
+    cannot_move: Mapping[str, str] | None = None,
 ) -> tuple[float | None, ...]:
     """Per joint, the locked value (checked: a known joint, finite, within its limits) or None.
 
     ``off_chain``: the URDF's joints that are not on the chain (another branch, or above the base), and
     ``ends``: the chain's ``(base_link, tip_link)``; locking one of those joints is refused with a
-    message that says so, not "unknown joint" (``parse_urdf_chain`` passes them)."""
+    message that says so, not "unknown joint" (``parse_urdf_chain`` passes them). ``cannot_move``:
+    the URDF's joints no chain can hold as a joint, on the chain or off it, each with why (``"it is a
+    fixed joint ..."``, ``"it mimics joint 'j1' ..."``): locking one is refused with that reason, not
+    with "unknown" or "choose another chain". An unknown name gets a "did you mean" (the chain's
+    joints first, then the URDF's others)."""
     values: list[float | None] = [None] * len(joint_names)
     if not locked:
         return tuple(values)
     if not isinstance(locked, Mapping):
         raise ValueError(f"locked must be a mapping {{joint_name: value}}, got {type(locked).__name__}")
     for name, value in locked.items():
+        if name not in joint_names and cannot_move and name in cannot_move:
+            raise ValueError(
+                f"cannot lock joint {name!r}: {cannot_move[name]}; only the chain's actuated joints can be "
+                f"locked: {', '.join(joint_names)}"
+            )
         if name not in joint_names and name in off_chain:
             chain = f"from {ends[0]!r} to {ends[1]!r}" if ends else "of the robot"
             raise ValueError(
@@ -275,8 +286,10 @@ def check_locked(
                 f"{name!r}, choose base_link / tip_link, command line: --base-link / --tip-link)"
             )
         if name not in joint_names:
+            # a near miss among the joints that can be locked first, else among the URDF's others
+            near = suggest(str(name), joint_names) or suggest(str(name), [*off_chain, *(cannot_move or ())])
             raise ValueError(
-                f"cannot lock unknown joint {name!r}; actuated joints of the chain: {', '.join(joint_names)}"
+                f"cannot lock unknown joint {name!r}{near}; actuated joints of the chain: {', '.join(joint_names)}"
             )
         try:
             v = float(value)

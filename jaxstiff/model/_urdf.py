@@ -314,7 +314,10 @@ class TipCandidate:
 
     Attributes:
         link: the leaf link.
-        joints: actuated joints between the base link and it.
+        joints: actuated joints between the base link and it that a chain holds (revolute,
+            continuous, prismatic; mimic joints not counted).
+        mimic: revolute, continuous or prismatic mimic joints between the base link and it (a chain
+            cannot hold one; the rule counts them with ``joints``: :attr:`moving`).
         gripper_joint: the first gripper joint on its chain (:func:`is_gripper_joint`), or None.
         finger: a link or fixed joint after its last actuated joint is named like a finger part
             (:data:`FINGER_WORDS`: a finger tip fixed to the hand).
@@ -324,10 +327,22 @@ class TipCandidate:
 
     link: str
     joints: int
+    mimic: int
     gripper_joint: str | None
     finger: bool
     blocked_by: str | None
     name_tier: int
+
+    @property
+    def moving(self) -> int:
+        """The joints that move between the base link and the leaf: ``joints`` + ``mimic`` (the
+        count the tip rule compares)."""
+        return self.joints + self.mimic
+
+    def count(self) -> str:
+        """``"6 actuated joints"``, ``"6 actuated joints + 2 mimic"``: the listing's count."""
+        s = "" if self.joints == 1 else "s"
+        return f"{self.joints} actuated joint{s}" + (f" + {self.mimic} mimic" if self.mimic else "")
 
     def note(self) -> str:
         """What the listing says about the candidate besides its joint count."""
@@ -354,14 +369,15 @@ def is_gripper_joint(j: UrdfJoint, below: Sequence[UrdfJoint] = (), siblings: Se
     :data:`GRIPPER_WORDS` (``gripper``, ``finger``, ``jaw``, ``hand`` ...) or whose child link's
     name contains one of :data:`FINGER_WORDS` (``finger``, ``jaw`` ...), and below which every
     actuated joint is named so too (``below``: the joints of its subtree; an arm joint that happens
-    to be called "hand" keeps the arm below it), or a prismatic joint with no actuated joint below
-    it and another actuated joint beside it at its parent link (``siblings``: the two jaws of a
-    parallel gripper, whatever their names)."""
+    to be called "hand" keeps the arm below it); or a prismatic joint with no actuated joint below
+    it and another prismatic joint beside it at its parent link (``siblings``): the jaws of a
+    parallel gripper, whatever their names. A prismatic joint beside revolute ones only (Fetch's
+    torso cover "bellows_joint" next to its head and shoulder joints) is an axis like any other."""
     movable = j.type in _MOVABLE or j.mimic is not None
     moving_below = [k for k in below if k.type in _MOVABLE]
     if movable and _gripper_named(j) and all(_gripper_named(k) or k.mimic is not None for k in moving_below):
         return True
-    return j.type == "prismatic" and not moving_below and any(s is not j and s.type in _MOVABLE for s in siblings)
+    return j.type == "prismatic" and not moving_below and any(s is not j and s.type == "prismatic" for s in siblings)
 
 
 def _leaves_below(tree: _Tree, base_link: str, cut: set[str]) -> list[str]:
@@ -397,7 +413,8 @@ def _candidate(tree: _Tree, base_link: str, leaf: str, grippers: set[str]) -> Ti
     finger = any(_FINGER_RE.search(j.name) or _FINGER_RE.search(j.child) for j in tail)
     return TipCandidate(
         link=leaf,
-        joints=sum(j.type in _MOVABLE for j in chain),
+        joints=sum(j.type in _MOVABLE and j.mimic is None for j in chain),
+        mimic=sum(j.type in _MOVABLE and j.mimic is not None for j in chain),
         gripper_joint=next((j.name for j in chain if j.name in grippers), None),
         finger=bool(finger),
         blocked_by=next((j.name for j in chain if _unsupported(j)), None),
@@ -406,7 +423,7 @@ def _candidate(tree: _Tree, base_link: str, leaf: str, grippers: set[str]) -> Ti
 
 
 def _rank(c: TipCandidate) -> tuple:
-    return (c.gripper_joint is not None, c.blocked_by is not None, -c.joints, c.finger, c.name_tier, c.link)
+    return (c.gripper_joint is not None, c.blocked_by is not None, -c.moving, c.finger, c.name_tier, c.link)
 
 
 def _tip_choice(tree: _Tree, base_link: str) -> tuple[list[TipCandidate], str | None, str]:
@@ -416,19 +433,19 @@ def _tip_choice(tree: _Tree, base_link: str) -> tuple[list[TipCandidate], str | 
     arm = _leaves_below(tree, base_link, grippers)  # the leaves once the gripper is cut off
     every = _leaves_below(tree, base_link, set())
     cands = {l: _candidate(tree, base_link, l, grippers) for l in dict.fromkeys(arm + every)}
-    if not any(cands[l].joints and cands[l].gripper_joint is None for l in arm):
+    if not any(cands[l].moving and cands[l].gripper_joint is None for l in arm):
         # only gripper joints move (a gripper on its own): the rule falls back to every leaf
         grippers, cands = set(), {l: _candidate(tree, base_link, l, set()) for l in every}
     pool = [c for c in cands.values() if c.gripper_joint is None]
-    usable = [c for c in pool if c.blocked_by is None and c.joints]
+    usable = [c for c in pool if c.blocked_by is None and c.moving]
     ranked = sorted(cands.values(), key=_rank)
     if not usable:  # every chain runs through a mimic, floating or planar joint: building it names that joint
         usable = pool
-    top = max((c.joints for c in usable), default=0)
+    top = max((c.moving for c in usable), default=0)
     if top == 0:
         return ranked, None, f"no actuated joint below base link {base_link!r}; nothing to move"
-    rivals = [c for c in pool if c.blocked_by is not None and c.joints >= top and c not in usable]
-    best = sorted((c for c in usable if c.joints == top), key=_rank)
+    rivals = [c for c in pool if c.blocked_by is not None and c.moving >= top and c not in usable]
+    best = sorted((c for c in usable if c.moving == top), key=_rank)
     if rivals:
         why = ", ".join(
             f"{c.link!r} (behind {_blocker_kind(tree, str(c.blocked_by))} joint {c.blocked_by!r})" for c in rivals
@@ -472,13 +489,16 @@ def tip_candidates(path: str | os.PathLike, base_link: str | None = None) -> tup
        is actuated or a mimic joint, its name contains ``gripper``, ``finger``, ``jaw``, ``claw``,
        ``thumb``, ``knuckle`` or ``hand`` (or its child link's name one of the finger words, not
        ``gripper``/``hand``: a wrist turns a "gripper_link"), and every actuated joint below it is
-       named so too; or when it is a prismatic joint with another actuated joint beside it at the
-       same parent link and none below it (the jaws of a parallel gripper). The leaves of the tree without those joints' subtrees are the
-       candidates; a leaf behind a gripper joint is listed but never chosen (unless nothing but
-       gripper joints moves, when every leaf competes as if there were no gripper).
+       named so too; or when it is a prismatic joint with no actuated joint below it and another
+       prismatic joint beside it at the same parent link (the jaws of a parallel gripper; a
+       prismatic joint beside revolute joints only is an arm axis). The leaves of the tree without
+       those joints' subtrees are the candidates; a leaf behind a gripper joint is listed but never
+       chosen (unless nothing but gripper joints moves, when every leaf competes as if there were
+       no gripper).
     2. **Most actuated joints** between the base link and the leaf wins.
     3. A leaf behind a mimic, floating or planar joint cannot end a chain; when it has as many
-       actuated joints as the best other leaf, the choice is left to the user (an error).
+       actuated joints (its mimic joints included: :attr:`TipCandidate.moving`) as the best other
+       leaf, the choice is left to the user (an error).
     4. Ties: a leaf whose last fixed links or joints are named like a finger part (a finger tip on
        a fixed joint: :data:`FINGER_WORDS`) yields to one that is not; then end-effector names decide, best first:
        ``tcp``, ``tool`` (``tool0``), ``end_effector`` / ``eef`` / ``ee`` (``ee_link``), ``flange``.
@@ -514,22 +534,38 @@ def _pick_tip(path: str, tree: _Tree, base_link: str, tip_link: str | None) -> s
     ranked, chosen, why = _tip_choice(tree, base_link)
     if chosen is not None:
         return chosen
-    if not any(c.joints for c in ranked if c.gripper_joint is None):
+    if not any(c.moving for c in ranked if c.gripper_joint is None):
         raise ValueError(f"{path}: {why}")
     listed = "; ".join(
-        f"{c.link!r} ({c.joints} actuated joint{'' if c.joints == 1 else 's'}{', ' + c.note() if c.note() else ''})"
-        for c in ranked[:TIP_LIST_LIMIT]
+        f"{c.link!r} ({c.count()}{', ' + c.note() if c.note() else ''})" for c in ranked[:TIP_LIST_LIMIT]
     )
     more = f"; ... and {len(ranked) - TIP_LIST_LIMIT} more" if len(ranked) > TIP_LIST_LIMIT else ""
-    example = next((c.link for c in ranked if c.gripper_joint is None and c.blocked_by is None), ranked[0].link)
+    example = tip_example(ranked)
     raise ValueError(
         f"{path}: the tip link is ambiguous below {base_link!r}: {why}; pass tip_link (command line: --tip-link), "
         f"e.g. {example!r}. Candidate tips: {listed}{more} (`jaxstiff robot {os.path.basename(path)}` lists them)"
     )
 
 
+def tip_example(ranked: Sequence[TipCandidate]) -> str:
+    """The candidate an ambiguous-tip message offers as an example: the first a chain can end at."""
+    return next((c.link for c in ranked if c.gripper_joint is None and c.blocked_by is None), ranked[0].link)
+
+
 #: candidate tips and links an error lists before "... and N more"
 TIP_LIST_LIMIT = 50
+
+
+def _not_lockable(j: Any) -> str:
+    """Why no chain can hold ``j`` as a joint, so locking it means nothing (the rest of a
+    ``cannot lock joint 'x': ...`` message), or "" for an actuated joint."""
+    if j.type == "fixed":
+        return "it is a fixed joint (it never moves, so there is nothing to lock)"
+    if j.mimic is not None:
+        return f"it mimics joint {j.mimic!r} (its value follows {j.mimic!r}; no chain can hold a mimic joint)"
+    if j.type in ("floating", "planar"):
+        return f"it is a {j.type} joint, which no chain can hold"
+    return ""
 
 
 def _unsupported(j: Any) -> bool:
@@ -647,7 +683,13 @@ def parse_urdf_chain(
     on_chain = {j.name for j in chain}
     off_chain = {j.name for j in model.joints if j.name not in on_chain}
     lock_values = check_locked(
-        tuple(names), f["lower"], f["upper"], locked, off_chain=off_chain, ends=(base_link, tip_link)
+        tuple(names),
+        f["lower"],
+        f["upper"],
+        locked,
+        off_chain=off_chain,
+        ends=(base_link, tip_link),
+        cannot_move={j.name: why for j in model.joints if (why := _not_lockable(j))},
     )
     return dict(
         name=model.name or os.path.basename(path),

@@ -60,16 +60,26 @@ def test_lock_value_that_is_not_a_number_names_both_units(capsys):
 
 
 # ------------------------------------------------------------------ 2. a joint off the chain
-@pytest.mark.parametrize("joint", ["side_joint", "camera_joint"])  # another branch: revolute, fixed
-def test_lock_of_a_urdf_joint_off_the_chain_says_so(capsys, joint):
+def test_lock_of_a_urdf_joint_off_the_chain_says_so(capsys):
+    joint = "side_joint"  # another branch, revolute: a chain through it could lock it
     err = one_cli_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", f"{joint}=0"])
     assert f"cannot lock joint {joint!r}: it is in the URDF but not on the chain from 'world' to 'tool'" in err
     assert "actuated joints are j1, j2, j3, j4" in err and "unknown" not in err, err
 
 
+def test_lock_of_a_fixed_joint_says_it_is_fixed(capsys):
+    """camera_joint is fixed (on another branch): no chain through it can lock it, so the advice
+    to choose --base-link / --tip-link for a chain through it was wrong."""
+    err = one_cli_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "camera_joint=0"])
+    assert "cannot lock joint 'camera_joint': it is a fixed joint (it never moves, so there is nothing to lock)" in err
+    assert "j1, j2, j3, j4" in err and "--tip-link" not in err and "unknown" not in err, err
+
+
 def test_lock_of_a_joint_unknown_to_the_urdf_still_says_unknown(capsys):
     err = one_cli_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "elbow=0"])
     assert "cannot lock unknown joint 'elbow'; actuated joints of the chain: j1, j2, j3, j4" in err, err
+    err = one_cli_error(capsys, ["robot", "--robot", BRANCHED, "--tip-link", "tool", "--lock", "jj3=0"])
+    assert "cannot lock unknown joint 'jj3' (did you mean 'j3'?)" in err, err
     with pytest.raises(ValueError, match="not on the chain from 'world' to 'side_link'"):  # the API too
         jaxstiff.Robot.from_urdf(BRANCHED, tip_link="side_link", locked={"j2": 0.1})
 

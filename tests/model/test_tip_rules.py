@@ -113,6 +113,40 @@ def test_parallel_jaws_are_cut_off_whatever_their_names(write):
     assert r.tip_link == "slider" and r.n == 3
 
 
+def test_a_prismatic_joint_beside_revolute_ones_is_not_a_jaw(write):
+    """Fetch: the torso cover "bellows_joint" (prismatic, nothing below it) hangs off the torso
+    beside the head and shoulder joints (revolute). It was cut off as a gripper joint ("any actuated
+    joint beside it"); the jaws of a parallel gripper are two prismatic joints side by side."""
+    cover = jaw("bellows_joint", "bellows_link", parent="base") + jaw(
+        "head_pan", "head", parent="base", kind="revolute"
+    )
+    ranked, chosen, _ = tip_candidates(write(arm(cover)))
+    by_link = {c.link: c for c in ranked}
+    assert chosen == "hand" and by_link["bellows_link"].gripper_joint is None
+    assert by_link["bellows_link"].joints == 1 and by_link["bellows_link"].note() == ""
+    # and a prismatic joint beside a revolute one at the hand is an arm axis too: the tie is the user's
+    with pytest.raises(ValueError, match="leaves 'slider', 'twister' each have 3 actuated joints"):
+        jaxstiff.Robot.from_urdf(write(arm(jaw("j3", "slider") + jaw("j4", "twister", kind="revolute"))))
+
+
+def test_mimic_joints_are_counted_apart(write):
+    """A leaf behind a mimic joint: the chain cannot hold the mimic joint, so it is not one of the
+    "actuated joints" the listing states; the listing adds "+ N mimic" (the rule still compares
+    every moving joint: :attr:`TipCandidate.moving`)."""
+    fingers = jaw("panda_finger_joint1", "leftfinger") + jaw(
+        "panda_finger_joint2", "rightfinger", mimic='<mimic joint="panda_finger_joint1"/>'
+    )
+    ranked, chosen, _ = tip_candidates(write(arm(fingers)))
+    by_link = {c.link: c for c in ranked}
+    assert chosen == "hand"
+    left, right = by_link["leftfinger"], by_link["rightfinger"]
+    assert (left.joints, left.mimic, left.count()) == (3, 0, "3 actuated joints")
+    assert (right.joints, right.mimic, right.moving) == (2, 1, 3)
+    assert right.count() == "2 actuated joints + 1 mimic"
+    with pytest.raises(ValueError, match="mimics joint 'panda_finger_joint1'; mimic joints in the chain"):
+        jaxstiff.Robot.from_urdf(write(arm(fingers)), tip_link="rightfinger")
+
+
 def test_a_revolute_gripper_joint_is_cut_off_by_name(write):
     """A Z1-style gripper: one revolute joint named like a gripper after the arm."""
     r = jaxstiff.Robot.from_urdf(write(arm(jaw("jointGripper", "mover", kind="revolute"))))

@@ -355,16 +355,62 @@ def test_locked_value_outside_limits():
 @pytest.mark.parametrize(
     "locked,message",
     [
-        ({"lwr_a8": 0.0}, "cannot lock unknown joint 'lwr_a8'; actuated joints of the chain: lwr_a1"),
+        (
+            {"lwr_a8": 0.0},
+            "cannot lock unknown joint 'lwr_a8' (did you mean 'lwr_a7'?); actuated joints of the chain: lwr_a1",
+        ),
+        ({"lwr_a_3": 0.0}, "cannot lock unknown joint 'lwr_a_3' (did you mean 'lwr_a3'?)"),
         ({"lwr_a7": float("nan")}, "locked value of joint 'lwr_a7' must be finite, got nan"),
         ({"lwr_a7": "zero"}, "locked value of joint 'lwr_a7' must be a number, got 'zero'"),
         ([("lwr_a7", 0.0)], "locked must be a mapping"),
-        ({"lwr_flange_joint": 0.0}, "cannot lock unknown joint 'lwr_flange_joint'"),
+        # the fixed joint between lwr_link_7 and lwr_flange: it is in the URDF, and on the chain
+        ({"lwr_flange_joint": 0.0}, "cannot lock joint 'lwr_flange_joint': it is a fixed joint (it never moves"),
     ],
 )
 def test_bad_locks(locked, message):
     with raises(ValueError, message):
         jaxstiff.Robot.from_urdf("kuka_lwr4", locked=locked)
+
+
+#: a Panda-like hand on two_joint_urdf: a fixed joint j8 on the chain to "hand", a fixed joint j9
+#: off it, and two prismatic fingers, finger2 a mimic of finger1
+HAND = f"""<link name="hand"/><joint name="j8" type="fixed"><parent link="l2"/><child link="hand"/>
+  <origin xyz="0.1 0 0"/></joint>
+  <link name="l9"/><joint name="j9" type="fixed"><parent link="l1"/><child link="l9"/></joint>
+  <link name="lf"/><joint name="finger1" type="prismatic"><parent link="hand"/><child link="lf"/>
+    <axis xyz="0 1 0"/>{LIMIT}</joint>
+  <link name="rf"/><joint name="finger2" type="prismatic"><parent link="hand"/><child link="rf"/>
+    <axis xyz="0 -1 0"/>{LIMIT}<mimic joint="finger1"/></joint>"""
+
+
+@pytest.mark.parametrize(
+    "joint,parts,not_said",
+    [
+        # a fixed joint on the chain was "unknown"; one off the chain got "choose base_link / tip_link
+        # for a chain through it", which no chain has: both are fixed, nothing to lock
+        (
+            "j8",
+            ["cannot lock joint 'j8': it is a fixed joint (it never moves, so there is nothing to lock)"],
+            "unknown",
+        ),
+        ("j9", ["cannot lock joint 'j9': it is a fixed joint", "actuated joints can be locked: j1, j2"], "tip_link"),
+        ("finger2", ["cannot lock joint 'finger2': it mimics joint 'finger1'", "no chain can hold"], "tip_link"),
+        # an actuated joint on another branch keeps its advice
+        ("finger1", ["cannot lock joint 'finger1': it is in the URDF but not on the chain", "--tip-link"], "unknown"),
+        # near misses: the chain's joints first, then the URDF's others
+        ("j_2", ["cannot lock unknown joint 'j_2' (did you mean 'j2'?); actuated joints of the chain: j1, j2"], "j9"),
+        ("fnger1", ["cannot lock unknown joint 'fnger1' (did you mean 'finger1'?)"], "finger2"),
+    ],
+)
+def test_lock_messages_name_fixed_and_mimic_joints_and_near_misses(write, joint, parts, not_said):
+    path = write(two_joint_urdf(extra=HAND))
+    with pytest.raises(ValueError) as e:
+        jaxstiff.Robot.from_urdf(path, tip_link="hand", locked={joint: 0.0})
+    msg = str(e.value)
+    assert all(p in msg for p in parts) and not_said not in msg, msg
+    if joint == "j_2":  # the same check on a built robot (Chain.with_locked)
+        with raises(ValueError, "cannot lock unknown joint 'j_2' (did you mean 'j2'?)"):
+            jaxstiff.Robot.from_urdf(path, tip_link="hand").with_locked({"j_2": 0.0})
 
 
 @pytest.mark.parametrize(
