@@ -66,12 +66,18 @@ def _panel_joints(
     title: str,
     suffix: Sequence[str] | None = None,
     right: tuple[np.ndarray, str] | None = None,
-) -> None:
+) -> tuple[list[Any], list[str]]:
     """(a)/(b): one curve a joint over the waypoints, legend below. A joint whose values are all
     ``+inf`` (a rigid locked joint's kj, SPEC section 1) has no curve; its legend entry says "rigid".
+    A value with no finite neighbour (a usable waypoint between unusable ones, left out as NaN) is
+    drawn as a marker: a line through one point draws nothing.
 
     ``suffix``: per joint, text added to its legend entry (a unit); ``right``: ``(mask, ylabel)``,
-    the joints in ``mask`` drawn on a twin axis on the right with that label (another unit)."""
+    the joints in ``mask`` drawn on a twin axis on the right with that label (another unit).
+
+    Returns:
+        The legend's handles and labels, in chain order (:func:`_fit_joint_legends` places it for good).
+    """
     ax_r = ax.twinx() if right is not None and right[0].any() else None
     handles = []
     for i in range(res.n):
@@ -82,12 +88,35 @@ def _panel_joints(
         target = ax_r if ax_r is not None and right[0][i] else ax  # type: ignore[index]
         y = np.where(np.isfinite(values[:, i]), values[:, i], np.nan)
         handles += target.plot(wp, y, color=colors[i], label=label)
+        alone = _isolated(y)
+        if alone.any():  # no line segment reaches these points: a marker each, not in the legend
+            target.plot(wp[alone], y[alone], "o", color=colors[i], ms=4, label="_nolegend_")
     ax.set(xlabel="waypoint p", ylabel=ylabel, title=title)
     if ax_r is not None:
         ax_r.set_ylabel(right[1])  # type: ignore[index]
     labels = [str(h.get_label()) for h in handles]  # both axes' curves, in chain order
     ax.legend(handles, labels, fontsize=7, ncol=_legend_columns(labels), loc="upper center", bbox_to_anchor=(0.5, -0.2))
     ax.grid(alpha=0.3)
+    return handles, labels
+
+
+def _isolated(y: np.ndarray) -> np.ndarray:
+    """(P,) bool: the finite entries of ``y`` whose neighbours (before and after) are both NaN or
+    missing, which a line alone does not show."""
+    fin = np.isfinite(y)
+    before = np.r_[False, fin[:-1]]
+    after = np.r_[fin[1:], False]
+    return fin & ~before & ~after
+
+
+def _waypoint_limits(P: int) -> tuple[float, float]:
+    """x limits of a panel over the waypoints: the whole path 0..P-1 with matplotlib's 5 % margins
+    (what the autoscale gives a path without gaps), also where only some waypoints are usable (one
+    usable waypoint was drawn on an axis of -0.04..0.04)."""
+    if P < 2:
+        return -0.5, 0.5
+    pad = 0.05 * (P - 1)
+    return -pad, P - 1 + pad
 
 
 def _legend_columns(labels: Sequence[str], width_chars: int = 55) -> int:
@@ -103,21 +132,24 @@ def _legend_columns(labels: Sequence[str], width_chars: int = 55) -> int:
     return 1
 
 
-def _joint_panels(fig: Any, gs: Any, wp: np.ndarray, res: ShapeResult, b: int, colors: Any, pris: np.ndarray) -> None:
+def _joint_panels(
+    fig: Any, gs: Any, wp: np.ndarray, res: ShapeResult, b: int, colors: Any, pris: np.ndarray
+) -> list[tuple[Any, list[Any], list[str]]]:
     """(a) joint stiffness, (b) joint positions: revolute joints in Nm/rad and deg, prismatic
-    joints in N/m and mm ((b): on a right axis when the robot has both kinds)."""
+    joints in N/m and mm ((b): on a right axis when the robot has both kinds). Returns each panel
+    with its legend's handles and labels."""
     ax_a, ax_b = fig.add_subplot(gs[0, 0:2]), fig.add_subplot(gs[0, 2:4])
     title_a, title_b = "(a) joint stiffness (before CMS)", "(b) joint positions"
     if not pris.any():
-        _panel_joints(ax_a, wp, res.kj[b], res, colors, "joint stiffness k_j (Nm/rad)", title_a)
-        _panel_joints(ax_b, wp, np.degrees(res.q[b]), res, colors, "joint position q (deg)", title_b)
-        return
+        leg_a = _panel_joints(ax_a, wp, res.kj[b], res, colors, "joint stiffness k_j (Nm/rad)", title_a)
+        leg_b = _panel_joints(ax_b, wp, np.degrees(res.q[b]), res, colors, "joint position q (deg)", title_b)
+        return [(ax_a, *leg_a), (ax_b, *leg_b)]
     q_shown = np.where(pris, 1e3 * res.q[b], np.degrees(res.q[b]))  # mm for prismatic joints, deg otherwise
     if pris.all():
-        _panel_joints(ax_a, wp, res.kj[b], res, colors, "joint stiffness k_j (N/m)", title_a)
-        _panel_joints(ax_b, wp, q_shown, res, colors, "joint position q (mm)", title_b)
-        return
-    _panel_joints(
+        leg_a = _panel_joints(ax_a, wp, res.kj[b], res, colors, "joint stiffness k_j (N/m)", title_a)
+        leg_b = _panel_joints(ax_b, wp, q_shown, res, colors, "joint position q (mm)", title_b)
+        return [(ax_a, *leg_a), (ax_b, *leg_b)]
+    leg_a = _panel_joints(
         ax_a,
         wp,
         res.kj[b],
@@ -127,7 +159,7 @@ def _joint_panels(fig: Any, gs: Any, wp: np.ndarray, res: ShapeResult, b: int, c
         title_a,
         suffix=["(prismatic, N/m)" if p else "" for p in pris],
     )
-    _panel_joints(
+    leg_b = _panel_joints(
         ax_b,
         wp,
         q_shown,
@@ -138,6 +170,7 @@ def _joint_panels(fig: Any, gs: Any, wp: np.ndarray, res: ShapeResult, b: int, c
         suffix=["(prismatic, mm, right axis)" if p else "" for p in pris],
         right=(pris, "prismatic joint q (mm)"),
     )
+    return [(ax_a, *leg_a), (ax_b, *leg_b)]
 
 
 def _panel_criterion(ax: Any, wp: np.ndarray, res: ShapeResult, b: int) -> None:
@@ -164,12 +197,13 @@ def _panel_alpha_ratio(ax: Any, wp: np.ndarray, res: ShapeResult, b: int, r: flo
     ax.plot(wp, res.alpha_deg[b], "C3.-", label="orientation error alpha")
     ax.axhline(1.0, color="C3", ls=":", lw=1, label="1 deg")
     ax.set(xlabel="waypoint p", ylabel="alpha (deg)", title="(d) orientation error and axis ratio")
-    ax.set_ylim(bottom=0, top=max(1.5, 1.1 * float(res.alpha_deg[b].max())))
+    # nanmax: an unusable waypoint is NaN, and max(1.5, nan) kept 1.5 over any usable alpha
+    ax.set_ylim(bottom=0, top=max(1.5, 1.1 * float(np.nanmax(res.alpha_deg[b]))))
     ax2 = ax.twinx()
     ax2.plot(wp, res.ratio[b], "C0.-", label="axis ratio rho = lambda1/lambda2")
     ax2.axhline(r, color="C0", ls=":", lw=1, label=f"r = {r:g}")
     ax2.set_ylabel("axis ratio rho (-)")
-    ax2.set_ylim(0, max(2 * r, 1.1 * float(res.ratio[b].max())))
+    ax2.set_ylim(0, max(2 * r, 1.1 * float(np.nanmax(res.ratio[b]))))
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=8, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.2))
@@ -416,7 +450,9 @@ def figure_shape_path(
 
     Args:
         res: a :class:`jaxstiff.results.ShapeResult` (task "xy": the ellipses lie in the path's
-            plane, drawn flat in (f)). Unusable waypoints (status 3-5) are left out of every panel.
+            plane, drawn flat in (f)). Unusable waypoints (status 3-5) are left out of every panel,
+            the title says how many and of which status; a usable waypoint between unusable ones
+            is a marker in (a) and (b), and the waypoint axes of (a)-(e) span the whole path.
         robot: the robot it was computed for.
         file: PNG to write (cropped to the drawing).
         title: figure title.
@@ -441,16 +477,24 @@ def figure_shape_path(
     fig = plt.figure(figsize=(17, 14))
     # top: the panels start just under the title (the default left an empty band)
     gs = fig.add_gridspec(3, 6, height_ratios=[1, 1, 1.7], hspace=0.55, wspace=0.9, top=0.94)
-    colors = plt.cm.tab10(np.arange(res.n))
+    # one colour a joint: tab10 up to ten joints; beyond, tab20 (tab10 gave joints 10, 11, 12 one colour)
+    colors = plt.cm.tab10(np.arange(res.n)) if res.n <= 10 else plt.cm.tab20(np.arange(res.n) % 20)
     pris = _prismatic(robot, res.n)
-    _joint_panels(fig, gs, wp, res, b, colors, pris)
+    joint_legends = _joint_panels(fig, gs, wp, res, b, colors, pris)
     spec_c = gs[0, 4:6]
     if pris.any() and not pris.all():  # (b) has a second y axis on its right: (c) moves right to make room
         spec_c = spec_c.subgridspec(1, 2, width_ratios=[0.3, 1], wspace=0)[0, 1]
-    _panel_criterion(fig.add_subplot(spec_c), wp, res, b)
+    ax_c = fig.add_subplot(spec_c)
+    _panel_criterion(ax_c, wp, res, b)
     row = gs[1, :].subgridspec(1, 2, wspace=0.3)  # room between (d)'s right axis label and (e)'s left one
-    _panel_alpha_ratio(fig.add_subplot(row[0, 0]), wp, res, b, float(res.meta["ratio"]))
-    _panel_cms(fig.add_subplot(row[0, 1]), wp, res, b)
+    ax_d, ax_e = fig.add_subplot(row[0, 0]), fig.add_subplot(row[0, 1])
+    _panel_alpha_ratio(ax_d, wp, res, b, float(res.meta["ratio"]))
+    _panel_cms(ax_e, wp, res, b)
+    from matplotlib.ticker import MaxNLocator
+
+    for ax in (joint_legends[0][0], joint_legends[1][0], ax_c, ax_d, ax_e):  # (the twin axes share x)
+        ax.set_xlim(*_waypoint_limits(res.P))
+        ax.xaxis.set_major_locator(MaxNLocator("auto", steps=[1, 2, 5, 10], integer=True))  # indices: no "2.5"
 
     lam, V = stiffness_axes(robot, given.q[b], given.kj_scaled[b], res.meta["task"])
     if lam.shape[-1] == 2:
@@ -474,9 +518,119 @@ def figure_shape_path(
     _panel_ellipsoids_3d(ax_f, res, b, unit, V, idx3, size, n_per_m)
     _panel_projection_xy(fig.add_subplot(gs[2, 3:6]), res, b, unit, V, idx, size, n_per_m)
 
-    fig.suptitle(title, fontsize=13, y=0.985)
+    sup = fig.suptitle(_title_with_note(title, _unusable_note(status, b, ok)), fontsize=13, y=0.985)
+    if "\n" in sup.get_text():  # two lines or more: the panels may have to move down
+        _title_above_panels(fig, gs, sup)
+    _fit_joint_legends(fig, joint_legends, [ax_c])
     _declutter_3d(ax_f, fig)
     return save_figure(fig, file, dpi=dpi)
+
+
+def _unusable_note(status: Any, b: int, ok: np.ndarray) -> str:
+    """The title's note on the waypoints left out, "" when every one is usable: how many of the
+    path's, and of which status ("19 of 20 waypoints unusable, left out: 19 unreachable")."""
+    if ok.all():
+        return ""
+    from jaxstiff.results._status import STATUS_NAMES
+
+    codes = np.asarray(status)[b][~ok].astype(int)
+    kinds = ", ".join(
+        f"{int(np.sum(codes == c))} {STATUS_NAMES.get(int(c), f'status {int(c)}')}" for c in np.unique(codes)
+    )
+    return f"{int((~ok).sum())} of {ok.size} waypoints unusable, left out: {kinds}"
+
+
+def _title_with_note(title: str, note: str, width_chars: int = 140) -> str:
+    """``title (note)`` on one line, or the note on a line of its own where both are longer than
+    about ``width_chars`` characters of the 13-pt title (the figure's width)."""
+    if not note:
+        return title
+    return f"{title}  ({note})" if len(title) + len(note) + 4 <= width_chars else f"{title}\n({note})"
+
+
+#: legend font sizes (pt) of (a) and (b), tried in turn: the largest that fits the room under the panel
+_JOINT_LEGEND_FONTS = (7.0, 6.5, 6.0, 5.5)
+#: the last resort where even 5.5 pt does not fit in the tallest figure
+_JOINT_LEGEND_SMALL_FONTS = (5.0, 4.5)
+#: how often the figure grows taller (by 10 % each) to make room for the legends, before the small fonts
+_TALLER_STEPS = 6
+
+
+def _fit_joint_legends(
+    fig: Any, panels: Sequence[tuple[Any, list[Any], list[str]]], others: Sequence[Any] = ()
+) -> None:
+    """Place the legends under (a) and (b) where they overlap nothing: each within its panel's
+    share of the row (halfway to the neighbouring panels, ``others`` included), under its x axis
+    labels and above the titles of the row below. Tried in turn: the font sizes of
+    :data:`_JOINT_LEGEND_FONTS`, each with the columns of :func:`_legend_columns` first, then from
+    the most columns to one; where none fits, the figure grows taller (every panel and gap with it,
+    the text keeps its size) and all is tried again; in the tallest figure (1.77 times the height) smaller fonts too.
+    Measured with the renderer's extents: the estimate from the names' lengths alone put a Fetch's
+    eight joints (one of them "torso_lift_joint (prismatic, mm, right axis)") in one column, over
+    (d)'s title and into (e). Where nothing fits (names too long for any font), each legend keeps
+    the layout that sticks out least."""
+    row = sorted([p[0] for p in panels] + list(others), key=lambda a: a.bbox.x0)
+    pad = 3.0 * fig.dpi / 72.0  # 3 pt between a legend and what it must not touch, pixels
+    height = float(fig.get_figheight())
+    for step in range(_TALLER_STEPS + 1):
+        if step:
+            fig.set_figheight(height * 1.1**step)  # more room between the rows
+        fig.canvas.draw()  # tick labels and the rows' positions final
+        renderer = fig.canvas.get_renderer()
+        last = step == _TALLER_STEPS
+        fonts = _JOINT_LEGEND_FONTS + (_JOINT_LEGEND_SMALL_FONTS if last else ())
+        outs = [_place_joint_legend(fig, renderer, ax, h, t, row, pad, fonts) for ax, h, t in panels]
+        if all(o == 0.0 for o in outs):
+            return
+
+
+def _place_joint_legend(
+    fig: Any,
+    renderer: Any,
+    ax: Any,
+    handles: list[Any],
+    labels: list[str],
+    row: list[Any],
+    pad: float,
+    fonts: Sequence[float],
+) -> float:
+    """Put ``ax``'s legend in the first layout (font size, columns) that fits the room under it
+    (see :func:`_fit_joint_legends`) and return 0.0; where none fits, the one that sticks out
+    least, and by how much (pixels)."""
+    i = row.index(ax)
+    x_lo = 0.5 * (row[i - 1].bbox.x1 + ax.bbox.x0) + pad if i > 0 else fig.bbox.x0
+    x_hi = 0.5 * (ax.bbox.x1 + row[i + 1].bbox.x0) - pad if i + 1 < len(row) else fig.bbox.x1
+    below = [a for a in fig.axes if a.get_visible() and a.bbox.y1 < ax.bbox.y0 - 1]
+    y_lo = max((a.get_tightbbox(renderer).y1 for a in below), default=fig.bbox.y0) + pad
+    # the legend's top under the x axis' tick labels and name, 0.2 of the panel's height down at most
+    x_axis = ax.xaxis.get_tightbbox(renderer)
+    top = -0.2 if x_axis is None else min(-0.2, (x_axis.y0 - pad - ax.bbox.y0) / ax.bbox.height)
+    first = _legend_columns(labels)
+    columns = [first] + [c for c in range(min(len(labels), 6), 0, -1) if c != first]
+    best = (np.inf, fonts[0], first)
+    for font in fonts:
+        for ncol in columns:
+            leg = ax.legend(handles, labels, fontsize=font, ncol=ncol, loc="upper center", bbox_to_anchor=(0.5, top))
+            box = leg.get_window_extent(renderer)
+            out = max(0.0, x_lo - box.x0) + max(0.0, box.x1 - x_hi) + max(0.0, y_lo - box.y0)
+            if out == 0.0:
+                return 0.0
+            if out < best[0]:
+                best = (out, font, ncol)
+    ax.legend(handles, labels, fontsize=best[1], ncol=best[2], loc="upper center", bbox_to_anchor=(0.5, top))
+    return float(best[0])
+
+
+def _title_above_panels(fig: Any, gs: Any, sup: Any) -> None:
+    """Lower the panels' top (the gridspec's ``top``) where the figure title ``sup`` (a Text)
+    reaches down to a panel's title: a title whose note is on a second line."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    pad = 3.0 * fig.dpi / 72.0
+    bottom = sup.get_window_extent(renderer).y0
+    highest = max((a.title.get_window_extent(renderer).y1 for a in fig.axes if a.get_title()), default=0.0)
+    if highest + pad > bottom:
+        gs.update(top=float(gs.top) - (highest + pad - bottom) / fig.bbox.height)
 
 
 def _declutter_3d(ax: Any, fig: Any) -> None:
