@@ -99,7 +99,8 @@ def _anchors(root: ET.Element, chain: Chain) -> dict[str, tuple[int, np.ndarray]
 
 
 def urdf_meshes(chain: Chain) -> tuple[list[LinkMesh], list[str]]:
-    """The resolvable visual meshes of the chain's links, and the mesh files that did not resolve.
+    """The resolvable visual meshes of the chain's links, and the mesh files that did not resolve
+    (as named in the URDF) or were found but cannot be drawn (named with the file and why).
 
     Returns ``([], [])`` for a URDF without meshes (the shipped ones) or a chain built in code.
     """
@@ -120,9 +121,9 @@ def urdf_meshes(chain: Chain) -> tuple[list[LinkMesh], list[str]]:
             path = next(
                 (c for c in _candidates(filename, os.path.dirname(os.path.abspath(src))) if os.path.isfile(c)), None
             )
-            loaded = _load(path) if path else None
-            if loaded is None:
-                missing.append(filename)
+            loaded = _load(path) if path else "not found"
+            if isinstance(loaded, str):
+                missing.append(filename if path is None else f"{filename} ({path}: {loaded})")
                 continue
             scale = np.asarray([float(v) for v in (mesh.get("scale") or "1 1 1").split()])
             a, T = placed[name]
@@ -130,11 +131,16 @@ def urdf_meshes(chain: Chain) -> tuple[list[LinkMesh], list[str]]:
     return found, missing
 
 
-def _load(path: str) -> tuple[np.ndarray, np.ndarray] | None:
+def _load(path: str) -> tuple[np.ndarray, np.ndarray] | str:
+    """The mesh's (vertices, faces), or why it cannot be drawn (a file trimesh cannot read, or one
+    without faces: the capsules stand in)."""
     try:
         import trimesh
 
         m = trimesh.load(path, force="mesh")
-        return np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.int64)  # pyright: ignore[reportAttributeAccessIssue]
-    except Exception:  # a mesh trimesh cannot read counts as missing: the capsules stand in
-        return None
+        v, f = np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.int64)  # pyright: ignore[reportAttributeAccessIssue]
+    except Exception as e:  # noqa: BLE001 - any reader failure: the file is there but unreadable
+        return f"found, but it cannot be read as a mesh ({type(e).__name__})"
+    if f.ndim != 2 or f.shape[0] == 0 or v.ndim != 2 or v.shape[0] == 0 or not np.all(np.isfinite(v)):
+        return "found, but it holds no drawable mesh (no faces, or non-finite vertices)"
+    return v, f

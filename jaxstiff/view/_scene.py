@@ -127,7 +127,8 @@ class Scene:
         self.meshes, missing = urdf_meshes(data.robot)
         if missing:
             warnings.warn(
-                f"{len(missing)} link mesh file(s) of {data.robot.source} do not resolve (first: {missing[0]}); "
+                f"{len(missing)} link mesh file(s) of {data.robot.source} do not resolve or cannot be read "
+                f"(first: {missing[0]}); "
                 "the arm is drawn as capsules between the joint origins",
                 stacklevel=2,
             )
