@@ -278,14 +278,20 @@ def missed_target_warning(
     if solver in GREEDY_SOLVERS:
         advice = (
             f"solver {solver!r} goes waypoint by waypoint and cannot look ahead, so its status 0 (solved: "
-            "feasible, optimiser converged) does not mean in target; try solver 'hybrid', or 'trajectory' from "
-            f"it (Trajectory(warm=Hybrid())), or looser rate limits{per_m}"
+            "feasible, optimiser converged) does not mean in target; try solver 'hybrid' (--solver hybrid), or "
+            f"'trajectory' from it (Trajectory(warm=Hybrid())), or looser rate limits{per_m}"
         )
     else:
         advice = (
             "status 0 (solved) means feasible, not in target; the rate limits may be too tight for the "
             f"path's turns: try looser limits{per_m}"
-            + ("" if solver == "trajectory" else ", or solver='trajectory' (--solver trajectory)")
+            + (
+                ""
+                if solver == "trajectory"
+                else ", or solver 'trajectory' from this solver's answer (Trajectory(warm=Hybrid()))"
+                if solver == "hybrid"
+                else ", or solver='trajectory' (--solver trajectory)"
+            )
         )
     return head + lead + advice
 

@@ -95,7 +95,8 @@ def test_greedy_slsqp_converges_but_misses_and_says_so(arc40, tmp_path):
         text = warn_missed_target(res)
     assert len(rec) == 1 and text is not None
     assert f"path 0: waypoints {compress_ranges(np.flatnonzero(~flag[0]))}" in text
-    assert "solver='trajectory'" in text and "--solver trajectory" in text and "hybrid" in text
+    # the hybrid (command line too), and trajectory from the hybrid's answer (pgd's warm start can be worse)
+    assert "solver 'hybrid' (--solver hybrid)" in text and "Trajectory(warm=Hybrid())" in text
 
 
 def test_warning_only_for_usable_misses_and_per_path():
@@ -107,6 +108,8 @@ def test_warning_only_for_usable_misses_and_per_path():
     assert missed_target_warning(status, np.ones_like(flag), {"solver": "slsqp"}) is None
     traj = missed_target_warning(status, flag, {"criterion": "f2", "solver": "trajectory"})
     assert traj is not None and "solver='trajectory'" not in traj
+    hyb = missed_target_warning(status, flag, {"criterion": "f2", "solver": "hybrid"})
+    assert hyb is not None and "Trajectory(warm=Hybrid())" in hyb and "--solver trajectory" not in hyb
 
 
 # ---------------------------------------------------------------------- per-metre limits
