@@ -16,7 +16,7 @@ default 2e-3 there): the adaptive rule's null step is beta times the primary ste
 while the target stands still, so a held arm would not move. ``--step adaptive`` with ``--hold``
 still runs as asked, with a warning.
 
-``--kxd`` (N/m): either the diagonal ``K1,...,Km`` optionally followed by ``@DEG``, meaning
+``--kxd`` (N/m; for m = 6 the blocks [[N/m, N/rad], [Nm/m, Nm/rad]]): either the diagonal ``K1,...,Km`` optionally followed by ``@DEG``, meaning
 ``R_z(DEG) diag(K1..Km) R_z(DEG)^T`` (a rotation about the base z axis; m = 2 or 3), or the full
 symmetric matrix as m*m comma-separated numbers, row by row (m = 2, 3 or 6). The task follows from
 m (2 -> xy, 3 -> xyz, 6 -> full) unless ``--task`` is given.
@@ -61,6 +61,7 @@ from jaxstiff.cli._csc_flags import SETTING_FLAGS as SETTING_FLAGS
 from jaxstiff.cli._csc_flags import add_setting_flags as add_setting_flags
 from jaxstiff.cli._csc_flags import parse_kxd as parse_kxd
 from jaxstiff.cli._csc_flags import settings_from_args as settings_from_args
+from jaxstiff.csc._inputs import check_planar_task
 from jaxstiff.csc._segments import StepProgress
 from jaxstiff.runtime._io import check_regular_file, deferred_interrupts, interrupt_pending
 from jaxstiff.settings._csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
@@ -153,7 +154,10 @@ def _add_csc(p: argparse.ArgumentParser):
     p.add_argument(
         "--kxd",
         required=True,
-        help="desired Cartesian stiffness, N/m: 'K1,...,Km[@DEG]' (R_z(DEG) diag(K) R_z^T) or m*m entries",
+        help="desired Cartesian stiffness: 'K1,...,Km[@DEG]' (R_z(DEG) diag(K) R_z^T) or m*m entries; N/m for "
+        "m = 2 (task xy) and 3 (xyz); for m = 6 (task full) the blocks [[N/m, N/rad], [Nm/m, Nm/rad]] "
+        "(translation x, y, z, then rotation rx, ry, rz). Two values select task xy, which only planar arms "
+        "take (z would drift); give three for a spatial arm",
     )
     q0 = p.add_mutually_exclusive_group(required=True)
     q0.add_argument(
@@ -254,13 +258,9 @@ def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) ->
 
 def _notes(args: argparse.Namespace, settings: CSCSettings) -> list[str]:
     """Warnings about the settings, printed once the inputs are known to be valid."""
+    # (--hold with --step adaptive, and an arm with no null space for the task, are warned about by
+    # the library itself, once per rollout call: jaxstiff.csc._inputs.warn_settings)
     notes = []
-    if args.hold is not None and settings.step == "adaptive":
-        notes.append(
-            "--hold with --step adaptive: the adaptive null step is beta x |dq_P| (S1-22), zero while the "
-            "target stands still, so the arm will not move to lower u; use --step constant (beta = rad per "
-            "step, e.g. --beta 2e-3)"
-        )
     if settings.joint_limits != "off" and settings.resolved_jl_gain == 0:
         notes.append(
             f"--joint-limits {settings.joint_limits} with --jl-gain 0 does nothing (the avoidance is scaled by the gain)"
@@ -375,7 +375,7 @@ def _report(res: Any, robot: Any, settings: CSCSettings, K: np.ndarray, written:
         + ")"
         + (f"; locked joints {', '.join(locked)}: {settings.locked_joints}" if locked else "")
     )
-    print(f"K_xd (N/m):\n{K}")
+    print(f"K_xd ({kxd_units(K.shape[0])}):\n{K}")
     for b in range(B):
         u, fr, st = res.u[b], res.frobenius[b], res.status[b]
         change = 100 * (1 - u[-1] / res.u_start[b]) if res.u_start[b] > 0 else 0.0
@@ -391,6 +391,11 @@ def _report(res: Any, robot: Any, settings: CSCSettings, K: np.ndarray, written:
         unit = "deg; m for prismatic joints" if robot.prismatic.any() else "deg"
         print(f"[{b}] final q ({unit}): {np.round(qf, 3).tolist()}")
     print(f"wrote {written}")
+
+
+def kxd_units(m: int) -> str:
+    """The units of an m x m K_xd as the summary prints them: N/m, or the blocks of the 6x6 (task full)."""
+    return "N/m" if m != 6 else "blocks [[N/m, N/rad], [Nm/m, Nm/rad]]: rows/columns x, y, z, rx, ry, rz"
 
 
 def _warn_tracking(res: Any, robot: Any, q0: np.ndarray, points: np.ndarray) -> None:
@@ -440,6 +445,7 @@ def run_csc(args: argparse.Namespace) -> int:
     robot = spec.build()
     K = parse_kxd(args.kxd, settings.task)
     settings = settings.replace(task=settings.task or M_TASK[K.shape[0]])
+    check_planar_task(robot, settings.task or "")  # task xy on an arm that moves z: refused before any work
     q0, flag = _start_posture(args, robot)
     points, sources = _targets(args, robot, q0, settings.task or "")
     res, interrupted, seconds = _rollout(robot, points, K, q0, settings, _notes(args, settings))

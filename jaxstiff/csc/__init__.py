@@ -12,6 +12,7 @@ from jaxstiff.runtime._moved import former_names
 
 from ._direction import null_space_direction, project_to_target
 from ._frobenius import frobenius_gradient
+from ._inputs import CSCWarning
 from ._offdiag import offdiag_gradient
 from ._result import (
     STATUS_DAMPED,
@@ -31,6 +32,7 @@ __all__ = [
     "CSCInterrupted",
     "CSCResult",
     "CSCStatus",
+    "CSCWarning",
     "STATUS_DAMPED",
     "STATUS_JOINT_LIMIT",
     "STATUS_NAMES",

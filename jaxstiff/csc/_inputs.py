@@ -13,6 +13,7 @@ broadcast batch to one axis, without compiling anything.
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Any
 
 import jax
@@ -37,8 +38,24 @@ from jaxstiff.settings._csc import (
 )
 from jaxstiff.settings._shape import task_dim
 from jaxstiff.stiffness._core import TASK_ROWS, check_task_feasible
+from jaxstiff.stiffness._tasks import check_planar_arm
 
-__all__ = ["rollout_settings", "validate_values", "path_points", "SCALAR_SETTINGS"]
+__all__ = [
+    "rollout_settings",
+    "validate_values",
+    "path_points",
+    "SCALAR_SETTINGS",
+    "CSCWarning",
+    "check_planar_task",
+    "warn_settings",
+]
+
+
+class CSCWarning(UserWarning):
+    """A CSC rollout that runs, but whose settings cannot do what CSC is for (lower ``u``): the
+    adaptive step on a path that stands still, or an arm with no null space for the task.
+    Emitted once per :func:`jaxstiff.csc_rollout` (or :func:`~jaxstiff.csc.csc_rollout_segments`) call."""
+
 
 #: the largest |K_xd| entry taken, N/m (u and the Frobenius error square the entries of K_xd and of
 #: J^T K_xd J: far beyond any real stiffness, far below float64's overflow)
@@ -162,7 +179,59 @@ def _task_of(robot: Robot, K_xd: jax.Array, task: str | None) -> str:
     # tracks. (A rigid locked joint has no spring, so the free joints carry the stiffness too; with
     # locked_joints="spring" the locked ones add their springs.)
     check_task_feasible(robot, task, motion=True)
+    check_planar_task(robot, task)
     return task
+
+
+def check_planar_task(robot: Robot, task: str) -> None:
+    """Refuse task ``"xy"`` on an arm whose free joints move the TCP along z (the rule of
+    :func:`jaxstiff.stiffness._tasks.check_planar_arm`, as ``shape`` applies it): the rollout would
+    track x and y only and let z drift off the path while its tracking error (x, y) stays tiny."""
+    if task != "xy":
+        return
+    try:
+        check_planar_arm(robot)
+    except ValueError as e:
+        raise ValueError(
+            f"{e}. For CSC: a 2x2 K_xd selects task 'xy', which tracks only the TCP's x and y, so z would drift "
+            "off the path unreported; give a 3x3 K_xd (task 'xyz'; on the command line three --kxd values, "
+            "e.g. --kxd 2000,1000,1000) or 6x6 (task 'full'), or use a planar arm"
+        ) from None
+
+
+def _standing_paths(targets: jax.Array) -> tuple[int, int]:
+    """(paths that stand still, paths) of concrete targets (..., T, d); (0, 0) when traced or T < 2."""
+    if not is_concrete(targets) or targets.shape[-2] < 2:
+        return 0, 0
+    t = np.asarray(targets, dtype=float).reshape((-1,) + targets.shape[-2:])
+    still = np.max(np.abs(t - t[:, :1]), axis=(1, 2), initial=0.0) <= 1e-12
+    return int(np.sum(still)), len(t)
+
+
+def warn_settings(robot: Robot, task: str, step: str, targets: jax.Array) -> None:
+    """One :class:`CSCWarning` per cause that leaves CSC unable to lower u: the adaptive step on a
+    path that stands still (its null step is beta |dq_P| = 0), and no null space (as many free
+    joints as task rows). Called once per call by :func:`prepare_rollout` (``warn=True``)."""
+    standing, total = _standing_paths(targets)
+    if step == "adaptive" and standing:
+        which = "the path stands still" if total == 1 else f"{standing} of the {total} paths stand still"
+        warnings.warn(
+            f"step 'adaptive' on a held point ({which}): the adaptive null step is beta x |dq_P| (S1-22), zero "
+            "while the target stands still, so the arm will not move to lower u; use step 'constant' "
+            "(beta = rad per step, e.g. beta 2e-3; on the command line --step constant --beta 2e-3)",
+            CSCWarning,
+            stacklevel=3,
+        )
+    nfree, m = int(np.sum(robot.free)), len(TASK_ROWS[task])
+    if nfree == m:
+        warnings.warn(
+            f"{robot.name!r} has {nfree} free joints for the {m} rows of task {task!r}: not redundant, so there is "
+            "no null space and CSC cannot lower u (or |K_xd - K_C|_F) beyond what the path itself does (the null "
+            "step is zero: status 'null-space gradient below null_eps'); use a smaller task, unlock joints, or a "
+            "redundant arm",
+            CSCWarning,
+            stacklevel=3,
+        )
 
 
 def _targets(path: Any, task: str, dtype: Any) -> jax.Array:
@@ -228,12 +297,15 @@ def prepare_rollout(
     remat: bool = True,
     chunk: int | None = 128,
     check_reach: bool = True,
+    warn: bool = True,
     **given: Any,
 ) -> tuple[StaticSettings, int | None, tuple, tuple[int, ...]]:
     """Every check of :func:`jaxstiff.csc_rollout` and its inputs flattened to one batch axis:
     ``(static settings, chunk, arrays for rollout_batch, batch shape)``. No compilation: the
     command line calls it to report bad input before it announces the run. Arguments as
-    :func:`jaxstiff.csc_rollout` (``given``: its inline keywords)."""
+    :func:`jaxstiff.csc_rollout` (``given``: its inline keywords); ``warn``: emit the
+    :class:`CSCWarning` s of :func:`warn_settings` once the inputs are valid (the segments of
+    :func:`~jaxstiff.csc.csc_rollout_segments` pass False: their call warned once)."""
     kxd_varying, hold_orientation = given.pop("kxd_varying", None), given.pop("hold_orientation", None)
     if not isinstance(remat, (bool, np.bool_)):  # "no" would read as True
         raise TypeError(f"remat must be True or False, got {remat!r}")
@@ -269,6 +341,8 @@ def prepare_rollout(
     null_eps_a = _null_eps(s["null_eps"], K_xd, bool(kxd_varying), dtype)
     R_hold = _hold_rotation(hold_orientation, task, dtype)
     validate_values(robot, targets, K_xd, q0, beta, scalars, null_eps_a, check_reach)
+    if warn:
+        warn_settings(robot, task, s["step"], targets)
     K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
     batches = [("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch)]
     if R_hold is not None:
@@ -333,14 +407,48 @@ def _check_kxd(K: np.ndarray) -> None:
             f"K_xd has an entry of {np.max(np.abs(K)):g} N/m; at most {K_XD_MAX:g} (u and the Frobenius "
             "error sum squares of such entries, which overflow float64 beyond about 1e154)"
         )
-    asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)))
-    if asym > 1e-6 * np.max(np.abs(K)) + 1e-12:
-        raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {asym:g})")
+    asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)), axis=(-2, -1))
+    bad = asym > 1e-6 * np.max(np.abs(K)) + 1e-12
+    if np.any(bad):
+        first = _first(bad)
+        raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {np.max(asym):g}; first at {_at('K_xd', first)})")
     w = np.linalg.eigvalsh(0.5 * (K + np.swapaxes(K, -1, -2)))
     worst = np.unravel_index(np.argmin(w[..., 0]), w.shape[:-1]) if w.ndim > 1 else ()
     if w[worst][0] < -1e-9 * np.max(np.abs(w[worst])):
-        at = f" (K_xd{list(worst)})" if worst else ""
+        at = f" ({_at('K_xd', worst)})" if worst else ""
         raise ValueError(f"K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue {w[worst][0]:g}{at}")
+
+
+def _first(mask: np.ndarray) -> tuple[int, ...]:
+    """The index of the first True entry of ``mask`` (C order) as plain ints (() for a 0-d mask)."""
+    if mask.ndim == 0:
+        return ()
+    return tuple(int(i) for i in np.unravel_index(int(np.argmax(mask)), mask.shape))
+
+
+def _at(name: str, index: tuple) -> str:
+    """``K_xd[7]`` / ``path[0, 7]``: an index printed as plain ints (not numpy's ``np.int64(7)``)."""
+    return f"{name}[{', '.join(str(int(i)) for i in index)}]" if len(index) else name
+
+
+#: per input of :func:`validate_values`: its trailing axes that make one item (a waypoint's point,
+#: a K_xd matrix, a posture), and what the last leading axis is called in a message
+_ITEM_AXES = {"path": (1, "waypoint"), "K_xd": (2, None), "q0": (1, None), "beta": (0, None)}
+
+
+def _refuse_non_finite(name: str, v: np.ndarray) -> None:
+    """ValueError naming the first item (waypoint, K_xd matrix, posture) with a NaN or an Inf."""
+    if np.all(np.isfinite(v)):
+        return
+    tail, axis_name = _ITEM_AXES[name]
+    bad = ~np.isfinite(v)
+    if tail:
+        bad = np.any(bad, axis=tuple(range(-tail, 0)))
+    first = _first(bad)
+    where = f" (first at {_at(name, first)}" if first else ""
+    if first and axis_name is not None:
+        where += f", {axis_name} {first[-1]}"
+    raise ValueError(f"{name} contains NaN or Inf{where}{')' if first else ''}")
 
 
 def validate_values(  # noqa: C901 - a flat list of independent input checks
@@ -361,8 +469,8 @@ def validate_values(  # noqa: C901 - a flat list of independent input checks
 
     for name, a in (("path", targets), ("K_xd", K_xd), ("q0", q0), ("beta", beta)):
         v = val(a)
-        if v is not None and not np.all(np.isfinite(v)):
-            raise ValueError(f"{name} contains NaN or Inf")
+        if v is not None:
+            _refuse_non_finite(name, v)
     pts = val(targets) if check_reach_ else None
     if pts is not None and pts.size:
         # waypoints out of the robot's reach, before any compilation (task "xy": (x, y) points)

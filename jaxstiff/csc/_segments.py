@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 from collections.abc import Callable
 from typing import Any
 
 import jax
 import numpy as np
 
-from jaxstiff.csc._inputs import path_points, prepare_rollout
+from jaxstiff.csc._inputs import CSCWarning, path_points, prepare_rollout
 from jaxstiff.csc._result import START_FIELDS, CSCResult, concat_results, step_axis
 from jaxstiff.csc._rollout import csc_rollout
 from jaxstiff.model._robot import Robot
@@ -87,7 +88,11 @@ def csc_rollout_segments(
         R_hold = np.asarray(robot.fk(np.where(robot.free, q, np.nan_to_num(robot.locked_values))))[..., :3, :3]
 
     def one(pts_seg: np.ndarray, K_seg: np.ndarray, q_start: np.ndarray) -> CSCResult:
-        r = csc_rollout(robot, pts_seg, K_seg, q_start, beta, kxd_varying=st.varying, hold_orientation=R_hold, **kwargs)
+        with warnings.catch_warnings():  # the check above warned once for the whole path, not per segment
+            warnings.simplefilter("ignore", CSCWarning)
+            r = csc_rollout(
+                robot, pts_seg, K_seg, q_start, beta, kxd_varying=st.varying, hold_orientation=R_hold, **kwargs
+            )
         return jax.tree_util.tree_map(np.asarray, r)
 
     return _run_segments(one, pts, np.asarray(K_xd), q, st.varying, int(segment_steps), progress)

@@ -58,7 +58,7 @@ def _optional_gain(v: object) -> str | None:
 
 
 #: the most Newton corrections per step: each is unrolled into the compiled step (1000 compiled
-#: for minutes), and 1 already keeps the TCP on a reachable path to ~1e-11 m
+#: for minutes); 1 keeps the TCP on a reachable path to ~1e-6 m at 3 cm waypoint spacing, 2 to ~1e-11 m
 MAX_NEWTON = 50
 
 
@@ -128,7 +128,8 @@ class CSCSettings(Settings):
     newton: int = setting(
         1,
         doc="Newton corrections q += J+ (x_d - x(q)) of the TCP inside each step: 1 (default) keeps the TCP on a "
-        "reachable path to ~1e-11 m (0: drifts ~1e-6 m over 400 steps; scripts/bench_csc_newton.py)",
+        "reachable path to ~1e-6 m at 3 cm waypoint spacing (~3e-8 m at 1 cm; the error shrinks with the spacing); "
+        "2 reaches ~1e-11 m (0: drifts ~1e-6 m over 400 steps; scripts/bench_csc_newton.py)",
         check=_newton_count,
     )
     joint_limits: str = setting(

@@ -271,6 +271,7 @@ def _csc_meta(  # noqa: PLR0913 - the chunk's rows, settings, paths and start po
 
 
 def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] | None) -> tuple[list, list, int]:
+    from jaxstiff.csc._inputs import CSCWarning
     from jaxstiff.csc._rollout import csc_rollout
 
     rids = list(chunk.rows)
@@ -287,17 +288,22 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
     }
     chunk_size = int(plan.config["sweep"]["chunk_size"])
     sharded, _nd = shard_batch(inputs, size=min(chunk_size, max(len(c.rows) for c in plan.chunks)))
-    res = csc_rollout(
-        plan.robot,
-        sharded["targets"],
-        sharded["K_xd"],
-        sharded["q0"],
-        sharded["beta"],
-        # the static settings axes: one value per group (beta, per row, is the fifth argument)
-        **{k: x for k, x in setting_values("csc", g).items() if k != "beta"},
-        kxd_varying=False,
-        check_reach=False,  # a rollout's cost does not depend on reach: rows out of it show their tracking error
-    )
+    with warnings.catch_warnings():
+        # a CSCWarning once per process, not once per chunk; "no null space" the config's check has
+        # already said (jaxstiff.sweep._axes)
+        warnings.filterwarnings("ignore", message=".*not redundant", category=CSCWarning)
+        warnings.simplefilter("once", CSCWarning)
+        res = csc_rollout(
+            plan.robot,
+            sharded["targets"],
+            sharded["K_xd"],
+            sharded["q0"],
+            sharded["beta"],
+            # the static settings axes: one value per group (beta, per row, is the fifth argument)
+            **{k: x for k, x in setting_values("csc", g).items() if k != "beta"},
+            kxd_varying=False,
+            check_reach=False,  # a rollout's cost does not depend on reach: rows out of it show their tracking error
+        )
     devices = len(res.q.sharding.device_set)
     out = {k: np.asarray(v)[: len(rids)] for k, v in res.as_dict().items()}
     if progress is not None:
