@@ -1,4 +1,5 @@
-"""``jaxstiff check-sim RESULT.npz``: predicted vs MuJoCo-measured stiffness of a shape result.
+"""``jaxstiff check-sim RESULT.npz`` (or ``DIR --row K``, a shape sweep's row, read as view/plot/export
+read it): predicted vs MuJoCo-measured stiffness of a shape result.
 
 Needs MuJoCo (``pip install "jaxstiff[sim]"``). For each selected waypoint of every path the robot
 is rebuilt in MuJoCo with springs kj at the waypoint's posture, small forces (and, for task
@@ -14,9 +15,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 from typing import Any
 
-from ._common import check_out_path, command, parse_floats, reads, writes
+from ._common import check_out_path, command, parse_floats, writes
+from ._view import add_result_flags
 
 
 def _waypoints(text: str) -> int | list[int]:
@@ -31,7 +34,7 @@ def _waypoints(text: str) -> int | list[int]:
 
 @command("check-sim", "check a shape result's stiffness against a MuJoCo simulation (needs jaxstiff[sim])")
 def _add_check_sim(p: argparse.ArgumentParser) -> Any:
-    reads(p.add_argument("result", metavar="RESULT", help="result file written by `jaxstiff shape` (.npz)"))
+    add_result_flags(p)  # RESULT (a file, or a sweep folder with --row), --row, --urdf: as view/plot/export
     p.add_argument(
         "--waypoints",
         default="5",
@@ -46,11 +49,6 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
     p.add_argument("--tol", type=float, default=1e-3, help="relative agreement required")
     p.add_argument("--no-cct", action="store_true", help="skip the finite-load (CCT) check")
     p.add_argument("--scaled", action="store_true", help="use kj_scaled (after CMS) instead of kj")
-    reads(
-        p.add_argument(
-            "--urdf", default=None, help="the robot's URDF, if the path recorded in the result is not valid here"
-        )
-    )
     writes(p.add_argument("--json", default=None, metavar="OUT", help="also write the table and errors as JSON"))
 
     def run(args: argparse.Namespace) -> int:
@@ -64,6 +62,7 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
         from ..runtime._x64 import enable_x64
         from ..sim import SettleError, cases_from_result, check_cases, markdown_table, rows_json
         from ..sim._report import HELD_FREE_NOTE
+        from ..sim._setup import sweep_row_result
 
         if args.force is not None and not (math.isfinite(args.force) and args.force > 0):
             raise ValueError(f"--force must be a positive finite number of newtons, got {args.force}")
@@ -73,7 +72,14 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
             check_out_path(args.json, "--json")
         enable_x64()
         waypoints = None if args.waypoints.strip().lower() == "all" else _waypoints(args.waypoints)
-        cases = cases_from_result(args.result, waypoints, scaled=args.scaled, urdf=args.urdf)
+        result: Any = args.result
+        if os.path.isdir(args.result):
+            if args.row is None:
+                raise ValueError(f"{args.result} is a sweep folder: pick one of its rows with --row ROW_ID")
+            result = sweep_row_result(args.result, args.row, args.urdf)
+        elif args.row is not None:
+            raise ValueError(f"--row {args.row} is for a sweep folder; {args.result} is a result file")
+        cases = cases_from_result(result, waypoints, scaled=args.scaled, urdf=args.urdf)
         try:
             rows = check_cases(cases, force=args.force, tol=args.tol, cct=not args.no_cct)
         except SettleError as exc:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -25,7 +26,7 @@ from jaxstiff.model._chain import Chain
 from jaxstiff.results import ShapeResult, is_usable, robot_from_meta
 from jaxstiff.stiffness import task_rows
 
-__all__ = ["LOCKED_MODES", "select_waypoints", "cases_from_result"]
+__all__ = ["LOCKED_MODES", "select_waypoints", "cases_from_result", "sweep_row_result"]
 
 LOCKED_MODES = ("rigid", "spring")
 
@@ -105,6 +106,53 @@ def select_waypoints(P: int, waypoints: int | Sequence[int] | None) -> list[int]
     return [p % P for p in out]
 
 
+def urdf_differs(result: str | os.PathLike, urdf: str | os.PathLike | None) -> str | None:
+    """A sentence saying that ``urdf`` is not the file the result was computed with (its sha256
+    differs from ``meta["robot"]["sha256"]``), or None: no ``urdf``, the same file, no recorded
+    sha256, or a result or URDF that cannot be read (the reader then says why)."""
+    from jaxstiff.results._reader import read_arrays
+    from jaxstiff.runtime._io import file_sha256
+
+    if urdf is None:
+        return None
+    try:
+        rmeta = read_arrays(result)[2].get("robot")
+        recorded = rmeta.get("sha256") if isinstance(rmeta, Mapping) else None
+        given = file_sha256(urdf)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(recorded, str) or not recorded or given == recorded:
+        return None
+    return (
+        f"the URDF given ({os.fspath(urdf)}) differs from the one the result was computed with "
+        f"(sha256 {given[:12]}... here, {recorded[:12]}... recorded)"
+    )
+
+
+def sweep_row_result(folder: str | os.PathLike, row: int, urdf: str | os.PathLike | None = None) -> ShapeResult:
+    """Row ``row`` (row_id) of a shape sweep folder as a one-path :class:`ShapeResult`, read and
+    checked as ``jaxstiff view/plot/export DIR --row K`` read it
+    (:func:`jaxstiff.sweep._stored.read_sweep_row`).
+
+    Raises:
+        ValueError: no such row, an unsolved row, a csc sweep (check-sim checks shape results).
+    """
+    from jaxstiff.sweep._stored import read_sweep_row
+
+    rf, b = read_sweep_row(os.fspath(folder), int(row), None if urdf is None else os.fspath(urdf))
+    if rf.kind != "shape":
+        raise ValueError(
+            f"{os.fspath(folder)}: row {row} is a {rf.kind} sweep row; check-sim checks shape results "
+            "(a shape sweep's rows, or a file written by `jaxstiff shape`)"
+        )
+    res = ShapeResult.from_file(rf)
+    one = {f.name: getattr(res, f.name) for f in dataclasses.fields(res)}
+    for name, value in one.items():
+        if name not in ("meta", "joint_names") and isinstance(value, np.ndarray) and value.ndim >= 1:
+            one[name] = value[b : b + 1]  # the row's path only
+    return ShapeResult(**one)
+
+
 def cases_from_result(
     result: ShapeResult | str | os.PathLike,
     waypoints: int | Sequence[int] | None = 5,
@@ -123,12 +171,20 @@ def cases_from_result(
         urdf: the robot's URDF if the recorded path is not valid here (its sha256 must match).
     """
     # a file: the one reader (robot, joints, locked joints, positions by FK, task checked)
-    res = result if isinstance(result, ShapeResult) else ShapeResult.read(result, urdf)
-    meta = res.meta
+    differs = None if isinstance(result, ShapeResult) else urdf_differs(result, urdf)
     try:
-        robot = robot_from_meta(meta, urdf=urdf)
-    except KeyError as exc:
-        raise ValueError(f"result meta has no robot description (missing {exc}); not a shape result?") from None
+        res = result if isinstance(result, ShapeResult) else ShapeResult.read(result, urdf)
+        meta = res.meta
+        try:
+            robot = robot_from_meta(meta, urdf=urdf)
+        except KeyError as exc:
+            raise ValueError(f"result meta has no robot description (missing {exc}); not a shape result?") from None
+    except ValueError as exc:
+        if differs:  # the edited URDF first: the file itself is likely fine
+            raise ValueError(f"{differs}; {exc}") from None
+        raise
+    if differs:
+        warnings.warn(differs, stacklevel=2)
     task = meta.get("task") or (meta.get("settings") or {}).get("task")
     if task is None:
         raise ValueError("result meta has no 'task'; not a shape result?")

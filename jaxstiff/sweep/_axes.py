@@ -177,9 +177,10 @@ def _posture(v: list, i: int, key: str, robot: Any, source: str) -> list[float]:
     lo, hi = robot.lower, robot.upper
     for j, x in enumerate(q):
         if not (lo[j] <= x <= hi[j]):
+            unit = "m" if bool(robot.prismatic[j]) else "rad"  # a prismatic joint's values are lengths
             raise SweepConfigError(
                 key,
-                f"posture {i}: q[{j}] = {x:g} rad is outside the limits [{lo[j]:g}, {hi[j]:g}] "
+                f"posture {i}: q[{j}] = {x:g} {unit} is outside the limits [{lo[j]:g}, {hi[j]:g}] "
                 f"of joint {robot.joint_names[j]!r}",
                 source,
             )

@@ -103,6 +103,17 @@ class SweepOutcome:
         """The results table (pandas DataFrame)."""
         return read_table(self.out)
 
+    def __repr__(self) -> str:
+        """A short summary (rows, the axes varied, chunks, where the table is), not the plan's arrays."""
+        plan = self.plan
+        varied = [k for k, v in plan.axes.items() if len(v) > 1]
+        done = f"{len(self.computed)} computed" + (f", {len(self.skipped)} already done" if self.skipped else "")
+        return (
+            f"SweepOutcome({plan.kind} sweep {plan.name!r}: {self.n_rows} rows = {len(plan.trajectories)} path(s) x "
+            f"{len(plan.settings)} setting(s) (varied: {', '.join(varied) or 'none'}); {self.n_chunks} chunks "
+            f"({done}) in {self.wall_s:.1f} s; table {self.table_file}, .table() reads it)"
+        )
+
 
 def _plan_of(config: str | os.PathLike | Mapping[str, Any] | SweepPlan) -> SweepPlan:
     if isinstance(config, SweepPlan):

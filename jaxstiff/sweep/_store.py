@@ -12,6 +12,7 @@ Layout of ``--out DIR``::
     DIR/timing.csv               wall time per chunk (kept out of the table: timing is not a result)
     DIR/summary.md, DIR/plots/   the report
     DIR/.lock                    held (filelock) while a sweep writes here; DIR/.lock.owner says who
+                                 (removed when the run ends; one left by a killed run is stale)
 
 Crash safety: every file is written to a temporary file in the same folder and renamed onto its
 name (``os.replace``, atomic on POSIX), so a reader never sees a partial file. A chunk's arrays are
@@ -135,7 +136,7 @@ class SweepStore:
         except Timeout:
             try:
                 with open(self.path(OWNER_FILE), encoding="utf-8") as fh:
-                    who = fh.read().strip()
+                    who = fh.readline().strip()  # the first line: pid, host, since
             except OSError:
                 who = ""
             raise ValueError(
@@ -143,11 +144,19 @@ class SweepStore:
                 "wait for it or choose another --out"
             ) from None
         self._lock_obj = lock
-        atomic_write_text(self.path(OWNER_FILE), f"pid {os.getpid()} on {socket.gethostname()} since {_now()}\n")
+        atomic_write_text(
+            self.path(OWNER_FILE),
+            f"pid {os.getpid()} on {socket.gethostname()} since {_now()}\n"
+            "(removed when that run ends; left by a killed run it is stale and harmless: the OS freed the lock)\n",
+        )
 
     def close(self) -> None:
-        """Release the lock (also released by the OS if the process dies)."""
+        """Release the lock (also released by the OS if the process dies) and remove ``.lock.owner``
+        first, while the lock is still held (a record left by a killed run is overwritten by the
+        next run that takes the lock, and says that it is stale)."""
         if self._lock_obj is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(self.path(OWNER_FILE))
             with contextlib.suppress(OSError):
                 self._lock_obj.release()
             self._lock_obj = None

@@ -180,3 +180,40 @@ def test_cli_prints_held_and_free(tmp_path, capsys):
     row = json.loads(out.read_text())["rows"][0]
     assert row["err_held"] < TIGHT and row["err_free"] < TIGHT
     assert np.allclose(row["K_free_meas"], row["K_meas"])  # task xyz shapes the free one
+
+
+def test_cli_check_sim_reads_a_sweep_row(tmp_path, capsys, monkeypatch):
+    """`check-sim DIR --row K` failed with "unrecognized arguments: --row" while view/plot/export
+    read a sweep row that way: it checks the row's path (the row's own path, not the chunk's first)."""
+    from jaxstiff.cli import main
+    from jaxstiff.sim._setup import sweep_row_result
+    from jaxstiff.sweep import run_sweep
+
+    monkeypatch.setenv("JAXSTIFF_COMPILE_CACHE", "0")
+    cfg = {
+        "sweep": {"kind": "shape", "name": "rows", "chunk_size": 4},
+        "robot": {"name": "planar_3r"},
+        "paths": [
+            {
+                "generator": "arc",
+                "center": [0.0, 0.0, 0.0],
+                "radius": [1.5, 2.0],
+                "start_deg": 10.0,
+                "end_deg": 12.0,
+                "n": 3,
+            }
+        ],
+        "axes": {"task": "xy", "criterion": "f2", "ratio": 2.0},
+    }
+    out = tmp_path / "sw"
+    run_sweep(cfg, out, progress=False, report=False)
+    one = sweep_row_result(out, 1)
+    assert one.B == 1 and np.allclose(np.linalg.norm(one.target[0, :, :2], axis=-1), 2.0)  # row 1: radius 2.0
+    js = tmp_path / "row.json"
+    assert main(["check-sim", str(out), "--row", "1", "--waypoints", "2", "--json", str(js)]) == 0
+    assert "2/2 waypoints agree" in capsys.readouterr().out
+    assert json.loads(js.read_text())["passed"]
+    assert main(["check-sim", str(out)]) == 2
+    assert "is a sweep folder: pick one of its rows with --row" in capsys.readouterr().err
+    assert main(["check-sim", str(out), "--row", "7"]) == 2
+    assert "no sweep row 7" in capsys.readouterr().err

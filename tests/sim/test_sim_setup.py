@@ -75,3 +75,33 @@ def test_cases_skip_unusable_waypoints(tmp_path):
     assert [c.label for c in cases_from_result(bad, [0, 1, 5])] == ["b0 p1"]
     with pytest.raises(ValueError, match="no usable waypoint"):
         cases_from_result(bad, [0, 2])
+
+
+def test_an_edited_urdf_is_named_before_the_reader_blames_the_result(tmp_path):
+    """check-sim with a --urdf whose sha256 differs from the recorded one blamed the result file
+    ("the file's robot, tcp or q is not what it claims", found with an edited URDF): the changed
+    URDF is now the error's first sentence, and a warning when the file still reads."""
+    import pathlib
+    import warnings
+
+    from jaxstiff.sim import cases_from_result
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    pts = np.c_[np.linspace(1.50, 1.58, 4), np.full(4, 0.5), np.zeros(4)]
+    file = jaxstiff.shape(robot, jaxstiff.Path(pts), "f2", 5.0, task="xy").save(tmp_path / "r.npz")
+    text = (pathlib.Path(jaxstiff.__file__).parents[1] / "urdf" / "planar_3r.urdf").read_text()
+    edited = tmp_path / "edited.urdf"
+    edited.write_text(text.replace('<origin xyz="1 0 0"', '<origin xyz="1.1 0 0"', 1))
+    with pytest.raises(ValueError, match=r"^the URDF given \(.*edited\.urdf\) differs from the one the result"):
+        cases_from_result(file, 2, urdf=edited)
+    comment = tmp_path / "comment.urdf"  # the same robot, other bytes: a warning, the check goes on
+    comment.write_text(text + "<!-- copied -->\n")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert len(cases_from_result(file, 2, urdf=comment)) == 2
+    assert any("differs from the one the result was computed with" in str(w.message) for w in caught)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the file it was computed with: no warning
+        same = tmp_path / "same.urdf"
+        same.write_text(text)
+        assert len(cases_from_result(file, 2, urdf=same)) == 2

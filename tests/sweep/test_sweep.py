@@ -170,6 +170,16 @@ def test_shape_report_written(shape_run):
             assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
 
 
+def test_outcome_repr_is_a_short_summary(shape_run):
+    """print(run_sweep(...)) dumped every array of the plan (9,347 characters for a 2-path sweep):
+    a line with the rows, the axes varied, the chunks and where the table is."""
+    text = repr(shape_run)
+    assert len(text) < 400 and "\n" not in text and "array(" not in text
+    assert text.startswith("SweepOutcome(shape sweep")
+    assert f"{shape_run.n_rows} rows" in text and shape_run.table_file in text
+    assert f"{shape_run.n_chunks} chunks" in text and str(shape_run) == text
+
+
 def test_ctrl_c_then_resume_equals_uninterrupted(shape_run, tmp_path):
     out = tmp_path / "interrupted"
     n_chunks = len(shape_run.plan.chunks)
@@ -240,6 +250,30 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
     with SweepStore(fresh, plan):
         with pytest.raises(ValueError, match="another jaxstiff sweep is writing"):
             SweepStore(fresh, plan, resume=True)
+
+
+def test_lock_owner_record_is_removed_when_the_run_ends(shape_run, tmp_path):
+    """A stale .lock.owner naming a process long gone stayed in every finished or interrupted store
+    (found in a finished sweep folder): it is removed when the lock is released; one left by a
+    killed run is harmless (the next run takes the lock and writes its own) and says it is stale."""
+    from jaxstiff.sweep._store import OWNER_FILE
+
+    assert not os.path.exists(os.path.join(shape_run.out, OWNER_FILE))  # a finished run
+    out = tmp_path / "stopped"
+
+    def stop(cid):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(SHAPE_CFG, out, progress=False, report=False, on_commit=stop)
+    assert (out / "plan.json").exists() and not (out / OWNER_FILE).exists()  # an interrupted run
+    (out / OWNER_FILE).write_text("pid 999999 on gone since 2020-01-01T00:00:00\n")  # as a killed run leaves it
+    with SweepStore(out, shape_run.plan, resume=True):
+        text = (out / OWNER_FILE).read_text()
+        assert text.startswith(f"pid {os.getpid()} on ") and "stale" in text
+        with pytest.raises(ValueError, match=rf"another jaxstiff sweep is writing .*\(pid {os.getpid()} on [^()]*\);"):
+            SweepStore(out, shape_run.plan, resume=True)
+    assert not (out / OWNER_FILE).exists()
 
 
 def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch):

@@ -670,3 +670,21 @@ def test_robot_tcp_takes_three_or_six_values():
     np.testing.assert_allclose(three.tip_matrix, bare.tip_matrix @ tcp_transform([0.1, 0.0, 0.0]), atol=1e-15)
     with pytest.raises(SweepConfigError, match=r"robot.tcp: expected 3 numbers .* 6 numbers .*got \[0.1, 0.0\]"):
         parse_config(_set(base(), "robot.tcp", [0.1, 0.0]))
+
+
+def test_q0_posture_outside_limits_names_the_unit_of_the_joint():
+    """A q0 posture outside a prismatic joint's limits gave its value in rad (found with a Fetch
+    URDF's torso lift): m for a prismatic joint, rad for a revolute one."""
+    import jaxstiff
+    from jaxstiff.sweep._axes import q0_values
+
+    robot = jaxstiff.Robot.from_urdf(str(REPO_ROOT / "tests" / "data" / "branched_tree.urdf"), tip_link="tool")
+    j2 = robot.joint_names.index("j2")
+    assert bool(robot.prismatic[j2]) and not bool(robot.prismatic[0])
+    q = [0.0] * robot.n
+    q[j2] = 0.9
+    with pytest.raises(SweepConfigError, match=rf"q\[{j2}\] = 0\.9 m is outside the limits \[0, 0\.5\] of joint 'j2'"):
+        q0_values([q], "axes.q0", robot)
+    q[j2], q[0] = 0.1, 99.0
+    with pytest.raises(SweepConfigError, match=r"q\[0\] = 99 rad is outside the limits"):
+        q0_values([q], "axes.q0", robot)
