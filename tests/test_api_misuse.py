@@ -143,3 +143,17 @@ def test_wrong_types_name_the_argument(tmp_path) -> None:
         jaxstiff.Path.stack([np.zeros((3, 3)), np.zeros((3, 3))])  # type: ignore[list-item]
     with pytest.raises(TypeError, match=r"Registered.opts must be a mapping"):
         jaxstiff.solvers.Registered("pgd", [1, 2])  # type: ignore[arg-type]
+
+
+def test_a_q0_outside_a_prismatic_joints_limits_is_given_in_metres():
+    """shape()'s q0 check said "rad" for every joint; a prismatic joint's value is a length."""
+    from helpers import DATA_DIR
+
+    robot = jaxstiff.Robot.from_urdf(os.path.join(DATA_DIR, "branched_tree.urdf"), tip_link="tool")
+    j2 = robot.joint_names.index("j2")
+    assert bool(robot.prismatic[j2])
+    q = np.zeros(robot.n)
+    q[j2] = 0.9
+    p = jaxstiff.Path(np.array([[0.3, 0.0, 0.2], [0.3, 0.01, 0.2]]))
+    with pytest.raises(ValueError, match=rf"q0\[{j2}\] = 0\.9 m for joint 'j2' is outside its limits"):
+        jaxstiff.shape(robot, p, "f2", 3.0, task="xyz", q0=q)

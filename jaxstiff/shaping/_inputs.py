@@ -143,7 +143,8 @@ def _check_q0(robot: Robot, q0: np.ndarray) -> None:
         if bad.size:
             i = int(bad[0])
             raise ValueError(
-                f"q0[{i}] = {q[i]:.6g} rad for joint {robot.joint_names[i]!r} is outside its limits "
+                f"q0[{i}] = {q[i]:.6g} {'m' if bool(robot.prismatic[i]) else 'rad'} for joint {robot.joint_names[i]!r} "
+                "is outside its limits "
                 f"[{lo[i]:.6g}, {hi[i]:.6g}]" + (f" (path {b})" if q0.shape[0] > 1 else "")
             )
 
