@@ -31,6 +31,7 @@ import dataclasses
 import json
 import math
 import os
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -68,6 +69,7 @@ class ResultFileError(ValueError):
     def __init__(self, file: str, field: str, expected: str, found: Any = None, *, text: str | None = None):
         self.file, self.field = file, field
         msg = text if text is not None else f"expected {expected}, found {_short(found)}"
+        self.text = msg  #: the message without the file and field
         where = f"{file}: " if field == "file" else f"{file}: {field}: "  # (the whole file: no field)
         super().__init__(" ".join(f"{where}{msg}".split()))
 
@@ -800,6 +802,41 @@ def read_result(file: str | os.PathLike, urdf: str | os.PathLike | None = None, 
     """
     file = os.fspath(file)
     kind, arr, meta, q32 = _read(file, kind, True)
+    try:
+        return _checked(file, kind, arr, meta, q32, urdf)
+    except ValueError as exc:  # (ResultFileError too) an edited URDF given: say that first, the file is likely fine
+        note = urdf_differs(meta, urdf)
+        if note is None:
+            raise
+        if isinstance(exc, ResultFileError):
+            err = ResultFileError(file, "file", "", text=f"{note}; {exc.field}: {exc.text}")
+            err.field = exc.field  # (the check that failed, as before)
+            raise err from None
+        raise ValueError(f"{note}; {exc}") from None
+
+
+def urdf_differs(meta: Mapping[str, Any], urdf: str | os.PathLike | None) -> str | None:
+    """A sentence saying that ``urdf`` is not the file a result (its ``meta``) was computed with:
+    its sha256 differs from ``meta["robot"]["sha256"]``; None without ``urdf``, for the same file,
+    without a recorded sha256, or for a URDF that cannot be read (the reader then says why)."""
+    if urdf is None:
+        return None
+    rmeta = meta.get("robot")
+    recorded = rmeta.get("sha256") if isinstance(rmeta, Mapping) else None
+    try:
+        given = file_sha256(urdf)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(recorded, str) or not recorded or given == recorded:
+        return None
+    return (
+        f"the URDF given ({os.fspath(urdf)}) differs from the one the result was computed with "
+        f"(sha256 {given[:12]}... here, {recorded[:12]}... recorded)"
+    )
+
+
+def _checked(file: str, kind: str, arr: dict, meta: dict, q32: bool, urdf: str | os.PathLike | None) -> ResultFile:
+    """:func:`read_result`'s checks of a file read by :func:`_read`."""
     chain = chain_from_meta(meta, urdf, file=file)
     task = str(meta["task"])
     q = arr["q"] if arr["q"].ndim == 3 else arr["q"][None]

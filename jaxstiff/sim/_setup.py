@@ -24,6 +24,7 @@ import numpy as np
 
 from jaxstiff.model._chain import Chain
 from jaxstiff.results import ShapeResult, is_usable, robot_from_meta
+from jaxstiff.results._reader import urdf_differs
 from jaxstiff.stiffness import task_rows
 
 __all__ = ["LOCKED_MODES", "select_waypoints", "cases_from_result", "sweep_row_result"]
@@ -106,29 +107,6 @@ def select_waypoints(P: int, waypoints: int | Sequence[int] | None) -> list[int]
     return [p % P for p in out]
 
 
-def urdf_differs(result: str | os.PathLike, urdf: str | os.PathLike | None) -> str | None:
-    """A sentence saying that ``urdf`` is not the file the result was computed with (its sha256
-    differs from ``meta["robot"]["sha256"]``), or None: no ``urdf``, the same file, no recorded
-    sha256, or a result or URDF that cannot be read (the reader then says why)."""
-    from jaxstiff.results._reader import read_arrays
-    from jaxstiff.runtime._io import file_sha256
-
-    if urdf is None:
-        return None
-    try:
-        rmeta = read_arrays(result)[2].get("robot")
-        recorded = rmeta.get("sha256") if isinstance(rmeta, Mapping) else None
-        given = file_sha256(urdf)
-    except (OSError, ValueError):
-        return None
-    if not isinstance(recorded, str) or not recorded or given == recorded:
-        return None
-    return (
-        f"the URDF given ({os.fspath(urdf)}) differs from the one the result was computed with "
-        f"(sha256 {given[:12]}... here, {recorded[:12]}... recorded)"
-    )
-
-
 def sweep_row_result(folder: str | os.PathLike, row: int, urdf: str | os.PathLike | None = None) -> ShapeResult:
     """Row ``row`` (row_id) of a shape sweep folder as a one-path :class:`ShapeResult`, read and
     checked as ``jaxstiff view/plot/export DIR --row K`` read it
@@ -170,20 +148,16 @@ def cases_from_result(
             factor, so either checks the same mapping.
         urdf: the robot's URDF if the recorded path is not valid here (its sha256 must match).
     """
-    # a file: the one reader (robot, joints, locked joints, positions by FK, task checked)
-    differs = None if isinstance(result, ShapeResult) else urdf_differs(result, urdf)
+    # a file: the one reader (robot, joints, locked joints, positions by FK, task checked; an edited
+    # --urdf that fails them is named first by the reader)
+    res = result if isinstance(result, ShapeResult) else ShapeResult.read(result, urdf)
+    meta = res.meta
     try:
-        res = result if isinstance(result, ShapeResult) else ShapeResult.read(result, urdf)
-        meta = res.meta
-        try:
-            robot = robot_from_meta(meta, urdf=urdf)
-        except KeyError as exc:
-            raise ValueError(f"result meta has no robot description (missing {exc}); not a shape result?") from None
-    except ValueError as exc:
-        if differs:  # the edited URDF first: the file itself is likely fine
-            raise ValueError(f"{differs}; {exc}") from None
-        raise
-    if differs:
+        robot = robot_from_meta(meta, urdf=urdf)
+    except KeyError as exc:
+        raise ValueError(f"result meta has no robot description (missing {exc}); not a shape result?") from None
+    differs = None if isinstance(result, ShapeResult) else urdf_differs(meta, urdf)
+    if differs:  # the edited URDF passed every check: say so all the same
         warnings.warn(differs, stacklevel=2)
     task = meta.get("task") or (meta.get("settings") or {}).get("task")
     if task is None:

@@ -92,8 +92,15 @@ def test_an_edited_urdf_is_named_before_the_reader_blames_the_result(tmp_path):
     text = (pathlib.Path(jaxstiff.__file__).parents[1] / "urdf" / "planar_3r.urdf").read_text()
     edited = tmp_path / "edited.urdf"
     edited.write_text(text.replace('<origin xyz="1 0 0"', '<origin xyz="1.1 0 0"', 1))
-    with pytest.raises(ValueError, match=r"^the URDF given \(.*edited\.urdf\) differs from the one the result"):
+    with pytest.raises(ValueError, match=r"r\.npz: the URDF given \(.*edited\.urdf\) differs from the one the result"):
         cases_from_result(file, 2, urdf=edited)
+    # view, plot and export read the file the same way (the one reader)
+    from jaxstiff.cli import main
+
+    with pytest.raises(ValueError, match=r"r\.npz: the URDF given \(.*edited\.urdf\) differs .*; position: "):
+        jaxstiff.ShapeResult.read(file, edited)
+    assert main(["export", str(file), "--urdf", str(edited), "--out", str(tmp_path / "x.csv")]) == 2
+    assert not (tmp_path / "x.csv").exists()
     comment = tmp_path / "comment.urdf"  # the same robot, other bytes: a warning, the check goes on
     comment.write_text(text + "<!-- copied -->\n")
     with warnings.catch_warnings(record=True) as caught:
