@@ -27,7 +27,7 @@ def _run(tmp_path, capsys, *extra):
 
 def test_hold_defaults_to_the_constant_step_and_moves_in_the_null_space(tmp_path, capsys):
     rc, err, f, meta = _run(tmp_path, capsys)
-    assert rc == 0 and "--hold with --step adaptive" not in err
+    assert rc == 0 and "step 'adaptive' on a held point" not in err
     assert meta["step"] == "constant" and meta["beta"] == 2e-3
     q0 = np.deg2rad([75.0, -74.74, -76.30])
     q = f["q"][0]
