@@ -209,3 +209,24 @@ def one_cli_error(capsys, argv: list[str]) -> str:
     lines = err.strip().splitlines()
     assert rc == 2 and len(lines) == 1 and lines[0].startswith("jaxstiff: error: "), err
     return lines[0]
+
+
+def planar_arc_sweep(name: str, axes: dict, *, radius=(1.5, 2.0), end_deg: float = 12.0, chunk_size: int = 4) -> dict:
+    """A small shape-sweep config (a fresh dict each call) on the shipped planar 3R: one arc
+    generator about the origin (3 waypoints from 10 deg to ``end_deg``, one path per radius, m)
+    and the given ``axes`` (in their order: it sets the rows' order)."""
+    return {
+        "sweep": {"kind": "shape", "name": name, "chunk_size": chunk_size},
+        "robot": {"name": "planar_3r"},
+        "paths": [
+            {
+                "generator": "arc",
+                "center": [0.0, 0.0, 0.0],
+                "radius": list(radius),
+                "start_deg": 10.0,
+                "end_deg": end_deg,
+                "n": 3,
+            }
+        ],
+        "axes": dict(axes),
+    }

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import DATA_DIR
+from helpers import DATA_DIR, planar_arc_sweep
 
 import jaxstiff
 from jaxstiff.cli import main
@@ -197,21 +197,9 @@ def test_sweep_marks_rows_out_of_reach_instead_of_refusing(tmp_path):
     waypoints count as unreachable (status 3); the 1.5 m rows are solved as usual."""
     from jaxstiff.sweep import read_table, run_sweep
 
-    cfg = {
-        "sweep": {"kind": "shape", "name": "reach", "chunk_size": 4},
-        "robot": {"name": "planar_3r"},
-        "paths": [
-            {
-                "generator": "arc",
-                "center": [0.0, 0.0, 0.0],
-                "radius": [1.5, 4.0],
-                "start_deg": 10.0,
-                "end_deg": 12.0,
-                "n": 3,
-            }
-        ],
-        "axes": {"task": "xy", "criterion": "f2", "ratio": [2.0], "first_starts": 2},
-    }
+    cfg = planar_arc_sweep(
+        "reach", {"task": "xy", "criterion": "f2", "ratio": [2.0], "first_starts": 2}, radius=(1.5, 4.0)
+    )
     run_sweep(cfg, tmp_path / "run", progress=False, report=False, compile_cache=False)
     df = read_table(str(tmp_path / "run"))
     assert len(df) == 2

@@ -11,7 +11,7 @@ import shutil
 
 import numpy as np
 import pytest
-from helpers import tamper_result
+from helpers import planar_arc_sweep, tamper_result
 
 import jaxstiff
 from jaxstiff.results._reader import ResultFileError, read_result
@@ -104,21 +104,7 @@ def test_a_within_tolerance_step_is_accepted(lwr_file, tmp_path) -> None:
 
 
 # ---------------------------------------------------------------------- a real sweep row
-SWEEP = {
-    "sweep": {"kind": "shape", "name": "reader-row", "chunk_size": 4},
-    "robot": {"name": "planar_3r"},
-    "paths": [
-        {
-            "generator": "arc",
-            "center": [0.0, 0.0, 0.0],
-            "radius": [1.5, 2.0],
-            "start_deg": 10.0,
-            "end_deg": 12.0,
-            "n": 3,
-        }
-    ],
-    "axes": {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "first_starts": 2},
-}
+SWEEP = planar_arc_sweep("reader-row", {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "first_starts": 2})
 
 
 @pytest.fixture(scope="module")

@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 import pytest
+from helpers import planar_arc_sweep
 
 pytest.importorskip("mujoco", reason='the physics check needs MuJoCo: pip install "jaxstiff[sim]"')
 
@@ -190,21 +191,7 @@ def test_cli_check_sim_reads_a_sweep_row(tmp_path, capsys, monkeypatch):
     from jaxstiff.sweep import run_sweep
 
     monkeypatch.setenv("JAXSTIFF_COMPILE_CACHE", "0")
-    cfg = {
-        "sweep": {"kind": "shape", "name": "rows", "chunk_size": 4},
-        "robot": {"name": "planar_3r"},
-        "paths": [
-            {
-                "generator": "arc",
-                "center": [0.0, 0.0, 0.0],
-                "radius": [1.5, 2.0],
-                "start_deg": 10.0,
-                "end_deg": 12.0,
-                "n": 3,
-            }
-        ],
-        "axes": {"task": "xy", "criterion": "f2", "ratio": 2.0},
-    }
+    cfg = planar_arc_sweep("rows", {"task": "xy", "criterion": "f2", "ratio": 2.0})
     out = tmp_path / "sw"
     run_sweep(cfg, out, progress=False, report=False)
     one = sweep_row_result(out, 1)

@@ -17,7 +17,7 @@ import time
 import numpy as np
 import pandas as pd
 import pytest
-from helpers import CSC_TOML, REPO_ROOT
+from helpers import CSC_TOML, REPO_ROOT, planar_arc_sweep
 
 import jaxstiff
 from jaxstiff.results._files import ShapeResult, is_usable, np_jacobian_rows, np_translational_stiffness, verify
@@ -28,21 +28,9 @@ from jaxstiff.sweep._store import SweepStore, read_table
 REPO = str(REPO_ROOT)
 
 
-SHAPE_CFG = {
-    "sweep": {"kind": "shape", "name": "tiny-shape", "chunk_size": 4},
-    "robot": {"name": "planar_3r"},
-    "paths": [
-        {
-            "generator": "arc",
-            "center": [0.0, 0.0, 0.0],
-            "radius": [1.5, 2.0],
-            "start_deg": 10.0,
-            "end_deg": 12.0,
-            "n": 3,
-        }
-    ],
-    "axes": {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "dk": [5.0, 10.0], "first_starts": 2},
-}
+SHAPE_CFG = planar_arc_sweep(
+    "tiny-shape", {"task": "xy", "criterion": "f2", "ratio": [2.0, 3.0], "dk": [5.0, 10.0], "first_starts": 2}
+)
 
 
 def _frame_equal(a: pd.DataFrame, b: pd.DataFrame) -> None:

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import REPO_ROOT
+from helpers import REPO_ROOT, planar_arc_sweep
 
 from jaxstiff import paths as P
 from jaxstiff.sweep._config import AXES, SweepConfigError, kxd_matrix, load_config, parse_config
@@ -18,21 +18,9 @@ from jaxstiff.sweep._config import AXES, SweepConfigError, kxd_matrix, load_conf
 
 def base() -> dict:
     """A small valid shape sweep: planar 3R, two arcs, 2 x 2 settings."""
-    return {
-        "sweep": {"kind": "shape", "name": "t", "chunk_size": 3},
-        "robot": {"name": "planar_3r"},
-        "paths": [
-            {
-                "generator": "arc",
-                "center": [0.0, 0.0, 0.0],
-                "radius": [1.5, 2.0],
-                "start_deg": 10.0,
-                "end_deg": 14.0,
-                "n": 3,
-            }
-        ],
-        "axes": {"task": "xy", "ratio": [2.0, 3.0], "criterion": ["f1", "f2"]},
-    }
+    return planar_arc_sweep(
+        "t", {"task": "xy", "ratio": [2.0, 3.0], "criterion": ["f1", "f2"]}, end_deg=14.0, chunk_size=3
+    )
 
 
 def csc_base() -> dict:
