@@ -211,7 +211,7 @@ def _standing_paths(targets: jax.Array) -> tuple[int, int]:
 def warn_settings(robot: Robot, task: str, step: str, targets: jax.Array) -> None:
     """One :class:`CSCWarning` per cause that leaves CSC unable to lower u: the adaptive step on a
     path that stands still (its null step is beta |dq_P| = 0), and no null space (as many free
-    joints as task rows). Called once per call by :func:`prepare_rollout` (``warn=True``)."""
+    joints as task rows). Called once per call by :func:`prepare_rollout`."""
     standing, total = _standing_paths(targets)
     if step == "adaptive" and standing:
         which = "the path stands still" if total == 1 else f"{standing} of the {total} paths stand still"
@@ -297,15 +297,14 @@ def prepare_rollout(
     remat: bool = True,
     chunk: int | None = 128,
     check_reach: bool = True,
-    warn: bool = True,
     **given: Any,
 ) -> tuple[StaticSettings, int | None, tuple, tuple[int, ...]]:
     """Every check of :func:`jaxstiff.csc_rollout` and its inputs flattened to one batch axis:
     ``(static settings, chunk, arrays for rollout_batch, batch shape)``. No compilation: the
     command line calls it to report bad input before it announces the run. Arguments as
-    :func:`jaxstiff.csc_rollout` (``given``: its inline keywords); ``warn``: emit the
-    :class:`CSCWarning` s of :func:`warn_settings` once the inputs are valid (the segments of
-    :func:`~jaxstiff.csc.csc_rollout_segments` pass False: their call warned once)."""
+    :func:`jaxstiff.csc_rollout` (``given``: its inline keywords). Once the inputs are valid it
+    emits the :class:`CSCWarning` s of :func:`warn_settings` (the segments of
+    :func:`~jaxstiff.csc.csc_rollout_segments` ignore theirs: its own call warned once)."""
     kxd_varying, hold_orientation = given.pop("kxd_varying", None), given.pop("hold_orientation", None)
     if not isinstance(remat, (bool, np.bool_)):  # "no" would read as True
         raise TypeError(f"remat must be True or False, got {remat!r}")
@@ -341,8 +340,7 @@ def prepare_rollout(
     null_eps_a = _null_eps(s["null_eps"], K_xd, bool(kxd_varying), dtype)
     R_hold = _hold_rotation(hold_orientation, task, dtype)
     validate_values(robot, targets, K_xd, q0, beta, scalars, null_eps_a, check_reach)
-    if warn:
-        warn_settings(robot, task, s["step"], targets)
+    warn_settings(robot, task, s["step"], targets)
     K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
     batches = [("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch)]
     if R_hold is not None:
