@@ -293,14 +293,16 @@ GRIPPER_WORDS = ("gripper", "finger", "jaw", "claw", "thumb", "knuckle", "hand")
 #: often called "gripper_link" or "hand": the body the wrist turns, not a finger)
 FINGER_WORDS = ("finger", "jaw", "claw", "thumb", "knuckle")
 #: end-effector names that break a tie between candidate tips, best first (lower-case substrings of
-#: the link name; ``ee`` only as a whole word: ``ee_link``, ``right_ee``, not ``knee``)
-TIP_NAME_TIERS = (("tcp",), ("tool",), ("end_effector", "endeffector", "eef", "ee"), ("flange",))
+#: the link name; ``ee`` only as a whole word: ``ee_link``, ``right_ee``, not ``knee``); ``hand`` last:
+#: the gripper's body, where a bare flange link beside it has no such name (Franka's ``panda_hand``
+#: against ``panda_link9``)
+TIP_NAME_TIERS = (("tcp",), ("tool",), ("end_effector", "endeffector", "eef", "ee"), ("flange",), ("hand",))
 _GRIPPER_RE = re.compile("|".join(GRIPPER_WORDS), re.IGNORECASE)
 _FINGER_RE = re.compile("|".join(FINGER_WORDS), re.IGNORECASE)
 
 
 def _name_tier(link: str) -> int:
-    """0 .. 3: the link's rank in :data:`TIP_NAME_TIERS`; 4: not an end-effector name."""
+    """The link's rank in :data:`TIP_NAME_TIERS` (0 best); ``len(TIP_NAME_TIERS)``: not an end-effector name."""
     low = link.lower()
     for tier, words in enumerate(TIP_NAME_TIERS):
         if any(re.search(r"(^|[^a-z])ee([^a-z]|$)", low) if w == "ee" else w in low for w in words):
@@ -322,7 +324,7 @@ class TipCandidate:
         finger: a link or fixed joint after its last actuated joint is named like a finger part
             (:data:`FINGER_WORDS`: a finger tip fixed to the hand).
         blocked_by: a mimic, floating or planar joint on its chain (no chain can run through it), or None.
-        name_tier: its rank among end-effector names (:data:`TIP_NAME_TIERS`; 4: none).
+        name_tier: its rank among end-effector names (:data:`TIP_NAME_TIERS`; their count: none).
     """
 
     link: str
@@ -501,7 +503,8 @@ def tip_candidates(path: str | os.PathLike, base_link: str | None = None) -> tup
        leaf, the choice is left to the user (an error).
     4. Ties: a leaf whose last fixed links or joints are named like a finger part (a finger tip on
        a fixed joint: :data:`FINGER_WORDS`) yields to one that is not; then end-effector names decide, best first:
-       ``tcp``, ``tool`` (``tool0``), ``end_effector`` / ``eef`` / ``ee`` (``ee_link``), ``flange``.
+       ``tcp``, ``tool`` (``tool0``), ``end_effector`` / ``eef`` / ``ee`` (``ee_link``), ``flange``,
+       ``hand`` (Franka's ``panda_hand``).
     5. Still tied: no automatic tip (an error that lists the tied leaves).
     """
     ranked, chosen, base, _ = tip_candidates_and_why(path, base_link)

@@ -17,19 +17,19 @@ from jaxstiff.cli import main
 
 LIMIT = '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
 
-#: base -(a1)- l1 -(a2)- l2, then two fixed leaves "hand" and "link9" (a tie no rule breaks, as
-#: panda_hand and panda_link9 in the Panda's URDF), and two prismatic fingers on the hand, the
-#: second a mimic of the first
+#: base -(a1)- l1 -(a2)- l2, then two fixed leaves "body" and "link9" (a tie no rule breaks: a
+#: Panda-like layout without the name "hand", which ranks as an end-effector name), and two
+#: prismatic fingers on the body, the second a mimic of the first
 TIED = f"""<?xml version="1.0"?>
-<robot name="tied"><link name="base"/><link name="l1"/><link name="l2"/><link name="hand"/><link name="link9"/>
+<robot name="tied"><link name="base"/><link name="l1"/><link name="l2"/><link name="body"/><link name="link9"/>
   <link name="lf"/><link name="rf"/>
   <joint name="a1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>{LIMIT}</joint>
   <joint name="a2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0.5 0 0"/>
     <axis xyz="0 1 0"/>{LIMIT}</joint>
-  <joint name="hand_joint" type="fixed"><parent link="l2"/><child link="hand"/><origin xyz="0.3 0 0"/></joint>
+  <joint name="hand_joint" type="fixed"><parent link="l2"/><child link="body"/><origin xyz="0.3 0 0"/></joint>
   <joint name="joint9" type="fixed"><parent link="l2"/><child link="link9"/><origin xyz="0.2 0 0"/></joint>
-  <joint name="finger1" type="prismatic"><parent link="hand"/><child link="lf"/><axis xyz="0 1 0"/>{LIMIT}</joint>
-  <joint name="finger2" type="prismatic"><parent link="hand"/><child link="rf"/><axis xyz="0 -1 0"/>{LIMIT}
+  <joint name="finger1" type="prismatic"><parent link="body"/><child link="lf"/><axis xyz="0 1 0"/>{LIMIT}</joint>
+  <joint name="finger2" type="prismatic"><parent link="body"/><child link="rf"/><axis xyz="0 -1 0"/>{LIMIT}
     <mimic joint="finger1"/></joint>
 </robot>
 """
@@ -46,11 +46,11 @@ def test_ambiguous_tip_under_robot_lists_the_candidates_and_does_not_point_at_it
     err = one_cli_error(capsys, ["robot", tied])
     assert "`jaxstiff robot" not in err and "lists them" not in err, err
     assert "the automatic tip link is ambiguous below 'base' (candidates listed above)" in err, err
-    assert "leaves 'hand', 'link9' each have 2 actuated joints" in err and "e.g. --tip-link hand" in err, err
+    assert "leaves 'body', 'link9' each have 2 actuated joints" in err and "e.g. --tip-link body" in err, err
     assert "Candidate tips:" not in err, err  # the list is on stdout, not repeated in the error
     main(["robot", tied])
     out = capsys.readouterr().out
-    assert "   hand " in out and "   link9 " in out and "(no automatic choice: leaves 'hand', 'link9'" in out
+    assert "   body " in out and "   link9 " in out and "(no automatic choice: leaves 'body', 'link9'" in out
     assert "pass --tip-link)" in out
     # the API, and every other command, still names `jaxstiff robot` as the place that lists them
     with pytest.raises(ValueError, match="Candidate tips: .*`jaxstiff robot tied.urdf` lists them"):
@@ -58,19 +58,19 @@ def test_ambiguous_tip_under_robot_lists_the_candidates_and_does_not_point_at_it
 
 
 def test_no_tip_link_hint_when_tip_link_was_given(capsys, tied):
-    rc = main(["robot", tied, "--tip-link", "hand"])
+    rc = main(["robot", tied, "--tip-link", "body"])
     out = capsys.readouterr().out
-    assert rc == 0 and "chain 'base' -> 'hand'" in out
-    assert re.search(r"^   hand\s+2 actuated joints  <- --tip-link$", out, re.MULTILINE), out
+    assert rc == 0 and "chain 'base' -> 'body'" in out
+    assert re.search(r"^   body\s+2 actuated joints  <- --tip-link$", out, re.MULTILINE), out
     line = next(l for l in out.splitlines() if "no automatic choice" in l)
     assert line.strip() == (
-        "(no automatic choice: leaves 'hand', 'link9' each have 2 actuated joints and no end-effector name or "
+        "(no automatic choice: leaves 'body', 'link9' each have 2 actuated joints and no end-effector name or "
         "gripper rule tells them apart)"
     )
 
 
 def test_mimic_joints_are_listed_apart(capsys, tied):
-    main(["robot", tied, "--tip-link", "hand"])
+    main(["robot", tied, "--tip-link", "body"])
     lines = capsys.readouterr().out.splitlines()
     right = next(l for l in lines if l.startswith("   rf "))
     assert right.split(None, 1)[1] == "2 actuated joints + 1 mimic  (through gripper joint 'finger2')", right

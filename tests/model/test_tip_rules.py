@@ -104,6 +104,20 @@ def test_panda_style_fingers_are_cut_off(write):
     assert r.tip_link == "hand_tcp"
 
 
+def test_the_hand_wins_over_a_bare_link_beside_it(write):
+    """Franka's own URDF hangs a bare ``panda_link9`` (a fixed point 2 cm out) beside ``panda_hand``
+    off the last link: both leaves have every joint and, before ``hand`` was an end-effector name,
+    neither name broke the tie (an error). A tool or flange name still ranks first."""
+    fingers = jaw("panda_finger_joint1", "panda_leftfinger", parent="panda_hand") + jaw(
+        "panda_finger_joint2", "panda_rightfinger", parent="panda_hand", mimic='<mimic joint="panda_finger_joint1"/>'
+    )
+    link9 = '<link name="panda_link9"/><joint name="panda_joint9" type="fixed"><parent link="l2"/><child link="panda_link9"/><origin xyz="0 0 0.02"/></joint>'
+    r = jaxstiff.Robot.from_urdf(write(arm(fingers + link9, hand="panda_hand")))
+    assert r.tip_link == "panda_hand" and r.joint_names == ("a1", "a2")
+    r = jaxstiff.Robot.from_urdf(write(arm(fingers + link9.replace("panda_link9", "panda_flange"), hand="panda_hand")))
+    assert r.tip_link == "panda_flange"
+
+
 def test_parallel_jaws_are_cut_off_whatever_their_names(write):
     """Two prismatic joints side by side at the end of the chain, named j3 and j4: a parallel gripper."""
     r = jaxstiff.Robot.from_urdf(write(arm(jaw("j3", "left") + jaw("j4", "right"))))
