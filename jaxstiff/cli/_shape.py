@@ -205,6 +205,36 @@ def _read_start_states(args: argparse.Namespace, robot: Robot) -> tuple[list[flo
     return q0, (kj0[0] if kj0 is not None and len(kj0) == 1 else kj0)
 
 
+def read_options(items: list[str] | None) -> dict[str, Any]:
+    """--option KEY=VALUE (repeatable) as the solver's options dict: a value is read as an integer,
+    a number, true/false or none where it is one, else kept as text (the solver checks each
+    option's name and value, :func:`jaxstiff.solvers._configs.solver_from_name`)."""
+    out: dict[str, Any] = {}
+    for item in items or ():
+        key, eq, text = item.partition("=")
+        key, text = key.strip(), text.strip()
+        if not eq or not key or not text:
+            raise ValueError(f"--option {item!r}: expected KEY=VALUE, e.g. --option iters=60")
+        if key in out:
+            raise ValueError(f"--option {key!r} is given twice ({out[key]!r} and {text!r})")
+        low = text.lower()
+        value: Any
+        if low in ("true", "false"):
+            value = low == "true"
+        elif low in ("none", "null"):
+            value = None
+        else:
+            try:
+                value = int(text)
+            except ValueError:
+                try:
+                    value = float(text)
+                except ValueError:
+                    value = text
+        out[key] = value
+    return out
+
+
 def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], total: int) -> tuple[ShapeResult, str]:
     """Run :func:`jaxstiff.shape` with a progress bar; an interrupt keeps what was finished (SLSQP)."""
     import numpy as np
@@ -294,6 +324,9 @@ def run_shape(args: argparse.Namespace) -> int:
         cms_major=v["cms_major"],
         meta_extra={"path_files": path_files, "robot_spec": spec.meta(), "cli": cli_record(args)},
     )
+    options = read_options(args.option)
+    if options:
+        kw["options"] = options
     res, written = _solve_and_save(args, out, kw, path.B * path.P)
     return _report(args, res, written)
 

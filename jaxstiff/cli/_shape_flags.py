@@ -79,6 +79,15 @@ def _add_start_and_target_flags(p: argparse.ArgumentParser) -> None:
         metavar="N_PER_M",
         help="CMS target: major axis lambda1, N/m, instead of the volume",
     )
+    p.add_argument(
+        "--option",
+        action="append",
+        default=None,
+        metavar="KEY=VALUE",
+        help="one of the solver's options (repeatable), e.g. --solver pgd --option iters=60: the fields of "
+        "the solver objects (jaxstiff.solvers: SLSQP, PGD, Hybrid, Trajectory; docs/api/solvers.md); a value "
+        "is a number, true/false, none or a word (--solver trajectory --option warm=hybrid)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary table")
 
 

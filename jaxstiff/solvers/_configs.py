@@ -26,6 +26,7 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+from jaxstiff.runtime._messages import suggest
 from jaxstiff.settings._solvers import HybridOptions, PGDOptions, SLSQPOptions, SolverOptions, TrajectoryOptions
 
 __all__ = ["SLSQP", "SLSQPFD", "PGD", "Hybrid", "Trajectory", "Registered", "solver_from_name"]
@@ -99,13 +100,21 @@ WarmStart = PGD | Hybrid | SLSQP
 @dataclasses.dataclass(frozen=True)
 class Trajectory(TrajectoryOptions, _Named):
     """A greedy warm start, then the whole trajectory at once (``"trajectory"``): ``warm`` is the
-    warm-start solver with its own options; the other fields are the trajectory stage's
-    (:class:`~jaxstiff.settings._solvers.TrajectoryOptions`)."""
+    warm-start solver with its own options (``PGD()``, ``Hybrid()``, ``SLSQP()``, or its name
+    ``"pgd"``, ``"hybrid"``, ``"slsqp"`` for the one with default options); the other fields are
+    the trajectory stage's (:class:`~jaxstiff.settings._solvers.TrajectoryOptions`)."""
 
     name: ClassVar[str] = "trajectory"
     warm: WarmStart = dataclasses.field(default_factory=PGD)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
+        if isinstance(self.warm, str) and self.warm in ("pgd", "hybrid", "slsqp"):
+            object.__setattr__(self, "warm", _BY_NAME[self.warm]())  # frozen: set once, here
+        elif isinstance(self.warm, str):
+            raise ValueError(
+                f"Trajectory.warm: unknown warm start {self.warm!r}{suggest(self.warm, ('pgd', 'hybrid', 'slsqp'))}; "
+                "give 'pgd', 'hybrid' or 'slsqp', or one of those solver objects with options (PGD(...), Hybrid(...), SLSQP(...))"
+            )
         _check_type(self, "warm", (PGD, Hybrid, SLSQP))
         for f in dataclasses.fields(self):  # the trajectory stage's own fields (warm is an object here)
             if f.name != "warm":

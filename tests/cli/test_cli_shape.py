@@ -158,6 +158,10 @@ def _bad(tmp_path, name, text):
         (lambda t: ["--out", "/proc/x.npz"], "cannot write into folder /proc"),  # found before the work
         (lambda t: ["--criterion", "f1", "--c", "0"], "c must be > 0 for criterion f1"),  # ran, ignoring R
         (lambda t: ["--solver", "pgd", "--starts", "2.5"], "--starts: expected an integer, got '2.5'"),
+        (lambda t: ["--solver", "pgd", "--option", "itres=10"], "unknown option(s) for solver 'pgd': 'itres'"),
+        (lambda t: ["--solver", "pgd", "--option", "iters=ten"], "pgd option 'iters' must be an integer"),
+        (lambda t: ["--option", "maxiter"], "--option 'maxiter': expected KEY=VALUE"),
+        (lambda t: ["--option", "maxiter=5", "--option", "maxiter=6"], "--option 'maxiter' is given twice"),
     ],
 )
 def test_bad_input_one_line_exit_2_no_file(tmp_path, capsys, args, match):
@@ -173,6 +177,31 @@ def test_bad_input_one_line_exit_2_no_file(tmp_path, capsys, args, match):
     assert match in lines[0], lines[0]
     assert not out.exists()
     assert [f for f in os.listdir(tmp_path) if f.endswith(".npz") or f.startswith(".tmp")] == []
+
+
+def test_option_flags_reach_the_solver_and_its_record(tmp_path, small_csv, capsys):
+    """--option KEY=VALUE sets a solver object's field from the command line (the docs said so
+    before the flag existed): the values are typed (int, float, bool, text), the run uses them and
+    meta["options"] records them. SLSQP limited to 1 iteration per waypoint cannot converge: the
+    statuses say so, where the default run converges."""
+    from jaxstiff.cli._shape import read_options
+
+    assert read_options(["iters=60", "ftol=1e-6", "polish_slsqp=all", "surrogate=false", "kj_scale=none"]) == {
+        "iters": 60,
+        "ftol": 1e-6,
+        "polish_slsqp": "all",
+        "surrogate": False,
+        "kj_scale": None,
+    }
+    out = tmp_path / "one_iter.npz"
+    argv = ["shape", "--path", str(small_csv), "--out", str(out), "--quiet", "--first-starts", "1"]
+    assert main([*argv, "--option", "maxiter=1", "--option", "first_maxiter=1"]) in (0, 3), capsys.readouterr().err
+    res = jaxstiff.ShapeResult.read(out)
+    assert res.meta["options"]["maxiter"] == 1 and res.meta["options"]["first_maxiter"] == 1
+    assert res.meta["cli"]["option"] == ["maxiter=1", "first_maxiter=1"]
+    assert not np.any(res.status == R.SOLVED)  # one iteration converges nowhere
+    assert main([*argv, "--out", str(tmp_path / "default.npz")]) == 0
+    assert np.all(jaxstiff.ShapeResult.read(tmp_path / "default.npz").status == R.SOLVED)
 
 
 def test_ctrl_c_leaves_no_file(tmp_path, small_csv, capsys, monkeypatch):

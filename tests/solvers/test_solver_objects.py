@@ -79,9 +79,19 @@ def test_stages_must_be_solver_objects():
     with pytest.raises(TypeError, match="Hybrid.pgd"):
         Hybrid(pgd={"iters": 3})  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="Trajectory.warm"):
-        Trajectory(warm="pgd")  # type: ignore[arg-type]
+        Trajectory(warm={"iters": 3})  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="Trajectory.warm"):
         Trajectory(warm=SLSQPFD())  # type: ignore[arg-type]
+
+
+def test_a_warm_start_by_name_is_that_solver_with_its_defaults():
+    """The docs give ``warm="hybrid"`` as a choice, as ``shape(solver="hybrid")`` takes a name; it was
+    a TypeError. A name is the default object; a misspelt one gets the choices."""
+    assert Trajectory(warm="hybrid") == Trajectory(warm=Hybrid())  # type: ignore[arg-type]
+    assert Trajectory(warm="slsqp").options() == {"warm": "slsqp"}  # type: ignore[arg-type]
+    assert Trajectory(warm="pgd") == Trajectory()  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="unknown warm start 'hybird' \\(did you mean 'hybrid'\\?\\)"):
+        Trajectory(warm="hybird")  # type: ignore[arg-type]
 
 
 def test_defaults_pass_no_options():
