@@ -44,7 +44,9 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
         "--force",
         type=float,
         default=None,
-        help="probe force, N (moment probes: Nm); default: sized for a deflection of 1e-5 m (1e-5 rad)",
+        help="probe force, N (moment probes: Nm); default: sized for a deflection of 1e-5 m (1e-5 rad). The check "
+        "compares the linear (small-deflection) stiffness: a probe that moves the TCP much further measures the "
+        "arm's nonlinear response and misses",
     )
     p.add_argument("--tol", type=float, default=1e-3, help="relative agreement required")
     p.add_argument("--no-cct", action="store_true", help="skip the finite-load (CCT) check")
