@@ -76,14 +76,24 @@ TIP_LINK_HELP = (
 
 
 def check_out_file(out: str, flag: str = "--out") -> str:
-    """The result file of a command, checked before any work: a file name (``.npz`` added when
-    missing) in an existing, writable folder, and not an existing folder. Returns the absolute path."""
+    """The result file of a command, checked before any work: a ``.npz`` file name (``.npz`` added to
+    a name without a suffix; another suffix is refused, since the file would be written under a
+    name the user did not give) in an existing, writable folder, and not an existing folder or
+    special file (``/dev/null``). Returns the absolute path."""
     if out.strip() and os.path.isdir(out):  # checked before ".npz" is added: the folder itself was meant
         raise ValueError(
             f"{flag}: {os.path.abspath(out)} is a folder; give a file name inside it, like "
             f"{os.path.join(out, 'result.npz')}"
         )
-    name = out if out.lower().endswith(".npz") else out + ".npz"  # o.NPZ is a file name already
+    if out.strip() and os.path.exists(out) and not os.path.isfile(out):
+        raise ValueError(f"{flag}: {out} is not a regular file (a device or a pipe); give a file name like result.npz")
+    ext = os.path.splitext(out)[1]
+    if ext and ext.lower() != ".npz":
+        raise ValueError(
+            f"{flag}: {out!r}: a result file is written as .npz, and a name with another suffix would be written "
+            f"as {out + '.npz'!r}; give {os.path.splitext(out)[0] + '.npz'!r} or {out + '.npz'!r}"
+        )
+    name = out if ext else out + ".npz"  # o.NPZ is a file name already
     if not out.strip() or os.path.basename(name) == ".npz" or out.endswith(("/", os.sep)):
         raise ValueError(f"{flag}: expected a file name like result.npz, got {out!r}")
     return check_out_path(os.path.abspath(name), flag, like=os.path.join(out, "result.npz"))
@@ -257,12 +267,20 @@ def join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
-def add_robot_flags(p: argparse.ArgumentParser) -> None:
+def add_robot_flags(p: argparse.ArgumentParser, springs: bool = True) -> None:
     """The robot flags every command takes, with :class:`~jaxstiff.settings.RobotSpec`'s defaults:
-    ``--robot --base-link --tip-link --lock JOINT=VALUE ... --tcp x,y,z[,roll,pitch,yaw]``."""
+    ``--robot --base-link --tip-link --lock JOINT=VALUE ... --tcp x,y,z[,roll,pitch,yaw]``.
+    ``springs``: the command has ``--locked-joints`` (shape, csc), which ``--lock``'s help names;
+    False for a command without it (robot)."""
     from jaxstiff.settings._robot import DEFAULT_LOCKS, DEFAULT_ROBOT
 
     shipped = "; ".join(f"{r}: {', '.join(f'{j}={v:g}' for j, v in lk.items())}" for r, lk in DEFAULT_LOCKS.items())
+    give = (
+        " and, by default, does not give: it is rigid (no spring, no stiffness variable; "
+        "'--locked-joints spring' keeps its spring)"
+        if springs
+        else ""
+    )
     reads(
         p.add_argument(
             "--robot", default=DEFAULT_ROBOT, help=f"URDF file or shipped robot name (default: {DEFAULT_ROBOT})"
@@ -276,8 +294,7 @@ def add_robot_flags(p: argparse.ArgumentParser) -> None:
         action="append",
         metavar="JOINT=VALUE",
         help=f"lock a joint at a value, rad (m for a prismatic joint); repeatable. A locked joint does "
-        "not move and, by default, does not give: it is rigid (no spring, no stiffness variable; "
-        "'--locked-joints spring' keeps its spring). Default: the shipped "
+        f"not move{give}. Default: the shipped "
         f"robot's locks ({shipped}; seed 000), none for other URDFs; '--lock none' frees every joint",
     )
     p.add_argument(

@@ -15,7 +15,7 @@ import signal
 import sys
 import warnings
 
-from ..runtime._io import interrupt_exit_code, interrupt_handlers, interrupt_pending, raise_if_interrupted
+from ..runtime._io import WriteError, interrupt_exit_code, interrupt_handlers, interrupt_pending, raise_if_interrupted
 from ._common import COMMANDS, check_outputs_not_inputs, file_flags, join_negative_values, writes
 
 #: the order of ``jaxstiff --help``
@@ -196,6 +196,9 @@ def main(argv: list[str] | None = None) -> int:
         except OSError:
             pass
         return 0
+    except WriteError as exc:  # the work ran, its output could not be written: not bad input
+        print(f"jaxstiff: error: {exc}", file=sys.stderr)
+        return 1
     except (ValueError, FileNotFoundError, OSError) as exc:
         print(f"jaxstiff: error: {exc}", file=sys.stderr)
         return 2

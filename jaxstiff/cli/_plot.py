@@ -13,7 +13,7 @@ import argparse
 import os
 from typing import Any
 
-from ._common import command, writes
+from ._common import check_out_path, command, writes
 from ._view import add_result_flags
 
 FORMATS = (".png", ".svg", ".pdf")  #: by the suffix of --out (jaxstiff.plots.save_figure)
@@ -65,6 +65,7 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
         ext = os.path.splitext(args.out)[1].lower()
         if ext not in FORMATS:
             raise ValueError(f"--out {args.out}: write a .png, .svg or .pdf figure (got {ext or 'no suffix'!r})")
+        check_out_path(args.out, "--out")  # an existing, writable folder, as every command's output
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         check_drawable(data)  # (a non-finite waypoint is named, not met by an eigen-decomposition)
         if data.kind == "shape":

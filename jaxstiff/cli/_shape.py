@@ -19,7 +19,7 @@ from jaxstiff.cli._setting_flags import read_setting_flags, setting_flags
 from jaxstiff.cli._shape_flags import EPILOG as EPILOG
 from jaxstiff.cli._shape_flags import add_shape_flags as add_shape_flags
 from jaxstiff.cli._shape_flags import limit_kwargs
-from jaxstiff.runtime._io import deferred_interrupts, interrupt_pending, raise_if_interrupted
+from jaxstiff.runtime._io import deferred_interrupts, interrupt_pending, raise_if_interrupted, save_or_rescue
 from jaxstiff.runtime._progress import Progress, progress
 from jaxstiff.settings._shape import ShapeSettings
 
@@ -261,7 +261,7 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
             print("\njaxstiff: nothing was written (no waypoint was finished)", file=sys.stderr)
             raise
         with deferred_interrupts():
-            written = e.result.save(out)
+            written = save_or_rescue(e.result.save, out)
         print(
             f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
             f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)",
@@ -277,7 +277,7 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
         print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)
         raise
     with deferred_interrupts():  # the work is done: an interrupt now still gets the file
-        written = res.save(out)
+        written = save_or_rescue(res.save, out)
     if interrupt_pending() is not None:
         print(f"\njaxstiff: interrupted after the last waypoint: wrote the complete result {written}", file=sys.stderr)
         raise KeyboardInterrupt

@@ -17,7 +17,8 @@ _S = ShapeSettings()
 EPILOG = (
     "Exit status: 0 the result file was written (each waypoint's status is in it; a warning names "
     "waypoints without a usable solution); 3 written, but no waypoint has a usable solution; 2 bad "
-    "input (nothing written); 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
+    "input (nothing written); 1 the system refused the file (a full disk, a read-only folder): the result "
+    "was written elsewhere, and the message says where; 130 / 143 interrupted by Ctrl-C / SIGTERM: with the SLSQP solvers the "
     "file is written with the waypoints finished so far (the others have status 5, not run; meta "
     "'interrupted' is true), with the batch solvers (pgd, hybrid, trajectory) nothing is written; after the "
     "last waypoint the complete file is still written."

@@ -7,7 +7,7 @@ import sys
 from collections.abc import Callable
 
 from jaxstiff.cli._common import command, reads, writes
-from jaxstiff.runtime._io import interrupt_exit_code
+from jaxstiff.runtime._io import WriteError, interrupt_exit_code
 
 #: what a sweep writes into its --out folder (jaxstiff.sweep._store)
 SWEEP_WRITES = (
@@ -93,6 +93,13 @@ def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int
             )
         except ChunkLostError as e:
             print(f"jaxstiff: error: {e}", file=sys.stderr)
+            return 1
+        except WriteError as e:  # a full disk or a read-only folder: the finished chunks are kept
+            print(
+                f"jaxstiff: error: {e}; the chunks finished before it are kept in {args.out}: make room, then "
+                f"continue with: jaxstiff sweep {args.config} --out {args.out} --resume",
+                file=sys.stderr,
+            )
             return 1
         except KeyboardInterrupt:
             print(

@@ -168,6 +168,24 @@ def check_urdf_file(path: object, what: str) -> str:
     return path
 
 
+class WriteError(OSError):
+    """An output that could not be written (a full disk, a read-only file system, a quota): the
+    message names the file and the system's reason; ``errno`` is the system's. Raised by
+    :func:`atomic_write` after it removed its temporary file, so nothing partial is left."""
+
+    def __init__(self, message: str, errno_: int | None = None):
+        super().__init__(message)
+        self.errno = errno_  # type: ignore[misc]  # OSError's, set after a one-argument init
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+def _write_error(exc: OSError, file: str) -> WriteError:
+    reason = (exc.strerror or str(exc)).rstrip(".")
+    return WriteError(f"cannot write {file}: {reason[:1].lower() + reason[1:]}", exc.errno)
+
+
 def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary: bool = False) -> str:
     """Call ``write(fh)`` on a temporary file beside ``file``, then rename it onto ``file``.
 
@@ -177,6 +195,8 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
 
     Raises:
         FileNotFoundError: the target folder does not exist.
+        WriteError: the system refused the write (no space left, a read-only file system): named
+            with ``file``, not with the temporary file's name.
     """
     file = os.fspath(file)
     folder = os.path.dirname(os.path.abspath(file))
@@ -187,7 +207,10 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
     if folder not in _CLEANED:
         clean_stale_temporaries(folder)
         _CLEANED.add(folder)
-    fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=os.path.splitext(file)[1], dir=folder)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=os.path.splitext(file)[1], dir=folder)
+    except OSError as exc:
+        raise _write_error(exc, os.path.abspath(file)) from None
     try:
         with contextlib.suppress(OSError):  # (a file system without locks: the age rule alone)
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -198,11 +221,45 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual permissions
         os.replace(tmp, file)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, WriteError):
+            raise _write_error(exc, os.path.abspath(file)) from None
         raise
     return file
+
+
+def save_or_rescue(save: Callable[[str], str], out: str, what: str = "the result") -> str:
+    """``save(out)``; where the system refuses it (:class:`WriteError`: a full disk, a read-only
+    file system), the finished work is not thrown away: ``save`` is tried again in the first of the
+    user's cache folder, the temporary folder and the home folder that takes it, and a
+    :class:`WriteError` says where the file went (or that no place took it)."""
+    try:
+        return save(out)
+    except WriteError as exc:
+        first = exc
+    from platformdirs import user_cache_dir
+
+    name = f"rescued-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}-{os.path.basename(out)}"
+    tried = []
+    for folder in (
+        os.path.join(user_cache_dir("jaxstiff", appauthor=False), "rescued"),
+        tempfile.gettempdir(),
+        os.path.expanduser("~"),
+    ):
+        try:
+            os.makedirs(folder, exist_ok=True)
+            written = save(os.path.join(folder, name))
+        except OSError:
+            tried.append(folder)
+            continue
+        raise WriteError(
+            f"{first}; {what} was written instead to {written}: move it where you want it", first.errno
+        ) from None
+    raise WriteError(
+        f"{first}; {what} could not be written elsewhere either ({', '.join(tried)}): it is lost", first.errno
+    ) from None
 
 
 def atomic_write_text(file: str | os.PathLike, text: str) -> str:
