@@ -205,6 +205,22 @@ def finite(v: Any) -> str | None:
     return None if _is_number(v) and math.isfinite(v) else "must be a finite number"
 
 
+def plain_number(v: Any) -> Any:
+    """``v`` as a Python ``int`` or ``float`` where it is a real number of numpy's or JAX's (a
+    ``np.float32``, an ``np.int64``, a 0-d array: what indexing an array gives), else ``v`` itself.
+    Booleans stay as they are (a flag is not a number)."""
+    if isinstance(v, (bool, str)) or v is None or (isinstance(v, (int, float)) and not isinstance(v, np.generic)):
+        return v
+    if isinstance(v, np.generic) or (hasattr(v, "__array__") and getattr(v, "shape", None) == ()):
+        try:
+            a = np.asarray(v)
+        except Exception:  # noqa: BLE001 - a traced or otherwise unreadable value: left to the checks
+            return v
+        if a.ndim == 0 and a.dtype.kind in "iuf":
+            return a.item()
+    return v
+
+
 def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and not math.isnan(v)
 
@@ -236,6 +252,10 @@ class Settings:
         kinds = _field_kinds(type(self))
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
             value = getattr(self, f.name)
+            plain = plain_number(value)
+            if plain is not value:  # a numpy or JAX number: its Python value (frozen: set here once)
+                object.__setattr__(self, f.name, plain)
+                value = plain
             self._check_kind(f.name, kinds.get(f.name), value)
             self._check_field(f, value)
 

@@ -264,3 +264,21 @@ def test_task_dim_is_the_size_of_the_task_translational_rows():
     for task in TASKS:
         assert task_dim(task) == len([i for i in task_rows(task) if i < 3])
     assert [task_dim(t) for t in ("xy", "xyz", "full")] == [2, 3, 3]
+
+
+def test_numpy_and_jax_numbers_are_taken_as_their_values():
+    """A value read out of an array is a numpy scalar (np.float32, np.int64) or a 0-d array; the
+    settings refused them with a false reason ("must be > 1 and finite ..., got np.float32(5.0)")
+    where jaxstiff.shape and the solver objects took them. Now each is its Python number; NaN is
+    still refused with the field's own message."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    from jaxstiff.settings import CSCSettings, ShapeSettings
+
+    s = ShapeSettings(ratio=np.float32(5), kmin=np.int64(2), dq=np.array(0.03))
+    assert (s.ratio, s.kmin, s.dq) == (5.0, 2, 0.03) and type(s.ratio) is float and type(s.kmin) is int
+    assert ShapeSettings(ratio=jnp.asarray(4.0)) == ShapeSettings(ratio=4.0)
+    assert CSCSettings(kmin=np.float32(2), beta=np.int64(1)) == CSCSettings(kmin=2.0, beta=1)
+    with pytest.raises(ValueError, match=r"shape.ratio must be > 1 and finite .*got nan"):
+        ShapeSettings(ratio=np.float64("nan"))
