@@ -64,12 +64,15 @@ def _optional_non_negative(v: object) -> str | None:
     return None if v is None else non_negative(v)
 
 
+#: the largest wanted axis ratio taken: an ellipsoid whose minor axis is a millionth of its major one
+#: is a degenerate target, not a shape (a tester's 1e300 ran to non-finite criteria that a warning
+#: blamed on the path's units)
+MAX_RATIO = 1e6
+
+
 def _ratio(v: object) -> str | None:
-    return (
-        None
-        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 1
-        else "must be > 1 and finite (lambda1 / lambda2)"
-    )
+    ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and 1 < v <= MAX_RATIO
+    return None if ok else f"must be > 1 and at most {MAX_RATIO:g} (lambda1 / lambda2)"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,7 +92,10 @@ class ShapeSettings(Settings):
         axis=Axis(static=True, registry="jaxstiff.stiffness._criteria:CRITERIA"),
     )
     ratio: float = setting(
-        5.0, doc="wanted axis ratio r = lambda1 / lambda2", check=_ratio, flag=Flag(metavar="R", extra=", > 1")
+        5.0,
+        doc="wanted axis ratio r = lambda1 / lambda2",
+        check=_ratio,
+        flag=Flag(metavar="R", extra=", > 1 and at most 1e6"),
     )
     task: str = setting(
         "full",
@@ -299,24 +305,26 @@ def per_metre_limit(value: Any, segment_m: Any, n: int, what: str, unit: str) ->
 
 def ratio_per_path(value: Any, B: int) -> float | np.ndarray:
     """The wanted axis ratio: a number (every path) or (B,) (one per path; a number again if all
-    are equal). Each must be finite and > 1; errors name the path of a bad value."""
+    are equal). Each must be > 1 and at most :data:`MAX_RATIO`; errors name the path of a bad value."""
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError):
         raise ValueError(f"ratio must be a number or {B} numbers (one per path), got {value!r}") from None
     if a.ndim == 0:
         r = float(a)
-        if not (math.isfinite(r) and r > 1.0):
-            raise ValueError(f"ratio must be finite and > 1 (lambda1 / lambda2), got {r}")
+        if not (math.isfinite(r) and 1.0 < r <= MAX_RATIO):
+            raise ValueError(f"ratio must be > 1 and at most {MAX_RATIO:g} (lambda1 / lambda2), got {r}")
         return r
     if a.shape != (B,):
         raise ValueError(
             f"ratio must be a number or {B} numbers (one per path of the batch of {B}), got shape {a.shape}"
         )
-    bad = np.flatnonzero(~(np.isfinite(a) & (a > 1.0)))
+    bad = np.flatnonzero(~(np.isfinite(a) & (a > 1.0) & (a <= MAX_RATIO)))
     if bad.size:
         b = int(bad[0])
-        raise ValueError(f"ratio must be finite and > 1 (lambda1 / lambda2) for every path, got {a[b]} for path {b}")
+        raise ValueError(
+            f"ratio must be > 1 and at most {MAX_RATIO:g} (lambda1 / lambda2) for every path, got {a[b]} for path {b}"
+        )
     if np.all(a == a[0]):
         return float(a[0])
     return a.copy()

@@ -280,5 +280,17 @@ def test_numpy_and_jax_numbers_are_taken_as_their_values():
     assert (s.ratio, s.kmin, s.dq) == (5.0, 2, 0.03) and type(s.ratio) is float and type(s.kmin) is int
     assert ShapeSettings(ratio=jnp.asarray(4.0)) == ShapeSettings(ratio=4.0)
     assert CSCSettings(kmin=np.float32(2), beta=np.int64(1)) == CSCSettings(kmin=2.0, beta=1)
-    with pytest.raises(ValueError, match=r"shape.ratio must be > 1 and finite .*got nan"):
+    with pytest.raises(ValueError, match=r"shape.ratio must be > 1 and at most 1e\+06 .*got nan"):
         ShapeSettings(ratio=np.float64("nan"))
+
+
+def test_a_wanted_ratio_has_an_upper_bound_per_path_too():
+    """A ratio of 1.7e308 ran to non-finite criteria (status 4 everywhere) with a warning that blamed
+    the path's units; 1e16 gave 'unreachable' waypoints. At most MAX_RATIO (1e6) now, also per path."""
+    from jaxstiff.settings._shape import MAX_RATIO, ratio_per_path
+
+    assert ratio_per_path(MAX_RATIO, 1) == MAX_RATIO
+    with pytest.raises(ValueError, match="for every path, got 1000000000.0 for path 1"):
+        ratio_per_path([5.0, 1e9], 2)
+    with pytest.raises(ValueError, match="at most 1e\\+06"):
+        ratio_per_path(1.7e308, 1)
