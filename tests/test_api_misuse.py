@@ -157,3 +157,26 @@ def test_a_q0_outside_a_prismatic_joints_limits_is_given_in_metres():
     p = jaxstiff.Path(np.array([[0.3, 0.0, 0.2], [0.3, 0.01, 0.2]]))
     with pytest.raises(ValueError, match=rf"q0\[{j2}\] = 0\.9 m for joint 'j2' is outside its limits"):
         jaxstiff.shape(robot, p, "f2", 3.0, task="xyz", q0=q)
+
+
+def test_a_path_file_name_is_read_as_the_command_reads_it(tmp_path):
+    """`jaxstiff.shape("kuka_lwr4", "path.csv")`, the likeliest slip, gave "could not convert string to
+    float: 'path.csv'". A file name (or a list of them) is now read with Path.from_csv; a bad
+    array says what a path may be."""
+    import numpy as np
+
+    import jaxstiff
+
+    p = jaxstiff.default_path()
+    f = tmp_path / "two.csv"
+    jaxstiff.Path(p.points[:2], p.directions[:2]).to_csv(f)
+    from jaxstiff.shaping._inputs import robot_and_path
+
+    _, _, one = robot_and_path("kuka_lwr4", str(f))
+    assert one.points.shape == (1, 2, 3) and np.allclose(one.points[0], p.points[:2])
+    _, _, two = robot_and_path("kuka_lwr4", [f, str(f)])
+    assert two.points.shape == (2, 2, 3)
+    with pytest.raises(FileNotFoundError, match="missing.csv"):
+        robot_and_path("kuka_lwr4", str(tmp_path / "missing.csv"))
+    with pytest.raises(ValueError, match="path must be a jaxstiff.Path, a path file's name"):
+        robot_and_path("kuka_lwr4", [[1.0, 2.0], [3.0]])

@@ -211,10 +211,19 @@ def robot_and_path(
         from jaxstiff.paths import default_path
 
         path = default_path()
-    if isinstance(path, (list, tuple)) and path and all(isinstance(p, Path) for p in path):
-        path = Path.stack(list(path))  # a list of equal-length paths -> one batch (B, P, 3)
+    if isinstance(path, (str, os.PathLike)):  # a path file's name: read as `jaxstiff shape --path` reads it
+        path = Path.from_csv(path)
+    if isinstance(path, (list, tuple)) and path and all(isinstance(p, (Path, str, os.PathLike)) for p in path):
+        # a list of equal-length paths (or their files) -> one batch (B, P, 3)
+        path = Path.stack([p if isinstance(p, Path) else Path.from_csv(p) for p in path])
     if not isinstance(path, Path):
-        path = Path(path)
+        try:
+            path = Path(path)
+        except (TypeError, ValueError) as e:
+            raise type(e)(
+                f"path must be a jaxstiff.Path, a path file's name (CSV: x,y,z[,dx,dy,dz]), a list of them, or an "
+                f"array of waypoints (P, 3) / (B, P, 3) in m; {e}"
+            ) from None
     return robot, spec, path.as_batch()
 
 

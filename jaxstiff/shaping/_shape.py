@@ -179,11 +179,13 @@ def shape(
     Args:
         robot: a :class:`~jaxstiff.Robot` (its locked joints stay fixed), a
             :class:`~jaxstiff.settings.RobotSpec`, or a URDF path / shipped robot name.
-        path: a :class:`~jaxstiff.Path` (P waypoints, or a batch of B paths) or points (P, 3) /
-            (B, P, 3) in metres (directions: the tangent); default :func:`~jaxstiff.default_path`.
+        path: a :class:`~jaxstiff.Path` (P waypoints, or a batch of B paths), a path file's name
+            (read by :meth:`~jaxstiff.Path.from_csv`, as ``jaxstiff shape --path`` reads it), a list
+            of paths or files of equal length (a batch), or points (P, 3) / (B, P, 3) in metres
+            (directions: the tangent); default :func:`~jaxstiff.default_path`.
         criterion: ``"f1"`` (ratio at least r), ``"f2"`` (ratio exactly r), a registered name, or
             a JAX-traceable ``crit(K, d, r[, c])``.
-        ratio: the wanted axis ratio r > 1: a number, or (B,) one per path.
+        ratio: the wanted axis ratio 1 < r <= 1e6: a number, or (B,) one per path.
         solver: a solver object (:mod:`jaxstiff.solvers`: ``SLSQP()``, ``SLSQPFD()``, ``PGD()``,
             ``Hybrid()``, ``Trajectory()``, each with its options as fields) or a solver's name.
         settings: a :class:`~jaxstiff.settings.ShapeSettings`: every setting left out here.
