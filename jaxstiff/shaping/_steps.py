@@ -116,12 +116,23 @@ def check_shape_size(inp: ShapeInputs) -> None:
         jaxstiff.runtime._plan_size.PlanTooLargeError: a ``ValueError`` naming the sizes.
     """
     B, P, n = inp.path.B, inp.path.P, inp.robot.n
+    if inp.solver in ("slsqp", "slsqp-fd") and inp.starts not in (None, 1):  # its own message first
+        raise ValueError(f"solver {inp.solver!r} is single-start (starts=1); got starts={inp.starts}")
     starts = max(int(inp.starts or 1), int(inp.first_starts or 1))
+    # the knob to name: the starts where they weigh more than the rest of a waypoint's values
+    knobs = "the number of waypoints (--path rows) or paths"
+    if 4 * n * starts > 3 * n + 40:
+        which = (
+            "starts (--starts)"
+            if int(inp.starts or 1) >= int(inp.first_starts or 1)
+            else "first_starts (--first-starts)"
+        )
+        knobs = f"{which}, or {knobs}"
     check_plan_size(
         f"shape: {B} path(s) x {P} waypoints ({n} joints, {starts} start(s))",
         B * P,
         2 * 8 * (3 * n + 40 + 4 * n * starts),
-        "the number of waypoints (--path rows) or paths",
+        knobs,
     )
 
 

@@ -171,3 +171,18 @@ def test_shape_refuses_a_plan_that_cannot_fit(monkeypatch):
     monkeypatch.setenv(MEMORY_LIMIT_ENV, "10k")  # 50 waypoints x (about 1 kB) do not fit
     with pytest.raises(PlanTooLargeError, match=r"shape: 1 path\(s\) x 50 waypoints \(3 joints"):
         shape(robot, path, task="xy")
+
+
+def test_shape_names_the_starts_when_they_make_the_plan_too_large(tmp_path, capsys, monkeypatch):
+    """`--starts 10000000` was refused with "lower the number of waypoints (--path rows) or paths":
+    the flag that made it too large was not named. And `--solver slsqp --starts 10^8` got that
+    memory message before its own "single-start" one."""
+    monkeypatch.setenv(MEMORY_LIMIT_ENV, "1M")
+    out = str(tmp_path / "o.npz")
+    for argv, knob in (
+        (["--solver", "pgd", "--starts", "100000"], "lower starts (--starts), or the number of waypoints"),
+        (["--first-starts", "100000"], "lower first_starts (--first-starts), or the number of waypoints"),
+        (["--solver", "slsqp", "--starts", "100000"], "solver 'slsqp' is single-start (starts=1); got starts=100000"),
+    ):
+        assert main(["shape", "--quiet", "--out", out, *argv]) == 2
+        assert knob in capsys.readouterr().err
