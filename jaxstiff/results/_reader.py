@@ -579,7 +579,12 @@ def chain_from_meta(meta: dict[str, Any], urdf: str | os.PathLike | None = None,
     try:
         path, rmeta = result_urdf(meta, urdf)
         if urdf is None and rmeta.get("sha256") and file_sha256(path) != rmeta["sha256"]:
-            raise ValueError(f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...)")
+            raise ValueError(
+                f"{path}: sha256 differs from the one recorded in the result ({rmeta['sha256'][:12]}...): the URDF was "
+                "edited after the run, so it may not be the result's robot. Restore the file the result was computed "
+                "with (or give it with --urdf FILE; urdf= in Python); --urdf with this edited file reads it, with a "
+                "warning, where its chain still matches the result's joints and limits"
+            )
         tcp = np.asarray(rmeta["tcp"]) if rmeta.get("tcp") is not None else None
         locked = rmeta.get("locked") or None
         try:

@@ -140,8 +140,10 @@ def test_tampered_sweep_rows_are_refused(sweep_folder, tmp_path) -> None:
     d = _copy(sweep_folder, tmp_path)
     arr = os.path.join(d, "arrays", "chunk-000000-0.npz")
     tamper_result(arr, arr, meta=lambda m: m["robot"].__setitem__("sha256", "0" * 64))
-    with pytest.raises(ValueError, match=r"sha256 differs"):
+    with pytest.raises(ValueError, match=r"sha256 differs") as e:
         read_sweep_row(d, 0)
+    # the way back is named (a tester locked out by an edited URDF found no hint)
+    assert "Restore the file the result was computed with (or give it with --urdf FILE" in str(e.value)
     shutil.rmtree(d)
 
     # q of the row's path moved: the FK of the stored q is not the stored position
