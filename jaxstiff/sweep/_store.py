@@ -226,16 +226,21 @@ class SweepStore:
         diff = _config_diff(hashed_config(cfg), hashed_config(plan.config)) if cfg else ""
         if diff and set(diff.split(", ")) <= {"sweep.name", "sweep.description"}:
             was = cfg.get("sweep", {})
-            raise ValueError(
-                f"--out {self.out} holds this sweep under another label (sweep.name {was.get('name')!r}, now "
-                f"{plan.name!r}; the name defaults to the config's file name, so a renamed file changes it): "
-                f"set name = {json.dumps(was.get('name'))}"
-                + (
-                    f" and description = {json.dumps(was.get('description', ''))}"
-                    if "sweep.description" in diff
-                    else ""
+            changed = []
+            if "sweep.name" in diff:
+                changed.append(
+                    f"sweep.name {was.get('name')!r}, now {plan.name!r}; the name defaults to the config's file name, "
+                    "so a renamed file changes it"
                 )
-                + " in [sweep] to continue it, or use a new --out"
+            if "sweep.description" in diff:
+                now = (plan.config.get("sweep") or {}).get("description", "")
+                changed.append(f"sweep.description {was.get('description', '')!r}, now {now!r}")
+            sets = [f"name = {json.dumps(was.get('name'))}"] if "sweep.name" in diff else []
+            if "sweep.description" in diff:
+                sets.append(f"description = {json.dumps(was.get('description', ''))}")
+            raise ValueError(
+                f"--out {self.out} holds this sweep under another label ({'; '.join(changed)}): "
+                f"set {' and '.join(sets)} in [sweep] to continue it, or use a new --out"
             )
         if diff:
             raise ValueError(

@@ -228,6 +228,13 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
         match=r"holds this sweep under another label \(sweep.name '.+', now 'renamed'.*set name = \".+\" in \[sweep\] to continue",
     ):
         SweepStore(shape_run.out, renamed, resume=True)
+    # only the description changed: the message named sweep.name, unchanged ("'base', now 'base'")
+    described = parse_config({**SHAPE_CFG, "sweep": {**SHAPE_CFG["sweep"], "description": "x"}})
+    with pytest.raises(ValueError) as e:
+        SweepStore(shape_run.out, described, resume=True)
+    msg = str(e.value)
+    assert "under another label (sweep.description '', now 'x')" in msg and "sweep.name" not in msg, msg
+    assert 'set description = "" in [sweep] to continue it' in msg, msg
     foreign = tmp_path / "foreign"
     foreign.mkdir()
     (foreign / "notes.txt").write_text("mine")
