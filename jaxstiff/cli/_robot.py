@@ -26,7 +26,7 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
         ),
         shipped_robot=True,
     )
-    add_robot_flags(p)
+    add_robot_flags(p, springs=False)  # no --locked-joints here: the chain and FK only
     p.add_argument(
         "--q",
         default=None,

@@ -250,9 +250,9 @@ def fk(robot: Chain, q: jax.Array) -> jax.Array:
     Shapes and dtypes are checked; values are not (the function is jitted, and a value check
     would need them on the host): a NaN in ``q`` gives NaN, as in ``jnp.sin``. The exception: a
     concrete (not traced) ``q`` whose locked joints are not at their locked values is refused
-    (ValueError, :func:`jaxstiff.model.chain.check_locked_values`), here and in
+    (ValueError, :func:`jaxstiff.model._chain.check_locked_values`), here and in
     :func:`jacobian`, :func:`fk_and_jacobian` and :func:`position_and_jacobian`. The method
-    :meth:`jaxstiff.Chain.fk` (likewise ``jacobian``) also refuses non-finite concrete values.
+    :meth:`jaxstiff.Robot.fk` (likewise ``jacobian``) also refuses non-finite concrete values.
     """
     q = jnp.asarray(q)
     _check(robot, q)

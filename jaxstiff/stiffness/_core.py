@@ -17,30 +17,47 @@ Jacobian (base frame, rows ``[v; w]``):
   orientation is always at least as stiff as free orientation, and equal only when translation
   and rotation compliance are uncoupled.
 
-Algorithm. ``K`` is computed from an unrolled Cholesky factorisation ``C = L L^T`` written as
-elementwise arithmetic on the matrix entries (:mod:`jaxstiff._numerics.cholesky`), which fuses
-into one loop over a batch. For ``"full"`` the rotational rows are factorised first, so the
-translational block is the inverse of the trailing 3x3 factor (the Cholesky factor of the Schur
-complement), and the rest of the 6x6 inverse is never formed. Cholesky is backward stable: errors
-are ~``eps_machine * cond(C)``, as for LAPACK (tested: 1e-12 relative to ``numpy.linalg.inv``
-where ``cond(C) < 1e3``). Measurements and the alternatives that were dropped: docs/notes/model.md.
+Algorithm. ``K_C`` (:func:`cartesian_stiffness`) is computed from an unrolled Cholesky
+factorisation ``C = L L^T`` written as elementwise arithmetic on the matrix entries
+(:mod:`jaxstiff._numerics.cholesky`), which fuses into one loop over a batch. Cholesky is backward
+stable: errors are ~``eps_machine * cond(C)``, as for LAPACK (tested: 1e-12 relative to
+``numpy.linalg.inv`` where ``cond(C) < 1e3``). ``K_T`` (:func:`translational_stiffness`) is the
+inverse of the translational compliance (for ``"full"`` the Schur complement
+``C_TT - C_TR C_RR^-1 C_RT``, ``C_RR`` factorised as above) from its eigen-decomposition, without
+forming the rest of ``K_C`` (:mod:`jaxstiff.stiffness._schur`). Measurements and the alternatives
+that were dropped: docs/notes/model.md.
 
-Regularisation. Near a singular ``J_s`` the compliance loses rank and ``K_C`` would be infinite
-along the lost direction. Pivot j of the factorisation, ``p_j`` (the part of row j of ``C`` not
-explained by the rows before it), is damped by ``e_j = eps * t * exp(-p_j / (nu0 * C_jj))`` with
-``t = trace(C) / m`` (``eps`` = 1e-12, ``nu0`` = 1e-6 in float64; 1e-6 and 1e-3 in float32). That
-is the exact factorisation of ``C + diag(e)``. ``e`` underflows to exactly zero while every pivot
-keeps more than ~1e-5 of its diagonal (every well-conditioned posture: ``K_C`` is then the exact
-inverse), reaches ``eps * t`` where a row is (numerically) dependent on the others (the stiffness
-along the lost direction becomes ``~1 / (eps t)``, about 1e12 times the others in float64, ``K``
-stays symmetric positive definite and every value and gradient finite), and varies smoothly
-between. ``e`` scales with ``C`` and the activation is scale-free, so scaling every kj by k still
-scales ``K_C`` by exactly k (CMS). :func:`compliance_condition` reports the condition number of the
-damped compliance: above ``0.1 / eps`` the posture is singular for the task.
+Regularisation. Near a singular ``J_s`` the compliance loses rank and the stiffness would be
+infinite along the lost direction. The two stiffness functions regularise it in two different
+ways, with different condition numbers at a singular posture:
 
-Derivatives. The inverse has the custom JVP ``dK = -K dC K`` (the damping held constant), exact
-wherever the damping is zero and finite everywhere; reverse mode through ``C(J, kj)`` is ordinary
-autodiff.
+* :func:`cartesian_stiffness` (the whole ``K_C``) damps the pivots of the Cholesky factorisation.
+  Pivot j, ``p_j`` (the part of row j of ``C`` not explained by the rows before it), is damped by
+  ``e_j = eps * t * exp(-p_j / (nu0 * C_jj))`` with ``t = trace(C) / m`` (``eps`` = 1e-12,
+  ``nu0`` = 1e-6 in float64; 1e-6 and 1e-3 in float32). That is the exact factorisation of
+  ``C + diag(e)``. ``e`` underflows to exactly zero while every pivot keeps more than ~1e-5 of its
+  diagonal (every well-conditioned posture: ``K_C`` is then the exact inverse), reaches
+  ``eps * t`` where a row is (numerically) dependent on the others (the stiffness along the lost
+  direction becomes ``~1 / (eps t)``, ``K_C`` stays symmetric positive definite and every value
+  and gradient finite), and varies smoothly between. The condition number of ``K_C`` is then of
+  the order of ``1 / eps``: measured 2.0e12 for ``planar_3r`` stretched (``q = 0``, task
+  ``"xy"``) and 3.2e12 for the LWR at ``q = 0`` (``lwr_a7`` locked rigid, task ``"full"``).
+  :func:`compliance_condition` returns the condition number of this damped compliance.
+* :func:`translational_stiffness` (the ``K_T`` whose ellipsoid is shaped) damps the eigenvalues of
+  the translational compliance instead (:mod:`jaxstiff.stiffness._schur`): a lost direction gets
+  about ``1 / delta`` times the mean stiffness, and the condition number of ``K_T`` stays below
+  ``r / delta`` (``delta`` = 1e-8 in float64, 1e-4 in float32; ``r`` = 2 or 3 translational rows):
+  measured 2e8 for ``planar_3r`` stretched (task ``"xy"``) and 3e8 for the LWR at ``q = 0`` (task
+  ``"full"``).
+
+Both dampings scale with ``C`` and are scale-free, so scaling every kj by k still scales the
+stiffness by exactly k (CMS); at a well-conditioned posture both are zero and both functions
+return the exact inverse.
+
+Derivatives. :func:`cartesian_stiffness` has the custom JVP ``dK = -K dC K`` (the damping held
+constant), exact wherever the damping is zero and finite everywhere; the JVP of
+:func:`translational_stiffness` is exact everywhere (:mod:`jaxstiff.stiffness._schur`). Reverse
+mode through ``C(J, kj)`` is ordinary autodiff.
 
 Example:
     >>> import jax.numpy as jnp, jaxstiff
@@ -168,12 +185,17 @@ def compliance(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
 @_positive_kj
 @functools.partial(jax.jit, static_argnames="task")
 def compliance_condition(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.Array:
-    """Condition number (...,) of the compliance as damped by the stiffness functions.
+    """Condition number (...,) of the task compliance ``C`` (m x m) as :func:`cartesian_stiffness`
+    damps it (the pivot damping of the module docstring), so also the condition number of ``K_C``.
 
     Equals ``cond(J_s K_j^-1 J_s^T)`` at every well-conditioned posture; near a singular one the
-    damping caps it at about ``1 / eps`` (1e12 in float64, 1e6 in float32). A value above
+    damping caps it at the order of ``1 / eps`` (``eps`` = 1e-12 in float64, 1e-6 in float32): it
+    returns 2.0e12 for ``planar_3r`` stretched (``q = 0``, task ``"xy"``, any kj). A value above
     ``0.1 / eps`` means the posture is singular for the task: the Cartesian stiffness along the
-    lost direction is then set by the damping, not by the robot. Not differentiated (a diagnostic).
+    lost direction is then set by the damping, not by the robot. It is not the condition number of
+    :func:`translational_stiffness`, which damps the eigenvalues instead (its condition number stays
+    below ``r / 1e-8`` in float64, ``r`` = 2 or 3 translational rows: 2e8 in that case) and, for
+    task ``"full"``, is the 3x3 ``K_TT``, not the 6x6 ``K_C``. Not differentiated (a diagnostic).
     """
     C = jax.lax.stop_gradient(compliance(J, kj, task))
     m = C.shape[-1]
@@ -227,7 +249,9 @@ def translational_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> 
     ``t / 1e-8`` everywhere, and independent of the batch size. At a singular posture the axes
     along which ``S`` has range are exact (the inverses of its eigenvalues there) and a lost
     direction, whose true stiffness is infinite, reads ``1 / a`` (~1e8 times the mean
-    stiffness): use :func:`translational_axes` to get ``+inf`` there instead. A planar chain has
+    stiffness; the condition number of ``K_T`` is then 2e8 for ``planar_3r`` stretched, ``q = 0``,
+    task ``"xy"``, against 2.0e12 for :func:`cartesian_stiffness`, whose damping differs: module
+    docstring): use :func:`translational_axes` to get ``+inf`` there instead. A planar chain has
     no out-of-plane compliance at all: use ``"xy"`` for it (with ``"xyz"`` or ``"full"`` its z
     direction is such a lost direction). Values and gradients are finite everywhere; the JVP is
     exact.

@@ -216,7 +216,8 @@ def run_sweep(  # noqa: PLR0913 - public entry point: its keyword options are it
     Args:
         config: a TOML file, a config dict (relative files resolve against the working folder)
             or a :class:`~jaxstiff.sweep._config.SweepPlan`.
-        out: the store folder (created; must be empty or hold this same sweep).
+        out: the store folder (created if missing): empty, or holding this same sweep; a store
+            with finished chunks of it is continued only with ``resume=True`` (else ValueError).
         resume: continue the sweep in ``out``, skipping its finished chunks.
         backend: ``"local"`` or ``"ray"``.
         address: Ray cluster address (``"auto"``, ``"ray://host:10001"``); default: start a local one.
@@ -225,8 +226,11 @@ def run_sweep(  # noqa: PLR0913 - public entry point: its keyword options are it
         report: write ``summary.md`` and the heat maps at the end.
         on_commit: called with each chunk id after it is committed (tests use it to interrupt).
         log: where one-line messages go (default: stderr when ``progress``, else nowhere).
-        compile_cache: use JAX's persistent compilation cache (:func:`enable_compile_cache`):
-            True = :func:`default_cache_dir`, a folder name, or False.
+        compile_cache: use jaxstiff's persistent compilation cache: True = the folder the
+            environment names (``$JAXSTIFF_CACHE_DIR``, default ``~/.cache/jaxstiff/xla`` on Linux;
+            off where ``JAXSTIFF_COMPILE_CACHE=0``), a folder name, or False. A JAX cache folder
+            you set yourself (``jax_compilation_cache_dir``) is used as it is. See the docs' page
+            Caches and runtime (``docs/reference/runtime.md``).
 
     Returns:
         :class:`SweepOutcome`.
