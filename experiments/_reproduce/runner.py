@@ -199,7 +199,8 @@ def run_reproduce(
     scripts = _select_scripts(exp_dir, only, everything)
     out = os.path.abspath(os.fspath(out))
     runs_dir = os.path.join(out, "runs")
-    os.makedirs(runs_dir, exist_ok=True)
+    if not report_only:  # (--report-only reads DIR/runs: a missing one is an error, not a new folder)
+        os.makedirs(runs_dir, exist_ok=True)
     t0 = time.perf_counter()
     sweep_cfg = os.path.join(exp_dir, "sweeps", "quick.toml")
     with_sweep = sweep and os.path.isfile(sweep_cfg) and not only

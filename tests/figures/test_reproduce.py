@@ -140,6 +140,10 @@ def test_cli_only_and_errors(fake_experiments, tmp_path, capsys):
     a_file.write_text("x")
     assert main(["reproduce", "--out", str(a_file), "--experiments", str(fake_experiments), "--only", "csc"]) == 2
     assert "--out: " in capsys.readouterr().err and a_file.read_text() == "x"  # was a raw "[Errno 20] Not a directory"
+    # --report-only on a folder without runs: refused, and no empty DIR/runs is left behind
+    missing = tmp_path / "never_run"
+    assert main(["reproduce", "--out", str(missing), "--experiments", str(fake_experiments), "--report-only"]) == 2
+    assert "--report-only: no runs in" in capsys.readouterr().err and not missing.exists()
 
 
 def test_without_a_source_checkout_the_message_says_what_to_do(tmp_path, monkeypatch):
