@@ -290,4 +290,22 @@ def read_paths(cfg: Mapping[str, Any], kind: str, base_dir: str, source: str = "
             out.append(_file_path(entry, key, kind, base_dir, source))
         else:
             out += _generated_paths(entry, key, source)
+        _refuse_repeats(out, key, source)
     return _unique_names(out)
+
+
+def _refuse_repeats(paths: list[Trajectory], key: str, source: str) -> None:
+    """A path given twice (the same waypoints and directions: a file listed twice, or a generator
+    that makes one path again) would run every setting twice; refused as a repeated axis value is."""
+    seen: dict[bytes, int] = {}
+    for i, t in enumerate(paths):
+        sig = np.ascontiguousarray(t.points, float).tobytes() + np.ascontiguousarray(t.directions, float).tobytes()
+        if sig in seen:
+            j = seen[sig]
+            raise SweepConfigError(
+                key,
+                f"path {t.name!r} is the same path as {paths[j].name!r} (the sweep's path {j}: the same waypoints "
+                "and directions); give each path once",
+                source,
+            )
+        seen[sig] = i

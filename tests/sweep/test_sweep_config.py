@@ -395,11 +395,21 @@ def test_repeated_path_names_get_free_suffixes():
     """A renamed duplicate never takes a name another path has ("p", "p", "p#2" gave two "p#2",
     whose rows a per-path report then mixed)."""
     cfg = base()
-    pt = {"generator": "point", "point": [1.2, 1.0, 0.0], "n": 3}
-    cfg["paths"] = [{**pt, "name": "p"}, {**pt, "name": "p"}, {**pt, "name": "p#2"}, {**pt, "name": "p"}]
+    pts = [{"generator": "point", "point": [1.2, y, 0.0], "n": 3} for y in (1.0, 1.1, 1.2, 1.3)]
+    cfg["paths"] = [{**pt, "name": nm} for pt, nm in zip(pts, ["p", "p", "p#2", "p"], strict=True)]
     names = [t.name for t in parse_config(cfg).trajectories]
     assert names == ["p", "p#3", "p#2", "p#4"]
     assert len(set(names)) == len(names)
+
+
+def test_a_path_given_twice_is_refused_as_a_repeated_axis_value_is():
+    """The same path twice (a file listed twice, or a generator that makes it again) ran every
+    setting twice without a word, where a repeated axis value is refused."""
+    cfg = base()
+    pt = {"generator": "point", "point": [1.2, 1.0, 0.0], "n": 3}
+    cfg["paths"] = [pt, {**pt, "name": "again"}]
+    with pytest.raises(SweepConfigError, match=r"paths\[1\]: path 'again' is the same path as .*give each path once"):
+        parse_config(cfg)
 
 
 def test_step_range_is_inclusive():
