@@ -63,7 +63,7 @@ from jaxstiff.cli._csc_flags import parse_kxd as parse_kxd
 from jaxstiff.cli._csc_flags import settings_from_args as settings_from_args
 from jaxstiff.csc._inputs import check_planar_task
 from jaxstiff.csc._segments import StepProgress
-from jaxstiff.runtime._io import check_regular_file, deferred_interrupts, interrupt_pending
+from jaxstiff.runtime._io import check_regular_file, deferred_interrupts, interrupt_pending, save_or_rescue
 from jaxstiff.settings._csc import DEFAULT_JL_GAIN as DEFAULT_JL_GAIN  # (re-exported: the former --jl-gain default)
 from jaxstiff.settings._csc import CSCSettings
 from jaxstiff.settings._shape import task_dim
@@ -118,7 +118,8 @@ _EPILOG = (
     "spring: its kj is +inf (infinite stiffness) and K_C sums over the free joints. Row k is the posture after step k, measured against waypoint k. Units: rad and Nm/rad (m and N/m "
     "for prismatic joints), N/m, m. A long run (paths x steps over {segment_work}) runs in segments with a progress line "
     "after each; Ctrl-C or SIGTERM then writes the steps finished so far (meta 'interrupted' true, 'steps' = rows "
-    "written, 'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 130 / 143 interrupted by "
+    "written, 'steps_requested'). Exit status: 0 written; 2 bad input (nothing written); 1 the system refused the file (a "
+    "full disk, a read-only folder): the result was written elsewhere, and the message says where; 130 / 143 interrupted by "
     "Ctrl-C / SIGTERM."
 )
 
@@ -356,7 +357,7 @@ def _meta(
 def _write(out: str, res: Any, robot: Any, q0: np.ndarray, K: np.ndarray, meta: dict[str, Any]) -> str:
     """The result file, written atomically; an interrupt now still gets the file."""
     with deferred_interrupts():  # the rollout is finished (or cut at a segment)
-        return res.save(out, joint_names=robot.joint_names, meta=meta, q0=q0, K_xd=K)
+        return save_or_rescue(lambda f: res.save(f, joint_names=robot.joint_names, meta=meta, q0=q0, K_xd=K), out)
 
 
 def _report(res: Any, robot: Any, settings: CSCSettings, K: np.ndarray, written: str) -> None:

@@ -48,6 +48,9 @@ __all__ = [
     "CSCWarning",
     "check_planar_task",
     "warn_settings",
+    "check_kxd",
+    "kmax_message",
+    "refuse_non_numeric",
 ]
 
 
@@ -60,6 +63,21 @@ class CSCWarning(UserWarning):
 #: the largest |K_xd| entry taken, N/m (u and the Frobenius error square the entries of K_xd and of
 #: J^T K_xd J: far beyond any real stiffness, far below float64's overflow)
 K_XD_MAX = 1e100
+#: the same in float32 (a rollout computes in q0's dtype): its squares stay below float32's 3e38
+K_XD_MAX_FLOAT32 = 1e15
+#: N/m: K_xd's largest eigenvalue must reach this (a K_xd of a smaller scale, e.g. 0 or 1e-200 I,
+#: asks for no stiffness at all, and u and its gradient underflow: every step status 8, CSC does
+#: not move); zero along some axes is taken (positive semi-definite)
+K_XD_MIN = 1e-6
+#: an eigenvalue of K_xd above -this share of its largest is zero to within rounding, not negative
+K_XD_MIN_RATIO = 1e-12
+
+
+def kxd_limit(dtype: Any) -> float:
+    """The largest |K_xd| entry taken for a rollout in ``dtype``: :data:`K_XD_MAX` (float64) or
+    :data:`K_XD_MAX_FLOAT32`."""
+    return K_XD_MAX if jnp.finfo(dtype).bits >= 64 else K_XD_MAX_FLOAT32
+
 
 #: the numeric settings that reach the compiled rollout as (differentiable) scalars
 SCALAR_SETTINGS = ("kmin", "kmax", "nu0", "damping", "jl_gain")
@@ -82,15 +100,60 @@ def is_concrete(x: Any) -> bool:
     return not isinstance(x, jax.core.Tracer)  # pyright: ignore[reportAttributeAccessIssue]
 
 
+#: what each array argument of a rollout must be (the messages of :func:`refuse_non_numeric`)
+EXPECTED = {
+    "path": "a jaxstiff Path or an array of numbers of shape (..., T, 2 or 3) (TCP targets, m)",
+    "K_xd": "an array of numbers of shape (m, m) or (..., m, m), m = 2, 3 or 6 (desired stiffness, N/m)",
+    "beta": "a number or an array of numbers (rad per step, or 1 for the adaptive step)",
+}
+
+
+def _has_tracer(x: Any) -> bool:
+    return any(not is_concrete(leaf) for leaf in jax.tree_util.tree_leaves(x))
+
+
+def _given(value: Any) -> str:
+    """How a message shows what was given: the repr of a short text or None, else its type."""
+    if value is None or isinstance(value, (str, bytes)):
+        text = repr(value)
+        return text if len(text) <= 60 else text[:57] + "..."
+    if isinstance(value, np.ndarray):
+        return f"an array of dtype {value.dtype} and shape {value.shape}"
+    return f"an object of type {type(value).__name__}"
+
+
+def refuse_non_numeric(name: str, value: Any, expected: str) -> None:
+    """``TypeError`` (``ValueError`` for ragged nested lists) naming ``name``, ``expected`` and what
+    was given, when a concrete ``value`` is not numbers (text, None, objects); JAX arrays and
+    anything holding a traced value pass (they are numbers)."""
+    if isinstance(value, jax.Array) or _has_tracer(value):
+        return
+    if value is None or isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be {expected}, got {_given(value)}")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            a = np.asarray(value)
+    except ValueError:  # numpy: "inhomogeneous shape"
+        raise ValueError(
+            f"{name} must be {expected}, got a ragged nested sequence (rows of different lengths)"
+        ) from None
+    except Exception as e:
+        raise TypeError(f"{name} must be {expected}, got {_given(value)} ({e})") from None
+    if a.dtype.kind not in "biufc":  # (complex is refused by name later)
+        if isinstance(value, (list, tuple)):
+            raise TypeError(f"{name} must be {expected}, got a {type(value).__name__} holding non-numbers ({a.dtype})")
+        raise TypeError(f"{name} must be {expected}, got {_given(value)}")
+
+
 def path_points(path: Any) -> Any:
     """The (..., T, 2 or 3) targets of a :class:`jaxstiff.Path` or an array."""
     pts = getattr(path, "points", path)
+    refuse_non_numeric("path", pts, EXPECTED["path"])
     if isinstance(pts, (list, tuple)):
         pts = np.asarray(pts, dtype=float)
     if not hasattr(pts, "shape"):
-        raise ValueError(
-            f"path must be a jaxstiff Path or an array (..., T, 2 or 3) of TCP targets, got {type(path).__name__}"
-        )
+        raise ValueError(f"path must be {EXPECTED['path']}, got {_given(path)}")
     return pts
 
 
@@ -313,15 +376,25 @@ def prepare_rollout(
     s = rollout_settings(settings, **given)
     beta = s["beta"] if beta is None else beta
     _check_static(robot, s, chunk)
+    path_points(path)  # (its own check of non-numbers)
+    refuse_non_numeric("K_xd", K_xd, EXPECTED["K_xd"])
+    refuse_non_numeric("q0", q0, f"an array of numbers of shape (..., {robot.n}) (joint positions, rad)")
+    refuse_non_numeric("beta", beta, EXPECTED["beta"])
     _check_complex(path, K_xd, q0, beta)
     refuse_half_precision("csc_rollout", path=getattr(path, "points", path), K_xd=K_xd, q0=q0, beta=beta)
     q0 = _start_posture(robot, q0)
     dtype = q0.dtype
     if q0.ndim == 0 or q0.shape[-1] != robot.n:
         raise ValueError(f"q0 must have shape (..., {robot.n}) for robot {robot.name!r}, got {tuple(q0.shape)}")
+    K_raw = None if _has_tracer(K_xd) else np.asarray(K_xd, dtype=float)  # as given: before a float32 cast
+    if K_raw is not None:  # the size limit before the cast (float32 would overflow 1e200 to inf)
+        _refuse_huge_kxd(K_raw, dtype)
     K_xd = jnp.asarray(K_xd, dtype=dtype)
     _refuse_planar_path_for_3d_kxd(path, K_xd, s["task"])
     task = _task_of(robot, K_xd, s["task"])
+    if K_raw is not None:  # on the values given: a cast to float32 makes 1e200 inf and 1e-200 zero
+        _refuse_non_finite("K_xd", K_raw)
+        check_kxd(K_raw, dtype)
     m = K_xd.shape[-1]
     targets = _targets(path, task, dtype)
     T = targets.shape[-2]
@@ -397,24 +470,80 @@ def _flatten(
     return tb, kb, qb, bb, eb, rb
 
 
-def _check_kxd(K: np.ndarray) -> None:
-    """K_xd's values (finite, checked before): not so large that u squares them into inf,
-    symmetric, positive semi-definite."""
-    if K.size and np.max(np.abs(K)) > K_XD_MAX:
-        raise ValueError(
-            f"K_xd has an entry of {np.max(np.abs(K)):g} N/m; at most {K_XD_MAX:g} (u and the Frobenius "
-            "error sum squares of such entries, which overflow float64 beyond about 1e154)"
+def _refuse_huge_kxd(K: np.ndarray, dtype: Any = np.float64) -> None:
+    """K_xd's entries (finite) not so large that u squares them into inf in ``dtype``
+    (:func:`kxd_limit`); checked before anything that could overflow (eigenvalues, a cast)."""
+    limit = kxd_limit(dtype)
+    finite = np.abs(K[np.isfinite(K)])  # (NaN and Inf: refused by name once K_xd's shape is checked)
+    if finite.size and np.max(finite) > limit:
+        where = (
+            "float64 beyond about 1e154"
+            if limit == K_XD_MAX
+            else f"{jnp.dtype(dtype).name} beyond about 1e19: the rollout computes in q0's dtype; pass q0 as float64 "
+            "with jax_enable_x64 on for up to 1e+100"
         )
+        raise ValueError(
+            f"K_xd has an entry of {np.max(finite):g} N/m; at most {limit:g} (u and the Frobenius "
+            f"error sum squares of such entries, which overflow {where})"
+        )
+
+
+def _kxd_not_definite(w_min: float, w_max: float) -> str | None:
+    """Why eigenvalues ``w_min <= w_max`` of a symmetric K_xd are no desired stiffness (None: they
+    are). Zero along an axis is taken (positive semi-definite, e.g. ``--kxd 3000,0``: stiff along x,
+    no stiffness asked for along y); a negative eigenvalue, or none above :data:`K_XD_MIN`, is not."""
+    if _negative(w_min, w_max):
+        return "a desired stiffness is >= 0 along every axis (a spring pulls back; a negative one pushes away)"
+    if w_max < K_XD_MIN:
+        return (
+            f"every eigenvalue is below {K_XD_MIN:g} N/m: no stiffness at all (u and its gradient are about 0 or "
+            "underflow, so CSC would not move: every step status 8)"
+        )
+    return None
+
+
+def _negative(w_min: Any, w_max: Any) -> Any:
+    """An eigenvalue below zero beyond rounding (relative to the largest magnitude)."""
+    return w_min < -K_XD_MIN_RATIO * np.maximum(np.abs(w_min), np.abs(w_max))
+
+
+def check_kxd(K: np.ndarray, dtype: Any = np.float64) -> None:
+    """K_xd's values (finite, checked before): not so large that u squares them into inf,
+    symmetric, positive semi-definite with some stiffness (an eigenvalue of at least
+    :data:`K_XD_MIN`). ``ValueError`` naming K_xd, the value and the reason."""
+    _refuse_huge_kxd(K, dtype)
     asym = np.max(np.abs(K - np.swapaxes(K, -1, -2)), axis=(-2, -1))
     bad = asym > 1e-6 * np.max(np.abs(K)) + 1e-12
     if np.any(bad):
         first = _first(bad)
         raise ValueError(f"K_xd must be symmetric (max |K - K^T| = {np.max(asym):g}; first at {_at('K_xd', first)})")
     w = np.linalg.eigvalsh(0.5 * (K + np.swapaxes(K, -1, -2)))
-    worst = np.unravel_index(np.argmin(w[..., 0]), w.shape[:-1]) if w.ndim > 1 else ()
-    if w[worst][0] < -1e-9 * np.max(np.abs(w[worst])):
-        at = f" ({_at('K_xd', worst)})" if worst else ""
-        raise ValueError(f"K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue {w[worst][0]:g}{at}")
+    lo, hi = w[..., 0], w[..., -1]
+    bad = _negative(lo, hi) | (hi < K_XD_MIN)
+    if not np.any(bad):
+        return
+    worst = _first(bad)
+    w_min, w_max = float(lo[worst]) + 0.0, float(hi[worst])  # (+ 0.0: -0 prints as 0)
+    reason = _kxd_not_definite(w_min, w_max)
+    at = f" ({_at('K_xd', worst)})" if worst else ""
+    shown = "[" + ", ".join("[" + ", ".join(f"{x + 0.0:g}" for x in row) + "]" for row in np.asarray(K[worst])) + "]"
+    raise ValueError(
+        f"K_xd must be symmetric positive semi-definite (a stiffness, N/m): eigenvalues {w_min:g} to {w_max:g}{at}, "
+        f"{reason}; K_xd{'' if not worst else _at('', worst)} = {shown}"
+    )
+
+
+def kmax_message(kmin: float, kmax: float, name: str = "{}") -> str:
+    """The message for ``kmax <= kmin`` (``name``: how a field is named, e.g. ``"--{}"``): CSC needs an
+    actuator range, kmin < kmax, as a csc sweep requires."""
+    lo, hi = name.format("kmin"), name.format("kmax")
+    if kmax < kmin:
+        return f"{hi} ({kmax:g}) must be above {lo} ({kmin:g}) (Nm/rad)"
+    return (
+        f"{hi} ({kmax:g}) must be above {lo} ({kmin:g}) (Nm/rad): CSC realises kj = clip(diag(J^T K_xd J), kmin, "
+        "kmax) with variable-stiffness actuators; a range of one value is a fixed spring, so kj, K_C and "
+        "|K_xd - K_C|_F would not depend on K_xd (a csc sweep refuses it too: 0 < kmin < kmax)"
+    )
 
 
 def _first(mask: np.ndarray) -> tuple[int, ...]:
@@ -478,12 +607,12 @@ def validate_values(  # noqa: C901 - a flat list of independent input checks
         raise ValueError(f"beta must be >= 0, got min {b.min():g}")
     K = val(K_xd)
     if K is not None:
-        _check_kxd(K)
+        check_kxd(K, K_xd.dtype)
     kmin, kmax = val(scalars["kmin"]), val(scalars["kmax"])
     if kmin is not None and not (kmin > 0 and np.isfinite(kmin)):
         raise ValueError(f"kmin must be a finite number > 0 Nm/rad (kmax may be inf), got {float(kmin):g}")
-    if kmin is not None and kmax is not None and not kmax >= kmin:
-        raise ValueError(f"kmax ({float(kmax):g}) must be >= kmin ({float(kmin):g})")
+    if kmin is not None and kmax is not None and not kmax > kmin:
+        raise ValueError(kmax_message(float(kmin), float(kmax)))
     for name in ("nu0", "damping", "jl_gain"):
         v = val(scalars[name])
         if v is not None and not (np.isfinite(v) and v >= 0):

@@ -163,8 +163,10 @@ class CSCSettings(Settings):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if not self.kmax >= self.kmin:
-            raise ValueError(f"csc.kmax ({self.kmax:g}) must be >= csc.kmin ({self.kmin:g}) (Nm/rad)")
+        if not self.kmax > self.kmin:  # a range of one value is a fixed spring: kj would not follow K_xd
+            raise ValueError(
+                f"csc.kmax ({self.kmax:g}) must be above csc.kmin ({self.kmin:g}) (Nm/rad): CSC chooses kj in that range"
+            )
 
     @property
     def resolved_jl_gain(self) -> float:

@@ -51,7 +51,7 @@ def test_cli_bad_choice_is_a_usage_error(tmp_path, capsys, flag, value):
     "settings,expected",
     [
         ({"beta": -1.0}, "--beta must be a finite number >= 0, got -1.0 (1 (adaptive) or rad per step"),
-        ({"kmin": 10.0, "kmax": 5.0}, "--kmax (5) must be >= --kmin (10) (Nm/rad)"),
+        ({"kmin": 10.0, "kmax": 5.0}, "--kmax (5) must be above --kmin (10) (Nm/rad)"),
         ({"damping": -1.0}, "--damping must be a finite number >= 0, got -1.0"),
         ({"kmin": -3.0}, "--kmin must be a finite number > 0, got -3.0 (Nm/rad)"),
     ],

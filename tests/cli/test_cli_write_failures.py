@@ -114,3 +114,19 @@ def test_plot_refuses_a_missing_folder_as_every_command_does(tmp_path, capsys):
     line = one_cli_error(capsys, ["plot", str(tmp_path / "no.npz"), "--out", str(tmp_path / "nd" / "b" / "x.png")])
     assert "folder does not exist" in line, line
     assert not (tmp_path / "nd").exists()
+
+
+def test_csc_keeps_its_finished_rollout_elsewhere_too(tmp_path, capsys, monkeypatch):
+    out_dir = tmp_path / "full"
+    out_dir.mkdir()
+    rescue = tmp_path / "cache"
+    monkeypatch.setattr("platformdirs.user_cache_dir", lambda *a, **k: str(rescue))
+    _full_disk_in(monkeypatch, out_dir)
+    argv = ["csc", "--robot", "planar_3r", "--hold", "1.5,0.5", "--kxd", "3000,1000", "--q0-deg", "75,-74.74,-76.3"]
+    rc = main([*argv, "--steps", "5", "--out", str(out_dir / "c.npz")])
+    err = capsys.readouterr().err
+    assert rc == 1 and f"cannot write {out_dir / 'c.npz'}: no space left on device" in err, err
+    (kept,) = (rescue / "rescued").iterdir()
+    assert f"written instead to {kept}" in err
+    data = np.load(kept, allow_pickle=False)
+    assert data["q"].shape[:2] == (1, 5) and np.all(np.isfinite(data["u"]))

@@ -106,7 +106,15 @@ def test_kxd_and_path_messages_name_the_first_bad_index():
     cases = []
     Ki = K.copy()
     Ki[5] = -K3
-    cases.append((Ki, pts, "K_xd must be positive semi-definite (a stiffness, N/m): eigenvalue -2000 (K_xd[5])"))
+    cases.append(
+        (
+            Ki,
+            pts,
+            "K_xd must be symmetric positive semi-definite (a stiffness, N/m): eigenvalues -2000 to -500 (K_xd[5]), "
+            "a desired stiffness is >= 0 along every axis (a spring pulls back; a negative one pushes away); "
+            "K_xd[5] = [[-2000, 0, 0], [0, -1000, 0], [0, 0, -500]]",
+        )
+    )
     Ks = K.copy()
     Ks[4, 0, 1] += 100.0
     cases.append((Ks, pts, "K_xd must be symmetric (max |K - K^T| = 100; first at K_xd[4])"))
