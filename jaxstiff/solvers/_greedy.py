@@ -365,11 +365,14 @@ def _solve_starts(  # noqa: PLR0913 - one waypoint's problem, passed as its part
     maxiter: int | None,
 ) -> tuple[list[Candidate], int, int]:
     """One waypoint solved from each start (``starts[0]``: the reference state clipped into the
-    box), each answer judged: the candidates and the iterations and evaluations of all solves.
-    The solves are independent: :func:`_run_solves` runs them on the CPU's cores at once."""
+    box), each answer judged: the candidates and the iterations and evaluations of all solves."""
     cands: list[Candidate] = []
     nit = nfev = 0
-    for xs, sol in zip(starts, _run_solves(solver, starts, lb, ub, params, maxiter), strict=True):
+    for xs in starts:
+        try:
+            sol = solver(xs.copy(), lb, ub, params, maxiter=maxiter)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+            sol = SolverOutput(xs.copy(), -1, False, 0, 0)
         nit, nfev = nit + sol.nit, nfev + sol.nfev
         x, status, err = judge(problem, sol, xs, lb, ub, target, params, pos_and_jac, objective, pos_tol)
         if status == R.NONFINITE:
@@ -377,37 +380,6 @@ def _solve_starts(  # noqa: PLR0913 - one waypoint's problem, passed as its part
         f = objective(x, params) if status in R.USABLE else np.inf
         cands.append((x, status, err, sol.code, f))
     return cands, nit, nfev
-
-
-def _run_solves(
-    solver: WaypointSolver,
-    starts: Sequence[np.ndarray],
-    lb: np.ndarray,
-    ub: np.ndarray,
-    params: np.ndarray,
-    maxiter: int | None,
-) -> list[SolverOutput]:
-    """``solver`` from each start, in order. With the lean SLSQP driver (scipy's re-entrant C
-    routine, :func:`jaxstiff.solvers._slsqp.make_slsqp_solver`), three starts or more (a first
-    waypoint's multi-start) run on up to :func:`~jaxstiff.runtime._threads.chunk_threads`
-    threads: JAX releases the GIL while a kernel call runs, so one solve's SLSQP step overlaps
-    another's evaluation. The first start runs alone first, so that the solver's program for this
-    signature is built once, here. Each solve is the same sequence of the same calls as alone:
-    the answers have the same bits. A start whose solve raises a numerical error gets the failed
-    answer (exit code -1)."""
-
-    def one(xs: np.ndarray) -> SolverOutput:
-        try:
-            return solver(xs.copy(), lb, ub, params, maxiter=maxiter)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
-            return SolverOutput(xs.copy(), -1, False, 0, 0)
-
-    if len(starts) < 3 or getattr(solver, "driver", None) != "lean":
-        return [one(xs) for xs in starts]
-    from jaxstiff.runtime._threads import chunk_threads, map_chunks
-
-    first = one(starts[0])
-    return [first, *map_chunks(one, list(starts[1:]), chunk_threads())]
 
 
 def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented below
