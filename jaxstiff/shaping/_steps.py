@@ -28,6 +28,7 @@ from jaxstiff.results._numpy_check import np_alpha_ratio, np_criterion
 from jaxstiff.runtime._io import deferred_interrupts
 from jaxstiff.runtime._plan_size import check_plan_size
 from jaxstiff.settings._robot import robot_meta, versions
+from jaxstiff.settings._shape import ShapeSettings
 from jaxstiff.shaping._inputs import FIRST_STARTS_SEED, FIRST_STARTS_SPREAD_DEG, ShapeInputs
 from jaxstiff.solvers._problem import WaypointProblem, report_rows
 from jaxstiff.stiffness._criteria import CRITERIA
@@ -107,6 +108,10 @@ def report_at_solution(
     return Report(pos, K, alpha, rho, f)
 
 
+#: the default first-waypoint start count: a memory refusal names the starts only above it
+FIRST_STARTS_DEFAULT = ShapeSettings().first_starts
+
+
 def check_shape_size(inp: ShapeInputs) -> None:
     """Refuse a run whose B x P waypoints cannot fit in memory, before the solve (the estimate,
     the limit and what to lower): per waypoint the result arrays (q, kj, kj_scaled: n each; about
@@ -119,9 +124,10 @@ def check_shape_size(inp: ShapeInputs) -> None:
     if inp.solver in ("slsqp", "slsqp-fd") and inp.starts not in (None, 1):  # its own message first
         raise ValueError(f"solver {inp.solver!r} is single-start (starts=1); got starts={inp.starts}")
     starts = max(int(inp.starts or 1), int(inp.first_starts or 1))
-    # the knob to name: the starts where they weigh more than the rest of a waypoint's values
+    # the knob to name: the starts too where they were raised above the default first-waypoint
+    # count and weigh more than the rest of a waypoint's values
     knobs = "the number of waypoints (--path rows) or paths"
-    if 4 * n * starts > 3 * n + 40:
+    if starts > FIRST_STARTS_DEFAULT and 4 * n * starts > 3 * n + 40:
         which = (
             "starts (--starts)"
             if int(inp.starts or 1) >= int(inp.first_starts or 1)
