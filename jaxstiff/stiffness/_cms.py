@@ -8,16 +8,47 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
-from jaxstiff._numerics.batch import check_square
+from jaxstiff._numerics.batch import check_square, is_traced
 from jaxstiff._numerics.eig import eigh_descending
+from jaxstiff.stiffness._ellipsoid import refuse_indefinite
 
 __all__ = ["cms_factor", "cms_scale"]
 
 
 def _check_positive(name: str, value: object) -> None:
-    if isinstance(value, (int, float)) and not value > 0:
-        raise ValueError(f"{name} must be > 0, got {value}")
+    """A concrete target (a number or an array of them): every entry finite and > 0."""
+    if is_traced(value):
+        return
+    a = np.asarray(value, dtype=float)
+    bad = ~(np.isfinite(a) & (a > 0))
+    if np.any(bad):
+        shown = a if a.ndim == 0 else a[bad].ravel()[0]
+        raise ValueError(
+            f"{name} must be a finite number > 0, got {float(shown):g}" + (" (an entry)" if a.ndim else "")
+        )
+
+
+def _check_size(K: jax.Array, w: jax.Array, by_volume: bool) -> None:
+    """A concrete K (eigenvalues ``w``, descending) that no finite k gives the size: not finite,
+    indefinite, with a zero major axis, or, for a volume, singular (a zero axis makes the volume 0)."""
+    if is_traced(w):
+        return
+    refuse_indefinite(K, np.asarray(w))
+    wn = np.asarray(w, dtype=float)
+    with np.errstate(invalid="ignore"):
+        bad = ~np.all(np.isfinite(wn), axis=-1) | (wn[..., -1 if by_volume else 0] <= 0)
+    if np.any(bad):
+        at = np.argwhere(bad)[0] if bad.ndim else np.zeros(0, int)
+        where = f" at index {tuple(int(i) for i in at)}" if at.size else ""
+        if by_volume:
+            what = "positive definite and finite for a CMS volume (a singular K has a volume of 0, which no finite k scales)"
+            val = f"its smallest eigenvalue is {float(wn[tuple(at)][-1]):g}"
+        else:
+            what = "finite, with a major axis > 0, for a CMS major axis"
+            val = f"its largest eigenvalue is {float(wn[tuple(at)][0]):g}"
+        raise ValueError(f"K must be {what}; {val}{where}")
 
 
 def cms_factor(K: jax.Array, target_volume: float | None = None, target_major: float | None = None) -> jax.Array:
@@ -34,12 +65,19 @@ def cms_factor(K: jax.Array, target_volume: float | None = None, target_major: f
 
     Returns:
         k (...,) > 0; the scaled joint stiffnesses are ``k * kj`` (:func:`cms_scale`).
+
+    Raises:
+        ValueError: (concrete input) a target that is not a finite number > 0, or a K that is
+            positive semi-definite and finite, a zero K, or (for ``target_volume``) a singular K:
+            no finite k gives those the size. Inside ``jit``/``grad`` nothing is checked: such a
+            K gives inf or NaN.
     """
     if (target_volume is None) == (target_major is None):
         raise ValueError("give exactly one of target_volume= or target_major=")
     K = check_square(K)
     m = K.shape[-1]
     w = eigh_descending(K)[0]
+    _check_size(K, w, by_volume=target_volume is not None)
     if target_major is not None:
         _check_positive("target_major", target_major)
         return jnp.asarray(target_major, K.dtype) / w[..., 0]

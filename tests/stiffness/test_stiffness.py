@@ -165,8 +165,35 @@ def test_cms_factor_reaches_targets():
     assert np.all(rel < 1e-10 + 6e-12 * cond), (rel / cond).max()
     with pytest.raises(ValueError, match="exactly one"):
         jaxstiff.cms_factor(K)
-    with pytest.raises(ValueError, match="target_major must be > 0"):
+    with pytest.raises(ValueError, match="target_major must be a finite number > 0"):
         jaxstiff.cms_factor(K, target_major=-1.0)
+
+
+def test_cms_factor_refuses_what_no_finite_factor_sizes():
+    """A tester got k = -0.0033 (an array target of -5), NaN (one negative entry of an array
+    target), inf (K = 0, a singular K with a volume target, target inf) and a plausible 0.333 for
+    an indefinite K, all without a word, where the docstring promises k > 0. Concrete input is
+    checked; a traced one is not (a singular K gives inf there)."""
+    K = jnp.diag(jnp.array([4.0, 1.0, 0.5]))
+    for bad, match in (
+        (dict(target_major=np.array(-5.0)), "target_major must be a finite number > 0, got -5"),
+        (dict(target_volume=jnp.array([1e9, -1e9])), "target_volume must be a finite number > 0, got -1e\\+09"),
+        (dict(target_major=float("inf")), "target_major must be a finite number > 0, got inf"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            jaxstiff.cms_factor(K, **bad)
+    with pytest.raises(ValueError, match="largest eigenvalue is 0"):
+        jaxstiff.cms_factor(jnp.zeros((3, 3)), target_major=1000.0)
+    with pytest.raises(ValueError, match="singular K has a volume of 0.*smallest eigenvalue is 0"):
+        jaxstiff.cms_factor(jnp.diag(jnp.array([1.0, 1.0, 0.0])), target_volume=1e6)
+    with pytest.raises(ValueError, match="positive \\(semi-\\)definite"):
+        jaxstiff.cms_factor(jnp.array([[1.0, 2.0], [2.0, 1.0]]), target_major=1.0)
+    # a singular K has a major axis: a major-axis target sizes it (k = 1000 / 4)
+    assert float(jaxstiff.cms_factor(jnp.diag(jnp.array([4.0, 1.0, 0.0])), target_major=1000.0)) == 250.0
+    # traced: unchecked, as documented
+    assert np.isinf(
+        float(jax.jit(lambda k: jaxstiff.cms_factor(k, target_volume=1e6))(jnp.diag(jnp.array([1.0, 1.0, 0.0]))))
+    )
 
 
 def planar_kg(q, F):
