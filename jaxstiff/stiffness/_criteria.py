@@ -99,15 +99,16 @@ def f2_of(alpha: jax.Array, rho: jax.Array, r: ArrayLike) -> jax.Array:
 
 
 def _check_ratio(r: ArrayLike, K: jax.Array | None = None, d: jax.Array | None = None) -> None:
-    """A known ``r`` (a number or an array, not a value inside a trace) must be >= 1 everywhere
+    """A known ``r`` (a number or an array, not a value inside a trace) must be finite and >= 1 everywhere
     and, with K and d given, broadcast against their batch axes."""
     a = known_floats(r, "ratio r")
     if a is None:
         return
-    if not np.all(a >= 1.0):  # NaN fails too
-        bad = a if a.ndim == 0 else a[~(a >= 1.0)].flat[0]
-        where = "" if a.ndim == 0 else f" at index {tuple(int(i) for i in np.argwhere(~(a >= 1.0))[0])}"
-        raise ValueError(f"ratio r must be >= 1 (rho = lambda1 / lambda2 is >= 1), got {float(bad)}{where}")
+    ok = np.isfinite(a) & (a >= 1.0)  # NaN and inf fail (an infinite ratio is no ellipsoid: f1, f2 gave inf)
+    if not np.all(ok):
+        bad = a if a.ndim == 0 else a[~ok].flat[0]
+        where = "" if a.ndim == 0 else f" at index {tuple(int(i) for i in np.argwhere(~ok)[0])}"
+        raise ValueError(f"ratio r must be finite and >= 1 (rho = lambda1 / lambda2 is >= 1), got {float(bad)}{where}")
     if K is not None and d is not None:
         broadcast_batch(("K", K.shape[:-2]), ("d", d.shape[:-1]), ("r", a.shape))
 

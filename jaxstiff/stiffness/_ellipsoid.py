@@ -98,8 +98,28 @@ def ellipsoid(K: jax.Array) -> Ellipsoid:
     return e
 
 
+def _refuse_asymmetric(K: jax.Array) -> None:
+    """A concrete K clearly not symmetric (an entry of ``K - K^T`` above ``max(1e-6, 100 eps)`` of
+    the largest entry): the computations read its symmetric part, which is another matrix, and
+    ``[[3, 2], [0, 3]]`` came out as the ellipsoid of ``[[3, 1], [1, 3]]`` without a word."""
+    a = np.asarray(K)
+    if not np.issubdtype(a.dtype, np.floating) or a.size == 0:
+        return
+    with np.errstate(invalid="ignore"):
+        scale = np.max(np.abs(np.where(np.isfinite(a), a, 0.0)))
+        asym = np.abs(a - np.swapaxes(a, -1, -2))
+    tol = max(1e-6, 100 * float(np.finfo(a.dtype).eps)) * scale
+    if np.any(asym > tol):
+        at = tuple(int(i) for i in np.argwhere(asym > tol)[0])
+        raise ValueError(
+            f"K must be symmetric (a stiffness matrix): |K - K^T| is {float(asym[at]):g} at index {at}, "
+            f"against entries up to {float(scale):g}"
+        )
+
+
 def refuse_indefinite(K: jax.Array, axes: np.ndarray | None = None) -> None:
-    """Raise ValueError for a concrete K (..., m, m) with an eigenvalue below ``-1e-9 lambda1``.
+    """Raise ValueError for a concrete K (..., m, m) with an eigenvalue below ``-1e-9 lambda1``, or
+    clearly not symmetric (:func:`_refuse_asymmetric`).
 
     The one rule of :func:`ellipsoid`, :func:`orientation_error`, :func:`jaxstiff.f1`,
     :func:`jaxstiff.f2` and :func:`jaxstiff.stiffness._criteria.alpha_and_ratio`: an indefinite
@@ -114,6 +134,7 @@ def refuse_indefinite(K: jax.Array, axes: np.ndarray | None = None) -> None:
     """
     if is_traced(K):
         return
+    _refuse_asymmetric(K)
     if axes is None:
         a = np.asarray(K, dtype=float)
         a = 0.5 * (a + np.swapaxes(a, -1, -2))  # what the computations read (eigvalsh alone reads one triangle)

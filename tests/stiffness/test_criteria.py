@@ -319,10 +319,13 @@ def test_user_criteria_and_registry():
 
 def test_bad_ratio_and_shapes():
     K = jnp.eye(2) * 3
-    with pytest.raises(ValueError, match="ratio r must be >= 1"):
+    with pytest.raises(ValueError, match="ratio r must be finite and >= 1"):
         jaxstiff.f1(K, jnp.ones(2), 0.5)
-    with pytest.raises(ValueError, match="ratio r must be >= 1"):
+    with pytest.raises(ValueError, match="ratio r must be finite and >= 1"):
         jaxstiff.f2(K, jnp.ones(2), 0.0)
+    for f in (jaxstiff.f1, jaxstiff.f2):  # an infinite ratio gave inf (a tester's find)
+        with pytest.raises(ValueError, match="ratio r must be finite and >= 1 .* got inf"):
+            f(jnp.diag(jnp.array([4.0, 1.0])), jnp.array([1.0, 0.0]), float("inf"))
     with pytest.raises(ValueError, match="d must have shape"):
         jaxstiff.f2(K, jnp.ones(3), 5.0)
     with pytest.raises(ValueError, match="K_xd must have shape"):
@@ -336,9 +339,9 @@ def test_array_ratio_offset_and_batch_mismatches_are_named():
     K = jnp.stack([jnp.diag(jnp.array([5.0, 1.0]))] * 4)
     d = jnp.array([1.0, 0.0])
     for f in (jaxstiff.f1, jaxstiff.f2):
-        with pytest.raises(ValueError, match=r"ratio r must be >= 1 .* got 0.5 at index \(1,\)"):
+        with pytest.raises(ValueError, match=r"ratio r must be finite and >= 1 .* got 0.5 at index \(1,\)"):
             f(K, d, np.array([2.0, 0.5, 3.0, 4.0]))
-        with pytest.raises(ValueError, match="ratio r must be >= 1"):
+        with pytest.raises(ValueError, match="ratio r must be finite and >= 1"):
             f(K, d, np.array([2.0, np.nan, 3.0, 4.0]))
         with pytest.raises(ValueError, match=r"batch axes do not broadcast: K \(4,\), d \(\), r \(3,\)"):
             f(K, d, jnp.array([2.0, 3.0, 4.0]))
