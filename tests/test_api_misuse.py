@@ -180,3 +180,40 @@ def test_a_path_file_name_is_read_as_the_command_reads_it(tmp_path):
         robot_and_path("kuka_lwr4", str(tmp_path / "missing.csv"))
     with pytest.raises(ValueError, match="path must be a jaxstiff.Path, a path file's name"):
         robot_and_path("kuka_lwr4", [[1.0, 2.0], [3.0]])
+
+
+def test_kinematics_name_q_and_robot_where_jax_would_have_spoken():
+    """`jaxstiff.fk(robot, "abc")`, the arguments swapped, `None` and a ragged list reached JAX's or
+    numpy's internal errors ("Error interpreting argument ... as an abstract array"); a JAX array,
+    traced or not, still passes."""
+    import jax
+    import jax.numpy as jnp
+
+    import jaxstiff
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    with pytest.raises(TypeError, match=r"fk: q must be joint values, an array of numbers of shape \(\.\.\., 3\)"):
+        jaxstiff.fk(robot, "abc")
+    with pytest.raises(TypeError, match="robot must be a jaxstiff.Robot, got ArrayImpl \\(the arguments swapped"):
+        jaxstiff.fk(jnp.zeros(3), robot)
+    with pytest.raises(TypeError, match="jacobian: q must be joint values"):
+        jaxstiff.jacobian(robot, None)
+    with pytest.raises(ValueError, match="q must be joint values, numbers of shape .*rows of different lengths"):
+        robot.fk([[0.0] * 3, [0.0] * 2])
+    assert jax.jit(lambda q: jaxstiff.fk(robot, q))(jnp.zeros(3)).shape == (4, 4)
+    assert jaxstiff.fk(robot, [0.0, 0.0, 0.0]).shape == (4, 4)
+
+
+def test_position_and_jacobian_takes_a_list_of_rows_and_names_a_bad_one():
+    """`rows=[0, 1]` raised JAX's "Non-hashable static arguments are not supported"; `rows=2` "'int'
+    object is not iterable"."""
+    import jax.numpy as jnp
+
+    import jaxstiff
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    _, J = jaxstiff.position_and_jacobian(robot, jnp.zeros(3), [0, 1])
+    _, J2 = jaxstiff.position_and_jacobian(robot, jnp.zeros(3), (0, 1))
+    assert J.shape == (2, 3) and bool(jnp.all(J == J2))
+    with pytest.raises(ValueError, match="rows must be a non-empty tuple of Jacobian row indices in 0..5, got 2"):
+        jaxstiff.position_and_jacobian(robot, jnp.zeros(3), 2)

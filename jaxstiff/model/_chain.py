@@ -368,7 +368,13 @@ def check_q(robot: Chain, q: Any, name: str = "q") -> Any:
     import jax.numpy as jnp
 
     if isinstance(q, (list, tuple)):
-        q = np.asarray(q, dtype=float)
+        try:
+            q = np.asarray(q, dtype=float)
+        except ValueError:  # a ragged nested list, or text in it
+            raise ValueError(
+                f"{name} must be joint values, numbers of shape (..., {robot.n}) (rad; m for prismatic joints): got a "
+                "nested sequence that is not one (rows of different lengths, or not numbers)"
+            ) from None
     if not hasattr(q, "dtype") or not hasattr(q, "shape"):
         raise ValueError(f"{name} must be an array of shape (..., {robot.n}), got {type(q).__name__}")
     if not jnp.issubdtype(q.dtype, jnp.floating):

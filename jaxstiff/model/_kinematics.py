@@ -11,12 +11,12 @@ stays float32, float64 stays float64). For CPU batches the joint cosines and sin
 
 A chain with rotated joint frames (a joint axis or an origin rotation that is not axis-aligned:
 almost every real URDF) is walked unrolled in frames aligned with its joint axes, with the
-constant rotations folded at trace time (:mod:`jaxstiff.model.kinematics_framed`); walked as
+constant rotations folded at trace time (:mod:`jaxstiff.model._kinematics_framed`); walked as
 written, its dense constants made XLA's program minutes to compile. Long chains run as one
-``lax.scan`` over their joints (:mod:`jaxstiff.model.kinematics_scan`): more than
+``lax.scan`` over their joints (:mod:`jaxstiff.model._kinematics_scan`): more than
 ``UNROLL_MAX_JOINTS`` (12) axis-aligned joints or ``FRAMED_MAX_JOINTS`` (8) other ones, where an
 unrolled program compiles in time that grows far faster than the chain; the scan compiles in
-about a second at any length. :func:`jaxstiff.model.kinematics_scan.kernel_for` makes the choice,
+about a second at any length. :func:`jaxstiff.model._kinematics_scan.kernel_for` makes the choice,
 from the chain only (all three agree to rounding: tested to 1e-12; measurements:
 docs/notes/model.md, ``scripts/bench_kinematics.py``, ``scripts/bench_long_chain.py``).
 
@@ -26,7 +26,7 @@ prismatic joint ``[z_i; 0]`` (rows ``[v; w]``, base frame, for the TCP point).
 
 Example:
     >>> import jax.numpy as jnp, jaxstiff
-    >>> robot = jaxstiff.Chain.from_urdf("planar_3r")
+    >>> robot = jaxstiff.Robot.from_urdf("planar_3r")
     >>> T, J = jaxstiff.fk_and_jacobian(robot, jnp.zeros((10, 3)))
     >>> T.shape, J.shape
     ((10, 4, 4), (10, 6, 3))
@@ -216,6 +216,28 @@ def warn_if_float32(q: object) -> None:
         )
 
 
+def _refuse_non_numbers(name: str, robot: object, q: object) -> None:
+    """``name(robot, q)`` with arguments JAX would meet with its own internal errors: a robot that is
+    not one (the arguments swapped), or a ``q`` that is no array of numbers (text, None, a ragged
+    list). A JAX array, traced or not, passes."""
+    if not isinstance(robot, Chain):
+        swapped = " (the arguments swapped? the robot comes first)" if isinstance(q, Chain) else ""
+        raise TypeError(f"{name}(robot, q): robot must be a jaxstiff.Robot, got {type(robot).__name__}{swapped}")
+    if isinstance(q, jax.Array):
+        return
+    expected = f"joint values, an array of numbers of shape (..., {robot.n}) (rad; m for prismatic joints)"
+    if q is None or isinstance(q, (str, bytes)):
+        raise TypeError(f"{name}: q must be {expected}, got {q!r:.40}")
+    try:
+        a = np.asarray(q)
+    except ValueError:  # numpy: a ragged nested list
+        raise ValueError(
+            f"{name}: q must be {expected}, got a ragged nested sequence (rows of different lengths)"
+        ) from None
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"{name}: q must be {expected}, got {type(q).__name__} of dtype {a.dtype}")
+
+
 def _locked_checked(fn):
     """A jitted kinematics function that first refuses a concrete ``q`` whose locked joints are not at
     their locked values (:func:`jaxstiff.model.chain.check_locked_values`; a tracer is not checked),
@@ -223,6 +245,10 @@ def _locked_checked(fn):
 
     @functools.wraps(fn)
     def checked(robot: Chain, q: jax.Array, *args, **kwargs):
+        _refuse_non_numbers(fn.__name__, robot, q)
+        # a list where a static tuple goes (position_and_jacobian's rows): jit cannot hash a list
+        args = tuple(tuple(a) if isinstance(a, list) else a for a in args)
+        kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in kwargs.items()}
         if isinstance(robot, Chain):  # anything else: the kernel's own check says what is wrong
             check_locked_values(robot, q)
         refuse_half_precision(fn.__name__, q=q)  # as shape and csc_rollout: ~1 mm off in FK
@@ -299,7 +325,7 @@ def fk_and_jacobian_raw(
     """:func:`fk_and_jacobian` without checks or jit (to trace inside a caller's kernel).
 
     ``kernel``: ``"unrolled"``, ``"framed"`` or ``"scan"`` forces one kernel (tests and benchmarks);
-    None picks by the chain (:func:`jaxstiff.model.kinematics_scan.kernel_for`).
+    None picks by the chain (:func:`jaxstiff.model._kinematics_scan.kernel_for`).
     """
     kernel = _pick(robot, kernel)
     if kernel == "scan":
@@ -319,7 +345,7 @@ def position_and_jacobian(robot: Chain, q: jax.Array, rows: tuple[int, ...] = (0
     """
     q = jnp.asarray(q)
     _check(robot, q)
-    if not rows or any(not isinstance(r, int) or not 0 <= r < 6 for r in rows):
+    if not isinstance(rows, tuple) or not rows or any(not isinstance(r, int) or not 0 <= r < 6 for r in rows):
         raise ValueError(f"rows must be a non-empty tuple of Jacobian row indices in 0..5, got {rows!r}")
     return position_and_jacobian_raw(robot, q, rows)
 
@@ -333,7 +359,7 @@ def position_and_jacobian_raw(
 ) -> tuple[jax.Array, jax.Array]:
     """:func:`position_and_jacobian` without checks or jit (to trace inside a caller's kernel).
 
-    ``kernel``: as in :func:`fk_and_jacobian_raw` (None: by :func:`jaxstiff.model.kinematics_scan.kernel_for`)."""
+    ``kernel``: as in :func:`fk_and_jacobian_raw` (None: by :func:`jaxstiff.model._kinematics_scan.kernel_for`)."""
     kernel = _pick(robot, kernel)
     if kernel == "scan":
         _, p, J = scan_pose_and_jacobian(robot, q, poly)

@@ -39,6 +39,11 @@ def tangents(points: ArrayLike, where: str = "path") -> np.ndarray:
             the direction of motion is undefined; give the directions explicitly.
     """
     pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[0] < 2:
+        raise ValueError(
+            f"{where}: tangents need at least 2 waypoints (P, 3), got shape {pts.shape}; give the directions "
+            "explicitly for a single waypoint"
+        )
     P = pts.shape[0]
     t = np.empty_like(pts)
     t[0] = pts[1] - pts[0]

@@ -220,7 +220,9 @@ def cartesian_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> jax.
 
     Args:
         J: geometric Jacobian (..., 6, n) in the base frame, or its task rows (..., m, n).
-        kj: joint stiffnesses (..., n), Nm/rad (N/m for prismatic joints), > 0.
+        kj: joint stiffnesses (..., n), Nm/rad (N/m for prismatic joints), > 0 (a concrete
+            kj <= 0 is refused; inside ``jit``/``grad`` it is not checked, and gives a finite,
+            near-zero matrix that looks valid).
         task: ``"xy"`` (2x2), ``"xyz"`` (3x3) or ``"full"`` (6x6); see the module docstring.
 
     Returns:
@@ -244,8 +246,10 @@ def translational_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> 
     Singular postures (:mod:`jaxstiff.stiffness._schur`). ``K_T = V diag(1 / h(mu)) V^T`` from the
     eigen-decomposition of the translational compliance ``S`` (:func:`translational_compliance`),
     ``h(mu) = mu + a exp(-mu / a)``, ``a = 1e-8 trace(S) / t`` (1e-4 in float32). So ``K_T`` is the
-    exact inverse of ``S`` wherever every eigenvalue of ``S`` exceeds ``40 a`` (every posture not
-    within ~1e-6 of a singularity), symmetric positive definite with condition number below
+    exact inverse of ``S`` wherever every eigenvalue of ``S`` exceeds ``40 a`` (a condition number
+    of ``S`` below about ``t / 4e-7``; nearer a singularity the stiff direction reads low: on
+    ``planar_3r`` at ``q = (0, 1e-3, 0)``, task ``"xy"``, its largest entry is 0.12 % below the
+    exact 2.8e6 N/m, and at ``1e-4`` rad 1.4e7 against 2.8e8), symmetric positive definite with condition number below
     ``t / 1e-8`` everywhere, and independent of the batch size. At a singular posture the axes
     along which ``S`` has range are exact (the inverses of its eigenvalues there) and a lost
     direction, whose true stiffness is infinite, reads ``1 / a`` (~1e8 times the mean
@@ -258,7 +262,8 @@ def translational_stiffness(J: jax.Array, kj: jax.Array, task: str = "full") -> 
 
     Args:
         J: geometric Jacobian (..., 6, n), or its task rows.
-        kj: joint stiffnesses (..., n), > 0.
+        kj: joint stiffnesses (..., n), > 0 (a concrete kj <= 0 is refused; inside ``jit``/``grad``
+            it is not checked, and gives a finite, near-zero matrix of about 1e-137 that looks valid).
         task: ``"xy"``, ``"xyz"`` or ``"full"``.
     """
     return stiffness_of_compliance(compliance(J, kj, task))

@@ -484,7 +484,7 @@ def test_q_with_nan_or_inf_at_the_boundary(lwr):
 
 
 def test_robot_argument_must_be_a_robot():
-    with raises(TypeError, "expected a jaxstiff.Robot, got str"):
+    with raises(TypeError, "robot must be a jaxstiff.Robot, got str"):
         jaxstiff.fk("kuka_lwr4", jnp.zeros(7))
 
 

@@ -234,3 +234,11 @@ def test_csv_with_empty_trailing_columns_reads_like_one_without(tmp_path):
     f.write_text("x,y,z,\n1,2,3,\n4,5,6,7\n")
     with pytest.raises(ValueError, match=r"t.csv:3: expected 3 values"):
         Path.from_csv(f)
+
+
+def test_tangents_of_one_waypoint_name_the_problem():
+    """`tangents(np.zeros((1, 3)))` raised `IndexError: index 1 is out of bounds` (a tester's find)."""
+    from jaxstiff.paths import tangents
+
+    with pytest.raises(ValueError, match=r"tangents need at least 2 waypoints \(P, 3\), got shape \(1, 3\)"):
+        tangents(np.zeros((1, 3)))
