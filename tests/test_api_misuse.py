@@ -217,3 +217,13 @@ def test_position_and_jacobian_takes_a_list_of_rows_and_names_a_bad_one():
     assert J.shape == (2, 3) and bool(jnp.all(J == J2))
     with pytest.raises(ValueError, match="rows must be a non-empty tuple of Jacobian row indices in 0..5, got 2"):
         jaxstiff.position_and_jacobian(robot, jnp.zeros(3), 2)
+
+
+def test_start_states_that_are_not_numbers_are_named():
+    """`shape(..., kj0="abc")` and `q0="abc"` said only "could not convert string to float"."""
+    import jaxstiff
+
+    with pytest.raises(ValueError, match=r"kj0 must be numbers \(Nm/rad\), got 'abc'"):
+        jaxstiff.shape("kuka_lwr4", kj0="abc")
+    with pytest.raises(ValueError, match=r"q0 must be numbers \(rad; m for prismatic joints\), got 'abc'"):
+        jaxstiff.shape("kuka_lwr4", q0="abc")

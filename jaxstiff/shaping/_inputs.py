@@ -119,8 +119,17 @@ def first_start_postures(
     return out
 
 
+def _as_floats(value: Any, what: str, unit: str) -> np.ndarray:
+    """``value`` as a float array, or a ValueError naming ``what`` (text, None, a ragged list)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be numbers ({unit}), got {value!r:.60}") from None
+
+
 def _start_states(robot: Robot, value: Any, B: int, what: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
+    unit = "Nm/rad" if what.startswith("kj") else "rad; m for prismatic joints"
+    a = _as_floats(value, what, unit)
     if a.ndim == 1:
         a = np.broadcast_to(a, (B, a.shape[0]))
     if a.ndim != 2 or a.shape != (B, robot.n):
@@ -159,7 +168,7 @@ def make_start_states(inp: ShapeInputs, q0: Any, kj0: Any) -> list[list[tuple[np
     if kj0 is None:
         inp.kj0 = np.full((B, n), 0.5 * (inp.kmin + inp.kmax))
     else:
-        a = np.asarray(kj0, dtype=float)
+        a = _as_floats(kj0, "kj0", "Nm/rad")
         if a.ndim >= 1 and a.shape[-1] != n and a.shape[-1] == int(sprung.sum()):  # one per sprung joint
             full = np.full(a.shape[:-1] + (n,), 0.5 * (inp.kmin + inp.kmax))
             full[..., sprung] = a
