@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -33,6 +35,46 @@ def known_floats(x: object, what: str | None = None) -> np.ndarray | None:
         if what is None:
             return None  # the function's own checks say so
         raise ValueError(f"{what} must be a number or an array of numbers, got {type(x).__name__}") from None
+
+
+def has_tracer(x: object) -> bool:
+    """True where any leaf of ``x`` is a value inside a trace (jit, grad, vmap)."""
+    return any(isinstance(leaf, Tracer) for leaf in jax.tree_util.tree_leaves(x))
+
+
+def shown_value(value: object) -> str:
+    """How a message shows what was given: the repr of a short text or None, else its type."""
+    if value is None or isinstance(value, (str, bytes)):
+        text = repr(value)
+        return text if len(text) <= 60 else text[:57] + "..."
+    if isinstance(value, np.ndarray):
+        return f"an array of dtype {value.dtype} and shape {value.shape}"
+    return f"an object of type {type(value).__name__}"
+
+
+def refuse_non_numeric(name: str, value: object, expected: str, kinds: str = "biufc") -> None:
+    """``TypeError`` (``ValueError`` for ragged nested lists) naming ``name``, ``expected`` and what
+    was given, when a concrete ``value`` is not numbers (text, None, objects; a dtype kind outside
+    ``kinds``); JAX arrays and anything holding a traced value pass (they are numbers). Where
+    JAX would meet the value with its own internal error, the caller names the argument instead."""
+    if isinstance(value, jax.Array) or has_tracer(value):
+        return
+    if value is None or isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be {expected}, got {shown_value(value)}")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            a = np.asarray(value)
+    except ValueError:  # numpy: "inhomogeneous shape"
+        raise ValueError(
+            f"{name} must be {expected}, got a ragged nested sequence (rows of different lengths)"
+        ) from None
+    except Exception as e:
+        raise TypeError(f"{name} must be {expected}, got {shown_value(value)} ({e})") from None
+    if a.dtype.kind not in kinds:
+        if isinstance(value, (list, tuple)):
+            raise TypeError(f"{name} must be {expected}, got a {type(value).__name__} holding non-numbers ({a.dtype})")
+        raise TypeError(f"{name} must be {expected}, got {shown_value(value)}")
 
 
 def check_square(K: ArrayLike, name: str = "K") -> jax.Array:

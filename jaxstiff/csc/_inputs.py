@@ -20,7 +20,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff._numerics.batch import broadcast_batch
+from jaxstiff._numerics.batch import broadcast_batch, has_tracer, refuse_non_numeric, shown_value
 from jaxstiff._numerics.safe import safe_sqrt
 from jaxstiff.csc._step import StaticSettings
 from jaxstiff.model._chain import check_locked_values
@@ -100,50 +100,13 @@ def is_concrete(x: Any) -> bool:
     return not isinstance(x, jax.core.Tracer)  # pyright: ignore[reportAttributeAccessIssue]
 
 
-#: what each array argument of a rollout must be (the messages of :func:`refuse_non_numeric`)
+#: what each array argument of a rollout must be (the messages of
+#: :func:`jaxstiff._numerics.batch.refuse_non_numeric`)
 EXPECTED = {
     "path": "a jaxstiff Path or an array of numbers of shape (..., T, 2 or 3) (TCP targets, m)",
     "K_xd": "an array of numbers of shape (m, m) or (..., m, m), m = 2, 3 or 6 (desired stiffness, N/m)",
     "beta": "a number or an array of numbers (rad per step, or 1 for the adaptive step)",
 }
-
-
-def _has_tracer(x: Any) -> bool:
-    return any(not is_concrete(leaf) for leaf in jax.tree_util.tree_leaves(x))
-
-
-def _given(value: Any) -> str:
-    """How a message shows what was given: the repr of a short text or None, else its type."""
-    if value is None or isinstance(value, (str, bytes)):
-        text = repr(value)
-        return text if len(text) <= 60 else text[:57] + "..."
-    if isinstance(value, np.ndarray):
-        return f"an array of dtype {value.dtype} and shape {value.shape}"
-    return f"an object of type {type(value).__name__}"
-
-
-def refuse_non_numeric(name: str, value: Any, expected: str) -> None:
-    """``TypeError`` (``ValueError`` for ragged nested lists) naming ``name``, ``expected`` and what
-    was given, when a concrete ``value`` is not numbers (text, None, objects); JAX arrays and
-    anything holding a traced value pass (they are numbers)."""
-    if isinstance(value, jax.Array) or _has_tracer(value):
-        return
-    if value is None or isinstance(value, (str, bytes)):
-        raise TypeError(f"{name} must be {expected}, got {_given(value)}")
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            a = np.asarray(value)
-    except ValueError:  # numpy: "inhomogeneous shape"
-        raise ValueError(
-            f"{name} must be {expected}, got a ragged nested sequence (rows of different lengths)"
-        ) from None
-    except Exception as e:
-        raise TypeError(f"{name} must be {expected}, got {_given(value)} ({e})") from None
-    if a.dtype.kind not in "biufc":  # (complex is refused by name later)
-        if isinstance(value, (list, tuple)):
-            raise TypeError(f"{name} must be {expected}, got a {type(value).__name__} holding non-numbers ({a.dtype})")
-        raise TypeError(f"{name} must be {expected}, got {_given(value)}")
 
 
 def path_points(path: Any) -> Any:
@@ -153,7 +116,7 @@ def path_points(path: Any) -> Any:
     if isinstance(pts, (list, tuple)):
         pts = np.asarray(pts, dtype=float)
     if not hasattr(pts, "shape"):
-        raise ValueError(f"path must be {EXPECTED['path']}, got {_given(path)}")
+        raise ValueError(f"path must be {EXPECTED['path']}, got {shown_value(path)}")
     return pts
 
 
@@ -386,7 +349,7 @@ def prepare_rollout(
     dtype = q0.dtype
     if q0.ndim == 0 or q0.shape[-1] != robot.n:
         raise ValueError(f"q0 must have shape (..., {robot.n}) for robot {robot.name!r}, got {tuple(q0.shape)}")
-    K_raw = None if _has_tracer(K_xd) else np.asarray(K_xd, dtype=float)  # as given: before a float32 cast
+    K_raw = None if has_tracer(K_xd) else np.asarray(K_xd, dtype=float)  # as given: before a float32 cast
     if K_raw is not None:  # the size limit before the cast (float32 would overflow 1e200 to inf)
         _refuse_huge_kxd(K_raw, dtype)
     K_xd = jnp.asarray(K_xd, dtype=dtype)

@@ -42,6 +42,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from jaxstiff._numerics.batch import refuse_non_numeric
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model._chain import JOINT_PRISMATIC, Chain, check_locked_values
 from jaxstiff.model._kinematics_framed import framed_chain
@@ -218,24 +219,13 @@ def warn_if_float32(q: object) -> None:
 
 def _refuse_non_numbers(name: str, robot: object, q: object) -> None:
     """``name(robot, q)`` with arguments JAX would meet with its own internal errors: a robot that is
-    not one (the arguments swapped), or a ``q`` that is no array of numbers (text, None, a ragged
-    list). A JAX array, traced or not, passes."""
+    not one (the arguments swapped), or a ``q`` that is no array of real numbers (text, None, a
+    ragged list: :func:`jaxstiff._numerics.batch.refuse_non_numeric`)."""
     if not isinstance(robot, Chain):
         swapped = " (the arguments swapped? the robot comes first)" if isinstance(q, Chain) else ""
         raise TypeError(f"{name}(robot, q): robot must be a jaxstiff.Robot, got {type(robot).__name__}{swapped}")
-    if isinstance(q, jax.Array):
-        return
     expected = f"joint values, an array of numbers of shape (..., {robot.n}) (rad; m for prismatic joints)"
-    if q is None or isinstance(q, (str, bytes)):
-        raise TypeError(f"{name}: q must be {expected}, got {q!r:.40}")
-    try:
-        a = np.asarray(q)
-    except ValueError:  # numpy: a ragged nested list
-        raise ValueError(
-            f"{name}: q must be {expected}, got a ragged nested sequence (rows of different lengths)"
-        ) from None
-    if a.dtype.kind not in "biuf":
-        raise TypeError(f"{name}: q must be {expected}, got {type(q).__name__} of dtype {a.dtype}")
+    refuse_non_numeric(f"{name}: q", q, expected, kinds="biuf")
 
 
 def _locked_checked(fn):
