@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff._numerics.batch import check_square, is_traced
+from jaxstiff._numerics.batch import check_square, is_traced, known_floats
 from jaxstiff._numerics.eig import eigh_descending
 from jaxstiff.stiffness._ellipsoid import refuse_indefinite
 
@@ -19,9 +19,9 @@ __all__ = ["cms_factor", "cms_scale"]
 
 def _check_positive(name: str, value: object) -> None:
     """A concrete target (a number or an array of them): every entry finite and > 0."""
-    if is_traced(value):
+    a = known_floats(value, name)
+    if a is None:  # inside a trace
         return
-    a = np.asarray(value, dtype=float)
     bad = ~(np.isfinite(a) & (a > 0))
     if np.any(bad):
         shown = a if a.ndim == 0 else a[bad].ravel()[0]
@@ -35,8 +35,8 @@ def _check_size(K: jax.Array, w: jax.Array, by_volume: bool) -> None:
     indefinite, with a zero major axis, or, for a volume, singular (a zero axis makes the volume 0)."""
     if is_traced(w):
         return
-    refuse_indefinite(K, np.asarray(w))
     wn = np.asarray(w, dtype=float)
+    refuse_indefinite(K, wn)
     with np.errstate(invalid="ignore"):
         bad = ~np.all(np.isfinite(wn), axis=-1) | (wn[..., -1 if by_volume else 0] <= 0)
     if np.any(bad):
