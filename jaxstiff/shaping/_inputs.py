@@ -31,6 +31,7 @@ from jaxstiff.settings._shape import (
 )
 from jaxstiff.settings._solvers import OPTIONS_OF, SLSQPOptions
 from jaxstiff.solvers._base import SOLVERS, check_options
+from jaxstiff.solvers._greedy import check_single_start
 from jaxstiff.solvers._problem import content_seed
 from jaxstiff.stiffness._core import check_task_feasible, task_rows
 from jaxstiff.stiffness._criteria import check_criterion_call, f1, f2, get_criterion
@@ -362,6 +363,8 @@ def check_inputs(
     crit_fn = get_criterion(criterion)
     crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
     check_options(solver, options)
+    if solver in ("slsqp", "slsqp-fd"):  # before the plan's size, which counts the starts
+        check_single_start(values["starts"], solver)
     task_rows(task)
     ShapeSettings.check_kinds(values)
     check_task_feasible(robot, task, locked_joints=locked)

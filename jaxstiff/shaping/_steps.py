@@ -121,8 +121,6 @@ def check_shape_size(inp: ShapeInputs) -> None:
         jaxstiff.runtime._plan_size.PlanTooLargeError: a ``ValueError`` naming the sizes.
     """
     B, P, n = inp.path.B, inp.path.P, inp.robot.n
-    if inp.solver in ("slsqp", "slsqp-fd") and inp.starts not in (None, 1):  # its own message first
-        raise ValueError(f"solver {inp.solver!r} is single-start (starts=1); got starts={inp.starts}")
     starts = max(int(inp.starts or 1), int(inp.first_starts or 1))
     # the knob to name: the starts too where they were raised above the default first-waypoint
     # count and weigh more than the rest of a waypoint's values

@@ -619,10 +619,10 @@ def _other_optima(problem: WaypointProblem, cands: Sequence[Candidate], best: Ca
 
 
 # ---------------------------------------------------------------------- SOLVERS adapters
-def check_single_start(req: SolveRequest, kind: str) -> None:
-    """A per-waypoint SLSQP solver is single-start: ``req.starts`` must be None or 1."""
-    if req.starts not in (None, 1):
-        raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={req.starts}")
+def check_single_start(starts: int | None, kind: str) -> None:
+    """A per-waypoint SLSQP solver is single-start: ``starts`` must be None or 1."""
+    if starts not in (None, 1):
+        raise ValueError(f"solver {kind!r} is single-start (starts=1); got starts={starts}")
 
 
 #: option ``path_retries`` None: this many for ``"slsqp"``; ``"slsqp-fd"``, the seed's method, none

@@ -437,5 +437,5 @@ def solve_path(
 
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers._base.SOLVERS` (``solver="slsqp"``)."""
-    check_single_start(req, "slsqp")
+    check_single_start(req.starts, "slsqp")
     return run_greedy(req, make_slsqp_solver(req.problem, req.options, (req.limits.kmin, req.limits.kmax)), {})

@@ -183,7 +183,7 @@ def make_fd_solver(
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers._base.SOLVERS` (``solver="slsqp-fd"``): greedy SLSQP with
     numpy derivatives by finite differences."""
-    check_single_start(req, "slsqp-fd")
+    check_single_start(req.starts, "slsqp-fd")
     prob = req.problem
     solver = make_fd_solver(prob, req.options, (req.limits.kmin, req.limits.kmax))
     return run_greedy(
