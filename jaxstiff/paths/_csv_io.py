@@ -46,7 +46,8 @@ def _content_lines(file: str) -> list[tuple[int, str]]:
         if ln.strip() and not ln.lstrip().startswith("#")
     ]
     if not lines:
-        raise ValueError(f"{file}: empty file; expected a header x,y,z[,dx,dy,dz] and waypoint rows")
+        what = "only comment lines" if text.strip() else "empty file"
+        raise ValueError(f"{file}: {what}; expected a header x,y,z[,dx,dy,dz] and waypoint rows")
     return lines
 
 

@@ -118,6 +118,8 @@ def test_csv_round_trip(tmp_path):
     "text, match",
     [
         ("", "empty file"),
+        ("\n  \n", "empty file"),
+        ("# only a note\n# x,y,z\n", "only comment lines"),
         ("a,b,c\n1,2,3\n4,5,6\n", "header must be"),
         ("x,y,z\n1,2,3\n", "at least 2 waypoints"),
         ("x,y,z\n1,2,3\n4,five,6\n", r":3: column y: 'five' is not a number"),
