@@ -21,7 +21,7 @@ from jaxstiff.cli._shape_flags import add_shape_flags as add_shape_flags
 from jaxstiff.cli._shape_flags import limit_kwargs
 from jaxstiff.runtime._io import deferred_interrupts, interrupt_pending, raise_if_interrupted, save_or_rescue
 from jaxstiff.runtime._progress import Progress, progress
-from jaxstiff.settings._shape import ShapeSettings
+from jaxstiff.settings._shape import SINGLE_START_SOLVERS, ShapeSettings
 
 if TYPE_CHECKING:
     import numpy as np
@@ -149,7 +149,10 @@ def _unused_flags(v: dict[str, Any], robot: Robot) -> list[str]:
     notes = []
     default = ShapeSettings()
     criterion = v.get("criterion") or default.criterion
-    if v.get("c") is not None and v["c"] != default.c and criterion != "f1":  # the flags fill in the default
+    c = v.get("c")
+    # the flags fill in the default; a value that is refused anyway (ShapeSettings) gets the
+    # refusal alone, not a warning that it is unused first
+    if c is not None and c != default.c and criterion != "f1" and math.isfinite(c) and c >= 0:
         notes.append(f"--c is the offset of criterion f1; unused with --criterion {criterion}")
     if v.get("dq_m") is not None and not robot.prismatic.any():
         notes.append(f"--dq-m is the rate limit of prismatic joints; {robot.name!r} has none, so it is unused")
@@ -271,7 +274,7 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
     except KeyboardInterrupt:
         why = (
             "it solves all paths together"
-            if args.solver not in ("slsqp", "slsqp-fd")
+            if args.solver not in SINGLE_START_SOLVERS
             else "the interrupt came before the first waypoint was finished"
         )
         print(f"\njaxstiff: nothing was written (solver {args.solver!r}: {why})", file=sys.stderr)

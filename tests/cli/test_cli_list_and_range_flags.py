@@ -131,3 +131,13 @@ def test_a_default_lock_off_the_chain_says_it_is_the_default(capsys) -> None:
     assert "cannot lock joint 'lwr_a7'" in line and "is the shipped robot's default" in line and "--lock none" in line
     assert main(["robot", "--tip-link", "lwr_link_5", "--lock", "none"]) == 0
     capsys.readouterr()
+
+
+def test_an_invalid_unused_c_is_refused_without_the_unused_warning(tmp_path, capsys) -> None:
+    """`shape --c -1` with f2 warned that --c was unused, then refused its value: the two lines
+    contradicted each other. The refusal now comes alone."""
+    rc = main(["shape", "--c", "-1", "--out", str(tmp_path / "r.npz")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "c must be a finite number >= 0, got -1.0" in err, err
+    assert "warning" not in err, err
+    assert not (tmp_path / "r.npz").exists()
