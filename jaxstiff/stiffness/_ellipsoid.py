@@ -58,7 +58,9 @@ class Ellipsoid:
     Attributes:
         axes: (..., m) eigenvalues, descending (N/m for a translational stiffness).
         directions: (..., m, m) unit eigenvectors as columns; ``directions[..., :, 0]`` is ``v1``.
-        ratio: (...,) ``lambda1 / lambda2`` (>= 1).
+        ratio: (...,) ``lambda1 / lambda2`` (>= 1). Capped at ``1 / eps`` (4.5e15 in float64,
+            8.4e6 in float32) where ``lambda2`` is zero or below the precision it is known to (a
+            singular K: value and gradient stay finite); 1 for K = 0, which has no direction.
         volume: (...,) product of the axes (no 4/3 pi; the area without pi in 2-D).
     """
 

@@ -341,3 +341,15 @@ def test_indefinite_stiffness_is_refused():
     R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]) @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
     K = R @ np.diag([3000.0, 1000.0, 0.0]) @ R.T  # PSD with rounding-level negative eigenvalues
     assert np.linalg.eigvalsh(K)[0] <= 1e-12 and abs(float(jaxstiff.ellipsoid(K).ratio) - 3.0) < 1e-9
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_singular_ratio_is_the_documented_cap(dtype):
+    """A singular K has no finite ratio; the documented value is 1/eps of its dtype (finite value
+    and gradient), and K = 0 (no direction at all) reads 1."""
+    with jax.enable_x64(dtype == np.float64):
+        e = jaxstiff.ellipsoid(jnp.asarray(np.diag([2.0, 0.0]), dtype))
+        assert float(e.ratio) == pytest.approx(1.0 / float(np.finfo(dtype).eps), rel=1e-12)
+        g = jax.grad(lambda k: jaxstiff.ellipsoid(jnp.diag(k)).ratio)(jnp.asarray([2.0, 0.0], dtype))
+        assert np.all(np.isfinite(np.asarray(g)))
+        assert float(jaxstiff.ellipsoid(jnp.zeros((3, 3), dtype)).ratio) == 1.0
