@@ -32,7 +32,16 @@ import numpy as np
 from jaxstiff.model._chain import LOCKED_JOINT_MODES
 from jaxstiff.settings._base import Axis, Flag, Settings, at_least, non_negative, positive_finite, setting
 
-__all__ = ["ShapeSettings", "LOCKED_JOINT_MODES", "CRITERIA", "TASKS", "SOLVER_NAMES", "DEFAULT_DQ_DEG", "dq_to_deg"]
+__all__ = [
+    "ShapeSettings",
+    "LOCKED_JOINT_MODES",
+    "CRITERIA",
+    "TASKS",
+    "SOLVER_NAMES",
+    "SINGLE_START_SOLVERS",
+    "DEFAULT_DQ_DEG",
+    "dq_to_deg",
+]
 
 CRITERIA = ("f1", "f2")  #: the shipped criteria (S0-9, S0-15); more can be registered
 TASKS = ("full", "xyz", "xy")  #: task rows of the stiffness (SPEC section 2)
@@ -45,6 +54,9 @@ def task_dim(task: str) -> int:
 
 
 SOLVER_NAMES = ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory")  #: the shipped solvers
+#: the shipped solvers that take one start state per path (greedy SLSQP: its own starts at the
+#: first waypoint, then each waypoint from the previous one)
+SINGLE_START_SOLVERS = ("slsqp", "slsqp-fd")
 DEFAULT_DQ_DEG = 2.0  #: joint rate limit, degrees per waypoint (the seed leaves it open)
 #: per-metre limits: warn when a path's longest segment exceeds its shortest by this factor
 SEGMENT_SPREAD_WARN = 1.1

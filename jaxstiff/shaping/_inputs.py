@@ -22,6 +22,7 @@ from jaxstiff.settings._base import suggest
 from jaxstiff.settings._robot import RobotSpec
 from jaxstiff.settings._shape import (
     SEGMENT_SPREAD_WARN,
+    SINGLE_START_SOLVERS,
     ShapeSettings,
     limit_per_joint,
     per_metre_limit,
@@ -363,7 +364,7 @@ def check_inputs(
     crit_fn = get_criterion(criterion)
     crit_name = criterion if isinstance(criterion, str) else getattr(criterion, "__name__", "custom")
     check_options(solver, options)
-    if solver in ("slsqp", "slsqp-fd"):  # before the plan's size, which counts the starts
+    if solver in SINGLE_START_SOLVERS:  # before the plan's size, which counts the starts
         check_single_start(values["starts"], solver)
     task_rows(task)
     ShapeSettings.check_kinds(values)

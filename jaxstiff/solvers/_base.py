@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from jaxstiff.settings._shape import SINGLE_START_SOLVERS, SOLVER_NAMES
 from jaxstiff.settings._solvers import (
     OPTIONS_OF,
     WARM_STARTS,
@@ -149,7 +150,7 @@ def solver_defaults(solver: str) -> dict[str, Any]:
 def solver_option_names(solver: str, warm: str = "pgd") -> set[str] | None:
     """The option names a shipped solver reads (the trajectory solver's include those of its warm
     start ``warm``); None for a user-registered solver (its options are not checked)."""
-    if solver not in ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory"):
+    if solver not in SOLVER_NAMES:
         return None
     known = set(solver_defaults(solver))
     if solver == "trajectory":
@@ -233,7 +234,7 @@ def first_starts_use(solver: str, opts_meta: dict[str, Any], n_first: int, first
             f"{min(n_first, S1)} of the {S1} first-waypoint starts of pgd (q0 first; the rest random "
             "postures, options starts/starts_first)"
         )
-    if greedy in ("slsqp", "slsqp-fd"):
+    if greedy in SINGLE_START_SOLVERS:
         return "SLSQP solves the first waypoint from each (q0 first); the best is kept"
     return "passed to the solver as SolveRequest.first_starts"
 

@@ -34,6 +34,7 @@ from pydantic import create_model
 
 from jaxstiff.model._chain import check_locked_values
 from jaxstiff.settings._csc import CSCSettings
+from jaxstiff.settings._shape import SINGLE_START_SOLVERS
 from jaxstiff.sweep._axis_specs import AXES as AXES
 from jaxstiff.sweep._axis_specs import CSC_SWEEP_TASK as CSC_SWEEP_TASK
 from jaxstiff.sweep._axis_specs import Q0_FAMILIES as Q0_FAMILIES
@@ -257,7 +258,7 @@ def cross_checks(
                 )
     if kind == "shape":
         for s in axes["solver"]:
-            if s in ("slsqp", "slsqp-fd") and any(k > 1 for k in axes["starts"]):
+            if s in SINGLE_START_SOLVERS and any(k > 1 for k in axes["starts"]):
                 raise SweepConfigError(
                     "axes.starts",
                     f"solver {s!r} is single-start; starts must be 0 or 1 (or sweep multi-start solvers separately)",

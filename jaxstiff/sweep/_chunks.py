@@ -24,7 +24,7 @@ import numpy as np
 from jaxstiff.results._singular import SingularPostureWarning
 from jaxstiff.results._target import MissedTargetWarning, UnusableWaypointsWarning
 from jaxstiff.runtime._io import json_default
-from jaxstiff.settings._shape import ShapeSettings
+from jaxstiff.settings._shape import SINGLE_START_SOLVERS, ShapeSettings
 from jaxstiff.sweep._axes import AXES, kxd_matrix
 from jaxstiff.sweep._metrics import csc_row_metrics, shape_row_metrics
 from jaxstiff.sweep._plan import Chunk, SweepPlan
@@ -244,7 +244,7 @@ def _shape_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None
             rows.append(row)
     # batched JAX solvers (pgd, hybrid, ...) shard their batch over the local devices; SLSQP is a host loop
     devices = (
-        1 if plan.settings[plan.rows[chunk.rows[0]][0]]["solver"] in ("slsqp", "slsqp-fd") else jax.local_device_count()
+        1 if plan.settings[plan.rows[chunk.rows[0]][0]]["solver"] in SINGLE_START_SOLVERS else jax.local_device_count()
     )
     return rows, arrays, devices
 

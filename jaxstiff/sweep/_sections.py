@@ -12,6 +12,7 @@ import math
 from collections.abc import Mapping
 from typing import Any
 
+from jaxstiff.settings._shape import SINGLE_START_SOLVERS
 from jaxstiff.sweep._axes import AXES
 from jaxstiff.sweep._schema import ReportTable, SweepConfigError, check_table, suggest, typename, validate
 
@@ -31,7 +32,9 @@ def solver_options(cfg: Mapping[str, Any], axes: Mapping[str, list], source: str
         names = [solver_option_names(s, warm) for s in axes["solver"]]
         if all(n is not None for n in names):
             known = tuple(sorted(set().union(*names)))  # type: ignore[arg-type]
-        which = "SLSQP" if set(axes["solver"]) <= {"slsqp", "slsqp-fd"} else "solver(s) " + ", ".join(axes["solver"])
+        which = (
+            "SLSQP" if set(axes["solver"]) <= set(SINGLE_START_SOLVERS) else "solver(s) " + ", ".join(axes["solver"])
+        )
     for k, v in tbl.items():
         key = f"solver_options.{k}"
         if known is not None and k not in known:
