@@ -4,6 +4,7 @@ pure, traceable building blocks (SPEC section 5, S0-10; :mod:`jaxstiff.solvers._
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from typing import Any, overload
 
@@ -90,16 +91,19 @@ class WaypointProblem:
         """Actuated joints (locked included)."""
         return self.robot.n
 
-    @property
+    # The layout below is read per SLSQP step (tens of thousands of times in a batch's polish):
+    # computed once per problem (cached_property writes the instance's __dict__, which a frozen
+    # dataclass allows; equality and hash still read the fields only).
+    @functools.cached_property
     def free_idx(self) -> tuple[int, ...]:
         """Indices of the free joints in q."""
         return tuple(i for i, v in enumerate(self.robot.locked) if v is None)
 
-    @property
+    @functools.cached_property
     def n_free(self) -> int:
         return len(self.free_idx)
 
-    @property
+    @functools.cached_property
     def spring_idx(self) -> tuple[int, ...]:
         """Indices of the joints with a spring, i.e. a stiffness variable: every joint with
         ``locked_joints="spring"``, the free joints with ``"rigid"``."""
@@ -107,17 +111,17 @@ class WaypointProblem:
             return tuple(range(self.n))
         return self.free_idx
 
-    @property
+    @functools.cached_property
     def n_spring(self) -> int:
         """Number of stiffness variables (``n`` or ``n_free``, see :attr:`spring_idx`)."""
         return len(self.spring_idx)
 
-    @property
+    @functools.cached_property
     def all_springs(self) -> bool:
         """True if every joint has a spring (no rigid locked joint): kj in x is all of kj."""
         return self.n_spring == self.n
 
-    @property
+    @functools.cached_property
     def nx(self) -> int:
         """Length of the decision vector ``x = [q_free, kj_spring]`` (``n_free + n_spring``)."""
         return self.n_free + self.n_spring
@@ -135,7 +139,12 @@ class WaypointProblem:
         joints read ``+inf`` (infinite stiffness). numpy in, numpy out; JAX in, JAX out."""
         if self.all_springs:
             return kv
-        xp = jnp if isinstance(kv, jax.Array) else np
+        if not isinstance(kv, jax.Array):  # numpy: one placement, the values themselves
+            kv = np.asarray(kv)
+            full = np.full((*kv.shape[:-1], self.n), np.inf, dtype=np.promote_types(kv.dtype, np.float16))
+            full[..., list(self.spring_idx)] = kv
+            return full
+        xp = jnp
         kv = xp.asarray(kv)
         cols, k = [], 0
         for i in range(self.n):
