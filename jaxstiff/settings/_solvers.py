@@ -268,7 +268,7 @@ class HybridOptions(SolverOptions):
         "greedy", "greedy: SLSQP chains from its own previous waypoint; pgd: from pgd's", choices=("greedy", "pgd")
     )
     polish_skip_tol: float = option(
-        1e-9,
+        1e-6,
         "pgd's admissible waypoints whose criterion is within this (relative) of the criterion's "
         "least possible value (f2: 1, f1: c) are kept without SLSQP; 0 polishes them all",
         kind="nonnegative",

@@ -35,9 +35,14 @@ Two chainings (``options["chain"]``):
   not leave pgd's corridor.
 
 Options (besides pgd's and SLSQP's ``maxiter``/``ftol``): ``chain``; ``polish_slsqp`` = ``"all"``
-(default) or ``"unusable"`` (only where pgd failed); ``polish_skip_tol`` (default 1e-9): where
+(default) or ``"unusable"`` (only where pgd failed); ``polish_skip_tol`` (default 1e-6): where
 pgd's point is admissible and its criterion is within this (relative) of the criterion's least
-possible value (f2: 1, f1: c), SLSQP is not run there (it could only tie); 0 runs it everywhere.
+possible value (f2: 1, f1: c), SLSQP is not run there; 0 runs it everywhere. For f2 = (1 + |alpha|)
+(1 + |r - rho|) a gap of 1e-6 is a ratio within 1e-6 of r and an orientation within 1e-6 degrees,
+and it is SLSQP's own precision at f2's kinks (its answers there end 1e-7 to 3e-7 above 1 at
+ftol 1e-8): a polish could move such a point only in digits that mean nothing, and on the greedy
+chain its new posture can send every later waypoint out of pgd's rate corridor, to be solved again
+from scratch (one LWR path of 50 waypoints: 5000 lockstep rounds, then discarded as no better).
 
 Speed: the B paths' polishes advance together (:mod:`jaxstiff.solvers._lockstep`): each path's
 sequential logic is a generator of SLSQP kernel requests, and each round evaluates all pending
