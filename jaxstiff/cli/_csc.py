@@ -346,7 +346,7 @@ def _meta(
         "nu0": settings.nu0,
         "damping": settings.damping,
         "null_eps": "1e-9 * |K_xd|_F + 1e-77 (tiny^(1/4), float64)" if settings.null_eps is None else settings.null_eps,
-        **{k: (v if not (isinstance(v, float) and math.isinf(v)) else str(v)) for k, v in used.items()},
+        **used,  # (a number that is not finite is spelt "Infinity" by the file's meta writer)
         "status_bits": {str(k): v for k, v in STATUS_NAMES.items()},
         "units": array_units(robot, settings.task or ""),
         "row_k": "posture after step k, measured against waypoint k",

@@ -275,13 +275,19 @@ def atomic_write_text(file: str | os.PathLike, text: str) -> str:
 NONFINITE_TEXT = {"Infinity": math.inf, "-Infinity": -math.inf, "NaN": math.nan}
 
 
+def nonfinite_text(x: float) -> str:
+    """How a result file's ``meta`` spells a number that is not finite: ``"Infinity"``,
+    ``"-Infinity"`` or ``"NaN"`` (:data:`NONFINITE_TEXT`; read back as floats by :func:`meta_loads`)."""
+    return "NaN" if x != x else ("Infinity" if x > 0 else "-Infinity")
+
+
 def _strict(o: Any) -> Any:
     if isinstance(o, np.ndarray):
         o = o.tolist()
     elif isinstance(o, (np.floating, np.integer, np.bool_)):
         o = o.item()
     if isinstance(o, float) and not math.isfinite(o):
-        return "NaN" if o != o else ("Infinity" if o > 0 else "-Infinity")
+        return nonfinite_text(o)
     if isinstance(o, dict):
         return {k: _strict(v) for k, v in o.items()}
     if isinstance(o, (list, tuple)):

@@ -28,6 +28,7 @@ from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
+from jaxstiff.runtime._io import nonfinite_text
 from jaxstiff.runtime._messages import suggest as suggest  # (re-exported: its home before it moved down)
 
 __all__ = ["Settings", "setting", "Axis", "positive", "finite", "suggest"]
@@ -338,7 +339,7 @@ class Settings:
 
 def _jsonable(v: Any) -> Any:
     if isinstance(v, float) and not math.isfinite(v):
-        return str(v)  # "inf": JSON has no infinity
+        return nonfinite_text(v)  # JSON has no infinity: spelt as every result file's meta spells it
     if isinstance(v, tuple):
         return [_jsonable(x) for x in v]
     if isinstance(v, dict):

@@ -179,3 +179,32 @@ def test_meta_is_strict_json_and_non_finite_numbers_come_back(tmp_path):
     assert back["robot"]["lower"] == [-1.0, -math.inf] and back["robot"]["upper"] == [1.0, math.inf]
     assert back["limits"]["kmax"] == math.inf and math.isnan(back["extra_nan"][0]) and back["extra_nan"][1] == 2.5
     assert back["robot"]["name"] == "Infinity-arm"  # only the exact spellings are numbers
+
+
+def test_settings_in_meta_spell_infinity_as_the_file_does(tmp_path):
+    """`shape --dq-deg inf --dk inf`: meta["limits"] said "Infinity" while meta["settings"] said
+    "inf", which ShapeResult.load left a string (np.clip(x, 0, meta[...]) then raised). Every
+    non-finite number of a written meta is one of the three documented spellings, and comes back
+    from ShapeResult.load as a float."""
+    import math
+
+    res = jaxstiff.shape("kuka_lwr4", jaxstiff.default_path().points[:3], "f2", 5.0, dq=math.inf, dk=math.inf)
+    f = res.save(tmp_path / "r.npz")
+    with np.load(f, allow_pickle=False) as z:
+        raw = json.loads(str(z["meta"]))
+
+    def strings(o):
+        if isinstance(o, dict):
+            for v in o.values():
+                yield from strings(v)
+        elif isinstance(o, list):
+            for v in o:
+                yield from strings(v)
+        elif isinstance(o, str):
+            yield o
+
+    spelt = set(strings(raw))
+    assert not spelt & {"inf", "-inf", "nan"}, spelt & {"inf", "-inf", "nan"}  # str(float)'s spellings
+    assert raw["settings"]["dq"] == "Infinity" and raw["settings"]["dk"] == "Infinity"
+    back = R.ShapeResult.load(f).meta
+    assert back["settings"]["dq"] == math.inf and back["settings"]["dk"] == math.inf
