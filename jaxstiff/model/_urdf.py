@@ -297,13 +297,26 @@ FINGER_WORDS = ("finger", "jaw", "claw", "thumb", "knuckle")
 #: the gripper's body, where a bare flange link beside it has no such name (Franka's ``panda_hand``
 #: against ``panda_link9``)
 TIP_NAME_TIERS = (("tcp",), ("tool",), ("end_effector", "endeffector", "eef", "ee"), ("flange",), ("hand",))
+#: words of a sensor's frame (whole words of the link name, any case): such a leaf is no end effector
+#: whatever else its name says (Baxter's ``left_hand_camera``, ``left_hand_range`` beside the
+#: ``left_gripper`` it is mounted on) and yields to any other leaf with as many joints
+SENSOR_WORDS = ("camera", "cam", "sensor", "imu", "lidar", "laser", "range", "sonar", "depth", "optical", "rgb")
+_SENSOR_RE = re.compile(r"(^|[^a-z])(" + "|".join(SENSOR_WORDS) + r")([^a-z]|$)")
 _GRIPPER_RE = re.compile("|".join(GRIPPER_WORDS), re.IGNORECASE)
 _FINGER_RE = re.compile("|".join(FINGER_WORDS), re.IGNORECASE)
 
 
+def _is_sensor(link: str) -> bool:
+    """The link's name has a :data:`SENSOR_WORDS` word (``left_hand_camera_axis``, ``imu_link``)."""
+    return bool(_SENSOR_RE.search(link.lower()))
+
+
 def _name_tier(link: str) -> int:
-    """The link's rank in :data:`TIP_NAME_TIERS` (0 best); ``len(TIP_NAME_TIERS)``: not an end-effector name."""
+    """The link's rank in :data:`TIP_NAME_TIERS` (0 best); ``len(TIP_NAME_TIERS)``: not an
+    end-effector name (a sensor's frame never is one, :data:`SENSOR_WORDS`)."""
     low = link.lower()
+    if _is_sensor(link):
+        return len(TIP_NAME_TIERS)
     for tier, words in enumerate(TIP_NAME_TIERS):
         if any(re.search(r"(^|[^a-z])ee([^a-z]|$)", low) if w == "ee" else w in low for w in words):
             return tier
@@ -325,6 +338,7 @@ class TipCandidate:
             (:data:`FINGER_WORDS`: a finger tip fixed to the hand).
         blocked_by: a mimic, floating or planar joint on its chain (no chain can run through it), or None.
         name_tier: its rank among end-effector names (:data:`TIP_NAME_TIERS`; their count: none).
+        sensor: its name is a sensor frame's (:data:`SENSOR_WORDS`).
     """
 
     link: str
@@ -334,6 +348,7 @@ class TipCandidate:
     finger: bool
     blocked_by: str | None
     name_tier: int
+    sensor: bool = False
 
     @property
     def moving(self) -> int:
@@ -357,6 +372,8 @@ class TipCandidate:
             parts.append("finger part")
         if self.name_tier < len(TIP_NAME_TIERS):
             parts.append("end-effector name")
+        if self.sensor:
+            parts.append("sensor frame")
         return "; ".join(parts)
 
 
@@ -421,11 +438,12 @@ def _candidate(tree: _Tree, base_link: str, leaf: str, grippers: set[str]) -> Ti
         finger=bool(finger),
         blocked_by=next((j.name for j in chain if _unsupported(j)), None),
         name_tier=_name_tier(leaf),
+        sensor=_is_sensor(leaf),
     )
 
 
 def _rank(c: TipCandidate) -> tuple:
-    return (c.gripper_joint is not None, c.blocked_by is not None, -c.moving, c.finger, c.name_tier, c.link)
+    return (c.gripper_joint is not None, c.blocked_by is not None, -c.moving, c.finger, c.sensor, c.name_tier, c.link)
 
 
 def _tip_choice(tree: _Tree, base_link: str) -> tuple[list[TipCandidate], str | None, str]:
@@ -461,6 +479,8 @@ def _tip_choice(tree: _Tree, base_link: str) -> tuple[list[TipCandidate], str | 
         )
     if any(not c.finger for c in best):
         best = [c for c in best if not c.finger]
+    if any(not c.sensor for c in best):
+        best = [c for c in best if not c.sensor]
     tier = min(c.name_tier for c in best)
     best = [c for c in best if c.name_tier == tier]
     if len(best) != 1:
@@ -502,7 +522,8 @@ def tip_candidates(path: str | os.PathLike, base_link: str | None = None) -> tup
        actuated joints (its mimic joints included: :attr:`TipCandidate.moving`) as the best other
        leaf, the choice is left to the user (an error).
     4. Ties: a leaf whose last fixed links or joints are named like a finger part (a finger tip on
-       a fixed joint: :data:`FINGER_WORDS`) yields to one that is not; then end-effector names decide, best first:
+       a fixed joint: :data:`FINGER_WORDS`) yields to one that is not, and so does a sensor's frame
+       (``camera``, ``imu``, ``range``, ...: :data:`SENSOR_WORDS`); then end-effector names decide, best first:
        ``tcp``, ``tool`` (``tool0``), ``end_effector`` / ``eef`` / ``ee`` (``ee_link``), ``flange``,
        ``hand`` (Franka's ``panda_hand``).
     5. Still tied: no automatic tip (an error that lists the tied leaves).

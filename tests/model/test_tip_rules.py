@@ -118,6 +118,25 @@ def test_the_hand_wins_over_a_bare_link_beside_it(write):
     assert r.tip_link == "panda_flange"
 
 
+def test_a_sensor_frame_is_no_end_effector(write):
+    """Baxter hangs ``left_hand_camera``, ``left_hand_camera_axis`` and ``left_hand_range`` beside
+    its ``left_gripper``: "hand" made the sensor frames end-effector names, and the automatic tip
+    (or the ambiguity error's example) was a camera. A sensor's frame now yields to any other leaf
+    with as many joints, and is never an end-effector name."""
+
+    def fixed(link: str, parent: str = "l2") -> str:
+        return f'<link name="{link}"/><joint name="{link}_joint" type="fixed"><parent link="{parent}"/><child link="{link}"/></joint>'
+
+    sensors = fixed("wrist_hand_camera") + fixed("wrist_hand_camera_axis") + fixed("wrist_hand_range")
+    r = jaxstiff.Robot.from_urdf(write(arm(sensors, hand="wrist_gripper")))
+    assert r.tip_link == "wrist_gripper"
+    ranked, chosen, _ = tip_candidates(write(arm(sensors, hand="imu_link")))
+    by_link = {c.link: c for c in ranked}
+    assert by_link["wrist_hand_camera"].sensor and "end-effector name" not in by_link["wrist_hand_camera"].note()
+    assert "sensor frame" in by_link["wrist_hand_range"].note()
+    assert chosen is None  # only sensor frames: still a tie for the user, not a camera chosen
+
+
 def test_parallel_jaws_are_cut_off_whatever_their_names(write):
     """Two prismatic joints side by side at the end of the chain, named j3 and j4: a parallel gripper."""
     r = jaxstiff.Robot.from_urdf(write(arm(jaw("j3", "left") + jaw("j4", "right"))))
