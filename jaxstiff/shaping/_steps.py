@@ -263,8 +263,8 @@ def shape_meta(
             "kmin": inp.kmin,
             "kmax": inp.kmax,
             "first_rate_limit": bool(first_rate_limit),
-            "dq_unit": "rad per waypoint",
-            "dk_unit": "Nm/rad per waypoint",
+            "dq_unit": "rad per waypoint (m for a prismatic joint)",
+            "dk_unit": "Nm/rad per waypoint (N/m for a prismatic joint)",
         },
         "per_path": [
             k
