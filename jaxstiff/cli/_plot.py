@@ -89,8 +89,11 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
                 parse_waypoints(args.waypoints, data.P)  # its checks
                 written = figure_shape_path(res, data.robot, args.out, title, every=int(args.waypoints), b=b)
         else:
+            from jaxstiff.csc import STATUS_JOINT_LIMIT
             from jaxstiff.plots import figure_u_frobenius
 
+            status = data.arrays.get("status")
+            limits = None if status is None else (np.asarray(status).astype(np.int64) & int(STATUS_JOINT_LIMIT)) != 0
             written = figure_u_frobenius(
                 np.arange(data.P),
                 data.arrays["u"],
@@ -98,6 +101,7 @@ def _add_plot(p: argparse.ArgumentParser) -> Any:
                 data.labels,
                 args.out,
                 suptitle=f"CSC {os.path.basename(data.source)}: robot {data.robot.name}",
+                limit_steps=limits,
             )
         print(f"wrote {written}")
         return 0

@@ -263,7 +263,7 @@ def figure_criteria(
     return save_figure(fig, file)
 
 
-def figure_u_frobenius(
+def figure_u_frobenius(  # noqa: PLR0913 - the data, then keyword-only figure options
     steps: ArrayLike,
     u: ArrayLike,
     frobenius: ArrayLike,
@@ -275,6 +275,7 @@ def figure_u_frobenius(
     suptitle: str | None = None,
     figsize: tuple[float, float] = (12, 4.5),
     dpi: int = 120,
+    limit_steps: ArrayLike | None = None,
 ) -> str:
     """CSC over time: u(q) (left) and ``|K_xd - K_C|_F`` (right), one curve per rollout.
 
@@ -287,9 +288,11 @@ def figure_u_frobenius(
         xlabel: label of both x axes.
         titles: titles of the two panels.
         suptitle: title above both panels (none if None).
+        limit_steps: (B, T) bool, the steps where a joint was clamped at its limit (a csc file's
+            ``status`` bit 2): marked on both curves, so that a kink there is explained.
 
     Raises:
-        ValueError: u and frobenius are not (B, T) with T = len(steps) and B = len(labels).
+        ValueError: u, frobenius (and limit_steps) are not (B, T) with T = len(steps) and B = len(labels).
     """
     steps = np.asarray(steps)
     u = np.atleast_2d(np.asarray(u, dtype=float))
@@ -300,11 +303,23 @@ def figure_u_frobenius(
             f"figure_u_frobenius: u {u.shape} and frobenius {frobenius.shape} must both be "
             f"(len(labels), len(steps)) = {want}"
         )
+    marks = np.zeros(want, bool) if limit_steps is None else np.atleast_2d(np.asarray(limit_steps, dtype=bool))
+    if marks.shape != want:
+        raise ValueError(f"figure_u_frobenius: limit_steps {marks.shape} must be (len(labels), len(steps)) = {want}")
     plt = pyplot()
     fig, ax = plt.subplots(1, 2, figsize=figsize)
-    for ub, fb, lab in zip(u, frobenius, labels, strict=False):
-        ax[0].plot(steps, ub, label=lab)
-        ax[1].plot(steps, fb, label=lab)
+    for i, (ub, fb, lab) in enumerate(zip(u, frobenius, labels, strict=False)):
+        for a, y in ((ax[0], ub), (ax[1], fb)):
+            (line,) = a.plot(steps, y, label=lab)
+            if marks[i].any():
+                a.plot(
+                    steps[marks[i]],
+                    y[marks[i]],
+                    "x",
+                    color=line.get_color(),
+                    markersize=6,
+                    label=f"{lab}: joint at its limit ({int(marks[i].sum())} steps)",
+                )
     ax[0].set(xlabel=xlabel, ylabel="u(q) [Nm/rad]", title=titles[0])
     ax[1].set(xlabel=xlabel, ylabel=r"$\|K_{xd} - K_C\|_F$ [N/m]", title=titles[1])
     for a in ax:

@@ -131,6 +131,35 @@ def test_figure_u_frobenius(tmp_path):
     assert not os.path.exists(tmp_path / "bad.png")
 
 
+def test_figure_u_frobenius_marks_the_joint_limit_steps(tmp_path, monkeypatch):
+    """A csc run that clamps a joint at its limit kinks u there; the figure marks those steps (a
+    user saw the kink unexplained). The markers sit on the curve at exactly the flagged steps."""
+    import matplotlib.axes
+
+    k = np.arange(11)
+    u = np.stack([100.0 - k, 100.0 - 2 * k])
+    fr = np.stack([50.0 - k, 50.0 - 3 * k])
+    flagged = np.zeros((2, 11), bool)
+    flagged[1, [6, 7, 9]] = True
+    drawn = []
+    plot = matplotlib.axes.Axes.plot
+
+    def spy(self, *args, **kwargs):
+        drawn.append((args, kwargs))
+        return plot(self, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "plot", spy)
+    plots.figure_u_frobenius(k, u, fr, ["a", "b"], tmp_path / "u.png", dpi=40, limit_steps=flagged)
+    marks = [(a, kw) for a, kw in drawn if len(a) > 2 and a[2] == "x"]
+    assert len(marks) == 2  # path b on both panels; path a has none
+    for (x, y, _), kw in marks:
+        np.testing.assert_array_equal(x, [6, 7, 9])
+        assert np.array_equal(y, u[1, [6, 7, 9]]) or np.array_equal(y, fr[1, [6, 7, 9]])
+        assert kw["label"] == "b: joint at its limit (3 steps)"
+    with pytest.raises(ValueError, match="limit_steps"):
+        plots.figure_u_frobenius(k, u, fr, ["a", "b"], tmp_path / "bad.png", limit_steps=flagged[:1])
+
+
 @pytest.mark.slow
 def test_figure_shape_path_on_a_small_result(tmp_path):
     """The seven panels from a hand-made result (no solver run): the LWR along 6 waypoints of a line."""
