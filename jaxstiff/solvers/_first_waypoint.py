@@ -37,7 +37,7 @@ from jaxstiff.solvers._greedy import (
     maybe_off_target,
     rescue_starts,
 )
-from jaxstiff.solvers._lockstep import RowsProgram, Steps, run_lockstep
+from jaxstiff.solvers._lockstep import RowsProgram, Steps, gather, run_lockstep
 from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, clip_to_box, compiled_scaled_rows, jax_pos_and_jac
 
 __all__ = [
@@ -143,24 +143,22 @@ def exact_first_answers(
         given = first_starts[b] if first_starts else ()
         xs = [problem.x_of(q0, kj0)] + [problem.x_of(np.asarray(q, float), np.asarray(k, float)) for q, k in given]
         starts.append([clip_to_box(x, lb, ub) for x in xs])
-    jobs = [(b, x) for b in range(B) for x in starts[b]]
-    answers = run_lockstep([one(b, x, *boxes[b]) for b, x in jobs], program)
-    cands: list[list[Candidate]] = [[] for _ in range(B)]
-    for (b, _), cand in zip(jobs, answers, strict=True):
-        cands[b].append(cand)
-    # no start provably in target: as many again from the whole ranges (greedy SLSQP's rescue)
-    rescue = [
-        (b, x)
-        for b in range(B)
-        if maybe_off_target(problem, cands[b], float(batch.ratios[b]), batch.c)
-        for x in rescue_starts(
-            problem, len(starts[b]), starts[b][0], boxes[b][0], boxes[b][1], batch.targets[b, 0], batch.directions[b, 0]
-        )
-    ]
-    if rescue:
-        more = run_lockstep([one(b, x, *boxes[b]) for b, x in rescue], program)
-        for (b, _), cand in zip(rescue, more, strict=True):
-            cands[b].append(cand)
+
+    def search(b: int) -> Steps[list[Candidate]]:
+        """Path b's search: its starts side by side; where none is provably in target, as many again
+        from the whole ranges (greedy SLSQP's rescue), at once, while other paths' starts still run.
+        (Run as two lockstep phases, every path's rescue waited for the slowest start of any path:
+        on the UR10, 36 paths, 2494 + 3520 rounds where a path's own two phases take fewer.)"""
+        found = yield from gather([one(b, x, *boxes[b]) for x in starts[b]])
+        if maybe_off_target(problem, found, float(batch.ratios[b]), batch.c):
+            lb, ub = boxes[b]
+            more = rescue_starts(
+                problem, len(starts[b]), starts[b][0], lb, ub, batch.targets[b, 0], batch.directions[b, 0]
+            )
+            found += yield from gather([one(b, x, lb, ub) for x in more])
+        return found
+
+    cands = run_lockstep([search(b) for b in range(B)], program)
     out = []
     for b in range(B):
         usable = sorted((c for c in cands[b] if c[1] in R.USABLE), key=lambda c: c[4])
