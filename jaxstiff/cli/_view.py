@@ -115,7 +115,7 @@ def _add_view(p: argparse.ArgumentParser) -> Any:
         "--scale",
         type=float,
         default=None,
-        help="ellipsoid scale, N/m of stiffness per metre on screen (default: a round number that draws the largest semi-axis about 0.21 x the arm's length long, 25 cm on the LWR)",
+        help="ellipsoid scale, N/m of stiffness per metre of the scene (the arm's metres, not of the screen: the view zooms) (default: a round number that draws the largest semi-axis about 0.21 x the arm's length long, 25 cm on the LWR)",
     )
     p.add_argument("--every", type=int, default=1, help="'all ellipsoids': draw every N-th waypoint's (N >= 1)")
 

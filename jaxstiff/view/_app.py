@@ -4,7 +4,10 @@ page with the same panel is :func:`jaxstiff.view._static.write_html`.
 The panel: a path selector (B > 1), the waypoint slider, play/pause and the speed, "all ellipsoids
 along the path", and the numbers at the current waypoint (shape: alpha, rho, criterion, status,
 CMS factor; csc: u, the Frobenius error, tracking error, status) and kj per joint ("rigid" for a
-rigid locked joint), the robot, the solver or controller, and the ellipsoid scale.
+rigid locked joint), the robot, the solver or controller, the ellipsoid scale (per cm of the scene,
+:meth:`Scene.scale_text`), what each colour is (:meth:`Scene.legend`), and, while "all ellipsoids"
+is on and they are large beside the path, a hint at ``--scale`` (:meth:`Scene.all_hint`). Waypoints
+are numbered from 0, as ``--waypoint``, the slider and the files.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ __all__ = ["Viewer"]
 def panel_markdown(data: ViewData, b: int, p: int) -> str:
     """The panel's numbers at path b, waypoint p (markdown)."""
     word = "waypoint" if data.kind == "shape" else "step"
-    lines = [f"**{word} {p} of {data.P - 1}**, {data.labels[b]}", ""]
+    lines = [f"**{word} {p} (0-based) of {data.P}**, {data.labels[b]}", ""]
     lines += [f"- {k}: {v}" for k, v in data.info(b, p)]
     kind = "kj_scaled (after CMS)" if data.kind == "shape" else "realised kj"
     lines += ["", f"**{kind}**", ""] + [f"- {name}: {v}" for name, v in data.kj_lines(b, p)]
@@ -38,9 +41,7 @@ def header_markdown(data: ViewData, scene: Scene) -> str:
         what = f"csc, task {m.get('task')}, {m.get('step')} step, beta {m.get('beta')}"
     return (
         f"**{os.path.basename(data.source)}**: {what}; robot {data.robot.name} ({data.robot.n} joints, "
-        f"locked joints: {data.locked_joints}). {scene.scale_text()}. Orange: "
-        + ("K_T after CMS" if data.kind == "shape" else "realised K_C at the TCP; teal, beside it: desired K_xd")
-        + "; green: path; purple: desired direction; red: joint axes."
+        f"locked joints: {data.locked_joints}). {scene.scale_text()}.\n\n{scene.legend()}"
     )
 
 
@@ -62,7 +63,9 @@ class Viewer:
         self.play = gui.add_checkbox("play", initial_value=False)
         self.fps = gui.add_slider("play speed (per s)", min=1, max=60, step=1, initial_value=10)
         self.all = gui.add_checkbox("all ellipsoids along the path", initial_value=False)
-        self.all.on_update(lambda _: self.scene.show_all(bool(self.all.value)))
+        self.all.on_update(lambda _: self._all_changed())
+        hint = self.scene.all_hint()  # shown while "all ellipsoids" is on
+        self.hint = gui.add_markdown(hint, visible=False) if hint else None
         self.panel = gui.add_markdown(panel_markdown(data, 0, 0))
         self.lock = threading.Lock()
 
@@ -73,7 +76,13 @@ class Viewer:
         self.slider.value = min(max(int(p), 0), self.data.P - 1)
         self.all.value = bool(all_on)
         self.refresh()
-        self.scene.show_all(bool(all_on))
+        self._all_changed()
+
+    def _all_changed(self) -> None:
+        on = bool(self.all.value)
+        self.scene.show_all(on)
+        if self.hint is not None:
+            self.hint.visible = on
 
     def _b(self) -> int:
         return 0 if self.path is None else self.data.labels.index(str(self.path.value))

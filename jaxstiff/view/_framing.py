@@ -27,7 +27,9 @@ __all__ = ["ArmSizes", "arm_length", "MANTISSAS"]
 
 #: the round mantissas a scale can take: 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 x 10^k (neighbours at most 4/3 apart)
 MANTISSAS = (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
-SEMI_AXIS_PER_LENGTH = 0.21  #: largest semi-axis on screen / arm length (0.25 m on the 1.18 m LWR)
+SEMI_AXIS_PER_LENGTH = (
+    0.21  #: largest drawn semi-axis / arm length, both in the scene's metres (0.25 m on the 1.18 m LWR)
+)
 RADIUS_PER_LENGTH = 0.025  #: link radius / arm length (0.03 m on the LWR)
 #: a view that shows the ellipsoid's cross-section at half its largest (pi a b), or the path's plane
 #: at 0.3 of face on (33 degrees above a horizontal plane), scores full marks: looking straight along
@@ -35,21 +37,22 @@ RADIUS_PER_LENGTH = 0.025  #: link radius / arm length (0.03 m on the LWR)
 ELLIPSOID_ENOUGH, PLANE_ENOUGH = 0.5, 0.3
 
 
-def nice_scale(largest: float, screen: float) -> float:
-    """N/m per metre on screen that draws a semi-axis of ``largest`` N/m about ``screen`` m long:
-    ``largest / screen`` rounded to the nearest (in ratio) of :data:`MANTISSAS` x 10^k, so the drawn
-    length is within a factor 1.16 of ``screen`` (the former rounding *up* to 1, 2 or 5 x 10^k drew
-    it anywhere from 0.4 to 1 times ``screen``: 11 cm instead of 25 for ``largest / screen`` = 2.2)."""
-    if not np.isfinite(largest) or largest <= 0 or not screen > 0:
+def nice_scale(largest: float, drawn: float) -> float:
+    """N/m of stiffness per metre of the scene (the arm's own metres, not of the screen: the view is
+    perspective and zooms) that draws a semi-axis of ``largest`` N/m about ``drawn`` m long:
+    ``largest / drawn`` rounded to the nearest (in ratio) of :data:`MANTISSAS` x 10^k, so the drawn
+    length is within a factor 1.16 of ``drawn`` (the former rounding *up* to 1, 2 or 5 x 10^k drew
+    it anywhere from 0.4 to 1 times ``drawn``: 11 cm instead of 25 for ``largest / drawn`` = 2.2)."""
+    if not np.isfinite(largest) or largest <= 0 or not drawn > 0:
         return 1.0
-    raw = largest / screen
+    raw = largest / drawn
     e = math.floor(math.log10(raw))
     choices = [m * 10.0**k for k in (e - 1, e, e + 1) for m in MANTISSAS]
     return float(min(choices, key=lambda c: abs(math.log(c / raw))))
 
 
-def screen_semi_axis(length: float) -> float:
-    """The length (m) the largest semi-axis is drawn at, for an arm ``length`` m long."""
+def drawn_semi_axis(length: float) -> float:
+    """The length (m, in the scene) the largest semi-axis is drawn at, for an arm ``length`` m long."""
     return SEMI_AXIS_PER_LENGTH * length
 
 

@@ -4,9 +4,13 @@
 its link meshes when the URDF names meshes that resolve, else as capsules between the joint origins
 (joint axes as red strokes); the waypoints as a green line; the desired direction at each waypoint
 as a purple stroke; the stiffness ellipsoid at the TCP (orange; csc: the realised ``K_C`` orange,
-the desired ``K_xd`` teal, beside it to the right on screen, both labelled). Semi-axes are drawn at a fixed scale
-for the whole file, ``n_per_m`` N/m per metre on screen (1 cm = ``n_per_m / 100`` N/m), stated in the
-panel and the page's label. Colours (RGB) are fixed so that tests can find them in a screenshot.
+the desired ``K_xd`` teal, beside it to the right on screen, both labelled); the TCP as a black ball
+with a black stick along the tool's z axis (not an RGB axis triad: its red, green and blue would read
+as a joint axis, the path and a link); a floor grid. :meth:`Scene.legend` names each of them for the
+panel. Semi-axes are drawn at a fixed scale for the whole file, ``n_per_m`` N/m per metre of the
+scene (the arm's own metres: the view is perspective and zooms, so no length on screen is fixed;
+1 cm in the scene = ``n_per_m / 100`` N/m), stated in the panel (:meth:`Scene.scale_text`). Colours
+(RGB) are fixed so that tests can find them in a screenshot.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from jaxstiff.view._data import ViewData, check_drawable
-from jaxstiff.view._framing import arm_sizes, choose_view, nice_scale, screen_semi_axis
+from jaxstiff.view._framing import arm_sizes, choose_view, drawn_semi_axis, nice_scale
 from jaxstiff.view._geometry import capsule, cylinder, icosphere
 from jaxstiff.view._kinematics import chain_frames, ellipsoid_axes, link_frames
 from jaxstiff.view._meshes import urdf_meshes
@@ -34,12 +38,17 @@ COLORS = {
     "ellipsoid": (255, 140, 0),
     "desired": (0, 170, 170),
     "all": (255, 190, 90),
+    "tcp": (25, 25, 25),
 }
 _LOOK: dict[str, dict[str, Any]] = {"ellipsoid": {}, "desired": {"opacity": 0.9}}
 NEAR_OPACITY = 0.35  #: links and joints that can come between the camera and the ellipsoid are see-through
 FOV_DEG, ASPECT = 75.0, 1.1  #: viser's vertical field of view; width / height of the page left of the panel
 CAMERA_MARGIN = 1.25  #: the camera this much further than the closest distance that shows everything
 CAMERA_SHIFT = 0.08  #: look this far (diagonals) right of the centre: the panel covers the page's right side
+#: where the label over the TCP goes: a page of ``--png``'s default 1200 x 800 px whose panel covers the right
+#: from 0.71 of its width (0.70: a margin), viser's label font about 6.5 px a character
+PAGE_PX, PAGE_ASPECT, PANEL_FROM, LABEL_CHAR_PX = 1200.0, 1.5, 0.70, 6.5
+ALL_HINT_RATIO = 0.5  #: "all ellipsoids" hints at --scale when a drawn semi-axis exceeds this x the path's extent
 
 
 def rotation_wxyz(R: np.ndarray) -> np.ndarray:
@@ -104,8 +113,9 @@ class Scene:
     Args:
         server: a ``viser.ViserServer``.
         data: the result (:func:`jaxstiff.view._data.load_view_data`).
-        n_per_m: ellipsoid scale, N/m per metre on screen (default: :func:`nice_scale` of the file's
-            largest semi-axis, drawn at :func:`~jaxstiff.view._framing.screen_semi_axis` of the arm's length).
+        n_per_m: ellipsoid scale, N/m per metre of the scene (the arm's metres; default:
+            :func:`nice_scale` of the file's largest semi-axis, drawn at
+            :func:`~jaxstiff.view._framing.drawn_semi_axis` of the arm's length).
         every: with "all ellipsoids", draw every ``every``-th waypoint's.
 
     Sizes follow the arm (:func:`~jaxstiff.view._framing.arm_sizes`); the links and joints that can
@@ -123,7 +133,7 @@ class Scene:
         self.sizes = arm_sizes(*self.frames)
         big = [data.K] + ([data.K_desired] if data.K_desired is not None else [])
         largest = max(float(ellipsoid_axes(k)[0][..., 0].max()) for k in big)
-        self.n_per_m = float(n_per_m) if n_per_m else nice_scale(largest, screen_semi_axis(self.sizes.length))
+        self.n_per_m = float(n_per_m) if n_per_m else nice_scale(largest, drawn_semi_axis(self.sizes.length))
         self.meshes, missing = urdf_meshes(data.robot)
         if missing:
             warnings.warn(
@@ -147,8 +157,8 @@ class Scene:
         self.handles: dict[str, Any] = {}
         self._add_path(0)
         self._add_static_arm()
-        self.show(0, 0)
         self._camera()
+        self.show(0, 0)
 
     # ------------------------------------------------------------------ geometry
     def _chain_points(self) -> np.ndarray:
@@ -214,7 +224,10 @@ class Scene:
             self.handles[f"mesh{k}"] = sc.add_mesh_simple(
                 f"/arm/mesh{k}", m.vertices, m.faces, color=COLORS["arm"], **self._look(near)
             )
-        self.handles["tcp"] = sc.add_frame("/tcp", axes_length=s.tcp_axes, axes_radius=0.08 * s.tcp_axes)
+        # the TCP: a black ball and a black stick along the tool's z axis (module text: not an RGB triad)
+        self.handles["tcp"] = sc.add_mesh_simple("/tcp", *icosphere(2, radius=0.3 * s.radius), color=COLORS["tcp"])
+        tool_z = cylinder(radius=0.12 * s.radius, height=s.tcp_axes, sections=12)
+        self.handles["tcp_z"] = sc.add_mesh_simple("/tcp_z", *tool_z, color=COLORS["tcp"])
         for key in ("ellipsoid", "desired") if self.data.K_desired is not None else ("ellipsoid",):
             self.handles[key] = sc.add_mesh_simple(f"/{key}", *self.sphere, color=COLORS[key], scale=0.01, **_LOOK[key])
         if self.data.K_desired is not None:
@@ -247,7 +260,9 @@ class Scene:
                 self.handles[f"joint{i}"].position = pts[i + 1]
             h = self.handles[f"axis{i}"]
             h.position, h.wxyz = pts[i + 1], _segment_pose(pts[i + 1] - half * z[i], pts[i + 1] + half * z[i])[1]
-        self.handles["tcp"].position, self.handles["tcp"].wxyz = tcp[:3, 3], rotation_wxyz(tcp[:3, :3])
+        self.handles["tcp"].position = tcp[:3, 3]
+        h = self.handles["tcp_z"]  # the stick from the TCP along its z axis
+        h.position, h.wxyz = tcp[:3, 3] + 0.5 * self.sizes.tcp_axes * tcp[:3, 2], rotation_wxyz(tcp[:3, :3])
 
     def _pose_capsule(self, i: int, p0: np.ndarray, p1: np.ndarray) -> None:
         if np.linalg.norm(p1 - p0) < 1e-6:
@@ -288,9 +303,30 @@ class Scene:
             self.handles["realised_label"].position = tcp + np.array([0.0, 0.0, self.beside_height])
         lab = self.handles["label"]
         lab.position = tcp + np.array([0.0, 0.0, self.sizes.label_lift])
-        lab.text = f"{'waypoint' if d.kind == 'shape' else 'step'} {p}: " + ", ".join(
-            f"{k} {v}" for k, v in d.info(b, p)[:2]
-        )
+        lab.text = text = self.label_text(b, p)
+        lab.anchor = self.label_anchor(tcp, text)
+
+    def label_text(self, b: int, p: int) -> str:
+        """The label above the TCP: the waypoint (0-based, as the slider) and its first two numbers,
+        short (their targets and the rest are in the panel)."""
+        d = self.data
+        values = ", ".join(f"{k} {v.split(' (')[0]}" for k, v in d.info(b, p)[:2])
+        return f"{'waypoint' if d.kind == 'shape' else 'step'} {p}: {values}"
+
+    def label_anchor(self, tcp: np.ndarray, text: str) -> str:
+        """Which corner of the label ``text`` sits at the TCP: the text runs to the right of the TCP
+        where it ends left of the panel (which covers the page's right side from :data:`PANEL_FROM`
+        of its width), else to its left; as seen from the starting camera on a page of
+        :data:`PAGE_PX` x :data:`PAGE_ASPECT` (the user may turn the camera; the panel numbers are
+        the same)."""
+        view = self.position - self.look_at
+        depth = float(np.linalg.norm(view))
+        right = np.cross(-view, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        rel = np.asarray(tcp, dtype=float) - self.position
+        ahead = max(float(-(rel @ view)) / depth, 1e-9)
+        x = 0.5 + 0.5 * float(rel @ right) / (ahead * math.tan(math.radians(FOV_DEG) / 2) * PAGE_ASPECT)
+        return "bottom-left" if x + LABEL_CHAR_PX * len(text) / PAGE_PX <= PANEL_FROM else "bottom-right"
 
     def show_all(self, on: bool) -> None:
         """Draw (or remove) the ellipsoids of every ``every``-th waypoint of the current path."""
@@ -355,5 +391,49 @@ class Scene:
         cam.up = (0.0, 0.0, 1.0)
 
     def scale_text(self) -> str:
-        """The stated ellipsoid scale."""
-        return f"ellipsoid semi-axes: 1 cm on screen = {self.n_per_m / 100:.4g} N/m ({self.n_per_m:.4g} N/m per m)"
+        """The stated ellipsoid scale: per length in the scene (measured like the arm; the view is
+        perspective and zooms, so no length on screen is fixed), with the floor grid's cell."""
+        return (
+            f"ellipsoid semi-axes: 1 cm in the scene (measured like the arm, not on screen) = "
+            f"{self.n_per_m / 100:.4g} N/m ({self.n_per_m:.4g} N/m per m; floor grid cells "
+            f"{100 * self.sizes.grid_cell:.0f} cm)"
+        )
+
+    def legend(self) -> str:
+        """What each drawn thing is, by colour (every element of the scene)."""
+        csc = self.data.K_desired is not None
+        parts = [
+            "Orange: " + ("realised K_C at the TCP; teal, beside it: desired K_xd" if csc else "K_T after CMS"),
+            "green line: path (the waypoints)",
+        ]
+        if self.data.direction is not None:
+            parts.append("purple strokes: desired direction")
+        parts += [
+            "blue: links" + ("" if self.meshes else "; dark blue balls: joints"),
+            "red sticks: joint axes",
+            "black ball and stick: the TCP and its z axis",
+            "pale orange: all ellipsoids along the path"
+            + (f" (one in {self.every} waypoints)" if self.every > 1 else ""),
+            "grey: floor grid at z = 0",
+        ]
+        return "; ".join(parts) + "."
+
+    def path_extent(self) -> float:
+        """The largest extent (m) of a path of the file: the diagonal of its waypoints' box."""
+        return float(np.linalg.norm(np.ptp(self.data.target, axis=1), axis=-1).max())
+
+    def all_hint(self) -> str:
+        """A hint at ``--scale`` when "all ellipsoids" would hide the path: the largest drawn semi-axis
+        is longer than :data:`ALL_HINT_RATIO` x the path's extent; "" otherwise (or when the path is a
+        point, or one waypoint)."""
+        extent = self.path_extent()
+        largest = float(ellipsoid_axes(self.data.K)[0][..., 0].max())
+        drawn = largest / self.n_per_m
+        if self.data.P < 2 or extent < 1e-3 or drawn <= ALL_HINT_RATIO * extent:
+            return ""
+        better = nice_scale(largest, 0.3 * extent)
+        return (
+            f"All ellipsoids: the largest semi-axis is drawn {100 * drawn:.3g} cm long, more than half the "
+            f"path's extent ({100 * extent:.3g} cm), so they hide the path and the arm; --scale {better:.4g} "
+            f"draws it {100 * largest / better:.2g} cm long (--every N draws every N-th waypoint's)."
+        )

@@ -10,8 +10,9 @@ the page is built in two parts:
   waypoint``); the messages of a slot put the whole scene in that state, so the scene at any time
   ``t`` of the timeline is the one of slot ``floor(t / SLOT_S)``;
 - our panel (:data:`PANEL_JS`, :data:`PANEL_CSS`, the per-waypoint numbers as JSON in the page):
-  path selector (B > 1), waypoint slider, play and its speed, "all ellipsoids along the path",
-  the numbers and kj per joint at the waypoint. It moves the scene by setting viser's playback time
+  path selector (B > 1), waypoint slider, play and its speed, "all ellipsoids along the path"
+  (with, while it is on, the hint at ``--scale`` of :meth:`Scene.all_hint`, if any), the numbers
+  and kj per joint at the waypoint. It moves the scene by setting viser's playback time
   to the middle of the slot through viser's own time field (then hidden with the rest of viser's
   playback bar), which also pauses viser's player; Space plays / pauses our player instead.
 
@@ -77,6 +78,7 @@ PANEL_CSS = """
 #jx-panel input[type=number]{width:4.5em}#jx-panel select{flex:1 1 auto;max-width:100%}
 #jx-panel .jx-head{font-size:12px;color:#444;border-bottom:1px solid #ddd;padding-bottom:6px;margin-bottom:4px}
 #jx-panel .jx-note{font-size:11px;color:#666}
+#jx-panel .jx-hint{font-size:12px;color:#7a4a00;background:#fff4e0;border-radius:4px;padding:4px 6px;margin:4px 0}
 #jx-toggle{position:fixed;top:12px;right:12px;z-index:1001;font:12px system-ui,sans-serif;display:none}
 .jx-png .mantine-Notifications-root{display:none!important}
 """
@@ -128,6 +130,7 @@ PANEL_JS = r"""
     ui.wp.value = S.waypoint; ui.wpn.value = S.waypoint;
     ui.all.checked = S.all; if (ui.path) ui.path.value = S.path;
     ui.numbers.innerHTML = D.panel[S.path][S.waypoint];
+    ui.hint.style.display = S.all && D.all_hint ? "" : "none";
     return true;
   }
   function build() {
@@ -163,6 +166,9 @@ PANEL_JS = r"""
     ui.all.onchange = function () { S.all = ui.all.checked; apply(); };
     a.appendChild(ui.all); a.appendChild(el("label", {"for": "jx-all"}, "all ellipsoids along the path"));
     P.appendChild(a);
+    ui.hint = el("div", {id: "jx-all-hint", "class": "jx-hint"}, D.all_hint);
+    ui.hint.style.display = "none";
+    P.appendChild(ui.hint);
     ui.numbers = el("div", {id: "jx-numbers"});
     P.appendChild(ui.numbers);
     P.appendChild(el("div", {"class": "jx-note"}, D.note));
@@ -208,6 +214,7 @@ def page_data(data: ViewData, scene: Scene, paths: list[int], b: int, waypoint: 
         "camera": {"position": [float(x) for x in scene.position], "look_at": [float(x) for x in scene.look_at]},
         "n_per_m": scene.n_per_m,
         "note": note,
+        "all_hint": markdown_html(scene.all_hint()),
     }
 
 

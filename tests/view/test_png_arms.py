@@ -108,7 +108,7 @@ def test_png_shows_the_ellipsoid(name: str, tmp_path, capsys) -> None:
     # the arm's blue and the panel are there too (not an orange page)
     blue = (img[..., 2] > 140) & (img[..., 0] < 120) & (img[..., 2] - img[..., 0] > 60)
     assert int(blue[:, :PANEL_LEFT].sum()) > 800
-    assert "<b>waypoint 1 of 3</b>" in page["panel"][0][1]
+    assert "<b>waypoint 1 (0-based) of 4</b>" in page["panel"][0][1]  # 4 waypoints, 0..3
 
 
 def test_png_timeout_writes_nothing(shape_file, tmp_path) -> None:

@@ -19,11 +19,18 @@ MISSING_MESHES_URDF = os.path.join(DATA, "arm4_missing_meshes.urdf")
 
 
 def make_shape_result(
-    robot: jaxstiff.Robot, B: int, P: int, seed: int = 0, rigid: bool = False, task: str = "full"
+    robot: jaxstiff.Robot,
+    B: int,
+    P: int,
+    seed: int = 0,
+    rigid: bool = False,
+    task: str = "full",
+    spread: tuple[float, float] = (0.3, 0.7),
 ) -> jaxstiff.ShapeResult:
+    """``spread``: q is drawn in this fraction of each joint's range (a narrow one: a short path)."""
     rng = np.random.default_rng(seed)
     lo, hi = np.maximum(robot.lower, -2.0), np.minimum(robot.upper, 2.0)
-    q = lo + (hi - lo) * rng.uniform(0.3, 0.7, (B, P, robot.n))
+    q = lo + (hi - lo) * rng.uniform(*spread, (B, P, robot.n))
     q[..., ~robot.free] = robot.locked_values[~robot.free]
     kj = rng.uniform(5.0, 80.0, (B, P, robot.n))
     if rigid:
