@@ -27,9 +27,8 @@ __all__ = ["ArmSizes", "arm_length", "MANTISSAS"]
 
 #: the round mantissas a scale can take: 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 x 10^k (neighbours at most 4/3 apart)
 MANTISSAS = (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)
-SEMI_AXIS_PER_LENGTH = (
-    0.21  #: largest drawn semi-axis / arm length, both in the scene's metres (0.25 m on the 1.18 m LWR)
-)
+#: largest drawn semi-axis / arm length, both in the scene's metres (0.25 m on the 1.18 m LWR)
+SEMI_AXIS_PER_LENGTH = 0.21
 RADIUS_PER_LENGTH = 0.025  #: link radius / arm length (0.03 m on the LWR)
 #: a view that shows the ellipsoid's cross-section at half its largest (pi a b), or the path's plane
 #: at 0.3 of face on (33 degrees above a horizontal plane), scores full marks: looking straight along
