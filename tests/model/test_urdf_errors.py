@@ -179,18 +179,22 @@ def test_no_path_between_base_and_tip():
 
 
 def test_ambiguous_tip(write):
-    """Two leaves through the same four joints and neither an end-effector name ('tool' renamed
-    'probe'): the error lists both (with "tool" the name breaks the tie: test_tip_rules.py)."""
+    """Two leaves through the same four joints, neither an end-effector name nor a sensor's frame
+    ('tool' renamed 'probe', 'camera' renamed 'bracket'): the error lists both (with "tool" the
+    name breaks the tie, and a "camera" yields to any other leaf: test_tip_rules.py)."""
     with open(BRANCHED) as fh:
-        path = write(fh.read().replace('"tool"', '"probe"'))
+        text = fh.read()
+    path = write(text.replace('"tool"', '"probe"').replace('"camera"', '"bracket"'))
     with raises(
         ValueError,
         "tip link is ambiguous below 'world'",
-        "leaves 'camera', 'probe' each have 4 actuated joints",
+        "leaves 'bracket', 'probe' each have 4 actuated joints",
         "pass tip_link (command line: --tip-link)",
-        "Candidate tips: 'camera' (4 actuated joints); 'probe' (4 actuated joints); 'side_link'",
+        "Candidate tips: 'bracket' (4 actuated joints); 'probe' (4 actuated joints); 'side_link'",
     ):
         jaxstiff.Robot.from_urdf(path)
+    # the camera kept: a sensor's frame is no tip where another leaf has as many joints
+    assert jaxstiff.Robot.from_urdf(write(text.replace('"tool"', '"probe"'), "cam.urdf")).tip_link == "probe"
 
 
 def test_chain_without_actuated_joints():
