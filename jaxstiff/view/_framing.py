@@ -55,6 +55,9 @@ def drawn_semi_axis(length: float) -> float:
     return SEMI_AXIS_PER_LENGTH * length
 
 
+screen_semi_axis = drawn_semi_axis  #: its former name (the former module jaxstiff.view.framing exported it)
+
+
 def _chain_points(joints: np.ndarray, tcp: np.ndarray) -> np.ndarray:
     """(..., n + 2, 3): base origin, joint origins, TCP."""
     base = np.zeros(joints.shape[:-3] + (1, 3))
