@@ -41,8 +41,10 @@ class Progress:
     """A sweep's progress on stderr (:mod:`jaxstiff.runtime._progress`: a tqdm bar on a terminal,
     otherwise a plain line every 10 s and at the end).
 
-    Counts work in waypoints (rollout steps), so the ETA moves inside long chunks; the note says
-    the rows and chunks done. A resumed run starts at the finished chunks' share.
+    Counts work in waypoints (rollout steps) as they are solved, so the ETA moves inside long
+    chunks; the note says the rows and chunks *saved* (a chunk's waypoints can all be solved while
+    its result is still being written: an interrupt then redoes that chunk on ``--resume``). A
+    resumed run starts at the finished chunks' share.
     """
 
     def __init__(
@@ -66,7 +68,7 @@ class Progress:
         self.bar.set_note(self._note())
 
     def _note(self) -> str:
-        return f"rows {self.rows_done}/{self.total_rows}, chunks {self.chunks_done}/{self.total_chunks}"
+        return f"saved: rows {self.rows_done}/{self.total_rows}, chunks {self.chunks_done}/{self.total_chunks}"
 
     def tick(self, units: float = 1.0) -> None:
         """``units`` more waypoints of the chunk in flight are done."""

@@ -495,3 +495,20 @@ def test_heatmap_of_an_all_nan_metric_is_written_without_warnings(tmp_path):
         warnings.simplefilter("error")
         f = heatmap(df, plan, "ratio", "dk", "max_alpha_deg", str(tmp_path / "h.png"))
     assert os.path.getsize(f) > 1000
+
+
+def test_progress_note_says_saved_not_solved(csc_run):
+    """The progress line counts waypoints as they are solved; its note counts rows and chunks as
+    they are saved. A user saw "40/480 waypoints (rows 0/24, chunks 0/12)", interrupted, and found
+    that chunk redone: the note now says those counts are the saved ones."""
+    import io
+
+    from jaxstiff.sweep._backends import Progress
+
+    plan = csc_run.plan
+    stream = io.StringIO()
+    prog = Progress("t", plan, done_chunks=[0], enabled=True, stream=stream)
+    first = plan.chunks[0]
+    note = prog._note()
+    assert note == f"saved: rows {len(first.rows)}/{plan.n_rows}, chunks 1/{len(plan.chunks)}", note
+    prog.close()
