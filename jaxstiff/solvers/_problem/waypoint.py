@@ -144,16 +144,14 @@ class WaypointProblem:
             full = np.full((*kv.shape[:-1], self.n), np.inf, dtype=np.promote_types(kv.dtype, np.float16))
             full[..., list(self.spring_idx)] = kv
             return full
-        xp = jnp
-        kv = xp.asarray(kv)
-        cols, k = [], 0
+        cols, k = [], 0  # JAX: traceable, one column at a time
         for i in range(self.n):
             if i in self.spring_idx:
                 cols.append(kv[..., k])
                 k += 1
             else:
-                cols.append(xp.full(kv.shape[:-1], xp.inf, dtype=kv.dtype))
-        return xp.stack(cols, axis=-1)
+                cols.append(jnp.full(kv.shape[:-1], jnp.inf, dtype=kv.dtype))
+        return jnp.stack(cols, axis=-1)
 
     @property
     def pos_rows(self) -> tuple[int, ...]:
