@@ -68,7 +68,7 @@ def cms_factor(K: jax.Array, target_volume: float | None = None, target_major: f
 
     Raises:
         ValueError: (concrete input) a target that is not a finite number > 0, or a K that is
-            positive semi-definite and finite, a zero K, or (for ``target_volume``) a singular K:
+            not finite and positive semi-definite, a zero K, or (for ``target_volume``) a singular K:
             no finite k gives those the size. Inside ``jit``/``grad`` nothing is checked: such a
             K gives inf or NaN.
     """
