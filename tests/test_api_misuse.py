@@ -227,3 +227,31 @@ def test_start_states_that_are_not_numbers_are_named():
         jaxstiff.shape("kuka_lwr4", kj0="abc")
     with pytest.raises(ValueError, match=r"q0 must be numbers \(rad; m for prismatic joints\), got 'abc'"):
         jaxstiff.shape("kuka_lwr4", q0="abc")
+
+
+def test_not_numbers_is_one_error_caught_as_type_or_value_error():
+    """Text where numbers go was a TypeError from `fk`, the csc inputs and the criteria's ratio
+    check, and a ValueError from `shape`'s start states and `Robot.check_q`: a user's `except`
+    caught one entry point's and not another's. Every such check raises one class now, a subclass
+    of both."""
+    import jax.numpy as jnp
+
+    import jaxstiff
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    calls = {
+        "fk": lambda: jaxstiff.fk(robot, "abc"),
+        "check_q text": lambda: robot.check_q(["a", "b", "c"]),
+        "check_q None": lambda: robot.check_q(None),
+        "shape q0": lambda: jaxstiff.shape("kuka_lwr4", q0="abc"),
+        "shape kj0": lambda: jaxstiff.shape("kuka_lwr4", kj0=["a"] * 7),
+        "f2 ratio": lambda: jaxstiff.f2(jnp.eye(3), jnp.array([1.0, 0.0, 0.0]), "five"),
+    }
+    kinds = set()
+    for name, call in calls.items():
+        with pytest.raises(TypeError) as info:
+            call()
+        assert isinstance(info.value, ValueError), name
+        assert "abc" in str(info.value) or "number" in str(info.value), (name, str(info.value))
+        kinds.add(type(info.value))
+    assert len(kinds) == 1, kinds

@@ -13,6 +13,13 @@ from numpy.typing import ArrayLike
 __all__: list[str] = []
 
 
+class NotNumbersError(TypeError, ValueError):
+    """An argument that should be numbers is not (text, None, an object, a ragged nested list).
+
+    Both a ``TypeError`` and a ``ValueError``: the checks of every module raise this one class, so
+    ``except TypeError`` and ``except ValueError`` each catch it wherever it comes from."""
+
+
 def broadcast_batch(*named_shapes: tuple[str, tuple[int, ...]]) -> tuple[int, ...]:
     """The broadcast of the leading (batch) axes, or a ValueError naming the arguments."""
     try:
@@ -26,7 +33,7 @@ def broadcast_batch(*named_shapes: tuple[str, tuple[int, ...]]) -> tuple[int, ..
 def known_floats(x: object, what: str | None = None) -> np.ndarray | None:
     """The values of ``x`` as a float numpy array where they are known here, else None: inside a
     trace (jit, grad, vmap), and for non-numbers unless ``what`` names the argument (then a
-    ValueError says it must be numbers). For value checks that a traced call cannot make."""
+    :class:`NotNumbersError` says it must be numbers). For value checks that a traced call cannot make."""
     if isinstance(x, Tracer):
         return None
     try:
@@ -34,7 +41,7 @@ def known_floats(x: object, what: str | None = None) -> np.ndarray | None:
     except (TypeError, ValueError):
         if what is None:
             return None  # the function's own checks say so
-        raise ValueError(f"{what} must be a number or an array of numbers, got {type(x).__name__}") from None
+        raise NotNumbersError(f"{what} must be a number or an array of numbers, got {type(x).__name__}") from None
 
 
 def has_tracer(x: object) -> bool:
@@ -53,28 +60,30 @@ def shown_value(value: object) -> str:
 
 
 def refuse_non_numeric(name: str, value: object, expected: str, kinds: str = "biufc") -> None:
-    """``TypeError`` (``ValueError`` for ragged nested lists) naming ``name``, ``expected`` and what
-    was given, when a concrete ``value`` is not numbers (text, None, objects; a dtype kind outside
+    """:class:`NotNumbersError` (a ``TypeError`` and a ``ValueError``) naming ``name``, ``expected``
+    and what was given, when a concrete ``value`` is not numbers (text, None, objects; a dtype kind outside
     ``kinds``); JAX arrays and anything holding a traced value pass (they are numbers). Where
     JAX would meet the value with its own internal error, the caller names the argument instead."""
     if isinstance(value, jax.Array) or has_tracer(value):
         return
     if value is None or isinstance(value, (str, bytes)):
-        raise TypeError(f"{name} must be {expected}, got {shown_value(value)}")
+        raise NotNumbersError(f"{name} must be {expected}, got {shown_value(value)}")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             a = np.asarray(value)
     except ValueError:  # numpy: "inhomogeneous shape"
-        raise ValueError(
+        raise NotNumbersError(
             f"{name} must be {expected}, got a ragged nested sequence (rows of different lengths)"
         ) from None
     except Exception as e:
-        raise TypeError(f"{name} must be {expected}, got {shown_value(value)} ({e})") from None
+        raise NotNumbersError(f"{name} must be {expected}, got {shown_value(value)} ({e})") from None
     if a.dtype.kind not in kinds:
         if isinstance(value, (list, tuple)):
-            raise TypeError(f"{name} must be {expected}, got a {type(value).__name__} holding non-numbers ({a.dtype})")
-        raise TypeError(f"{name} must be {expected}, got {shown_value(value)}")
+            raise NotNumbersError(
+                f"{name} must be {expected}, got a {type(value).__name__} holding non-numbers ({a.dtype})"
+            )
+        raise NotNumbersError(f"{name} must be {expected}, got {shown_value(value)}")
 
 
 def check_square(K: ArrayLike, name: str = "K") -> jax.Array:

@@ -220,7 +220,8 @@ class Chain:
         """Validate a joint array at the Python boundary: floating dtype, last axis n, finite, and
         locked joints at their locked values (:func:`check_locked_values`).
 
-        Returns the array as a JAX/numpy array unchanged in dtype. Raises ValueError naming the problem.
+        Returns the array as a JAX/numpy array unchanged in dtype. Raises ValueError naming the problem
+        (for text, None or a ragged list one that is also a TypeError).
         """
         return check_q(self, q, name)
 
@@ -367,16 +368,18 @@ def check_q(robot: Chain, q: Any, name: str = "q") -> Any:
     """Validate a joint array at the Python boundary (see :meth:`Chain.check_q`)."""
     import jax.numpy as jnp
 
+    from jaxstiff._numerics.batch import NotNumbersError
+
     if isinstance(q, (list, tuple)):
         try:
             q = np.asarray(q, dtype=float)
-        except ValueError:  # a ragged nested list, or text in it
-            raise ValueError(
+        except (TypeError, ValueError):  # a ragged nested list, or text or None in it
+            raise NotNumbersError(
                 f"{name} must be joint values, numbers of shape (..., {robot.n}) (rad; m for prismatic joints): got a "
                 "nested sequence that is not one (rows of different lengths, or not numbers)"
             ) from None
     if not hasattr(q, "dtype") or not hasattr(q, "shape"):
-        raise ValueError(f"{name} must be an array of shape (..., {robot.n}), got {type(q).__name__}")
+        raise NotNumbersError(f"{name} must be an array of numbers of shape (..., {robot.n}), got {type(q).__name__}")
     if not jnp.issubdtype(q.dtype, jnp.floating):
         raise ValueError(
             f"{name} must have a floating dtype (float32 or float64), got {q.dtype}; convert with q.astype(float)"

@@ -14,6 +14,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from jaxstiff._numerics.batch import NotNumbersError
 from jaxstiff.ik import ik_position, nominal_posture
 from jaxstiff.model._chain import LOCKED_JOINT_MODES, check_locked_values
 from jaxstiff.model._robot import Robot
@@ -122,11 +123,12 @@ def first_start_postures(
 
 
 def _as_floats(value: Any, what: str, unit: str) -> np.ndarray:
-    """``value`` as a float array, or a ValueError naming ``what`` (text, None, a ragged list)."""
+    """``value`` as a float array, or a :class:`~jaxstiff._numerics.batch.NotNumbersError` naming
+    ``what`` (text, None, a ragged list)."""
     try:
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError):
-        raise ValueError(f"{what} must be numbers ({unit}), got {value!r:.60}") from None
+        raise NotNumbersError(f"{what} must be numbers ({unit}), got {value!r:.60}") from None
 
 
 def _start_states(robot: Robot, value: Any, B: int, what: str) -> np.ndarray:

@@ -483,7 +483,7 @@ def test_q_with_nan_or_inf_at_the_boundary(lwr):
         lwr.jacobian(np.array([[0.0] * 7, [0.0] * 6 + [np.inf]]))
     # the jitted functions check shapes, not values: NaN in, NaN out (documented)
     assert np.all(np.isnan(np.asarray(jaxstiff.fk(lwr, jnp.array([0, 0, np.nan, 0, 0, 0, 0.0])))[:3, 3]))
-    with raises(ValueError, "q must be an array of shape (..., 7)"):
+    with raises(ValueError, "q must be an array of numbers of shape (..., 7)"):
         lwr.jacobian("0 0 0 0 0 0 0")
 
 
