@@ -112,6 +112,7 @@ class FileFlag:
         names: the files and folders an output folder gets (``plan.json``, ``plots``, ...).
         suffix: appended to an output file's name when missing (``.npz``), as the command does.
         shipped_robot: an input that may name a shipped robot instead of a file (``--robot``).
+        stdout: an output file that may be ``-``, standard output.
     """
 
     writes: bool
@@ -119,6 +120,7 @@ class FileFlag:
     names: tuple[str, ...] = ()
     suffix: str = ""
     shipped_robot: bool = False
+    stdout: bool = False
 
 
 _FILE_ATTR = "jaxstiff_file"
@@ -131,11 +133,17 @@ def reads(action: argparse.Action, *, shipped_robot: bool = False) -> argparse.A
 
 
 def writes(
-    action: argparse.Action, *, folder: bool = False, names: tuple[str, ...] = (), suffix: str = ""
+    action: argparse.Action,
+    *,
+    folder: bool = False,
+    names: tuple[str, ...] = (),
+    suffix: str = "",
+    stdout: bool = False,
 ) -> argparse.Action:
-    """Declare ``action``'s value an output of its command: a file (``suffix`` added when missing),
-    or a folder written into (``names``: what the command writes inside it)."""
-    setattr(action, _FILE_ATTR, FileFlag(writes=True, folder=folder, names=names, suffix=suffix))
+    """Declare ``action``'s value an output of its command: a file (``suffix`` added when missing;
+    ``stdout``: ``-`` is standard output), or a folder written into (``names``: what the command
+    writes inside it)."""
+    setattr(action, _FILE_ATTR, FileFlag(writes=True, folder=folder, names=names, suffix=suffix, stdout=stdout))
     return action
 
 
@@ -187,7 +195,8 @@ def check_outputs_not_inputs(args: argparse.Namespace, flags: list[tuple[str, st
     when it is an input file (the same file through a symlink or a hard link too) or an existing
     file inside an input folder (a sweep folder); an output folder when it is an input, or when
     one of the files or folders it writes (``FileFlag.names``) is or holds an input. Paths that do
-    not exist yet replace nothing. Raises ValueError naming both flags and paths.
+    not exist yet replace nothing. An output file that is a device or a pipe is refused too
+    (:func:`_refuse_special_file`). Raises ValueError naming both flags and paths.
     """
     inputs: list[tuple[str, str]] = []
     for dest, shown, role in flags:
@@ -199,11 +208,11 @@ def check_outputs_not_inputs(args: argparse.Namespace, flags: list[tuple[str, st
                 inputs.append((shown, _input_file(v, role)))
     for dest, shown, role in flags:
         value = getattr(args, dest, None)
-        if not role.writes or not isinstance(value, str) or not value.strip():
+        out = _output_name(value, role)
+        if out is None:
             continue
-        out = value
-        if role.suffix and not out.lower().endswith(role.suffix) and not os.path.isdir(out):
-            out += role.suffix
+        if not role.folder:
+            _refuse_special_file(out, shown, role)
         targets = [out] + [os.path.join(out, n) for n in role.names]
         for t in targets:
             if not os.path.exists(t):
@@ -230,6 +239,27 @@ def check_outputs_not_inputs(args: argparse.Namespace, flags: list[tuple[str, st
                     )
 
 
+def _output_name(value: object, role: FileFlag) -> str | None:
+    """The file or folder an output flag's ``value`` names, as the command writes it (``suffix``
+    added); None for no output (not an output flag, empty, ``-`` for standard output)."""
+    if not role.writes or not isinstance(value, str) or not value.strip() or (role.stdout and value == "-"):
+        return None
+    if role.suffix and not value.lower().endswith(role.suffix) and not os.path.isdir(value):
+        return value + role.suffix
+    return value
+
+
+def _refuse_special_file(out: str, shown: str, role: FileFlag) -> None:
+    """An output file that exists and is a device or a pipe (through a link too) is refused: a file
+    written beside it and renamed onto it would replace it (``/dev/null``, ``/dev/stdout``) with a
+    plain file, and a pipe would get nothing."""
+    if os.path.exists(out) and not os.path.isdir(out) and not os.path.isfile(out):
+        raise ValueError(
+            f"{shown} {out}: not a regular file (a device or a pipe); give a file name"
+            + (", or '-' for standard output" if role.stdout else "")
+        )
+
+
 def check_out_path(path: str, flag: str, like: str = "") -> str:
     """An output file's path (as it will be written), checked before any work: not an existing
     folder, in an existing folder that can be written into. Returns the absolute path.
@@ -237,7 +267,9 @@ def check_out_path(path: str, flag: str, like: str = "") -> str:
     path = os.path.abspath(path)
     if os.path.isdir(path):
         raise ValueError(f"{flag}: {path} is a folder; give a file name inside it" + (f", like {like}" if like else ""))
-    folder = os.path.dirname(path)
+    if os.path.exists(path) and not os.path.isfile(path):
+        raise ValueError(f"{flag}: {path} is not a regular file (a device or a pipe); give a file name")
+    folder = os.path.dirname(os.path.realpath(path))  # a link's file is written where it points
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"{flag}: folder does not exist: {folder}")
     # a real probe, not os.access (which says yes to root on a read-only mount): create and remove

@@ -41,15 +41,17 @@ def _add_export(p: argparse.ArgumentParser) -> Any:
             dest="csv",
             required=True,
             metavar="OUT.csv",
-            help="the CSV to write (written atomically); --out is the same flag, as in the other commands",
-        )
+            help="the CSV to write (written atomically), or - for standard output; --out is the same flag, as in "
+            "the other commands",
+        ),
+        stdout=True,
     )
     p.add_argument("--path", type=int, default=None, help="only this path of a batch (default: all, column 'path')")
 
     def run(args: argparse.Namespace) -> int:
         from jaxstiff.results._target import waypoints_text
         from jaxstiff.view._data import load_view_data
-        from jaxstiff.view._export import export_csv, unusable_rows
+        from jaxstiff.view._export import csv_text, export_csv, unusable_rows
 
         data = load_view_data(args.result, row=args.row, urdf=args.urdf)
         if args.path is not None and not 0 <= args.path < data.B:
@@ -59,11 +61,15 @@ def _add_export(p: argparse.ArgumentParser) -> Any:
         note = csc_status_note(data.meta) if data.kind == "csc" else None
         bad = unusable_rows(data, args.path)
         where = waypoints_text(bad) if bad else ""
-        print(
-            f"wrote {export_csv(data, args.csv, path=args.path)} ({data.B if args.path is None else 1} x {data.P} rows)"
-        )
+        rows = f"({data.B if args.path is None else 1} x {data.P} rows)"
+        if args.csv == "-":  # the CSV alone on standard output; what the command says goes to stderr
+            sys.stdout.write(csv_text(data, path=args.path))
+            sys.stdout.flush()
+            print(f"wrote the CSV to standard output {rows}", file=sys.stderr)
+        else:
+            print(f"wrote {export_csv(data, args.csv, path=args.path)} {rows}")
         if note:
-            print(note)
+            print(note, file=sys.stderr if args.csv == "-" else sys.stdout)
         if bad:
             print(
                 f"jaxstiff: warning: {sum(len(v) for v in bad.values())} rows are not usable solutions (status "

@@ -193,24 +193,33 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
     and SIGTERM under :func:`interrupt_handlers` included); leftovers of killed writers in the
     folder are removed first, once per folder and process (:func:`clean_stale_temporaries`).
 
+    A symbolic link stays: the file it points to is written (in that file's folder).
+
     Raises:
         FileNotFoundError: the target folder does not exist.
+        IsADirectoryError: ``file`` is a folder.
+        ValueError: ``file`` exists and is not a regular file (a device, a pipe): renamed onto, it
+            would be replaced by a plain file (``/dev/null``), and a pipe would get nothing.
         WriteError: the system refused the write (no space left, a read-only file system): named
             with ``file``, not with the temporary file's name.
     """
-    file = os.fspath(file)
+    given = file = os.fspath(file)
+    if os.path.islink(file):
+        file = os.path.realpath(file)
     folder = os.path.dirname(os.path.abspath(file))
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"output folder does not exist: {folder}")
     if os.path.isdir(file):  # before any work on the temporary file, whose name would show in the error
-        raise IsADirectoryError(f"{os.path.abspath(file)} is a folder; give a file name inside it")
+        raise IsADirectoryError(f"{os.path.abspath(given)} is a folder; give a file name inside it")
+    if os.path.exists(file) and not os.path.isfile(file):
+        raise ValueError(f"{os.path.abspath(given)} is not a regular file (a device or a pipe); give a file name")
     if folder not in _CLEANED:
         clean_stale_temporaries(folder)
         _CLEANED.add(folder)
     try:
         fd, tmp = tempfile.mkstemp(prefix=TMP_PREFIX, suffix=os.path.splitext(file)[1], dir=folder)
     except OSError as exc:
-        raise _write_error(exc, os.path.abspath(file)) from None
+        raise _write_error(exc, os.path.abspath(given)) from None
     try:
         with contextlib.suppress(OSError):  # (a file system without locks: the age rule alone)
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -225,9 +234,9 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         if isinstance(exc, OSError) and not isinstance(exc, WriteError):
-            raise _write_error(exc, os.path.abspath(file)) from None
+            raise _write_error(exc, os.path.abspath(given)) from None
         raise
-    return file
+    return given
 
 
 def save_or_rescue(save: Callable[[str], str], out: str, what: str = "the result") -> str:

@@ -28,7 +28,7 @@ import numpy as np
 
 from jaxstiff.view._data import ViewData, load_view_data
 
-__all__ = ["export_csv", "read_csv", "csv_columns", "unusable_rows"]
+__all__ = ["export_csv", "csv_text", "read_csv", "csv_columns", "unusable_rows"]
 
 
 def _units(data: ViewData) -> tuple[list[str], list[str]]:
@@ -69,6 +69,11 @@ def export_csv(result: ViewData | str | os.PathLike, out: str | os.PathLike, pat
     """
     from jaxstiff.runtime._io import atomic_write_text
 
+    return atomic_write_text(out, csv_text(result, path))
+
+
+def csv_text(result: ViewData | str | os.PathLike, path: int | None = None) -> str:
+    """The text :func:`export_csv` writes (for standard output: ``jaxstiff export --csv -``)."""
     data = result if isinstance(result, ViewData) else load_view_data(result)
     paths = range(data.B) if path is None else [path]
     if path is not None and not 0 <= path < data.B:
@@ -82,7 +87,7 @@ def export_csv(result: ViewData | str | os.PathLike, out: str | os.PathLike, pat
             vals = [*data.q[b, p], *kj_raw[b, p]] + ([*data.kj[b, p]] if data.kind == "shape" else [])
             st = int(data.arrays["status"][b, p])
             w.writerow([b, p, *(f"{v:.17g}" for v in [*vals, *data.position[b, p]]), st])
-    return atomic_write_text(out, buf.getvalue())
+    return buf.getvalue()
 
 
 def read_csv(file: str | os.PathLike) -> dict[str, np.ndarray]:

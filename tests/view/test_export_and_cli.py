@@ -220,3 +220,61 @@ def test_view_html_into_a_folder_or_a_missing_folder_is_refused_before_viser_sta
     assert main(["view", shape_file, "--html", str(tmp_path / "nodir" / "v.html")]) == 2
     assert "--html: folder does not exist: " in capsys.readouterr().err
     assert os.listdir(folder) == []
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["export", "--csv", "x.csv"], ["plot", "--out", "x.png"], ["view", "--html", "x.html"], ["export", "--out", "x"]],
+)
+def test_an_output_that_is_a_pipe_is_refused_and_kept(shape_file, tmp_path, capsys, command) -> None:
+    """`export --csv fifo.csv`, `plot --out` and `view --html` onto a pipe or a device exited 0 and
+    replaced it with a plain file (the file written beside it was renamed onto it; run as root on
+    /dev/stdout it replaced the link /dev/stdout itself); `shape --out` alone refused it."""
+    import stat
+
+    folder = tmp_path / "outs"
+    folder.mkdir()
+    fifo = folder / command[2]
+    os.mkfifo(fifo)
+    capsys.readouterr()
+    assert main([command[0], shape_file, command[1], str(fifo)]) == 2
+    err = capsys.readouterr().err
+    assert "not a regular file (a device or a pipe)" in err, err
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)  # still the pipe
+    assert os.listdir(folder) == [command[2]]  # and nothing written beside it
+
+
+def test_an_output_through_a_link_writes_the_linked_file_and_keeps_the_link(shape_file, tmp_path, capsys) -> None:
+    """A symbolic link as the output was replaced by a plain file, the file it pointed to left as
+    it was: the link stays now, and the file it points to gets the output (in its own folder)."""
+    elsewhere, here = tmp_path / "elsewhere", tmp_path / "here"
+    elsewhere.mkdir()
+    here.mkdir()
+    target = elsewhere / "real.csv"
+    target.write_text("old\n")
+    link = here / "link.csv"
+    link.symlink_to(target)
+    assert main(["export", shape_file, "--csv", str(link)]) == 0
+    assert link.is_symlink() and os.readlink(link) == str(target)
+    assert read_csv(target)["index"].size > 0 and target.read_text() != "old\n"
+    assert "wrote " + str(link) in capsys.readouterr().out
+    # a link to a result file: shape's --out keeps it too
+    res_link = here / "res.npz"
+    res_link.symlink_to(elsewhere / "res_real.npz")  # dangling until written
+    jaxstiff.ShapeResult.load(shape_file).save(res_link)
+    assert res_link.is_symlink() and (elsewhere / "res_real.npz").is_file()
+    assert sorted(os.listdir(here)) == ["link.csv", "res.npz"]
+    assert sorted(os.listdir(elsewhere)) == ["real.csv", "res_real.npz"]
+
+
+def test_export_to_standard_output(shape_file, tmp_path, capsys) -> None:
+    """`--csv -` wrote a file named '-'; it is standard output now (the CSV alone: what the command
+    says goes to stderr), the same text as the file."""
+    capsys.readouterr()
+    assert main(["export", shape_file, "--csv", "-"]) == 0
+    cap = capsys.readouterr()
+    file = tmp_path / "same.csv"
+    assert main(["export", shape_file, "--csv", str(file)]) == 0
+    assert cap.out == file.read_text(), cap.out[:200]
+    assert "wrote the CSV to standard output" in cap.err
+    assert not os.path.exists("-")
