@@ -255,3 +255,16 @@ def test_not_numbers_is_one_error_caught_as_type_or_value_error():
         assert "abc" in str(info.value) or "number" in str(info.value), (name, str(info.value))
         kinds.add(type(info.value))
     assert len(kinds) == 1, kinds
+
+
+def test_a_stiffness_range_beyond_float64_is_refused():
+    """`--kmin 1e-300 --kmax 1e-290` ran, stored inf in cms and kj_scaled (and ratios no reader could
+    reproduce), and every reader then refused the file: the range is refused up front, named."""
+    import jaxstiff
+    from jaxstiff.settings import ShapeSettings
+
+    with pytest.raises(ValueError, match=r"shape.kmin \(Nm/rad\) must lie within \[1e-100, 1e\+100\].*got 1e-300"):
+        jaxstiff.shape("kuka_lwr4", kmin=1e-300, kmax=1e-290)
+    with pytest.raises(ValueError, match=r"shape.kmax .*got 1e\+300"):
+        ShapeSettings(kmax=1e300)
+    assert ShapeSettings(kmin=1e-100, kmax=1e100).kmax == 1e100

@@ -87,6 +87,22 @@ def _ratio(v: object) -> str | None:
     return None if ok else f"must be > 1 and at most {MAX_RATIO:g} (lambda1 / lambda2)"
 
 
+#: the joint stiffnesses a shaping run takes, Nm/rad (N/m for a prismatic joint): the compliance
+#: and the stiffness square them, and the CMS factor multiplies their m-th roots; far beyond this
+#: float64 loses them (a range of [1e-300, 1e-290] gave status 1-2 waypoints whose stored ratio
+#: no reader could reproduce)
+STIFFNESS_BOUNDS = (1e-100, 1e100)
+
+
+def stiffness_bound(v: Any) -> str | None:
+    """Check: a joint stiffness bound, a finite number inside :data:`STIFFNESS_BOUNDS`."""
+    msg = positive_finite(v)
+    if msg is not None:
+        return msg
+    lo, hi = STIFFNESS_BOUNDS
+    return None if lo <= v <= hi else f"must lie within [{lo:g}, {hi:g}] (float64 squares it)"
+
+
 @dataclasses.dataclass(frozen=True)
 class ShapeSettings(Settings):
     """Settings of :func:`jaxstiff.shape` that the seed leaves open (every field, default and unit below).
@@ -212,13 +228,13 @@ class ShapeSettings(Settings):
         axis=None,
     )
     kmin: float = setting(
-        1.0, unit="Nm/rad", doc="lowest joint stiffness", check=positive_finite, flag=Flag(metavar="A", extra=", > 0")
+        1.0, unit="Nm/rad", doc="lowest joint stiffness", check=stiffness_bound, flag=Flag(metavar="A", extra=", > 0")
     )
     kmax: float = setting(
         100.0,
         unit="Nm/rad",
         doc="highest joint stiffness",
-        check=positive_finite,
+        check=stiffness_bound,
         flag=Flag(metavar="B", extra=", > kmin"),
     )
     c: float = setting(

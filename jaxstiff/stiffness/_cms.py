@@ -82,7 +82,10 @@ def cms_factor(K: jax.Array, target_volume: float | None = None, target_major: f
         _check_positive("target_major", target_major)
         return jnp.asarray(target_major, K.dtype) / w[..., 0]
     _check_positive("target_volume", target_volume)
-    return (jnp.asarray(target_volume, K.dtype) / jnp.prod(w, axis=-1)) ** (1.0 / m)
+    # (V / prod w)^(1/m) as V^(1/m) / prod(w^(1/m)): the same number, without the product of the
+    # axes itself, which leaves float64 for axes far from 1 N/m (1e-300 I: a volume of 0, k = inf)
+    root = 1.0 / m
+    return jnp.asarray(target_volume, K.dtype) ** root / jnp.prod(w**root, axis=-1)
 
 
 def cms_scale(

@@ -542,3 +542,14 @@ def test_task_check_hint_when_no_task_fits():
     with pytest.raises(ValueError, match=r"only 0 joint\(s\) have a spring.*no smaller task fits either") as e:
         check_task_feasible(robot, "xyz")
     assert "use task" not in str(e.value)
+
+
+def test_cms_factor_of_axes_far_from_one_newton_per_metre_is_finite():
+    """k = (V / prod w)^(1/m) formed the product of the axes, which left float64 for axes far from
+    1 N/m (1e-300 I: a volume of 0, k = inf; shaping with kmin 1e-300 stored inf in cms and
+    kj_scaled). Checked in logarithms, independently of the formula: m log k + sum log w = log V."""
+    for w in ([1e-300, 1e-300, 1e-300], [1e300, 1e300, 1e-300], [1e-200, 1e-150], [3.0, 2.0, 1.0]):
+        K = jnp.diag(jnp.asarray(w))
+        k = float(jaxstiff.cms_factor(K, target_volume=1e9))
+        assert np.isfinite(k) and k > 0, (w, k)
+        assert abs(len(w) * np.log(k) + np.sum(np.log(w)) - np.log(1e9)) < 1e-12 * len(w) * 700, (w, k)
