@@ -243,6 +243,25 @@ def _check_tasks(kind: str, axes: Mapping[str, list], robot: Any, source: str) -
             )
 
 
+def _warn_out_of_reach(trajectories: Sequence[Any], robot: Any, planar: bool) -> None:
+    """Say which paths have waypoints beyond the robot's reach (``jaxstiff shape`` refuses such a
+    path; a sweep runs it, and those waypoints are status 3 in every row: said before the run,
+    with the millimetre hint, not found in a table of NaN metrics after it)."""
+    from jaxstiff.model._reach import _mm_hint, chain_reach, unreachable_mask
+
+    for t in trajectories:
+        bad = unreachable_mask(robot, t.points, planar)
+        if not bad.any():
+            continue
+        reach = chain_reach(robot)
+        warnings.warn(
+            f"path {t.name!r}: {int(bad.sum())} of {t.P} waypoints lie beyond the reach of robot {robot.name!r} "
+            f"({reach.outer:.4g} m from the origin of joint {reach.centre_joint!r}; Robot.reach()): they are status 3 "
+            f"(unreachable) in every row{_mm_hint(reach, np.asarray(t.points, float))}",
+            stacklevel=2,
+        )
+
+
 def cross_checks(
     kind: str, axes: Mapping[str, list], trajectories: Sequence[Any], robot: Any, source: str = ""
 ) -> None:
@@ -265,6 +284,7 @@ def cross_checks(
                     source,
                 )
     _check_tasks(kind, axes, robot, source)
+    _warn_out_of_reach(trajectories, robot, planar=set(axes.get("task", ())) == {"xy"})
     if len(axes["q0_seed"]) > 1 and "random" not in axes["q0"]:
         raise SweepConfigError(
             "axes.q0_seed",

@@ -185,10 +185,16 @@ class SweepStore:
             if n:
                 raise ValueError(
                     f"--out {self.out} already holds this sweep ({n} of {len(plan.chunks)} chunks done); "
-                    "pass --resume to continue it, or choose another --out"
+                    "pass --resume (resume=True in Python) to continue it, or choose another --out"
                 )
         else:
             self._check_foreign()  # again under the lock: another process may have written meanwhile
+            if resume:  # said, not refused: "run or continue" scripts pass it every time
+                warnings.warn(
+                    f"resume: {self.out} holds no sweep yet (no plan.json), so nothing is resumed and the sweep "
+                    "starts from its first chunk; if you meant to continue an earlier sweep, check its folder's name",
+                    stacklevel=3,
+                )
             for sub in ("chunks", "arrays"):
                 os.makedirs(self.path(sub), exist_ok=True)
             if plan.config_text:

@@ -245,6 +245,11 @@ def test_store_refuses_reuse_other_sweeps_and_concurrency(shape_run, tmp_path):
     with SweepStore(fresh, plan):
         with pytest.raises(ValueError, match="another jaxstiff sweep is writing"):
             SweepStore(fresh, plan, resume=True)
+    # --resume where no sweep is (a misspelt folder) starts a new one, and says so: it went silently
+    # ("0 resumed"), and the user waited for a whole sweep computed again
+    with pytest.warns(UserWarning, match=r"holds no sweep yet \(no plan.json\), so nothing is resumed"):
+        with SweepStore(tmp_path / "misspelt", plan, resume=True) as st:
+            assert st.done == {}
 
 
 def test_lock_owner_record_is_removed_when_the_run_ends(shape_run, tmp_path):

@@ -686,3 +686,28 @@ def test_q0_posture_outside_limits_names_the_unit_of_the_joint():
     q[j2], q[0] = 0.1, 99.0
     with pytest.raises(SweepConfigError, match=r"q\[0\] = 99 rad is outside the limits"):
         q0_values([q], "axes.q0", robot)
+
+
+def test_a_path_beyond_reach_is_said_before_the_run(recwarn):
+    """A sweep path written in millimetres ran, every waypoint status 3 and every metric NaN, with
+    no word (jaxstiff shape refuses the same path): the plan says which path, how many waypoints,
+    the reach, and the millimetre hint; a path in reach gets no such warning."""
+    cfg = {
+        "sweep": {"kind": "shape"},
+        "robot": {"name": "kuka_lwr4"},
+        "paths": [
+            {"generator": "line", "start": [600, -100, 300], "end": [600, 100, 300], "n": 4},
+            {"generator": "default", "n": 4},
+        ],
+        "axes": {"ratio": [3.0]},
+    }
+    with pytest.warns(
+        UserWarning, match=r"path 'line': 4 of 4 waypoints lie beyond the reach of robot 'kuka_lwr4'"
+    ) as w:
+        parse_config(cfg)
+    msgs = [str(x.message) for x in w if "beyond the reach" in str(x.message)]
+    assert len(msgs) == 1 and "look like millimetres" in msgs[0], msgs
+    cfg["paths"] = cfg["paths"][1:]
+    recwarn.clear()
+    parse_config(cfg)
+    assert not [x for x in recwarn if "beyond the reach" in str(x.message)]
