@@ -268,3 +268,40 @@ def test_a_stiffness_range_beyond_float64_is_refused():
     with pytest.raises(ValueError, match=r"shape.kmax .*got 1e\+300"):
         ShapeSettings(kmax=1e300)
     assert ShapeSettings(kmin=1e-100, kmax=1e100).kmax == 1e100
+
+
+def test_inputs_that_reached_numpy_or_os_are_named(tmp_path):
+    """Found by a bad-input audit: a ragged list of points gave numpy's "inhomogeneous shape" from
+    inside numpy, a string "could not convert string to float", `Robot.from_urdf(3)` "expected str,
+    bytes or os.PathLike object", `fk(robot, [0, 0, 0])` "must have a floating dtype, got int32"
+    (while `robot.fk([0, 0, 0])` took it), a list of paths of different lengths numpy's text, and
+    `save("x.csv")` wrote x.csv.npz without a word."""
+    import jaxstiff
+
+    with pytest.raises(ValueError, match=r"path: points must be numbers .* rows of different lengths"):
+        jaxstiff.Path([[0.4, 0.2, 0.0], [0.5, 0.2]])
+    with pytest.raises(TypeError, match=r"got '0.4,0.2,0'; a path file is read with jaxstiff.Path.from_csv"):
+        jaxstiff.Path("0.4,0.2,0")
+    for bad in (3, None):
+        with pytest.raises(TypeError, match="a URDF must be given as a file name or a shipped robot's name"):
+            jaxstiff.Robot.from_urdf(bad)
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    np.testing.assert_array_equal(np.asarray(jaxstiff.fk(robot, [0, 0, 0])), np.asarray(robot.fk([0.0, 0.0, 0.0])))
+    pts = np.array([[0.4, 0.2, 0.0], [0.45, 0.25, 0.0], [0.5, 0.2, 0.0]])
+    with pytest.raises(ValueError, match=r"a list of 2 paths of different lengths \(3, 2 waypoints\)"):
+        jaxstiff.shape("planar_3r", [pts, pts[:2]], task="xy")
+    res = jaxstiff.shape("planar_3r", pts, task="xy")
+    with pytest.raises(ValueError, match=r"x.csv': a result file is written as .npz.*x.npz' or '.*x.csv.npz'"):
+        res.save(tmp_path / "x.csv")
+    assert os.listdir(tmp_path) == []
+    assert res.save(tmp_path / "x").endswith("x.npz")
+
+
+def test_an_empty_urdf_is_called_empty(tmp_path):
+    """`<robot name="x"></robot>` was reported as "the joints form a loop; no root link"."""
+    import jaxstiff
+
+    f = tmp_path / "empty.urdf"
+    f.write_text('<robot name="x"></robot>')
+    with pytest.raises(ValueError, match=r"empty.urdf: the URDF has no <link>"):
+        jaxstiff.Robot.from_urdf(f)

@@ -37,6 +37,7 @@ from __future__ import annotations
 import functools
 import warnings
 from collections.abc import Sequence
+from typing import cast
 
 import jax
 import jax.numpy as jnp
@@ -236,6 +237,8 @@ def _locked_checked(fn):
     @functools.wraps(fn)
     def checked(robot: Chain, q: jax.Array, *args, **kwargs):
         _refuse_non_numbers(fn.__name__, robot, q)
+        if isinstance(q, (list, tuple)):  # numbers written as a list: [0, 0, 0] too, as Robot.fk takes it
+            q = cast(jax.Array, np.asarray(q, dtype=float))  # numpy: warn_if_float32 still sees float64
         # a list where a static tuple goes (position_and_jacobian's rows): jit cannot hash a list
         args = tuple(tuple(a) if isinstance(a, list) else a for a in args)
         kwargs = {k: tuple(v) if isinstance(v, list) else v for k, v in kwargs.items()}

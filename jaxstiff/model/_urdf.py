@@ -111,7 +111,14 @@ def _check_joint_xml(path: str, elem: Any) -> None:  # noqa: C901 - a flat list 
 
 def _resolve_path(path: str | os.PathLike) -> str:
     """The URDF file to read: ``path`` itself, or the shipped robot of that name."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(
+            f"a URDF must be given as a file name or a shipped robot's name ({', '.join(shipped_robots())}), "
+            f"got {type(path).__name__}"
+        )
     path = os.fspath(path)
+    if not isinstance(path, str):  # a bytes path
+        path = os.fsdecode(path)
     if not os.path.exists(path) and os.sep not in path and not path.endswith(".urdf"):
         try:
             path = robot_path(path)  # a shipped robot's name
@@ -271,6 +278,8 @@ def _link_tree(path: str, model: UrdfModel) -> _Tree:
 def _pick_base(path: str, tree: _Tree, base_link: str | None) -> str:
     """``base_link`` checked, or the tree's only root link."""
     roots = [l for l in tree.links if l not in tree.parent_joint]
+    if not tree.links:
+        raise ValueError(f"{path}: the URDF has no <link> (and no <joint>): no robot to read")
     if not roots:
         raise ValueError(f"{path}: the joints form a loop; no root link")
     if base_link is None:

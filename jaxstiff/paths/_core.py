@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from jaxstiff._numerics.batch import NotNumbersError, shown_value
 from jaxstiff.runtime._dtypes import refuse_half_precision
 from jaxstiff.runtime._io import atomic_write_text
 
@@ -76,10 +77,24 @@ def tangents(points: ArrayLike, where: str = "path") -> np.ndarray:
 
 def _checked_points(points: ArrayLike, has_directions: bool, where: str) -> np.ndarray:
     """``points`` as a fresh float64 (P, 3) or (B, P, 3) array of finite values, P >= 2 (>= 1 with directions)."""
-    refuse_half_precision(where, points=points)
-    if np.iscomplexobj(points):  # float() would drop the imaginary part with only numpy's warning
+    if isinstance(points, (str, bytes, os.PathLike)):
+        raise NotNumbersError(
+            f"{where}: points must be numbers of shape (P, 3) or (B, P, 3) (m), got {shown_value(points)}; "
+            "a path file is read with jaxstiff.Path.from_csv(file)"
+        )
+    try:
+        given = np.asarray(points)
+    except (TypeError, ValueError):
+        given = None
+    if given is None or given.dtype.kind not in "biufc":  # ragged rows, text, objects
+        raise NotNumbersError(
+            f"{where}: points must be numbers of shape (P, 3) or (B, P, 3) (m): got rows of different lengths, "
+            f"or not numbers ({shown_value(points)})"
+        )
+    refuse_half_precision(where, points=given)
+    if np.iscomplexobj(given):  # float() would drop the imaginary part with only numpy's warning
         raise ValueError(f"{where}: points are complex numbers; give real coordinates (m)")
-    pts = np.array(points, dtype=float, copy=True)
+    pts = np.array(given, dtype=float, copy=True)
     if pts.ndim not in (2, 3) or pts.shape[-1] != 3:
         raise ValueError(f"{where}: points must have shape (P, 3) or (B, P, 3), got {pts.shape}")
     if pts.shape[-2] < 1 or (pts.shape[-2] < 2 and not has_directions):

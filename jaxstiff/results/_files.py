@@ -186,7 +186,9 @@ class ShapeResult(PathGrid):
     def save(self, file: str | os.PathLike) -> str:
         """Write the ``.npz`` result file atomically (temp file in the same folder, then rename).
 
-        Returns the path written. An interrupted save leaves no partial file.
+        Returns the path written (``.npz`` added to a name without a suffix; another suffix is a
+        ValueError, as ``x.csv`` would be written as ``x.csv.npz``). An interrupted save leaves no
+        partial file.
         """
         arrays = {}
         for k, v in self.arrays().items():

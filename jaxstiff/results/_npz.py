@@ -18,14 +18,22 @@ def atomic_save_npz(file: str | os.PathLike, arrays: dict[str, np.ndarray]) -> s
 
     Raises:
         FileNotFoundError: the target folder does not exist.
-        ValueError: ``file`` is empty, or a folder (``x/`` would have written ``x.npz`` beside it).
+        ValueError: ``file`` is empty, a folder (``x/`` would have written ``x.npz`` beside it), or
+            a name with a suffix other than ``.npz`` (``x.csv`` would have been written as
+            ``x.csv.npz``; a name without a suffix gets ``.npz``).
     """
     file = os.fspath(file)
     if not file.strip():
         raise ValueError("the result file's name is empty; give one, like result.npz")
     if os.path.isdir(file) or file.endswith((os.sep, "/")):
         raise ValueError(f"{file} is a folder; give a file name inside it, like {os.path.join(file, 'result.npz')}")
-    if not file.lower().endswith(".npz"):  # x.NPZ is taken as it is (numpy would write x.NPZ.npz)
+    ext = os.path.splitext(file)[1]
+    if ext and ext.lower() != ".npz":  # as the commands' --out: not written under a name not given
+        raise ValueError(
+            f"{file!r}: a result file is written as .npz, and a name with another suffix would be written as "
+            f"{file + '.npz'!r}; give {os.path.splitext(file)[0] + '.npz'!r} or {file + '.npz'!r}"
+        )
+    if not ext:  # x.NPZ is taken as it is (numpy would write x.NPZ.npz)
         file = file + ".npz"
     # numpy's stub lets **arrays bind savez's allow_pickle (bool); no result key has that name
     return atomic_write(file, lambda fh: np.savez(fh, **arrays), binary=True)  # pyright: ignore[reportArgumentType]

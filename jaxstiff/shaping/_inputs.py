@@ -229,6 +229,14 @@ def robot_and_path(
     if isinstance(path, (list, tuple)) and path and all(isinstance(p, (Path, str, os.PathLike)) for p in path):
         # a list of equal-length paths (or their files) -> one batch (B, P, 3)
         path = Path.stack([p if isinstance(p, Path) else Path.from_csv(p) for p in path])
+    if isinstance(path, (list, tuple)) and len(path) > 1 and all(np.ndim(p) == 2 for p in path):
+        lengths = [len(p) for p in path]
+        if len(set(lengths)) > 1:  # arrays of waypoints, one per path: a batch needs one length
+            raise ValueError(
+                f"path: a list of {len(path)} paths of different lengths ({', '.join(map(str, lengths[:6]))}"
+                f"{', ...' if len(path) > 6 else ''} waypoints); a batch needs one length: shape them in separate "
+                "calls, or make them with one waypoint count"
+            )
     if not isinstance(path, Path):
         try:
             path = Path(path)
