@@ -34,7 +34,8 @@ def _waypoints(text: str) -> int | list[int]:
 
 @command("check-sim", "check a shape result's stiffness against a MuJoCo simulation (needs jaxstiff[sim])")
 def _add_check_sim(p: argparse.ArgumentParser) -> Any:
-    add_result_flags(p)  # RESULT (a file, or a sweep folder with --row), --row, --urdf: as view/plot/export
+    # RESULT (a file, or a sweep folder with --row), --row, --urdf: as view/plot/export, shape results only
+    add_result_flags(p, "a shape result file (.npz), or a shape sweep's folder with --row")
     p.add_argument(
         "--waypoints",
         default="5",

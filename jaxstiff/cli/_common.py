@@ -70,8 +70,8 @@ def parse_locks(items: list[str] | None) -> dict[str, float]:
 #: --tip-link's help, shared by the commands that read a chain (Robot.from_urdf's rule)
 TIP_LINK_HELP = (
     "last link of the chain (default: the leaf reached through the most actuated joints, never through a gripper or "
-    "finger joint; ties: end-effector names tcp, tool, ee, flange; an error lists the rest; `jaxstiff robot URDF` "
-    "lists the candidates)"
+    "finger joint; ties: not a finger part nor a sensor frame, then end-effector names tcp, tool, ee, flange, hand; "
+    "an error lists the rest; `jaxstiff robot URDF` lists the candidates)"
 )
 
 

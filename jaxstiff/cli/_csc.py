@@ -7,9 +7,10 @@ Examples::
     jaxstiff csc --robot planar_3r --hold 1.50005,0 --kxd 3000,1000@30 --q0-deg 75,-74.74,-76.30 \\
                  --steps 1000 --out hold.npz
 
-    # the LWR (its 7th joint locked at 0 by default, as in `jaxstiff shape`) along a CSV path, task xyz
+    # the LWR (its 7th joint locked at 0 by default, as in `jaxstiff shape`) along a CSV path, task xyz;
+    # q0 puts the TCP on the first point of jaxstiff.paths.line((0.5, -0.1, 0.4), (0.5, 0.1, 0.4), 20)
     jaxstiff csc --robot kuka_lwr4 --path path.csv --kxd 3000,1000,2000@30 \\
-                 --q0 0.3,0.5,0,-1.2,0,0.6,0 --beta 1 --out lwr.npz
+                 --q0 0.003,0.41,-0.233,-1.721,-0.026,0.74,0 --beta 1 --out lwr.npz
 
 ``--hold`` without ``--step`` runs the constant step rule (a null step of ``--beta`` rad per step,
 default 2e-3 there): the adaptive rule's null step is beta times the primary step (S1-22), zero

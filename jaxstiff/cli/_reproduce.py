@@ -38,8 +38,9 @@ def load_runner() -> ModuleType:
             return importlib.import_module("_reproduce.runner")
     raise FileNotFoundError(
         "jaxstiff reproduce runs the scripts in the experiments/ folder of a source checkout, which is not "
-        "part of the installed package; looked in: " + "; ".join(folders) + ". Run it from a clone of the "
-        "repository (pip install -e .), or set JAXSTIFF_EXPERIMENTS to a checkout's experiments/ folder"
+        "part of the installed package; looked in: " + "; ".join(folders) + ". Run it from the root of a clone "
+        "of the repository (with any install of it), or give a checkout's experiments/ folder with --experiments DIR "
+        "or JAXSTIFF_EXPERIMENTS"
     )
 
 

@@ -23,13 +23,11 @@ from typing import Any
 from ._common import check_out_path, command, reads, writes
 
 
-def add_result_flags(p: argparse.ArgumentParser) -> None:
-    """The flags every command that reads a result shares: the file, --row, --urdf."""
-    reads(
-        p.add_argument(
-            "result", metavar="RESULT", help="a shape or csc result file (.npz), or a sweep folder with --row"
-        )
-    )
+def add_result_flags(
+    p: argparse.ArgumentParser, what: str = "a shape or csc result file (.npz), or a sweep folder with --row"
+) -> None:
+    """The flags every command that reads a result shares: the file (``what`` it may be), --row, --urdf."""
+    reads(p.add_argument("result", metavar="RESULT", help=what))
     p.add_argument("--row", type=int, default=None, help="the row (row_id) of a sweep folder to read")
     reads(
         p.add_argument(

@@ -43,6 +43,7 @@ from jaxstiff.stiffness._tasks import check_planar_arm
 __all__ = [
     "rollout_settings",
     "validate_values",
+    "warn_far_start",
     "path_points",
     "SCALAR_SETTINGS",
     "CSCWarning",
@@ -260,6 +261,41 @@ def warn_settings(robot: Robot, task: str, step: str, targets: jax.Array) -> Non
         )
 
 
+#: m: a start posture whose TCP lies farther than this from the first target draws a CSCWarning
+FAR_START_M = 0.01
+
+
+def warn_far_start(robot: Robot, q0: Any, targets: Any) -> None:
+    """A :class:`CSCWarning` where the start posture's TCP lies more than :data:`FAR_START_M` from the
+    path's first target (concrete values only; d = 2: in the xy plane): the first step then pulls
+    the arm onto the path in one jump (S1-20's position correction), which can throw joints by tens
+    of degrees with every step's status 'ok'. Called once per call by :func:`prepare_rollout`."""
+    if has_tracer((q0, targets)):
+        return
+    from jaxstiff.model._host import tcp_position
+
+    q = np.asarray(q0, float)
+    t0 = np.asarray(targets, float)[..., 0, :]
+    d = t0.shape[-1]
+    p = tcp_position(robot, q.reshape(-1, robot.n))[:, :d].reshape(q.shape[:-1] + (d,))
+    try:
+        gap = np.linalg.norm(np.broadcast_to(p, np.broadcast_shapes(p.shape, t0.shape)) - t0, axis=-1)
+    except ValueError:  # batch axes that do not broadcast: prepare_rollout says so
+        return
+    worst = float(np.max(gap, initial=0.0))
+    if worst > FAR_START_M:
+        at = tuple(int(i) for i in np.unravel_index(int(np.argmax(gap)), gap.shape))
+        where = "" if gap.size <= 1 else f" (rollout {at[0] if len(at) == 1 else at})"
+        warnings.warn(
+            f"the start posture's TCP lies {worst:.3g} m from the path's first target{where}: the first step pulls "
+            "the arm onto the path in one jump, which can move joints by tens of degrees while every step's status "
+            "says 'ok'; start on the path (jaxstiff.ik.ik_position(robot, first target), or the q of a shape "
+            "result along the same path)",
+            CSCWarning,
+            stacklevel=3,
+        )
+
+
 def _targets(path: Any, task: str, dtype: Any) -> jax.Array:
     """The path's (..., T, d) targets in the rollout's dtype (d = 2 for ``"xy"``, else 3)."""
     targets = jnp.asarray(path_points(path), dtype=dtype)
@@ -377,6 +413,7 @@ def prepare_rollout(
     R_hold = _hold_rotation(hold_orientation, task, dtype)
     validate_values(robot, targets, K_xd, q0, beta, scalars, null_eps_a, check_reach)
     warn_settings(robot, task, s["step"], targets)
+    warn_far_start(robot, q0, targets)
     K_xd = 0.5 * (K_xd + jnp.swapaxes(K_xd, -1, -2))  # exactly symmetric (validated to 1e-6)
     batches = [("q0", q0.shape[:-1]), ("beta", beta.shape), ("path", targets.shape[:-2]), ("K_xd", k_batch)]
     if R_hold is not None:

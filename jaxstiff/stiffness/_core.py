@@ -342,7 +342,9 @@ def joint_stiffness(
     K_x = jnp.asarray(K_x, dtype=Js.dtype)
     m = Js.shape[-2]
     if K_x.shape[-2:] != (m, m):
-        raise ValueError(f"K_x must have shape (..., {m}, {m}) for task {task!r}, got {tuple(K_x.shape)}")
+        other = {2: "xy", 3: "xyz", 6: "full"}.get(K_x.shape[-1]) if K_x.ndim >= 2 else None
+        hint = f" (a {K_x.shape[-1]}x{K_x.shape[-1]} K_x is task={other!r})" if other and other != task else ""
+        raise ValueError(f"K_x must have shape (..., {m}, {m}) for task {task!r}, got {tuple(K_x.shape)}{hint}")
     Kq = jnp.einsum("...ai,...ab,...bj->...ij", Js, K_x, Js)
     if F is None:
         return Kq

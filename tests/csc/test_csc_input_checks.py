@@ -185,3 +185,28 @@ def test_csc_sweep_refuses_kmin_equal_kmax_too():
     axes = {"kmin": [10.0], "kmax": [10.0], "q0_seed": [0], "q0": ["seed"], "task": ["xyz"]}
     with pytest.raises(Exception, match="kmin = 10 is not below kmax = 10"):
         cross_checks("csc", axes, [], LWR)
+
+
+def test_a_start_far_from_the_path_is_warned():
+    """A start posture 1 m from a held point: the first step jumped joints by 43 deg, every step's
+    status said 'ok', and nothing was said (found by a newcomer trial). Started on the path, no
+    such warning; the distance named is the TCP's own (numpy FK, independent of the rollout)."""
+    import warnings
+
+    import jaxstiff
+    from jaxstiff.csc import CSCWarning
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    q0 = np.deg2rad([75.0, -74.74, -76.30])
+    tcp = np.asarray(robot.fk(q0))[:2, 3]
+    K = np.diag([3000.0, 1000.0])
+    far = np.tile([0.5, 0.5], (5, 1))
+    with pytest.warns(CSCWarning, match=r"start posture's TCP lies (\S+) m from the path's first target") as w:
+        jaxstiff.csc_rollout(robot, far, K, q0, beta=2e-3, step="constant")
+    msg = next(str(x.message) for x in w if "start posture" in str(x.message))
+    gap = float(msg.split("lies ")[1].split(" m")[0])
+    assert abs(gap - np.linalg.norm(tcp - [0.5, 0.5])) < 1e-2 * gap
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        jaxstiff.csc_rollout(robot, np.tile(tcp, (5, 1)), K, q0, beta=2e-3, step="constant")
+    assert not [x for x in rec if "start posture" in str(x.message)]
