@@ -311,9 +311,14 @@ def unusable_warning(status: np.ndarray, pos_error: np.ndarray, meta: Mapping[st
     # the first waypoint has no rate limit (unless first_rate_limit): if it was reached and later
     # ones were not, the limits per waypoint are the likelier cause
     if bool(np.all(usable[:, 0])) and not first_rate:
+        first = int(np.argmax(bad[worst]))
         hint = (
-            "the joint and stiffness rate limits (dq, dk; --dq-deg, --dk: change allowed per waypoint) may "
-            "be too tight for the waypoint spacing, or the path leaves the robot's reach"
+            f"the first waypoint was reached, so the joint rate limit (dq, --dq-deg: change allowed per "
+            f"waypoint) is the likelier cause than the reach: from the last usable posture (path {worst}: before "
+            f"waypoint {first}) no posture within it puts the TCP on the next waypoint, and the walk goes on from "
+            "that same posture, so the waypoints after it usually fail too; loosen dq (--dq-deg), give it per "
+            "metre of path (dq_per_m, --dq-per-m), or use more waypoints (the stiffness limits dk, kmin, kmax do "
+            "not bound the TCP's motion)"
         )
     elif first_rate:
         # the first waypoint is held within one rate step of the start state as well

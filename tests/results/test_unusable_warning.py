@@ -17,10 +17,13 @@ def test_the_text_counts_the_waypoints_names_the_worst_path_and_the_likelier_cau
     err = np.array([[0.0, 0.0, 0.02, 0.05], [0.0, 0.3, 0.0, 0.0]])
     text = unusable_warning(status, err, META)
     assert text is not None and text.startswith("3 of 8 waypoints have no usable solution (path 0: 2 of 4;")
-    assert "largest position error 0.3 m" in text and "rate limits" in text  # every first waypoint was reached
+    assert "largest position error 0.3 m" in text and "joint rate limit" in text  # every first waypoint was reached
+    # where the walk lost the path, and that the stiffness limits are not what binds (a newcomer widened
+    # kmin/kmax on such a path, as the old text's "rate limits (dq, dk)" suggested, and lost more)
+    assert "(path 0: before waypoint 2)" in text and "dk, kmin, kmax do not bound the TCP's motion" in text
     # a first waypoint not reached (it has no rate limit): the units or the reach
     text = unusable_warning(np.array([[3, 3]]), np.array([[0.5, 0.5]]), META)
-    assert text is not None and "check the path's units and the robot's reach" in text and "rate limits" not in text
+    assert text is not None and "check the path's units and the robot's reach" in text and "rate limit" not in text
     limited = {"limits": {"first_rate_limit": True}}
     text = unusable_warning(np.array([[3, 0]]), np.array([[0.5, 0.0]]), limited)
     assert text is not None and "first_rate_limit" in text
@@ -42,5 +45,8 @@ def test_shape_warns_where_the_rate_limits_leave_waypoints_unusable():
     assert unusable[0, 1:].all() and not unusable[0, 0]
     msgs = [str(x.message) for x in w if issubclass(x.category, UnusableWaypointsWarning)]
     assert (
-        len(msgs) == 1 and msgs[0].startswith("2 of 3 waypoints have no usable solution") and "rate limits" in msgs[0]
+        len(msgs) == 1
+        and msgs[0].startswith("2 of 3 waypoints have no usable solution")
+        and "joint rate limit" in msgs[0]
+        and "before waypoint 1" in msgs[0]
     )
