@@ -18,6 +18,8 @@ import math
 import os
 from typing import Any
 
+import numpy as np
+
 from ._common import check_out_path, command, parse_floats, writes
 from ._view import add_result_flags
 
@@ -32,6 +34,21 @@ def _waypoints(text: str) -> int | list[int]:
     return int(values[0])
 
 
+def _say_unusable(result: Any) -> None:
+    """Say how many waypoints of ``result`` (a file or a loaded shape result) have no usable
+    solution, which no --waypoints choice checks ("7/7 agree" on a path of 20 said nothing of the 13)."""
+    from ..results import ShapeResult, is_usable
+
+    res = ShapeResult.load(result) if isinstance(result, (str, os.PathLike)) else result
+    status = np.asarray(res.status)
+    bad = int(np.sum(~is_usable(status)))
+    if bad:
+        print(
+            f"jaxstiff: check-sim: {bad} of {status.size} waypoints have no usable solution (status 3-5) and are not "
+            "checked (--waypoints picks among the usable ones)"
+        )
+
+
 @command("check-sim", "check a shape result's stiffness against a MuJoCo simulation (needs jaxstiff[sim])")
 def _add_check_sim(p: argparse.ArgumentParser) -> Any:
     # RESULT (a file, or a sweep folder with --row), --row, --urdf: as view/plot/export, shape results only
@@ -39,7 +56,9 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
     p.add_argument(
         "--waypoints",
         default="5",
-        help="N: check N evenly spaced waypoints per path (ends included); i,j,k: these indices; 'all'",
+        help="N: check N evenly spaced waypoints per path among its usable ones (status 0-2; the usable ends "
+        "included); i,j,k: these indices (unusable ones left out); 'all'. A waypoint without a usable solution "
+        "holds none to check: the command says how many it leaves out",
     )
     p.add_argument(
         "--force",
@@ -83,6 +102,7 @@ def _add_check_sim(p: argparse.ArgumentParser) -> Any:
         elif args.row is not None:
             raise ValueError(f"--row {args.row} is for a sweep folder; {args.result} is a result file")
         cases = cases_from_result(result, waypoints, scaled=args.scaled, urdf=args.urdf)
+        _say_unusable(result)
         try:
             rows = check_cases(cases, force=args.force, tol=args.tol, cct=not args.no_cct)
         except SettleError as exc:

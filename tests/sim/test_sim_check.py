@@ -204,3 +204,25 @@ def test_cli_check_sim_reads_a_sweep_row(tmp_path, capsys, monkeypatch):
     assert "is a sweep folder: pick one of its rows with --row" in capsys.readouterr().err
     assert main(["check-sim", str(out), "--row", "7"]) == 2
     assert "no sweep row 7" in capsys.readouterr().err
+
+
+def test_cli_says_how_many_waypoints_it_leaves_out_as_unusable(tmp_path, capsys):
+    """`--waypoints 10` on a path of 20 with 13 unusable printed "7/7 waypoints agree" and nothing
+    of the 13 (found by a newcomer trial): the command says how many it leaves out."""
+    from jaxstiff.cli import main
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    q = np.deg2rad([[[75.0, -74.74, -76.30], [60.0, -50.0, -60.0], [40.0, 30.0, -90.0]]])
+    kj = np.array([[[500.0, 300.0, 100.0], [50.0, 30.0, 10.0], [5.0, 80.0, 20.0]]])
+    res = ShapeResult.load(_result_file(tmp_path / "r.npz", robot, q, kj, "xy", None))
+    status = np.array(res.status, copy=True)
+    status[0, 1] = 3
+    fields = {f: getattr(res, f) for f in res.arrays()} | {"status": status, "meta": res.meta}
+    f = ShapeResult(**fields).save(tmp_path / "one_unusable.npz")
+    capsys.readouterr()
+    assert main(["check-sim", f, "--waypoints", "3", "--no-cct"]) == 0
+    out = capsys.readouterr().out
+    assert "1 of 3 waypoints have no usable solution (status 3-5) and are not checked" in out, out
+    assert "2/2 waypoints agree" in out, out
+    assert main(["check-sim", str(tmp_path / "r.npz"), "--waypoints", "3", "--no-cct"]) == 0
+    assert "no usable solution" not in capsys.readouterr().out
