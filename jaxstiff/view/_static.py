@@ -23,7 +23,9 @@ The page reads its starting state from the URL fragment: ``page.html#path=1&wayp
 
 from __future__ import annotations
 
+import contextlib
 import html as html_lib
+import io
 import json
 import re
 import socket
@@ -251,7 +253,10 @@ def write_html(
     if not 0 <= waypoint < data.P:
         raise ValueError(f"waypoint {waypoint}: the result has {data.P} waypoints, 0..{data.P - 1}")
     paths = list(range(data.B)) if data.B * data.P <= MAX_WAYPOINTS else [b]
-    server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
+    # viser prints its live server's address and "(viser) Server stopped" whatever verbose says: this
+    # server only records the page, and a user writing a file was told of a server on a port nobody asked for
+    with contextlib.redirect_stdout(io.StringIO()):
+        server = viser.ViserServer(host="127.0.0.1", port=_free_port(), verbose=False)
     try:
         scene = Scene(server, data, n_per_m, every)
         scene.show(paths[0], 0)
@@ -266,7 +271,8 @@ def write_html(
                     rec.insert_sleep(SLOT_S)
         viser_html = rec.as_html()
     finally:
-        server.stop()
+        with contextlib.redirect_stdout(io.StringIO()):
+            server.stop()  # (joins the server's thread, which prints as it ends)
     return atomic_write_text(out, page_html(viser_html, page_data(data, scene, paths, b, waypoint, all_ellipsoids)))
 
 

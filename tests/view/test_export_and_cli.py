@@ -50,14 +50,19 @@ def test_csv_batch_rigid_and_csc(batch_file, csc_file, tmp_path) -> None:
     np.testing.assert_array_equal(table["q_lwr_a2_rad"], c.q[1, :, 1])
 
 
-def test_plot_and_html_every_kind(shape_file, batch_file, csc_file, tmp_path) -> None:
+def test_plot_and_html_every_kind(shape_file, batch_file, csc_file, tmp_path, capfd) -> None:
     pytest.importorskip("viser")
     for f in (shape_file, batch_file, csc_file):
         png = str(tmp_path / (os.path.basename(f) + ".png"))
         assert main(["plot", f, "--out", png, "--waypoints", "2"]) == 0
         assert os.path.getsize(png) > 10_000
     html = str(tmp_path / "b.html")
+    capfd.readouterr()
     assert main(["view", batch_file, "--html", html, "--path", "2"]) == 0
+    # the page is recorded from a server of its own, whose address and "Server stopped" viser printed
+    # (a user writing a file was told of a live server on a random port)
+    cap = capfd.readouterr()
+    assert "Websocket" not in cap.out + cap.err and "(viser)" not in cap.out + cap.err, cap
     text = open(html).read()
     assert text.startswith("<!doctype html>") and "__VISER_EMBED_DATA__" in text
     svg, pdf = str(tmp_path / "x.svg"), str(tmp_path / "x.pdf")
