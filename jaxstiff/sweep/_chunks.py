@@ -289,10 +289,14 @@ def _csc_chunk(plan: SweepPlan, chunk: Chunk, progress: Callable[[float], None] 
     chunk_size = int(plan.config["sweep"]["chunk_size"])
     sharded, _nd = shard_batch(inputs, size=min(chunk_size, max(len(c.rows) for c in plan.chunks)))
     with warnings.catch_warnings():
-        # a CSCWarning once per process, not once per chunk; "no null space" the config's check has
-        # already said (jaxstiff.sweep._axes)
-        warnings.filterwarnings("ignore", message=".*not redundant", category=CSCWarning)
+        # a CSCWarning once per process, not once per chunk; set first, as a filter added later is matched
+        # before it (the "not redundant" ignore, added before it, was never reached)
         warnings.simplefilter("once", CSCWarning)
+        # "no null space" the config's check has already said (jaxstiff.sweep._axes)
+        warnings.filterwarnings("ignore", message=".*not redundant", category=CSCWarning)
+        # a start off the path is the row's own choice (q0 family "nominal" or a given posture), and the
+        # table's tracking error shows it; said per chunk (another distance each time) it was noise
+        warnings.filterwarnings("ignore", message="the start posture's TCP lies", category=CSCWarning)
         res = csc_rollout(
             plan.robot,
             sharded["targets"],

@@ -517,3 +517,20 @@ def test_progress_note_says_saved_not_solved(csc_run):
     note = prog._note()
     assert note == f"saved: rows {len(first.rows)}/{plan.n_rows}, chunks 1/{len(plan.chunks)}", note
     prog.close()
+
+
+def test_a_csc_sweep_from_the_nominal_posture_does_not_warn_per_chunk(tmp_path):
+    """q0 family "nominal" starts off the path by the row's own choice: the rollout's far-start
+    warning (another distance each chunk) is not repeated per chunk. The sweep's filters set "once"
+    after its ignores, so the ignores were never reached (a warning filter added later is matched
+    first): they are set the other way round now."""
+    import warnings
+
+    text = CSC_TOML.replace('step = "constant"', 'step = "constant"\nq0 = "nominal"')
+    cfg = tmp_path / "nominal.toml"
+    cfg.write_text(text, encoding="utf-8")
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        out = run_sweep(str(cfg), tmp_path / "run", progress=False)
+    assert len(out.table()) == out.plan.n_rows
+    assert not [w for w in rec if "start posture's TCP" in str(w.message)], [str(w.message) for w in rec]
