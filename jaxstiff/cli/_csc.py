@@ -165,7 +165,9 @@ def _add_csc(p: argparse.ArgumentParser):
     q0.add_argument(
         "--q0",
         metavar="RAD,...",
-        help="start posture, rad; m for prismatic joints (locked joints: their locked values)",
+        help="start posture, rad; m for prismatic joints (locked joints: their locked values); 'ik': position IK "
+        "from the nominal posture onto the first target (--hold's point, or the one --path's first row), so the "
+        "run starts on the path",
     )
     q0.add_argument("--q0-deg", metavar="DEG,...", help="start posture, degrees (prismatic joints: m)")
     add_setting_flags(
@@ -176,6 +178,29 @@ def _add_csc(p: argparse.ArgumentParser):
         suffix=".npz",
     )
     return run_csc
+
+
+def _ik_start(args: argparse.Namespace) -> bool:
+    """``--q0 ik``: the start posture by IK onto the first target."""
+    return args.q0 is not None and args.q0.strip().lower() == "ik"
+
+
+def _ik_posture(robot: Any, points: np.ndarray, task: str) -> np.ndarray:
+    """``--q0 ik``: damped least-squares IK from the nominal posture onto ``points[0, 0]`` (x, y only
+    for task xy); refused where there are several paths (one q0 serves them all) or IK misses."""
+    from jaxstiff.ik import ik_position, nominal_posture
+
+    if points.shape[0] != 1:
+        raise ValueError(f"--q0 ik takes one --path (or --hold), got {points.shape[0]} paths: give --q0 / --q0-deg")
+    first = np.asarray(points[0, 0], float)
+    target = np.r_[first, 0.0] if first.shape[0] == 2 else first
+    q, err = ik_position(robot, target, nominal_posture(robot), planar=task == "xy")
+    if not err <= 1e-6:
+        raise ValueError(
+            f"--q0 ik: IK from the nominal posture ends {err:.3g} m from the first target {first.tolist()} m; "
+            "give a start posture near it with --q0 / --q0-deg"
+        )
+    return np.asarray(q, float)
 
 
 def _start_posture(args: argparse.Namespace, robot: Any) -> tuple[np.ndarray, str]:
@@ -227,8 +252,9 @@ def check_q0_limits(robot: Any, q0: np.ndarray, flag: str, typed: np.ndarray) ->
     )
 
 
-def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) -> tuple[np.ndarray, list[str]]:
-    """The (B, T, d) targets of --hold or --path, and their sources for meta."""
+def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray | None, task: str) -> tuple[np.ndarray, list[str]]:
+    """The (B, T, d) targets of --hold or --path, and their sources for meta (``q0`` None: not known
+    yet, ``--q0 ik``; the warning about an ignored z is then left out)."""
     d = task_dim(task)
     if args.hold is not None:
         x = parse_numbers(args.hold, "--hold")
@@ -253,7 +279,8 @@ def _targets(args: argparse.Namespace, robot: Any, q0: np.ndarray, task: str) ->
         points = np.stack(pts)
         sources = [os.path.abspath(f) for f in args.path]
     if task == "xy" and points.shape[-1] == 3:
-        _warn_ignored_z(robot, q0, points[..., 2], "--hold" if args.hold is not None else "--path")
+        if q0 is not None:
+            _warn_ignored_z(robot, q0, points[..., 2], "--hold" if args.hold is not None else "--path")
         points = points[..., :2]
     return points, sources
 
@@ -448,8 +475,12 @@ def run_csc(args: argparse.Namespace) -> int:
     K = parse_kxd(args.kxd, settings.task)
     settings = settings.replace(task=settings.task or M_TASK[K.shape[0]])
     check_planar_task(robot, settings.task or "")  # task xy on an arm that moves z: refused before any work
-    q0, flag = _start_posture(args, robot)
-    points, sources = _targets(args, robot, q0, settings.task or "")
+    if _ik_start(args):
+        points, sources = _targets(args, robot, None, settings.task or "")
+        q0, flag = _ik_posture(robot, points, settings.task or ""), "--q0"
+    else:
+        q0, flag = _start_posture(args, robot)
+        points, sources = _targets(args, robot, q0, settings.task or "")
     res, interrupted, seconds = _rollout(robot, points, K, q0, settings, _notes(args, settings))
     T, T_done = points.shape[1], res.q.shape[-2]
     partial = T_done < T  # (an interrupt while the last segment was joined still has every step)

@@ -290,7 +290,7 @@ def warn_far_start(robot: Robot, q0: Any, targets: Any) -> None:
             f"the start posture's TCP lies {worst:.3g} m from the path's first target{where}: the first step pulls "
             "the arm onto the path in one jump, which can move joints by tens of degrees while every step's status "
             "says 'ok'; start on the path (jaxstiff.ik.ik_position(robot, first target), or the q of a shape "
-            "result along the same path)",
+            "result along the same path; on the command line --q0 ik)",
             CSCWarning,
             stacklevel=3,
         )

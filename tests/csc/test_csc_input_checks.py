@@ -210,3 +210,27 @@ def test_a_start_far_from_the_path_is_warned():
         warnings.simplefilter("always")
         jaxstiff.csc_rollout(robot, np.tile(tcp, (5, 1)), K, q0, beta=2e-3, step="constant")
     assert not [x for x in rec if "start posture" in str(x.message)]
+
+
+def test_cli_q0_ik_starts_on_the_path(tmp_path, capsys):
+    """`--q0 ik`: the command line had no way to start on the path (a newcomer's LWR run started
+    0.35 m off it). The stored q0 puts the TCP on the first target (numpy FK, independent of the
+    IK), no far-start warning is given, and several paths (one q0 for all) are refused."""
+    import jaxstiff
+    from jaxstiff.cli import main
+    from jaxstiff.model._host import tcp_position
+
+    path = tmp_path / "p.csv"
+    jaxstiff.paths.line((0.5, -0.1, 0.4), (0.5, 0.1, 0.4), 6).to_csv(str(path))
+    out = tmp_path / "r.npz"
+    base = ["csc", "--robot", "kuka_lwr4", "--path", str(path), "--kxd", "3000,1000,2000@30", "--beta", "1"]
+    capsys.readouterr()
+    assert main(base + ["--q0", "ik", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "start posture's TCP" not in err, err
+    with np.load(out) as d:
+        q0 = d["q0"]
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    assert np.linalg.norm(tcp_position(robot, q0[None])[0] - [0.5, -0.1, 0.4]) < 1e-9
+    assert main(base + ["--path", str(path), "--q0", "ik", "--out", str(tmp_path / "two.npz")]) == 2
+    assert "--q0 ik takes one --path (or --hold), got 2 paths" in capsys.readouterr().err
