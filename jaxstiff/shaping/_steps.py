@@ -169,15 +169,17 @@ def cms_factors(K: np.ndarray, inp: ShapeInputs) -> np.ndarray:
         if inp.cms_major is not None:
             cms = inp.cms_major / w[:, -1]
         else:
+            assert inp.cms_volume is not None  # set whenever cms_major is not (shaping._inputs)
+            target = inp.cms_volume
             vol = np.prod(w, axis=-1)
-            cms = (inp.cms_volume / vol) ** (1.0 / inp.m)
+            cms = (target / vol) ** (1.0 / inp.m)
             # a product of the axes beyond float64 (stiffness ranges like [1e-300, 1e-290] Nm/rad:
             # the volume underflowed to 0 and the factor was inf): the m-th roots first, as
             # jaxstiff.cms_factor does (there only: elsewhere the same bits as the product)
             redo = np.all(w > 0, axis=-1) & ((vol == 0) | ~np.isfinite(vol) | ~np.isfinite(cms))
             if np.any(redo):
                 root = 1.0 / inp.m
-                cms[redo] = inp.cms_volume**root / np.prod(w[redo] ** root, axis=-1)
+                cms[redo] = target**root / np.prod(w[redo] ** root, axis=-1)
     return cms.reshape(K.shape[:2])
 
 
