@@ -305,3 +305,18 @@ def test_an_empty_urdf_is_called_empty(tmp_path):
     f.write_text('<robot name="x"></robot>')
     with pytest.raises(ValueError, match=r"empty.urdf: the URDF has no <link>"):
         jaxstiff.Robot.from_urdf(f)
+
+
+def test_fk_of_a_list_holding_a_traced_value():
+    """`jax.jit(lambda a: fk(robot, [a, 0, 0]))` raised TracerArrayConversionError from the float32
+    check, which turned the list into a numpy array. Checked against the closed form of the planar
+    3R (links of 1 m): x = 3 cos a at q = (a, 0, 0), dx/da = -3 sin a."""
+    import jax
+
+    import jaxstiff
+
+    robot = jaxstiff.Robot.from_urdf("planar_3r")
+    a = 0.1
+    x = jax.jit(lambda t: jaxstiff.fk(robot, [t, 0.0, 0.0])[0, 3])(a)
+    g = jax.grad(lambda t: jaxstiff.fk(robot, [t, 0.0, 0.0])[0, 3])(a)
+    assert abs(float(x) - 3 * np.cos(a)) < 1e-6 and abs(float(g) + 3 * np.sin(a)) < 1e-6

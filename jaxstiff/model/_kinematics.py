@@ -43,7 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from jaxstiff._numerics.batch import refuse_non_numeric
+from jaxstiff._numerics.batch import has_tracer, refuse_non_numeric
 from jaxstiff._numerics.trig import POLY_MIN_BATCH, cos_sin, joint_cos_sin
 from jaxstiff.model._chain import JOINT_PRISMATIC, Chain, check_locked_values
 from jaxstiff.model._kinematics_framed import framed_chain
@@ -203,6 +203,8 @@ def warn_if_float32(q: object) -> None:
     global _warned_float32
     if _warned_float32 or isinstance(q, jax.Array) or jax.dtypes.canonicalize_dtype(np.float64) == np.float64:
         return
+    if has_tracer(q):  # a list holding a traced value (fk(robot, [a, 0, 0]) under jit or grad): JAX's dtype
+        return
     dt = getattr(q, "dtype", None)
     if dt is None and isinstance(q, (list, tuple, float)):
         dt = np.asarray(q).dtype
@@ -237,7 +239,7 @@ def _locked_checked(fn):
     @functools.wraps(fn)
     def checked(robot: Chain, q: jax.Array, *args, **kwargs):
         _refuse_non_numbers(fn.__name__, robot, q)
-        if isinstance(q, (list, tuple)):  # numbers written as a list: [0, 0, 0] too, as Robot.fk takes it
+        if isinstance(q, (list, tuple)) and not has_tracer(q):  # [0, 0, 0] too, as Robot.fk takes it
             q = cast(jax.Array, np.asarray(q, dtype=float))  # numpy: warn_if_float32 still sees float64
         # a list where a static tuple goes (position_and_jacobian's rows): jit cannot hash a list
         args = tuple(tuple(a) if isinstance(a, list) else a for a in args)
