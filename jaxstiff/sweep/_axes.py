@@ -243,10 +243,10 @@ def _check_tasks(kind: str, axes: Mapping[str, list], robot: Any, source: str) -
             )
 
 
-def _warn_out_of_reach(trajectories: Sequence[Any], robot: Any, planar: bool) -> None:
+def _warn_out_of_reach(kind: str, trajectories: Sequence[Any], robot: Any, planar: bool) -> None:
     """Say which paths have waypoints beyond the robot's reach (``jaxstiff shape`` refuses such a
-    path; a sweep runs it, and those waypoints are status 3 in every row: said before the run,
-    with the millimetre hint, not found in a table of NaN metrics after it)."""
+    path; a sweep runs it: shape rows give those waypoints status 3, csc rollouts cannot track
+    them): said before the run, with the millimetre hint, not found in the table after it."""
     from jaxstiff.model._reach import _mm_hint, chain_reach, unreachable_mask
 
     for t in trajectories:
@@ -256,8 +256,13 @@ def _warn_out_of_reach(trajectories: Sequence[Any], robot: Any, planar: bool) ->
         reach = chain_reach(robot)
         warnings.warn(
             f"path {t.name!r}: {int(bad.sum())} of {t.P} waypoints lie beyond the reach of robot {robot.name!r} "
-            f"({reach.outer:.4g} m from the origin of joint {reach.centre_joint!r}; Robot.reach()): they are status 3 "
-            f"(unreachable) in every row{_mm_hint(reach, np.asarray(t.points, float))}",
+            f"({reach.outer:.4g} m from the origin of joint {reach.centre_joint!r}; Robot.reach()): "
+            + (
+                "they are status 3 (unreachable) in every row"
+                if kind == "shape"
+                else "no rollout can track them (the tracking error shows how far each ends)"
+            )
+            + _mm_hint(reach, np.asarray(t.points, float)),
             stacklevel=2,
         )
 
@@ -284,7 +289,7 @@ def cross_checks(
                     source,
                 )
     _check_tasks(kind, axes, robot, source)
-    _warn_out_of_reach(trajectories, robot, planar=set(axes.get("task", ())) == {"xy"})
+    _warn_out_of_reach(kind, trajectories, robot, planar=set(axes.get("task", ())) == {"xy"})
     if len(axes["q0_seed"]) > 1 and "random" not in axes["q0"]:
         raise SweepConfigError(
             "axes.q0_seed",
