@@ -80,13 +80,15 @@ def check_out_file(out: str, flag: str = "--out") -> str:
     a name without a suffix; another suffix is refused, since the file would be written under a
     name the user did not give) in an existing, writable folder, and not an existing folder or
     special file (``/dev/null``). Returns the absolute path."""
+    from jaxstiff.runtime._io import refuse_special_output
+
     if out.strip() and os.path.isdir(out):  # checked before ".npz" is added: the folder itself was meant
         raise ValueError(
             f"{flag}: {os.path.abspath(out)} is a folder; give a file name inside it, like "
             f"{os.path.join(out, 'result.npz')}"
         )
-    if out.strip() and os.path.exists(out) and not os.path.isfile(out):
-        raise ValueError(f"{flag}: {out} is not a regular file (a device or a pipe); give a file name like result.npz")
+    if out.strip():
+        refuse_special_output(out, f"{flag}: ", "give a file name like result.npz")
     ext = os.path.splitext(out)[1]
     if ext and ext.lower() != ".npz":
         raise ValueError(
@@ -196,8 +198,10 @@ def check_outputs_not_inputs(args: argparse.Namespace, flags: list[tuple[str, st
     file inside an input folder (a sweep folder); an output folder when it is an input, or when
     one of the files or folders it writes (``FileFlag.names``) is or holds an input. Paths that do
     not exist yet replace nothing. An output file that is a device or a pipe is refused too
-    (:func:`_refuse_special_file`). Raises ValueError naming both flags and paths.
+    (:func:`jaxstiff.runtime._io.refuse_special_output`). Raises ValueError naming both flags and paths.
     """
+    from jaxstiff.runtime._io import refuse_special_output
+
     inputs: list[tuple[str, str]] = []
     for dest, shown, role in flags:
         value = getattr(args, dest, None)
@@ -212,7 +216,7 @@ def check_outputs_not_inputs(args: argparse.Namespace, flags: list[tuple[str, st
         if out is None:
             continue
         if not role.folder:
-            _refuse_special_file(out, shown, role)
+            refuse_special_output(out, f"{shown} ", "give a file name" + (", or '-' for standard output" * role.stdout))
         targets = [out] + [os.path.join(out, n) for n in role.names]
         for t in targets:
             if not os.path.exists(t):
@@ -249,26 +253,16 @@ def _output_name(value: object, role: FileFlag) -> str | None:
     return value
 
 
-def _refuse_special_file(out: str, shown: str, role: FileFlag) -> None:
-    """An output file that exists and is a device or a pipe (through a link too) is refused: a file
-    written beside it and renamed onto it would replace it (``/dev/null``, ``/dev/stdout``) with a
-    plain file, and a pipe would get nothing."""
-    if os.path.exists(out) and not os.path.isdir(out) and not os.path.isfile(out):
-        raise ValueError(
-            f"{shown} {out}: not a regular file (a device or a pipe); give a file name"
-            + (", or '-' for standard output" if role.stdout else "")
-        )
-
-
 def check_out_path(path: str, flag: str, like: str = "") -> str:
     """An output file's path (as it will be written), checked before any work: not an existing
     folder, in an existing folder that can be written into. Returns the absolute path.
     ``like``: an example file name for the message when ``path`` is a folder."""
+    from jaxstiff.runtime._io import refuse_special_output
+
     path = os.path.abspath(path)
     if os.path.isdir(path):
         raise ValueError(f"{flag}: {path} is a folder; give a file name inside it" + (f", like {like}" if like else ""))
-    if os.path.exists(path) and not os.path.isfile(path):
-        raise ValueError(f"{flag}: {path} is not a regular file (a device or a pipe); give a file name")
+    refuse_special_output(path, f"{flag}: ")
     folder = os.path.dirname(os.path.realpath(path))  # a link's file is written where it points
     if not os.path.isdir(folder):
         raise FileNotFoundError(f"{flag}: folder does not exist: {folder}")

@@ -186,6 +186,15 @@ def _write_error(exc: OSError, file: str) -> WriteError:
     return WriteError(f"cannot write {file}: {reason[:1].lower() + reason[1:]}", exc.errno)
 
 
+def refuse_special_output(path: str, who: str = "", hint: str = "give a file name") -> None:
+    """Refuse an output ``path`` that exists and is neither a regular file nor a folder (a device
+    such as ``/dev/null``, a pipe; links followed): written beside it and renamed onto it, as every
+    output is (:func:`atomic_write`), it would be replaced by a plain file, and a pipe would get
+    nothing. ``who`` starts the message (a flag), ``hint`` ends it."""
+    if os.path.exists(path) and not os.path.isfile(path) and not os.path.isdir(path):
+        raise ValueError(f"{who}{path} is not a regular file (a device or a pipe); {hint}")
+
+
 def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary: bool = False) -> str:
     """Call ``write(fh)`` on a temporary file beside ``file``, then rename it onto ``file``.
 
@@ -198,8 +207,8 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
     Raises:
         FileNotFoundError: the target folder does not exist.
         IsADirectoryError: ``file`` is a folder.
-        ValueError: ``file`` exists and is not a regular file (a device, a pipe): renamed onto, it
-            would be replaced by a plain file (``/dev/null``), and a pipe would get nothing.
+        ValueError: ``file`` exists and is not a regular file (a device, a pipe:
+            :func:`refuse_special_output`).
         WriteError: the system refused the write (no space left, a read-only file system): named
             with ``file``, not with the temporary file's name.
     """
@@ -211,8 +220,7 @@ def atomic_write(file: str | os.PathLike, write: Callable[[IO], None], *, binary
         raise FileNotFoundError(f"output folder does not exist: {folder}")
     if os.path.isdir(file):  # before any work on the temporary file, whose name would show in the error
         raise IsADirectoryError(f"{os.path.abspath(given)} is a folder; give a file name inside it")
-    if os.path.exists(file) and not os.path.isfile(file):
-        raise ValueError(f"{os.path.abspath(given)} is not a regular file (a device or a pipe); give a file name")
+    refuse_special_output(os.path.abspath(given))
     if folder not in _CLEANED:
         clean_stale_temporaries(folder)
         _CLEANED.add(folder)
