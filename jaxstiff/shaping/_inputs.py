@@ -403,6 +403,7 @@ def check_inputs(
             f"got cms_mean_axis={values['cms_mean_axis']!r} with "
             + (f"cms_volume={cms_volume!r}" if cms_volume is not None else f"cms_major={cms_major!r}")
         )
+    explicit_volume = cms_volume
     if cms_volume is None and cms_major is None:
         cms_volume = float(values["cms_mean_axis"]) ** m
     scalars = {
@@ -416,7 +417,9 @@ def check_inputs(
         "c": c,
         "first_rate_limit": bool(values["first_rate_limit"]),
         "first_starts": n_first,
-        "cms_mean_axis": float(values["cms_mean_axis"]),
+        # the mean axis the target amounts to: a volume given instead fixes it (V^(1/m)); a major
+        # axis does not (meta["settings"] records None then: shaping._steps._settings_meta)
+        "cms_mean_axis": float(values["cms_mean_axis"]) if explicit_volume is None else explicit_volume ** (1.0 / m),
         **per_m,
     }
     for key, one in (

@@ -232,6 +232,8 @@ def _settings_meta(inp: ShapeInputs) -> dict[str, Any]:
     """``meta["settings"]``: the settings' values and units (dq in rad); per-path arrays as lists."""
     out = inp.settings.meta()
     out["criterion"] = inp.crit_name
+    if inp.cms_major is not None:  # a major-axis target has no one mean axis (meta["cms"] holds it)
+        out["cms_mean_axis"] = None
     for key, value in (("ratio", inp.ratio), ("dq", inp.dq), ("dk", inp.dk)):
         a = np.asarray(value)
         if a.ndim > 0 and not (key != "ratio" and a.ndim == 1 and np.all(a == a.flat[0])):

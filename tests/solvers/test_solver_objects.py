@@ -168,3 +168,18 @@ def test_inline_settings_equal_a_settings_object():
     _same(a, b)
     np.testing.assert_array_equal(a.kj_scaled, b.kj_scaled)
     assert a.meta["settings"]["cms_mean_axis"] == 300.0
+
+
+def test_settings_meta_gives_the_mean_axis_a_cms_target_amounts_to():
+    """A volume target V of the planar task (m = 2) is a geometric-mean axis V^(1/2); a major-axis
+    target has none. Checked against the stored factors: prod(eig(cms K)) = V at every waypoint."""
+    vol = _run(SLSQP(), cms_volume=4.0e4)
+    assert vol.meta["settings"]["cms_mean_axis"] == pytest.approx(200.0, rel=1e-15)
+    assert vol.meta["cms"] == {"target_volume": 4.0e4, "target_major": None}
+    jac = np.stack([jaxstiff.jacobian(PLANAR, q)[:2] for q in vol.q[0]])
+    for Jp, kj in zip(jac, vol.kj_scaled[0], strict=True):
+        K = np.linalg.inv(Jp @ np.diag(1.0 / kj) @ Jp.T)
+        assert np.prod(np.linalg.eigvalsh(K)) == pytest.approx(4.0e4, rel=1e-9)
+    major = _run(SLSQP(), cms_major=300.0)
+    assert major.meta["settings"]["cms_mean_axis"] is None
+    assert major.meta["cms"]["target_major"] == 300.0
