@@ -48,6 +48,7 @@ __all__ = [
     "guard_jax_cache",
     "CACHE_ENV",
     "CACHE_DIR_ENV",
+    "CacheFolderWarning",
     "COMPILE_EVENTS",
     "MIN_COMPILE_S",
 ]
@@ -264,13 +265,31 @@ def enable_compile_cache(path: str | None, min_compile_s: float = MIN_COMPILE_S)
     return path
 
 
-def ensure_compile_cache() -> str | None:
+class CacheFolderWarning(UserWarning):
+    """The compilation cache folder the environment names cannot be made or written: the process
+    runs without a persistent cache (every program compiles again; results are not affected)."""
+
+
+def ensure_compile_cache(warn: bool = True) -> str | None:
     """:func:`enable_compile_cache` on :func:`default_cache_dir` (entry points call it; cheap when
-    nothing changed: two environment look-ups). Returns the folder in use or None."""
+    nothing changed: two environment look-ups). Returns the folder in use or None. ``warn``: a
+    :class:`CacheFolderWarning`, once per folder, when the folder asked for cannot be used (a
+    caller that reports it in its own words passes False)."""
     want = default_cache_dir()
     if "dir" not in _state or _state.get("want") != want:
         _state["want"] = want
         _state["dir"] = enable_compile_cache(want)
+        if want and _state["dir"] is None and warn:
+            import warnings
+
+            source = f"${CACHE_DIR_ENV}" if os.environ.get(CACHE_DIR_ENV) == want else "the user cache folder"
+            why = "a file, not a folder" if os.path.isfile(want) else "it cannot be made or written"
+            warnings.warn(
+                f"compilation cache folder {want} ({source}): {why}; running without a persistent "
+                "compilation cache (every program compiles again in each process; results are not affected)",
+                CacheFolderWarning,
+                stacklevel=2,
+            )
     return _state["dir"]
 
 
@@ -286,7 +305,7 @@ def compile_cache_flags(off: bool = False, path: str | None = None) -> Iterator[
     if path:
         os.environ[CACHE_DIR_ENV] = os.path.abspath(os.path.expanduser(path))
     try:
-        yield ensure_compile_cache()
+        yield ensure_compile_cache(warn=not path)  # a --compile-cache folder: the command says it
     finally:
         for k, v in saved.items():
             if v is None:

@@ -105,3 +105,32 @@ def test_a_compile_cache_folder_that_cannot_be_used_is_said(monkeypatch, capsys)
     assert "warning: --compile-cache /proc/nope: the folder cannot be made or written" in capsys.readouterr().err
     assert cli_main._run_command(argparse.Namespace(**base, global_compile_cache="/tmp/ok")) == 0
     assert "warning" not in capsys.readouterr().err
+
+
+def test_cache_folder_from_the_environment_that_is_a_file_is_said(tmp_path):
+    """JAXSTIFF_CACHE_DIR naming a file: the process runs without a cache and says so once (a
+    warning naming the variable and the file), from the Python API and from a command alike."""
+    afile = tmp_path / "not_a_folder"
+    afile.write_text("x")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COMPILATION_CACHE", "JAXSTIFF_"))}
+    env["JAXSTIFF_CACHE_DIR"] = str(afile)
+    code = (
+        "import warnings; warnings.simplefilter('error');"
+        "from jaxstiff.runtime._compile_cache import ensure_compile_cache, CacheFolderWarning\n"
+        "try:\n    ensure_compile_cache()\nexcept CacheFolderWarning as w:\n    print('WARNED', w)\n"
+        "print('AGAIN', ensure_compile_cache())"
+    )
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert f"WARNED compilation cache folder {afile} ($JAXSTIFF_CACHE_DIR): a file, not a folder" in out.stdout
+    assert "AGAIN None" in out.stdout  # once per folder, and no cache in use
+    cmd = subprocess.run(
+        [sys.executable, "-m", "jaxstiff.cli", "robot", "planar_3r"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert cmd.returncode == 0, cmd.stderr
+    assert f"warning: compilation cache folder {afile} ($JAXSTIFF_CACHE_DIR): a file, not a folder" in cmd.stderr
+    assert afile.read_text() == "x"
