@@ -52,6 +52,9 @@ MOVED = {
     "jaxstiff.shaping_inputs": "jaxstiff.shaping._inputs",
     "jaxstiff.shaping_steps": "jaxstiff.shaping._steps",
     **private_module_paths(__name__, __path__[0], _PRIVATE_MODULES),
+    # pgd's waypoint operations, shared with greedy SLSQP's target step since, moved below both
+    "jaxstiff.solvers.pgd.ops": "jaxstiff.solvers._problem.ops",
+    "jaxstiff.solvers._pgd.ops": "jaxstiff.solvers._problem.ops",
 }
 #: the public module to name in a former path's warning where it is not the private module's own
 #: package: the ellipsoid's names are public at the top level only (see _SOURCES)

@@ -148,10 +148,18 @@ FORMER_MODULES = json.loads((pathlib.Path(__file__).parent / "data" / "former_mo
 PACKAGES = sorted({".".join(old.split(".")[:2]) for old in FORMER_MODULES})
 
 
+#: former modules whose code later moved to another private module (listed in jaxstiff.MOVED by hand):
+#: pgd's waypoint operations, which greedy SLSQP's target step shares, now sit below both
+RELOCATED = {"jaxstiff.solvers.pgd.ops": "jaxstiff.solvers._problem.ops"}
+
+
 def private_path(old: str) -> str:
     """Where a former module's code lives: its name under the package made private
     (``jaxstiff.model.chain`` -> ``jaxstiff.model._chain``, ``jaxstiff.solvers.pgd.batch`` ->
-    ``jaxstiff.solvers._pgd.batch``: the subpackage is private, its modules keep their names)."""
+    ``jaxstiff.solvers._pgd.batch``: the subpackage is private, its modules keep their names),
+    or where :data:`RELOCATED` says it went."""
+    if old in RELOCATED:
+        return RELOCATED[old]
     parts = old.split(".")
     parts[2] = "_" + parts[2]
     return ".".join(parts)

@@ -54,8 +54,8 @@ from jaxstiff.settings._solvers import PGDOptions, TrajectoryOptions
 from jaxstiff.solvers._base import SolveRequest
 from jaxstiff.solvers._pgd import WaypointOps, adam_direction, clip_box, finish, pad_rows
 from jaxstiff.solvers._pgd.kernel import length_unit
-from jaxstiff.solvers._pgd.ops import lm_kind
 from jaxstiff.solvers._problem import POS_TOL, WaypointBatch, WaypointProblem
+from jaxstiff.solvers._problem.ops import lm_kind
 from jaxstiff.solvers._trajectory_lm import make_lm_stage
 
 __all__ = ["DEFAULT_OPTIONS", "refine_batch", "run_request"]

@@ -6,7 +6,7 @@ limits bind (a tight curve) it moves the trajectory slowly and stops short of th
 keeps every waypoint in target (LWR, 90 deg arc in 20 waypoints: mean f2 1.24 where IPOPT on the
 whole-trajectory NLP reaches 1.00). This stage takes Gauss-Newton steps on all waypoints at once:
 
-* per waypoint the smooth residuals of :meth:`~jaxstiff.solvers._pgd.ops.WaypointOps.lm_residual`
+* per waypoint the smooth residuals of :meth:`~jaxstiff.solvers._problem.ops.WaypointOps.lm_residual`
   (position rows, alignment rows, log-ratio row), whose zeros are exactly the criterion's minimum
   set (f2: alpha = 0 and rho = r; f1: alpha = 0 and rho >= r), and their Jacobian (closed form);
 * per pair of successive waypoints and variable the rate limits ``|x_p - x_{p-1}| <= dx`` as
@@ -33,7 +33,7 @@ from collections.abc import Callable
 import jax
 import jax.numpy as jnp
 
-from jaxstiff.solvers._pgd.ops import WaypointOps, clip_box
+from jaxstiff.solvers._problem.ops import WaypointOps, clip_box
 
 __all__ = ["block_tridiag_solve", "make_lm_stage"]
 

@@ -219,8 +219,8 @@ def test_lm_stage_never_raises_the_residual_and_stays_in_the_box(robot_name, tas
     import jax
     import jax.numpy as jnp
 
-    from jaxstiff.solvers._pgd.ops import box_scales
     from jaxstiff.solvers._problem import WaypointProblem
+    from jaxstiff.solvers._problem.ops import box_scales
     from jaxstiff.stiffness import get_criterion
 
     robot = jaxstiff.Robot.from_urdf(robot_name)

@@ -84,8 +84,8 @@ from jaxstiff.solvers._pgd.batch import (
     solve_batch,
 )
 from jaxstiff.solvers._pgd.kernel import make_kernel
-from jaxstiff.solvers._pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, lm_kind, spd_solve
 from jaxstiff.solvers._pgd.stages import finish
+from jaxstiff.solvers._problem.ops import WaypointOps, adam_direction, box_scales, clip_box, lm_kind, spd_solve
 
 __all__ = [
     "DEFAULT_OPTIONS",

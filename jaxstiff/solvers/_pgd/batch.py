@@ -22,8 +22,8 @@ from jaxstiff.runtime._xla import kernel_compiler_options
 from jaxstiff.settings._solvers import PGDOptions
 from jaxstiff.solvers._base import SolveRequest
 from jaxstiff.solvers._pgd.kernel import PGDKernel, waypoint_keys
-from jaxstiff.solvers._pgd.ops import lm_kind
 from jaxstiff.solvers._problem import POS_TOL, WaypointBatch, WaypointProblem, content_seed
+from jaxstiff.solvers._problem.ops import lm_kind
 
 __all__ = [
     "DEFAULT_OPTIONS",

@@ -12,9 +12,9 @@ import numpy as np
 
 from jaxstiff._numerics.batch import batched_like
 from jaxstiff.results import _files as R
-from jaxstiff.solvers._pgd.ops import WaypointOps, box_scales, clip_box, lm_kind
 from jaxstiff.solvers._pgd.stages import judge, optimise
 from jaxstiff.solvers._problem import WaypointProblem
+from jaxstiff.solvers._problem.ops import WaypointOps, box_scales, clip_box, length_unit, lm_kind
 
 __all__ = ["make_kernel", "length_unit"]
 
@@ -36,11 +36,6 @@ def waypoint_keys(key: jax.Array, P: int) -> jax.Array:
     the last of ``split(key, P + 1)``, waypoint p's (p >= 1) the p-th."""
     k = jax.random.split(key, P + 1)
     return jnp.concatenate([k[P:], k[1:P]])
-
-
-def length_unit(size: float) -> float:
-    """The power of two nearest a robot's size (m) in log scale (:attr:`Chain.length_scale`)."""
-    return float(2.0 ** round(np.log2(size)))
 
 
 class PGDKernel:

@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 
 from jaxstiff._numerics.batch import batched_like
-from jaxstiff.solvers._pgd.ops import WaypointOps, adam_direction, box_scales, clip_box, spd_solve
+from jaxstiff.solvers._problem.ops import WaypointOps, adam_direction, box_scales, clip_box, spd_solve
 
 __all__ = ["finish", "verdict"]
 

@@ -12,7 +12,8 @@ import numpy as np
 
 from jaxstiff._numerics.batch import batched_like
 from jaxstiff.model._kinematics import jacobian_tangent
-from jaxstiff.solvers._problem import WaypointProblem, rate_bounds
+from jaxstiff.solvers._problem.box import rate_bounds
+from jaxstiff.solvers._problem.waypoint import WaypointProblem
 from jaxstiff.stiffness._core import (
     compliance,
     fusion_boundary,
@@ -360,6 +361,11 @@ def complement_basis(d: jax.Array) -> jax.Array:
     e1 = e1 / jnp.linalg.norm(e1)
     e2 = jnp.cross(d, e1)
     return jnp.stack([e1, e2], axis=1)
+
+
+def length_unit(size: float) -> float:
+    """The power of two nearest a robot's size (m) in log scale (:attr:`Chain.length_scale`)."""
+    return float(2.0 ** round(np.log2(size)))
 
 
 def lm_kind(problem: WaypointProblem) -> str | None:
