@@ -172,6 +172,12 @@ class SLSQPOptions(SolverOptions):
         kind="int",
         optional=True,
     )
+    target_step: str = option(
+        "lm",
+        "rate-limited waypoints (f1, f2), slsqp only: lm: Levenberg-Marquardt onto the criterion's least value "
+        "first, SLSQP only where that does not reach it; none: SLSQP everywhere",
+        choices=("lm", "none"),
+    )
     driver: str = option(
         "lean",
         "lean: scipy's SLSQP routine from a minimal loop; scipy: scipy.optimize.minimize",

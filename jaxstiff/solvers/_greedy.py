@@ -36,6 +36,7 @@ from jaxstiff.solvers._problem import (
     jax_pos_and_jac,
     newton_project,
 )
+from jaxstiff.solvers._problem.target_step import ACCEPT_REL, LM_STEPS, TargetStep
 from jaxstiff.stiffness._criteria import f2
 
 __all__ = ["CODE_MEANING", "GIVE_UP_REL"]
@@ -52,6 +53,11 @@ TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count
 CODE_MEANING = (
     "SLSQP exit mode (0 = converged, scipy's modes 1-9 otherwise, 10 = stalled: infeasible and no "
     "longer moving), -1 = exception"
+)
+#: added to :data:`CODE_MEANING` where the walk had a target step
+TARGET_STEP_MEANING = (
+    "; 0 also where the target step reached the criterion's least value and SLSQP did not run "
+    "(nit, nfev: its Levenberg-Marquardt steps)"
 )
 
 #: ``q (n,) -> (position (3,), J[rows][:, free] (k, n_free))``
@@ -393,6 +399,7 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
     first_starts: Sequence[tuple[np.ndarray, np.ndarray]] = (),
     first_maxiter: int | None = None,
     path_retries: int = 0,
+    target_step: TargetStep | None = None,
 ) -> list[WaypointOutcome]:
     """Solve the waypoints of path ``b`` of ``batch`` one after the other (seed 000's greedy scheme).
 
@@ -427,11 +434,17 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
             sum of the criterion (not where the first waypoint itself is off target). f2 and f1 have whole sets of optimal first postures, and which
             one the walk leaves from decides whether a rate-limited stretch later can follow. 0:
             seed 000's scheme alone.
+        target_step: at a rate-limited waypoint, tried before the solver from the same start
+            (:func:`jaxstiff.solvers._problem.target_step.target_step`); its answer is kept where it
+            is usable with the criterion within ``ACCEPT_REL`` of its least value, and the solver
+            does not run there. None: the solver alone.
 
     Returns:
         One :class:`WaypointOutcome` per waypoint.
     """
-    walk = _GreedyWalk(batch, b, solver, pos_and_jac, objective, pos_tol, first_starts, first_maxiter, path_retries)
+    walk = _GreedyWalk(
+        batch, b, solver, pos_and_jac, objective, pos_tol, first_starts, first_maxiter, path_retries, target_step
+    )
     out, fs, alternatives = walk.run(None, progress)
     bound = walk.bound  # target_bound of this path's ratio and c
     if path_retries <= 0 or bound is None or not alternatives:
@@ -488,6 +501,7 @@ class _GreedyWalk:
         first_starts: Sequence[tuple[np.ndarray, np.ndarray]],
         first_maxiter: int | None,
         rescue_rate_limited: int,
+        target_step: TargetStep | None = None,
     ) -> None:
         self.problem = batch.problem
         self.limits = batch.limits.for_path(b)
@@ -500,6 +514,9 @@ class _GreedyWalk:
         self.first_starts, self.first_maxiter = first_starts, first_maxiter
         self.rescue_rate_limited = rescue_rate_limited > 0
         self.bound = target_bound(self.problem, self.ratio, self.c)
+        self.target_step = target_step
+        least = self.problem.criterion_minimum(self.c) if target_step is not None else None
+        self.accept_below = None if least is None else least + ACCEPT_REL * max(abs(least), 1e-300)
 
     def run(
         self,
@@ -572,6 +589,10 @@ class _GreedyWalk:
         if hopeless is not None:  # out of reach of every posture tried: no SLSQP run (GIVE_UP_REL)
             x, status, err, code, f = hopeless
             return x, status, err, code, f, 0, 0, []
+        if rate and self.target_step is not None and self.accept_below is not None:
+            found = self._target_step(starts[0], lb, ub, target, direction, params)
+            if found is not None:
+                return (*found, [])
         args = (problem, self.solver)
         maxiter = None if rate else self.first_maxiter
         cands, nit, nfev = _solve_starts(
@@ -596,6 +617,34 @@ class _GreedyWalk:
         x, status, err, code, f = best
         alts = [] if rate else _other_optima(problem, cands, best)
         return x, status, err, code, f, nit, nfev, alts
+
+    def _target_step(
+        self,
+        x_start: np.ndarray,
+        lb: np.ndarray,
+        ub: np.ndarray,
+        target: np.ndarray,
+        direction: np.ndarray,
+        params: np.ndarray,
+    ) -> tuple[np.ndarray, int, float, int, float, int, int] | None:
+        """The target step's answer from ``x_start`` as ``(x, status, pos_error, code 0, f, nit,
+        nfev)`` where it is solved with the criterion at its least value (:data:`ACCEPT_REL`),
+        else None (the solver runs)."""
+        assert self.target_step is not None and self.accept_below is not None
+        try:
+            y = self.target_step(x_start, lb, ub, target, direction, self.ratio)
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError, FloatingPointError):
+            return None
+        if not np.all(np.isfinite(y)):
+            return None
+        sol = SolverOutput(y, 0, True, LM_STEPS, LM_STEPS + 1)
+        x, status, err = judge(self.problem, sol, x_start, lb, ub, target, params, self.pj, self.fobj, self.pos_tol)
+        if status != R.SOLVED:
+            return None
+        f = self.fobj(x, params)
+        if not f <= self.accept_below:
+            return None
+        return x, status, err, 0, f, sol.nit, sol.nfev
 
 
 def _other_optima(problem: WaypointProblem, cands: Sequence[Candidate], best: Candidate) -> list[Candidate]:
@@ -673,7 +722,7 @@ def run_greedy(
     out: dict[str, Any] = outcomes_to_arrays(per_path, prob.n_free, req.q0, prob.free_idx, prob.kj_full)
     out["compile_s"] = float(getattr(solver, "compile_s", 0.0))
     out["driver"] = str(getattr(solver, "driver", "scipy.optimize.minimize"))
-    out["code_meaning"] = CODE_MEANING
+    out["code_meaning"] = CODE_MEANING + (TARGET_STEP_MEANING if extra.get("target_step") is not None else "")
     if interrupted:
         raise SolverInterrupted(out)
     return out

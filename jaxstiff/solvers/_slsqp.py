@@ -47,6 +47,7 @@ from jaxstiff.solvers._greedy import not_run_outcomes as not_run_outcomes
 from jaxstiff.solvers._greedy import run_greedy as run_greedy
 from jaxstiff.solvers._lockstep import Steps, run_steps
 from jaxstiff.solvers._problem import WaypointBatch, WaypointProblem, compiled_position, compiled_scaled
+from jaxstiff.solvers._problem.target_step import TargetStep, target_step
 
 __all__ = [
     "WaypointOutcome",
@@ -432,10 +433,21 @@ def solve_path(
         path_retries=PATH_RETRIES
         if solver.options.get("path_retries") is None
         else int(solver.options["path_retries"]),
+        target_step=_target_step_of(batch.problem, solver, batch.limits.kmin, batch.limits.kmax),
     )
+
+
+def _target_step_of(problem: WaypointProblem, solver: SLSQPSolver, kmin: float, kmax: float) -> TargetStep | None:
+    """The greedy walk's target step (option ``target_step``), or None."""
+    if solver.options.get("target_step", "lm") == "none":
+        return None
+    return target_step(problem, float(kmax) - float(kmin))
 
 
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers._base.SOLVERS` (``solver="slsqp"``)."""
     check_single_start(req.starts, "slsqp")
-    return run_greedy(req, make_slsqp_solver(req.problem, req.options, (req.limits.kmin, req.limits.kmax)), {})
+    solver = make_slsqp_solver(req.problem, req.options, (req.limits.kmin, req.limits.kmax))
+    return run_greedy(
+        req, solver, {"target_step": _target_step_of(req.problem, solver, req.limits.kmin, req.limits.kmax)}
+    )
