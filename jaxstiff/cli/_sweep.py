@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable
 
@@ -95,6 +96,13 @@ def _add_sweep(p: argparse.ArgumentParser) -> Callable[[argparse.Namespace], int
             print(f"jaxstiff: error: {e}", file=sys.stderr)
             return 1
         except WriteError as e:  # a full disk or a read-only folder: the finished chunks are kept
+            if not os.path.isfile(os.path.join(args.out, "plan.json")):  # the store was never set up
+                print(
+                    f"jaxstiff: error: {e}; the sweep did not start and left nothing in {args.out}: make room, "
+                    f"then run it again: jaxstiff sweep {args.config} --out {args.out}",
+                    file=sys.stderr,
+                )
+                return 1
             print(
                 f"jaxstiff: error: {e}; the chunks finished before it are kept in {args.out}: make room, then "
                 f"continue with: jaxstiff sweep {args.config} --out {args.out} --resume",

@@ -85,26 +85,46 @@ class SweepStore:
             raise ValueError(f"--out {self.out}: exists and is not a folder")
         # a folder that is not a sweep store is refused before anything (even the lock) is written into it
         self._check_foreign()
-        created = not os.path.exists(self.out)
-        os.makedirs(self.out, exist_ok=True)
+        created = self._make_folder()
         self._lock_obj: Any = None
         try:
             self._lock()
             self._open(resume)
         except BaseException:
-            self.close()
-            if created:  # refused or interrupted before the store existed: leave nothing behind
-                for f in (LOCK_FILE, OWNER_FILE):
+            # refused or interrupted before the store existed: leave nothing behind, but only what
+            # this process made and holds (a sweep started at the same moment on the same new
+            # folder may hold the lock: its lock, owner record and folder are its own)
+            mine = created and self._lock_obj is not None
+            if mine:
+                for f in (OWNER_FILE, LOCK_FILE):
                     with contextlib.suppress(OSError):
                         os.unlink(self.path(f))
+            self.close()
+            if mine:
                 with contextlib.suppress(OSError):
                     os.rmdir(self.out)
             raise
 
+    def _make_folder(self) -> bool:
+        """Make the output folder; True if this call made it (``os.mkdir`` is atomic: of two
+        processes starting on the same new folder, one only)."""
+        parent = os.path.dirname(self.out)
+        if parent:
+            os.makedirs(parent, exist_ok=True)
+        try:
+            os.mkdir(self.out)
+        except FileExistsError:
+            if not os.path.isdir(self.out):
+                raise ValueError(f"--out {self.out}: exists and is not a folder") from None
+            return False
+        return True
+
     def _check_foreign(self) -> None:
         if not os.path.isdir(self.out) or os.path.isfile(self.path("plan.json")):
             return
-        others = [f for f in os.listdir(self.out) if f not in (LOCK_FILE, OWNER_FILE)]
+        # the lock, its owner record and the temporary file that record is written through
+        # (another sweep taking the lock on a new folder at this moment) are not foreign
+        others = [f for f in os.listdir(self.out) if f not in (LOCK_FILE, OWNER_FILE) and not f.startswith(".tmp-")]
         if {"chunks", "arrays"} & set(others):
             raise ValueError(
                 f"--out {self.out} holds a sweep's chunks but no plan.json (the sweep's plan); it is not a usable "

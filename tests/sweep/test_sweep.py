@@ -276,6 +276,46 @@ def test_lock_owner_record_is_removed_when_the_run_ends(shape_run, tmp_path):
     assert not (out / OWNER_FILE).exists()
 
 
+def test_two_sweeps_started_at_once_on_a_new_folder_leave_the_winner_alone(shape_run, tmp_path, monkeypatch):
+    """Two sweeps starting at the same moment on the same new folder (found by a concurrency
+    audit: 7 of 8 such starts broke): the one that made the folder lost the lock to the other and,
+    refused, deleted the winner's lock and owner record and then the folder. Played here in one
+    process: the "other sweep" takes the lock (flock on its own file description) just after this
+    store makes the folder. This store is refused with the lock message (not "holds no sweep",
+    from the winner's temporary owner file), and the winner's lock, record and folder stay."""
+    from filelock import FileLock
+
+    from jaxstiff.sweep import _store
+    from jaxstiff.sweep._store import LOCK_FILE, OWNER_FILE
+
+    out = tmp_path / "raced"
+    winner = FileLock(str(out / LOCK_FILE), timeout=0)
+    made = _store.SweepStore._make_folder
+
+    def make_then_lose_the_race(self):
+        created = made(self)
+        winner.acquire()
+        (out / OWNER_FILE).write_text("pid 1 on other since now\n")
+        (out / ".tmp-abc123.owner").write_text("pid 1 on other since now\n")  # its write in flight
+        return created
+
+    monkeypatch.setattr(_store.SweepStore, "_make_folder", make_then_lose_the_race)
+    try:
+        with pytest.raises(ValueError, match=r"another jaxstiff sweep is writing .*\(pid 1 on other since now\)"):
+            SweepStore(out, shape_run.plan)
+        assert sorted(os.listdir(out)) == sorted([LOCK_FILE, OWNER_FILE, ".tmp-abc123.owner"])
+        assert winner.is_locked
+    finally:
+        winner.release()
+    # a folder holding only such a temporary file and a free lock is taken (the check under the
+    # lock sees what is there then)
+    monkeypatch.setattr(_store.SweepStore, "_make_folder", made)
+    (out / OWNER_FILE).unlink()
+    (out / ".tmp-abc123.owner").unlink()
+    with SweepStore(out, shape_run.plan) as st:
+        assert st.done == {}
+
+
 def test_start_posture_retries_a_failed_ik_and_reports_its_distance(monkeypatch):
     """q0 = "ik"/"random": an IK that ends off the first waypoint is retried from further drawn
     postures (the closest kept); one that never reaches it warns, naming the path, and the distance
@@ -534,3 +574,28 @@ def test_a_csc_sweep_from_the_nominal_posture_does_not_warn_per_chunk(tmp_path):
         out = run_sweep(str(cfg), tmp_path / "run", progress=False)
     assert len(out.table()) == out.plan.n_rows
     assert not [w for w in rec if "start posture's TCP" in str(w.message)], [str(w.message) for w in rec]
+
+
+def test_a_sweep_that_cannot_set_up_its_folder_says_nothing_was_kept(tmp_path, monkeypatch, capsys):
+    """A full disk while the store is set up (its first file, the lock owner record): the command
+    said "the chunks finished before it are kept in OUT ... --resume", about a folder it had just
+    removed (found on a 60 KiB tmpfs). It now says the sweep did not start and how to run it again;
+    a failure after the store exists keeps the resume advice."""
+    import errno
+
+    from jaxstiff.cli import main
+    from jaxstiff.runtime import _io
+    from jaxstiff.sweep import _store
+
+    cfg = tmp_path / "tiny_csc.toml"
+    cfg.write_text(CSC_TOML, encoding="utf-8")
+
+    def full(path, text, *a, **k):
+        raise _io.WriteError(f"cannot write {path}: no space left on device", errno.ENOSPC)
+
+    monkeypatch.setattr(_store, "atomic_write_text", full)
+    out = tmp_path / "new"
+    assert main(["sweep", str(cfg), "--out", str(out), "--no-progress", "--no-report"]) == 1
+    err = capsys.readouterr().err
+    assert "no space left on device; the sweep did not start and left nothing in" in err, err
+    assert "--resume" not in err and not out.exists()
