@@ -263,11 +263,15 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
         if np.all(st == R.NOT_RUN):
             print("\njaxstiff: nothing was written (no waypoint was finished)", file=sys.stderr)
             raise
+        # an earlier result at --out is not replaced by a part of this run: it goes beside it
+        kept = os.path.exists(out)
+        target = _interrupted_name(out) if kept else out
         with deferred_interrupts():
-            written = save_or_rescue(e.result.save, out)
+            written = save_or_rescue(e.result.save, target)
         print(
             f"\njaxstiff: interrupted: wrote {written} with the {int((st != R.NOT_RUN).sum())} of {st.size} "
-            f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)",
+            f"waypoints finished before it; the others have status {R.NOT_RUN} (not run)"
+            + (f"; the earlier {out} is kept as it was" if kept else ""),
             file=sys.stderr,
         )
         raise
@@ -285,6 +289,13 @@ def _solve_and_save(args: argparse.Namespace, out: str, kw: dict[str, Any], tota
         print(f"\njaxstiff: interrupted after the last waypoint: wrote the complete result {written}", file=sys.stderr)
         raise KeyboardInterrupt
     return res, written
+
+
+def _interrupted_name(out: str) -> str:
+    """Where an interrupted run's part goes when ``out`` already holds a file: ``x.npz`` ->
+    ``x.interrupted.npz`` (an earlier part there is replaced)."""
+    stem, ext = os.path.splitext(out)
+    return f"{stem}.interrupted{ext or '.npz'}"
 
 
 def _report(args: argparse.Namespace, res: ShapeResult, written: str) -> int:

@@ -377,6 +377,28 @@ def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, mon
     np.testing.assert_array_equal(back.q[1, 2], back.q[1, 1])  # the reference state, unchanged
     v = R.verify(back)
     assert v["max_pos_error"] <= 1e-9 and v["max_bound_violation"] <= 0.0 and v["max_rate_violation"] <= 1e-12
+    # interrupted again onto the same --out, where a file already is (an earlier result: found in
+    # an audit, a stray Ctrl-C on a re-run replaced a complete file by a part): kept, the part beside it
+    before = out.read_bytes()
+    rc = main(
+        [
+            "shape",
+            "--path",
+            str(small_csv),
+            "--path",
+            str(small_csv),
+            "--out",
+            str(out),
+            "--quiet",
+            "--first-starts",
+            "1",
+        ]
+    )
+    err = capsys.readouterr().err
+    beside = tmp_path / "part.interrupted.npz"
+    assert rc == 130 and out.read_bytes() == before and beside.exists(), err
+    assert f"wrote {beside}" in err and f"the earlier {out} is kept as it was" in err, err
+    assert jaxstiff.ShapeResult.load(beside).meta["interrupted"] is True
 
 
 def test_a_second_interrupt_while_the_finished_part_is_assembled_still_writes_it(
