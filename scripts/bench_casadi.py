@@ -30,7 +30,8 @@ f1, f2) unchanged.
 
 The jaxstiff side is ``jaxstiff.shape(robot, path, criterion, ratio, solver=..., q0=q0, kj0=kj0)``
 as a user calls it, for each of ``slsqp``, ``slsqp-fd`` (the seed's method), ``pgd``, ``hybrid``,
-``trajectory``, with their default options. Every method starts from the same ``(q0, kj0)``: q0 =
+``trajectory``, with their default options (on request ``slsqp-nostep``: slsqp without its target
+step, ``target_step="none"``). Every method starts from the same ``(q0, kj0)``: q0 =
 jaxstiff's IK from its nominal posture to the first waypoint, kj0 mid-range.
 
 Timing (wall clock, ``time.perf_counter``):
@@ -95,6 +96,8 @@ ROBOTS: dict[str, tuple[str, dict[str, Any]]] = {
     "talos": (os.path.join(ROBOTS_DIR, "talos_left_arm.urdf"), {"tip_link": "gripper_left_base_link"}),
 }
 JAX_METHODS = ("slsqp", "slsqp-fd", "pgd", "hybrid", "trajectory")
+#: on request (--methods): a jaxstiff solver with other options, for an A/B in the same process
+JAX_VARIANTS = {"slsqp-nostep": ("slsqp", {"target_step": "none"})}  # greedy SLSQP without its target step
 CASADI_METHODS = ("casadi", "casadi-jit", "casadi-traj")
 PATHS = ("default", "line", "arc-wide", "arc90-60", "arc90-20")  #: the default family
 #: on request: a 180 deg arc in 20 waypoints (9.5 deg turn per waypoint; CasADi's IPOPT loses the path there)
@@ -662,6 +665,16 @@ def make_case(robot_key: str, path_name: str, crit: str, ratio: float, task: str
 
 
 # ====================================================================== runs
+def solver_of(method: str) -> Any:
+    """``shape``'s ``solver=`` for a method name: the name itself, or a :data:`JAX_VARIANTS` object."""
+    if method not in JAX_VARIANTS:
+        return method
+    from jaxstiff.solvers._configs import solver_from_name
+
+    name, options = JAX_VARIANTS[method]
+    return solver_from_name(name, options)
+
+
 def run_jaxstiff(case: Case, method: str, repeats: int) -> dict[str, Any]:
     import warnings
 
@@ -676,7 +689,7 @@ def run_jaxstiff(case: Case, method: str, repeats: int) -> dict[str, Any]:
             warnings.simplefilter("ignore")
             t0 = time.perf_counter()
             res = jaxstiff.shape(
-                robot, path, case.crit, case.ratio, task=case.task, solver=method, q0=case.q0, kj0=case.kj0
+                robot, path, case.crit, case.ratio, task=case.task, solver=solver_of(method), q0=case.q0, kj0=case.kj0
             )
             times.append(time.perf_counter() - t0)
         solve.append(float(res.meta["timing_s"]["solve"]))
@@ -982,7 +995,7 @@ def main(argv=None) -> int:  # noqa: C901, PLR0912, PLR0915 - the benchmark's pr
                 continue
             P = case.targets.shape[0]
             for m in methods:
-                if m in JAX_METHODS:
+                if m in JAX_METHODS or m in JAX_VARIANTS:
                     r = run_jaxstiff(case, m, args.repeats)
                     rows.append({"robot": rk, "path": pn, "P": P, "method": m, **r})
                     print(table([rows[-1]]).splitlines()[-1], flush=True)
