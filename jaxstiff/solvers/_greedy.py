@@ -647,6 +647,14 @@ class _GreedyWalk:
         return x, status, err, 0, f, sol.nit, sol.nfev
 
 
+def refuse_target_step(options: Mapping[str, Any] | None, who: str) -> None:
+    """ValueError where ``options`` ask a solver without a target step for one (``target_step="lm"``)."""
+    if (options or {}).get("target_step") == "lm":
+        raise ValueError(
+            f"option target_step='lm' is slsqp's: {who} has no target step (leave target_step unset, or 'none')"
+        )
+
+
 def _other_optima(problem: WaypointProblem, cands: Sequence[Candidate], best: Candidate) -> list[Candidate]:
     """The usable answers tied with ``best`` (criterion within :data:`TIE_RTOL`), each posture
     once (0.01 rad apart), ``best`` left out, in :func:`_pick`'s order of preference."""

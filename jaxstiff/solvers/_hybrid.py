@@ -72,6 +72,7 @@ from jaxstiff.solvers._greedy import (
     SolverOutput,
     give_up,
     judge,
+    refuse_target_step,
 )
 from jaxstiff.solvers._lockstep import Steps, gather, run_lockstep
 from jaxstiff.solvers._problem import (
@@ -380,6 +381,7 @@ def _polish_greedy_path(ctx: _Polish, b: int, out: dict[str, np.ndarray]) -> Ste
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`jaxstiff.solvers._base.SOLVERS` (``solver="hybrid"``)."""
     opts = dict(req.options or {})
+    refuse_target_step(opts, "hybrid (its SLSQP polish)")
     pg_opts = {k: v for k, v in opts.items() if k in pgd.DEFAULT_OPTIONS}
     base = pgd.solve_batch(
         req,

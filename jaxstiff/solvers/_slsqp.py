@@ -439,7 +439,7 @@ def solve_path(
 
 def _target_step_of(problem: WaypointProblem, solver: SLSQPSolver, kmin: float, kmax: float) -> TargetStep | None:
     """The greedy walk's target step (option ``target_step``), or None."""
-    if solver.options.get("target_step", "lm") == "none":
+    if solver.options.get("target_step") == "none":
         return None
     return target_step(problem, float(kmax) - float(kmin))
 

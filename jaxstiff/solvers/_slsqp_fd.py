@@ -25,7 +25,15 @@ import numpy as np
 
 from jaxstiff.model._robot import Robot
 from jaxstiff.solvers._base import SolveRequest
-from jaxstiff.solvers._greedy import Objective, PosAndJac, SolverOutput, WaypointSolver, check_single_start, run_greedy
+from jaxstiff.solvers._greedy import (
+    Objective,
+    PosAndJac,
+    SolverOutput,
+    WaypointSolver,
+    check_single_start,
+    refuse_target_step,
+    run_greedy,
+)
 from jaxstiff.solvers._problem import WaypointProblem
 from jaxstiff.solvers._slsqp import check_options, variable_scale
 
@@ -184,6 +192,7 @@ def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers._base.SOLVERS` (``solver="slsqp-fd"``): greedy SLSQP with
     numpy derivatives by finite differences."""
     check_single_start(req.starts, "slsqp-fd")
+    refuse_target_step(req.options, "slsqp-fd (the seed's method)")
     prob = req.problem
     solver = make_fd_solver(prob, req.options, (req.limits.kmin, req.limits.kmax))
     return run_greedy(

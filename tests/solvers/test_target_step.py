@@ -95,3 +95,16 @@ def test_no_target_step_for_a_criterion_of_ones_own():
     prob = WaypointProblem(LWR, "full", jaxstiff.get_criterion(name))
     assert target_step(prob, 99.0) is None
     assert target_step(WaypointProblem(LWR, "full", jaxstiff.f2), 99.0) is not None
+
+
+def test_solvers_without_a_target_step_refuse_to_be_given_one():
+    """slsqp-fd (the seed's method) and the hybrid's SLSQP polish have no target step: asked for
+    one, they say so instead of recording an option they do not use; unset (None) they run."""
+    from jaxstiff.solvers import SLSQPFD, Hybrid
+
+    path = _path(3)
+    for solver in (SLSQPFD(target_step="lm"), Hybrid(slsqp=SLSQP(target_step="lm"))):
+        with pytest.raises(ValueError, match=r"target_step='lm' is slsqp's: .* has no target step"):
+            jaxstiff.shape(LWR, path, "f2", 5.0, solver=solver)
+    res = jaxstiff.shape(LWR, path, "f2", 5.0, solver=SLSQPFD())
+    assert res.meta["options"]["target_step"] is None and np.all(res.status == 0)
