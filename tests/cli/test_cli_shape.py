@@ -352,20 +352,19 @@ def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, mon
 
     monkeypatch.setattr(cs.WaypointProgress, "__call__", tick)
     out = tmp_path / "part.npz"
-    rc = main(
-        [
-            "shape",
-            "--path",
-            str(small_csv),
-            "--path",
-            str(small_csv),
-            "--out",
-            str(out),
-            "--quiet",
-            "--first-starts",
-            "1",
-        ]
-    )
+    argv = [
+        "shape",
+        "--path",
+        str(small_csv),
+        "--path",
+        str(small_csv),
+        "--out",
+        str(out),
+        "--quiet",
+        "--first-starts",
+        "1",
+    ]
+    rc = main(argv)
     err = capsys.readouterr().err
     assert rc == 130 and out.exists(), err
     assert "with the 5 of 6 waypoints finished" in err and "interrupted (SIGINT)" in err
@@ -380,20 +379,7 @@ def test_interrupt_keeps_the_finished_waypoints(tmp_path, small_csv, capsys, mon
     # interrupted again onto the same --out, where a file already is (an earlier result: found in
     # an audit, a stray Ctrl-C on a re-run replaced a complete file by a part): kept, the part beside it
     before = out.read_bytes()
-    rc = main(
-        [
-            "shape",
-            "--path",
-            str(small_csv),
-            "--path",
-            str(small_csv),
-            "--out",
-            str(out),
-            "--quiet",
-            "--first-starts",
-            "1",
-        ]
-    )
+    rc = main(argv)
     err = capsys.readouterr().err
     beside = tmp_path / "part.interrupted.npz"
     assert rc == 130 and out.read_bytes() == before and beside.exists(), err
