@@ -39,8 +39,10 @@ import json
 import os
 import socket
 import warnings
+from collections.abc import Mapping
 from typing import Any
 
+from jaxstiff.runtime._export_cache import code_fingerprint
 from jaxstiff.runtime._io import atomic_write, atomic_write_text
 from jaxstiff.runtime._io import json_default as _json_default
 from jaxstiff.sweep._axes import AXES
@@ -199,6 +201,8 @@ class SweepStore:
                 raise ValueError(f"{exc}; this folder is not a usable sweep store") from None
             if old.get("plan_hash") != plan.plan_hash:
                 self._refuse_other_plan(plan_file, old)
+            if resume:
+                _warn_other_code(self.out, old)
             # without --resume only a store with no chunk done (a run stopped while it set the store
             # up: nothing to lose) runs again; the chunks are scanned once more below either way
             n = 0 if resume else len(self._scan_done())
@@ -297,6 +301,9 @@ class SweepStore:
             "config": p.config,
             "source": os.path.abspath(p.source) if p.source else "",
             "created": _now(),
+            # the code that computes the chunks: a resume by other code is said (_warn_other_code)
+            "jaxstiff_version": _version(),
+            "code_sha256": code_fingerprint(),
         }
 
     def _clean_temporaries(self) -> None:
@@ -489,3 +496,24 @@ def _config_diff(old: dict, new: dict, prefix: str = "") -> str:
         elif json.dumps(a, sort_keys=True, default=str) != json.dumps(b, sort_keys=True, default=str):
             keys.append(f"{prefix}{k}")
     return ", ".join(keys)
+
+
+def _version() -> str:
+    from jaxstiff.runtime._version import __version__
+
+    return __version__
+
+
+def _warn_other_code(out: str, old: Mapping[str, Any]) -> None:
+    """Resuming a store whose first chunks other jaxstiff code computed (its ``code_sha256``): said,
+    not refused (a fix may be why the sweep is resumed), since the table then mixes two versions."""
+    was = old.get("code_sha256")
+    if not isinstance(was, str) or was == code_fingerprint():
+        return
+    warnings.warn(
+        f"resume: the jaxstiff code differs from the code that started the sweep in {out} (version "
+        f"{old.get('jaxstiff_version', '?')} then, {_version()} now; its source files changed): the chunks done "
+        "before and after this resume come from different code; to have one version throughout, run the "
+        "sweep into a new folder",
+        stacklevel=4,
+    )

@@ -599,3 +599,30 @@ def test_a_sweep_that_cannot_set_up_its_folder_says_nothing_was_kept(tmp_path, m
     err = capsys.readouterr().err
     assert "no space left on device; the sweep did not start and left nothing in" in err, err
     assert "--resume" not in err and not out.exists()
+
+
+def test_resume_by_other_code_is_said(shape_run, tmp_path):
+    """A resumed sweep mixed chunks of two jaxstiff versions without a word (found in an interrupt
+    audit: resumed after a code change, rows of one table came from different solvers). plan.json
+    now records the code's sha256; a resume by other code warns, a resume by the same code does not."""
+    import json
+    import warnings
+
+    out = tmp_path / "stopped"
+
+    def stop(cid):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(SHAPE_CFG, out, progress=False, report=False, on_commit=stop)
+    record = json.loads((out / "plan.json").read_text())
+    assert len(record["code_sha256"]) == 64 and record["jaxstiff_version"] == jaxstiff.__version__
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the same code: nothing to say
+        with SweepStore(out, shape_run.plan, resume=True):
+            pass
+    record["code_sha256"] = "0" * 64
+    (out / "plan.json").write_text(json.dumps(record))
+    with pytest.warns(UserWarning, match=r"resume: the jaxstiff code differs from the code that started the sweep"):
+        with SweepStore(out, shape_run.plan, resume=True):
+            pass
