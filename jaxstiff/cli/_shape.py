@@ -208,6 +208,24 @@ def _read_start_states(args: argparse.Namespace, robot: Robot) -> tuple[list[flo
     return q0, (kj0[0] if kj0 is not None and len(kj0) == 1 else kj0)
 
 
+def _none_choice_options() -> frozenset[str]:
+    """The solver options whose choices include the text "none" but not None."""
+    import dataclasses
+
+    from jaxstiff.settings._solvers import HybridOptions, PGDOptions, SLSQPOptions, TrajectoryOptions
+
+    names = set()
+    for cls in (SLSQPOptions, PGDOptions, HybridOptions, TrajectoryOptions):
+        for f in dataclasses.fields(cls):
+            allowed = f.metadata.get("choices")
+            if allowed is not None and "none" in allowed and None not in allowed:
+                names.add(f.name)
+    return frozenset(names)
+
+
+_NONE_CHOICES = _none_choice_options()
+
+
 def read_options(items: list[str] | None) -> dict[str, Any]:
     """--option KEY=VALUE (repeatable) as the solver's options dict: a value is read as an integer,
     a number, true/false or none where it is one, else kept as text (the solver checks each
@@ -225,7 +243,9 @@ def read_options(items: list[str] | None) -> dict[str, Any]:
         if low in ("true", "false"):
             value = low == "true"
         elif low in ("none", "null"):
-            value = None
+            # the word none: None, except for an option whose choices name "none" and not None
+            # (pgd's first_exact, slsqp's target_step): that choice
+            value = "none" if key in _NONE_CHOICES else None
         else:
             try:
                 value = int(text)

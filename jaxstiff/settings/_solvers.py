@@ -172,12 +172,12 @@ class SLSQPOptions(SolverOptions):
         kind="int",
         optional=True,
     )
-    target_step: str | None = option(
-        None,
+    target_step: str = option(
+        "auto",
         "rate-limited waypoints (f1, f2) of slsqp's greedy walk: lm: Levenberg-Marquardt onto the criterion's "
-        "least value first, SLSQP only where that does not reach it; none: SLSQP everywhere; None: lm for "
+        "least value first, SLSQP only where that does not reach it; none: SLSQP everywhere; auto: lm for "
         "slsqp, none for slsqp-fd (the seed's method) and the hybrid's polish, which have no target step",
-        choices=(None, "lm", "none"),
+        choices=("auto", "lm", "none"),
     )
     driver: str = option(
         "lean",

@@ -651,7 +651,7 @@ def refuse_target_step(options: Mapping[str, Any] | None, who: str) -> None:
     """ValueError where ``options`` ask a solver without a target step for one (``target_step="lm"``)."""
     if (options or {}).get("target_step") == "lm":
         raise ValueError(
-            f"option target_step='lm' is slsqp's: {who} has no target step (leave target_step unset, or 'none')"
+            f"option target_step='lm' is slsqp's: {who} has no target step (leave target_step 'auto', or 'none')"
         )
 
 

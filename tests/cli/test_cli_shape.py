@@ -203,6 +203,16 @@ def test_option_flags_reach_the_solver_and_its_record(tmp_path, small_csv, capsy
     assert not np.any(res.status == R.SOLVED)  # one iteration converges nowhere
     assert main([*argv, "--out", str(tmp_path / "default.npz")]) == 0
     assert np.all(jaxstiff.ShapeResult.read(tmp_path / "default.npz").status == R.SOLVED)
+    # a choice whose value is the word none ("--option target_step=none", pgd's "first_exact=none"):
+    # the command line reads none as None, and the choice was refused ("must be one of 'retry',
+    # 'slsqp', 'none', got None"); it is the choice "none" now
+    assert main([*argv, "--out", str(tmp_path / "nostep.npz"), "--option", "target_step=none"]) == 0
+    assert jaxstiff.ShapeResult.read(tmp_path / "nostep.npz").meta["options"]["target_step"] == "none"
+    assert read_options(["first_exact=none", "target_step=None", "kj_scale=none"]) == {
+        "first_exact": "none",
+        "target_step": "none",
+        "kj_scale": None,  # an optional number: None
+    }
 
 
 def test_ctrl_c_leaves_no_file(tmp_path, small_csv, capsys, monkeypatch):

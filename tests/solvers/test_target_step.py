@@ -107,4 +107,4 @@ def test_solvers_without_a_target_step_refuse_to_be_given_one():
         with pytest.raises(ValueError, match=r"target_step='lm' is slsqp's: .* has no target step"):
             jaxstiff.shape(LWR, path, "f2", 5.0, solver=solver)
     res = jaxstiff.shape(LWR, path, "f2", 5.0, solver=SLSQPFD())
-    assert res.meta["options"]["target_step"] is None and np.all(res.status == 0)
+    assert res.meta["options"]["target_step"] == "auto" and np.all(res.status == 0)
