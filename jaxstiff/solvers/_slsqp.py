@@ -433,21 +433,22 @@ def solve_path(
         path_retries=PATH_RETRIES
         if solver.options.get("path_retries") is None
         else int(solver.options["path_retries"]),
-        target_step=_target_step_of(batch.problem, solver, batch.limits.kmin, batch.limits.kmax),
+        target_step=_target_step_of(batch, solver),
     )
 
 
-def _target_step_of(problem: WaypointProblem, solver: SLSQPSolver, kmin: float, kmax: float) -> TargetStep | None:
-    """The greedy walk's target step (option ``target_step``), or None."""
+def _target_step_of(batch: WaypointBatch, solver: SLSQPSolver) -> TargetStep | None:
+    """The greedy walk's target step (option ``target_step``), or None: also where no waypoint
+    is rate-limited (one waypoint, the first without rate limit), so nothing is compiled for it."""
     if solver.options.get("target_step") == "none":
         return None
-    return target_step(problem, float(kmax) - float(kmin))
+    if batch.targets.shape[1] < 2 and not batch.limits.first_rate_limit:
+        return None
+    return target_step(batch.problem, float(batch.limits.kmax) - float(batch.limits.kmin))
 
 
 def run_request(req: SolveRequest) -> dict[str, Any]:
     """Adapter for :data:`~jaxstiff.solvers._base.SOLVERS` (``solver="slsqp"``)."""
     check_single_start(req.starts, "slsqp")
     solver = make_slsqp_solver(req.problem, req.options, (req.limits.kmin, req.limits.kmax))
-    return run_greedy(
-        req, solver, {"target_step": _target_step_of(req.problem, solver, req.limits.kmin, req.limits.kmax)}
-    )
+    return run_greedy(req, solver, {"target_step": _target_step_of(req, solver)})

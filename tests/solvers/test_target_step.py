@@ -108,3 +108,41 @@ def test_solvers_without_a_target_step_refuse_to_be_given_one():
             jaxstiff.shape(LWR, path, "f2", 5.0, solver=solver)
     res = jaxstiff.shape(LWR, path, "f2", 5.0, solver=SLSQPFD())
     assert res.meta["options"]["target_step"] == "auto" and np.all(res.status == 0)
+
+
+_EXIT_SCRIPT = """
+import atexit, os, threading
+os.environ["JAXSTIFF_COMPILE_CACHE"] = "0"
+import jax
+jax.config.update("jax_enable_x64", True)
+import jaxstiff
+from jaxstiff.solvers._problem import WaypointProblem
+from jaxstiff.solvers._problem.target_step import target_step
+robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+target_step(WaypointProblem(robot, "full", jaxstiff.f2), 99.0)
+names = lambda: sorted(t.name for t in threading.enumerate() if t.name.startswith("jaxstiff-target"))
+print("started", names(), flush=True)
+atexit.register(lambda: print("at exit", names(), flush=True))
+"""
+
+
+def test_a_process_that_ends_while_the_program_compiles_waits_for_it():
+    """The target step's program compiles on a thread; a script that ends first (a one-waypoint
+    solve, an exception) waits for it: a daemon thread stopped inside XLA's compiler by the
+    interpreter's finalisation can abort the process. By the exit handlers the thread has ended."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-c", _EXIT_SCRIPT], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, (r.returncode, r.stderr[-3000:])
+    assert "started ['jaxstiff-target-step']" in r.stdout and "at exit []" in r.stdout, r.stdout
+
+
+def test_no_program_where_no_waypoint_is_rate_limited(monkeypatch):
+    """One waypoint whose box has no rate limit: nothing for the step to do, so nothing is compiled."""
+    built = []
+    monkeypatch.setattr(slsqp_module, "target_step", lambda *a: built.append(a))
+    res = _shape("lm", _path(1))
+    assert built == [] and res.status[0, 0] == 0
+    _shape("lm", _path(2))
+    assert len(built) == 1

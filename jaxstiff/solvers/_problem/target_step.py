@@ -46,7 +46,8 @@ def target_step(problem: WaypointProblem, kspan: float) -> TargetStep | None:
     """The target step of ``problem`` (None where the criterion is not f1 or f2: no residuals
     whose zeros are its minimum set); ``kspan`` = kmax - kmin (Nm/rad), the stiffness step scale.
     Its program is compiled at once on a background thread (seconds of XLA, while the first
-    waypoint's SLSQP starts run on this one) and waited for at the first call."""
+    waypoint's SLSQP starts run on this one; the process waits for it at exit) and waited for at
+    the first call."""
     kind = lm_kind(problem)
     if kind is None:
         return None
@@ -74,7 +75,9 @@ def target_step(problem: WaypointProblem, kspan: float) -> TargetStep | None:
         except BaseException as e:  # noqa: BLE001 - re-raised at the first call, on the caller's thread
             done["error"] = e
 
-    worker = threading.Thread(target=build, name="jaxstiff-target-step", daemon=True)
+    # not a daemon: the interpreter waits for it at exit (a daemon stopped inside XLA's compiler by
+    # the interpreter's finalisation aborts the process: docs/notes/speed.md, ninth session)
+    worker = threading.Thread(target=build, name="jaxstiff-target-step", daemon=False)
     worker.start()
 
     def call(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, target: np.ndarray, d: np.ndarray, r: float) -> np.ndarray:
