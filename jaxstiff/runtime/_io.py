@@ -415,13 +415,7 @@ def interrupt_handlers() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    # a signal the process was started with ignored (SIGINT of a background job of a script)
-    # stays ignored, as it was while the command started up (runtime._early_signals)
-    old = {
-        sig: signal.signal(sig, _on_signal)
-        for sig in (signal.SIGINT, signal.SIGTERM)
-        if signal.getsignal(sig) != signal.SIG_IGN
-    }
+    old = {sig: signal.signal(sig, _on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
     old_hook = sys.unraisablehook
     sys.unraisablehook = _drop_interrupt_unraisable(old_hook)
     try:

@@ -38,22 +38,3 @@ def test_a_hold_made_outside_a_command_does_not_hold_the_next_command():
     assert signal.getsignal(signal.SIGINT) is before  # the process's own handler untouched
     with pytest.raises(KeyboardInterrupt), interrupt_handlers():
         _deliver()
-
-
-def test_a_signal_ignored_from_the_start_stays_ignored():
-    """A command started with SIGINT ignored (a background job of a script) ignored a SIGINT while
-    it started up and then stopped on one (exit 130) once the command's handlers were in place
-    (found in an interrupt audit): the handlers now leave an ignored signal ignored; SIGTERM,
-    not ignored, is still handled."""
-    if threading.current_thread() is not threading.main_thread():
-        pytest.skip("signal handlers are set in the main thread only")
-    saved = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        with interrupt_handlers():
-            assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
-            assert signal.getsignal(signal.SIGTERM) not in (signal.SIG_IGN, signal.SIG_DFL)
-            _deliver()  # ignored: nothing is raised or remembered
-            assert interrupt_pending() is None
-        assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN
-    finally:
-        signal.signal(signal.SIGINT, saved)
