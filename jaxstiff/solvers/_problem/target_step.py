@@ -41,13 +41,32 @@ ACCEPT_REL = 1e-9
 TargetStep = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
 
 
-@program_cache(maxsize=16)
 def target_step(problem: WaypointProblem, kspan: float) -> TargetStep | None:
     """The target step of ``problem`` (None where the criterion is not f1 or f2: no residuals
-    whose zeros are its minimum set); ``kspan`` = kmax - kmin (Nm/rad), the stiffness step scale.
-    Its program is compiled at once on a background thread (seconds of XLA, while the first
-    waypoint's SLSQP starts run on this one; the process waits for it at exit) and waited for at
-    the first call."""
+    whose zeros are its minimum set); ``kspan`` = kmax - kmin (Nm/rad), the stiffness step scale
+    (an argument of the program: one compilation serves every stiffness range)."""
+    built = _program(problem)
+    if built is None:
+        return None
+    worker, done = built
+
+    def call(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, target: np.ndarray, d: np.ndarray, r: float) -> np.ndarray:
+        worker.join()
+        if "error" in done:
+            raise done["error"]  # type: ignore[misc]
+        f64 = np.float64
+        args = (np.asarray(x, f64), np.asarray(lb, f64), np.asarray(ub, f64), np.asarray(target, f64))
+        out = done["program"](*args, np.asarray(d, f64), f64(r), f64(kspan))  # type: ignore[operator]
+        return np.asarray(out, float)
+
+    return call
+
+
+@program_cache(maxsize=16)
+def _program(problem: WaypointProblem) -> tuple[threading.Thread, dict[str, object]] | None:
+    """``problem``'s target-step program, compiled at once on a background thread (seconds of
+    XLA, while the first waypoint's SLSQP starts run on the caller's; the process waits for it at
+    exit): ``(thread, {"program": ...} or {"error": ...})``, None for a criterion without one."""
     kind = lm_kind(problem)
     if kind is None:
         return None
@@ -55,8 +74,8 @@ def target_step(problem: WaypointProblem, kspan: float) -> TargetStep | None:
     nf, nx = ops.nf, problem.nx
     wpos = W_POS / length_unit(problem.robot.length_scale)
 
-    def step(x, lb, ub, target, d, r):
-        s = box_scales(lb, ub, nf, jnp.asarray(kspan, x.dtype))
+    def step(x, lb, ub, target, d, r, kspan):
+        s = box_scales(lb, ub, nf, kspan)
         y = ops.lm(x, lb, ub, target, d, r, kind, LM_STEPS, wpos, W_ALIGN, s)
         return ops.newton(y, target, lb, ub, NEWTON_STEPS)
 
@@ -71,7 +90,7 @@ def target_step(problem: WaypointProblem, kspan: float) -> TargetStep | None:
     def build() -> None:
         try:
             with jax.enable_x64(x64):
-                done["program"] = jax.jit(step).lower(v, v, v, p3, p3, sc).compile()
+                done["program"] = jax.jit(step).lower(v, v, v, p3, p3, sc, sc).compile()
         except BaseException as e:  # noqa: BLE001 - re-raised at the first call, on the caller's thread
             done["error"] = e
 
@@ -79,21 +98,4 @@ def target_step(problem: WaypointProblem, kspan: float) -> TargetStep | None:
     # the interpreter's finalisation aborts the process: docs/notes/speed.md, ninth session)
     worker = threading.Thread(target=build, name="jaxstiff-target-step", daemon=False)
     worker.start()
-
-    def call(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, target: np.ndarray, d: np.ndarray, r: float) -> np.ndarray:
-        worker.join()
-        if "error" in done:
-            raise done["error"]  # type: ignore[misc]
-        program = done["program"]
-        f64 = np.float64
-        out = program(  # type: ignore[operator]
-            np.asarray(x, f64),
-            np.asarray(lb, f64),
-            np.asarray(ub, f64),
-            np.asarray(target, f64),
-            np.asarray(d, f64),
-            f64(r),
-        )
-        return np.asarray(out, float)
-
-    return call
+    return worker, done
