@@ -210,17 +210,14 @@ def _read_start_states(args: argparse.Namespace, robot: Robot) -> tuple[list[flo
 
 def _none_choice_options() -> frozenset[str]:
     """The solver options whose choices include the text "none" but not None."""
-    import dataclasses
+    from jaxstiff.settings._solvers import OPTIONS_OF
 
-    from jaxstiff.settings._solvers import HybridOptions, PGDOptions, SLSQPOptions, TrajectoryOptions
-
-    names = set()
-    for cls in (SLSQPOptions, PGDOptions, HybridOptions, TrajectoryOptions):
-        for f in dataclasses.fields(cls):
-            allowed = f.metadata.get("choices")
-            if allowed is not None and "none" in allowed and None not in allowed:
-                names.add(f.name)
-    return frozenset(names)
+    return frozenset(
+        f.name
+        for cls in {c for classes in OPTIONS_OF.values() for c in classes}
+        for f in cls.fields_info()
+        if f.choices is not None and "none" in f.choices and None not in f.choices
+    )
 
 
 _NONE_CHOICES = _none_choice_options()

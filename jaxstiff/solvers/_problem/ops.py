@@ -1,4 +1,5 @@
-"""The traceable pieces of one pgd waypoint problem on the decision vector ``x = [q_free, kj]``:
+"""The traceable pieces of one waypoint problem on the decision vector ``x = [q_free, kj]``, shared by
+pgd, the trajectory solver's LM stage and greedy SLSQP's target step:
 the rate-limited box, Newton corrections onto the path, the Levenberg-Marquardt stage on the f1/f2
 residuals, the shape surrogate, and the small linear algebra and step rules they share
 (:func:`spd_solve`, :func:`clip_box`, :func:`box_scales`, :func:`adam_direction`).

@@ -26,14 +26,16 @@ import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.runtime._programs import program_cache
+from jaxstiff.settings._solvers import PGDOptions
 from jaxstiff.solvers._problem.ops import WaypointOps, box_scales, length_unit, lm_kind
 from jaxstiff.solvers._problem.waypoint import WaypointProblem
 
 __all__ = ["ACCEPT_REL", "LM_STEPS", "target_step"]
 
-#: Levenberg-Marquardt steps, then Newton corrections onto the path (pgd's LM settings: weights
-#: 1e3 per length unit on the position rows, 100 on the alignment rows)
-LM_STEPS, NEWTON_STEPS, W_POS, W_ALIGN = 20, 3, 1e3, 100.0
+#: Levenberg-Marquardt steps, then Newton corrections onto the path
+LM_STEPS, NEWTON_STEPS = 20, 3
+#: the residuals' weights: pgd's defaults (position rows per length unit, alignment rows)
+W_POS, W_ALIGN = float(PGDOptions.lm_wpos), float(PGDOptions.lm_walign)
 #: the target step's answer is kept where its criterion is within this (relative) of the least value
 ACCEPT_REL = 1e-9
 
