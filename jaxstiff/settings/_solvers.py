@@ -166,9 +166,9 @@ class SLSQPOptions(SolverOptions):
     f_scale: float = option(0.1, "factor on the criterion inside SLSQP", kind="positive", parse=True)
     path_retries: int | None = option(
         None,
-        "when a path ends with a rate-limited waypoint off target: other first-waypoint optima the path "
-        "is walked again from, and starts inside an off-target waypoint's box (0: seed 000's greedy scheme "
-        "alone; None: 8 for slsqp, 0 for slsqp-fd, the seed's method)",
+        "when a path has a rate-limited waypoint off target: other first-waypoint optima the path is walked "
+        "again from, the best walk kept (0: seed 000's greedy scheme alone; None: 8 for slsqp, 0 for "
+        "slsqp-fd, the seed's method)",
         kind="int",
         optional=True,
     )

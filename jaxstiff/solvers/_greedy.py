@@ -278,25 +278,6 @@ def rescue_starts(
     return out
 
 
-#: start states :func:`box_starts` adds at a rate-limited waypoint left off target
-BOX_STARTS = 4
-
-
-def box_starts(
-    lb: np.ndarray, ub: np.ndarray, ref: np.ndarray, target: np.ndarray, direction: np.ndarray
-) -> list[np.ndarray]:
-    """:data:`BOX_STARTS` start states inside a rate-limited waypoint's box ``[lb, ub]``: its
-    centre, then points drawn uniformly in it (seeded by the waypoint's own data and ``ref``, the
-    reference state clipped into the box, so a path gets the same starts anywhere in a batch).
-    Rate-limited boxes are small (2 deg and 5 Nm/rad a side by default), so every start is near
-    the reference posture, and SLSQP's position constraint brings each onto the waypoint."""
-    rng = np.random.default_rng(content_seed(target, direction, ref))
-    lo, hi = np.asarray(lb, float), np.asarray(ub, float)
-    out = [0.5 * (lo + hi)]
-    out += [lo + rng.uniform(size=lo.shape) * (hi - lo) for _ in range(BOX_STARTS - 1)]
-    return [np.clip(x, lo, hi) for x in out]
-
-
 def give_up(
     problem: WaypointProblem,
     starts: Sequence[np.ndarray],
@@ -426,14 +407,15 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
         first_maxiter: iteration limit for that first, not rate-limited waypoint (None: the
             solver's default).
         path_retries: where a rate-limited waypoint ends off target (its criterion not below
-            :func:`target_bound`) after a first waypoint in target, first :func:`box_starts` inside
-            its box; and where the walk ends
-            with such a waypoint, up to this many other optima of the first waypoint (the tied
-            answers of its multi-start, farthest from the joint limits first) are walked again,
-            keeping the walk with the fewest unsolved, then off-target waypoints, then the lowest
-            sum of the criterion (not where the first waypoint itself is off target). f2 and f1 have whole sets of optimal first postures, and which
-            one the walk leaves from decides whether a rate-limited stretch later can follow. 0:
-            seed 000's scheme alone.
+            :func:`target_bound`) after a first waypoint in target, up to this many other optima of the
+            first waypoint (the tied answers of its multi-start, farthest from the joint limits
+            first) are walked again, keeping the walk with the fewest unsolved, then off-target
+            waypoints, then the lowest sum of the criterion (not where the first waypoint itself
+            is off target). f2 and f1 have whole sets of optimal first postures, and which one the
+            walk leaves from decides whether a rate-limited stretch later can follow. The walks
+            are stopped where they can no longer be kept: each at its first miss while one in
+            target everywhere is looked for (the first found is kept), then, where none is, each
+            as long as it can still rank better than the best so far. 0: seed 000's scheme alone.
         target_step: at a rate-limited waypoint, tried before the solver from the same start
             (:func:`jaxstiff.solvers._problem.target_step.target_step`); its answer is kept where it
             is usable with the criterion within ``ACCEPT_REL`` of its least value, and the solver
@@ -442,39 +424,119 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
     Returns:
         One :class:`WaypointOutcome` per waypoint.
     """
-    walk = _GreedyWalk(
-        batch, b, solver, pos_and_jac, objective, pos_tol, first_starts, first_maxiter, path_retries, target_step
-    )
-    out, fs, alternatives = walk.run(None, progress)
-    bound = walk.bound  # target_bound of this path's ratio and c
-    if path_retries <= 0 or bound is None or not alternatives:
-        return out
-    rank = _walk_rank(out, fs, float(bound))
-    if rank[1] == 0 or not (out[0].status in R.USABLE and fs[0] < float(bound)):
-        # in target everywhere, or the first waypoint's own optimum off target: its tied
-        # alternatives are as far off, and a target no posture reaches would cost every walk
-        return out
     t0 = time.perf_counter()
-    for alt in alternatives[:path_retries]:
+    walk = _GreedyWalk(batch, b, solver, pos_and_jac, objective, pos_tol, first_starts, first_maxiter, target_step)
+    if path_retries <= 0 or walk.bound is None:
+        return walk.run(None, progress)[0]
+    bound = float(walk.bound)  # target_bound of this path's ratio and c
+    # the first walk stops at its first off-target waypoint where the retries would follow it
+    # (a first waypoint in target with other optima): the others are tried before it goes on
+    first_state: _WalkState | None = None
+    out: list[WaypointOutcome] = []
+    fs: list[float] = []
+    rank = (0, 0, 0.0)
+    try:
+        out, fs, alternatives = walk.run(None, progress, stop=walk.retry_due)
+    except _Outranked as e:
+        first_state, alternatives = e.state, e.state.alternatives
+    if first_state is None:
+        if not alternatives:
+            return out
+        rank = _walk_rank(out, fs, bound)
+        if rank[1] == 0 or not (out[0].status in R.USABLE and fs[0] < bound):
+            # in target everywhere, or the first waypoint's own optimum off target: its tied
+            # alternatives are as far off, and a target no posture reaches would cost every walk
+            return out
+    return _retries(walk, bound, alternatives[:path_retries], out, rank, first_state, progress, t0)
+
+
+def _retries(  # noqa: PLR0913 - the first walk's state, passed as its parts
+    walk: _GreedyWalk,
+    bound: float,
+    alternatives: Sequence[Candidate],
+    out: list[WaypointOutcome],
+    rank: tuple[int, int, float],
+    first_state: _WalkState | None,
+    progress: Callable[[int], None] | None,
+    t0: float,
+) -> list[WaypointOutcome]:
+    """:func:`greedy_path`'s retries from the first waypoint's other optima: the walk kept. The
+    first walk is complete (``out``, ranked ``rank``) or stopped at its first off-target waypoint
+    (``first_state``)."""
+    finished = out if first_state is None else first_state.out  # kept on an interrupt
+    # first, each alternative is walked only while it stays usable and in target: the first one
+    # that ends so is the walk the ranking keeps (no walk ranks better), found without walking
+    # the first or the other alternatives further
+    tried: list[_WalkState | tuple[list[WaypointOutcome], list[float]]] = []
+    for alt in alternatives:
         try:
-            # a walk whose unsolved and off-target counts (which only grow along it) already
-            # exceed the best walk's cannot rank better: it stops there (the choice is the same)
-            o2, f2s, _ = walk.run(alt, None, stop_above=rank[:2])
+            o2, f2s, _ = walk.run(alt, None, stop=_above((0, 0)))
         except PathInterrupted:
-            raise PathInterrupted(out) from None  # the best complete walk so far
-        except _Outranked:
+            raise PathInterrupted(finished) from None
+        except _Outranked as e:
+            tried.append(e.state)
             continue
-        r2 = _walk_rank(o2, f2s, float(bound))
+        if _walk_rank(o2, f2s, bound)[:2] == (0, 0):
+            if first_state is not None and progress is not None:
+                for p in range(len(first_state.out), len(o2)):
+                    progress(p)
+            return _spread(o2, t0)
+        tried.append((o2, f2s))
+    # none: the first walk goes on, then each alternative from where it stopped, as far as it can
+    # still rank better than the best walk so far (the same choice as walking each whole, in
+    # this order, for fewer waypoints: a walk stopped so ranks below the best)
+    if first_state is not None:
+        out, fs, _ = walk.run(None, progress, resume=first_state)
+        rank = _walk_rank(out, fs, bound)
+    for item in tried:
+        if isinstance(item, _WalkState):
+            try:
+                o2, f2s, _ = walk.run(None, None, stop=_above(rank[:2]), resume=item)
+            except PathInterrupted:
+                raise PathInterrupted(out) from None  # the best complete walk so far
+            except _Outranked:
+                continue
+        else:
+            o2, f2s = item
+        r2 = _walk_rank(o2, f2s, bound)
         if r2 < rank:
             out, rank = o2, r2
-        if rank[1] == 0:
-            break
-    extra = (time.perf_counter() - t0) / max(len(out), 1)  # the retries' time, spread over the path
+    return _spread(out, t0)
+
+
+def _above(counts: tuple[int, int]) -> Callable[[_WalkState], bool]:
+    """A walk's stop rule: its (unsolved, off target) counts above ``counts``."""
+    return lambda st: st.counts > counts
+
+
+def _spread(out: list[WaypointOutcome], t0: float) -> list[WaypointOutcome]:
+    """``out`` with the time since ``t0`` its waypoints do not count (the retries, the walks not
+    kept) spread evenly over them: their times add up to the path's."""
+    extra = max(time.perf_counter() - t0 - sum(o.time_s for o in out), 0.0) / max(len(out), 1)
     return [dataclasses.replace(o, time_s=o.time_s + extra) for o in out]
 
 
+@dataclasses.dataclass
+class _WalkState:
+    """A walk stopped after ``len(out)`` waypoints, to go on from there: the reference state,
+    the outcomes and criteria so far, and its (unsolved, off target) counts."""
+
+    q_ref: np.ndarray
+    kj_ref: np.ndarray
+    at_start: bool
+    out: list[WaypointOutcome]
+    fs: list[float]
+    counts: tuple[int, int]
+    alternatives: list[Candidate] = dataclasses.field(default_factory=list)
+
+
 class _Outranked(Exception):
-    """A retry walk stopped where it can no longer rank better than the best walk so far."""
+    """A walk stopped by its stop rule (:meth:`_GreedyWalk.run`'s ``stop``); ``state`` lets it go
+    on from there (``resume``)."""
+
+    def __init__(self, state: _WalkState) -> None:
+        super().__init__()
+        self.state = state
 
 
 def _walk_rank(out: Sequence[WaypointOutcome], fs: Sequence[float], bound: float) -> tuple[int, int, float]:
@@ -500,7 +562,6 @@ class _GreedyWalk:
         pos_tol: float,
         first_starts: Sequence[tuple[np.ndarray, np.ndarray]],
         first_maxiter: int | None,
-        rescue_rate_limited: int,
         target_step: TargetStep | None = None,
     ) -> None:
         self.problem = batch.problem
@@ -512,7 +573,6 @@ class _GreedyWalk:
         self.pj = jax_pos_and_jac(self.problem) if pos_and_jac is None else pos_and_jac
         self.fobj = kernel_objective(self.problem) if objective is None else objective
         self.first_starts, self.first_maxiter = first_starts, first_maxiter
-        self.rescue_rate_limited = rescue_rate_limited > 0
         self.bound = target_bound(self.problem, self.ratio, self.c)
         self.target_step = target_step
         least = self.problem.criterion_minimum(self.c) if target_step is not None else None
@@ -522,63 +582,66 @@ class _GreedyWalk:
         self,
         first: Candidate | None,
         progress: Callable[[int], None] | None,
-        stop_above: tuple[int, int] | None = None,
+        stop: Callable[[_WalkState], bool] | None = None,
+        resume: _WalkState | None = None,
     ) -> tuple[list[WaypointOutcome], list[float], list[Candidate]]:
         """The walk: outcomes, the criterion of each, and the first waypoint's other optima (when
         it was solved here, not rate-limited); ``first`` given: the walk leaves from that answer
-        of the first waypoint instead of solving it. ``stop_above``: ``(unsolved, off target)``
-        of the best walk so far (:func:`_walk_rank`'s first two counts); the walk raises
-        :class:`_Outranked` as soon as its own counts, which only grow, exceed them."""
+        of the first waypoint instead of solving it. ``stop``: checked after each waypoint on the
+        walk's state (its (unsolved, off target) counts, :func:`_walk_rank`'s first two, only
+        grow along it); where it holds, the walk raises :class:`_Outranked` carrying its state.
+        ``resume``: a stopped walk's state, gone on from (``first`` is then not used)."""
         problem, limits, targets = self.problem, self.limits, self.targets
-        q_ref, kj_ref = self.q0, self.kj0
-        at_start = True
-        # box starts at off-target rate-limited waypoints only after a first waypoint in target
-        # (where even that one is off, the target is out of reach there: no extra solves)
-        box_ok = False
-        out: list[WaypointOutcome] = []
-        fs: list[float] = []
-        alternatives: list[Candidate] = []
-        counts = (0, 0)  # unsolved and off-target waypoints so far (with stop_above)
+        if resume is None:
+            st = _WalkState(self.q0, self.kj0, True, [], [], (0, 0))
+        else:
+            st = dataclasses.replace(resume, out=list(resume.out), fs=list(resume.fs))
+            first = None
         try:
-            for p in range(targets.shape[0]):
+            if stop is not None and self.bound is not None and stop(st):
+                raise _Outranked(st)
+            for p in range(len(st.out), targets.shape[0]):
                 t0 = time.perf_counter()
-                rate = limits.first_rate_limit or not at_start
+                rate = limits.first_rate_limit or not st.at_start
                 if first is not None and not rate:
                     x, status, err, code, f = first
                     nit = nfev = 0
                 else:
-                    x, status, err, code, f, nit, nfev, alts = self._waypoint(p, q_ref, kj_ref, rate, box_ok)
+                    x, status, err, code, f, nit, nfev, alts = self._waypoint(p, st.q_ref, st.kj_ref, rate)
                     if not rate:
-                        alternatives = alts
-                out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
-                fs.append(f)
-                if stop_above is not None and self.bound is not None:
-                    # _walk_rank's first two counts, kept as the walk goes
-                    usable = status in R.USABLE
-                    counts = (counts[0] + (not usable), counts[1] + (usable and not f < float(self.bound)))
-                    if counts > stop_above:
-                        raise _Outranked
-                if status in R.USABLE:
-                    if at_start:
-                        box_ok = self.rescue_rate_limited and self.bound is not None and f < float(self.bound)
-                    q_ref = q_ref.copy()
-                    q_ref[list(problem.free_idx)] = x[: problem.n_free]
-                    kj_ref = np.array(problem.kj_full(x[problem.n_free :]), copy=True)
-                    at_start = False
+                        st.alternatives = alts
+                st.out.append(WaypointOutcome(x, status, err, code, nit, nfev, time.perf_counter() - t0))
+                st.fs.append(f)
+                usable = status in R.USABLE
+                if self.bound is not None:  # _walk_rank's first two counts, kept as the walk goes
+                    st.counts = (st.counts[0] + (not usable), st.counts[1] + (usable and not f < float(self.bound)))
+                if usable:
+                    st.q_ref = st.q_ref.copy()
+                    st.q_ref[list(problem.free_idx)] = x[: problem.n_free]
+                    st.kj_ref = np.array(problem.kj_full(x[problem.n_free :]), copy=True)
+                    st.at_start = False
                 if progress is not None:
                     progress(p)
+                if stop is not None and self.bound is not None and stop(st):
+                    raise _Outranked(st)
         except KeyboardInterrupt:
             # the waypoints in `out` are finished and consistent (each is appended whole); the caller
             # may keep them (shape marks the rest NOT_RUN)
-            raise PathInterrupted(out) from None
-        return out, fs, alternatives
+            raise PathInterrupted(st.out) from None
+        return st.out, st.fs, st.alternatives
+
+    def retry_due(self, st: _WalkState) -> bool:
+        """The first walk's stop rule where retries may follow: an off-target waypoint after a
+        first waypoint in target that has other optima (:func:`greedy_path`)."""
+        if self.bound is None or st.counts[1] == 0 or not st.alternatives:
+            return False
+        return st.out[0].status in R.USABLE and st.fs[0] < float(self.bound)
 
     def _waypoint(
-        self, p: int, q_ref: np.ndarray, kj_ref: np.ndarray, rate: bool, box_ok: bool
+        self, p: int, q_ref: np.ndarray, kj_ref: np.ndarray, rate: bool
     ) -> tuple[np.ndarray, int, float, int, float, int, int, list[Candidate]]:
         """Waypoint p from the reference state: ``(x, status, pos_error, code, f, nit, nfev,
-        other optima)`` (the other optima only where it is not rate-limited); ``box_ok``: box
-        starts where a rate-limited waypoint ends off target."""
+        other optima)`` (the other optima only where it is not rate-limited)."""
         problem, target, direction = self.problem, self.targets[p], self.directions[p]
         lb, ub = self.limits.box(problem, q_ref, kj_ref, rate)
         starts = [clip_to_box(problem.x_of(q_ref, kj_ref), lb, ub)]
@@ -598,17 +661,10 @@ class _GreedyWalk:
         cands, nit, nfev = _solve_starts(
             *args, starts, lb, ub, target, params, self.pj, self.fobj, self.pos_tol, maxiter
         )
-        more: list[np.ndarray] = []
         if not rate and maybe_off_target(problem, cands, self.ratio, self.c):
             # no start is provably in target: as many again, from postures and stiffnesses
             # drawn over the whole ranges (not run where one start is in target)
             more = rescue_starts(problem, len(starts), starts[0], lb, ub, target, direction)
-        elif rate and box_ok and maybe_off_target(problem, cands, self.ratio, self.c):
-            # a rate-limited waypoint off target: SLSQP from the reference state clipped into the
-            # box may stay on a face of it (a stiffness at its bound) that another start inside
-            # the same box leaves
-            more = box_starts(lb, ub, starts[0], target, direction)
-        if more:
             extra, nit2, nfev2 = _solve_starts(
                 *args, more, lb, ub, target, params, self.pj, self.fobj, self.pos_tol, maxiter
             )

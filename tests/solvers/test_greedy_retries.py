@@ -1,5 +1,5 @@
 """Greedy SLSQP's retries where a rate-limited waypoint ends off target (option ``path_retries``):
-starts inside the waypoint's box, and the walk again from the first waypoint's other optima.
+the walk again from the first waypoint's other optima.
 
 The trap (found beside CasADi + IPOPT's greedy, which stays in target there): the LWR along a
 90 deg arc of 60 waypoints. From the first posture greedy SLSQP picks, waypoints 13-18 end off
@@ -17,7 +17,6 @@ from jaxstiff.paths import arc
 from jaxstiff.results import verify
 from jaxstiff.results._target import MissedTargetWarning
 from jaxstiff.solvers import SLSQP
-from jaxstiff.solvers._greedy import BOX_STARTS, box_starts
 
 
 @pytest.fixture(scope="module")
@@ -49,33 +48,53 @@ def test_the_walk_leaves_the_trap_from_another_first_optimum(trap):
 
 
 @pytest.mark.slow
-def test_a_retry_walk_stops_once_it_cannot_rank_better_with_the_same_result(trap, monkeypatch):
-    """A retry walk whose unsolved and off-target counts already exceed the best walk's stops
-    there: the same walk wins as when every retry walks the whole path, for fewer waypoints."""
+@pytest.mark.parametrize("n", [60, 20])
+def test_a_retry_walk_stops_once_it_cannot_rank_better_with_the_same_result(trap, monkeypatch, n):
+    """The retry walks first look for one in target everywhere, each stopped at its first miss;
+    where none is (n = 20: the rate limits bind, no walk is in target throughout), the stopped
+    walks go on, each while it can still rank better than the best walk so far. The same walk
+    wins as when every retry walks the whole path, for fewer waypoints."""
     from jaxstiff.solvers import _greedy as G
 
-    robot, path = trap
-    solved = []
+    robot, arc60 = trap
+    R = 0.1 * min(robot.length_scale, 1.3)
+    path = arc60 if n == 60 else arc(np.array([0.6 - R, 0.0, 0.3]), R, -45.0, 45.0, n=n)
+    solved, resumed = [], []
     real_waypoint, real_run = G._GreedyWalk._waypoint, G._GreedyWalk.run
 
     def counting(self, p, *a):
         solved.append(p)
         return real_waypoint(self, p, *a)
 
+    def noting(self, first, progress, stop=None, resume=None):
+        resumed.append(resume is not None)
+        return real_run(self, first, progress, stop, resume)
+
     monkeypatch.setattr(G._GreedyWalk, "_waypoint", counting)
-    early = jaxstiff.shape(robot, path, "f2", 5.0, solver=SLSQP())
+    monkeypatch.setattr(G._GreedyWalk, "run", noting)
+    reported = []
+    early = jaxstiff.shape(robot, path, "f2", 5.0, solver=SLSQP(), progress=lambda b, p: reported.append(p))
     n_early = len(solved)
+    assert reported == list(range(n))  # each waypoint once, in order, whichever walk is kept
     solved.clear()
     monkeypatch.setattr(
-        G._GreedyWalk, "run", lambda self, first, progress, stop_above=None: real_run(self, first, progress)
+        G._GreedyWalk,
+        "run",
+        lambda self, first, progress, stop=None, resume=None: real_run(self, first, progress),
     )
     full = jaxstiff.shape(robot, path, "f2", 5.0, solver=SLSQP())
     n_full = len(solved)
     for k in ("q", "kj", "criterion", "status"):
         np.testing.assert_array_equal(getattr(early, k), getattr(full, k))
-    assert early.in_target.all()
-    assert n_full > 2 * path.points.shape[0]  # retries ran (else this test proves nothing)
-    assert n_early < n_full - path.points.shape[0] // 2
+    assert n_full > 2 * n  # retries ran (else this test proves nothing)
+    assert n_early < n_full
+    if n == 60:
+        assert n_early < n_full - n // 2
+        assert early.in_target.all()
+        assert not any(resumed)  # found in the first round
+    else:
+        assert not early.in_target.all()
+        assert any(resumed)  # the stopped walks went on (else the second round is untested)
 
 
 def test_a_path_in_target_is_walked_once(trap):
@@ -88,26 +107,43 @@ def test_a_path_in_target_is_walked_once(trap):
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
 
 
-def test_box_starts_lie_in_the_box_and_depend_only_on_the_waypoint():
-    rng = np.random.default_rng(3)
-    lb = rng.uniform(-1, 0, 9)
-    ub = lb + rng.uniform(0, 0.1, 9)
-    ub[2] = lb[2]  # a side of zero width (a stiffness pinned at its bound)
-    ref, target, direction = (lb + ub) / 2, np.array([0.5, 0.1, 0.3]), np.array([0.0, 1.0, 0.0])
-    xs = box_starts(lb, ub, ref, target, direction)
-    assert len(xs) == BOX_STARTS
-    np.testing.assert_allclose(xs[0], (lb + ub) / 2)
-    for x in xs:
-        assert np.all(lb <= x) and np.all(x <= ub)
-    assert len({x.tobytes() for x in xs}) == BOX_STARTS  # distinct
-    again = box_starts(lb, ub, ref, target, direction)
-    assert all(np.array_equal(a, b) for a, b in zip(xs, again, strict=True))
-    other = box_starts(lb, ub, ref, target + 1e-3, direction)
-    assert not np.array_equal(xs[1], other[1])
-
-
 def test_path_retries_option_is_checked():
     with pytest.raises(ValueError, match="path_retries"):
         SLSQP(path_retries=-1)
     with pytest.raises(TypeError, match="path_retry"):
         SLSQP(path_retry=2)
+
+
+@pytest.mark.slow
+def test_an_interrupt_during_the_retries_keeps_the_first_walks_finished_waypoints(trap, monkeypatch):
+    """The first walk stops at its first off-target waypoint while the other optima are tried: a
+    Ctrl-C then keeps the waypoints it finished (checked by ``verify``), the rest NOT_RUN."""
+    from jaxstiff.results import _files as R
+    from jaxstiff.shaping import ShapeInterrupted
+    from jaxstiff.solvers import _greedy as G
+
+    robot, path = trap
+    real_run, real_waypoint = G._GreedyWalk.run, G._GreedyWalk._waypoint
+    walks = []
+
+    def run(self, first, progress, stop=None, resume=None):
+        walks.append(first is not None)
+        return real_run(self, first, progress, stop, resume)
+
+    def waypoint(self, p, *a):
+        if any(walks):  # inside a retry walk
+            raise KeyboardInterrupt
+        return real_waypoint(self, p, *a)
+
+    monkeypatch.setattr(G._GreedyWalk, "run", run)
+    monkeypatch.setattr(G._GreedyWalk, "_waypoint", waypoint)
+    with pytest.raises(ShapeInterrupted) as e:
+        jaxstiff.shape(robot, path, "f2", 5.0, solver=SLSQP())
+    res = e.value.result
+    status = res.status[0]
+    done = int(np.sum(status != R.NOT_RUN))
+    assert 0 < done < path.points.shape[0]  # the first walk's finished part, up to its first miss
+    assert np.all(status[done:] == R.NOT_RUN)
+    assert np.all(np.isin(status[:done], list(R.USABLE)))
+    assert not res.in_target[0, done - 1] and res.in_target[0, : done - 1].all()
+    _checked(res)
