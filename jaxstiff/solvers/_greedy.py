@@ -48,6 +48,10 @@ REPAIR_POS = 1e-6  #: m: a solver answer further than this off the path counts a
 #: within round-off of it, so only waypoints far off every posture tried are given up
 GIVE_UP_REL = 1e-3
 TIE_RTOL = 1e-3  #: criteria within this relative distance of the best one count as equally good
+#: the first waypoint's best answer further than this (relative) above the criterion's least value
+#: gets the target step from each usable answer (f2: a ratio within 1e-6 of r and an orientation
+#: within 1e-6 deg count as reached, the hybrid's ``polish_skip_tol``)
+FIRST_POLISH_REL = 1e-6
 
 #: meaning of the result file's ``solver_code`` for the SLSQP solvers (meta ``solver_code_meaning``)
 CODE_MEANING = (
@@ -56,8 +60,9 @@ CODE_MEANING = (
 )
 #: added to :data:`CODE_MEANING` where the walk had a target step
 TARGET_STEP_MEANING = (
-    "; 0 also where the target step reached the criterion's least value and SLSQP did not run "
-    "(nit, nfev: its Levenberg-Marquardt steps)"
+    "; 0 also where the target step reached the criterion's least value: at a rate-limited waypoint "
+    "SLSQP then did not run (nit, nfev: its Levenberg-Marquardt steps); at the first waypoint it "
+    "polished an SLSQP answer (its steps added to SLSQP's)"
 )
 
 #: ``q (n,) -> (position (3,), J[rows][:, free] (k, n_free))``
@@ -577,6 +582,8 @@ class _GreedyWalk:
         self.target_step = target_step
         least = self.problem.criterion_minimum(self.c) if target_step is not None else None
         self.accept_below = None if least is None else least + ACCEPT_REL * max(abs(least), 1e-300)
+        #: the first waypoint's best answer above this: polished by the target step
+        self.polish_above = None if least is None else least + FIRST_POLISH_REL * max(abs(least), 1e-300)
 
     def run(
         self,
@@ -670,6 +677,17 @@ class _GreedyWalk:
             )
             cands, nit, nfev = cands + extra, nit + nit2, nfev + nfev2
         best = _pick(problem, cands)
+        if not rate and self.polish_above is not None and best[1] in R.USABLE and best[4] > self.polish_above:
+            # the first waypoint's best answer above the criterion's least value: the target step
+            # from each usable answer (SLSQP stops short of it at the kinks of |alpha| and
+            # |r - rho|, or in a basin beside it), and an answer that reaches it joins
+            polished = [self._target_step(c[0], lb, ub, target, direction, params) for c in cands if c[1] in R.USABLE]
+            more_cands = [found[:5] for found in polished if found is not None]
+            # counted where kept, as at a rate-limited waypoint (a step that is not kept is not)
+            nit, nfev = nit + LM_STEPS * len(more_cands), nfev + (LM_STEPS + 1) * len(more_cands)
+            if more_cands:
+                cands = cands + more_cands
+                best = _pick(problem, cands)
         x, status, err, code, f = best
         alts = [] if rate else _other_optima(problem, cands, best)
         return x, status, err, code, f, nit, nfev, alts

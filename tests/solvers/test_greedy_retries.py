@@ -147,3 +147,41 @@ def test_an_interrupt_during_the_retries_keeps_the_first_walks_finished_waypoint
     assert np.all(np.isin(status[:done], list(R.USABLE)))
     assert not res.in_target[0, done - 1] and res.in_target[0, : done - 1].all()
     _checked(res)
+
+
+def test_a_first_waypoint_above_its_least_value_is_polished_by_the_target_step(monkeypatch):
+    """The LWR along the default path's first two waypoints with task xyz: greedy SLSQP's
+    first-waypoint starts end 2 % and more above f2's least value (1); the target step from its
+    answers reaches it. With the polish switched off the same call ends above it (else this test
+    proves nothing); the result is re-checked by ``verify`` (numpy)."""
+    from jaxstiff.solvers import _greedy as G
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    full = jaxstiff.default_path()
+    two = jaxstiff.Path(full.points[:2], full.directions[:2])
+    res = _checked(jaxstiff.shape(robot, two, "f2", 5.0, task="xyz", solver=SLSQP()))
+    assert abs(res.criterion[0, 0] - 1.0) < 1e-9
+    monkeypatch.setattr(G, "FIRST_POLISH_REL", float("inf"))
+    bare = _checked(jaxstiff.shape(robot, two, "f2", 5.0, task="xyz", solver=SLSQP()))
+    assert bare.criterion[0, 0] > 1.0 + 1e-3
+
+
+def test_a_first_waypoint_at_its_least_value_is_left_as_slsqp_ends_it(monkeypatch):
+    """Within FIRST_POLISH_REL of the least value the first waypoint is not polished (the README
+    job's first waypoint, 1e-7 above it, keeps its bits): no target step runs there."""
+    from jaxstiff.solvers import _greedy as G
+
+    robot = jaxstiff.Robot.from_urdf("kuka_lwr4", locked={"lwr_a7": 0.0})
+    full = jaxstiff.default_path()
+    two = jaxstiff.Path(full.points[:2], full.directions[:2])
+    calls = []
+    real = G._GreedyWalk._target_step
+
+    def counting(self, x, lb, ub, *a):
+        calls.append(bool(np.all(ub - lb > 0.5)))  # the first waypoint's box is the whole range
+        return real(self, x, lb, ub, *a)
+
+    monkeypatch.setattr(G._GreedyWalk, "_target_step", counting)
+    res = jaxstiff.shape(robot, two, "f2", 5.0, solver=SLSQP())
+    assert 0 < res.criterion[0, 0] - 1.0 < G.FIRST_POLISH_REL
+    assert calls and not any(calls)  # the rate-limited waypoint's step ran, the first waypoint had none
