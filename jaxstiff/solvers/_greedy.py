@@ -431,78 +431,56 @@ def greedy_path(  # noqa: PLR0913 - the greedy walk's inputs, each documented be
     """
     t0 = time.perf_counter()
     walk = _GreedyWalk(batch, b, solver, pos_and_jac, objective, pos_tol, first_starts, first_maxiter, target_step)
-    if path_retries <= 0 or walk.bound is None:
-        return walk.run(None, progress)[0]
-    bound = float(walk.bound)  # target_bound of this path's ratio and c
-    # the first walk stops at its first off-target waypoint where the retries would follow it
-    # (a first waypoint in target with other optima): the others are tried before it goes on
-    first_state: _WalkState | None = None
-    out: list[WaypointOutcome] = []
-    fs: list[float] = []
-    rank = (0, 0, 0.0)
+    # the first walk stops at its first off-target waypoint where retries follow it (a first
+    # waypoint in target with other optima); a walk that ends was in target throughout, or had
+    # its first waypoint off target (its tied alternatives are as far off: a target no posture
+    # reaches would cost every walk), or had no other optima to leave from
     try:
-        out, fs, alternatives = walk.run(None, progress, stop=walk.retry_due)
+        return walk.run(None, progress, stop=walk.retry_due if path_retries > 0 else None)[0]
     except _Outranked as e:
-        first_state, alternatives = e.state, e.state.alternatives
-    if first_state is None:
-        if not alternatives:
-            return out
-        rank = _walk_rank(out, fs, bound)
-        if rank[1] == 0 or not (out[0].status in R.USABLE and fs[0] < bound):
-            # in target everywhere, or the first waypoint's own optimum off target: its tied
-            # alternatives are as far off, and a target no posture reaches would cost every walk
-            return out
-    return _retries(walk, bound, alternatives[:path_retries], out, rank, first_state, progress, t0)
+        first = e.state
+    assert walk.bound is not None  # retry_due holds only with a bound
+    return _retries(walk, float(walk.bound), first.alternatives[:path_retries], first, progress, t0)
 
 
-def _retries(  # noqa: PLR0913 - the first walk's state, passed as its parts
+def _retries(
     walk: _GreedyWalk,
     bound: float,
     alternatives: Sequence[Candidate],
-    out: list[WaypointOutcome],
-    rank: tuple[int, int, float],
-    first_state: _WalkState | None,
+    first: _WalkState,
     progress: Callable[[int], None] | None,
     t0: float,
 ) -> list[WaypointOutcome]:
-    """:func:`greedy_path`'s retries from the first waypoint's other optima: the walk kept. The
-    first walk is complete (``out``, ranked ``rank``) or stopped at its first off-target waypoint
-    (``first_state``)."""
-    finished = out if first_state is None else first_state.out  # kept on an interrupt
+    """:func:`greedy_path`'s retries from the first waypoint's other optima, the first walk
+    stopped at its first off-target waypoint (``first``): the walk kept."""
     # first, each alternative is walked only while it stays usable and in target: the first one
-    # that ends so is the walk the ranking keeps (no walk ranks better), found without walking
-    # the first or the other alternatives further
-    tried: list[_WalkState | tuple[list[WaypointOutcome], list[float]]] = []
+    # that ends is in target throughout, the walk the ranking keeps (no walk ranks better), found
+    # without walking the first or the other alternatives further
+    stopped: list[_WalkState] = []
     for alt in alternatives:
         try:
-            o2, f2s, _ = walk.run(alt, None, stop=_above((0, 0)))
+            o2, _, _ = walk.run(alt, None, stop=_above((0, 0)))
         except PathInterrupted:
-            raise PathInterrupted(finished) from None
+            raise PathInterrupted(first.out) from None  # the first walk's finished waypoints
         except _Outranked as e:
-            tried.append(e.state)
+            stopped.append(e.state)
             continue
-        if _walk_rank(o2, f2s, bound)[:2] == (0, 0):
-            if first_state is not None and progress is not None:
-                for p in range(len(first_state.out), len(o2)):
-                    progress(p)
-            return _spread(o2, t0)
-        tried.append((o2, f2s))
+        if progress is not None:
+            for p in range(len(first.out), len(o2)):
+                progress(p)
+        return _spread(o2, t0)
     # none: the first walk goes on, then each alternative from where it stopped, as far as it can
     # still rank better than the best walk so far (the same choice as walking each whole, in
     # this order, for fewer waypoints: a walk stopped so ranks below the best)
-    if first_state is not None:
-        out, fs, _ = walk.run(None, progress, resume=first_state)
-        rank = _walk_rank(out, fs, bound)
-    for item in tried:
-        if isinstance(item, _WalkState):
-            try:
-                o2, f2s, _ = walk.run(None, None, stop=_above(rank[:2]), resume=item)
-            except PathInterrupted:
-                raise PathInterrupted(out) from None  # the best complete walk so far
-            except _Outranked:
-                continue
-        else:
-            o2, f2s = item
+    out, fs, _ = walk.run(None, progress, resume=first)
+    rank = _walk_rank(out, fs, bound)
+    for state in stopped:
+        try:
+            o2, f2s, _ = walk.run(None, None, stop=_above(rank[:2]), resume=state)
+        except PathInterrupted:
+            raise PathInterrupted(out) from None  # the best complete walk so far
+        except _Outranked:
+            continue
         r2 = _walk_rank(o2, f2s, bound)
         if r2 < rank:
             out, rank = o2, r2
