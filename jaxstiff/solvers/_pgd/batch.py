@@ -4,14 +4,12 @@ padded to the chunk size, and the :data:`~jaxstiff.solvers._base.SOLVERS` adapte
 from __future__ import annotations
 
 import dataclasses
-import functools
 import threading
 import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from jaxstiff.results import _files as R
@@ -21,7 +19,8 @@ from jaxstiff.runtime._threads import auto_chunk, chunk_rows, chunk_threads, map
 from jaxstiff.runtime._xla import kernel_compiler_options
 from jaxstiff.settings._solvers import PGDOptions
 from jaxstiff.solvers._base import SolveRequest
-from jaxstiff.solvers._pgd.kernel import PGDKernel, waypoint_keys
+from jaxstiff.solvers._pgd.kernel import PGDKernel
+from jaxstiff.solvers._pgd.keys import chunk_keys, seed_key
 from jaxstiff.solvers._problem import POS_TOL, WaypointBatch, WaypointProblem, content_seed
 from jaxstiff.solvers._problem.ops import lm_kind
 
@@ -95,18 +94,6 @@ def waypoint_capacity(P: int) -> int:
     the path's own are never computed), so a second run on a path of another length loads the
     program from the cache instead of compiling it again."""
     return max(8, 1 << max(int(P) - 1, 0).bit_length())
-
-
-@functools.partial(jax.jit, static_argnums=(2, 3))
-def chunk_keys(base: jax.Array, path_data: Any, P: int, cap: int) -> jax.Array:
-    """The waypoints' random keys (C, cap, 2) of a chunk of paths: each path's key is ``base``
-    folded with its data (C,), its waypoints' keys those of its own length P
-    (:func:`~jaxstiff.solvers._pgd.kernel.waypoint_keys`), padded to the capacity with the last one:
-    the same random starts whatever program runs the path. One program (its steps run eagerly
-    were nine small compilations, ~0.25 s of every run)."""
-    path_keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(path_data)
-    keys = jax.vmap(lambda k: waypoint_keys(k, P))(path_keys)
-    return jnp.concatenate([keys, jnp.repeat(keys[:, -1:], cap - P, axis=1)], axis=1)
 
 
 def pad_rows(a: np.ndarray, C: int) -> np.ndarray:
@@ -193,9 +180,7 @@ def solve_batch(
         from jaxstiff.solvers._first_waypoint import prepare_first_answers
 
         prepare_first_answers(batch, options)  # compiles beside pgd's kernel tracing, if that runs
-    X, out, compile_s, run_s = _run_chunks(
-        fn, per_path, shared, jax.random.PRNGKey(int(opts["seed"])), (C, threads), disk_key
-    )
+    X, out, compile_s, run_s = _run_chunks(fn, per_path, shared, seed_key(int(opts["seed"])), (C, threads), disk_key)
     if retry_bound is not None:
         X, run_s = _retry_first(
             batch,
@@ -349,7 +334,7 @@ def _retry_first(  # noqa: PLR0913 - solve_batch's state handed to its retry ste
     if extra.shape[1] != per_path[7].shape[1]:  # another count of extra starts: another program
         return X, run_s
     rows = tuple(a[redo] for a in per_path[:7]) + (extra,)
-    X2, out2, _, _ = _run_chunks(fn, rows, shared, jax.random.PRNGKey(int(opts["seed"])), chunking, disk_key)
+    X2, out2, _, _ = _run_chunks(fn, rows, shared, seed_key(int(opts["seed"])), chunking, disk_key)
     new_rank = _ranking(problem, batch, redo, X2, np.asarray(out2["status"]), np.asarray(out2["criterion"]))
     old_rank = _ranking(problem, batch, redo, X[redo], status[redo], f[redo])
     better = np.array([a < b for a, b in zip(new_rank, old_rank, strict=True)], bool)
@@ -417,7 +402,7 @@ def _run_chunks(
     fn: Any,
     per_path: tuple[np.ndarray, ...],
     shared: tuple[float, float, float, float],
-    base: jax.Array,
+    base: jax.Array | np.ndarray,
     chunking: tuple[int, int],
     disk_key: str | None = None,
 ) -> tuple[np.ndarray, dict[str, Any], float, float]:
