@@ -29,6 +29,7 @@ _LONGEST = (
     "sweep/test_sweep.py::test_ray_backend_gives_the_same_table",
     "view/test_browser.py::",
     "test_examples.py::",
+    "docs/test_code_blocks.py::test_page_code_runs",
     "sweep/test_hostile_sweep_store.py::test_hostile_sweep_stores_sample",
 )
 

@@ -1,0 +1,92 @@
+"""Every ```python block of README.md and of the user documentation runs, as a reader runs it.
+
+A page's blocks run one after another in one fresh interpreter (a later block may use an earlier
+one's names, as a reader's session would), in a scratch folder that sees the checkout's shipped
+folders (``tests/data/robots/...``, ``experiments/...``: the paths the pages name), so that what a
+block writes (``shape.npz``, ``my_path.csv``) lands there, not in the checkout. A block that
+raises fails the page with the block's line. The pages' own words on their output are not checked
+here; the numbers they quote come from the benchmarks and notes.
+
+The developer notes (docs/notes), the papers' formulas (SPEC.md, DESIGN.md) and the generated
+pages (docs/reproduce, docs/api) are left out: they are not code a reader is asked to run."""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import re
+import subprocess
+import sys
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+#: not pages a reader runs code from
+_SKIP = ("docs/notes/", "docs/reproduce/", "docs/api/", "docs/SPEC.md", "docs/DESIGN.md")
+#: pages whose blocks take more than half a minute on a 2-core CPU (a sweep)
+_LONG = ("docs/howto/sweeps.md",)
+#: what a page's reader made with a command before its first block (the page says so), as Python
+_BEFORE = {
+    # shape.npz, the README's main job (`jaxstiff shape`)
+    "docs/howto/physics-check.md": (
+        "import jaxstiff\n"
+        "robot = jaxstiff.Robot.from_urdf('kuka_lwr4', locked={'lwr_a7': 0.0})\n"
+        "jaxstiff.shape(robot, jaxstiff.default_path(), 'f2', 5.0).save('shape.npz')\n"
+    ),
+}
+_BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
+
+
+def _pages() -> list[str]:
+    pages = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))
+    return [p for p in pages if not p.startswith(_SKIP) and _BLOCK.search((ROOT / p).read_text(encoding="utf-8"))]
+
+
+def blocks(text: str) -> list[tuple[int, str]]:
+    """``(line, code)`` of each ```python block of ``text`` (line: the block's fence, 1-based)."""
+    return [(text[: m.start()].count("\n") + 1, m.group(1)) for m in _BLOCK.finditer(text)]
+
+
+_RUNNER = r"""
+import json, sys, traceback
+ns = {"__name__": "__main__"}
+for line, code in json.loads(sys.stdin.read()):
+    try:
+        exec(compile(code, "block at line %d" % line, "exec"), ns)
+    except BaseException:
+        print("BLOCK-FAILED %d" % line)
+        traceback.print_exc()
+        sys.exit(1)
+"""
+
+
+def test_blocks_are_found_and_a_failing_block_is_named(tmp_path):
+    text = "x\n```python\na = 1\n```\ntext\n```bash\nls\n```\n```python\nraise ValueError(a)\n```\n"
+    found = blocks(text)
+    assert found == [(2, "a = 1\n"), (9, "raise ValueError(a)\n")]
+    out = subprocess.run(
+        [sys.executable, "-c", _RUNNER], input=json.dumps(found), cwd=tmp_path, capture_output=True, text=True
+    )
+    assert out.returncode == 1 and "BLOCK-FAILED 9" in out.stdout and "ValueError: 1" in out.stderr
+
+
+@pytest.mark.parametrize("page", [pytest.param(p, marks=pytest.mark.slow) if p in _LONG else p for p in _pages()])
+def test_page_code_runs(page, tmp_path):
+    found = blocks((ROOT / page).read_text(encoding="utf-8"))
+    if page in _BEFORE:
+        found.insert(0, (0, _BEFORE[page]))
+    for name in ("tests", "urdf", "experiments", "examples"):  # the shipped paths the pages name
+        if (ROOT / name).exists():
+            (tmp_path / name).symlink_to(ROOT / name, target_is_directory=True)
+    env = dict(os.environ, MPLBACKEND="Agg")  # jaxstiff as installed, as a reader has it
+    out = subprocess.run(
+        [sys.executable, "-c", _RUNNER],
+        input=json.dumps(found),
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env=env,
+    )
+    assert out.returncode == 0, f"{page}: {out.stdout[-400:]}\n{out.stderr[-3000:]}"
