@@ -1,4 +1,5 @@
-"""Every ```python block of README.md and of the user documentation runs, as a reader runs it.
+"""Every ```python block of README.md and of the user documentation runs, as a reader runs it, and
+every ``jaxstiff ...`` line of their shell blocks is one the command-line parser takes.
 
 A page's blocks run one after another in one fresh interpreter (a later block may use an earlier
 one's names, as a reader's session would), in a scratch folder that sees the checkout's shipped
@@ -90,3 +91,58 @@ def test_page_code_runs(page, tmp_path):
         env=env,
     )
     assert out.returncode == 0, f"{page}: {out.stdout[-400:]}\n{out.stderr[-3000:]}"
+
+
+_SHELL = re.compile(r"^```(?:bash|sh|console)\n(.*?)^```", re.S | re.M)
+
+
+def command_lines(text: str) -> list[tuple[int, str]]:
+    """``(line, command)`` of each ``jaxstiff ...`` command in the shell blocks of ``text``: a
+    backslash continues a line, a ``#`` starts a comment, ``[...]`` marks an optional part (left
+    out)."""
+    out = []
+    for m in _SHELL.finditer(text):
+        first = text[: m.start()].count("\n") + 2
+        lines = m.group(1).splitlines()
+        i = 0
+        while i < len(lines):
+            start, cmd = first + i, lines[i]
+            while cmd.rstrip().endswith("\\") and i + 1 < len(lines):
+                i += 1
+                cmd = cmd.rstrip()[:-1].rstrip() + " " + lines[i].strip()
+            i += 1
+            cmd = re.sub(r"\[[^\]]*\]", "", cmd.split(" #", 1)[0]).strip()
+            if cmd.startswith("jaxstiff "):
+                out.append((start, cmd))
+    return out
+
+
+def _command_pages() -> list[str]:
+    pages = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))
+    return [p for p in pages if not p.startswith(_SKIP) and command_lines((ROOT / p).read_text(encoding="utf-8"))]
+
+
+def test_command_lines_are_found_joined_and_trimmed():
+    text = "```bash\njaxstiff a --x 1 \\\n  --y 2   # note\nls\njaxstiff b [--z 3]\n```\n"
+    assert command_lines(text) == [(2, "jaxstiff a --x 1 --y 2"), (5, "jaxstiff b")]
+    from jaxstiff.cli._main import build_parser
+
+    with pytest.raises(SystemExit):  # what the page test reports: a flag the command does not have
+        build_parser().parse_args(["shape", "--no-such-flag", "1"])
+
+
+@pytest.mark.parametrize("page", _command_pages())
+def test_page_commands_parse(page, capsys):
+    """Each documented ``jaxstiff`` command line is one the command-line parser takes: its flags,
+    their values' form and the subcommand exist (what a renamed or removed flag would break)."""
+    import shlex
+
+    from jaxstiff.cli._main import build_parser
+
+    parser = build_parser()
+    for line, cmd in command_lines((ROOT / page).read_text(encoding="utf-8")):
+        try:
+            parser.parse_args(shlex.split(cmd)[1:])
+        except SystemExit as e:
+            err = capsys.readouterr().err.strip().splitlines()
+            raise AssertionError(f"{page}:{line}: {cmd!r} is refused: {err[-1] if err else e}") from None
