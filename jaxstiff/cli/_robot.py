@@ -46,8 +46,14 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
                 raise ValueError(f"give the robot once: URDF {args.urdf!r} or --robot {args.robot!r}")
             args.robot = args.urdf
         spec = robot_spec_from_args(args)
-        print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)  # an ambiguous tip stops here
-        robot = spec.build()
+        try:
+            robot = spec.build()
+        except ValueError:
+            if _tip_is_ambiguous(spec.urdf, spec.base_link, spec.tip_link):
+                # the list of candidate tips, then how to choose one (print_tip_candidates raises)
+                print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)
+            raise  # any other refusal alone, with nothing printed before it
+        print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)
         if args.q is None:
             from ..ik import nominal_posture
 
@@ -96,6 +102,25 @@ def jacobian_units(joint_names: Any, prismatic: Any) -> str:
     return f"{rows}; prismatic column{'s' if len(cols) > 1 else ''} {', '.join(cols)}: [m/s per m/s], [rad/s per m/s]"
 
 
+def _tip_is_ambiguous(urdf: str, base_link: str | None, tip_link: str | None) -> bool:
+    """Whether the refusal to build the robot is the automatic tip's ambiguity (no ``tip_link``
+    given, no automatic choice, a leaf that moves): the case the list of candidates explains."""
+    from ..model._urdf import tip_candidates_and_why
+
+    if tip_link is not None:
+        return False
+    try:
+        ranked, chosen, _, _ = tip_candidates_and_why(urdf, base_link)
+    except (ValueError, OSError):
+        return False
+    return chosen is None and _movable(ranked)
+
+
+def _movable(ranked: Any) -> bool:
+    """Whether a candidate leaf that is not behind a gripper joint moves (has actuated joints)."""
+    return any(c.moving for c in ranked if c.gripper_joint is None)
+
+
 def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None) -> None:
     """The leaf links a chain from ``base_link`` can end at, with their actuated-joint counts, the
     automatic choice first and gripper/finger leaves marked (:func:`jaxstiff.model._urdf.tip_candidates`).
@@ -113,7 +138,7 @@ def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None)
         used = "  <- --tip-link" if c.link == tip_link else ""
         pad = " " if c.joints < 10 else ""  # the counts right-aligned, as "%2d"
         print(f" {mark} {c.link:<{width}}  {pad}{c.count()}{'  (' + note + ')' if note else ''}{used}")
-    movable = any(c.moving for c in ranked if c.gripper_joint is None)
+    movable = _movable(ranked)
     if chosen is None:
         pick = "; pass --tip-link" if movable and tip_link is None else ""
         print(f"   (no automatic choice: {why}{pick})")

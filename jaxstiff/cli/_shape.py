@@ -85,7 +85,7 @@ def summary_table(res: ShapeResult) -> str:
     names = res.meta.get("path_files") or [res.meta.get("path", {}).get("name", "path")] * res.B
     lines = [
         f"{'path':<24} {'P':>4} {'solved':>7} {'usable':>7} {f'a<{ALPHA_TOL_DEG:g}deg':>7} {rlabel:>11} "
-        f"{'in target':>9} {'max pos err (m)':>16} {'ms/waypoint':>12}"
+        f"{'in target':>9} {'max pos err (m)':>16} {'median ms/wp':>12}"
     ]
     for b in range(res.B):
         a_ok, r_ok = target_masks(res.alpha_deg[b], res.ratio[b], r_b[b], crit)
@@ -103,8 +103,9 @@ def summary_table(res: ShapeResult) -> str:
     # a few hundredths of a second, which read as "up to 0.0 s")
     if inside >= 0.1 and inside > 0.05 * float(np.sum(res.time_s)):
         lines.append(
-            f"(ms/waypoint includes up to {inside:.1f} s of JAX compilation inside the timed calls of solver "
-            f"{res.meta.get('solver')!r}; a second run with the compilation cache shows the run time)"
+            f"(the waypoints' times in the file, whose median the table shows, include up to {inside:.1f} s of "
+            f"JAX compilation inside the timed calls of solver {res.meta.get('solver')!r}; a second run with "
+            "the compilation cache shows the run time)"
         )
     return "\n".join(lines)
 

@@ -90,3 +90,14 @@ def test_jacobian_header_gives_prismatic_columns_their_unit(capsys):
     assert main(["robot", "planar_3r"]) == 0  # no prismatic joint: the header as it was
     out = capsys.readouterr().out
     assert "J_base (rows vx vy vz [m/s per rad/s], wx wy wz [rad/s per rad/s]):" in out.splitlines()
+
+
+def test_a_urdf_refused_for_another_reason_prints_nothing_before_the_error(capsys, tmp_path):
+    # an independent check: a joint with lower > upper printed the candidate-tip table on stdout,
+    # then the error; the table stands before an error only where it explains it (an ambiguous tip)
+    bad = tmp_path / "badlim.urdf"
+    bad.write_text(TIED.replace(LIMIT, '<limit lower="1" upper="-1" effort="1" velocity="1"/>', 1))
+    assert main(["robot", str(bad), "--tip-link", "body"]) == 2
+    cap = capsys.readouterr()
+    assert cap.out == "", cap.out
+    assert "joint 'a1' has lower limit 1 > upper limit -1" in cap.err, cap.err
