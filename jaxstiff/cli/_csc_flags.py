@@ -50,7 +50,12 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
         m = int(round(math.sqrt(len(vals))))
         K = np.asarray(vals).reshape(m, m)
         if not np.allclose(K, K.T, rtol=1e-9, atol=1e-9):
-            raise ValueError(f"--kxd {text!r}: the matrix (row by row) is not symmetric")
+            i, j = (int(v) for v in np.argwhere(~np.isclose(K, K.T, rtol=1e-9, atol=1e-9))[0])
+            raise ValueError(
+                f"--kxd {text!r}: {len(vals)} numbers are read as a {m}x{m} matrix, row by row, and it is not "
+                f"symmetric (row {i + 1}, column {j + 1}: {K[i, j]:g}; row {j + 1}, column {i + 1}: {K[j, i]:g}); "
+                f"{m} numbers are the diagonal, {m * m} the whole matrix"
+            )
     else:
         raise ValueError(
             f"--kxd {text!r}: give m diagonal values K1,...,Km[@DEG] or m*m matrix entries, m = 2, 3 or 6"

@@ -528,7 +528,7 @@ def check_kxd(K: np.ndarray, dtype: Any = np.float64) -> None:
     at = f" ({_at('K_xd', worst)})" if worst else ""
     shown = "[" + ", ".join("[" + ", ".join(f"{x + 0.0:g}" for x in row) + "]" for row in np.asarray(K[worst])) + "]"
     raise ValueError(
-        f"K_xd must be symmetric positive semi-definite (a stiffness, N/m): eigenvalues {w_min:g} to {w_max:g}{at}, "
+        f"K_xd must be symmetric positive semi-definite and not zero (a stiffness, N/m): eigenvalues {w_min:g} to {w_max:g}{at}, "
         f"{reason}; K_xd{'' if not worst else _at('', worst)} = {shown}"
     )
 

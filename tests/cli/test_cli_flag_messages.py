@@ -185,3 +185,25 @@ def test_shape_help_says_which_task_a_contact_with_a_turning_tool_wants(capsys):
         "Which stiffness is shaped?" in text
         and "Which stiffness is shaped?" in open(os.path.join(DOCS, "concepts.md")).read()
     )
+
+
+def test_kxd_matrix_form_that_is_not_symmetric_says_how_it_was_read():
+    # an independent check: "--kxd 3000,1000,2000,500" (meant as something else) said only "the
+    # matrix (row by row) is not symmetric", not that 4 numbers are read as a 2x2 matrix
+    from jaxstiff.cli._csc_flags import parse_kxd
+
+    with pytest.raises(ValueError) as e:
+        parse_kxd("3000,1000,2000,500")
+    msg = str(e.value)
+    assert "4 numbers are read as a 2x2 matrix, row by row" in msg, msg
+    assert "row 1, column 2: 1000; row 2, column 1: 2000" in msg, msg
+    assert "2 numbers are the diagonal, 4 the whole matrix" in msg, msg
+    np.testing.assert_array_equal(parse_kxd("3000,500,500,1000"), [[3000.0, 500.0], [500.0, 1000.0]])
+
+
+def test_kxd_zero_is_refused_without_calling_it_not_semi_definite():
+    # a zero matrix is positive semi-definite: the refusal is for having no stiffness at all
+    from jaxstiff.cli._csc_flags import parse_kxd
+
+    with pytest.raises(ValueError, match=r"positive semi-definite and not zero .*every eigenvalue is below"):
+        parse_kxd("0,0,0")

@@ -827,7 +827,7 @@ def test_cli_warns_when_task_xy_ignores_the_targets_z(tmp_path, capsys):
         (["--hold", "1,1", "--kxd", "1,2,2,-5", "--q0", "0,0,0"], "symmetric positive semi-definite"),
         (
             ["--hold", "1,1", "--kxd", "3000,-1", "--q0", "0,0,0"],
-            "positive semi-definite (a stiffness, N/m): eigenvalues -1 to 3000",
+            "positive semi-definite and not zero (a stiffness, N/m): eigenvalues -1 to 3000",
         ),
         (["--hold", "1,1", "--kxd", "3000,1000", "--q0", "0,0"], "--q0"),
         (["--path", "/nonexistent/p.csv", "--kxd", "3000,1000", "--q0", "0,0,0"], "p.csv"),

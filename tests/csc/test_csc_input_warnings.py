@@ -110,7 +110,7 @@ def test_kxd_and_path_messages_name_the_first_bad_index():
         (
             Ki,
             pts,
-            "K_xd must be symmetric positive semi-definite (a stiffness, N/m): eigenvalues -2000 to -500 (K_xd[5]), "
+            "K_xd must be symmetric positive semi-definite and not zero (a stiffness, N/m): eigenvalues -2000 to -500 (K_xd[5]), "
             "a desired stiffness is >= 0 along every axis (a spring pulls back; a negative one pushes away); "
             "K_xd[5] = [[-2000, 0, 0], [0, -1000, 0], [0, 0, -500]]",
         )
