@@ -66,6 +66,8 @@ class Viewer:
         self.all.on_update(lambda _: self._all_changed())
         hint = self.scene.all_hint()  # shown while "all ellipsoids" is on
         self.hint = gui.add_markdown(hint, visible=False) if hint else None
+        tcp = self.scene.tcp_hint()  # shown while it is off
+        self.tcp_hint = gui.add_markdown(tcp, visible=True) if tcp else None
         self.panel = gui.add_markdown(panel_markdown(data, 0, 0))
         self.lock = threading.Lock()
 
@@ -83,6 +85,8 @@ class Viewer:
         self.scene.show_all(on)
         if self.hint is not None:
             self.hint.visible = on
+        if self.tcp_hint is not None:
+            self.tcp_hint.visible = not on
 
     def _b(self) -> int:
         return 0 if self.path is None else self.data.labels.index(str(self.path.value))

@@ -49,6 +49,7 @@ CAMERA_SHIFT = 0.08  #: look this far (diagonals) right of the centre: the panel
 #: from 0.71 of its width (0.70: a margin), viser's label font about 6.5 px a character
 PAGE_PX, PAGE_ASPECT, PANEL_FROM, LABEL_CHAR_PX = 1200.0, 1.5, 0.70, 6.5
 ALL_HINT_RATIO = 0.5  #: "all ellipsoids" hints at --scale when a drawn semi-axis exceeds this x the path's extent
+TCP_HINT_RATIO = 1.0  #: the TCP's ellipsoid hints at --scale when its drawn semi-axis exceeds this x the path's extent
 
 
 def rotation_wxyz(R: np.ndarray) -> np.ndarray:
@@ -422,18 +423,43 @@ class Scene:
         """The largest extent (m) of a path of the file: the diagonal of its waypoints' box."""
         return float(np.linalg.norm(np.ptp(self.data.target, axis=1), axis=-1).max())
 
+    def tcp_hint(self) -> str:
+        """A hint at ``--scale`` when the ellipsoid at the TCP hides the path: its largest drawn
+        semi-axis, at any waypoint, is longer than the path's extent (:data:`TCP_HINT_RATIO`); ""
+        otherwise (or when the path is a point, or one waypoint). Short paths meet it: an arm's
+        ellipsoid drawn about a quarter of its reach long covers a path of a few centimetres."""
+        return self._scale_hint(
+            TCP_HINT_RATIO,
+            0.7,  # the ellipsoid and the path both seen (looked at on a 5 cm path: 0.3-0.5 left a sliver)
+            "The ellipsoid at the TCP: its largest semi-axis is drawn {drawn} cm long, longer than the "
+            "path ({extent} cm), so it hides the path; --scale {better} draws it {short} cm long.",
+        )
+
     def all_hint(self) -> str:
         """A hint at ``--scale`` when "all ellipsoids" would hide the path: the largest drawn semi-axis
         is longer than :data:`ALL_HINT_RATIO` x the path's extent; "" otherwise (or when the path is a
         point, or one waypoint)."""
+        return self._scale_hint(
+            ALL_HINT_RATIO,
+            0.3,
+            "All ellipsoids: the largest semi-axis is drawn {drawn} cm long, more than half the path's "
+            "extent ({extent} cm), so they hide the path and the arm; --scale {better} draws it {short} cm "
+            "long (--every N draws every N-th waypoint's).",
+        )
+
+    def _scale_hint(self, ratio: float, fraction: float, text: str) -> str:
+        """``text`` filled in where the largest drawn semi-axis exceeds ``ratio`` x the path's extent
+        (``drawn``, ``extent``, the ``better`` --scale that draws it about ``fraction`` x the extent,
+        and how long it then is: ``short``); "" otherwise, or for a path of one waypoint or under 1 mm."""
         extent = self.path_extent()
         largest = float(ellipsoid_axes(self.data.K)[0][..., 0].max())
         drawn = largest / self.n_per_m
-        if self.data.P < 2 or extent < 1e-3 or drawn <= ALL_HINT_RATIO * extent:
+        if self.data.P < 2 or extent < 1e-3 or drawn <= ratio * extent:
             return ""
-        better = nice_scale(largest, 0.3 * extent)
-        return (
-            f"All ellipsoids: the largest semi-axis is drawn {100 * drawn:.3g} cm long, more than half the "
-            f"path's extent ({100 * extent:.3g} cm), so they hide the path and the arm; --scale {better:.4g} "
-            f"draws it {100 * largest / better:.2g} cm long (--every N draws every N-th waypoint's)."
+        better = nice_scale(largest, fraction * extent)
+        return text.format(
+            drawn=f"{100 * drawn:.3g}",
+            extent=f"{100 * extent:.3g}",
+            better=f"{better:.4g}",
+            short=f"{100 * largest / better:.2g}",
         )

@@ -11,7 +11,8 @@ the page is built in two parts:
   ``t`` of the timeline is the one of slot ``floor(t / SLOT_S)``;
 - our panel (:data:`PANEL_JS`, :data:`PANEL_CSS`, the per-waypoint numbers as JSON in the page):
   path selector (B > 1), waypoint slider, play and its speed, "all ellipsoids along the path"
-  (with, while it is on, the hint at ``--scale`` of :meth:`Scene.all_hint`, if any), the numbers
+  (with, while it is on, the hint at ``--scale`` of :meth:`Scene.all_hint`, if any; while it is
+  off, :meth:`Scene.tcp_hint`'s), the numbers
   and kj per joint at the waypoint. It moves the scene by setting viser's playback time
   to the middle of the slot through viser's own time field (then hidden with the rest of viser's
   playback bar), which also pauses viser's player; Space plays / pauses our player instead.
@@ -132,7 +133,8 @@ PANEL_JS = r"""
     ui.wp.value = S.waypoint; ui.wpn.value = S.waypoint;
     ui.all.checked = S.all; if (ui.path) ui.path.value = S.path;
     ui.numbers.innerHTML = D.panel[S.path][S.waypoint];
-    ui.hint.style.display = S.all && D.all_hint ? "" : "none";
+    var hint = S.all ? D.all_hint : D.tcp_hint;  // the --scale hint of what is drawn, if any
+    ui.hint.innerHTML = hint; ui.hint.style.display = hint ? "" : "none";
     return true;
   }
   function build() {
@@ -217,6 +219,7 @@ def page_data(data: ViewData, scene: Scene, paths: list[int], b: int, waypoint: 
         "n_per_m": scene.n_per_m,
         "note": note,
         "all_hint": markdown_html(scene.all_hint()),
+        "tcp_hint": markdown_html(scene.tcp_hint()),
     }
 
 

@@ -159,10 +159,16 @@ def test_all_ellipsoids_hint_at_scale(tmp_path, lwr, scene_of) -> None:
     m = re.search(r'<script type="application/json" id="jaxstiff-view-data">(.*?)</script>', text)
     assert m is not None
     page = json.loads(m.group(1))
-    assert "--scale" in page["all_hint"] and "jx-all-hint" in text and "S.all && D.all_hint" in text
+    assert "--scale" in page["all_hint"] and "jx-all-hint" in text and "S.all ? D.all_hint : D.tcp_hint" in text
+    # the ellipsoid at the TCP alone hides a path this short too: its own hint, while "all" is off
+    tcp = scene.tcp_hint()
+    m = re.search(r"--scale (\S+) draws it", tcp)
+    assert m is not None and tcp.startswith("The ellipsoid at the TCP") and "hides the path" in tcp, tcp
+    assert scene_of(short, n_per_m=float(m.group(1))).tcp_hint() == ""
+    assert "--scale" in page["tcp_hint"]
 
     long = make_shape_result(lwr, 1, 10).save(str(tmp_path / "long.npz"))
-    assert scene_of(long).all_hint() == ""
+    assert scene_of(long).all_hint() == "" and scene_of(long).tcp_hint() == ""
 
 
 def test_live_viewer_shows_the_hint_only_with_all_ellipsoids(tmp_path, lwr) -> None:
@@ -173,9 +179,10 @@ def test_live_viewer_shows_the_hint_only_with_all_ellipsoids(tmp_path, lwr) -> N
     try:
         viewer = Viewer(server, load_view_data(short))
         assert viewer.hint is not None and "--scale" in viewer.hint.content and not viewer.hint.visible
+        assert viewer.tcp_hint is not None and "at the TCP" in viewer.tcp_hint.content
         viewer.start_at(0, 3, all_on=True)
-        assert viewer.hint.visible
+        assert viewer.hint.visible and not viewer.tcp_hint.visible
         viewer.start_at(0, 3, all_on=False)
-        assert not viewer.hint.visible
+        assert not viewer.hint.visible and viewer.tcp_hint.visible
     finally:
         server.stop()
