@@ -49,8 +49,9 @@ def _add_robot(p: argparse.ArgumentParser) -> Any:
         try:
             robot = spec.build()
         except ValueError:
-            if _tip_is_ambiguous(spec.urdf, spec.base_link, spec.tip_link):
-                # the list of candidate tips, then how to choose one (print_tip_candidates raises)
+            if _no_automatic_tip(spec.urdf, spec.base_link, spec.tip_link):
+                # the refusal is the tip's: the candidate tips and why none was chosen first (an
+                # ambiguous tip's own error is raised by print_tip_candidates, with how to choose)
                 print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)
             raise  # any other refusal alone, with nothing printed before it
         print_tip_candidates(spec.urdf, spec.base_link, spec.tip_link)
@@ -102,18 +103,18 @@ def jacobian_units(joint_names: Any, prismatic: Any) -> str:
     return f"{rows}; prismatic column{'s' if len(cols) > 1 else ''} {', '.join(cols)}: [m/s per m/s], [rad/s per m/s]"
 
 
-def _tip_is_ambiguous(urdf: str, base_link: str | None, tip_link: str | None) -> bool:
-    """Whether the refusal to build the robot is the automatic tip's ambiguity (no ``tip_link``
-    given, no automatic choice, a leaf that moves): the case the list of candidates explains."""
+def _no_automatic_tip(urdf: str, base_link: str | None, tip_link: str | None) -> bool:
+    """Whether the refusal to build the robot is the tip's: no ``tip_link`` given and no automatic
+    choice (a tie, or no actuated joint to move), the case the list of candidates explains."""
     from ..model._urdf import tip_candidates_and_why
 
     if tip_link is not None:
         return False
     try:
-        ranked, chosen, _, _ = tip_candidates_and_why(urdf, base_link)
+        _, chosen, _, _ = tip_candidates_and_why(urdf, base_link)
     except (ValueError, OSError):
         return False
-    return chosen is None and _movable(ranked)
+    return chosen is None
 
 
 def _movable(ranked: Any) -> bool:
