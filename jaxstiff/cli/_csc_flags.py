@@ -49,8 +49,9 @@ def parse_kxd(text: str, task: str | None = None) -> np.ndarray:
     elif len(vals) in (4, 9, 36) and (want is None or len(vals) == want * want):
         m = int(round(math.sqrt(len(vals))))
         K = np.asarray(vals).reshape(m, m)
-        if not np.allclose(K, K.T, rtol=1e-9, atol=1e-9):
-            i, j = (int(v) for v in np.argwhere(~np.isclose(K, K.T, rtol=1e-9, atol=1e-9))[0])
+        unequal = np.argwhere(~np.isclose(K, K.T, rtol=1e-9, atol=1e-9))
+        if unequal.size:
+            i, j = (int(v) for v in unequal[0])
             raise ValueError(
                 f"--kxd {text!r}: {len(vals)} numbers are read as a {m}x{m} matrix, row by row, and it is not "
                 f"symmetric (row {i + 1}, column {j + 1}: {K[i, j]:g}; row {j + 1}, column {i + 1}: {K[j, i]:g}); "

@@ -117,11 +117,6 @@ def _no_automatic_tip(urdf: str, base_link: str | None, tip_link: str | None) ->
     return chosen is None
 
 
-def _movable(ranked: Any) -> bool:
-    """Whether a candidate leaf that is not behind a gripper joint moves (has actuated joints)."""
-    return any(c.moving for c in ranked if c.gripper_joint is None)
-
-
 def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None) -> None:
     """The leaf links a chain from ``base_link`` can end at, with their actuated-joint counts, the
     automatic choice first and gripper/finger leaves marked (:func:`jaxstiff.model._urdf.tip_candidates`).
@@ -139,7 +134,7 @@ def print_tip_candidates(urdf: str, base_link: str | None, tip_link: str | None)
         used = "  <- --tip-link" if c.link == tip_link else ""
         pad = " " if c.joints < 10 else ""  # the counts right-aligned, as "%2d"
         print(f" {mark} {c.link:<{width}}  {pad}{c.count()}{'  (' + note + ')' if note else ''}{used}")
-    movable = _movable(ranked)
+    movable = any(c.moving for c in ranked if c.gripper_joint is None)
     if chosen is None:
         pick = "; pass --tip-link" if movable and tip_link is None else ""
         print(f"   (no automatic choice: {why}{pick})")

@@ -132,8 +132,10 @@ class Scene:
         self.frames = chain_frames(data.robot, data.q)  # (B, P, n, 4, 4), (B, P, 4, 4)
         self.links = link_frames(data.robot, data.q) if data.robot.n else None
         self.sizes = arm_sizes(*self.frames)
-        big = [data.K] + ([data.K_desired] if data.K_desired is not None else [])
-        largest = max(float(ellipsoid_axes(k)[0][..., 0].max()) for k in big)
+        #: the largest semi-axis (N/m) of K along the file, and of K_desired (csc; 0 without)
+        self.largest = float(ellipsoid_axes(data.K)[0][..., 0].max())
+        self.largest_desired = 0.0 if data.K_desired is None else float(ellipsoid_axes(data.K_desired)[0][..., 0].max())
+        largest = max(self.largest, self.largest_desired) if data.K_desired is not None else self.largest
         self.n_per_m = float(n_per_m) if n_per_m else nice_scale(largest, drawn_semi_axis(self.sizes.length))
         self.meshes, missing = urdf_meshes(data.robot)
         if missing:
@@ -357,7 +359,7 @@ class Scene:
         self.beside_height = 0.0
         if d.K_desired is None:
             return np.zeros(3)
-        sc, sd = (float(ellipsoid_axes(K)[0][..., 0].max()) / self.n_per_m for K in (d.K, d.K_desired))
+        sc, sd = self.largest / self.n_per_m, self.largest_desired / self.n_per_m
         self.beside_height = max(sc, sd) + 0.02
         right = np.cross(-self.view, [0.0, 0.0, 1.0])
         return right / np.linalg.norm(right) * (sc + sd + 0.04)
@@ -369,7 +371,7 @@ class Scene:
         field of view, the width left of the panel), a little right of the centre."""
         d = self.data
         tcp = self.frames[1][..., :3, 3].reshape(-1, 3)
-        big = float(ellipsoid_axes(d.K)[0][..., 0].max()) / self.n_per_m
+        big = self.largest / self.n_per_m
         pts = np.vstack(
             [d.target.reshape(-1, 3), self.points.reshape(-1, 3)]
             + [tcp + big * e for e in np.vstack([np.eye(3), -np.eye(3)])]
@@ -452,7 +454,7 @@ class Scene:
         (``drawn``, ``extent``, the ``better`` --scale that draws it about ``fraction`` x the extent,
         and how long it then is: ``short``); "" otherwise, or for a path of one waypoint or under 1 mm."""
         extent = self.path_extent()
-        largest = float(ellipsoid_axes(self.data.K)[0][..., 0].max())
+        largest = self.largest
         drawn = largest / self.n_per_m
         if self.data.P < 2 or extent < 1e-3 or drawn <= ratio * extent:
             return ""

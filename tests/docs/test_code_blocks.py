@@ -39,9 +39,14 @@ _BEFORE = {
 _BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
 
 
-def _pages() -> list[str]:
+def _user_pages() -> list[str]:
+    """README.md and the user documentation's pages (not those of :data:`_SKIP`), repository-relative."""
     pages = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))
-    return [p for p in pages if not p.startswith(_SKIP) and _BLOCK.search((ROOT / p).read_text(encoding="utf-8"))]
+    return [p for p in pages if not p.startswith(_SKIP)]
+
+
+def _pages() -> list[str]:
+    return [p for p in _user_pages() if _BLOCK.search((ROOT / p).read_text(encoding="utf-8"))]
 
 
 def blocks(text: str) -> list[tuple[int, str]]:
@@ -118,8 +123,7 @@ def command_lines(text: str) -> list[tuple[int, str]]:
 
 
 def _command_pages() -> list[str]:
-    pages = ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))
-    return [p for p in pages if not p.startswith(_SKIP) and command_lines((ROOT / p).read_text(encoding="utf-8"))]
+    return [p for p in _user_pages() if command_lines((ROOT / p).read_text(encoding="utf-8"))]
 
 
 def test_command_lines_are_found_joined_and_trimmed():
